@@ -1,0 +1,26 @@
+#pragma once
+#include <gshell/mesh.h>
+#include <Eigen/Core>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace gshell {
+
+/// Optional per-vertex / per-face data written alongside a surface (PLY only; OBJ/OFF ignore it,
+/// except that OFF writes per-face colors as COFF-style face colors where possible).
+struct MeshAttributes {
+  using Colors = Eigen::Matrix<unsigned char, Eigen::Dynamic, 3>;
+  Colors vertex_colors;                                             ///< n x 3 RGB, or empty
+  Colors face_colors;                                               ///< m x 3 RGB, or empty
+  std::vector<std::pair<std::string, Eigen::VectorXd>> vertex_scalars; ///< name, n values
+  std::vector<std::pair<std::string, Eigen::VectorXd>> face_scalars;   ///< name, m values
+};
+
+/// Writes OBJ (with vt when the mesh has UVs), OFF or PLY (binary little endian unless
+/// `ascii_ply`), chosen by extension. Atomic (temporary file + rename). Vertex order is kept.
+/// Throws InputError on an unknown extension or an unwritable path.
+void write_mesh(const std::string& path, const TriMesh& mesh, const MeshAttributes& attributes = {},
+                bool ascii_ply = false);
+
+} // namespace gshell

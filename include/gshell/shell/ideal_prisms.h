@@ -1,0 +1,14 @@
+#pragma once
+// Ideal (distortion-free target) prisms, one per face (DESIGN.md "Shell generation" step 1).
+#include <Eigen/Core>
+
+namespace gshell {
+
+/// Corners of the ideal prisms as a 6m x 3 matrix: rows 6f..6f+2 are face f's base corners in
+/// face order, rows 6f+3..6f+5 the top corners above them (same layout as prism_tet_corners).
+using PrismCorners = Eigen::MatrixXd;
+
+/// Normal prisms: top triangle = base triangle shifted by eta along the face's unit normal.
+PrismCorners normal_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta);
+
+} // namespace gshell

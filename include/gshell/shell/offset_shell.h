@@ -1,0 +1,12 @@
+#pragma once
+#include <Eigen/Core>
+
+namespace gshell {
+
+/// Area-weighted unit vertex normals (n x 3). Isolated vertices get a zero normal.
+Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
+/// The offset top surface: V + eta * vertex_normals (the paper's baseline, the solver's start).
+Eigen::MatrixXd offset_top(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta);
+
+} // namespace gshell

@@ -1,0 +1,17 @@
+#pragma once
+// Cutting prisms into tets by the min-index rule (DESIGN.md "Prism to tets").
+#include <Eigen/Core>
+
+namespace gshell {
+
+/// Shell vertex ids: base vertex i is i, top vertex i is n + i.
+/// Returns 3m x 4 tets, tets 3f..3f+2 belonging to face f, each positively oriented when the
+/// top lies on the side of the face normal (counter-clockwise faces). Every side quad with base
+/// ids i < j is cut along base(i)-top(j), so neighbouring prisms agree on the diagonal.
+Eigen::MatrixXi build_prism_tets(const Eigen::MatrixXi& F, int n);
+
+/// Same tets, each vertex given as a prism corner 0..5 of its face: 0..2 base corners in the
+/// face's own order (F(f,0..2)), 3..5 the top corners above them. Row t matches build_prism_tets.
+Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F);
+
+} // namespace gshell

@@ -1,0 +1,22 @@
+#pragma once
+#include <Eigen/Core>
+
+namespace gshell {
+
+/// A shell: base and top surfaces with the same faces and vertex order (top i over base i).
+struct Shell {
+  Eigen::MatrixXd base;   ///< n x 3
+  Eigen::MatrixXd top;    ///< n x 3
+  Eigen::MatrixXi F;      ///< m x 3
+  double thickness = 0;   ///< eta, model units
+
+  int num_base_vertices() const { return static_cast<int>(base.rows()); }
+  /// All 2n shell vertices: base rows 0..n-1, then top rows n..2n-1 (the tets' vertex ids).
+  Eigen::MatrixXd vertices() const {
+    Eigen::MatrixXd X(2 * base.rows(), 3);
+    X << base, top;
+    return X;
+  }
+};
+
+} // namespace gshell

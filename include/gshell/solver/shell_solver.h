@@ -1,0 +1,62 @@
+#pragma once
+// The local/global solver for E(x) = sum_t vol_t ||F_t(x) - R_t||_F^2 (+ soft constraints),
+// DESIGN.md "The energy". Precompute once from rest shapes and the constrained vertex set,
+// then solve from many start states (generation, every frame of a deformation, every drag step).
+#include <gshell/solver/rest_tets.h>
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <vector>
+
+namespace gshell {
+
+struct SolveOptions {
+  int max_iterations = 50;
+  double tolerance = 1e-5; ///< stop when |E_k - E_{k-1}| / E_{k-1} < tolerance
+  /// Called after every iteration with (iteration, energy, seconds since solve started).
+  std::function<void(int, double, double)> progress;
+};
+
+struct SolveResult {
+  int iterations = 0;             ///< local/global iterations done
+  std::vector<double> energy;     ///< energy[0] = start state, then one per iteration
+  bool converged = false;         ///< stopped by tolerance (not by max_iterations)
+  double seconds = 0;
+};
+
+/// Soft positional constraints: w * sum_c ||x_c - p_c||^2 over `vertices` (targets at solve).
+struct SoftConstraints {
+  std::vector<int> vertices;
+  double weight = 0;
+};
+
+class ShellSolver {
+public:
+  /// `num_vertices` = rows of the state; `fixed` vertices keep their start positions exactly
+  /// (eliminated from the system). The system matrix is assembled and factored here, once.
+  ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
+              const SoftConstraints& soft = {});
+  ~ShellSolver();
+  ShellSolver(ShellSolver&&) noexcept;
+  ShellSolver& operator=(ShellSolver&&) noexcept;
+
+  /// Local/global iterations from X (num_vertices x 3, fixed rows hold their prescribed
+  /// positions); X is overwritten with the result. `soft_targets` (|soft.vertices| x 3) is
+  /// required iff soft constraints were given. The energy never increases between iterations.
+  SolveResult solve(Eigen::MatrixXd& X, const SolveOptions& options = {},
+                    const Eigen::MatrixXd& soft_targets = {}) const;
+
+  /// E(X) including the soft term (if soft_targets are given).
+  double energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& soft_targets = {}) const;
+
+  double factor_seconds() const; ///< time spent assembling and factoring in the constructor
+  const RestTets& rest() const;
+  int num_vertices() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+} // namespace gshell
