@@ -213,7 +213,7 @@ std::string default_caption(const RenderSubject& subject) {
 }
 
 Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,
-                      const ShellRenderOptions& options) {
+                      const ShellRenderOptions& options, FigureLayout* layout) {
   if (subjects.empty()) throw InputError("render: no input");
   if (!captions.empty() && captions.size() != subjects.size())
     throw InputError("render: " + std::to_string(captions.size()) + " captions for " + std::to_string(subjects.size()) +
@@ -303,7 +303,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
     figure.footnote = "stretch = sum (sigma_i - 1)^2 per tet; a face shows the volume-weighted mean of its prism's 3 tets";
   if (color_by == ColorBy::Thickness && figure.footnote.empty())
     figure.footnote = "thickness = |top_i - base_i| / eta per vertex";
-  return render_figure(panels, figure);
+  return render_figure(panels, figure, layout);
 }
 
 std::string render_shell_preview(const std::string& dir) {

@@ -61,8 +61,9 @@ std::string default_caption(const RenderSubject& subject);
 
 /// Renders the subjects side by side (captions: one per subject, or empty for the defaults).
 /// Throws InputError if the caption count does not match or color-by-stretch has no stretch.
+/// `layout` (optional) receives where panels and color bar went, and the color scale used.
 Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,
-                      const ShellRenderOptions& options);
+                      const ShellRenderOptions& options, FigureLayout* layout = nullptr);
 
 /// Renders a shell folder written by generate / deform / pose to DIR/preview.png (1280x720,
 /// iso view, colored by stretch; for a deform output: first, middle and last frame side by side).
