@@ -23,7 +23,7 @@ struct RenderArgs {
   std::vector<std::string> captions;
   double max = 0;
   bool ortho = false;
-  int supersample = 3;
+  int supersample = 2;
 };
 
 void parse_size(const std::string& text, int& width, int& height) {

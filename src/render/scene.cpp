@@ -61,37 +61,50 @@ Soup make_soup(const SurfaceLayer& layer) {
   const auto& V = layer.V;
   const auto& F = layer.F;
   const Eigen::Index m = F.rows();
-  Eigen::MatrixXd face_normal(m, 3);
-  Eigen::MatrixXd vertex_normal = Eigen::MatrixXd::Zero(V.rows(), 3);
+  Eigen::MatrixX3f face_normal(m, 3);
+  Eigen::MatrixX3f vertex_normal = Eigen::MatrixX3f::Zero(V.rows(), 3);
   for (Eigen::Index f = 0; f < m; ++f) {
     const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    const Eigen::Vector3d n = (b - a).cross(c - a); // length = 2 * area: area weighting for free
-    face_normal.row(f) = n.normalized();
-    for (int k = 0; k < 3; ++k) vertex_normal.row(F(f, k)) += n;
+    const Eigen::Vector3f n = (b - a).cross(c - a).cast<float>(); // length = 2 * area: area weighting for free
+    const float length = n.norm();
+    face_normal.row(f) = length > 0 ? Eigen::RowVector3f(n.transpose() / length) : Eigen::RowVector3f::Zero();
+    for (int k = 0; k < 3; ++k) vertex_normal.row(F(f, k)) += n.transpose();
   }
-  vertex_normal.rowwise().normalize();
+  for (Eigen::Index v = 0; v < vertex_normal.rows(); ++v) {
+    const float length = vertex_normal.row(v).norm();
+    if (length > 0) vertex_normal.row(v) /= length;
+  }
+  const bool by_face = layer.face_colors.size() > 0, by_vertex = !by_face && layer.vertex_colors.size() > 0;
+  const float alpha = std::clamp(layer.opacity, 0.0f, 1.0f);
   Soup soup;
-  soup.position.reserve(9 * m);
-  soup.normal.reserve(9 * m);
-  soup.color.reserve(12 * m);
+  soup.position.resize(9 * m);
+  soup.normal.resize(9 * m);
+  soup.color.resize(12 * m);
+  float* position = soup.position.data();
+  float* normal = soup.normal.data();
+  float* color = soup.color.data();
   for (Eigen::Index f = 0; f < m; ++f)
     for (int k = 0; k < 3; ++k) {
       const int v = F(f, k);
-      const Eigen::Vector3d n = layer.smooth ? Eigen::Vector3d(vertex_normal.row(v)) : Eigen::Vector3d(face_normal.row(f));
-      Eigen::Vector3f c = layer.color;
-      if (layer.face_colors.size() > 0) c = layer.face_colors.row(f).transpose();
-      else if (layer.vertex_colors.size() > 0) c = layer.vertex_colors.row(v).transpose();
       for (int d = 0; d < 3; ++d) {
-        soup.position.push_back(static_cast<float>(V(v, d)));
-        soup.normal.push_back(std::isfinite(n[d]) ? static_cast<float>(n[d]) : 0.0f);
-        soup.color.push_back(std::clamp(c[d], 0.0f, 1.0f));
+        *position++ = static_cast<float>(V(v, d));
+        *normal++ = layer.smooth ? vertex_normal(v, d) : face_normal(f, d);
+        const float c = by_face ? layer.face_colors(f, d) : by_vertex ? layer.vertex_colors(v, d) : layer.color[d];
+        *color++ = std::clamp(c, 0.0f, 1.0f);
       }
-      soup.color.push_back(std::clamp(layer.opacity, 0.0f, 1.0f));
+      *color++ = alpha;
     }
   return soup;
 }
 
-void draw_soup(const Soup& soup) {
+void draw_soup(const Soup& soup, const std::optional<Eigen::Vector3f>& back_color) {
+  if (back_color) {
+    const GLfloat back[] = {(*back_color)[0], (*back_color)[1], (*back_color)[2], soup.color.empty() ? 1.0f : soup.color[3]};
+    glColorMaterial(GL_FRONT, GL_AMBIENT_AND_DIFFUSE);
+    glMaterialfv(GL_BACK, GL_AMBIENT_AND_DIFFUSE, back);
+  } else {
+    glColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
+  }
   glVertexPointer(3, GL_FLOAT, 0, soup.position.data());
   glNormalPointer(GL_FLOAT, 0, soup.normal.data());
   glColorPointer(4, GL_FLOAT, 0, soup.color.data());
@@ -170,10 +183,10 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   glEnableClientState(GL_VERTEX_ARRAY);
   glEnableClientState(GL_NORMAL_ARRAY);
   glEnableClientState(GL_COLOR_ARRAY);
-  std::vector<Soup> translucent;
+  std::vector<std::pair<Soup, std::optional<Eigen::Vector3f>>> translucent;
   for (const auto& layer : scene.layers) {
-    if (layer.opacity >= 1.0f) draw_soup(make_soup(layer));
-    else if (layer.opacity > 0.0f) translucent.push_back(make_soup(layer));
+    if (layer.opacity >= 1.0f) draw_soup(make_soup(layer), layer.back_color);
+    else if (layer.opacity > 0.0f) translucent.emplace_back(make_soup(layer), layer.back_color);
   }
   if (!translucent.empty()) {
     // Blended after every opaque surface, without writing depth; back faces before front faces
@@ -184,7 +197,7 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
     glEnable(GL_CULL_FACE);
     for (GLenum cull : {GL_FRONT, GL_BACK}) {
       glCullFace(cull);
-      for (const auto& soup : translucent) draw_soup(soup);
+      for (const auto& [soup, back_color] : translucent) draw_soup(soup, back_color);
     }
     glDisable(GL_CULL_FACE);
     glDepthMask(GL_TRUE);
@@ -193,11 +206,25 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   glFinish();
   if (glGetError() != GL_NO_ERROR) throw std::runtime_error("render: OpenGL error");
 
-  Image big(w, h);
-  for (size_t i = 0, n = static_cast<size_t>(w) * h; i < n; ++i)
-    std::copy_n(buffer.data() + 4 * i, 3, big.rgb.data() + 3 * i);
   OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
-  return downsample(big, ss);
+  // Box filter straight from the RGBA buffer: one pass over the big image.
+  Image image(options.width, options.height);
+  const int n = ss * ss;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      int sum[3] = {0, 0, 0};
+      for (int dy = 0; dy < ss; ++dy) {
+        const unsigned char* p = buffer.data() + 4 * (static_cast<size_t>(y * ss + dy) * w + static_cast<size_t>(x) * ss);
+        for (int dx = 0; dx < ss; ++dx, p += 4) {
+          sum[0] += p[0];
+          sum[1] += p[1];
+          sum[2] += p[2];
+        }
+      }
+      std::uint8_t* q = image.at(x, y);
+      for (int c = 0; c < 3; ++c) q[c] = static_cast<std::uint8_t>((sum[c] + n / 2) / n);
+    }
+  return image;
 #endif
 }
 

@@ -94,14 +94,9 @@ double median_distance(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) 
 // Stretch of a base/top pair measured as `generate` does: against the ideal normal prisms.
 Eigen::VectorXd stretch_against_normal_prisms(const Shell& shell) {
   const int n = shell.num_base_vertices();
-  const Eigen::MatrixXi T = build_prism_tets(shell.F, n);
-  const Eigen::MatrixXi corner = prism_tet_corners(shell.F);
-  const PrismCorners prisms = normal_prisms(shell.base, shell.F, shell.thickness);
-  Eigen::MatrixXd rest(4 * T.rows(), 3);
-  for (Eigen::Index t = 0; t < T.rows(); ++t)
-    for (int k = 0; k < 4; ++k) rest.row(4 * t + k) = prisms.row(6 * (t / 3) + corner(t, k));
+  const RestTets rest = prism_rest_tets(shell.F, n, normal_prisms(shell.base, shell.F, shell.thickness));
   const Eigen::MatrixXd X = shell.vertices();
-  return face_stretch_from_tets(X, T, tet_stretch(rest_tets_from_corners(T, rest), X));
+  return face_stretch_from_tets(X, rest.T, tet_stretch(rest, X));
 }
 
 std::vector<fs::path> frame_dirs(const fs::path& dir) {
@@ -226,23 +221,28 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   if (color_by == ColorBy::Stretch && !any_stretch) throw InputError("render: --color stretch needs a shell folder input");
   if (color_by == ColorBy::Thickness && !any_shell) throw InputError("render: --color thickness needs a shell folder input");
 
-  // Values per subject (faces for stretch, vertices for thickness) and one shared scale.
+  // Values per subject (faces for stretch, vertices for thickness) and one shared scale. Automatic
+  // scale: the smallest of the panels' 99th percentiles, so the best panel spans the whole ramp
+  // and the others show in red where they are worse than it.
   std::vector<Eigen::VectorXd> values(subjects.size());
-  std::vector<double> pooled;
+  double automatic = INFINITY;
   for (size_t i = 0; i < subjects.size(); ++i) {
     const RenderSubject& s = subjects[i];
     if (color_by == ColorBy::Stretch) values[i] = s.face_stretch;
     if (color_by == ColorBy::Thickness && s.is_shell()) values[i] = vertex_thickness_ratio(s.shell);
-    for (Eigen::Index k = 0; k < values[i].size(); ++k)
-      pooled.push_back(color_by == ColorBy::Thickness ? std::abs(values[i][k] - 1) : values[i][k]);
+    if (values[i].size() == 0) continue;
+    std::vector<double> magnitude(values[i].data(), values[i].data() + values[i].size());
+    if (color_by == ColorBy::Thickness)
+      for (double& v : magnitude) v = std::abs(v - 1);
+    automatic = std::min(automatic, quantile(magnitude, 0.99));
   }
   std::optional<ColorScale> scale;
   if (color_by == ColorBy::Stretch) {
     scale.emplace();
-    scale->max = options.color_max > 0 ? options.color_max : std::max(round_up_nice(quantile(pooled, 0.99)), 1e-4);
+    scale->max = options.color_max > 0 ? options.color_max : std::max(round_up_nice(automatic), 1e-4);
     scale->label = "stretch";
   } else if (color_by == ColorBy::Thickness) {
-    const double half = options.color_max > 0 ? options.color_max : std::max(round_up_nice(quantile(pooled, 0.99)), 0.01);
+    const double half = options.color_max > 0 ? options.color_max : std::max(round_up_nice(automatic), 0.01);
     scale.emplace();
     scale->ramp = ColorScale::Ramp::BlueGreenRed;
     scale->min = 1 - half;
@@ -260,6 +260,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
     base.V = s.shell.base;
     base.F = s.shell.F;
     base.color = base_grey;
+    if (!scale) base.back_color = Eigen::Vector3f(0.85f, 0.72f, 0.55f); // tells the inside of an open surface apart
     if (scale && values[i].size() == s.shell.F.rows() && color_by == ColorBy::Stretch) base.face_colors = map_colors(*scale, values[i]);
     if (scale && color_by == ColorBy::Thickness && values[i].size() > 0) base.vertex_colors = map_colors(*scale, values[i]);
     if (s.is_shell()) {
@@ -279,6 +280,9 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
       }
       break;
     case ShellStyle::Cut: {
+      // The inside of the top gets a flat blue, visible between the two rims where the layer is;
+      // the base keeps its colors on both sides (a prism's value belongs to both).
+      top.back_color = Eigen::Vector3f(0.55f, 0.68f, 0.92f);
       panel.scene.layers.push_back(base);
       if (s.is_shell()) {
         // The top stays neutral so the layer between the two cut rims reads at a glance.

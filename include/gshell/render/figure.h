@@ -20,7 +20,7 @@ struct FigureOptions {
   int width = 1280, height = 720;           ///< the whole image, pixels
   ViewDirection view;                        ///< same direction for every panel
   Projection projection = Projection::Perspective;
-  int supersample = 3;                       ///< anti-aliasing factor (see RenderOptions)
+  int supersample = 2;                       ///< anti-aliasing factor (see RenderOptions)
   std::optional<ColorScale> color_bar;       ///< drawn along the bottom when set
   std::string footnote;                      ///< small text at the bottom-left (e.g. how values were made)
 };

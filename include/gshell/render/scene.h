@@ -20,6 +20,8 @@ struct SurfaceLayer {
   Eigen::Vector3f color{0.8f, 0.8f, 0.8f};
   float opacity = 1;               ///< < 1: blended over the opaque layers, back faces first
   bool smooth = true;              ///< interpolate area-weighted vertex normals (else flat faces)
+  /// Uniform color of back faces (the inside of a closed surface); unset: same as the front.
+  std::optional<Eigen::Vector3f> back_color;
 };
 
 struct Scene {
@@ -30,7 +32,7 @@ struct Scene {
 
 struct RenderOptions {
   int width = 800, height = 600;                ///< output size in pixels
-  int supersample = 3;                          ///< render k times larger and box-filter down (anti-aliasing)
+  int supersample = 2;                          ///< render k times larger and box-filter down (anti-aliasing)
   Eigen::Vector3f background{1.0f, 1.0f, 1.0f};
   float ambient = 0.3f, diffuse = 0.7f;         ///< headlight; a face seen head-on shows its exact color
 };

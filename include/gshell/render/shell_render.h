@@ -49,8 +49,9 @@ enum class ShellStyle {
 struct ShellRenderOptions {
   ColorBy color_by = ColorBy::Auto;
   ShellStyle style = ShellStyle::Translucent;
-  /// Value shown red. <= 0: automatic = the 99th percentile of the face values of all panels,
-  /// rounded up to 1, 2, 2.5 or 5 x 10^k (stretch) or the same for |t - 1| (thickness).
+  /// Value shown red (stretch), or the largest |thickness/eta - 1| (thickness). <= 0: automatic =
+  /// the smallest of the panels' 99th percentiles (of face stretch, or of |t - 1| per vertex),
+  /// rounded up to 1, 2, 2.5 or 5 x 10^k: the best panel spans the ramp, worse ones turn red.
   double color_max = 0;
   float top_opacity = 0.35f;
   FigureOptions figure; ///< size, view, projection, anti-aliasing
