@@ -144,7 +144,8 @@ MeshStats mesh_stats(const TriMesh& mesh) {
   s.unreferenced_vertices = n - used_vertices;
 
   DisjointSets sets(n);
-  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P = mesh.V.leftCols(std::min<Eigen::Index>(3, mesh.V.cols()));
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P; // row-major: edges visit vertices at random
+  if (n > 0) P = mesh.V;
   double length_sum = 0;
   for (int e = 0; e < s.edges; ++e) {
     const int a = inc.edges(e, 0), b = inc.edges(e, 1);
@@ -161,7 +162,7 @@ MeshStats mesh_stats(const TriMesh& mesh) {
 
   bool any = false;
   for (int v = 0; v < n; ++v) {
-    const Eigen::Vector3d p = mesh.V.row(v).transpose();
+    const Eigen::Vector3d p = P.row(v).transpose();
     if (!p.allFinite()) continue;
     s.bbox_min = any ? s.bbox_min.cwiseMin(p) : p;
     s.bbox_max = any ? s.bbox_max.cwiseMax(p) : p;
