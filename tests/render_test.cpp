@@ -1,6 +1,12 @@
 // Rendering checked against analytic expectations: silhouette areas, Lambert shading of planes,
 // color bar values, framing, text, and the shell stretch colors.
 #include <gshell/error.h>
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/io/tet_mesh_io.h>
+#include <gshell/io/write_mesh.h>
+#include <gshell/quality/stretch.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/prism_tets.h>
 #include <gshell/render/annotate.h>
 #include <gshell/render/camera.h>
 #include <gshell/render/color_map.h>
@@ -9,10 +15,16 @@
 #include <gshell/render/scene.h>
 #include <gshell/render/shell_render.h>
 
+#include "test_support.h"
+
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <set>
 
 using namespace gshell;
 
@@ -334,4 +346,163 @@ TEST(ShellRender, FaceStretchIsTheVolumeWeightedMeanOfItsTets) {
   const Eigen::VectorXd face = face_stretch_from_tets(all, T, stretch);
   ASSERT_EQ(face.size(), 1);
   EXPECT_NEAR(face[0], (1 * 0.6 + 2 * 0.0 + 3 * 0.2) / 6, 1e-12);
+}
+
+namespace {
+
+// A shell over the builtin plane (normal prisms of thickness eta) whose every position is then
+// scaled by s: each tet is the ideal one scaled uniformly, so its stretch is 3 (s - 1)^2.
+struct ScaledPlaneShell {
+  TriMesh base;
+  RestTets rest;
+  Eigen::MatrixXd X; // 2n x 3, scaled
+  double eta = 0.1;
+};
+
+ScaledPlaneShell scaled_plane_shell(double s) {
+  ScaledPlaneShell shell;
+  shell.base = make_plane(6);
+  const int n = shell.base.num_vertices();
+  shell.rest = prism_rest_tets(shell.base.F, n, normal_prisms(shell.base.V, shell.base.F, shell.eta));
+  shell.X.resize(2 * n, 3);
+  shell.X.topRows(n) = shell.base.V;
+  shell.X.bottomRows(n) = shell.base.V;
+  shell.X.bottomRows(n).col(2).array() += shell.eta;
+  shell.X *= s;
+  return shell;
+}
+
+// Writes DIR as `generate` does: base.obj, top.obj, shell.vtu (cell data stretch), report.json.
+void write_shell_folder(const std::string& dir, const ScaledPlaneShell& shell, bool with_surfaces) {
+  const int n = shell.base.num_vertices();
+  if (with_surfaces) {
+    TriMesh base = shell.base, top = shell.base;
+    base.V = shell.X.topRows(n);
+    top.V = shell.X.bottomRows(n);
+    write_mesh(dir + "/base.obj", base);
+    write_mesh(dir + "/top.obj", top);
+  }
+  TetMesh tets;
+  tets.X = shell.X;
+  tets.T = shell.rest.T;
+  tets.cell_data.emplace_back("stretch", tet_stretch(shell.rest, shell.X));
+  write_tet_mesh(dir + "/shell.vtu", tets);
+  std::ofstream(dir + "/report.json") << nlohmann::json{{"method", "scaled"}, {"thickness", shell.eta}}.dump();
+}
+
+} // namespace
+
+TEST(ShellRender, UniformlyScaledShellShowsTheColorBarValueOfItsStretch) {
+  REQUIRE_RENDERER();
+  for (double s : {1.05, 1.1, 1.15}) {
+    const ScaledPlaneShell shell = scaled_plane_shell(s);
+    const double expected = 3 * (s - 1) * (s - 1);
+    RenderSubject subject;
+    subject.name = "plane";
+    const int n = shell.base.num_vertices();
+    subject.shell.base = shell.X.topRows(n);
+    subject.shell.top = shell.X.bottomRows(n);
+    subject.shell.F = shell.base.F;
+    subject.shell.thickness = shell.eta * s;
+    subject.face_stretch = face_stretch_from_tets(shell.X, shell.rest.T, tet_stretch(shell.rest, shell.X));
+    ASSERT_NEAR(subject.face_stretch.maxCoeff(), expected, 1e-9);
+    ASSERT_NEAR(subject.face_stretch.minCoeff(), expected, 1e-9);
+
+    ShellRenderOptions options;
+    options.color_max = 0.1;
+    options.figure.width = 480;
+    options.figure.height = 400;
+    options.figure.view = parse_view("front");
+    FigureLayout layout;
+    const Image image = render_subjects({subject}, {}, options, &layout);
+    ASSERT_TRUE(layout.color_scale.has_value());
+    const PixelRect& panel = layout.panels[0];
+    const auto shown = pixel(image, panel.x + panel.w / 2, panel.y + panel.h / 2);
+    const auto bar = pixel(image, layout.color_bar_column(expected), layout.color_bar.y + layout.color_bar.h / 2);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(shown[c], bar[c], 4) << "s = " << s << " channel " << c;
+    // And it is the ramp's color for 3 (s - 1)^2 itself.
+    expect_color(image, panel.x + panel.w / 2, panel.y + panel.h / 2, layout.color_scale->color(expected), 3, "ramp");
+  }
+}
+
+TEST(ShellRender, ShellFolderLoadsWithStretchFromShellVtu) {
+  const ScaledPlaneShell shell = scaled_plane_shell(1.1);
+  test::TempDir dir("render-shell");
+  write_shell_folder(dir.path().string(), shell, true);
+  const RenderSubject subject = load_render_subject(dir.path().string());
+  EXPECT_EQ(subject.method, "scaled");
+  EXPECT_DOUBLE_EQ(subject.shell.thickness, shell.eta);
+  ASSERT_EQ(subject.face_stretch.size(), shell.base.num_faces());
+  EXPECT_NEAR(subject.face_stretch.mean(), 0.03, 1e-9);
+  EXPECT_EQ(subject.shell.F, shell.base.F);
+}
+
+TEST(ShellRender, FacesAreRecoveredFromTetsWhenOnlyShellVtuIsThere) {
+  const ScaledPlaneShell shell = scaled_plane_shell(1.0);
+  test::TempDir dir("render-vtu");
+  write_shell_folder(dir.path().string(), shell, false);
+  const RenderSubject subject = load_render_subject(dir.path().string());
+  ASSERT_EQ(subject.shell.F.rows(), shell.base.F.rows());
+  for (Eigen::Index f = 0; f < shell.base.F.rows(); ++f) {
+    const std::set<int> want{shell.base.F(f, 0), shell.base.F(f, 1), shell.base.F(f, 2)};
+    const std::set<int> got{subject.shell.F(f, 0), subject.shell.F(f, 1), subject.shell.F(f, 2)};
+    EXPECT_EQ(got, want) << "face " << f;
+    // Same orientation: the normal points to the top (+z for the plane).
+    const Eigen::Vector3d a = subject.shell.base.row(subject.shell.F(f, 0)), b = subject.shell.base.row(subject.shell.F(f, 1)),
+                          c = subject.shell.base.row(subject.shell.F(f, 2));
+    EXPECT_GT((b - a).cross(c - a).z(), 0) << "face " << f;
+  }
+  EXPECT_NEAR(subject.face_stretch.maxCoeff(), 0, 1e-12);
+}
+
+TEST(ShellRender, ThicknessRatioPerVertex) {
+  Shell shell;
+  shell.base = Eigen::MatrixXd::Zero(2, 3);
+  shell.top = shell.base;
+  shell.top(0, 2) = 0.1;
+  shell.top(1, 0) = 0.25;
+  shell.thickness = 0.2;
+  const Eigen::VectorXd t = vertex_thickness_ratio(shell);
+  EXPECT_DOUBLE_EQ(t[0], 0.5);
+  EXPECT_DOUBLE_EQ(t[1], 1.25);
+}
+
+TEST(RenderCli, WritesAPngOfTheRequestedSize) {
+  REQUIRE_RENDERER();
+  test::TempDir dir("render-cli");
+  const std::string png = dir.file("out.png");
+  const auto r = test::run_cli("render builtin:sphere builtin:torus -o '" + png + "' --size 320x200 --view front --caption a --caption b -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Image image = read_png(png);
+  EXPECT_EQ(image.width, 320);
+  EXPECT_EQ(image.height, 200);
+}
+
+TEST(RenderCli, ShellFolderWithStretchColors) {
+  REQUIRE_RENDERER();
+  test::TempDir dir("render-cli-shell");
+  const std::string shell_dir = dir.file("shell");
+  std::filesystem::create_directories(shell_dir);
+  write_shell_folder(shell_dir, scaled_plane_shell(1.1), true);
+  const std::string png = dir.file("shell.png");
+  const auto r = test::run_cli("render '" + shell_dir + "' -o '" + png + "' --size 400x300 --view front --max 0.1 -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Image image = read_png(png);
+  ColorScale scale;
+  scale.max = 0.1;
+  // The centre of the image is inside the plane: the ramp color of 0.03.
+  expect_color(image, 200, 150, scale.color(0.03), 3, "centre");
+}
+
+TEST(RenderCli, BadArgumentsFailCleanly) {
+  test::TempDir dir("render-cli-bad");
+  const std::string png = dir.file("out.png");
+  EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --size 10x").exit_code, 1);
+  EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --view sideways").exit_code, 1);
+  EXPECT_EQ(test::run_cli("render builtin:sphere builtin:torus -o '" + png + "' --caption one").exit_code, 1);
+  EXPECT_EQ(test::run_cli("render '" + dir.file("missing.obj") + "' -o '" + png + "'").exit_code, 1);
+  EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --color stretch").exit_code, 1);
+  EXPECT_EQ(test::run_cli("render '" + dir.path().string() + "' -o '" + png + "'").exit_code, 1); // not a shell folder
+  EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + dir.file("no/such/dir/x.png") + "'").exit_code, 1);
+  EXPECT_EQ(test::count_entries(dir.path()), 0);
 }

@@ -3,9 +3,13 @@
 #include <gshell/error.h>
 #include <gshell/io/atomic_file.h>
 
+#include <stb_image.h>
 #include <stb_image_write.h>
 
 #include <algorithm>
+#include <fstream>
+#include <memory>
+#include <sstream>
 #include <ostream>
 #include <stdexcept>
 
@@ -85,6 +89,26 @@ std::string encode_png(const Image& image) {
   if (!stbi_write_png_to_func(append, &bytes, image.width, image.height, 3, image.rgb.data(), image.width * 3))
     throw std::runtime_error("PNG encoding failed");
   return bytes;
+}
+
+Image decode_png(const std::string& bytes, const std::string& what) {
+  int w = 0, h = 0, channels = 0;
+  std::unique_ptr<stbi_uc, void (*)(void*)> pixels(
+      stbi_load_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()), &w, &h,
+                            &channels, 3),
+      stbi_image_free);
+  if (!pixels) throw InputError(with_file(what, std::string("cannot decode image: ") + stbi_failure_reason()));
+  Image image(w, h);
+  std::copy_n(pixels.get(), image.rgb.size(), image.rgb.data());
+  return image;
+}
+
+Image read_png(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(with_file(path, "cannot open"));
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return decode_png(bytes.str(), path);
 }
 
 void write_png(const std::string& path, const Image& image) {

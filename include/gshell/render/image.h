@@ -29,6 +29,12 @@ void blit(Image& dst, const Image& src, int x, int y);
 /// PNG file bytes (stb_image_write).
 std::string encode_png(const Image& image);
 
+/// Decodes PNG (or any format stb_image reads) bytes to RGB; throws InputError naming `what`.
+Image decode_png(const std::string& bytes, const std::string& what = "image");
+
+/// Reads an image file; throws InputError naming `path` if it cannot be read or decoded.
+Image read_png(const std::string& path);
+
 /// Writes a PNG atomically; throws InputError naming `path` if it cannot be written.
 void write_png(const std::string& path, const Image& image);
 
