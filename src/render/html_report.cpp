@@ -233,8 +233,10 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
         captions.push_back(frames[k].filename().string());
       }
       ro.figure.width = options.render_width * 3 / 2;
+      std::string names;
+      for (const auto& c : captions) names += (names.empty() ? "" : ", ") + c;
       image_figure(html, render_subjects(subjects, captions, ro),
-                   "first, middle and last frame, colored by stretch against the rest shell (iso view)");
+                   names + " (first, middle and last frame), colored by stretch against the rest shell (iso view)");
     } else {
       const std::vector<RenderSubject> subject{load_render_subject(dir.string())};
       image_figure(html, render_subjects(subject, {default_caption(subject[0])}, ro),

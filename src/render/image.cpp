@@ -3,8 +3,35 @@
 #include <gshell/error.h>
 #include <gshell/io/atomic_file.h>
 
-#include <stb_image.h>
+#include <zlib.h>
+
+#include <cstdlib>
+
+// stb_image_write's own deflate is several times slower than zlib's; stb lets the caller plug in
+// a compressor, so its PNG writer is compiled here (static, no clash with libstb) on top of zlib.
+namespace {
+unsigned char* zlib_compress_for_stb(unsigned char* data, int length, int* out_length, int /*stb_quality*/) {
+  uLongf size = compressBound(static_cast<uLong>(length));
+  auto* out = static_cast<unsigned char*>(std::malloc(size));
+  if (!out) return nullptr;
+  if (compress2(out, &size, data, static_cast<uLong>(length), Z_DEFAULT_COMPRESSION) != Z_OK) {
+    std::free(out);
+    return nullptr;
+  }
+  *out_length = static_cast<int>(size);
+  return out;
+}
+} // namespace
+#define STBIW_ZLIB_COMPRESS zlib_compress_for_stb
+#define STB_IMAGE_WRITE_STATIC
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
 #include <stb_image_write.h>
+#pragma GCC diagnostic pop
+
+#include <stb_image.h>
 
 #include <algorithm>
 #include <fstream>
