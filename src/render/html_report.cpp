@@ -139,8 +139,21 @@ void number_list_section(std::ostringstream& html, const std::string& key, const
   plot.x_label = energy ? "iteration" : "index";
   plot.y_label = key;
   plot.log_y = spans_decades(y);
-  html << "<div class=\"plot\">" << svg_line_plot(y, plot) << "</div>\n";
-  html << "<details><summary>" << y.size() << " values</summary>\n<table class=\"list\">\n<tr><th>"
+  html << "<div class=\"plots\"><div class=\"plot\">" << svg_line_plot(y, plot) << "</div>\n";
+  // The convergence rate reads best as the distance to the final value on a log axis.
+  if (energy && y.size() >= 3 && y.back() > 0) {
+    std::vector<double> gap;
+    for (size_t i = 0; i + 1 < y.size(); ++i) gap.push_back((y[i] - y.back()) / y.back());
+    if (std::all_of(gap.begin(), gap.end(), [](double g) { return g > 0; })) {
+      PlotOptions rate;
+      rate.title = "convergence: (E_k - E_last) / E_last";
+      rate.x_label = "iteration";
+      rate.y_label = "relative gap";
+      rate.log_y = true;
+      html << "<div class=\"plot\">" << svg_line_plot(gap, rate) << "</div>\n";
+    }
+  }
+  html << "</div>\n<details><summary>" << y.size() << " values</summary>\n<table class=\"list\">\n<tr><th>"
        << xml_escape(plot.x_label) << "</th><th>" << xml_escape(key) << "</th></tr>\n";
   for (size_t i = 0; i < list.size(); ++i) html << "<tr><td>" << i << "</td><td>" << format_json_number(list[i]) << "</td></tr>\n";
   html << "</table>\n</details>\n";
