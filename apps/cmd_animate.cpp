@@ -21,6 +21,7 @@ namespace fs = std::filesystem;
 struct AnimateArgs {
   std::string base;
   double bend = NAN, twist = NAN;
+  double band = 1.0;
   int frames = 30;
   std::string out;
 };
@@ -40,6 +41,7 @@ bool holds_only_frames(const fs::path& dir) {
 
 void run_animate(const AnimateArgs& args) {
   if (args.frames < 1) throw gshell::InputError("--frames must be >= 1");
+  if (!(args.band > 0 && args.band <= 1)) throw gshell::InputError("--band must be in (0, 1]");
   const bool bending = !std::isnan(args.bend);
   const double degrees = bending ? args.bend : args.twist;
   if (!std::isfinite(degrees)) throw gshell::InputError("the angle must be finite");
@@ -51,7 +53,7 @@ void run_animate(const AnimateArgs& args) {
   const bool quiet = gshell::cli::global_options().quiet;
   for (int k = 1; k <= args.frames; ++k) {
     const double angle = degrees * gshell::ramp(k, args.frames);
-    mesh.V = bending ? gshell::bend(rest, frame, angle) : gshell::twist(rest, frame, angle);
+    mesh.V = bending ? gshell::bend(rest, frame, angle, args.band) : gshell::twist(rest, frame, angle);
     gshell::write_mesh((staged.path() / frame_name(k)).string(), mesh);
     if (!quiet) std::cerr << "\ranimate: frame " << k << "/" << args.frames << std::flush;
   }
@@ -71,6 +73,9 @@ void add_animate_command(CLI::App& parent) {
                                "Bend the longest bounding-box axis into an arc of A degrees in total");
   auto* twist = cmd->add_option("--twist", args->twist,
                                 "Twist about the longest bounding-box axis by A degrees end to end");
+  cmd->add_option("--band", args->band,
+                  "With --bend: fraction of the long axis that bends (a fold when < 1), centred")
+      ->capture_default_str();
   bend->excludes(twist);
   twist->excludes(bend);
   cmd->add_option("--frames", args->frames, "Number of frames K; frame K reaches the full angle")

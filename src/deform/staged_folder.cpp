@@ -14,7 +14,10 @@ namespace {
 fs::path sibling(const fs::path& destination, const std::string& tag) {
   std::random_device rd;
   const fs::path parent = destination.parent_path().empty() ? fs::path(".") : destination.parent_path();
-  return parent / ("." + destination.filename().string() + "." + tag + "-" + std::to_string(rd()));
+  std::string name = ".";
+  name += destination.filename().string();
+  name += "." + tag + "-" + std::to_string(rd());
+  return parent / name;
 }
 
 } // namespace

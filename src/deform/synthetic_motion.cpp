@@ -23,18 +23,22 @@ MotionFrame motion_frame(const Eigen::MatrixXd& V) {
   return frame;
 }
 
-Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees) {
+Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees, double band) {
   const double angle = degrees * std::numbers::pi / 180.0;
   Eigen::MatrixXd out = V;
+  band = std::clamp(band, 1e-6, 1.0);
   if (std::abs(angle) < 1e-12 || frame.length <= 0) return out;
-  // Arc of radius R = length / angle, centred on the short axis at distance R from the center.
-  const double R = frame.length / angle;
+  // Arc of radius R = bent length / angle, centred on the short axis at distance R from the
+  // center; beyond the band the mesh continues along the arc's end tangents.
+  const double half_band = 0.5 * band * frame.length;
+  const double R = band * frame.length / angle;
   const int a = frame.long_axis, s = frame.short_axis;
   for (Eigen::Index i = 0; i < V.rows(); ++i) {
     const double along = V(i, a) - frame.center[a], across = V(i, s) - frame.center[s];
-    const double phi = along / R;
-    out(i, a) = frame.center[a] + (R - across) * std::sin(phi);
-    out(i, s) = frame.center[s] + R - (R - across) * std::cos(phi);
+    const double clamped = std::clamp(along, -half_band, half_band), beyond = along - clamped;
+    const double phi = clamped / R;
+    out(i, a) = frame.center[a] + (R - across) * std::sin(phi) + beyond * std::cos(phi);
+    out(i, s) = frame.center[s] + R - (R - across) * std::cos(phi) + beyond * std::sin(phi);
   }
   return out;
 }

@@ -1,5 +1,6 @@
 #include <gshell/deform/tet_locator.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>

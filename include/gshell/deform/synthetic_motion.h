@@ -14,9 +14,12 @@ MotionFrame motion_frame(const Eigen::MatrixXd& V);
 
 /// Bends the long axis into a circular arc of total angle `degrees` (rotation about the middle
 /// axis, the mesh curling towards +short axis for positive angles, the other way for negative).
+/// Only the central `band` fraction of the long axis bends (1 = all of it; smaller values give a
+/// fold: an arc of radius band * length / angle between two straight, tangent parts).
 /// The plane through the center across the long axis stays put; lengths along the long axis are
-/// kept on the bounding box's mid-plane (short coordinate = center).
-Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees);
+/// kept on the bounding box's mid-plane (short coordinate = center), so a flat mesh is bent
+/// isometrically.
+Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees, double band = 1.0);
 
 /// Twists about the long axis through the center: the angle grows linearly along the axis from
 /// -degrees/2 at one end of the bounding box to +degrees/2 at the other.
