@@ -293,3 +293,17 @@ TEST(MeshTopology, StatsSurviveOutOfRangeIndicesAndNaN) {
   EXPECT_EQ(s.edges, 5); // faces 2 and 3 only
   EXPECT_TRUE(s.bbox_min.allFinite());
 }
+
+TEST(ValidateMesh, WrongMatrixShapesAreErrorsNotCrashes) {
+  TriMesh m = tetrahedron();
+  m.V = Eigen::MatrixXd::Zero(4, 2);
+  auto errors = of_severity(validate_mesh(m), Severity::Error);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_TRUE(contains(errors[0].message, "3 coordinates"));
+  EXPECT_EQ(mesh_stats(m).edges, 0);
+  m = tetrahedron();
+  m.F = Eigen::MatrixXi::Zero(2, 4);
+  errors = of_severity(validate_mesh(m), Severity::Error);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(mesh_stats(m).edges, 0);
+}
