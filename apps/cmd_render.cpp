@@ -5,6 +5,7 @@
 #include <gshell/render/image.h>
 #include <gshell/render/shell_render.h>
 
+#include <cmath>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -21,7 +22,7 @@ struct RenderArgs {
   std::string view = "iso";
   std::string size = "1280x720";
   std::vector<std::string> captions;
-  double max = 0;
+  std::string max = "default";
   bool ortho = false;
   int supersample = 2;
 };
@@ -42,7 +43,20 @@ void run_render(const RenderArgs& args) {
   options.figure.view = parse_view(args.view);
   options.figure.projection = args.ortho ? Projection::Orthographic : Projection::Perspective;
   options.figure.supersample = args.supersample;
-  options.color_max = args.max;
+  if (args.max == "auto") {
+    options.auto_max = true;
+  } else if (args.max != "default") {
+    std::size_t used = 0;
+    double value = 0;
+    try {
+      value = std::stod(args.max, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != args.max.size() || !(value > 0) || !std::isfinite(value))
+      throw InputError("--max " + args.max + ": expected a positive number or auto");
+    options.color_max = value;
+  }
   const std::map<std::string, ColorBy> colors{{"auto", ColorBy::Auto}, {"stretch", ColorBy::Stretch},
                                               {"thickness", ColorBy::Thickness}, {"none", ColorBy::None}};
   const std::map<std::string, ShellStyle> styles{{"translucent", ShellStyle::Translucent}, {"cut", ShellStyle::Cut},
@@ -79,9 +93,9 @@ void add_render_command(CLI::App& parent) {
   cmd->add_option("--size", args->size, "Image size WIDTHxHEIGHT (all panels together)")->capture_default_str();
   cmd->add_option("--caption", args->captions, "Panel caption, once per input (default: input name and method)");
   cmd->add_option("--max", args->max,
-                  "Value drawn red: stretch, or the largest |thickness/eta - 1|; default: 99th percentile of all "
-                  "panels rounded up")
-      ->check(CLI::NonNegativeNumber);
+                  "Value drawn red: stretch (default 0.1), or the largest |thickness/eta - 1| (default 0.5); "
+                  "auto = the smallest 99th percentile of the panels, rounded up")
+      ->capture_default_str();
   cmd->add_flag("--ortho", args->ortho, "Orthographic instead of perspective projection");
   cmd->add_option("--supersample", args->supersample, "Anti-aliasing: render K times larger and filter down")
       ->check(CLI::Range(1, 4))

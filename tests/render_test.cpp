@@ -499,10 +499,43 @@ TEST(RenderCli, BadArgumentsFailCleanly) {
   const std::string png = dir.file("out.png");
   EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --size 10x").exit_code, 1);
   EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --view sideways").exit_code, 1);
+  EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --max 0").exit_code, 1);
+  EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --max lots").exit_code, 1);
   EXPECT_EQ(test::run_cli("render builtin:sphere builtin:torus -o '" + png + "' --caption one").exit_code, 1);
   EXPECT_EQ(test::run_cli("render '" + dir.file("missing.obj") + "' -o '" + png + "'").exit_code, 1);
   EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + png + "' --color stretch").exit_code, 1);
   EXPECT_EQ(test::run_cli("render '" + dir.path().string() + "' -o '" + png + "'").exit_code, 1); // not a shell folder
   EXPECT_EQ(test::run_cli("render builtin:sphere -o '" + dir.file("no/such/dir/x.png") + "'").exit_code, 1);
   EXPECT_EQ(test::count_entries(dir.path()), 0);
+}
+
+TEST(ShellRender, ScaleIsFixedByDefaultAndFollowsTheBestPanelWhenAutomatic) {
+  REQUIRE_RENDERER();
+  std::vector<RenderSubject> subjects(2);
+  for (int i = 0; i < 2; ++i) {
+    const ScaledPlaneShell shell = scaled_plane_shell(1.0);
+    const int n = shell.base.num_vertices();
+    subjects[i].name = "plane " + std::to_string(i);
+    subjects[i].shell.base = shell.X.topRows(n);
+    subjects[i].shell.top = shell.X.bottomRows(n);
+    subjects[i].shell.F = shell.base.F;
+    subjects[i].shell.thickness = shell.eta;
+    // Face values 0 .. 0.3 (panel 0) and 0 .. 3 (panel 1): 99th percentiles ~0.3 and ~3.
+    const Eigen::Index m = shell.base.F.rows();
+    subjects[i].face_stretch = Eigen::VectorXd::LinSpaced(m, 0, i == 0 ? 0.3 : 3.0);
+  }
+  ShellRenderOptions options;
+  options.figure.width = 320;
+  options.figure.height = 160;
+  FigureLayout layout;
+  render_subjects(subjects, {}, options, &layout);
+  ASSERT_TRUE(layout.color_scale.has_value());
+  EXPECT_DOUBLE_EQ(layout.color_scale->max, kDefaultStretchMax);
+  options.auto_max = true;
+  render_subjects(subjects, {}, options, &layout);
+  EXPECT_DOUBLE_EQ(layout.color_scale->max, 0.5); // 0.297 rounded up to a round number
+  options.color_by = ColorBy::Thickness;
+  render_subjects(subjects, {}, options, &layout);
+  EXPECT_NEAR(layout.color_scale->min, 0.99, 1e-12); // |t - 1| = 0 everywhere: the minimum spread 0.01
+  EXPECT_NEAR(layout.color_scale->max, 1.01, 1e-12);
 }

@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
+#include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/render/color_map.h>
@@ -148,6 +149,7 @@ RenderSubject load_shell_folder(const fs::path& dir, const std::string& name) {
   }
   if (subject.face_stretch.size() == 0 && subject.shell.thickness > 0)
     subject.face_stretch = stretch_against_normal_prisms(subject.shell);
+  if (fs::exists(dir / "detail.obj")) subject.detail = read_mesh((dir / "detail.obj").string());
   return subject;
 }
 
@@ -221,9 +223,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   if (color_by == ColorBy::Stretch && !any_stretch) throw InputError("render: --color stretch needs a shell folder input");
   if (color_by == ColorBy::Thickness && !any_shell) throw InputError("render: --color thickness needs a shell folder input");
 
-  // Values per subject (faces for stretch, vertices for thickness) and one shared scale. Automatic
-  // scale: the smallest of the panels' 99th percentiles, so the best panel spans the whole ramp
-  // and the others show in red where they are worse than it.
+  // Values per subject (faces for stretch, vertices for thickness) and one shared scale.
   std::vector<Eigen::VectorXd> values(subjects.size());
   double automatic = INFINITY;
   for (size_t i = 0; i < subjects.size(); ++i) {
@@ -239,10 +239,14 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   std::optional<ColorScale> scale;
   if (color_by == ColorBy::Stretch) {
     scale.emplace();
-    scale->max = options.color_max > 0 ? options.color_max : std::max(round_up_nice(automatic), 1e-4);
+    scale->max = options.auto_max      ? std::max(round_up_nice(automatic), 1e-4)
+                 : options.color_max > 0 ? options.color_max
+                                         : kDefaultStretchMax;
     scale->label = "stretch";
   } else if (color_by == ColorBy::Thickness) {
-    const double half = options.color_max > 0 ? options.color_max : std::max(round_up_nice(automatic), 0.01);
+    const double half = options.auto_max      ? std::max(round_up_nice(automatic), 0.01)
+                        : options.color_max > 0 ? options.color_max
+                                                : kDefaultThicknessSpread;
     scale.emplace();
     scale->ramp = ColorScale::Ramp::BlueGreenRed;
     scale->min = 1 - half;
@@ -269,6 +273,13 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
       top.face_colors = base.face_colors;
       top.vertex_colors = base.vertex_colors;
       top.color = top_grey;
+    }
+    if (s.detail.num_faces() > 0) {
+      SurfaceLayer detail;
+      detail.V = s.detail.V;
+      detail.F = s.detail.F;
+      detail.color = Eigen::Vector3f(0.93f, 0.90f, 0.82f); // ivory: apart from every ramp color
+      panel.scene.layers.push_back(detail);
     }
     switch (options.style) {
     case ShellStyle::Translucent:

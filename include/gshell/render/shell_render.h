@@ -1,6 +1,7 @@
 #pragma once
 // Renders of shells (and plain surfaces) for `gshell render`, the `--render` previews of
 // generate / deform / pose, and `gshell report`.
+#include <gshell/mesh.h>
 #include <gshell/render/figure.h>
 #include <gshell/shell/shell.h>
 
@@ -16,6 +17,7 @@ struct RenderSubject {
   std::string method;          ///< "rigid", "offset", ... from report.json; empty if unknown
   Shell shell;                 ///< base, top (may be empty), faces, thickness eta (0 if unknown)
   Eigen::VectorXd face_stretch;///< one value per face (see face_stretch_from_tets), or empty
+  TriMesh detail;              ///< geometry embedded in the shell (DIR/detail.obj of deform), or empty
 
   bool is_shell() const { return shell.top.rows() > 0; }
 };
@@ -25,6 +27,7 @@ struct RenderSubject {
 ///   base.obj + top.obj + report.json). Without shell.vtu the stretch is measured against the ideal
 ///   normal prisms of thickness eta, as `generate` does.
 /// - a deform output folder (frame_NNNN/ subfolders): its last frame.
+/// A detail.obj in the shell folder (embedded detail carried by deform) is drawn inside the shell.
 /// - anything else: a surface file or builtin spec (gshell::load_mesh).
 /// Throws InputError naming the input when it cannot be read.
 RenderSubject load_render_subject(const std::string& input);
@@ -38,6 +41,12 @@ Eigen::VectorXd face_stretch_from_tets(const Eigen::MatrixXd& X, const Eigen::Ma
 /// Per-vertex thickness |top_i - base_i| / eta (1 = the requested thickness).
 Eigen::VectorXd vertex_thickness_ratio(const Shell& shell);
 
+/// Stretch drawn red by default: sum (sigma_i - 1)^2 = 0.1 is e.g. one singular value off by 0.32,
+/// or all three by 0.18.
+constexpr double kDefaultStretchMax = 0.1;
+/// Thickness colors span 1 -/+ this by default (blue = half of eta, red = 1.5 eta).
+constexpr double kDefaultThicknessSpread = 0.5;
+
 enum class ColorBy { Auto, Stretch, Thickness, None }; ///< Auto: stretch when any input has it
 enum class ShellStyle {
   Translucent, ///< opaque base, translucent top with the same colors
@@ -49,10 +58,14 @@ enum class ShellStyle {
 struct ShellRenderOptions {
   ColorBy color_by = ColorBy::Auto;
   ShellStyle style = ShellStyle::Translucent;
-  /// Value shown red (stretch), or the largest |thickness/eta - 1| (thickness). <= 0: automatic =
-  /// the smallest of the panels' 99th percentiles (of face stretch, or of |t - 1| per vertex),
-  /// rounded up to 1, 2, 2.5 or 5 x 10^k: the best panel spans the ramp, worse ones turn red.
+  /// Value shown red: stretch, or the largest |thickness/eta - 1| (thickness colors).
+  /// 0 = the default: kDefaultStretchMax for stretch (absolute, so figures compare across runs),
+  /// kDefaultThicknessSpread for thickness. Ignored when auto_max is set.
   double color_max = 0;
+  /// Scale to the data instead: the smallest of the panels' 99th percentiles (of face stretch, or
+  /// of |t - 1| per vertex), rounded up to 1, 2, 2.5 or 5 x 10^k: the best panel spans the ramp,
+  /// worse ones turn red where they are worse.
+  bool auto_max = false;
   float top_opacity = 0.35f;
   FigureOptions figure; ///< size, view, projection, anti-aliasing
 };
