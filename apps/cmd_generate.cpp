@@ -5,6 +5,7 @@
 
 #include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
+#include <gshell/render/shell_render.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
 
@@ -20,6 +21,7 @@ struct GenerateCliOptions {
   std::optional<double> thickness, ratio;
   int iterations = 50;
   double tolerance = 1e-5;
+  bool render = false;
 };
 
 void run_generate(const GenerateCliOptions& o) {
@@ -54,6 +56,7 @@ void run_generate(const GenerateCliOptions& o) {
   cli::write_shell_dir(o.output, mesh, result.shell, result.metrics, report);
   std::cout << generate_summary(result, o.input) << "wrote        " << o.output
             << "/{top.obj, base.obj, shell.vtu, report.json}\n";
+  if (o.render) std::cout << "wrote        " << render_shell_preview(o.output) << "\n";
 }
 
 void add_generate_command(CLI::App& app) {
@@ -71,6 +74,7 @@ void add_generate_command(CLI::App& app) {
   cmd->add_option("--method", o->method, "rigid (optimised, default), offset (vertex-normal offset) or curvature");
   cmd->add_option("--iterations", o->iterations, "Maximum local/global iterations (default 50)");
   cmd->add_option("--tolerance", o->tolerance, "Stop when the relative energy change is below this (default 1e-5)");
+  cmd->add_flag("--render", o->render, "Also write DIR/preview.png: a headless render colored by stretch");
   cmd->callback([o] { run_generate(*o); });
 }
 

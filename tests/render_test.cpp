@@ -539,3 +539,29 @@ TEST(ShellRender, ScaleIsFixedByDefaultAndFollowsTheBestPanelWhenAutomatic) {
   EXPECT_NEAR(layout.color_scale->min, 0.99, 1e-12); // |t - 1| = 0 everywhere: the minimum spread 0.01
   EXPECT_NEAR(layout.color_scale->max, 1.01, 1e-12);
 }
+
+TEST(RenderCli, GenerateWithRenderWritesAPreview) {
+  REQUIRE_RENDERER();
+  test::TempDir dir("render-preview");
+  const std::string out = dir.file("torus");
+  const auto r = test::run_cli("generate builtin:torus:16 -o '" + out + "' --thickness-ratio 0.05 --iterations 3 --render -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("preview.png"), std::string::npos);
+  const Image preview = read_png(out + "/preview.png");
+  EXPECT_EQ(preview.width, 1280);
+  EXPECT_EQ(preview.height, 720);
+}
+
+TEST(ShellRender, PreviewOfADeformOutputShowsFirstMiddleAndLastFrame) {
+  REQUIRE_RENDERER();
+  test::TempDir dir("render-preview-frames");
+  for (int k = 1; k <= 4; ++k) {
+    const std::string frame = dir.file("frame_000" + std::to_string(k));
+    std::filesystem::create_directories(frame);
+    write_shell_folder(frame, scaled_plane_shell(1.0 + 0.05 * k), false);
+  }
+  const std::string png = render_shell_preview(dir.path().string());
+  EXPECT_EQ(png, dir.file("preview.png"));
+  const Image preview = read_png(png);
+  EXPECT_EQ(preview.width, 1280);
+}
