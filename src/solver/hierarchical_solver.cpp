@@ -2,9 +2,9 @@
 
 #include "hierarchy_levels.h"
 
+#include <Eigen/Cholesky>
+
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -36,6 +36,64 @@ void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
   }
 }
 
+/// The full level's iterate with its local step (rotations, energy).
+struct FullState {
+  Eigen::MatrixXd& X;
+  LocalCache cache;
+  double energy;
+};
+
+/// Anderson acceleration of the local/global fixed-point map x -> G(x) (type II, as in Peng et
+/// al. 2018): the next iterate combines the last few images so that the combined residual
+/// G(x) - x is smallest. The caller keeps it only if it lowers the energy.
+class AndersonHistory {
+public:
+  explicit AndersonHistory(int depth) : depth_(depth) {}
+  void clear() {
+    dF_.clear();
+    dG_.clear();
+    has_last_ = false;
+  }
+  /// Records (x, G(x)); returns true and the extrapolated iterate when there is history.
+  bool extrapolate(const Eigen::MatrixXd& x, const Eigen::MatrixXd& image, Eigen::MatrixXd& out) {
+    if (depth_ <= 0) return false;
+    const Eigen::Map<const Eigen::VectorXd> u(x.data(), x.size()), g(image.data(), image.size());
+    const Eigen::VectorXd f = g - u;
+    if (has_last_) {
+      if (static_cast<int>(dF_.size()) == depth_) {
+        dF_.erase(dF_.begin());
+        dG_.erase(dG_.begin());
+      }
+      dF_.push_back(f - last_f_);
+      dG_.push_back(g - last_g_);
+    }
+    last_f_ = f;
+    last_g_ = g;
+    has_last_ = true;
+    if (dF_.empty()) return false;
+    const int m = static_cast<int>(dF_.size());
+    Eigen::MatrixXd normal(m, m);
+    Eigen::VectorXd rhs(m);
+    for (int i = 0; i < m; ++i) {
+      rhs(i) = dF_[i].dot(f);
+      for (int j = 0; j <= i; ++j) normal(i, j) = normal(j, i) = dF_[i].dot(dF_[j]);
+    }
+    normal.diagonal().array() += 1e-12 * std::max(1e-300, normal.diagonal().maxCoeff());
+    const Eigen::VectorXd gamma = normal.ldlt().solve(rhs);
+    out.resize(x.rows(), x.cols());
+    Eigen::Map<Eigen::VectorXd> o(out.data(), out.size());
+    o = g;
+    for (int i = 0; i < m; ++i) o -= gamma(i) * dG_[i];
+    return gamma.allFinite();
+  }
+
+private:
+  int depth_;
+  std::vector<Eigen::VectorXd> dF_, dG_;
+  Eigen::VectorXd last_f_, last_g_;
+  bool has_last_ = false;
+};
+
 } // namespace
 
 double mean_stiffness(const RestTets& rest, int num_vertices) {
@@ -58,39 +116,116 @@ struct HierarchicalSolver::Impl {
   int num_vertices() const { return static_cast<int>(rest_vertices_rows); }
   int rest_vertices_rows = 0;
 
-  /// The objective of reduced level l: its energy minus 2 <tau_l, z> (tau_l = 0 without residual correction).
+  /// The objective of reduced level l: its energy minus 2 <tau_l, z> (tau_l = 0 without residual coupling).
   double reduced_objective(int l, const Eigen::MatrixXd& targets, const LocalCache& cache) const {
     double e = cache.elastic + reduced[l].springs(targets);
     if (tau[l].size() > 0) e -= 2.0 * tau[l].cwiseProduct(reduced[l].parameters()).sum();
     return e;
   }
 
-  /// One reduced level within an outer iteration: take the parent's change if it does not raise
-  /// this level's objective, then a few local/global iterations.
-  int solve_reduced(int l, const std::vector<RigidChange>* parent_change, const Eigen::MatrixXd& targets) {
+  void reduced_iterations(int l, const Eigen::MatrixXd& targets) {
     ReducedLevel& level = reduced[l];
     LocalCache& cache = reduced_cache[l];
-    int rejected = 0;
-    if (parent_change) {
-      const double energy = reduced_objective(l, targets, cache);
-      const Eigen::MatrixXd kept = level.parameters();
-      level.apply(*parent_change, parent_of(l));
-      LocalCache candidate;
-      level.local(candidate);
-      if (reduced_objective(l, targets, candidate) <= energy) {
-        std::swap(candidate, cache);
-      } else {
-        level.parameters() = kept;
-        ++rejected;
-      }
-    }
     for (int k = 0; k < options.level_iterations; ++k) {
       Eigen::MatrixXd rhs = level.rhs(targets, cache);
       if (tau[l].size() > 0) rhs += tau[l];
       level.solve(rhs);
       level.local(cache);
     }
-    return rejected;
+  }
+
+  /// One coarse-to-fine pass over the reduced levels, ending in a candidate change of the full
+  /// state, which is kept only if it lowers the full energy. Returns whether it was kept.
+  bool coarse_correction(FullState& state, const Eigen::MatrixXd& targets, HierarchicalSolveResult& result) {
+    const int L = static_cast<int>(reduced.size());
+    const bool residual = options.residual_correction;
+    std::vector<Eigen::MatrixXd> before(L);
+    if (residual) {
+      // Full approximation scheme: every level starts from the affine fit of the full state and
+      // sees the full gradient through tau, so its fixed point is the full one's.
+      const Eigen::MatrixXd gradient = full->half_gradient(state.X, targets, state.cache);
+      for (int l = 0; l < L; ++l) {
+        reduced[l].fit(state.X);
+        reduced[l].local(reduced_cache[l]);
+        before[l] = reduced[l].parameters();
+        tau[l] = reduced[l].half_gradient(targets, reduced_cache[l]) - reduced[l].restrict_field(gradient);
+      }
+    } else {
+      for (int l = 0; l < L; ++l) {
+        before[l] = reduced[l].parameters();
+        if (!reduced_cache[l].valid) reduced[l].local(reduced_cache[l]);
+      }
+    }
+    for (int l = 0; l < L; ++l) {
+      if (l > 0) {
+        // The parent's change since the start of this pass goes to its children first.
+        ReducedLevel& level = reduced[l];
+        const double objective = reduced_objective(l, targets, reduced_cache[l]);
+        const Eigen::MatrixXd kept = level.parameters();
+        if (residual) level.apply_affine(reduced[l - 1], before[l - 1], parent_of(l));
+        else level.apply(reduced[l - 1].changes_since(before[l - 1]), parent_of(l));
+        LocalCache candidate;
+        level.local(candidate);
+        if (reduced_objective(l, targets, candidate) <= objective) {
+          std::swap(candidate, reduced_cache[l]);
+        } else {
+          level.parameters() = kept;
+          ++result.rejected_propagations;
+        }
+      }
+      reduced_iterations(l, targets);
+    }
+
+    // The finest reduced level's change goes into the full state.
+    const ReducedLevel& finest = reduced.back();
+    Eigen::MatrixXd trial;
+    if (residual) {
+      trial = state.X + finest.positions() - finest.positions(before.back());
+    } else {
+      const std::vector<RigidChange> change = finest.changes_since(before.back());
+      trial.resize(state.X.rows(), 3);
+      for (int v = 0; v < state.X.rows(); ++v)
+        trial.row(v) = change[finest.cluster_of_vertex(v)].apply(state.X.row(v).transpose()).transpose();
+    }
+    full->set_hard_rows(trial, targets);
+    LocalCache candidate;
+    full->local(trial, candidate);
+    const double e = candidate.elastic + full->springs(trial, targets);
+    if (!(e < state.energy)) {
+      ++result.rejected_propagations;
+      return false;
+    }
+    state.X.swap(trial);
+    std::swap(state.cache, candidate);
+    state.energy = e;
+    return true;
+  }
+
+  /// One local/global iteration of the full level (Anderson-accelerated when enabled). Returns
+  /// false when it could not lower the energy (converged to round-off).
+  bool full_iteration(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson) {
+    Eigen::MatrixXd image = state.X;
+    full->global(image, targets, state.cache);
+    LocalCache candidate;
+    Eigen::MatrixXd accelerated;
+    if (anderson.extrapolate(state.X, image, accelerated)) {
+      full->local(accelerated, candidate);
+      const double e = candidate.elastic + full->springs(accelerated, targets);
+      if (e < state.energy) {
+        state.X.swap(accelerated);
+        std::swap(state.cache, candidate);
+        state.energy = e;
+        return true;
+      }
+      anderson.clear(); // a failed extrapolation: fall back on the plain step, which cannot go up
+    }
+    full->local(image, candidate);
+    const double e = candidate.elastic + full->springs(image, targets);
+    if (!(e <= state.energy)) return false; // only round-off makes a plain step go up
+    state.X.swap(image);
+    std::swap(state.cache, candidate);
+    state.energy = e;
+    return true;
   }
 
   /// Parent (at the previous reduced level) of every cluster of reduced level l > 0.
@@ -158,84 +293,34 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
 
   const FullLevel& full = *s.full;
   full.set_hard_rows(X, targets);
-  LocalCache current, candidate;
-  full.local(X, current);
-  double energy = current.elastic + full.springs(X, targets);
+  FullState state{X, {}, 0};
+  full.local(X, state.cache);
+  state.energy = state.cache.elastic + full.springs(X, targets);
 
   HierarchicalSolveResult result;
-  result.energy.push_back(energy);
-  const int L = static_cast<int>(s.reduced.size());
-  bool use_hierarchy = L > 0;
-  std::vector<Eigen::MatrixXd> before(L);
-  Eigen::MatrixXd trial;
+  result.energy.push_back(state.energy);
+  AndersonHistory anderson(s.options.anderson_history);
+  int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
   for (int it = 1; it <= options.max_iterations; ++it) {
-    const double previous = energy;
-    if (use_hierarchy) {
-      Eigen::MatrixXd fine_gradient;
-      if (s.options.residual_correction) fine_gradient = full.half_gradient(X, targets, current);
-      for (int l = 0; l < L; ++l) {
-        if (s.options.residual_correction) {
-          s.reduced[l].fit(X);
-          s.reduced[l].local(s.reduced_cache[l]);
-        }
-        before[l] = s.reduced[l].parameters();
-        if (!s.reduced_cache[l].valid) s.reduced[l].local(s.reduced_cache[l]);
-        // tau makes the level's gradient at its current state equal the fine gradient seen
-        // through its subspace, so it moves to reduce the fine residual (FAS coupling).
-        s.tau[l].resize(0, 0);
-        if (s.options.residual_correction)
-          s.tau[l] = s.reduced[l].half_gradient(targets, s.reduced_cache[l]) - s.reduced[l].restrict_field(fine_gradient);
-      }
-      std::vector<RigidChange> change;
-      for (int l = 0; l < L; ++l) {
-        result.rejected_propagations += s.solve_reduced(l, l > 0 ? &change : nullptr, targets);
-        change = s.reduced[l].changes_since(before[l]);
-      }
-      // Push the finest reduced level's change into the full state; keep it only if E drops.
-      const int n = s.num_vertices() / 2;
-      trial = X;
-      static const bool affine = getenv("AFFINE") != nullptr;
-      if (affine) {
-        Eigen::MatrixXd now = s.reduced.back().positions();
-        s.reduced.back().parameters().swap(before.back());
-        Eigen::MatrixXd was = s.reduced.back().positions();
-        s.reduced.back().parameters().swap(before.back());
-        trial += now - was;
-      } else
-      for (int v = 0; v < s.num_vertices(); ++v) {
-        const RigidChange& c = change[s.tree.cluster_of[s.depth_of_level.back()][v < n ? v : v - n]];
-        trial.row(v) = c.apply(X.row(v).transpose()).transpose();
-      }
-      full.set_hard_rows(trial, targets);
-      full.local(trial, candidate);
-      const double e = candidate.elastic + full.springs(trial, targets);
-      if (getenv("DBG")) fprintf(stderr, "  prop: E %.8g -> %.8g\n", energy, e);
-      if (e <= energy) {
-        X.swap(trial);
-        std::swap(current, candidate);
-        energy = e;
+    const double previous = state.energy;
+    if (!s.reduced.empty() && skip-- <= 0) {
+      if (s.coarse_correction(state, targets, result)) {
+        backoff = 1;
+        anderson.clear(); // the accelerator's history describes a different iterate sequence
       } else {
-        ++result.rejected_propagations;
-        // The coarse levels no longer help this solve: finish with plain full iterations.
-        use_hierarchy = false;
+        skip = backoff;
+        backoff = std::min(2 * backoff, 16);
       }
     }
     for (int k = 0; k < s.options.full_iterations; ++k) {
-      trial = X;
-      full.global(trial, targets, current);
-      full.local(trial, candidate);
       ++result.full_iterations;
-      const double e = candidate.elastic + full.springs(trial, targets);
-      if (!(e <= energy)) break; // only rounding can make a local/global step go up
-      X.swap(trial);
-      std::swap(current, candidate);
-      energy = e;
+      if (!s.full_iteration(state, targets, anderson)) break;
     }
     result.iterations = it;
-    result.energy.push_back(energy);
+    result.energy.push_back(state.energy);
     result.seconds = seconds_since(start);
-    if (options.progress) options.progress(it, energy, result.seconds);
-    if (previous <= 0 || (previous - energy) / previous < options.tolerance) {
+    if (options.progress) options.progress(it, state.energy, result.seconds);
+    if (previous <= 0 || (previous - state.energy) / previous < options.tolerance) {
       result.converged = true;
       break;
     }

@@ -2,6 +2,8 @@
 
 #include <gshell/solver/polar_decomposition.h>
 
+#include <algorithm>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -15,6 +17,7 @@ namespace gshell::detail {
 namespace {
 
 constexpr int kGrain = 1024;
+constexpr int kBatch = 64; // matrices per batched polar decomposition call
 
 /// Gradient rows g_k (F = sum_k x_k g_k^T) of a tet from its inverse rest edge matrix.
 Eigen::Matrix<double, 4, 3> gradient_rows(const Eigen::Matrix3d& Dm_inv) {
@@ -114,13 +117,25 @@ void FullLevel::local(const Eigen::MatrixXd& X, LocalCache& cache) const {
   const int K = rest_.size();
   cache.Q.resize(K);
   cache.element_energy.resize(K);
+  // Row-major copy: a tet reads its 4 corners as 4 contiguous triples.
+  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P = X;
   tbb::parallel_for(tbb::blocked_range<int>(0, K, kGrain), [&](const tbb::blocked_range<int>& range) {
-    for (int t = range.begin(); t != range.end(); ++t) {
-      const Eigen::Vector4i tet = rest_.T.row(t).transpose();
-      const Eigen::Matrix3d F = deformation_gradient(X, tet, rest_.Dm_inv[t]);
-      const Eigen::Matrix3d R = closest_rotation(F);
-      cache.element_energy[t] = rest_.volume(t) * (F - R).squaredNorm();
-      cache.Q[t] = rest_.volume(t) * rest_.Dm_inv[t] * R.transpose();
+    Eigen::Matrix3d F[kBatch], R[kBatch];
+    for (int t0 = range.begin(); t0 < range.end(); t0 += kBatch) {
+      const int count = std::min(kBatch, range.end() - t0);
+      for (int b = 0; b < count; ++b) {
+        const int t = t0 + b;
+        const Eigen::Vector3d x0 = P.row(rest_.T(t, 0)).transpose();
+        Eigen::Matrix3d D;
+        for (int k = 0; k < 3; ++k) D.col(k) = P.row(rest_.T(t, k + 1)).transpose() - x0;
+        F[b].noalias() = D * rest_.Dm_inv[t];
+      }
+      closest_rotations(F, R, count);
+      for (int b = 0; b < count; ++b) {
+        const int t = t0 + b;
+        cache.element_energy[t] = rest_.volume(t) * (F[b] - R[b]).squaredNorm();
+        cache.Q[t].noalias() = rest_.volume(t) * rest_.Dm_inv[t] * R[b].transpose();
+      }
     }
   });
   // A fixed summation order keeps energies reproducible, so monotonicity checks are exact.
@@ -194,6 +209,7 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
     ++count(cluster_[v]);
   }
   for (int j = 0; j < m_; ++j) centroid.row(j) /= std::max(1, count(j));
+  centroid_ = centroid;
   local_coords_.resize(N_, 3);
   for (int v = 0; v < N_; ++v) local_coords_.row(v) = rest_vertices.row(v) - centroid.row(cluster_[v]);
 
@@ -202,8 +218,17 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
     const int c = cluster_[rest.T(t, 0)];
     bool inside = true;
     for (int k = 1; k < 4; ++k) inside = inside && cluster_[rest.T(t, k)] == c;
-    if (inside) interior_volume_(c) += rest.volume(t);
-    else border_tets_.push_back(t);
+    if (inside) {
+      interior_volume_(c) += rest.volume(t);
+      continue;
+    }
+    BorderTet bt;
+    bt.tet = t;
+    for (int k = 0; k < 4; ++k) {
+      bt.cluster[k] = cluster_[rest.T(t, k)];
+      bt.coords[k] = local_coords_.row(rest.T(t, k)).transpose();
+    }
+    border_.push_back(bt);
   }
 
   // B: x_v^T = [u_v - c_j, 1] Z_j, so the reduced matrix is B^T (L + springs) B.
@@ -247,33 +272,51 @@ Eigen::Vector3d ReducedLevel::position(int v) const {
   return map(j) * local_coords_.row(v).transpose() + translation(j);
 }
 
-Eigen::MatrixXd ReducedLevel::positions() const {
+Eigen::MatrixXd ReducedLevel::positions() const { return positions(Z_); }
+
+Eigen::MatrixXd ReducedLevel::positions(const Eigen::MatrixXd& Z) const {
   Eigen::MatrixXd X(N_, 3);
-  for (int v = 0; v < N_; ++v) X.row(v) = position(v).transpose();
+  for (int v = 0; v < N_; ++v) {
+    const int j = cluster_[v];
+    X.row(v) = local_coords_.row(v) * Z.block(4 * j, 0, 3, 3) + Z.row(4 * j + 3);
+  }
   return X;
 }
 
 void ReducedLevel::local(LocalCache& cache) const {
-  const int nb = static_cast<int>(border_tets_.size());
+  const int nb = static_cast<int>(border_.size());
   cache.Q.resize(m_ + nb);
   cache.element_energy.resize(m_ + nb);
+  // Every tet inside cluster j has F = M_j: one polar decomposition serves all of them.
+  std::vector<Eigen::Matrix3d> M(m_), R(m_);
+  std::vector<Eigen::Vector3d> T(m_);
   for (int j = 0; j < m_; ++j) {
-    // Every tet inside cluster j has F = M_j: one polar decomposition for all of them.
-    const Eigen::Matrix3d M = map(j);
-    const Eigen::Matrix3d R = closest_rotation(M);
-    cache.element_energy[j] = interior_volume_(j) * (M - R).squaredNorm();
-    cache.Q[j] = interior_volume_(j) * R.transpose();
+    M[j] = map(j);
+    T[j] = translation(j);
+  }
+  closest_rotations(M.data(), R.data(), m_);
+  for (int j = 0; j < m_; ++j) {
+    cache.element_energy[j] = interior_volume_(j) * (M[j] - R[j]).squaredNorm();
+    cache.Q[j] = interior_volume_(j) * R[j].transpose();
   }
   tbb::parallel_for(tbb::blocked_range<int>(0, nb, kGrain), [&](const tbb::blocked_range<int>& range) {
-    for (int b = range.begin(); b != range.end(); ++b) {
-      const int t = border_tets_[b];
-      Eigen::Matrix3d D;
-      const Eigen::Vector3d x0 = position(rest_.T(t, 0));
-      for (int k = 0; k < 3; ++k) D.col(k) = position(rest_.T(t, k + 1)) - x0;
-      const Eigen::Matrix3d F = D * rest_.Dm_inv[t];
-      const Eigen::Matrix3d R = closest_rotation(F);
-      cache.element_energy[m_ + b] = rest_.volume(t) * (F - R).squaredNorm();
-      cache.Q[m_ + b] = rest_.volume(t) * rest_.Dm_inv[t] * R.transpose();
+    Eigen::Matrix3d F[kBatch], Rb[kBatch];
+    for (int b0 = range.begin(); b0 < range.end(); b0 += kBatch) {
+      const int count = std::min(kBatch, range.end() - b0);
+      for (int i = 0; i < count; ++i) {
+        const BorderTet& bt = border_[b0 + i];
+        Eigen::Vector3d x[4];
+        for (int k = 0; k < 4; ++k) x[k].noalias() = M[bt.cluster[k]] * bt.coords[k] + T[bt.cluster[k]];
+        Eigen::Matrix3d D;
+        for (int k = 0; k < 3; ++k) D.col(k) = x[k + 1] - x[0];
+        F[i] = D * rest_.Dm_inv[bt.tet];
+      }
+      closest_rotations(F, Rb, count);
+      for (int i = 0; i < count; ++i) {
+        const int t = border_[b0 + i].tet;
+        cache.element_energy[m_ + b0 + i] = rest_.volume(t) * (F[i] - Rb[i]).squaredNorm();
+        cache.Q[m_ + b0 + i] = rest_.volume(t) * rest_.Dm_inv[t] * Rb[i].transpose();
+      }
     }
   });
   cache.elastic = std::accumulate(cache.element_energy.begin(), cache.element_energy.end(), 0.0);
@@ -288,28 +331,32 @@ double ReducedLevel::springs(const Eigen::MatrixXd& targets) const {
 }
 
 Eigen::MatrixXd ReducedLevel::rhs(const Eigen::MatrixXd& targets, const LocalCache& cache) const {
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(4 * m_, 3);
+  using Block = Eigen::Matrix<double, 4, 3>;
+  std::vector<Block> acc(m_, Block::Zero());
   // Inside a cluster sum_k [u_k - c; 1] g_k^T = [I; 0] (rest F = I, rows of G sum to 0), so the
   // interior tets add vol * R^T to the M rows only; cache.Q[j] holds V_j * R_j^T.
-  for (int j = 0; j < m_; ++j) rhs.block(4 * j, 0, 3, 3) += cache.Q[j];
-  const int nb = static_cast<int>(border_tets_.size());
+  for (int j = 0; j < m_; ++j) acc[j].topRows<3>() = cache.Q[j];
+  const int nb = static_cast<int>(border_.size());
   for (int b = 0; b < nb; ++b) {
-    const int t = border_tets_[b];
+    const BorderTet& bt = border_[b];
     const Eigen::Matrix3d& Q = cache.Q[m_ + b];
     for (int k = 0; k < 4; ++k) {
-      const int v = rest_.T(t, k), j = cluster_[v];
       const Eigen::RowVector3d q = corner_rhs(Q, k);
-      rhs.block(4 * j, 0, 3, 3) += local_coords_.row(v).transpose() * q;
-      rhs.row(4 * j + 3) += q;
+      Block& a = acc[bt.cluster[k]];
+      a.topRows<3>().noalias() += bt.coords[k] * q;
+      a.row(3) += q;
     }
   }
   for (size_t r = 0; r < constrained_.size(); ++r) {
-    const int v = constrained_[r], j = cluster_[v];
+    const int v = constrained_[r];
     const Eigen::RowVector3d p = weight_ * targets.row(r);
-    rhs.block(4 * j, 0, 3, 3) += local_coords_.row(v).transpose() * p;
-    rhs.row(4 * j + 3) += p;
+    Block& a = acc[cluster_[v]];
+    a.topRows<3>().noalias() += local_coords_.row(v).transpose() * p;
+    a.row(3) += p;
   }
-  return rhs;
+  Eigen::MatrixXd out(4 * m_, 3);
+  for (int j = 0; j < m_; ++j) out.middleRows<4>(4 * j) = acc[j];
+  return out;
 }
 
 void ReducedLevel::solve(const Eigen::MatrixXd& rhs) {
@@ -322,22 +369,21 @@ Eigen::MatrixXd ReducedLevel::half_gradient(const Eigen::MatrixXd& targets, cons
 }
 
 void ReducedLevel::fit(const Eigen::MatrixXd& X) {
-  Eigen::MatrixXd moments = Eigen::MatrixXd::Zero(4 * m_, 3);
-  for (int v = 0; v < N_; ++v) {
-    const int j = cluster_[v];
-    moments.block(4 * j, 0, 3, 3) += local_coords_.row(v).transpose() * X.row(v);
-    moments.row(4 * j + 3) += X.row(v);
-  }
-  for (int j = 0; j < m_; ++j) Z_.middleRows(4 * j, 4) = fit_inverse_[j] * moments.middleRows(4 * j, 4);
+  const Eigen::MatrixXd moments = restrict_field(X); // sum_v [u_v - c; 1] x_v^T per cluster
+  for (int j = 0; j < m_; ++j) Z_.middleRows<4>(4 * j) = fit_inverse_[j] * moments.middleRows<4>(4 * j);
 }
 
 Eigen::MatrixXd ReducedLevel::restrict_field(const Eigen::MatrixXd& g) const {
-  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(4 * m_, 3);
+  using Block = Eigen::Matrix<double, 4, 3>;
+  std::vector<Block> acc(m_, Block::Zero());
   for (int v = 0; v < N_; ++v) {
-    const int j = cluster_[v];
-    out.block(4 * j, 0, 3, 3) += local_coords_.row(v).transpose() * g.row(v);
-    out.row(4 * j + 3) += g.row(v);
+    const Eigen::RowVector3d gv = g.row(v);
+    Block& a = acc[cluster_[v]];
+    a.topRows<3>().noalias() += local_coords_.row(v).transpose() * gv;
+    a.row(3) += gv;
   }
+  Eigen::MatrixXd out(4 * m_, 3);
+  for (int j = 0; j < m_; ++j) out.middleRows<4>(4 * j) = acc[j];
   return out;
 }
 
@@ -350,6 +396,18 @@ std::vector<RigidChange> ReducedLevel::changes_since(const Eigen::MatrixXd& befo
     out[j].to = translation(j);
   }
   return out;
+}
+
+void ReducedLevel::apply_affine(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before,
+                                const std::vector<int>& parent_of) {
+  for (int j = 0; j < m_; ++j) {
+    const int p = parent_of[j];
+    // The parent's displacement dM (u - c_p) + dt, written in this cluster's coordinates u - c_j.
+    const Eigen::Matrix3d dMt = parent.Z_.block(4 * p, 0, 3, 3) - parent_before.block(4 * p, 0, 3, 3);
+    const Eigen::RowVector3d dt = parent.Z_.row(4 * p + 3) - parent_before.row(4 * p + 3);
+    Z_.block(4 * j, 0, 3, 3) += dMt;
+    Z_.row(4 * j + 3) += (centroid_.row(j) - parent.centroid_.row(p)) * dMt + dt;
+  }
 }
 
 void ReducedLevel::apply(const std::vector<RigidChange>& parent_change, const std::vector<int>& parent_of) {

@@ -77,6 +77,7 @@ public:
   Eigen::Vector3d translation(int cluster) const { return Z_.row(4 * cluster + 3).transpose(); }
   Eigen::Vector3d position(int v) const;
   Eigen::MatrixXd positions() const;              ///< B z, all 2n vertices
+  Eigen::MatrixXd positions(const Eigen::MatrixXd& parameters) const; ///< B z for other parameters
   int cluster_of_vertex(int v) const { return cluster_[v]; }
 
   void local(LocalCache& cache) const;            ///< Q: one per cluster, then one per border tet
@@ -94,7 +95,10 @@ public:
 
   /// Per-cluster rigid change from parameters `before` to the current ones.
   std::vector<RigidChange> changes_since(const Eigen::MatrixXd& before) const;
-  /// Applies each parent's change to this level's clusters (parent_of[c] = parent cluster).
+  /// Adds the parent level's affine change since `parent_before` to this level's maps (the
+  /// exact embedding: the parent's subspace lies inside this one).
+  void apply_affine(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before, const std::vector<int>& parent_of);
+  /// Applies each parent's rigid change to this level's clusters (parent_of[c] = parent cluster).
   void apply(const std::vector<RigidChange>& parent_change, const std::vector<int>& parent_of);
 
 private:
@@ -103,7 +107,13 @@ private:
   std::vector<int> cluster_;                 // per shell vertex
   Eigen::MatrixXd local_coords_;             // u_v - c_cluster(v)
   Eigen::VectorXd interior_volume_;          // per cluster
-  std::vector<int> border_tets_;             // tets spanning several clusters
+  struct BorderTet {                          // a tet spanning several clusters
+    int tet;
+    int cluster[4];
+    Eigen::Vector3d coords[4];                // corner's u - c_cluster
+  };
+  std::vector<BorderTet> border_;
+  Eigen::MatrixXd centroid_;                  // rest centroid per cluster
   std::vector<int> constrained_;
   double weight_;
   Eigen::SparseMatrix<double> A_;

@@ -45,6 +45,9 @@ struct HierarchyOptions {
   /// gradient restricted to its subspace (the paper's correction of b_l; full approximation
   /// scheme). Without it the reduced levels only see the handles, not the full state.
   bool residual_correction = true;
+  /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
+  /// An extrapolated iterate is kept only if it lowers the energy.
+  int anderson_history = 0;
 };
 
 struct HierarchicalSolveResult : SolveResult {
