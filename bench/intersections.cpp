@@ -1,7 +1,7 @@
 // Times the quality measures on an offset shell (top = base + eta * area-weighted vertex normal):
 // top self-intersections, top/base intersections and per-vertex thickness. Medians of 5 runs.
 // Usage: bench_intersections [MESH ...]   (MESH = builtin spec or .off file; default
-//        builtin:sphere:7 and models/bunny00.off if present). Thickness ratios 0.01 and 0.03.
+//        builtin:sphere:6 and :7 and models/bunny00.off if present). Thickness ratios 0.01, 0.03.
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/thickness.h>
 #include <gshell/quality/triangle_intersections.h>
@@ -92,6 +92,7 @@ Timing time_runs(const std::function<void()>& run, int repeats = 5) {
 int main(int argc, char** argv) {
   std::vector<std::string> inputs(argv + 1, argv + argc);
   if (inputs.empty()) {
+    inputs.push_back("builtin:sphere:6");
     inputs.push_back("builtin:sphere:7");
     if (std::filesystem::exists("models/bunny00.off")) inputs.push_back("models/bunny00.off");
   }

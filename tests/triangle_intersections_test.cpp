@@ -9,6 +9,8 @@
 #include <CGAL/Intersections_3/Triangle_3_Triangle_3.h>
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <random>
 
 namespace gshell {
