@@ -57,20 +57,25 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
 
   // Sort faces along a Morton (Z-order) curve of their centroids: spatial neighbours become
-  // slot neighbours, and halving a slot range splits space.
+  // slot neighbours, and the code bits give spatial split planes.
+  std::vector<Eigen::Vector3d> centroids(m);
+  for (int f = 0; f < m; ++f) centroids[f] = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
   Eigen::AlignedBox3d extent;
-  for (int f = 0; f < m; ++f) extent.extend((corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0);
+  for (const Eigen::Vector3d& c : centroids) extent.extend(c);
   const Eigen::Vector3d origin = extent.min();
+  constexpr double kCells = (1 << 21) - 1;
   const Eigen::Vector3d scale =
-      (extent.sizes().array() > 0).select(((1 << 21) - 1) / extent.sizes().array(), 0.0);
+      (extent.sizes().array() > 0).select(kCells / extent.sizes().array(), 0.0);
+  auto cell = [&](const Eigen::Vector3d& c, int d) {
+    const double x = (c[d] - origin[d]) * scale[d];
+    return static_cast<std::uint64_t>(x > 0 ? std::min(x, kCells) : 0.0); // NaN (overflow) -> 0
+  };
   std::vector<std::pair<std::uint64_t, int>> keyed(m);
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
     for (int f = r.begin(); f < r.end(); ++f) {
-      const Eigen::Vector3d c = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
-      const Eigen::Vector3d cell = ((c - origin).array() * scale.array()).matrix();
-      keyed[f] = {spread_bits(static_cast<std::uint64_t>(cell.x())) |
-                      spread_bits(static_cast<std::uint64_t>(cell.y())) << 1 |
-                      spread_bits(static_cast<std::uint64_t>(cell.z())) << 2,
+      const Eigen::Vector3d& c = centroids[f];
+      keyed[f] = {spread_bits(cell(c, 0)) | spread_bits(cell(c, 1)) << 1 |
+                      spread_bits(cell(c, 2)) << 2,
                   f};
     }
   });
@@ -97,7 +102,7 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   });
   std::vector<std::uint64_t> codes(m);
   for (int s = 0; s < m; ++s) codes[s] = keyed[s].first;
-  nodes_.reserve(2 * (m / kLeafSize) + 1);
+  nodes_.reserve(2 * static_cast<std::size_t>(m)); // at most 2m - 1 (one face per leaf)
   build(codes, 0, m);
 }
 
