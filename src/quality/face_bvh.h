@@ -15,8 +15,13 @@ namespace gshell::detail {
 
 class FaceBvh {
 public:
+  /// What the tree is built for: pair searches want small leaves (few box pairs per leaf pair),
+  /// distance queries bigger ones (fewer nodes; faces in a leaf are cheap to reject by box) and
+  /// a copy of the triangles in leaf order.
+  enum class Use { pairs, distances };
+
   /// F must index rows of V (checked by the caller).
-  FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+  FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use);
 
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
@@ -35,6 +40,7 @@ public:
   void for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const;
 
   /// Squared distance from q to the surface (model units squared), or bound2 if that is smaller.
+  /// Needs Use::distances.
   /// A good bound2 (e.g. the squared distance to a known point of the surface) prunes the search.
   double squared_distance(const Eigen::Vector3d& q, double bound2) const;
 
@@ -51,7 +57,7 @@ private:
     bool flat = false; // collinear corners (up to ~1e-12 relative): measured by its edges
   };
 
-  int build(const std::vector<std::uint64_t>& codes, int begin, int end);
+  int build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
   static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
   static bool nodes_meet(const Node& a, const Node& b);
   static double node_squared_distance(const Node& n, const Eigen::Vector3d& q);
@@ -62,7 +68,7 @@ private:
   // Per slot (leaf order): face id, exact box, triangle.
   std::vector<int> slot_face_;
   std::vector<Eigen::AlignedBox3d> slot_box_;
-  std::vector<Triangle> slot_triangle_;
+  std::vector<Triangle> slot_triangle_; // Use::distances only
   std::vector<Node> nodes_; // depth-first, root first
 };
 

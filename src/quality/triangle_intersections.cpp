@@ -97,7 +97,7 @@ private:
 
 Pairs self_intersecting_pairs(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   detail::check_triangle_mesh(V, F, "self-intersection test");
-  const detail::FaceBvh bvh(V, F);
+  const detail::FaceBvh bvh(V, F, detail::FaceBvh::Use::pairs);
   const std::vector<FaceShape> shapes = face_shapes(V, F);
   PairCollector pairs;
   bvh.for_each_overlapping_pair([&](int f, int g) {
@@ -115,7 +115,8 @@ Pairs intersecting_pairs_between(const Eigen::MatrixXd& V1, const Eigen::MatrixX
                                  const Eigen::MatrixXd& V2, const Eigen::MatrixXi& F2) {
   detail::check_triangle_mesh(V1, F1, "intersection test (first mesh)");
   detail::check_triangle_mesh(V2, F2, "intersection test (second mesh)");
-  const detail::FaceBvh bvh1(V1, F1), bvh2(V2, F2);
+  const detail::FaceBvh bvh1(V1, F1, detail::FaceBvh::Use::pairs);
+  const detail::FaceBvh bvh2(V2, F2, detail::FaceBvh::Use::pairs);
   const std::vector<FaceShape> shapes1 = face_shapes(V1, F1), shapes2 = face_shapes(V2, F2);
   PairCollector pairs;
   bvh1.for_each_overlapping_pair(bvh2, [&](int f1, int f2) {
