@@ -33,6 +33,13 @@ Image render_figure(const std::vector<Panel>& panels, const FigureOptions& optio
 
   Image figure(options.width, options.height);
   FigureLayout placed;
+  Eigen::MatrixXd all_points;
+  if (options.shared_camera) {
+    Scene everything;
+    for (const auto& panel : panels)
+      everything.layers.insert(everything.layers.end(), panel.scene.layers.begin(), panel.scene.layers.end());
+    all_points = scene_points(everything);
+  }
   const Rgb8 ink{30, 30, 30};
   for (int i = 0; i < n; ++i) {
     const Panel& panel = panels[i];
@@ -41,8 +48,8 @@ Image render_figure(const std::vector<Panel>& panels, const FigureOptions& optio
     ro.height = panel_h;
     ro.supersample = options.supersample;
     placed.panels.push_back({i * panel_w, caption_h, panel_w, panel_h});
-    const Eigen::MatrixXd points = scene_points(panel.scene);
-    if (points.rows() > 0) {
+    const Eigen::MatrixXd points = options.shared_camera ? all_points : scene_points(panel.scene);
+    if (scene_points(panel.scene).rows() > 0) {
       const Camera camera = frame_camera(points, options.view, static_cast<double>(panel_w) / panel_h, options.projection);
       blit(figure, render_scene(panel.scene, camera, ro), i * panel_w, caption_h);
     }

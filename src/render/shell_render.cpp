@@ -33,9 +33,11 @@ std::optional<nlohmann::json> read_json(const fs::path& path) {
   return j;
 }
 
+// What made the folder: generate's `method`, else the `command` (deform, pose).
 std::string json_method(const std::optional<nlohmann::json>& report) {
-  if (report && report->is_object() && report->contains("method") && (*report)["method"].is_string())
-    return (*report)["method"].get<std::string>();
+  for (const char* key : {"method", "command"})
+    if (report && report->is_object() && report->contains(key) && (*report)[key].is_string())
+      return (*report)[key].get<std::string>();
   return {};
 }
 

@@ -14,7 +14,7 @@ namespace gshell {
 /// One render input, loaded. A plain surface has an empty `shell.top`.
 struct RenderSubject {
   std::string name;            ///< the input as given (path or builtin spec)
-  std::string method;          ///< "rigid", "offset", ... from report.json; empty if unknown
+  std::string method;          ///< report.json `method` (rigid, offset, ...) or `command` (deform, pose); may be empty
   Shell shell;                 ///< base, top (may be empty), faces, thickness eta (0 if unknown)
   Eigen::VectorXd face_stretch;///< one value per face (see face_stretch_from_tets), or empty
   TriMesh detail;              ///< geometry embedded in the shell (DIR/detail.obj of deform), or empty
