@@ -139,7 +139,7 @@ TEST(SvgPlot, IsBalancedAndEscapesText) {
   EXPECT_EQ(tag_balance_problem(svg), "");
   EXPECT_NE(svg.find("a &lt; b &amp; c"), std::string::npos);
   EXPECT_NE(svg.find("<polyline"), std::string::npos);
-  EXPECT_EQ(tag_balance_problem(svg_line_plot({}, options)), ""); // no data: still a valid element
+  EXPECT_EQ(tag_balance_problem(svg_line_plot(std::vector<double>{}, options)), ""); // no data: still a valid element
 }
 
 TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #ifndef GSHELL_VERSION
@@ -176,34 +177,53 @@ void record_list_section(std::ostringstream& html, const std::string& key, const
     auto rank = [](const std::string& c) { return c.find("seconds") != std::string::npos || c.find("time") != std::string::npos ? 0 : 1; };
     return rank(a) < rank(b);
   });
-  html << "<div class=\"plots\">\n";
-  for (const auto& column : columns) {
+  // One plot per numeric column; a column X with a twin "offset.X" (deform --compare-offset)
+  // shares its plot, so the benefit over the plain offset is one glance.
+  auto column_values = [&](const std::string& column, bool& last_of_list) -> std::optional<std::vector<double>> {
     std::vector<double> y;
-    bool numeric = true, last_of_list = false;
     for (const auto& row : rows) {
       auto it = std::find_if(row.begin(), row.end(), [&](const auto& kv) { return kv.first == column; });
       if (it == row.end()) {
         y.push_back(NAN);
       } else if (it->second.is_number()) {
-        y.push_back(it->second.get<double>());
+        y.push_back(it->second.template get<double>());
       } else if (is_number_list(it->second)) {
-        y.push_back(it->second.back().get<double>());
+        y.push_back(it->second.back().template get<double>());
         last_of_list = true;
       } else {
-        numeric = false;
-        break;
+        return std::nullopt;
       }
     }
-    if (!numeric || list.size() < 2) continue;
+    return y;
+  };
+  const std::string twin_prefix = "offset.";
+  html << "<div class=\"plots\">\n";
+  for (const auto& column : columns) {
+    if (list.size() < 2 || column == unit || column == "index") continue; // the x axis itself
+    const bool has_twin = std::find(columns.begin(), columns.end(), twin_prefix + column) != columns.end();
+    if (column.rfind(twin_prefix, 0) == 0 &&
+        std::find(columns.begin(), columns.end(), column.substr(twin_prefix.size())) != columns.end())
+      continue; // drawn with its twin
+    bool last_of_list = false;
+    const auto y = column_values(column, last_of_list);
+    if (!y) continue;
+    std::vector<PlotSeries> series{{key == "frames" && has_twin ? "shell" : column, *y}};
+    if (has_twin) {
+      bool twin_last = false;
+      if (auto twin = column_values(twin_prefix + column, twin_last)) series.push_back({"offset", *twin});
+    }
     PlotOptions plot;
     const bool is_time = column.find("seconds") != std::string::npos || column.find("time") != std::string::npos;
-    plot.title = (is_time ? "time (" + column + ")" : column) + (last_of_list ? " (last value)" : "") + " per " + unit;
+    plot.title = (is_time ? "time (" + column + ")" : column) + (last_of_list ? " (last value)" : "") + " per " + unit +
+                 (series.size() > 1 ? " vs offset" : "");
     plot.x_label = unit;
     plot.y_label = column;
-    plot.log_y = spans_decades(y);
+    std::vector<double> all;
+    for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
+    plot.log_y = spans_decades(all);
     plot.width = 460;
     plot.height = 240;
-    html << "<div class=\"plot\">" << svg_line_plot(y, plot) << "</div>\n";
+    html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
   }
   html << "</div>\n<div class=\"scroll\"><table class=\"records\">\n<tr><th>" << xml_escape(unit) << "</th>";
   for (const auto& column : columns) html << "<th>" << xml_escape(column) << "</th>";
