@@ -234,9 +234,13 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
     if (color_by == ColorBy::Thickness && s.is_shell()) values[i] = vertex_thickness_ratio(s.shell);
     if (values[i].size() == 0) continue;
     std::vector<double> magnitude(values[i].data(), values[i].data() + values[i].size());
-    if (color_by == ColorBy::Thickness)
+    if (color_by == ColorBy::Thickness) {
+      // Thickness: the widest spread, so no panel saturates.
       for (double& v : magnitude) v = std::abs(v - 1);
-    automatic = std::min(automatic, quantile(magnitude, 0.99));
+      automatic = std::isfinite(automatic) ? std::max(automatic, quantile(magnitude, 0.99)) : quantile(magnitude, 0.99);
+    } else {
+      automatic = std::min(automatic, quantile(magnitude, 0.99));
+    }
   }
   std::optional<ColorScale> scale;
   if (color_by == ColorBy::Stretch) {

@@ -62,9 +62,9 @@ struct ShellRenderOptions {
   /// 0 = the default: kDefaultStretchMax for stretch (absolute, so figures compare across runs),
   /// kDefaultThicknessSpread for thickness. Ignored when auto_max is set.
   double color_max = 0;
-  /// Scale to the data instead: the smallest of the panels' 99th percentiles (of face stretch, or
-  /// of |t - 1| per vertex), rounded up to 1, 2, 2.5 or 5 x 10^k: the best panel spans the ramp,
-  /// worse ones turn red where they are worse.
+  /// Scale to the data instead, rounded up to 1, 2, 2.5 or 5 x 10^k. Stretch: the smallest of the
+  /// panels' 99th percentiles (the best panel spans the ramp, worse ones turn red where they are
+  /// worse). Thickness: the largest of the panels' 99th percentiles of |t - 1| (none saturates).
   bool auto_max = false;
   float top_opacity = 0.35f;
   FigureOptions figure; ///< size, view, projection, anti-aliasing
