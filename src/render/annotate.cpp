@@ -33,7 +33,8 @@ int text_width(const std::string& text, int scale) {
 int text_height(int scale) { return kLineHeight * scale; }
 
 void draw_text(Image& image, int x, int y, const std::string& text, int scale, Rgb8 color) {
-  std::vector<char> copy(text.begin(), text.end());
+  std::vector<char> copy;
+  for (unsigned char c : text) copy.push_back(c >= 32 && c < 127 ? static_cast<char>(c) : '?'); // the font is ASCII
   copy.push_back('\0');
   std::vector<FontVertex> quads(4 * (text.size() * 60 + 16)); // ~270 bytes per character, generous
   const int count = stb_easy_font_print(0, 0, copy.data(), nullptr, quads.data(),
