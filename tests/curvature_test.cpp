@@ -3,6 +3,8 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/curvature.h>
 #include <gshell/shell/curvature_prisms.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/solver/rest_tets.h>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -12,6 +14,7 @@
 #include <map>
 #include <numbers>
 #include <queue>
+#include <random>
 #include <vector>
 
 using namespace gshell;
@@ -262,6 +265,58 @@ TEST(CurvaturePrisms, CylinderStretchesAroundOnly) {
       EXPECT_NEAR(top.dot(around), (1 + eta / r) * base.dot(around), 0.03 * eta * base.norm());
     }
   }
+}
+
+TEST(CurvaturePrisms, StrongAnisotropyIsLimitedSoEveryTetKeepsItsVolume) {
+  // Separate random triangles in the z=0 plane with a made-up curvature: s_1 = 3, s_2 = 0.55,
+  // e_1 at every angle. Irregular triangles scaled that unevenly get twisted side quads.
+  const int m = 300;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  TriMesh plane;
+  plane.V.resize(3 * m, 3);
+  plane.F.resize(m, 3);
+  for (int f = 0; f < m; ++f) {
+    Eigen::Vector3d p[3];
+    do {
+      for (auto& q : p) q << unit(rng), unit(rng), 0;
+    } while ((p[1] - p[0]).cross(p[2] - p[0]).z() < 0.05); // counter-clockwise, not degenerate
+    for (int j = 0; j < 3; ++j) plane.V.row(3 * f + j) = p[j].transpose();
+    plane.F.row(f) << 3 * f, 3 * f + 1, 3 * f + 2;
+  }
+  const double eta = 0.2, s_min = 0.5;
+  FaceCurvature fake;
+  fake.k1 = Eigen::VectorXd::Constant(m, 2.0 / eta);
+  fake.k2 = Eigen::VectorXd::Constant(m, -0.45 / eta);
+  fake.e1.resize(m, 3);
+  fake.e2.resize(m, 3);
+  for (int f = 0; f < m; ++f) {
+    const double angle = std::numbers::pi * f / m;
+    fake.e1.row(f) << std::cos(angle), std::sin(angle), 0;
+    fake.e2.row(f) << -std::sin(angle), std::cos(angle), 0;
+  }
+  CurvaturePrismStats stats;
+  const PrismCorners P = curvature_prisms(plane.V, plane.F, fake, eta, s_min, 4.0, &stats);
+  const double s1s2 = 3.0 * 0.55;
+  EXPECT_EQ(stats.clamped, 0);
+  EXPECT_GT(stats.limited, 0); // without the limit some tets would be too thin or inverted
+  EXPECT_LT(stats.limited, m);
+  const Eigen::MatrixXi C = prism_tet_corners(plane.F);
+  Eigen::MatrixXd corners(4 * C.rows(), 3);
+  for (int f = 0; f < m; ++f) {
+    auto corner = [&](int c) { return Eigen::Vector3d(P.row(6 * f + c).transpose()); };
+    const double area = 0.5 * (corner(1) - corner(0)).cross(corner(2) - corner(0)).norm();
+    const double top_area = 0.5 * (corner(4) - corner(3)).cross(corner(5) - corner(3)).norm();
+    EXPECT_NEAR(top_area, s1s2 * area, 1e-9); // the limit keeps s_1 s_2, hence the top's area
+    for (int k = 0; k < 3; ++k) {
+      const int t = 3 * f + k;
+      Eigen::Matrix3d D;
+      for (int j = 0; j < 3; ++j) D.col(j) = corner(C(t, j + 1)) - corner(C(t, 0));
+      EXPECT_GE(D.determinant() / 6, s_min * s_min * eta * area / 3 * (1 - 1e-9)) << "face " << f;
+      for (int j = 0; j < 4; ++j) corners.row(4 * t + j) = P.row(6 * f + C(t, j));
+    }
+  }
+  EXPECT_NO_THROW(rest_tets_from_corners(build_prism_tets(plane.F, plane.num_vertices()), corners));
 }
 
 TEST(CurvaturePrisms, RejectsBadClampsAndThickness) {
