@@ -38,62 +38,70 @@ EdgeIncidence edge_incidence(const Eigen::MatrixXi& F, int num_vertices) {
   EdgeIncidence out;
   const int m = F.cols() == 3 ? static_cast<int>(F.rows()) : 0;
   out.face_used.assign(F.rows(), 0);
-  // Bucket half-edges by their smaller endpoint (counting sort), then sort each small bucket by
-  // the larger endpoint: linear time, no hashing.
-  std::vector<int> bucket_start(num_vertices + 1, 0);
+  // Each edge is registered in the slot list of its smaller endpoint; a vertex has only a handful
+  // of edges there, so a linear scan finds an edge again. Walking half-edges in order numbers the
+  // edges by first appearance directly. Linear time, no hashing, no sorting.
+  std::vector<int> slot_start(num_vertices + 1, 0);
   for (int f = 0; f < m; ++f) {
     if (!face_usable(F, f, num_vertices)) continue;
     out.face_used[f] = 1;
-    for (int k = 0; k < 3; ++k) ++bucket_start[std::min(F(f, k), F(f, (k + 1) % 3)) + 1];
+    for (int k = 0; k < 3; ++k) ++slot_start[std::min(F(f, k), F(f, (k + 1) % 3)) + 1];
   }
-  std::partial_sum(bucket_start.begin(), bucket_start.end(), bucket_start.begin());
-  std::vector<std::pair<int, int>> bucket(bucket_start.back()); // (larger endpoint, half-edge)
-  {
-    std::vector<int> fill(bucket_start.begin(), bucket_start.end() - 1);
-    for (int f = 0; f < m; ++f) {
-      if (!out.face_used[f]) continue;
-      for (int k = 0; k < 3; ++k) {
-        const int a = F(f, k), b = F(f, (k + 1) % 3);
-        bucket[fill[std::min(a, b)]++] = {std::max(a, b), 3 * f + k};
+  std::partial_sum(slot_start.begin(), slot_start.end(), slot_start.begin());
+  const int used_halfedges = slot_start.back();
+  struct Range {
+    int begin, end;
+  };
+  struct Slot {
+    int other, edge, count;
+  };
+  std::vector<Range> range(num_vertices);
+  for (int v = 0; v < num_vertices; ++v) range[v] = {slot_start[v], slot_start[v]};
+  std::vector<Slot> slots(used_halfedges);
+  std::vector<int> edge_of(3 * static_cast<size_t>(m), -1);
+  std::vector<int> lo_of, hi_of;
+  lo_of.reserve(used_halfedges / 2 + 1);
+  hi_of.reserve(used_halfedges / 2 + 1);
+  const int* col0 = F.data();
+  const int* col1 = col0 + F.rows();
+  const int* col2 = col1 + F.rows();
+  for (int f = 0; f < m; ++f) {
+    if (!out.face_used[f]) continue;
+    const int corner[3] = {col0[f], col1[f], col2[f]};
+    for (int k = 0; k < 3; ++k) {
+      const int a = corner[k], b = corner[k == 2 ? 0 : k + 1], lo = std::min(a, b), hi = std::max(a, b);
+      Range& r = range[lo];
+      int e = -1;
+      for (int i = r.begin; i < r.end; ++i)
+        if (slots[i].other == hi) {
+          e = slots[i].edge;
+          ++slots[i].count;
+          break;
+        }
+      if (e < 0) {
+        e = static_cast<int>(lo_of.size());
+        lo_of.push_back(lo);
+        hi_of.push_back(hi);
+        slots[r.end++] = {hi, e, 1};
       }
+      edge_of[3 * f + k] = e;
     }
   }
-  std::vector<int> group_of(3 * static_cast<size_t>(m), -1);
-  int groups = 0;
-  for (int v = 0; v < num_vertices; ++v) {
-    const auto begin = bucket.begin() + bucket_start[v], end = bucket.begin() + bucket_start[v + 1];
-    std::sort(begin, end);
-    for (auto it = begin; it != end; ++it) {
-      if (it != begin && it->first != (it - 1)->first) ++groups;
-      group_of[it->second] = groups;
-    }
-    if (begin != end) ++groups;
-  }
-  // Renumber edges by first appearance and lay out their half-edges in ascending order.
-  std::vector<int> edge_of_group(groups, -1), size(groups, 0);
-  int edges = 0;
-  for (size_t h = 0; h < group_of.size(); ++h) {
-    if (group_of[h] < 0) continue;
-    int& e = edge_of_group[group_of[h]];
-    if (e < 0) e = edges++;
-    ++size[e];
-  }
+  const int edges = static_cast<int>(lo_of.size());
+  std::vector<int> size(edges, 0);
+  for (int v = 0; v < num_vertices; ++v)
+    for (int i = range[v].begin; i < range[v].end; ++i) size[slots[i].edge] = slots[i].count;
   out.edges.resize(edges, 2);
   out.offsets.assign(edges + 1, 0);
-  for (int e = 0; e < edges; ++e) out.offsets[e + 1] = out.offsets[e] + size[e];
-  out.halfedges.resize(out.offsets.back());
-  std::vector<int> fill(out.offsets.begin(), out.offsets.end() - 1);
-  for (size_t h = 0; h < group_of.size(); ++h) {
-    if (group_of[h] < 0) continue;
-    const int e = edge_of_group[group_of[h]];
-    if (fill[e] == out.offsets[e]) {
-      const int f = static_cast<int>(h / 3), k = static_cast<int>(h % 3);
-      const int a = F(f, k), b = F(f, (k + 1) % 3);
-      out.edges(e, 0) = std::min(a, b);
-      out.edges(e, 1) = std::max(a, b);
-    }
-    out.halfedges[fill[e]++] = static_cast<int>(h);
+  for (int e = 0; e < edges; ++e) {
+    out.edges(e, 0) = lo_of[e];
+    out.edges(e, 1) = hi_of[e];
+    out.offsets[e + 1] = out.offsets[e] + size[e];
   }
+  out.halfedges.resize(used_halfedges);
+  std::vector<int> fill(out.offsets.begin(), out.offsets.end() - 1);
+  for (size_t h = 0; h < edge_of.size(); ++h)
+    if (edge_of[h] >= 0) out.halfedges[fill[edge_of[h]]++] = static_cast<int>(h);
   return out;
 }
 
@@ -136,11 +144,13 @@ MeshStats mesh_stats(const TriMesh& mesh) {
   s.unreferenced_vertices = n - used_vertices;
 
   DisjointSets sets(n);
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P; // row-major: edges visit vertices at random
+  if (n > 0) P = mesh.V;
   double length_sum = 0;
   for (int e = 0; e < s.edges; ++e) {
     const int a = inc.edges(e, 0), b = inc.edges(e, 1);
     sets.unite(a, b);
-    length_sum += (mesh.V.row(a) - mesh.V.row(b)).norm();
+    length_sum += (P.row(a) - P.row(b)).norm();
     if (inc.valence(e) == 1) ++s.boundary_edges;
   }
   for (int v = 0; v < n; ++v)
@@ -152,7 +162,7 @@ MeshStats mesh_stats(const TriMesh& mesh) {
 
   bool any = false;
   for (int v = 0; v < n; ++v) {
-    const Eigen::Vector3d p = mesh.V.row(v).transpose();
+    const Eigen::Vector3d p = P.row(v).transpose();
     if (!p.allFinite()) continue;
     s.bbox_min = any ? s.bbox_min.cwiseMin(p) : p;
     s.bbox_max = any ? s.bbox_max.cwiseMax(p) : p;

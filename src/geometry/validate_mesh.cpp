@@ -51,7 +51,8 @@ private:
   std::vector<std::pair<Severity, int>> seen_;
 };
 
-std::string face_text(const Eigen::MatrixXi& F, int f) {
+template <class Faces>
+std::string face_text(const Faces& F, int f) {
   return "face " + std::to_string(f) + " (" + std::to_string(F(f, 0)) + ", " + std::to_string(F(f, 1)) + ", " +
          std::to_string(F(f, 2)) + ")";
 }
@@ -80,11 +81,15 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   }
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
   ProblemList list(problems);
+  // Row-major copies: the checks below visit faces and vertices in random order, and one cache
+  // line per face or vertex instead of three is most of the speed.
+  const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor> T = F;
+  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P = V;
 
   std::vector<char> finite(n, 1);
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
   for (int v = 0; v < n; ++v) {
-    const Eigen::Vector3d p = V.row(v).transpose();
+    const Eigen::Vector3d p = P.row(v).transpose();
     if (!p.allFinite()) {
       finite[v] = 0;
       list.add(Severity::Error, "vertices with non-finite coordinates",
@@ -102,65 +107,47 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   for (int f = 0; f < m; ++f) {
     bool indices_ok = true;
     for (int k = 0; k < 3; ++k) {
-      if (F(f, k) < 0 || F(f, k) >= n) {
+      if (T(f, k) < 0 || T(f, k) >= n) {
         indices_ok = false;
         list.add(Severity::Error, "faces with out-of-range indices",
-                 face_text(F, f) + " has vertex index " + std::to_string(F(f, k)) + " out of range [0, " +
+                 face_text(T, f) + " has vertex index " + std::to_string(T(f, k)) + " out of range [0, " +
                      std::to_string(n) + ")");
         break;
       }
     }
     if (!indices_ok) continue;
-    if (F(f, 0) == F(f, 1) || F(f, 1) == F(f, 2) || F(f, 2) == F(f, 0)) {
-      list.add(Severity::Error, "faces with a repeated index", face_text(F, f) + " repeats a vertex index");
+    if (T(f, 0) == T(f, 1) || T(f, 1) == T(f, 2) || T(f, 2) == T(f, 0)) {
+      list.add(Severity::Error, "faces with a repeated index", face_text(T, f) + " repeats a vertex index");
       continue;
     }
-    if (!finite[F(f, 0)] || !finite[F(f, 1)] || !finite[F(f, 2)]) continue;
-    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    if (!finite[T(f, 0)] || !finite[T(f, 1)] || !finite[T(f, 2)]) continue;
+    const Eigen::Vector3d a = P.row(T(f, 0)), b = P.row(T(f, 1)), c = P.row(T(f, 2));
     if ((b - a).cross(c - a).norm() <= min_double_area)
       list.add(Severity::Error, "zero-area faces",
-               face_text(F, f) + " has zero area (its vertices coincide or are collinear)");
+               face_text(T, f) + " has zero area (its vertices coincide or are collinear)");
   }
 
   const EdgeIncidence inc = edge_incidence(F, n);
-  const auto corner_vertex = [&](int h) { return F(h / 3, h % 3); };
-  const auto corner_of = [&](int f, int v) { // corner (= half-edge id) of face f at vertex v
-    return 3 * f + (F(f, 0) == v ? 0 : F(f, 1) == v ? 1 : 2);
-  };
-  // Corners around a vertex that are joined through manifold edges form fans; a manifold vertex
-  // has exactly one.
-  std::vector<int> fan(3 * static_cast<size_t>(m));
-  std::iota(fan.begin(), fan.end(), 0);
-  const auto find = [&](int x) {
-    while (fan[x] != x) x = fan[x] = fan[fan[x]];
-    return x;
-  };
-  const auto unite = [&](int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) fan[std::max(a, b)] = std::min(a, b);
-  };
+  const auto corner_vertex = [&](int h) { return T(h / 3, h % 3); };
   std::vector<char> on_bad_edge(n, 0);
   for (int e = 0; e < inc.num_edges(); ++e) {
     const int a = inc.edges(e, 0), b = inc.edges(e, 1);
     const int* hs = inc.halfedges.data() + inc.offsets[e];
     const int valence = inc.valence(e);
-    const std::string edge_text = "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")";
+    const auto edge_text = [&] { return "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")"; };
     if (valence > 2) {
       std::string faces;
       for (int i = 0; i < std::min(valence, 6); ++i) faces += (i ? ", " : "") + std::to_string(hs[i] / 3);
       if (valence > 6) faces += ", ...";
       list.add(Severity::Error, "non-manifold edges",
-               edge_text + " is non-manifold: shared by " + std::to_string(valence) + " faces (" + faces + ")");
+               edge_text() + " is non-manifold: shared by " + std::to_string(valence) + " faces (" + faces + ")");
       on_bad_edge[a] = on_bad_edge[b] = 1;
     } else if (valence == 2) {
       const int f1 = hs[0] / 3, f2 = hs[1] / 3;
       if (corner_vertex(hs[0]) == corner_vertex(hs[1]))
         list.add(Severity::Error, "inconsistently oriented face pairs",
                  "faces " + std::to_string(f1) + " and " + std::to_string(f2) +
-                     " are oriented inconsistently (both run along " + edge_text + " in the same direction)");
-      unite(corner_of(f1, a), corner_of(f2, a));
-      unite(corner_of(f1, b), corner_of(f2, b));
+                     " are oriented inconsistently (both run along " + edge_text() + " in the same direction)");
     }
   }
 
@@ -168,34 +155,54 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   std::vector<int> start(n + 1, 0);
   for (int f = 0; f < m; ++f)
     if (inc.face_used[f])
-      for (int k = 0; k < 3; ++k) ++start[F(f, k) + 1];
+      for (int k = 0; k < 3; ++k) ++start[T(f, k) + 1];
   std::partial_sum(start.begin(), start.end(), start.begin());
   std::vector<int> corners(start.back());
   {
     std::vector<int> fill(start.begin(), start.end() - 1);
     for (int f = 0; f < m; ++f)
       if (inc.face_used[f])
-        for (int k = 0; k < 3; ++k) corners[fill[F(f, k)]++] = 3 * f + k;
+        for (int k = 0; k < 3; ++k) corners[fill[T(f, k)]++] = 3 * f + k;
   }
-  std::vector<int> stamp(3 * static_cast<size_t>(m), -1);
   std::vector<char> referenced(n, 0);
   for (int f = 0; f < m; ++f)
     for (int k = 0; k < 3; ++k)
-      if (F(f, k) >= 0 && F(f, k) < n) referenced[F(f, k)] = 1;
+      if (T(f, k) >= 0 && T(f, k) < n) referenced[T(f, k)] = 1;
+  // Fans around a vertex: its corners, joined when they share a manifold edge (same neighbour
+  // vertex, exactly two faces). Done per vertex on small local arrays, which is far more
+  // cache-friendly than a global union-find over all corners.
+  std::vector<std::pair<int, int>> around; // (neighbour vertex, local corner)
+  std::vector<int> parent;
   for (int v = 0; v < n; ++v) {
     if (!referenced[v]) {
       list.add(Severity::Warning, "unreferenced vertices", "vertex " + std::to_string(v) + " is used by no face");
       continue;
     }
-    int fans = 0;
-    for (int i = start[v]; i < start[v + 1]; ++i) {
-      const int root = find(corners[i]);
-      if (stamp[root] != v) {
-        stamp[root] = v;
-        ++fans;
+    if (on_bad_edge[v]) continue; // already reported through its non-manifold edge
+    const int degree = start[v + 1] - start[v];
+    around.clear();
+    for (int i = 0; i < degree; ++i) {
+      const int h = corners[start[v] + i], f = h / 3, k = h % 3;
+      around.emplace_back(T(f, (k + 1) % 3), i);
+      around.emplace_back(T(f, (k + 2) % 3), i);
+    }
+    std::sort(around.begin(), around.end());
+    parent.resize(degree);
+    std::iota(parent.begin(), parent.end(), 0);
+    const auto root = [&](int x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    int fans = degree;
+    for (size_t i = 0; i + 1 < around.size(); ++i) {
+      if (around[i].first != around[i + 1].first) continue;
+      const int x = root(around[i].second), y = root(around[i + 1].second);
+      if (x != y) {
+        parent[x] = y;
+        --fans;
       }
     }
-    if (fans > 1 && !on_bad_edge[v])
+    if (fans > 1)
       list.add(Severity::Error, "non-manifold vertices",
                "vertex " + std::to_string(v) + " is non-manifold: its faces form " + std::to_string(fans) +
                    " separate fans");

@@ -1,0 +1,74 @@
+#include <gshell/io/atomic_file.h>
+
+#include <gshell/error.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <fcntl.h>
+#include <unistd.h>
+
+namespace gshell {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Created with O_EXCL so two writers (threads or processes) never share a temporary, and with
+// mode 0666 so the final file gets the user's usual umask permissions (mkstemp would give 0600).
+fs::path create_unique_temporary(const fs::path& target) {
+  static std::atomic<unsigned> counter{0};
+  static const unsigned salt = std::random_device{}();
+  const fs::path folder = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::string stem(1, '.');
+  stem += target.filename().string();
+  stem += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(salt);
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    fs::path candidate = folder / (stem + "-" + std::to_string(counter++));
+    const int fd = ::open(candidate.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+      ::close(fd);
+      return candidate;
+    }
+    if (errno != EEXIST)
+      throw InputError(with_file(target.string(), std::string("cannot create file (") + std::strerror(errno) + ")"));
+  }
+  throw InputError(with_file(target.string(), "cannot create a temporary file next to it"));
+}
+
+void remove_quietly(const fs::path& p) {
+  std::error_code ignored;
+  fs::remove(p, ignored);
+}
+
+} // namespace
+
+void write_file_atomically(const std::string& path, const std::function<void(std::ostream&)>& write, bool binary) {
+  if (path.empty()) throw InputError("empty output file name");
+  const fs::path target(path);
+  if (fs::is_directory(target)) throw InputError(with_file(path, "is a directory, expected a file name"));
+  const fs::path temporary = create_unique_temporary(target);
+  try {
+    {
+      std::ofstream out(temporary, binary ? std::ios::out | std::ios::trunc | std::ios::binary
+                                          : std::ios::out | std::ios::trunc);
+      if (!out) throw InputError(with_file(path, "cannot open for writing"));
+      write(out);
+      out.flush();
+      if (!out) throw InputError(with_file(path, "write failed (disk full?)"));
+      out.close();
+      if (out.fail()) throw InputError(with_file(path, "write failed when closing the file"));
+    }
+    std::error_code ec;
+    fs::rename(temporary, target, ec);
+    if (ec) throw InputError(with_file(path, "cannot move the finished file into place (" + ec.message() + ")"));
+  } catch (...) {
+    remove_quietly(temporary);
+    throw;
+  }
+}
+
+} // namespace gshell

@@ -1,0 +1,33 @@
+#pragma once
+// One reader per surface format, each parsing a file already in memory (see file_bytes.h).
+#include <gshell/mesh.h>
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace gshell::io_detail {
+
+TriMesh read_obj(const std::string& path, std::string_view bytes);
+TriMesh read_off(const std::string& path, std::string_view bytes);
+TriMesh read_ply(const std::string& path, std::string_view bytes);
+TriMesh read_stl(const std::string& path, std::string_view bytes);
+
+/// Flat arrays grown while parsing, turned into a TriMesh at the end.
+struct SurfaceBuilder {
+  std::vector<double> xyz;   ///< 3 per vertex
+  std::vector<int> corners;  ///< 3 per triangle
+  std::vector<double> uv;    ///< 2 per texture coordinate
+  std::vector<int> uv_corners; ///< 3 per triangle, or empty
+
+  int num_vertices() const { return static_cast<int>(xyz.size() / 3); }
+  /// Fan-triangulates polygon (ids[0], ids[k], ids[k+1]): keeps the polygon's orientation and,
+  /// for convex polygons, gives valid triangles without looking at positions.
+  static void add_fan(std::vector<int>& out, const std::vector<int>& ids);
+  TriMesh finish() const;
+};
+
+/// Largest vertex or face count we accept: ids are stored as int.
+constexpr long long max_element_count = 2'000'000'000LL;
+
+} // namespace gshell::io_detail
