@@ -51,6 +51,9 @@ struct ShellSolver::Impl {
   // Per free vertex: the (tet * 4 + corner) slots of the local step's RHS rows to sum (a gather,
   // so the global step's right-hand side is built in parallel without atomics).
   std::vector<int> gather_start, gather_slot;
+  // Where the local step writes tet t's corner k row (tet * 4 + corner -> slot), -1 for kept
+  // vertices: rows land in gather order, so the gather reads memory sequentially.
+  std::vector<int> corner_slot;
   // Coupling of free rows to the kept vertices (CSR over free rows, columns = vertex ids): the
   // exact Dirichlet elimination term L_fc x_c.
   std::vector<int> fc_start, fc_col;
@@ -149,6 +152,8 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
       const int j = free_index[tet[t][k]];
       if (j >= 0) gather_slot[fill[j]++] = 4 * t + k;
     }
+  corner_slot.assign(4 * static_cast<std::size_t>(K), -1);
+  for (int s = 0; s < gather_start[nf]; ++s) corner_slot[gather_slot[s]] = s;
 
   soft_free.clear();
   if (has_soft)
@@ -236,6 +241,10 @@ void ShellSolver::Impl::assemble_and_factor() {
   const int ok = cholmod_factorize(A, factor, &cm);
   cholmod_free_sparse(&A, &cm);
   if (!ok || cm.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) throw InputError(singular);
+  // The supernodal factorisation is the fast one, but the solve with three right-hand sides is
+  // faster on a simplicial LL^T (one sweep over L, no BLAS call per supernode): convert once.
+  if (!cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, factor, &cm))
+    throw std::runtime_error("CHOLMOD factor conversion failed (status " + std::to_string(cm.status) + ")");
 #else
   Eigen::Map<const Eigen::SparseMatrix<double>> A(nf, nf, ff_start[nf], ff_start.data(), ff_row.data(),
                                                   ff_val.data());
@@ -245,27 +254,52 @@ void ShellSolver::Impl::assemble_and_factor() {
 }
 
 double ShellSolver::Impl::local_step(const double* X, double* Q) const {
+  constexpr int W = detail::kPolarLanes;
+  static_assert(kChunk % W == 0);
   const int chunks = (K + kChunk - 1) / kChunk;
   std::vector<double> chunk_energy(chunks, 0.0);
   tbb::parallel_for(0, chunks, [&](int ci) {
     const int t_end = std::min(K, (ci + 1) * kChunk);
     double e = 0;
-    for (int t = ci * kChunk; t < t_end; ++t) {
-      const auto& v = tet[t];
-      const double* g = &G[12 * static_cast<std::size_t>(t)];
-      Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
-      for (int k = 0; k < 4; ++k) {
-        const double* x = X + 3 * static_cast<std::size_t>(v[k]);
-        for (int c = 0; c < 3; ++c)
-          for (int r = 0; r < 3; ++r) F(r, c) += x[r] * g[3 * k + c];
+    alignas(64) double Fs[9 * W], Rs[9 * W];
+    for (int t0 = ci * kChunk; t0 < t_end; t0 += W) {
+      const int lanes = std::min(W, t_end - t0);
+      // F_t = X_t^T G_t for W tets, struct-of-arrays for the batched polar decomposition.
+      for (int l = 0; l < W; ++l) {
+        double F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}; // padding lanes: identity
+        if (l < lanes) {
+          const int t = t0 + l;
+          const auto& v = tet[t];
+          const double* g = &G[12 * static_cast<std::size_t>(t)];
+          for (int r = 0; r < 9; ++r) F[r] = 0;
+          for (int k = 0; k < 4; ++k) {
+            const double* x = X + 3 * static_cast<std::size_t>(v[k]);
+            for (int r = 0; r < 3; ++r)
+              for (int c = 0; c < 3; ++c) F[3 * r + c] += x[r] * g[3 * k + c];
+          }
+        }
+        for (int r = 0; r < 9; ++r) Fs[r * W + l] = F[r];
       }
-      const Eigen::Matrix3d R = detail::closest_rotation_inline(F);
-      e += vol[t] * (F - R).squaredNorm();
-      if (Q) { // vol G_t R^T: this tet's share of the global step's right-hand side
-        double* q = Q + 12 * static_cast<std::size_t>(t);
-        for (int k = 0; k < 4; ++k)
-          for (int r = 0; r < 3; ++r)
-            q[3 * k + r] = vol[t] * (g[3 * k] * R(r, 0) + g[3 * k + 1] * R(r, 1) + g[3 * k + 2] * R(r, 2));
+      detail::closest_rotations_lanes(Fs, Rs);
+      for (int l = 0; l < lanes; ++l) {
+        const int t = t0 + l;
+        double d2 = 0;
+        for (int r = 0; r < 9; ++r) {
+          const double d = Fs[r * W + l] - Rs[r * W + l];
+          d2 += d * d;
+        }
+        e += vol[t] * d2;
+        if (Q) { // rows of vol G_t R^T: this tet's share of the global step's right-hand side
+          const double* g = &G[12 * static_cast<std::size_t>(t)];
+          for (int k = 0; k < 4; ++k) {
+            const int slot = corner_slot[4 * static_cast<std::size_t>(t) + k];
+            if (slot < 0) continue;
+            double* q = Q + 3 * static_cast<std::size_t>(slot);
+            for (int r = 0; r < 3; ++r)
+              q[r] = vol[t] * (g[3 * k] * Rs[(3 * r) * W + l] + g[3 * k + 1] * Rs[(3 * r + 1) * W + l] +
+                               g[3 * k + 2] * Rs[(3 * r + 2) * W + l]);
+          }
+        }
       }
     }
     chunk_energy[ci] = e;
@@ -380,7 +414,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
     if (m.soft_free[c] >= 0)
       for (int d = 0; d < 3; ++d) rhs_const[m.soft_free[c] + static_cast<std::size_t>(d) * nf] += m.soft.weight * soft_targets(c, d);
 
-  std::vector<double> Q(12 * static_cast<std::size_t>(m.K));
+  std::vector<double> Q(3 * static_cast<std::size_t>(m.gather_start[nf]));
   std::vector<double> rhs(3 * static_cast<std::size_t>(nf));
   SolveResult result;
   double E = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
@@ -389,7 +423,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
     tbb::parallel_for(0, nf, [&](int j) {
       double b[3] = {0, 0, 0};
       for (int s = m.gather_start[j]; s < m.gather_start[j + 1]; ++s) {
-        const double* q = &Q[3 * static_cast<std::size_t>(m.gather_slot[s])];
+        const double* q = &Q[3 * static_cast<std::size_t>(s)];
         b[0] += q[0];
         b[1] += q[1];
         b[2] += q[2];
