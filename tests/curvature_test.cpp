@@ -206,6 +206,7 @@ TEST(CurvaturePrisms, PlaneGivesTheNormalPrism) {
   const PrismCorners P = curvature_prisms(plane.V, plane.F, 0.3, 0.5, 2.0, &clamped);
   EXPECT_EQ(clamped, 0);
   ASSERT_EQ(P.rows(), 6 * plane.num_faces());
+  EXPECT_LT((P - normal_prisms(plane.V, plane.F, 0.3)).cwiseAbs().maxCoeff(), 1e-12);
   for (int f = 0; f < plane.num_faces(); ++f)
     for (int j = 0; j < 3; ++j) {
       const Eigen::RowVector3d p = plane.V.row(plane.F(f, j));
