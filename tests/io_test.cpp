@@ -656,6 +656,47 @@ TEST(IoTetMesh, VtuRoundTripKeepsPointsTetsAndNamedArrays) {
   EXPECT_EQ(text.substr(end - 2, 2), std::string("\x0a\x0a", 2));
 }
 
+TEST(IoTetMesh, VtuReaderTakesOtherByteOrderHeaderAndValueTypes) {
+  // As another VTK writer may produce it: big endian, UInt32 block headers, Float32 points,
+  // Int32 connectivity/offsets, a data array before the points, blocks in a different order.
+  TempDir dir;
+  Bytes data;
+  const float points[4][3] = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0, 0, 2.5f}};
+  data.put<std::uint32_t>(4 * 4, true);
+  for (std::int32_t id : {0, 1, 2, 3}) data.put<std::int32_t>(id, true);
+  const std::size_t points_offset = data.s.size();
+  data.put<std::uint32_t>(12 * 4, true);
+  for (const auto& p : points)
+    for (float v : p) data.put<float>(v, true);
+  const std::size_t offsets_offset = data.s.size();
+  data.put<std::uint32_t>(4, true).put<std::int32_t>(4, true);
+  const std::size_t types_offset = data.s.size();
+  data.put<std::uint32_t>(1, true).put<std::uint8_t>(10, true);
+  const std::size_t scalar_offset = data.s.size();
+  data.put<std::uint32_t>(4 * 4, true);
+  for (float v : {1.f, 2.f, 3.f, 4.f}) data.put<float>(v, true);
+  const std::string xml =
+      "<?xml version=\"1.0\"?>\n<!-- hand made -->\n<VTKFile type='UnstructuredGrid' version=\"0.1\" "
+      "byte_order=\"BigEndian\" header_type=\"UInt32\">\n<UnstructuredGrid>\n<Piece NumberOfPoints=\"4\" "
+      "NumberOfCells=\"1\">\n<PointData Scalars=\"level\">\n<DataArray type=\"Float32\" Name=\"level\" "
+      "format=\"appended\" offset=\"" + std::to_string(scalar_offset) +
+      "\"/>\n</PointData>\n<CellData>\n</CellData>\n<Points>\n<DataArray type=\"Float32\" NumberOfComponents=\"3\" "
+      "format=\"appended\" offset=\"" + std::to_string(points_offset) +
+      "\"/>\n</Points>\n<Cells>\n<DataArray type=\"Int32\" Name=\"connectivity\" format=\"appended\" offset=\"0\"/>\n"
+      "<DataArray type=\"Int32\" Name=\"offsets\" format=\"appended\" offset=\"" + std::to_string(offsets_offset) +
+      "\"/>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"appended\" offset=\"" + std::to_string(types_offset) +
+      "\"/>\n</Cells>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"raw\">\n_";
+  write_text(dir.file("be.vtu"), xml + data.s + "\n</AppendedData>\n</VTKFile>\n");
+  const TetMesh t = read_tet_mesh(dir.file("be.vtu"));
+  ASSERT_EQ(t.X.rows(), 4);
+  EXPECT_EQ(t.X(3, 2), 2.5);
+  EXPECT_EQ(t.X(1, 0), 2.0);
+  EXPECT_EQ(t.T.row(0), Eigen::RowVector4i(0, 1, 2, 3));
+  ASSERT_EQ(t.point_data.size(), 1u);
+  EXPECT_EQ(t.point_data[0].first, "level");
+  EXPECT_EQ(t.point_data[0].second(3, 0), 4.0);
+}
+
 TEST(IoTetMesh, MeditRoundTripKeepsPointsAndTets) {
   TempDir dir;
   const TetMesh t = small_tet_mesh();

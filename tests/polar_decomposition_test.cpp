@@ -126,3 +126,23 @@ TEST(PolarDecomposition, NearRotationsTypicalOfShells) {
     check(random_rotation(rng) * (Eigen::Matrix3d::Identity() + P), 1e-10);
   }
 }
+
+TEST(PolarDecomposition, BatchedLanesAgreeWithSingleCalls) {
+  // Mixed batch: lanes that take the Newton path next to inverted and singular ones, and a
+  // count that is not a multiple of the lane width.
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0, 0.3);
+  std::vector<Eigen::Matrix3d> F(1003), R(1003);
+  for (std::size_t i = 0; i < F.size(); ++i) {
+    for (int k = 0; k < 9; ++k) F[i](k / 3, k % 3) = (k % 4 == 0) + g(rng);
+    if (i % 7 == 0) F[i].col(0) *= -1;                        // inverted
+    if (i % 11 == 0) F[i].col(2) = F[i].col(0) + F[i].col(1); // singular
+    if (i % 13 == 0) F[i] *= 1e-160;                          // tiny
+  }
+  closest_rotations(F.data(), R.data(), F.size());
+  for (std::size_t i = 0; i < F.size(); ++i) {
+    expect_rotation(R[i]);
+    EXPECT_LT((R[i] - closest_rotation(F[i])).cwiseAbs().maxCoeff(), 1e-12) << i;
+    check(F[i]);
+  }
+}

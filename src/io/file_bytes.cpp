@@ -18,10 +18,13 @@ std::string read_file_bytes(const std::string& path) {
   if (fs::is_directory(status)) throw InputError(with_file(path, "is a directory, expected a mesh file"));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(with_file(path, std::string("cannot open (") + std::strerror(errno) + ")"));
+  // Read in large blocks until EOF rather than trusting file_size (which special files lack).
   std::string bytes;
   const auto size = fs::file_size(path, ec);
   if (!ec) bytes.reserve(size);
-  bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  std::string block(1 << 20, '\0');
+  while (in.read(block.data(), static_cast<std::streamsize>(block.size())) || in.gcount() > 0)
+    bytes.append(block.data(), static_cast<std::size_t>(in.gcount()));
   if (in.bad()) throw InputError(with_file(path, "read error"));
   return bytes;
 }

@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 
+#include <array>
 #include <charconv>
 #include <cstdlib>
 #include <limits>
@@ -9,12 +10,16 @@
 namespace gshell::io_detail {
 
 namespace {
-bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-bool is_space(char c) { return is_blank(c) || c == '\n'; }
-bool is_control(char c) {
-  const auto u = static_cast<unsigned char>(c);
-  return (u < 0x20 && !is_space(c)) || u == 0x7f;
-}
+// Byte classes, looked up once per byte in the hot loops.
+enum CharClass : unsigned char { Word, Blank, Newline, Control };
+constexpr auto char_classes = [] {
+  std::array<CharClass, 256> t{};
+  for (int c = 0; c < 256; ++c) t[c] = (c < 0x20 || c == 0x7f) ? Control : Word;
+  for (unsigned char c : {' ', '\t', '\r', '\v', '\f'}) t[c] = Blank;
+  t['\n'] = Newline;
+  return t;
+}();
+CharClass class_of(char c) { return char_classes[static_cast<unsigned char>(c)]; }
 } // namespace
 
 bool parse_double(std::string_view token, double& value) {
@@ -50,7 +55,7 @@ TextScanner::TextScanner(std::string_view text, std::string path, char comment, 
       token_line_(first_line) {}
 
 void TextScanner::check_text_byte(char c) const {
-  if (is_control(c)) {
+  if (class_of(c) == Control) {
     std::string where = " (line " + std::to_string(line_) + ")";
     throw InputError(with_file(path_, "unexpected binary data in a text file, not a valid mesh file?" + where));
   }
@@ -59,11 +64,12 @@ void TextScanner::check_text_byte(char c) const {
 void TextScanner::skip_blanks(bool cross_lines) {
   while (pos_ < text_.size()) {
     const char c = text_[pos_];
-    if (c == '\n') {
+    const CharClass k = class_of(c);
+    if (k == Blank) {
+      ++pos_;
+    } else if (k == Newline) {
       if (!cross_lines) return;
       ++line_;
-      ++pos_;
-    } else if (is_blank(c)) {
       ++pos_;
     } else if (comment_ != '\0' && c == comment_) {
       while (pos_ < text_.size() && text_[pos_] != '\n') check_text_byte(text_[pos_++]);
@@ -78,8 +84,11 @@ std::string_view TextScanner::next_token() {
   skip_blanks(true);
   token_line_ = line_;
   const std::size_t begin = pos_;
-  while (pos_ < text_.size() && !is_space(text_[pos_]) && !(comment_ != '\0' && text_[pos_] == comment_)) {
-    check_text_byte(text_[pos_]);
+  while (pos_ < text_.size()) {
+    const char c = text_[pos_];
+    const CharClass k = class_of(c);
+    if (k == Blank || k == Newline || (c == comment_ && comment_ != '\0')) break;
+    if (k == Control) check_text_byte(c);
     ++pos_;
   }
   return text_.substr(begin, pos_ - begin);

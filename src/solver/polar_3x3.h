@@ -110,4 +110,102 @@ inline Eigen::Matrix3d closest_rotation_inline(const Eigen::Matrix3d& F) {
   return rotation_by_svd(F);
 }
 
+/// Lanes of the batched polar decomposition: one AVX-512 register of doubles.
+constexpr int kPolarLanes = 8;
+
+/// Closest rotations of kPolarLanes matrices at once, in struct-of-arrays layout: entry (r, c)
+/// of lane l at [(3 r + c) * kPolarLanes + l]. The Newton iteration runs on all lanes together
+/// (the branch-free loops over lanes vectorise) until every lane has converged; lanes that are
+/// inverted, too ill-conditioned or unconverged are redone by the SVD.
+inline void closest_rotations_lanes(const double* F, double* R) {
+  constexpr int W = kPolarLanes;
+  alignas(64) double X[9][W], C[9][W], det[W], g[W], delta2[W], valid[W];
+  for (int k = 0; k < 9; ++k)
+    for (int l = 0; l < W; ++l) X[k][l] = F[k * W + l];
+  auto cofactors = [&] {
+    for (int l = 0; l < W; ++l) {
+      C[0][l] = X[4][l] * X[8][l] - X[5][l] * X[7][l];
+      C[1][l] = X[5][l] * X[6][l] - X[3][l] * X[8][l];
+      C[2][l] = X[3][l] * X[7][l] - X[4][l] * X[6][l];
+      C[3][l] = X[2][l] * X[7][l] - X[1][l] * X[8][l];
+      C[4][l] = X[0][l] * X[8][l] - X[2][l] * X[6][l];
+      C[5][l] = X[1][l] * X[6][l] - X[0][l] * X[7][l];
+      C[6][l] = X[1][l] * X[5][l] - X[2][l] * X[4][l];
+      C[7][l] = X[2][l] * X[3][l] - X[0][l] * X[5][l];
+      C[8][l] = X[0][l] * X[4][l] - X[1][l] * X[3][l];
+      det[l] = X[0][l] * C[0][l] + X[1][l] * C[1][l] + X[2][l] * C[2][l];
+    }
+  };
+  cofactors();
+  alignas(64) double x2[W], c2[W];
+  for (int l = 0; l < W; ++l) {
+    double a = 0, b = 0;
+#pragma GCC unroll 9
+    for (int k = 0; k < 9; ++k) {
+      a += X[k][l] * X[k][l];
+      b += C[k][l] * C[k][l];
+    }
+    x2[l] = a;
+    c2[l] = b;
+    // Same acceptance as rotation_by_newton (det > 1e-6 |F|^3), squared to avoid a root.
+    valid[l] = (det[l] > 0 && det[l] * det[l] > 1e-12 * a * a * a) ? 1.0 : 0.0;
+  }
+  // Frobenius scaling g = sqrt(|X^-1| / |X|) for the first step (later steps are near 1).
+  // Eigen's array sqrt vectorises where std::sqrt would not (errno).
+  using Lanes = Eigen::Array<double, W, 1>;
+  const Lanes dets = Eigen::Map<const Lanes>(det);
+  Eigen::Map<Lanes> scale(g);
+  scale = (Eigen::Map<const Lanes>(c2) / (Eigen::Map<const Lanes>(x2) * dets * dets)).sqrt().sqrt();
+  // Rejected lanes iterate on the identity (finite, so they cannot disturb the vector loop) and
+  // are redone by the SVD at the end.
+  for (int l = 0; l < W; ++l) {
+    const bool ok = valid[l] != 0.0;
+#pragma GCC unroll 9
+    for (int k = 0; k < 9; ++k) {
+      const double id = (k % 4 == 0) ? 1.0 : 0.0;
+      X[k][l] = ok ? X[k][l] : id;
+      C[k][l] = ok ? C[k][l] : id;
+    }
+    det[l] = ok ? det[l] : 1.0;
+    g[l] = ok ? g[l] : 1.0;
+  }
+  bool converged = false;
+  for (int it = 0; it < 24 && !converged; ++it) {
+    for (int l = 0; l < W; ++l) {
+      const double a = 0.5 * g[l], b = 0.5 / (g[l] * det[l]);
+      double d2 = 0;
+#pragma GCC unroll 9
+      for (int k = 0; k < 9; ++k) {
+        const double xn = a * X[k][l] + b * C[k][l];
+        const double d = xn - X[k][l];
+        d2 += d * d;
+        X[k][l] = xn;
+      }
+      delta2[l] = d2 * valid[l];
+      g[l] = 1.0;
+    }
+    double worst = 0;
+    for (int l = 0; l < W; ++l) worst = worst > delta2[l] ? worst : delta2[l];
+    converged = worst < 1e-16;
+    if (!converged) {
+      cofactors();
+      for (int l = 0; l < W; ++l) { // a lane that lost its sign is left to the SVD
+        const double keep = det[l] > 0 ? 1.0 : 0.0;
+        valid[l] *= keep;
+        det[l] = keep * det[l] + (1.0 - keep);
+      }
+    }
+  }
+  for (int k = 0; k < 9; ++k)
+    for (int l = 0; l < W; ++l) R[k * W + l] = X[k][l];
+  for (int l = 0; l < W; ++l) {
+    if (!(valid[l] != 0.0 && delta2[l] < 1e-16)) {
+      Eigen::Matrix3d Fl;
+      for (int k = 0; k < 9; ++k) Fl(k / 3, k % 3) = F[k * W + l];
+      const Eigen::Matrix3d Rl = rotation_by_svd(Fl);
+      for (int k = 0; k < 9; ++k) R[k * W + l] = Rl(k / 3, k % 3);
+    }
+  }
+}
+
 } // namespace gshell::detail

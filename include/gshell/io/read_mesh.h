@@ -6,9 +6,12 @@ namespace gshell {
 
 /// Reads OBJ, OFF (also COFF/NOFF), PLY (ASCII, binary little/big endian) or STL (ASCII/binary),
 /// chosen by the file extension (case-insensitive). Polygons are fan-triangulated; OBJ `vt`
-/// texture coordinates are kept in UV/FUV. Vertex order is the file's.
-/// Throws InputError ("PATH: problem") on a missing file, unknown format or malformed content.
-/// Does not validate the mesh (see validate_mesh.h).
+/// texture coordinates are kept in UV/FUV (only when every face has them). Vertex order is the
+/// file's; STL corners with equal coordinates become one vertex, numbered by first appearance.
+/// Throws InputError ("PATH: problem (line N)") on a missing file, unknown format or malformed
+/// content: unparsable numbers, out-of-range indices, counts that do not match the data (also data
+/// left over after the announced elements), binary files of the wrong length.
+/// Does not validate the mesh (see validate_mesh.h): NaN/inf coordinates are read as they are.
 TriMesh read_mesh(const std::string& path);
 
 } // namespace gshell
