@@ -7,10 +7,8 @@
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/quality/stretch.h>
-#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/shell/offset_shell.h>
-#include <gshell/shell/prism_tets.h>
-#include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
 #include <algorithm>
@@ -30,34 +28,6 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t h = v.size() / 2;
   return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
-
-/// The rest shell as `gshell generate --method rigid` builds it: normal prisms of thickness eta,
-/// cut into tets, base fixed, top solved from the vertex-normal offset (5 iterations).
-Shell generate_rigid_shell(const TriMesh& mesh, double eta, double* seconds) {
-  const auto start = std::chrono::steady_clock::now();
-  const int n = mesh.num_vertices();
-  const PrismCorners prisms = normal_prisms(mesh.V, mesh.F, eta);
-  const Eigen::MatrixXi T = build_prism_tets(mesh.F, n), C = prism_tet_corners(mesh.F);
-  Eigen::MatrixXd corners(4 * T.rows(), 3);
-  for (Eigen::Index t = 0; t < T.rows(); ++t)
-    for (int k = 0; k < 4; ++k) corners.row(4 * t + k) = prisms.row(6 * (t / 3) + C(t, k));
-  std::vector<int> fixed(n);
-  std::iota(fixed.begin(), fixed.end(), 0);
-  const ShellSolver solver(rest_tets_from_corners(T, corners), 2 * n, fixed);
-  Eigen::MatrixXd X(2 * n, 3);
-  X << mesh.V, offset_top(mesh.V, mesh.F, eta);
-  SolveOptions options;
-  options.max_iterations = 5;
-  options.tolerance = 0;
-  solver.solve(X, options);
-  *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  Shell shell;
-  shell.base = mesh.V;
-  shell.top = X.bottomRows(n);
-  shell.F = mesh.F;
-  shell.thickness = eta;
-  return shell;
 }
 
 struct RunStats {
@@ -107,11 +77,14 @@ int main(int argc, char** argv) {
     else path = argv[i];
   }
   const TriMesh mesh = load_mesh(path);
-  // Ratio 0.01 of the bounding sphere, whose radius we take as half the bounding box diagonal.
-  const double radius = 0.5 * (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
-  const double eta = 0.01 * radius;
-  double generate_seconds = 0;
-  const Shell rest = generate_rigid_shell(mesh, eta, &generate_seconds);
+  // The rest shell as `gshell generate --method rigid --thickness-ratio 0.01` makes it.
+  GenerateOptions generate;
+  generate.method = ShellMethod::Rigid;
+  generate.thickness = thickness_from_ratio(mesh.V, 0.01);
+  generate.count_intersections = false;
+  const GenerateResult generated = generate_shell(mesh.V, mesh.F, generate);
+  const Shell& rest = generated.shell;
+  const double eta = rest.thickness, generate_seconds = generated.seconds.total;
   std::printf("mesh %s: %d base vertices, %d faces; shell %d vertices, %d tets, eta %.4g (generated in %.2f s)\n",
               path.c_str(), mesh.num_vertices(), mesh.num_faces(), 2 * mesh.num_vertices(), 3 * mesh.num_faces(), eta,
               generate_seconds);
@@ -119,7 +92,9 @@ int main(int argc, char** argv) {
   const auto setup_start = std::chrono::steady_clock::now();
   ShellDeformer deformer(rest);
   const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
-  std::printf("deformer setup %.3f s (factorization %.3f s, once for all frames)\n", setup, deformer.factor_seconds());
+  std::printf("deformer setup %.3f s (factorization %.3f s, once for all frames); %d flat/inverted rest tets "
+              "replaced by their normal prism\n",
+              setup, deformer.factor_seconds(), deformer.replaced_rest_tets());
 
   const MotionFrame frame = motion_frame(rest.base);
   std::vector<Eigen::MatrixXd> frames;
