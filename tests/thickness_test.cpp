@@ -7,7 +7,11 @@
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/squared_distance_3.h>
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
 
 #include <random>
 
@@ -33,7 +37,7 @@ TEST(Thickness, PlaneOffsetByHIsExactlyH) {
 }
 
 // Distance of each face's plane from the centre of a sphere mesh centred at the origin.
-double min_face_plane_distance(const test::HandMesh& m) {
+double min_face_plane_distance(const TriMesh& m) {
   double d = std::numeric_limits<double>::infinity();
   for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
     const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));

@@ -37,22 +37,24 @@ Eigen::VectorXd tet_deformation_determinants(const RestTets& rest, const Eigen::
   return d;
 }
 
-StretchStats stretch_stats(const RestTets& rest, const Eigen::MatrixXd& X) {
+StretchStats stretch_stats(const Eigen::VectorXd& s, const Eigen::VectorXd& d, const Eigen::VectorXd& volume) {
   StretchStats stats;
-  const int K = rest.size();
+  const Eigen::Index K = s.size();
   if (K == 0) return stats;
-  const Eigen::VectorXd s = tet_stretch(rest, X);
-  const Eigen::VectorXd d = tet_deformation_determinants(rest, X);
   stats.mean = s.mean();
-  stats.volume_mean = s.dot(rest.volume) / rest.volume.sum();
+  stats.volume_mean = s.dot(volume) / volume.sum();
   stats.max = s.maxCoeff();
   // Nearest-rank 99th percentile: the smallest value that at least 99% of the tets do not exceed.
   std::vector<double> sorted(s.data(), s.data() + K);
-  const std::size_t rank = static_cast<std::size_t>(std::ceil(0.99 * K)) - 1;
+  const std::size_t rank = static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(K))) - 1;
   std::nth_element(sorted.begin(), sorted.begin() + rank, sorted.end());
   stats.p99 = sorted[rank];
   stats.inverted = static_cast<int>((d.array() <= 0).count());
   return stats;
+}
+
+StretchStats stretch_stats(const RestTets& rest, const Eigen::MatrixXd& X) {
+  return stretch_stats(tet_stretch(rest, X), tet_deformation_determinants(rest, X), rest.volume);
 }
 
 } // namespace gshell

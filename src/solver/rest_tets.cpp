@@ -2,6 +2,8 @@
 
 #include <gshell/error.h>
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Dense>
 #include <cmath>
 #include <string>
@@ -49,9 +51,11 @@ RestTets rest_tets_from_corners(const Eigen::MatrixXi& T, const Eigen::MatrixXd&
   rest.T = T;
   rest.Dm_inv.resize(T.rows());
   rest.volume.resize(T.rows());
-  for (Eigen::Index t = 0; t < T.rows(); ++t)
+  // TBB rethrows a tet's InputError in this thread.
+  tbb::parallel_for(Eigen::Index(0), T.rows(), [&](Eigen::Index t) {
     set_rest_shape(rest, t, corners.row(4 * t).transpose(), corners.row(4 * t + 1).transpose(),
                    corners.row(4 * t + 2).transpose(), corners.row(4 * t + 3).transpose());
+  });
   return rest;
 }
 
