@@ -6,6 +6,7 @@
 #include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/shell/curvature_shell.h>
+#include <gshell/render/shell_render.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
 
@@ -22,6 +23,7 @@ struct GenerateCliOptions {
   int iterations = 50;
   double tolerance = 1e-5;
   double s_min = gshell::kDefaultCurvatureSMin, s_max = gshell::kDefaultCurvatureSMax;
+  bool render = false;
 };
 
 void run_generate(const GenerateCliOptions& o) {
@@ -64,6 +66,7 @@ void run_generate(const GenerateCliOptions& o) {
   std::cout << generate_summary(result, o.input) << (curvature ? curvature_summary(*curvature) : "")
             << "wrote        " << o.output
             << "/{top.obj, base.obj, shell.vtu, report.json}\n";
+  if (o.render) std::cout << "wrote        " << render_shell_preview(o.output) << "\n";
 }
 
 void add_generate_command(CLI::App& app) {
@@ -83,6 +86,7 @@ void add_generate_command(CLI::App& app) {
   cmd->add_option("--tolerance", o->tolerance, "Stop when the relative energy change is below this (default 1e-5)");
   cmd->add_option("--s-min", o->s_min, "Curvature method: smallest in-plane scale of a top triangle (default 0.5)");
   cmd->add_option("--s-max", o->s_max, "Curvature method: largest in-plane scale of a top triangle (default 2)");
+  cmd->add_flag("--render", o->render, "Also write DIR/preview.png: a headless render colored by stretch");
   cmd->callback([o] { run_generate(*o); });
 }
 
