@@ -18,4 +18,8 @@ struct StretchStats {
 
 StretchStats stretch_stats(const RestTets& rest, const Eigen::MatrixXd& X);
 
+/// The same statistics from per-tet stretch, det F and rest volume already computed.
+StretchStats stretch_stats(const Eigen::VectorXd& stretch, const Eigen::VectorXd& determinants,
+                           const Eigen::VectorXd& volume);
+
 } // namespace gshell

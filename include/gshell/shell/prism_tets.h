@@ -1,5 +1,6 @@
 #pragma once
 // Cutting prisms into tets by the min-index rule (DESIGN.md "Prism to tets").
+#include <gshell/solver/rest_tets.h>
 #include <Eigen/Core>
 
 namespace gshell {
@@ -13,5 +14,11 @@ Eigen::MatrixXi build_prism_tets(const Eigen::MatrixXi& F, int n);
 /// Same tets, each vertex given as a prism corner 0..5 of its face: 0..2 base corners in the
 /// face's own order (F(f,0..2)), 3..5 the top corners above them. Row t matches build_prism_tets.
 Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F);
+
+/// Rest tets of the shell over 2n vertices (build_prism_tets) whose rest shapes are the given
+/// per-face prisms (6m x 3, layout of ideal_prisms.h: rows 6f..6f+2 base corners in face order,
+/// 6f+3..6f+5 the top corners). Each prism is its own rest shape ("cracked" ideal prisms).
+/// Throws InputError if a rest tet has non-positive volume (a prism turned inside out).
+RestTets prism_rest_tets(const Eigen::MatrixXi& F, int n, const Eigen::MatrixXd& prisms);
 
 } // namespace gshell

@@ -1,0 +1,16 @@
+#pragma once
+// Per-vertex thickness of a shell (DESIGN.md "Quality measures"): how far each top vertex is from
+// the base surface. Divide by eta for the relative thickness of the report.
+#include <Eigen/Core>
+
+namespace gshell {
+
+/// Distance (model units) from each top vertex to the base surface, i.e. to the closest point on
+/// any base triangle (faces F over the rows of `base`); one entry per row of `top`. Degenerate
+/// base faces count as the segment or point they cover. Usually top vertex i sits over base
+/// vertex i (same F), which is used as a starting guess; `top` may have any number of rows.
+/// Throws InputError on a face index out of range, non-finite coordinates or an empty base.
+Eigen::VectorXd vertex_thickness(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F,
+                                 const Eigen::MatrixXd& top);
+
+} // namespace gshell

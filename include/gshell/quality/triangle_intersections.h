@@ -1,0 +1,38 @@
+#pragma once
+// Counting intersecting triangle pairs (DESIGN.md "Quality measures"): self-intersections of the
+// top surface and intersections between top and base of a shell.
+//
+// Conventions (both functions):
+// - A face is the closed point set of its triangle, so touching (at a point or along an edge)
+//   counts as intersecting, as does coplanar overlap. The test is exact (CGAL's exact predicates).
+// - A degenerate face (three collinear corners) is taken as the segment or point it covers and
+//   tested as such; it is neither skipped nor an error.
+// - Faces are compared by their vertex ids: two faces of one mesh that share a vertex id (mesh
+//   neighbours) are never counted, even if they also meet elsewhere. Distinct ids at the same
+//   position are different vertices, so the mesh should be welded.
+// Bad input (a face index out of range, a non-finite coordinate) throws InputError.
+#include <Eigen/Core>
+#include <utility>
+#include <vector>
+
+namespace gshell {
+
+/// Pairs (f, g), f < g, of faces of one mesh that share no vertex and intersect; sorted.
+std::vector<std::pair<int, int>> self_intersecting_pairs(const Eigen::MatrixXd& V,
+                                                         const Eigen::MatrixXi& F);
+
+/// Number of pairs of faces that share no vertex and intersect (= self_intersecting_pairs().size()).
+int count_self_intersections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
+/// Pairs (f1, f2), f1 a face of mesh 1 and f2 a face of mesh 2, that intersect; sorted. The two
+/// meshes share no vertices (e.g. the top and the base of a shell), so every pair is tested.
+std::vector<std::pair<int, int>> intersecting_pairs_between(const Eigen::MatrixXd& V1,
+                                                            const Eigen::MatrixXi& F1,
+                                                            const Eigen::MatrixXd& V2,
+                                                            const Eigen::MatrixXi& F2);
+
+/// Number of intersecting pairs (f1 in mesh 1, f2 in mesh 2) (= intersecting_pairs_between().size()).
+int count_intersections_between(const Eigen::MatrixXd& V1, const Eigen::MatrixXi& F1,
+                                const Eigen::MatrixXd& V2, const Eigen::MatrixXi& F2);
+
+} // namespace gshell

@@ -1,0 +1,31 @@
+#pragma once
+// report.json of `gshell generate` / `gshell metrics`, and the one-screen text summary.
+#include <gshell/shell/generate_shell.h>
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+namespace gshell {
+
+/// The report of a generated shell. Fields (units: model units, seconds):
+///   input, method, thickness {eta, ratio (null if given absolutely), min, mean (per-vertex
+///   thickness / eta)}, vertices, faces, tets, iterations, converged, energy [E_0 = offset start,
+///   one per iteration], stretch {mean, volume_mean, max, p99} (against the normal prisms),
+///   inverted_tets, top_self_intersections, top_base_intersections (null if not counted),
+///   seconds {total, factor, solve}, gshell_version.
+nlohmann::json generate_report(const GenerateResult& result, const std::string& input,
+                               std::optional<double> thickness_ratio = std::nullopt);
+
+/// The quality part alone (`gshell metrics`): thickness, vertices, faces, tets, stretch,
+/// inverted_tets, intersections, as in generate_report.
+nlohmann::json metrics_report(const ShellMetrics& metrics, int vertices, int faces, double eta,
+                              std::optional<double> thickness_ratio = std::nullopt);
+
+/// A few lines for a terminal: sizes, method, energy, stretch, inversions, intersections, times.
+std::string generate_summary(const GenerateResult& result, const std::string& input);
+
+/// The same for `gshell metrics`.
+std::string metrics_summary(const ShellMetrics& metrics, int vertices, int faces, double eta);
+
+} // namespace gshell

@@ -1,0 +1,60 @@
+#pragma once
+// Shell generation (DESIGN.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
+// local/global solve of the top with the base fixed, started from the offset surface.
+#include <gshell/quality/shell_metrics.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/shell.h>
+#include <gshell/solver/shell_solver.h>
+
+#include <Eigen/Core>
+#include <string>
+
+namespace gshell {
+
+enum class ShellMethod {
+  Offset,    ///< the paper's baseline: vertex-normal offset, no optimisation
+  Rigid,     ///< optimised towards the normal prisms (the paper's basic method)
+  Curvature, ///< optimised towards curvature-sensitive prisms
+};
+
+/// "offset", "rigid", "curvature".
+std::string to_string(ShellMethod method);
+/// Inverse of to_string; throws InputError "unknown method 'X' (expected rigid, offset or curvature)".
+ShellMethod parse_shell_method(const std::string& name);
+
+struct GenerateOptions {
+  ShellMethod method = ShellMethod::Rigid;
+  double thickness = 0; ///< eta, model units (> 0)
+  SolveOptions solve = {50, 1e-5, {}};
+  double s_min = 0.5, s_max = 2.0; ///< clamp of the curvature method's in-plane scales
+  bool count_intersections = true; ///< count top/top and top/base intersections in the metrics
+};
+
+/// Thickness for a ratio of the bounding sphere's radius (centre = bounding-box centre, radius =
+/// distance to the farthest vertex). Throws InputError unless ratio > 0 and finite.
+double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio);
+
+struct GenerateTimings {
+  double total = 0;  ///< whole generate_shell call, metrics included (seconds)
+  double factor = 0; ///< assembling and factoring the system matrix
+  double solve = 0;  ///< local/global iterations
+};
+
+struct GenerateResult {
+  Shell shell;
+  ShellMethod method = ShellMethod::Rigid;
+  SolveResult solve; ///< energy[0] = offset start; for Offset only energy[0] (no iterations)
+  GenerateTimings seconds;
+  ShellMetrics metrics; ///< stretch against the normal prisms, whatever the method
+};
+
+/// Rigid-style generation towards the given ideal prisms (6m x 3, ideal_prisms.h layout): rest
+/// tets cut from them (prism_rest_tets), base fixed, top started at offset_top and solved.
+/// The energy is measured against these prisms; the metrics against the normal prisms.
+GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                          const PrismCorners& ideal, const GenerateOptions& options);
+
+/// Generates the shell of (V, F) by options.method. Throws InputError on bad options.
+GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options);
+
+} // namespace gshell

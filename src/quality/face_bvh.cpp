@@ -1,0 +1,207 @@
+#include "quality/face_bvh.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace gshell::detail {
+namespace {
+
+constexpr int kLeafSize = 4;
+
+// Spreads the low 21 bits of x to every third bit.
+std::uint64_t spread_bits(std::uint64_t x) {
+  x &= 0x1fffff;
+  x = (x | x << 32) & 0x1f00000000ffffULL;
+  x = (x | x << 16) & 0x1f0000ff0000ffULL;
+  x = (x | x << 8) & 0x100f00f00f00f00fULL;
+  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+  x = (x | x << 2) & 0x1249249249249249ULL;
+  return x;
+}
+
+float round_down(double x) {
+  float f = static_cast<float>(x);
+  return f > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+
+float round_up(double x) {
+  float f = static_cast<float>(x);
+  return f < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
+double segment_squared_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                const Eigen::Vector3d& q) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((q - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - q).squaredNorm();
+}
+
+double edges_squared_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                              const Eigen::Vector3d& c, const Eigen::Vector3d& q) {
+  return std::min({segment_squared_distance(a, b, q), segment_squared_distance(b, c, q),
+                   segment_squared_distance(c, a, q)});
+}
+
+} // namespace
+
+FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  const int m = static_cast<int>(F.rows());
+  if (m == 0) return;
+  auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
+
+  // Sort faces along a Morton (Z-order) curve of their centroids: spatial neighbours become
+  // slot neighbours, and halving a slot range splits space.
+  Eigen::AlignedBox3d extent;
+  for (int f = 0; f < m; ++f) extent.extend((corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0);
+  const Eigen::Vector3d origin = extent.min();
+  const Eigen::Vector3d scale =
+      (extent.sizes().array() > 0).select(((1 << 21) - 1) / extent.sizes().array(), 0.0);
+  std::vector<std::pair<std::uint64_t, int>> keyed(m);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int f = r.begin(); f < r.end(); ++f) {
+      const Eigen::Vector3d c = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
+      const Eigen::Vector3d cell = ((c - origin).array() * scale.array()).matrix();
+      keyed[f] = {spread_bits(static_cast<std::uint64_t>(cell.x())) |
+                      spread_bits(static_cast<std::uint64_t>(cell.y())) << 1 |
+                      spread_bits(static_cast<std::uint64_t>(cell.z())) << 2,
+                  f};
+    }
+  });
+  tbb::parallel_sort(keyed.begin(), keyed.end());
+
+  slot_face_.resize(m);
+  slot_box_.resize(m);
+  slot_triangle_.resize(m);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int s = r.begin(); s < r.end(); ++s) {
+      const int f = keyed[s].second;
+      slot_face_[s] = f;
+      Triangle& t = slot_triangle_[s];
+      t.a = corner(f, 0);
+      t.b = corner(f, 1);
+      t.c = corner(f, 2);
+      const Eigen::Vector3d ab = t.b - t.a, ac = t.c - t.a;
+      // sin^2 of the angle at a below 1e-24: within ~1e-12 edge lengths of a segment, where the
+      // plane-projection formula loses its accuracy; the edges give the distance instead.
+      t.flat = ab.cross(ac).squaredNorm() <= 1e-24 * ab.squaredNorm() * ac.squaredNorm();
+      slot_box_[s] = Eigen::AlignedBox3d(t.a);
+      slot_box_[s].extend(t.b).extend(t.c);
+    }
+  });
+  std::vector<std::uint64_t> codes(m);
+  for (int s = 0; s < m; ++s) codes[s] = keyed[s].first;
+  nodes_.reserve(2 * (m / kLeafSize) + 1);
+  build(codes, 0, m);
+}
+
+// Splits a slot range where its Morton codes first differ (an octree-like spatial split, so
+// every node covers one compact region); equal codes are split in the middle.
+int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end) {
+  const int node = static_cast<int>(nodes_.size());
+  nodes_.emplace_back();
+  nodes_[node].begin = begin;
+  nodes_[node].end = end;
+  if (end - begin <= kLeafSize) {
+    Eigen::AlignedBox3d box;
+    for (int s = begin; s < end; ++s) box.extend(slot_box_[s]);
+    for (int d = 0; d < 3; ++d) {
+      nodes_[node].lo[d] = round_down(box.min()[d]);
+      nodes_[node].hi[d] = round_up(box.max()[d]);
+    }
+    return node;
+  }
+  int mid = begin + (end - begin) / 2;
+  const std::uint64_t first = codes[begin], last = codes[end - 1];
+  if (first != last) {
+    const std::uint64_t bit = std::uint64_t{1} << (63 - std::countl_zero(first ^ last));
+    // Codes are sorted and share the bits above `bit`: the ones with `bit` set come last.
+    mid = static_cast<int>(std::partition_point(codes.begin() + begin, codes.begin() + end,
+                                                [&](std::uint64_t c) { return !(c & bit); }) -
+                           codes.begin());
+  }
+  build(codes, begin, mid);
+  const int right = build(codes, mid, end);
+  Node& n = nodes_[node];
+  const Node &l = nodes_[node + 1], &r = nodes_[right];
+  n.right = right;
+  for (int d = 0; d < 3; ++d) {
+    n.lo[d] = std::min(l.lo[d], r.lo[d]);
+    n.hi[d] = std::max(l.hi[d], r.hi[d]);
+  }
+  return node;
+}
+
+double FaceBvh::node_squared_distance(const Node& n, const Eigen::Vector3d& q) {
+  double d2 = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double below = n.lo[d] - q[d], above = q[d] - n.hi[d];
+    const double gap = std::max({below, above, 0.0});
+    d2 += gap * gap;
+  }
+  return d2;
+}
+
+// Closest point by Voronoi regions of the triangle (Ericson, Real-Time Collision Detection 5.1.5).
+double FaceBvh::face_squared_distance(const Triangle& t, const Eigen::Vector3d& q) {
+  const Eigen::Vector3d &a = t.a, &b = t.b, &c = t.c;
+  if (t.flat) return edges_squared_distance(a, b, c, q);
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = q - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return ap.squaredNorm();
+  const Eigen::Vector3d bp = q - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return bp.squaredNorm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (a + (d1 / (d1 - d3)) * ab - q).squaredNorm();
+  const Eigen::Vector3d cp = q - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return cp.squaredNorm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (a + (d2 / (d2 - d6)) * ac - q).squaredNorm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b) - q).squaredNorm();
+  const double denom = va + vb + vc;
+  if (!(denom > 0)) return edges_squared_distance(a, b, c, q); // rounding on a near-flat face
+  return (a + (vb / denom) * ab + (vc / denom) * ac - q).squaredNorm();
+}
+
+double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2) const {
+  double best = bound2;
+  if (nodes_.empty()) return best;
+  struct Entry {
+    int node;
+    double d2; // squared distance from q to the node's box
+  };
+  Entry stack[128]; // holds at most depth + 1 entries; depth <= 63 code bits + log2(faces)
+  int top = 0;
+  stack[top++] = {0, node_squared_distance(nodes_[0], q)};
+  while (top > 0) {
+    const Entry e = stack[--top];
+    if (e.d2 >= best) continue;
+    const Node& node = nodes_[e.node];
+    if (node.leaf()) {
+      for (int s = node.begin; s < node.end; ++s)
+        if (slot_box_[s].squaredExteriorDistance(q) < best)
+          best = std::min(best, face_squared_distance(slot_triangle_[s], q));
+      continue;
+    }
+    const Entry l{e.node + 1, node_squared_distance(nodes_[e.node + 1], q)};
+    const Entry r{node.right, node_squared_distance(nodes_[node.right], q)};
+    // The nearer child goes on top of the stack: searched first, it tightens `best` early.
+    const Entry& near = l.d2 <= r.d2 ? l : r;
+    const Entry& far = l.d2 <= r.d2 ? r : l;
+    if (far.d2 < best) stack[top++] = far;
+    if (near.d2 < best) stack[top++] = near;
+  }
+  return best;
+}
+
+} // namespace gshell::detail

@@ -1,0 +1,131 @@
+#pragma once
+// Bounding-volume hierarchy over the faces of a triangle mesh, for the quality measures:
+// - all pairs of faces whose boxes meet (within one mesh or between two), the candidates of the
+//   intersection counts, by a parallel simultaneous descent of both trees;
+// - closest-point distance queries (thickness).
+// Built once (faces sorted along a Morton curve, split where the codes differ); queries are
+// const and may run from many threads.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <tbb/parallel_invoke.h>
+#include <cstdint>
+#include <vector>
+
+namespace gshell::detail {
+
+class FaceBvh {
+public:
+  /// F must index rows of V (checked by the caller).
+  FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
+  int num_faces() const { return static_cast<int>(slot_face_.size()); }
+
+  /// Face ids in the tree's leaf order: consecutive faces are close in space, so work done in
+  /// this order stays cache-friendly.
+  const std::vector<int>& faces_in_leaf_order() const { return slot_face_; }
+
+  /// Calls visit(f, g) once for every unordered pair of distinct faces whose closed boxes meet
+  /// (f, g in any order). Face boxes are the exact min/max of the vertex doubles, so no
+  /// touching pair is missed. visit runs concurrently from several threads.
+  template <class Visit> void for_each_overlapping_pair(Visit&& visit) const;
+
+  /// Calls visit(f, g) for every face f of this mesh and g of `other` whose closed boxes meet.
+  /// visit runs concurrently from several threads.
+  template <class Visit>
+  void for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const;
+
+  /// Squared distance from q to the surface (model units squared), or bound2 if that is smaller.
+  /// A good bound2 (e.g. the squared distance to a known point of the surface) prunes the search.
+  double squared_distance(const Eigen::Vector3d& q, double bound2) const;
+
+private:
+  // Node boxes are floats rounded outwards (conservative, half the memory of doubles).
+  struct Node {
+    float lo[3], hi[3];
+    int begin = 0, end = 0; // slots of the faces under this node
+    int right = 0;          // inner node: index of the right child (the left one is next)
+    bool leaf() const { return right == 0; }
+  };
+  struct Triangle {
+    Eigen::Vector3d a, b, c;
+    bool flat = false; // collinear corners (up to ~1e-12 relative): measured by its edges
+  };
+
+  int build(const std::vector<std::uint64_t>& codes, int begin, int end);
+  static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
+  static bool nodes_meet(const Node& a, const Node& b);
+  static double node_squared_distance(const Node& n, const Eigen::Vector3d& q);
+
+  template <class Visit>
+  void join(int a, const FaceBvh& other, int b, bool same_tree, int depth, Visit& visit) const;
+
+  // Per slot (leaf order): face id, exact box, triangle.
+  std::vector<int> slot_face_;
+  std::vector<Eigen::AlignedBox3d> slot_box_;
+  std::vector<Triangle> slot_triangle_;
+  std::vector<Node> nodes_; // depth-first, root first
+};
+
+// ---- templates ------------------------------------------------------------------------------
+
+inline bool FaceBvh::nodes_meet(const Node& a, const Node& b) {
+  return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] && b.lo[1] <= a.hi[1] &&
+         a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
+}
+
+inline bool exact_boxes_meet(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
+  return (a.min().array() <= b.max().array()).all() && (b.min().array() <= a.max().array()).all();
+}
+
+template <class Visit>
+void FaceBvh::join(int a, const FaceBvh& other, int b, bool same_tree, int depth,
+                   Visit& visit) const {
+  constexpr int kParallelDepth = 10; // up to ~2^10 tasks, plenty to balance 2-8 threads
+  const Node& na = nodes_[a];
+  const Node& nb = other.nodes_[b];
+  if (!nodes_meet(na, nb)) return;
+  auto run = [&](auto&&... jobs) {
+    if (depth < kParallelDepth) tbb::parallel_invoke(jobs...);
+    else (jobs(), ...);
+  };
+  if (same_tree && a == b) { // pairs within one subtree
+    if (na.leaf()) {
+      for (int i = na.begin; i < na.end; ++i)
+        for (int j = i + 1; j < na.end; ++j)
+          if (exact_boxes_meet(slot_box_[i], slot_box_[j])) visit(slot_face_[i], slot_face_[j]);
+      return;
+    }
+    const int l = a + 1, r = na.right;
+    run([&] { join(l, other, l, true, depth + 1, visit); },
+        [&] { join(r, other, r, true, depth + 1, visit); },
+        [&] { join(l, other, r, true, depth + 1, visit); });
+    return;
+  }
+  if (na.leaf() && nb.leaf()) {
+    for (int i = na.begin; i < na.end; ++i)
+      for (int j = nb.begin; j < nb.end; ++j)
+        if (exact_boxes_meet(slot_box_[i], other.slot_box_[j]))
+          visit(slot_face_[i], other.slot_face_[j]);
+    return;
+  }
+  // Descend the node with more faces (a leaf cannot be split).
+  if (nb.leaf() || (!na.leaf() && na.end - na.begin >= nb.end - nb.begin)) {
+    run([&] { join(a + 1, other, b, same_tree, depth + 1, visit); },
+        [&] { join(na.right, other, b, same_tree, depth + 1, visit); });
+  } else {
+    run([&] { join(a, other, b + 1, same_tree, depth + 1, visit); },
+        [&] { join(a, other, nb.right, same_tree, depth + 1, visit); });
+  }
+}
+
+template <class Visit>
+void FaceBvh::for_each_overlapping_pair(Visit&& visit) const {
+  if (!nodes_.empty()) join(0, *this, 0, true, 0, visit);
+}
+
+template <class Visit>
+void FaceBvh::for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const {
+  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, 0, visit);
+}
+
+} // namespace gshell::detail

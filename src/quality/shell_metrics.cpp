@@ -1,0 +1,38 @@
+#include <gshell/quality/shell_metrics.h>
+
+#include <gshell/error.h>
+#include <gshell/quality/thickness.h>
+#include <gshell/quality/triangle_intersections.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/prism_tets.h>
+
+#include <cmath>
+
+namespace gshell {
+
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections) {
+  if (!(eta > 0) || !std::isfinite(eta)) throw InputError("shell_metrics: thickness must be positive and finite");
+  if (base.rows() != top.rows() || base.cols() != 3 || top.cols() != 3)
+    throw InputError("shell_metrics: base and top must have the same number of vertices");
+  const int n = static_cast<int>(base.rows());
+  ShellMetrics m;
+  const RestTets rest = prism_rest_tets(F, n, normal_prisms(base, F, eta));
+  Eigen::MatrixXd X(2 * n, 3);
+  X << base, top;
+  m.tet_stretch = tet_stretch(rest, X);
+  m.tet_determinant = tet_deformation_determinants(rest, X);
+  m.stretch = stretch_stats(m.tet_stretch, m.tet_determinant, rest.volume);
+  if (count_intersections) {
+    m.top_self_intersections = count_self_intersections(top, F);
+    m.top_base_intersections = count_intersections_between(top, F, base, F);
+  }
+  m.vertex_thickness = vertex_thickness(base, F, top) / eta;
+  if (n > 0) {
+    m.thickness_min = m.vertex_thickness.minCoeff();
+    m.thickness_mean = m.vertex_thickness.mean();
+  }
+  return m;
+}
+
+} // namespace gshell

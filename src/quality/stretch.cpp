@@ -1,0 +1,60 @@
+#include <gshell/quality/stretch.h>
+
+#include "solver/polar_3x3.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace gshell {
+
+namespace {
+
+Eigen::Matrix3d deformation_gradient(const RestTets& rest, const Eigen::MatrixXd& X, Eigen::Index t) {
+  const Eigen::Vector3d x0 = X.row(rest.T(t, 0));
+  Eigen::Matrix3d D;
+  D << X.row(rest.T(t, 1)).transpose() - x0, X.row(rest.T(t, 2)).transpose() - x0,
+      X.row(rest.T(t, 3)).transpose() - x0;
+  return D * rest.Dm_inv[t];
+}
+
+} // namespace
+
+Eigen::VectorXd tet_stretch(const RestTets& rest, const Eigen::MatrixXd& X) {
+  Eigen::VectorXd s(rest.size());
+  tbb::parallel_for(0, rest.size(), [&](int t) {
+    const Eigen::Matrix3d F = deformation_gradient(rest, X, t);
+    s[t] = (F - detail::closest_rotation_inline(F)).squaredNorm();
+  });
+  return s;
+}
+
+Eigen::VectorXd tet_deformation_determinants(const RestTets& rest, const Eigen::MatrixXd& X) {
+  Eigen::VectorXd d(rest.size());
+  tbb::parallel_for(0, rest.size(), [&](int t) { d[t] = deformation_gradient(rest, X, t).determinant(); });
+  return d;
+}
+
+StretchStats stretch_stats(const Eigen::VectorXd& s, const Eigen::VectorXd& d, const Eigen::VectorXd& volume) {
+  StretchStats stats;
+  const Eigen::Index K = s.size();
+  if (K == 0) return stats;
+  stats.mean = s.mean();
+  stats.volume_mean = s.dot(volume) / volume.sum();
+  stats.max = s.maxCoeff();
+  // Nearest-rank 99th percentile: the smallest value that at least 99% of the tets do not exceed.
+  std::vector<double> sorted(s.data(), s.data() + K);
+  const std::size_t rank = static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(K))) - 1;
+  std::nth_element(sorted.begin(), sorted.begin() + rank, sorted.end());
+  stats.p99 = sorted[rank];
+  stats.inverted = static_cast<int>((d.array() <= 0).count());
+  return stats;
+}
+
+StretchStats stretch_stats(const RestTets& rest, const Eigen::MatrixXd& X) {
+  return stretch_stats(tet_stretch(rest, X), tet_deformation_determinants(rest, X), rest.volume);
+}
+
+} // namespace gshell

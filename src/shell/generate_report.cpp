@@ -1,0 +1,90 @@
+#include <gshell/shell/generate_report.h>
+
+#include <cstdio>
+#include <sstream>
+
+namespace gshell {
+
+namespace {
+
+nlohmann::json count_or_null(int count) { return count < 0 ? nlohmann::json(nullptr) : nlohmann::json(count); }
+
+std::string count_text(int count) { return count < 0 ? std::string("not counted") : std::to_string(count); }
+
+std::string format(const char* fmt, double a, double b = 0, double c = 0, double d = 0) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, fmt, a, b, c, d);
+  return buf;
+}
+
+void quality_lines(std::ostringstream& out, const ShellMetrics& m) {
+  out << format("stretch      mean %.4g  volume-weighted %.4g  p99 %.4g  max %.4g\n", m.stretch.mean,
+                m.stretch.volume_mean, m.stretch.p99, m.stretch.max);
+  out << "inverted     " << m.stretch.inverted << " tets\n";
+  out << "intersect    top/top " << count_text(m.top_self_intersections) << ", top/base "
+      << count_text(m.top_base_intersections) << " face pairs\n";
+  out << format("thickness    min %.4f  mean %.4f  (x eta)\n", m.thickness_min, m.thickness_mean);
+}
+
+} // namespace
+
+nlohmann::json metrics_report(const ShellMetrics& m, int vertices, int faces, double eta,
+                              std::optional<double> thickness_ratio) {
+  nlohmann::json j;
+  j["thickness"] = {{"eta", eta},
+                    {"ratio", thickness_ratio ? nlohmann::json(*thickness_ratio) : nlohmann::json(nullptr)},
+                    {"min", m.thickness_min},
+                    {"mean", m.thickness_mean}};
+  j["vertices"] = vertices;
+  j["faces"] = faces;
+  j["tets"] = 3 * faces;
+  j["stretch"] = {{"mean", m.stretch.mean}, {"volume_mean", m.stretch.volume_mean}, {"max", m.stretch.max},
+                  {"p99", m.stretch.p99}};
+  j["inverted_tets"] = m.stretch.inverted;
+  j["top_self_intersections"] = count_or_null(m.top_self_intersections);
+  j["top_base_intersections"] = count_or_null(m.top_base_intersections);
+  return j;
+}
+
+nlohmann::json generate_report(const GenerateResult& r, const std::string& input,
+                               std::optional<double> thickness_ratio) {
+  nlohmann::json j = metrics_report(r.metrics, r.shell.num_base_vertices(), static_cast<int>(r.shell.F.rows()),
+                                    r.shell.thickness, thickness_ratio);
+  j["gshell_version"] = GSHELL_VERSION;
+  j["input"] = input;
+  j["method"] = to_string(r.method);
+  j["iterations"] = r.solve.iterations;
+  j["converged"] = r.solve.converged;
+  j["energy"] = r.solve.energy;
+  j["seconds"] = {{"total", r.seconds.total}, {"factor", r.seconds.factor}, {"solve", r.seconds.solve}};
+  return j;
+}
+
+std::string metrics_summary(const ShellMetrics& m, int vertices, int faces, double eta) {
+  std::ostringstream out;
+  out << "shell        " << vertices << " vertices, " << faces << " faces, " << 3 * faces << " tets, eta "
+      << format("%.6g", eta) << "\n";
+  quality_lines(out, m);
+  return out.str();
+}
+
+std::string generate_summary(const GenerateResult& r, const std::string& input) {
+  std::ostringstream out;
+  const int n = r.shell.num_base_vertices(), m = static_cast<int>(r.shell.F.rows());
+  out << "input        " << input << "\n";
+  out << "shell        " << n << " vertices, " << m << " faces, " << 3 * m << " tets, eta "
+      << format("%.6g", r.shell.thickness) << ", method " << to_string(r.method) << "\n";
+  if (!r.solve.energy.empty()) {
+    out << format("energy       %.6g", r.solve.energy.front());
+    if (r.solve.iterations > 0)
+      out << format(" -> %.6g after ", r.solve.energy.back()) << r.solve.iterations << " iterations"
+          << (r.solve.converged ? " (converged)" : " (iteration limit)");
+    out << "\n";
+  }
+  quality_lines(out, r.metrics);
+  out << format("time         %.3f s (factor %.3f s, solve %.3f s)\n", r.seconds.total, r.seconds.factor,
+                r.seconds.solve);
+  return out.str();
+}
+
+} // namespace gshell

@@ -1,0 +1,117 @@
+#include <gshell/shell/generate_shell.h>
+
+#include <gshell/error.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+void check_options(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
+  if (!(options.thickness > 0) || !std::isfinite(options.thickness))
+    throw InputError("thickness must be positive and finite (got " + std::to_string(options.thickness) + ")");
+  if (options.solve.max_iterations < 0) throw InputError("iterations must not be negative");
+  if (!(options.solve.tolerance >= 0)) throw InputError("tolerance must not be negative");
+  if (V.cols() != 3 || F.cols() != 3 || F.rows() == 0) throw InputError("generate: need an n x 3 V and a non-empty m x 3 F");
+}
+
+Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top, double eta) {
+  Shell s;
+  s.base = V;
+  s.top = top;
+  s.F = F;
+  s.thickness = eta;
+  return s;
+}
+
+// The ideal prisms of the optimising methods. The curvature method plugs in here.
+PrismCorners ideal_prisms_for(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
+  switch (options.method) {
+  case ShellMethod::Rigid:
+    return normal_prisms(V, F, options.thickness);
+  case ShellMethod::Curvature:
+    throw InputError("--method curvature is not available yet");
+  case ShellMethod::Offset:
+    break;
+  }
+  throw InputError("generate: the offset method has no ideal prisms");
+}
+
+} // namespace
+
+std::string to_string(ShellMethod method) {
+  switch (method) {
+  case ShellMethod::Offset: return "offset";
+  case ShellMethod::Rigid: return "rigid";
+  case ShellMethod::Curvature: return "curvature";
+  }
+  return "unknown";
+}
+
+ShellMethod parse_shell_method(const std::string& name) {
+  for (ShellMethod m : {ShellMethod::Rigid, ShellMethod::Offset, ShellMethod::Curvature})
+    if (name == to_string(m)) return m;
+  throw InputError("unknown method '" + name + "' (expected rigid, offset or curvature)");
+}
+
+double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
+  if (!(ratio > 0) || !std::isfinite(ratio))
+    throw InputError("thickness ratio must be positive and finite (got " + std::to_string(ratio) + ")");
+  if (V.rows() == 0) throw InputError("thickness ratio of an empty mesh");
+  const Eigen::RowVector3d centre = 0.5 * (V.colwise().minCoeff() + V.colwise().maxCoeff());
+  const double radius = (V.rowwise() - centre).rowwise().norm().maxCoeff();
+  if (!(radius > 0)) throw InputError("thickness ratio of a mesh of zero size");
+  return ratio * radius;
+}
+
+GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                          const PrismCorners& ideal, const GenerateOptions& options) {
+  const auto t0 = Clock::now();
+  check_options(V, F, options);
+  const int n = static_cast<int>(V.rows());
+  GenerateResult r;
+  r.method = options.method;
+  std::vector<int> base_vertices(n);
+  std::iota(base_vertices.begin(), base_vertices.end(), 0);
+  const ShellSolver solver(prism_rest_tets(F, n, ideal), 2 * n, base_vertices);
+  r.seconds.factor = solver.factor_seconds();
+  Eigen::MatrixXd X(2 * n, 3);
+  X << V, offset_top(V, F, options.thickness);
+  r.solve = solver.solve(X, options.solve);
+  r.seconds.solve = r.solve.seconds;
+  r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
+  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
+  r.seconds.total = seconds_since(t0);
+  return r;
+}
+
+GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
+  check_options(V, F, options);
+  if (options.method != ShellMethod::Offset) {
+    const auto t0 = Clock::now();
+    GenerateResult r = generate_shell_from_prisms(V, F, ideal_prisms_for(V, F, options), options);
+    r.seconds.total = seconds_since(t0);
+    return r;
+  }
+  const auto t0 = Clock::now();
+  GenerateResult r;
+  r.method = ShellMethod::Offset;
+  r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
+  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
+  // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
+  const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
+  r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
+  r.solve.converged = true;
+  r.seconds.total = seconds_since(t0);
+  return r;
+}
+
+} // namespace gshell

@@ -1,0 +1,25 @@
+#include <gshell/shell/offset_shell.h>
+
+#include <Eigen/Geometry>
+
+namespace gshell {
+
+Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::MatrixXd N = Eigen::MatrixXd::Zero(V.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    const Eigen::Vector3d area_normal = (b - a).cross(c - a); // length = twice the area
+    for (int k = 0; k < 3; ++k) N.row(F(f, k)) += area_normal.transpose();
+  }
+  for (Eigen::Index i = 0; i < N.rows(); ++i) {
+    const double len = N.row(i).norm();
+    if (len > 0) N.row(i) /= len;
+  }
+  return N;
+}
+
+Eigen::MatrixXd offset_top(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta) {
+  return V + eta * vertex_normals(V, F);
+}
+
+} // namespace gshell

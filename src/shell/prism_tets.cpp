@@ -1,0 +1,66 @@
+#include <gshell/shell/prism_tets.h>
+
+#include <gshell/error.h>
+
+#include <algorithm>
+#include <array>
+#include <string>
+
+namespace gshell {
+
+namespace {
+
+// The three tets of one prism as corner numbers 0..5 (0..2 base corners in face order, 3..5
+// the tops above them), following the min-index rule on the face's global ids.
+std::array<std::array<int, 4>, 3> prism_corner_tets(int v0, int v1, int v2) {
+  const std::array<int, 3> ids{v0, v1, v2};
+  std::array<int, 3> order{0, 1, 2}; // face corners sorted by global id: a < b < c
+  std::sort(order.begin(), order.end(), [&](int i, int j) { return ids[i] < ids[j]; });
+  const int a = order[0], b = order[1], c = order[2];
+  const int at = a + 3, bt = b + 3, ct = c + 3;
+  std::array<std::array<int, 4>, 3> tets{{{a, b, c, ct}, {a, b, ct, bt}, {a, at, bt, ct}}};
+  // (a,b,c) runs counter-clockwise iff it is a cyclic shift of the face order (0,1,2); otherwise
+  // each tet would come out negative, so swap two of its vertices.
+  const bool even = (b == (a + 1) % 3);
+  if (!even)
+    for (auto& t : tets) std::swap(t[2], t[3]);
+  return tets;
+}
+
+} // namespace
+
+Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F) {
+  Eigen::MatrixXi C(3 * F.rows(), 4);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
+    for (int k = 0; k < 3; ++k)
+      for (int j = 0; j < 4; ++j) C(3 * f + k, j) = tets[k][j];
+  }
+  return C;
+}
+
+Eigen::MatrixXi build_prism_tets(const Eigen::MatrixXi& F, int n) {
+  const Eigen::MatrixXi C = prism_tet_corners(F);
+  Eigen::MatrixXi T(C.rows(), 4);
+  for (Eigen::Index t = 0; t < C.rows(); ++t) {
+    const Eigen::Index f = t / 3;
+    for (int j = 0; j < 4; ++j) {
+      const int corner = C(t, j);
+      T(t, j) = corner < 3 ? F(f, corner) : n + F(f, corner - 3);
+    }
+  }
+  return T;
+}
+
+RestTets prism_rest_tets(const Eigen::MatrixXi& F, int n, const Eigen::MatrixXd& prisms) {
+  if (prisms.rows() != 6 * F.rows() || prisms.cols() != 3)
+    throw InputError("prism_rest_tets: expected " + std::to_string(6 * F.rows()) + " x 3 prism corners");
+  const Eigen::MatrixXi C = prism_tet_corners(F);
+  const Eigen::MatrixXi T = build_prism_tets(F, n);
+  Eigen::MatrixXd corners(4 * C.rows(), 3);
+  for (Eigen::Index t = 0; t < C.rows(); ++t)
+    for (int j = 0; j < 4; ++j) corners.row(4 * t + j) = prisms.row(6 * (t / 3) + C(t, j));
+  return rest_tets_from_corners(T, corners);
+}
+
+} // namespace gshell

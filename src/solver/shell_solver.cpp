@@ -1,0 +1,458 @@
+#include <gshell/solver/shell_solver.h>
+
+#include <gshell/error.h>
+
+#include "solver/polar_3x3.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <string>
+#include <utility>
+
+#ifdef GSHELL_HAVE_CHOLMOD
+#include <cholmod.h>
+#else
+#include <Eigen/SparseCholesky>
+#endif
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Tets per energy chunk: chunks are summed in a fixed order so the energy does not depend on
+// how TBB happened to split the work (the monotonicity test compares energies to round-off).
+constexpr int kChunk = 2048;
+
+} // namespace
+
+struct ShellSolver::Impl {
+  RestTets rest;
+  int N = 0;      // rows of the state
+  int K = 0;      // tets
+  int nf = 0;     // free (solved-for) vertices
+  SoftConstraints soft;
+
+  // Flat per-tet data for the local step: vertex ids, the 4x3 gradient operator G_t (row-major,
+  // F_t = X_t^T G_t with X_t the 4x3 stacked corner positions) and the rest volume.
+  std::vector<std::array<int, 4>> tet;
+  std::vector<double> G;
+  std::vector<double> vol;
+
+  std::vector<int> free_vertices; // free index -> vertex
+  std::vector<int> free_index;    // vertex -> free index, -1 for vertices kept where they start
+  // Per free vertex: the (tet * 4 + corner) slots of the local step's RHS rows to sum (a gather,
+  // so the global step's right-hand side is built in parallel without atomics).
+  std::vector<int> gather_start, gather_slot;
+  // Where the local step writes tet t's corner k row (tet * 4 + corner -> slot), -1 for kept
+  // vertices: rows land in gather order, so the gather reads memory sequentially.
+  std::vector<int> corner_slot;
+  // Coupling of free rows to the kept vertices (CSR over free rows, columns = vertex ids): the
+  // exact Dirichlet elimination term L_fc x_c.
+  std::vector<int> fc_start, fc_col;
+  std::vector<double> fc_val;
+  std::vector<int> soft_free; // free index of every soft vertex, -1 if that vertex is kept
+
+  double factor_seconds = 0;
+  mutable std::mutex solve_mutex; // the factor's workspace is shared: one linear solve at a time
+
+#ifdef GSHELL_HAVE_CHOLMOD
+  mutable cholmod_common cm;
+  cholmod_factor* factor = nullptr;
+#else
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper> ldlt;
+#endif
+
+  Impl() {
+#ifdef GSHELL_HAVE_CHOLMOD
+    cholmod_start(&cm);
+    cm.print = 0;
+    cm.error_handler = nullptr;
+    cm.supernodal = CHOLMOD_SUPERNODAL;
+#endif
+  }
+  ~Impl() {
+#ifdef GSHELL_HAVE_CHOLMOD
+    if (factor) cholmod_free_factor(&factor, &cm);
+    cholmod_finish(&cm);
+#endif
+  }
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+
+  void setup(const std::vector<int>& fixed);
+  void assemble_and_factor();
+
+  double local_step(const double* X, double* Q) const;
+  double soft_energy(const double* X, const Eigen::MatrixXd& targets) const;
+  void linear_solve(std::vector<double>& rhs) const; // rhs: nf x 3 column-major, overwritten
+};
+
+void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
+  K = rest.size();
+  tet.resize(K);
+  G.resize(12 * static_cast<std::size_t>(K));
+  vol.resize(K);
+  for (int t = 0; t < K; ++t) {
+    for (int j = 0; j < 4; ++j) {
+      const int v = rest.T(t, j);
+      if (v < 0 || v >= N)
+        throw InputError("tet " + std::to_string(t) + " has vertex id " + std::to_string(v) + " out of range");
+      tet[t][j] = v;
+    }
+    // D = X_t^T E with E = [-1 -1 -1; I], so F = D Dm_inv = X_t^T (E Dm_inv).
+    const Eigen::Matrix3d& Di = rest.Dm_inv[t];
+    double* g = &G[12 * static_cast<std::size_t>(t)];
+    for (int c = 0; c < 3; ++c) {
+      g[c] = -(Di(0, c) + Di(1, c) + Di(2, c));
+      for (int k = 0; k < 3; ++k) g[3 * (k + 1) + c] = Di(k, c);
+    }
+    vol[t] = rest.volume[t];
+  }
+
+  // Vertices no tet (and no soft constraint) touches have no equation: keep them where they start.
+  std::vector<char> used(N, 0);
+  for (const auto& tv : tet)
+    for (int v : tv) used[v] = 1;
+  const bool has_soft = soft.weight > 0 && !soft.vertices.empty();
+  if (has_soft)
+    for (int v : soft.vertices) {
+      if (v < 0 || v >= N) throw InputError("soft constraint vertex " + std::to_string(v) + " out of range");
+      used[v] = 1;
+    }
+  for (int v : fixed) {
+    if (v < 0 || v >= N) throw InputError("fixed vertex " + std::to_string(v) + " out of range");
+    used[v] = 0;
+  }
+  free_index.assign(N, -1);
+  free_vertices.clear();
+  for (int v = 0; v < N; ++v)
+    if (used[v]) {
+      free_index[v] = static_cast<int>(free_vertices.size());
+      free_vertices.push_back(v);
+    }
+  nf = static_cast<int>(free_vertices.size());
+
+  gather_start.assign(nf + 1, 0);
+  for (const auto& tv : tet)
+    for (int v : tv)
+      if (free_index[v] >= 0) ++gather_start[free_index[v] + 1];
+  for (int j = 0; j < nf; ++j) gather_start[j + 1] += gather_start[j];
+  gather_slot.resize(gather_start[nf]);
+  std::vector<int> fill(gather_start.begin(), gather_start.end() - 1);
+  for (int t = 0; t < K; ++t)
+    for (int k = 0; k < 4; ++k) {
+      const int j = free_index[tet[t][k]];
+      if (j >= 0) gather_slot[fill[j]++] = 4 * t + k;
+    }
+  corner_slot.assign(4 * static_cast<std::size_t>(K), -1);
+  for (int s = 0; s < gather_start[nf]; ++s) corner_slot[gather_slot[s]] = s;
+
+  soft_free.clear();
+  if (has_soft)
+    for (int v : soft.vertices) soft_free.push_back(free_index[v]);
+}
+
+void ShellSolver::Impl::assemble_and_factor() {
+  // Row j of L = sum_t vol_t G_t G_t^T, built from free vertex j's own tets (rows in parallel).
+  std::vector<double> soft_diag(nf, 0.0);
+  for (int j : soft_free)
+    if (j >= 0) soft_diag[j] += soft.weight;
+  std::vector<std::vector<std::pair<int, double>>> rows(nf);
+  tbb::parallel_for(0, nf, [&](int j) {
+    auto& row = rows[j];
+    row.reserve(4 * (gather_start[j + 1] - gather_start[j]) + 1);
+    for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
+      const int t = gather_slot[s] / 4, k = gather_slot[s] % 4;
+      const double* g = &G[12 * static_cast<std::size_t>(t)];
+      for (int a = 0; a < 4; ++a) {
+        const double val = vol[t] * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]);
+        row.emplace_back(tet[t][a], val);
+      }
+    }
+    row.emplace_back(free_vertices[j], soft_diag[j]);
+    std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::size_t out = 0;
+    for (std::size_t i = 0; i < row.size(); ++i) {
+      if (out > 0 && row[out - 1].first == row[i].first)
+        row[out - 1].second += row[i].second;
+      else
+        row[out++] = row[i];
+    }
+    row.resize(out);
+  });
+
+  // Upper triangle of L_ff in CSC (= lower triangle rows of the symmetric matrix), and L_fc.
+  std::vector<int> ff_start(nf + 1, 0);
+  fc_start.assign(nf + 1, 0);
+  for (int j = 0; j < nf; ++j) {
+    int nff = 0, nfc = 0;
+    for (const auto& [v, val] : rows[j]) {
+      const int i = free_index[v];
+      if (i < 0)
+        ++nfc;
+      else if (i <= j)
+        ++nff;
+    }
+    ff_start[j + 1] = ff_start[j] + nff;
+    fc_start[j + 1] = fc_start[j] + nfc;
+  }
+  std::vector<int> ff_row(ff_start[nf]);
+  std::vector<double> ff_val(ff_start[nf]);
+  fc_col.resize(fc_start[nf]);
+  fc_val.resize(fc_start[nf]);
+  tbb::parallel_for(0, nf, [&](int j) {
+    int a = ff_start[j], b = fc_start[j];
+    for (const auto& [v, val] : rows[j]) { // sorted by vertex id, and free ids follow vertex order
+      const int i = free_index[v];
+      if (i < 0) {
+        fc_col[b] = v;
+        fc_val[b++] = val;
+      } else if (i <= j) {
+        ff_row[a] = i;
+        ff_val[a++] = val;
+      }
+    }
+  });
+  rows.clear();
+  rows.shrink_to_fit();
+  if (nf == 0) return;
+
+  const std::string singular =
+      "the shell system is singular: a connected part of the tets has no fixed or constrained vertex";
+#ifdef GSHELL_HAVE_CHOLMOD
+  cholmod_sparse* A = cholmod_allocate_sparse(nf, nf, ff_start[nf], 1, 1, 1, CHOLMOD_REAL, &cm);
+  if (!A) throw std::bad_alloc();
+  std::copy(ff_start.begin(), ff_start.end(), static_cast<int*>(A->p));
+  std::copy(ff_row.begin(), ff_row.end(), static_cast<int*>(A->i));
+  std::copy(ff_val.begin(), ff_val.end(), static_cast<double*>(A->x));
+  factor = cholmod_analyze(A, &cm);
+  if (!factor) {
+    cholmod_free_sparse(&A, &cm);
+    throw std::runtime_error("CHOLMOD analysis failed (status " + std::to_string(cm.status) + ")");
+  }
+  const int ok = cholmod_factorize(A, factor, &cm);
+  cholmod_free_sparse(&A, &cm);
+  if (!ok || cm.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) throw InputError(singular);
+  // The supernodal factorisation is the fast one, but the solve with three right-hand sides is
+  // faster on a simplicial LL^T (one sweep over L, no BLAS call per supernode): convert once.
+  if (!cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, factor, &cm))
+    throw std::runtime_error("CHOLMOD factor conversion failed (status " + std::to_string(cm.status) + ")");
+#else
+  Eigen::Map<const Eigen::SparseMatrix<double>> A(nf, nf, ff_start[nf], ff_start.data(), ff_row.data(),
+                                                  ff_val.data());
+  ldlt.compute(A);
+  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0).any()) throw InputError(singular);
+#endif
+}
+
+double ShellSolver::Impl::local_step(const double* X, double* Q) const {
+  constexpr int W = detail::kPolarLanes;
+  static_assert(kChunk % W == 0);
+  const int chunks = (K + kChunk - 1) / kChunk;
+  std::vector<double> chunk_energy(chunks, 0.0);
+  tbb::parallel_for(0, chunks, [&](int ci) {
+    const int t_end = std::min(K, (ci + 1) * kChunk);
+    double e = 0;
+    alignas(64) double Fs[9 * W], Rs[9 * W];
+    for (int t0 = ci * kChunk; t0 < t_end; t0 += W) {
+      const int lanes = std::min(W, t_end - t0);
+      // F_t = X_t^T G_t for W tets, struct-of-arrays for the batched polar decomposition.
+      for (int l = 0; l < W; ++l) {
+        double F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}; // padding lanes: identity
+        if (l < lanes) {
+          const int t = t0 + l;
+          const auto& v = tet[t];
+          const double* g = &G[12 * static_cast<std::size_t>(t)];
+          for (int r = 0; r < 9; ++r) F[r] = 0;
+          for (int k = 0; k < 4; ++k) {
+            const double* x = X + 3 * static_cast<std::size_t>(v[k]);
+            for (int r = 0; r < 3; ++r)
+              for (int c = 0; c < 3; ++c) F[3 * r + c] += x[r] * g[3 * k + c];
+          }
+        }
+        for (int r = 0; r < 9; ++r) Fs[r * W + l] = F[r];
+      }
+      detail::closest_rotations_lanes(Fs, Rs);
+      for (int l = 0; l < lanes; ++l) {
+        const int t = t0 + l;
+        double d2 = 0;
+        for (int r = 0; r < 9; ++r) {
+          const double d = Fs[r * W + l] - Rs[r * W + l];
+          d2 += d * d;
+        }
+        e += vol[t] * d2;
+        if (Q) { // rows of vol G_t R^T: this tet's share of the global step's right-hand side
+          const double* g = &G[12 * static_cast<std::size_t>(t)];
+          for (int k = 0; k < 4; ++k) {
+            const int slot = corner_slot[4 * static_cast<std::size_t>(t) + k];
+            if (slot < 0) continue;
+            double* q = Q + 3 * static_cast<std::size_t>(slot);
+            for (int r = 0; r < 3; ++r)
+              q[r] = vol[t] * (g[3 * k] * Rs[(3 * r) * W + l] + g[3 * k + 1] * Rs[(3 * r + 1) * W + l] +
+                               g[3 * k + 2] * Rs[(3 * r + 2) * W + l]);
+          }
+        }
+      }
+    }
+    chunk_energy[ci] = e;
+  });
+  double E = 0;
+  for (double e : chunk_energy) E += e;
+  return E;
+}
+
+double ShellSolver::Impl::soft_energy(const double* X, const Eigen::MatrixXd& targets) const {
+  if (soft_free.empty() || targets.rows() == 0) return 0;
+  double e = 0;
+  for (std::size_t c = 0; c < soft.vertices.size(); ++c)
+    for (int d = 0; d < 3; ++d) {
+      const double diff = X[3 * static_cast<std::size_t>(soft.vertices[c]) + d] - targets(c, d);
+      e += diff * diff;
+    }
+  return soft.weight * e;
+}
+
+void ShellSolver::Impl::linear_solve(std::vector<double>& rhs) const {
+  std::lock_guard<std::mutex> lock(solve_mutex);
+#ifdef GSHELL_HAVE_CHOLMOD
+  cholmod_dense B;
+  B.nrow = nf;
+  B.ncol = 3;
+  B.nzmax = 3 * static_cast<std::size_t>(nf);
+  B.d = nf;
+  B.x = rhs.data();
+  B.z = nullptr;
+  B.xtype = CHOLMOD_REAL;
+  B.dtype = CHOLMOD_DOUBLE;
+  cholmod_dense* Xs = nullptr;
+  cholmod_dense *Y = nullptr, *E = nullptr;
+  const int ok = cholmod_solve2(CHOLMOD_A, factor, &B, nullptr, &Xs, nullptr, &Y, &E, &cm);
+  if (!ok || !Xs) throw std::runtime_error("CHOLMOD solve failed (status " + std::to_string(cm.status) + ")");
+  const double* x = static_cast<const double*>(Xs->x);
+  std::copy(x, x + 3 * static_cast<std::size_t>(nf), rhs.begin());
+  cholmod_free_dense(&Xs, &cm);
+  cholmod_free_dense(&Y, &cm);
+  cholmod_free_dense(&E, &cm);
+#else
+  Eigen::Map<Eigen::MatrixXd> B(rhs.data(), nf, 3);
+  B = ldlt.solve(Eigen::MatrixXd(B));
+#endif
+}
+
+ShellSolver::ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
+                         const SoftConstraints& soft)
+    : impl_(std::make_unique<Impl>()) {
+  const auto t0 = Clock::now();
+  impl_->rest = rest;
+  impl_->N = num_vertices;
+  impl_->soft = soft;
+  if (static_cast<int>(rest.Dm_inv.size()) != rest.size() || rest.volume.size() != rest.size())
+    throw InputError("ShellSolver: rest tets are incomplete");
+  impl_->setup(fixed);
+  impl_->assemble_and_factor();
+  impl_->factor_seconds = seconds_since(t0);
+}
+
+ShellSolver::~ShellSolver() = default;
+ShellSolver::ShellSolver(ShellSolver&&) noexcept = default;
+ShellSolver& ShellSolver::operator=(ShellSolver&&) noexcept = default;
+
+double ShellSolver::factor_seconds() const { return impl_->factor_seconds; }
+const RestTets& ShellSolver::rest() const { return impl_->rest; }
+int ShellSolver::num_vertices() const { return impl_->N; }
+
+namespace {
+
+std::vector<double> to_row_major(const Eigen::MatrixXd& X) {
+  std::vector<double> x(3 * static_cast<std::size_t>(X.rows()));
+  for (Eigen::Index i = 0; i < X.rows(); ++i)
+    for (int d = 0; d < 3; ++d) x[3 * i + d] = X(i, d);
+  return x;
+}
+
+} // namespace
+
+double ShellSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& soft_targets) const {
+  if (X.rows() != impl_->N || X.cols() != 3)
+    throw InputError("ShellSolver::energy: expected " + std::to_string(impl_->N) + " x 3 positions");
+  const std::vector<double> x = to_row_major(X);
+  return impl_->local_step(x.data(), nullptr) + impl_->soft_energy(x.data(), soft_targets);
+}
+
+SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options,
+                               const Eigen::MatrixXd& soft_targets) const {
+  const Impl& m = *impl_;
+  const auto t0 = Clock::now();
+  if (Xio.rows() != m.N || Xio.cols() != 3)
+    throw InputError("ShellSolver::solve: expected " + std::to_string(m.N) + " x 3 positions");
+  if (!m.soft_free.empty() && (soft_targets.rows() != static_cast<Eigen::Index>(m.soft.vertices.size()) ||
+                               soft_targets.cols() != 3))
+    throw InputError("ShellSolver::solve: expected " + std::to_string(m.soft.vertices.size()) +
+                     " x 3 soft constraint targets");
+  if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
+  std::vector<double> X = to_row_major(Xio);
+
+  // Constant part of the right-hand side: -L_fc x_c (exact elimination of the kept vertices)
+  // plus the soft constraints' w p.
+  const int nf = m.nf;
+  std::vector<double> rhs_const(3 * static_cast<std::size_t>(nf), 0.0);
+  tbb::parallel_for(0, nf, [&](int j) {
+    double b[3] = {0, 0, 0};
+    for (int s = m.fc_start[j]; s < m.fc_start[j + 1]; ++s)
+      for (int d = 0; d < 3; ++d) b[d] -= m.fc_val[s] * X[3 * static_cast<std::size_t>(m.fc_col[s]) + d];
+    for (int d = 0; d < 3; ++d) rhs_const[j + static_cast<std::size_t>(d) * nf] = b[d];
+  });
+  for (std::size_t c = 0; c < m.soft_free.size(); ++c)
+    if (m.soft_free[c] >= 0)
+      for (int d = 0; d < 3; ++d) rhs_const[m.soft_free[c] + static_cast<std::size_t>(d) * nf] += m.soft.weight * soft_targets(c, d);
+
+  std::vector<double> Q(3 * static_cast<std::size_t>(m.gather_start[nf]));
+  std::vector<double> rhs(3 * static_cast<std::size_t>(nf));
+  SolveResult result;
+  double E = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
+  result.energy.push_back(E);
+  for (int it = 1; it <= options.max_iterations && nf > 0; ++it) {
+    tbb::parallel_for(0, nf, [&](int j) {
+      double b[3] = {0, 0, 0};
+      for (int s = m.gather_start[j]; s < m.gather_start[j + 1]; ++s) {
+        const double* q = &Q[3 * static_cast<std::size_t>(s)];
+        b[0] += q[0];
+        b[1] += q[1];
+        b[2] += q[2];
+      }
+      for (int d = 0; d < 3; ++d) {
+        const std::size_t i = j + static_cast<std::size_t>(d) * nf;
+        rhs[i] = b[d] + rhs_const[i];
+      }
+    });
+    m.linear_solve(rhs);
+    tbb::parallel_for(0, nf, [&](int j) {
+      for (int d = 0; d < 3; ++d)
+        X[3 * static_cast<std::size_t>(m.free_vertices[j]) + d] = rhs[j + static_cast<std::size_t>(d) * nf];
+    });
+    const double E_new = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
+    result.energy.push_back(E_new);
+    result.iterations = it;
+    if (options.progress) options.progress(it, E_new, seconds_since(t0));
+    const bool small_change = E == 0 || std::abs(E - E_new) < options.tolerance * E;
+    E = E_new;
+    if (small_change) {
+      result.converged = true;
+      break;
+    }
+  }
+  for (Eigen::Index i = 0; i < Xio.rows(); ++i)
+    for (int d = 0; d < 3; ++d) Xio(i, d) = X[3 * i + d];
+  result.seconds = seconds_since(t0);
+  return result;
+}
+
+} // namespace gshell

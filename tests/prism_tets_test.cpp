@@ -1,0 +1,136 @@
+// The min-index cut: consistent diagonals on shared side quads, positive tets that fill the prism.
+#include <gshell/error.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+
+#include "core_test_meshes.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <map>
+#include <set>
+
+using namespace gshell;
+using gshell::test::SimpleMesh;
+
+namespace {
+
+std::vector<std::pair<std::string, SimpleMesh>> meshes() {
+  std::vector<std::pair<std::string, SimpleMesh>> list;
+  list.emplace_back("sphere", test::icosphere(2));
+  list.emplace_back("torus", test::torus(24, 12));
+  list.emplace_back("plane", test::plane(8, 0.2));
+  list.emplace_back("sphere-permuted", test::permuted(test::icosphere(2), 7));
+  list.emplace_back("torus-permuted", test::permuted(test::torus(24, 12), 11));
+  list.emplace_back("plane-permuted", test::permuted(test::plane(8, 0.2), 13));
+  return list;
+}
+
+double signed_volume(const Eigen::MatrixXd& X, const Eigen::RowVector4i& t) {
+  Eigen::Matrix3d D;
+  D << (X.row(t[1]) - X.row(t[0])).transpose(), (X.row(t[2]) - X.row(t[0])).transpose(),
+      (X.row(t[3]) - X.row(t[0])).transpose();
+  return D.determinant() / 6;
+}
+
+} // namespace
+
+TEST(PrismTets, SharedSideQuadsUseTheSameDiagonal) {
+  for (const auto& [name, m] : meshes()) {
+    SCOPED_TRACE(name);
+    const int n = static_cast<int>(m.V.rows());
+    const Eigen::MatrixXi T = build_prism_tets(m.F, n);
+    ASSERT_EQ(T.rows(), 3 * m.F.rows());
+    // For every side quad (base edge i-j), the diagonal each prism uses, as a (base, top) pair.
+    std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> diagonals;
+    for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
+      std::set<std::pair<int, int>> edges;
+      for (int k = 0; k < 3; ++k)
+        for (int a = 0; a < 4; ++a)
+          for (int b = 0; b < 4; ++b) edges.insert({T(3 * f + k, a), T(3 * f + k, b)});
+      for (int k = 0; k < 3; ++k) {
+        const int i = m.F(f, k), j = m.F(f, (k + 1) % 3);
+        const bool ij = edges.count({i, n + j}) > 0, ji = edges.count({j, n + i}) > 0;
+        ASSERT_NE(ij, ji) << "face " << f << " must cut quad " << i << "-" << j << " along exactly one diagonal";
+        diagonals[std::minmax(i, j)].push_back(ij ? std::make_pair(i, n + j) : std::make_pair(j, n + i));
+        // The rule itself: base(min) - top(max).
+        EXPECT_EQ(ij ? i : j, std::min(i, j));
+      }
+    }
+    int shared = 0;
+    for (const auto& [edge, d] : diagonals) {
+      if (d.size() == 2) {
+        ++shared;
+        EXPECT_EQ(d[0], d[1]) << "quad " << edge.first << "-" << edge.second;
+      }
+    }
+    EXPECT_GT(shared, 0);
+  }
+}
+
+TEST(PrismTets, CornerNumbersMatchVertexIds) {
+  for (const auto& [name, m] : meshes()) {
+    SCOPED_TRACE(name);
+    const int n = static_cast<int>(m.V.rows());
+    const Eigen::MatrixXi T = build_prism_tets(m.F, n), C = prism_tet_corners(m.F);
+    ASSERT_EQ(C.rows(), T.rows());
+    for (Eigen::Index t = 0; t < T.rows(); ++t)
+      for (int j = 0; j < 4; ++j) {
+        const int c = C(t, j);
+        ASSERT_GE(c, 0);
+        ASSERT_LT(c, 6);
+        EXPECT_EQ(T(t, j), c < 3 ? m.F(t / 3, c) : n + m.F(t / 3, c - 3));
+      }
+  }
+}
+
+TEST(PrismTets, RestTetsArePositiveAndFillTheirPrism) {
+  for (const auto& [name, m] : meshes()) {
+    SCOPED_TRACE(name);
+    const int n = static_cast<int>(m.V.rows());
+    const double eta = 0.05;
+    // Normal prisms, and the same prisms sheared by a constant offset (planar side faces both).
+    const Eigen::MatrixXd normal = normal_prisms(m.V, m.F, eta);
+    Eigen::MatrixXd sheared = normal;
+    for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+      for (int k = 3; k < 6; ++k) sheared.row(6 * f + k) += Eigen::RowVector3d(0.3, -0.2, 0.1) * eta;
+    for (const Eigen::MatrixXd* prisms : std::vector<const Eigen::MatrixXd*>{&normal, &sheared}) {
+      const RestTets rest = prism_rest_tets(m.F, n, *prisms);
+      ASSERT_EQ(rest.size(), 3 * m.F.rows());
+      for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
+        const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+        const Eigen::Vector3d normal_dir = (b - a).cross(c - a);
+        const Eigen::Vector3d shift = (*prisms).row(6 * f + 3) - (*prisms).row(6 * f);
+        const double prism_volume = 0.5 * normal_dir.dot(shift); // base area x height
+        double sum = 0;
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_GT(rest.volume[3 * f + k], 0);
+          sum += rest.volume[3 * f + k];
+        }
+        EXPECT_NEAR(sum, prism_volume, 1e-12 * std::abs(prism_volume) + 1e-15);
+      }
+    }
+  }
+}
+
+TEST(PrismTets, OffsetShellTetsArePositivelyOriented) {
+  for (const auto& [name, m] : meshes()) {
+    SCOPED_TRACE(name);
+    const int n = static_cast<int>(m.V.rows());
+    Eigen::MatrixXd X(2 * n, 3);
+    X << m.V, offset_top(m.V, m.F, 0.02);
+    const Eigen::MatrixXi T = build_prism_tets(m.F, n);
+    for (Eigen::Index t = 0; t < T.rows(); ++t) EXPECT_GT(signed_volume(X, T.row(t)), 0) << "tet " << t;
+    // The same positions as rest shapes: accepted, with the same volumes.
+    const RestTets rest = rest_tets_from_positions(X, T);
+    for (Eigen::Index t = 0; t < T.rows(); ++t) EXPECT_NEAR(rest.volume[t], signed_volume(X, T.row(t)), 1e-15);
+  }
+}
+
+TEST(PrismTets, InvertedRestPrismIsRejected) {
+  const SimpleMesh m = test::icosphere(1);
+  const Eigen::MatrixXd inward = normal_prisms(m.V, m.F, -0.05);
+  EXPECT_THROW(prism_rest_tets(m.F, static_cast<int>(m.V.rows()), inward), InputError);
+}

@@ -1,0 +1,180 @@
+// Local/global solver: monotone energy, exact fixed vertices, soft constraints, rigid invariance.
+#include <gshell/error.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/solver/shell_solver.h>
+
+#include "core_test_meshes.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <numeric>
+
+using namespace gshell;
+using gshell::test::SimpleMesh;
+
+namespace {
+
+std::vector<int> range(int n) {
+  std::vector<int> v(n);
+  std::iota(v.begin(), v.end(), 0);
+  return v;
+}
+
+// A generation problem: normal prisms as rest shapes, base fixed, start = offset top.
+struct Generation {
+  RestTets rest;
+  Eigen::MatrixXd X;
+  int n;
+};
+
+Generation generation(const SimpleMesh& m, double eta) {
+  Generation g;
+  g.n = static_cast<int>(m.V.rows());
+  g.rest = prism_rest_tets(m.F, g.n, normal_prisms(m.V, m.F, eta));
+  g.X.resize(2 * g.n, 3);
+  g.X << m.V, offset_top(m.V, m.F, eta);
+  return g;
+}
+
+void expect_monotone(const std::vector<double>& E) {
+  // Round-off of an energy sum is relative to its largest value, the start energy.
+  for (std::size_t k = 1; k < E.size(); ++k) EXPECT_LE(E[k], E[k - 1] + 1e-12 * E[0]) << "iteration " << k;
+}
+
+} // namespace
+
+TEST(ShellSolver, EnergyNeverIncreasesAndBaseStaysExact) {
+  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
+      {"sphere", test::icosphere(3)},
+      {"torus", test::torus(40, 16)},
+      {"open wavy plane", test::plane(20, 0.3)},
+      {"permuted torus", test::permuted(test::torus(30, 12), 3)}};
+  for (const auto& [name, m] : cases) {
+    for (double eta : {0.02, 0.2}) {
+      SCOPED_TRACE(name + " eta " + std::to_string(eta));
+      Generation g = generation(m, eta);
+      const Eigen::MatrixXd start = g.X;
+      const ShellSolver solver(g.rest, 2 * g.n, range(g.n));
+      SolveOptions options;
+      options.max_iterations = 40;
+      options.tolerance = 0;
+      int calls = 0;
+      options.progress = [&](int, double, double) { ++calls; };
+      const SolveResult r = solver.solve(g.X, options);
+      EXPECT_EQ(r.iterations, 40);
+      EXPECT_EQ(calls, 40);
+      ASSERT_EQ(r.energy.size(), 41u);
+      expect_monotone(r.energy);
+      EXPECT_LT(r.energy.back(), r.energy.front());
+      EXPECT_NEAR(r.energy.front(), solver.energy(start), 1e-12 * r.energy.front());
+      EXPECT_NEAR(r.energy.back(), solver.energy(g.X), 1e-12 * r.energy.front());
+      EXPECT_TRUE(g.X.topRows(g.n) == start.topRows(g.n)) << "fixed base moved";
+    }
+  }
+}
+
+TEST(ShellSolver, StopsOnTolerance) {
+  Generation g = generation(test::icosphere(2), 0.05);
+  const ShellSolver solver(g.rest, 2 * g.n, range(g.n));
+  SolveOptions options;
+  options.max_iterations = 500;
+  options.tolerance = 1e-4;
+  const SolveResult r = solver.solve(g.X, options);
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT(r.iterations, 500);
+  const double last = r.energy[r.energy.size() - 1], before = r.energy[r.energy.size() - 2];
+  EXPECT_LT(std::abs(before - last), 1e-4 * before);
+  // Zero iterations: only the start energy.
+  Eigen::MatrixXd X = g.X;
+  options.max_iterations = 0;
+  const SolveResult none = solver.solve(X, options);
+  EXPECT_EQ(none.iterations, 0);
+  EXPECT_EQ(none.energy.size(), 1u);
+  EXPECT_TRUE(X == g.X);
+}
+
+TEST(ShellSolver, RigidlyMovedBaseCarriesTheTopAlong) {
+  // Rest shell = a seamless shell; fixing its base at a rigid motion of itself must give the same
+  // rigid motion of the top (zero energy), whatever the start.
+  const SimpleMesh m = test::torus(32, 12);
+  const int n = static_cast<int>(m.V.rows());
+  Eigen::MatrixXd rest_X(2 * n, 3);
+  rest_X << m.V, offset_top(m.V, m.F, 0.1);
+  const RestTets rest = rest_tets_from_positions(rest_X, build_prism_tets(m.F, n));
+  const ShellSolver solver(rest, 2 * n, range(n));
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, 1, 0.2).normalized()).toRotationMatrix();
+  const Eigen::RowVector3d t(0.5, -1, 2);
+  const Eigen::MatrixXd target = (rest_X * R.transpose()).rowwise() + t;
+  Eigen::MatrixXd X = rest_X;
+  X.topRows(n) = target.topRows(n);
+  SolveOptions options;
+  options.max_iterations = 300;
+  options.tolerance = 1e-14;
+  const SolveResult r = solver.solve(X, options);
+  expect_monotone(r.energy);
+  EXPECT_LT(r.energy.back(), 1e-14 * r.energy.front());
+  EXPECT_LT((X - target).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(ShellSolver, SoftConstraintsPullTowardTargets) {
+  // No fixed vertices: a few soft handles at a rigid motion of the rest shell determine it.
+  const SimpleMesh m = test::icosphere(2);
+  const int n = static_cast<int>(m.V.rows());
+  Eigen::MatrixXd rest_X(2 * n, 3);
+  rest_X << m.V, 1.1 * m.V;
+  const RestTets rest = rest_tets_from_positions(rest_X, build_prism_tets(m.F, n));
+  SoftConstraints soft;
+  soft.vertices = {0, 5, 17, n + 30, n + 77};
+  soft.weight = 10.0;
+  const ShellSolver solver(rest, 2 * n, {}, soft);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.2, Eigen::Vector3d(1, 0, 0.5).normalized()).toRotationMatrix();
+  const Eigen::MatrixXd target = (rest_X * R.transpose()).rowwise() + Eigen::RowVector3d(0.1, 0.2, 0.3);
+  Eigen::MatrixXd P(soft.vertices.size(), 3);
+  for (std::size_t c = 0; c < soft.vertices.size(); ++c) P.row(c) = target.row(soft.vertices[c]);
+  Eigen::MatrixXd X = rest_X;
+  SolveOptions options;
+  options.max_iterations = 2000;
+  options.tolerance = 1e-15;
+  const SolveResult r = solver.solve(X, options, P);
+  expect_monotone(r.energy);
+  EXPECT_NEAR(r.energy.back(), solver.energy(X, P), 1e-12 * r.energy.front());
+  EXPECT_LT(r.energy.back(), 1e-8 * r.energy.front());
+  EXPECT_LT((X - target).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_THROW(solver.solve(X, options), InputError); // targets are required
+}
+
+TEST(ShellSolver, SoftAndFixedTogether) {
+  // Soft pull on a few top vertices of a fixed-base shell: energy still monotone, the pulled
+  // vertices move toward their targets, the base does not move.
+  Generation g = generation(test::plane(12, 0.1), 0.1);
+  SoftConstraints soft;
+  soft.vertices = {g.n + 0, g.n + 40, g.n + 100};
+  soft.weight = 1.0;
+  const ShellSolver solver(g.rest, 2 * g.n, range(g.n), soft);
+  Eigen::MatrixXd P(3, 3);
+  for (int c = 0; c < 3; ++c) P.row(c) = g.X.row(soft.vertices[c]) + Eigen::RowVector3d(0, 0, 0.05);
+  const Eigen::MatrixXd start = g.X;
+  SolveOptions options;
+  options.max_iterations = 30;
+  options.tolerance = 0;
+  const SolveResult r = solver.solve(g.X, options, P);
+  expect_monotone(r.energy);
+  EXPECT_TRUE(g.X.topRows(g.n) == start.topRows(g.n));
+  Generation free_run = generation(test::plane(12, 0.1), 0.1);
+  const ShellSolver plain(free_run.rest, 2 * free_run.n, range(free_run.n));
+  plain.solve(free_run.X, options);
+  for (int c = 0; c < 3; ++c) EXPECT_GT(g.X(soft.vertices[c], 2), free_run.X(soft.vertices[c], 2));
+}
+
+TEST(ShellSolver, UnconstrainedSystemIsRejected) {
+  const SimpleMesh m = test::icosphere(1);
+  const int n = static_cast<int>(m.V.rows());
+  Eigen::MatrixXd X(2 * n, 3);
+  X << m.V, 1.1 * m.V;
+  const RestTets rest = rest_tets_from_positions(X, build_prism_tets(m.F, n));
+  EXPECT_THROW(ShellSolver(rest, 2 * n, {}), InputError);
+  EXPECT_THROW(ShellSolver(rest, 2 * n, {2 * n}), InputError);
+}

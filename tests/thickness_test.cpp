@@ -1,0 +1,119 @@
+// Per-vertex thickness against analytic cases (offset plane, concentric spheres) and against an
+// independent closest-point computation (CGAL's point-triangle distance) over all faces.
+#include <gshell/error.h>
+#include <gshell/quality/thickness.h>
+
+#include "quality_test_meshes.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/squared_distance_3.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace gshell {
+namespace {
+
+TEST(Thickness, PlaneOffsetByHIsExactlyH) {
+  const auto plane = test::grid_plane(16);
+  const double h = 0.0375;
+  Eigen::MatrixXd top = plane.V;
+  top.col(2).array() += h;
+  const Eigen::VectorXd t = vertex_thickness(plane.V, plane.F, top);
+  ASSERT_EQ(t.size(), top.rows());
+  for (Eigen::Index i = 0; i < t.size(); ++i) EXPECT_NEAR(t[i], h, 1e-15 * 16) << i;
+
+  // Points over the interior of faces and edges (not over vertices), unpaired with the base.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> xy(-1, 1);
+  Eigen::MatrixXd probes(200, 3);
+  for (Eigen::Index i = 0; i < probes.rows(); ++i) probes.row(i) << xy(rng), xy(rng), -h;
+  const Eigen::VectorXd tp = vertex_thickness(plane.V, plane.F, probes);
+  for (Eigen::Index i = 0; i < tp.size(); ++i) EXPECT_NEAR(tp[i], h, 1e-15 * 16) << i;
+}
+
+// Distance of each face's plane from the centre of a sphere mesh centred at the origin.
+double min_face_plane_distance(const test::HandMesh& m) {
+  double d = std::numeric_limits<double>::infinity();
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
+    const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    d = std::min(d, std::abs(n.dot(a)));
+  }
+  return d;
+}
+
+TEST(Thickness, ConcentricSpheres) {
+  const double r = 2.0, h = 0.1;
+  const auto base = test::icosphere(3, r);
+  // Top vertex i radially over base vertex i: the base lies inside the sphere of radius r, so no
+  // point of it is closer than h, and base vertex i is at exactly h.
+  const Eigen::MatrixXd top = base.V * ((r + h) / r);
+  const Eigen::VectorXd t = vertex_thickness(base.V, base.F, top);
+  EXPECT_NEAR(t.minCoeff(), h, 1e-12);
+  EXPECT_NEAR(t.maxCoeff(), h, 1e-12);
+
+  // A differently faceted top sphere: its vertices sit over base facets, where the base dips
+  // below radius r by at most r - (smallest face-plane distance) (the faceting error).
+  const auto other = test::icosphere(4, r + h);
+  const Eigen::MatrixXd rotated =
+      other.V * Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::VectorXd tr = vertex_thickness(base.V, base.F, rotated);
+  const double faceting = r - min_face_plane_distance(base);
+  ASSERT_GT(faceting, 0.0);
+  EXPECT_GE(tr.minCoeff(), h - 1e-12);
+  EXPECT_LE(tr.maxCoeff(), h + faceting + 1e-12);
+  EXPECT_GT(tr.mean(), h + 0.1 * faceting); // most top vertices do sit over facet interiors
+}
+
+TEST(Thickness, MatchesAllFacesClosestPoint) {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  const auto base = test::icosphere(2, 1.0, Eigen::Vector3d(0.2, -0.1, 0.3));
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> coord(-2, 2);
+  Eigen::MatrixXd probes(300, 3);
+  for (Eigen::Index i = 0; i < probes.rows(); ++i) probes.row(i) << coord(rng), coord(rng), coord(rng);
+  const Eigen::VectorXd t = vertex_thickness(base.V, base.F, probes);
+  for (Eigen::Index i = 0; i < probes.rows(); ++i) {
+    const K::Point_3 q(probes(i, 0), probes(i, 1), probes(i, 2));
+    double best = std::numeric_limits<double>::infinity();
+    for (Eigen::Index f = 0; f < base.F.rows(); ++f) {
+      auto p = [&](int k) {
+        return K::Point_3(base.V(base.F(f, k), 0), base.V(base.F(f, k), 1), base.V(base.F(f, k), 2));
+      };
+      best = std::min(best, CGAL::squared_distance(q, K::Triangle_3(p(0), p(1), p(2))));
+    }
+    EXPECT_NEAR(t[i], std::sqrt(best), 1e-12) << i;
+  }
+}
+
+TEST(Thickness, DegenerateBaseFacesAreTheirSegments) {
+  // One proper face far away and one face with collinear corners along the x axis.
+  Eigen::MatrixXd base(6, 3);
+  base << 10, 10, 10, 11, 10, 10, 10, 11, 10, 0, 0, 0, 2, 0, 0, 1, 0, 0;
+  const Eigen::MatrixXi F = (Eigen::MatrixXi(2, 3) << 0, 1, 2, 3, 4, 5).finished();
+  Eigen::MatrixXd probes(3, 3);
+  probes << 1.5, 0.3, 0.4, -3, 0, 4, 2, 0, 0;
+  const Eigen::VectorXd t = vertex_thickness(base, F, probes);
+  EXPECT_NEAR(t[0], 0.5, 1e-14);
+  EXPECT_NEAR(t[1], 5.0, 1e-14);
+  EXPECT_NEAR(t[2], 0.0, 1e-14);
+  // All corners equal: a point.
+  const Eigen::MatrixXi dot = (Eigen::MatrixXi(1, 3) << 3, 3, 3).finished();
+  EXPECT_NEAR(vertex_thickness(base, dot, probes)[1], 5.0, 1e-14);
+}
+
+TEST(Thickness, BadInputThrows) {
+  const auto sphere = test::icosphere(1);
+  Eigen::MatrixXi bad = sphere.F;
+  bad(0, 0) = -1;
+  EXPECT_THROW(vertex_thickness(sphere.V, bad, sphere.V), InputError);
+  EXPECT_THROW(vertex_thickness(sphere.V, Eigen::MatrixXi(0, 3), sphere.V), InputError);
+  Eigen::MatrixXd nan = sphere.V;
+  nan(1, 1) = std::nan("");
+  EXPECT_THROW(vertex_thickness(sphere.V, sphere.F, nan), InputError);
+  EXPECT_EQ(vertex_thickness(sphere.V, sphere.F, Eigen::MatrixXd(0, 3)).size(), 0);
+}
+
+} // namespace
+} // namespace gshell
