@@ -12,6 +12,7 @@ import shutil
 import subprocess
 import tempfile
 import threading
+import time
 import unittest
 
 import numpy as np
@@ -262,6 +263,36 @@ class GenerateTest(TempDirTest):
             gshell.load_shell(self.path("no_such_shell"))
         with self.assertRaises(TypeError):  # not an array argument at all: Python's own error
             gshell.generate(V, F, thickness="thick")
+
+
+class GilTest(unittest.TestCase):
+    def ticks_while(self, work):
+        """How many times the main thread woke from a 1 ms sleep while `work` ran in another thread.
+        A call that holds the GIL leaves the main thread no chance to wake until it returns."""
+        started = threading.Event()
+
+        def run():
+            started.set()
+            work()
+        t = threading.Thread(target=run)
+        t.start()
+        started.wait()
+        ticks = 0
+        while t.is_alive():
+            time.sleep(0.001)
+            ticks += 1
+        t.join()
+        return ticks
+
+    def test_long_calls_release_the_gil(self):
+        # 10242 vertices: each call below takes a few hundred ms, hundreds of ticks when the GIL is
+        # released; a call that holds it (e.g. sorted() of a long list) gets a handful.
+        V, F = gshell.builtin("sphere:5")
+        self.assertGreater(self.ticks_while(
+            lambda: gshell.generate(V, F, thickness=0.01, iterations=5, tolerance=0, count_intersections=False)), 20)
+        shell = gshell.generate(V, F, thickness=0.01, iterations=1, count_intersections=False)
+        deformer = gshell.Deformer(shell)
+        self.assertGreater(self.ticks_while(lambda: deformer.solve(V * 1.1, tolerance=0, iterations=10)), 20)
 
 
 class MetricsTest(TempDirTest):
