@@ -46,7 +46,7 @@ std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell) {
   return std::make_unique<DeformerObject>(shell.shell);
 }
 
-py::array deformer_solve(DeformerObject& d, const py::handle& new_base, int iterations, double tolerance,
+py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterations, double tolerance,
                          const std::string& warm_start) {
   const int n = d.deformer.rest_shell().num_base_vertices();
   const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
@@ -144,7 +144,7 @@ Releases the GIL while it runs.)")
   py::class_<EmbeddingObject>(m, "Embedding", R"(Points embedded in a rest shell as (tet, barycentric
 coordinates), carried along by every deformation of that shell (paper Fig. 5, 8). Made by embed().)")
       .def("carry",
-           [](const EmbeddingObject& e, const py::handle& deformed) {
+           [](const EmbeddingObject& e, const py::object& deformed) {
              const Eigen::MatrixXd X = shell_vertices_of(deformed, e.shell_vertices);
              Eigen::MatrixXd P;
              {
@@ -184,7 +184,7 @@ Returns:
       .def("__len__", [](const EmbeddingObject& e) { return e.embedding.size(); });
 
   m.def("embed",
-        [](const ShellObject& shell, const py::handle& points) {
+        [](const ShellObject& shell, const ArrayArg& points) {
           const Eigen::MatrixXd P = to_matrix(points, "points", 3);
           EmbeddingObject e;
           {

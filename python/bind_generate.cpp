@@ -56,7 +56,7 @@ ShellObject measured_shell(Shell shell) {
   return s;
 }
 
-ShellObject make_shell(const py::handle& base, const py::handle& faces, const py::handle& top, double thickness) {
+ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayArg& top, double thickness) {
   const TriMesh mesh = checked_mesh(base, faces, "base", "faces");
   Shell shell;
   shell.top = to_matrix(top, "top", 3, static_cast<int>(mesh.V.rows()));
@@ -75,7 +75,7 @@ ShellObject load_shell_py(const std::filesystem::path& dir) {
   return measured_shell(load_shell_dir(dir.string()));
 }
 
-ShellObject generate_py(const py::handle& V, const py::handle& F, std::optional<double> thickness,
+ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
                         std::optional<double> thickness_ratio, const std::string& method, int iterations,
                         double tolerance, bool count_intersections) {
   const TriMesh mesh = checked_mesh(V, F);
@@ -100,7 +100,7 @@ ShellObject generate_py(const py::handle& V, const py::handle& F, std::optional<
   return s;
 }
 
-py::dict metrics_py(const py::handle& Vb, const py::handle& F, const py::handle& Vt, std::optional<double> thickness,
+py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, std::optional<double> thickness,
                     std::optional<double> thickness_ratio, bool count_intersections) {
   const TriMesh base = checked_mesh(Vb, F, "Vb", "F");
   const Eigen::MatrixXd top = to_matrix(Vt, "Vt", 3, base.num_vertices());

@@ -25,7 +25,7 @@ py::tuple read_mesh_py(const std::filesystem::path& path) {
   return mesh_tuple(mesh);
 }
 
-void write_mesh_py(const std::filesystem::path& path, const py::handle& V, const py::handle& F) {
+void write_mesh_py(const std::filesystem::path& path, const ArrayArg& V, const ArrayArg& F) {
   TriMesh mesh;
   mesh.V = to_matrix(V, "V", 3);
   mesh.F = to_indices(F, "F", 3, static_cast<int>(mesh.V.rows()));

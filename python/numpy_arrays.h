@@ -13,6 +13,13 @@ namespace gshell::python {
 
 namespace py = pybind11;
 
+/// An array argument: anything np.asarray accepts. Taken as is (so wrong ones reach the checks
+/// below and raise ValueError, not pybind11's TypeError) and shown as numpy.ndarray in signatures.
+struct ArrayArg {
+  py::object object;
+  operator py::handle() const { return object; }
+};
+
 /// Raises ValueError (through pybind11) with `message`.
 [[noreturn]] void value_error(const std::string& message);
 
@@ -40,3 +47,13 @@ py::array_t<std::int64_t> from_index_vector(const Eigen::VectorXi& v);
 py::array read_only(py::array a);
 
 } // namespace gshell::python
+
+namespace pybind11::detail {
+template <> struct type_caster<gshell::python::ArrayArg> {
+  PYBIND11_TYPE_CASTER(gshell::python::ArrayArg, const_name("numpy.ndarray"));
+  bool load(handle source, bool) {
+    value.object = reinterpret_borrow<object>(source);
+    return true;
+  }
+};
+} // namespace pybind11::detail
