@@ -1,0 +1,247 @@
+// bench_pose: direct shell deformation, hierarchical vs single-level solver (paper §5's claim of a
+// > 10x speed-up). Measures wall time and iterations until E <= 1.001 E*, E* = the single-level
+// (ShellSolver) minimum, for one big move from rest and for every step of a K-step drag.
+//
+//   bench_pose [bowl | PATH.off] [--steps K] [--runs R] [--thickness-ratio r] [--reference-iterations N]
+//
+// Shell: the base mesh plus a top generated the DESIGN.md way (normal prisms, vertex-normal offset,
+// 5 local/global iterations with the base fixed) at eta = r * bounding radius (default r = 0.02).
+// Handles (hard): bowl: hold the rim on one side (x < -0.5, z > -0.15 R, both surfaces), pull the
+// rim on the other side (x > 0.7 R) by R * (0.8, 0.2, 0.5) (|move| = 0.97 R; the small sideways
+// part picks one of the two mirror-image buckled shapes). Other models: hold the lowest 8% along
+// y, pull the highest 8% by R * (0.5, 0.1, 0.3).
+// Drag protocol: step k starts every solver from the reference state of step k-1, so all solvers
+// are timed on the same problems; the hierarchical solver's levels carry over between steps.
+#include <gshell/deform/handles.h>
+#include <gshell/deform/pose.h>
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/io/load_mesh.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/solver/rest_tets.h>
+#include <gshell/solver/shell_solver.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <string>
+#include <vector>
+
+using namespace gshell;
+
+namespace {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(v.begin(), v.end());
+  const size_t h = v.size() / 2;
+  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
+}
+
+Shell make_shell(const TriMesh& mesh, double ratio) {
+  Shell shell;
+  shell.base = mesh.V;
+  shell.F = mesh.F;
+  const Eigen::RowVector3d c = mesh.V.colwise().mean();
+  const double radius = (mesh.V.rowwise() - c).rowwise().norm().maxCoeff();
+  shell.thickness = ratio * radius;
+  const int n = mesh.num_vertices();
+  // DESIGN.md generation: ideal normal prisms, offset start, local/global with the base fixed.
+  const RestTets ideal = rest_tets_from_corners(build_prism_tets(mesh.F, n), [&] {
+    const PrismCorners P = normal_prisms(mesh.V, mesh.F, shell.thickness);
+    const Eigen::MatrixXi C = prism_tet_corners(mesh.F);
+    Eigen::MatrixXd corners(4 * C.rows(), 3);
+    for (int t = 0; t < C.rows(); ++t)
+      for (int k = 0; k < 4; ++k) corners.row(4 * t + k) = P.row(6 * (t / 3) + C(t, k));
+    return corners;
+  }());
+  std::vector<int> base(n);
+  for (int i = 0; i < n; ++i) base[i] = i;
+  ShellSolver generator(ideal, 2 * n, base);
+  Eigen::MatrixXd X(2 * n, 3);
+  X << mesh.V, offset_top(mesh.V, mesh.F, shell.thickness);
+  SolveOptions so;
+  so.max_iterations = 5;
+  generator.solve(X, so);
+  shell.top = X.bottomRows(n);
+  return shell;
+}
+
+HandleSet make_handles(const Shell& shell, bool bowl) {
+  const Eigen::MatrixXd X = shell.vertices();
+  const Eigen::RowVector3d lo = X.colwise().minCoeff(), hi = X.colwise().maxCoeff();
+  const double R = 0.5 * (hi - lo).maxCoeff();
+  Handle hold, pull;
+  for (int v = 0; v < X.rows(); ++v) {
+    const Eigen::RowVector3d p = X.row(v);
+    if (bowl) {
+      if (p.z() > -0.15 * R && p.x() < -0.5 * R) hold.vertices.push_back(v);
+      if (p.z() > -0.15 * R && p.x() > 0.7 * R) pull.vertices.push_back(v);
+    } else {
+      const double y = (p.y() - lo.y()) / (hi.y() - lo.y());
+      if (y < 0.08) hold.vertices.push_back(v);
+      if (y > 0.92) pull.vertices.push_back(v);
+    }
+  }
+  pull.translate = bowl ? Eigen::Vector3d(0.8 * R, 0.2 * R, 0.5 * R) : Eigen::Vector3d(0.5 * R, 0.1 * R, 0.3 * R);
+  HandleSet set;
+  set.handles = {hold, pull};
+  for (auto& h : set.handles) {
+    h.center = Eigen::Vector3d::Zero();
+    for (int v : h.vertices) h.center += X.row(v).transpose();
+    h.center /= static_cast<double>(h.vertices.size());
+  }
+  return set;
+}
+
+struct Config {
+  std::string name;
+  PoseSolverKind kind;
+  HierarchyOptions options;
+};
+
+/// Iterations and seconds until E <= goal from X0 (or the cap; reached = false).
+struct Reach {
+  bool reached = false;
+  int iterations = 0;
+  double seconds = 0;
+};
+
+/// Solves in chunks of iterations (so a slow solver is not run far past the goal) and takes the
+/// time at the iteration that first reaches the goal from the solver's own progress clock.
+Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fraction, double goal, int cap) {
+  constexpr int kChunk = 25;
+  Reach r;
+  Eigen::MatrixXd X = X0;
+  while (r.iterations < cap) {
+    SolveOptions so;
+    so.max_iterations = std::min(kChunk, cap - r.iterations);
+    so.tolerance = 0;
+    int hit = -1;
+    double hit_seconds = 0;
+    so.progress = [&](int it, double e, double sec) {
+      if (hit < 0 && e <= goal) {
+        hit = it;
+        hit_seconds = sec;
+      }
+    };
+    const SolveResult res = solver.solve(X, fraction, so);
+    if (hit > 0) return {true, r.iterations + hit, r.seconds + hit_seconds};
+    r.iterations += res.iterations;
+    r.seconds += res.seconds;
+    if (res.iterations < so.max_iterations) break; // converged above the goal
+  }
+  return r;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  std::string model = "bowl";
+  int steps = 30, runs = 5, reference_iterations = 4000;
+  double ratio = 0.02;
+  std::vector<std::string> only;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&] { return std::string(i + 1 < argc ? argv[++i] : ""); };
+    if (a == "--steps") steps = std::atoi(next().c_str());
+    else if (a == "--runs") runs = std::atoi(next().c_str());
+    else if (a == "--thickness-ratio") ratio = std::atof(next().c_str());
+    else if (a == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
+    else if (a == "--only") only.push_back(next());
+    else model = a;
+  }
+  const bool bowl = model == "bowl";
+  const TriMesh mesh = bowl ? make_bowl() : load_mesh(model);
+  const Shell shell = make_shell(mesh, ratio);
+  const HandleSet handles = make_handles(shell, bowl);
+  const int n = shell.num_base_vertices();
+  std::printf("model %s: %d shell vertices, %d tets, thickness %.4g (ratio %.3g), handle vertices %zu + %zu\n",
+              model.c_str(), 2 * n, 3 * static_cast<int>(shell.F.rows()), shell.thickness, ratio,
+              handles.handles[0].vertices.size(), handles.handles[1].vertices.size());
+
+  std::vector<Config> configs;
+  configs.push_back({"single (ShellSolver)", PoseSolverKind::Single, {}});
+  {
+    HierarchyOptions o;
+    o.levels = 1;
+    o.anderson_history = 5;
+    configs.push_back({"single + Anderson(5)", PoseSolverKind::Hierarchical, o});
+  }
+  {
+    HierarchyOptions o;
+    o.residual_correction = false;
+    configs.push_back({"hierarchical, paper coupling", PoseSolverKind::Hierarchical, o});
+  }
+  configs.push_back({"hierarchical (default)", PoseSolverKind::Hierarchical, HierarchyOptions{}});
+
+  // ---- references: single-level runs to convergence ----
+  PoseSolver reference(shell, handles, PoseSolverKind::Single);
+  SolveOptions ref_options;
+  ref_options.max_iterations = reference_iterations;
+  ref_options.tolerance = 1e-9;
+  Eigen::MatrixXd Xbig = reference.rest_vertices();
+  SolveResult rb = reference.solve(Xbig, 1.0, ref_options);
+  const double Ebig = rb.energy.back();
+  std::printf("reference big move: E* = %.8g after %d single-level iterations (%s, %.1f s)\n", Ebig, rb.iterations,
+              rb.converged ? "converged" : "iteration cap", rb.seconds);
+  std::vector<Eigen::MatrixXd> Xref(steps + 1);
+  std::vector<double> Eref(steps + 1);
+  Xref[0] = reference.rest_vertices();
+  int ref_total = 0;
+  for (int k = 1; k <= steps; ++k) {
+    Xref[k] = Xref[k - 1];
+    SolveResult r = reference.solve(Xref[k], static_cast<double>(k) / steps, ref_options);
+    Eref[k] = r.energy.back();
+    ref_total += r.iterations;
+  }
+  std::printf("reference drag: %d steps, %d single-level iterations in all, E*_K = %.8g\n", steps, ref_total, Eref[steps]);
+
+  for (const Config& c : configs) {
+    if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
+    // Big move from rest, `runs` times with a fresh solver.
+    std::vector<double> big_seconds;
+    Reach big;
+    double setup = 0;
+    for (int r = 0; r < runs; ++r) {
+      PoseSolver s(shell, handles, c.kind, c.options);
+      setup = s.setup_seconds();
+      big = time_to_goal(s, s.rest_vertices(), 1.0, 1.001 * Ebig, 3 * reference_iterations);
+      if (!big.reached) break;
+      big_seconds.push_back(big.seconds);
+    }
+    std::printf("\n[%s] setup %.3f s\n", c.name.c_str(), setup);
+    if (big.reached)
+      std::printf("  big move: %d iterations, %.3f s (median of %d) to E <= 1.001 E*\n", big.iterations,
+                  median(big_seconds), runs);
+    else
+      std::printf("  big move: not within 1.001 E* after %d iterations (%.1f s)\n", big.iterations, big.seconds);
+
+    // Drag: per step, from the reference state of the previous step; the solver (and the
+    // hierarchical solver's level state) carries over from step to step.
+    std::vector<double> step_seconds, step_iterations;
+    int missed = 0;
+    for (int r = 0; r < runs; ++r) {
+      PoseSolver s(shell, handles, c.kind, c.options);
+      for (int k = 1; k <= steps; ++k) {
+        const Reach hit = time_to_goal(s, Xref[k - 1], static_cast<double>(k) / steps, 1.001 * Eref[k], 2000);
+        if (!hit.reached) {
+          if (r == 0) ++missed;
+          continue;
+        }
+        step_seconds.push_back(hit.seconds);
+        if (r == 0) step_iterations.push_back(hit.iterations);
+      }
+    }
+    std::sort(step_iterations.begin(), step_iterations.end());
+    std::printf("  drag (%d steps): per step median %.2f ms, max %.2f ms; iterations median %.0f, max %.0f; "
+                "%d steps not reached in 2000 iterations\n",
+                steps, 1e3 * median(step_seconds),
+                step_seconds.empty() ? 0.0 : 1e3 * *std::max_element(step_seconds.begin(), step_seconds.end()),
+                median(step_iterations), step_iterations.empty() ? 0.0 : step_iterations.back(), missed);
+    std::fflush(stdout);
+  }
+  return 0;
+}

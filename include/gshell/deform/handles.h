@@ -1,0 +1,52 @@
+#pragma once
+// Handles for direct shell deformation (paper §4.2, second type): sets of shell vertices moved
+// rigidly to target positions. The file format is documented in docs/handles.md.
+#include <gshell/shell/shell.h>
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace gshell {
+
+/// One handle: its vertices follow "rotate about `center`, then translate" at full motion; a
+/// fraction t in [0,1] of the motion rotates by t*degrees and translates by t*translate.
+/// No translate and no rotate = the vertices are held at their rest positions.
+struct Handle {
+  std::vector<int> vertices;                                ///< shell vertex ids (base 0..n-1, top n..2n-1), sorted
+  Eigen::Vector3d translate = Eigen::Vector3d::Zero();      ///< model units
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();          ///< unit rotation axis
+  double degrees = 0;                                       ///< right-handed about `axis`
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();         ///< default: centroid of the handle's rest vertices
+};
+
+enum class ConstraintMode {
+  Hard, ///< handle vertices are eliminated: they sit exactly on their targets
+  Soft, ///< handle vertices are pulled by springs: weight * k * ||x - p||^2 (k below)
+};
+
+struct HandleSet {
+  std::vector<Handle> handles;         ///< disjoint vertex sets
+  ConstraintMode mode = ConstraintMode::Hard;
+  /// Soft mode only. Dimensionless: the spring constant is weight times the mean diagonal entry
+  /// of the shell's stiffness matrix (sum_t vol_t G_t^T G_t), so the same weight behaves the same
+  /// at any model scale. 1 = as stiff as a typical vertex's tie to its neighbours.
+  double weight = 1000;
+
+  /// Vertices of all handles, handle after handle (the row order of `targets`).
+  std::vector<int> constrained_vertices() const;
+  /// Target positions (|constrained_vertices()| x 3) for the fraction t of the motion, from the
+  /// rest positions of all 2n shell vertices.
+  Eigen::MatrixXd targets(const Eigen::MatrixXd& rest_vertices, double fraction) const;
+};
+
+/// Parses a handle file (JSON) against the rest shell: `select` boxes are resolved into vertex ids
+/// here. Throws InputError "PATH: problem" on unreadable or malformed files, unknown keys, wrong
+/// types, non-finite numbers, ids outside 0..2n-1, empty selections, a zero rotation axis,
+/// a vertex in two handles, or no handle at all.
+HandleSet read_handles(const std::string& path, const Shell& rest);
+
+/// Same, from the JSON text; `name` is used in error messages.
+HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest);
+
+} // namespace gshell

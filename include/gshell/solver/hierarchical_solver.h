@@ -1,0 +1,100 @@
+#pragma once
+// Hierarchical dimension-reduction solver for direct shell deformation (paper §5, DESIGN.md
+// "Hierarchical dimension reduction"). Minimises the same energy as ShellSolver,
+// E(x) = sum_t vol_t ||F_t(x) - R_t||_F^2 (+ soft constraint springs), over all 2n shell vertices.
+//
+// Levels 0..L-2 are reduced: every cluster j of the cluster tree carries an affine map, its
+// vertices sit at x_i = M_j (u_i - c_j) + t_j (u = rest positions, c_j = rest centroid), so
+// x = B_l z_l with 12 unknowns per cluster. Tets inside one cluster have F_t = M_j: one polar
+// decomposition serves all of them. Level L-1 is the full problem. One outer iteration goes coarse
+// to fine: each level first receives its parent clusters' change since the last outer iteration
+// (rotation change about the centroid + centroid translation), then runs a few local/global
+// iterations with its prefactored reduced matrix. Every level keeps its parameters between
+// solves, so a drag sequence is cheap. A propagated update is kept only if it does not raise
+// that level's energy, so the full energy never increases across outer iterations.
+#include <gshell/solver/cluster_tree.h>
+#include <gshell/solver/rest_tets.h>
+#include <gshell/solver/shell_solver.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+namespace gshell {
+
+/// Positional constraints on shell vertices. Hard ones are eliminated on the full level (the
+/// rows of X hold the targets); soft ones add weight * sum_c ||x_c - p_c||^2.
+struct PositionConstraints {
+  std::vector<int> vertices; ///< distinct shell vertex ids
+  bool hard = true;
+  double weight = 0;         ///< soft only; absolute (energy per squared model unit)
+};
+
+struct HierarchyOptions {
+  int levels = 5;             ///< levels including the full one; 1 = the plain single-level solver
+  int splits_per_level = 2;   ///< bisection rounds between successive levels (up to 4x clusters)
+  int min_cluster_size = 8;   ///< base vertices; clusters are not split below this
+  int level_iterations = 5;   ///< local/global iterations per reduced level and outer iteration
+  int full_iterations = 1;    ///< local/global iterations of the full level per outer iteration
+  /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
+  /// targets), so there they become springs of this weight times the mean diagonal of the
+  /// stiffness matrix.
+  double reduced_hard_weight = 100;
+  /// Couple the levels through the fine residual: each reduced level minimises its energy minus
+  /// 2 <tau, z>, with tau chosen so that its gradient at its current state is the full
+  /// gradient restricted to its subspace (the paper's correction of b_l; full approximation
+  /// scheme). Without it the reduced levels only see the handles, not the full state.
+  bool residual_correction = true;
+  /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
+  /// An extrapolated iterate is kept only if it lowers the energy.
+  int anderson_history = 0;
+};
+
+struct HierarchicalSolveResult : SolveResult {
+  int full_iterations = 0;         ///< local/global iterations done on the full level
+  int rejected_propagations = 0;   ///< updates not kept because they would have raised the energy
+};
+
+class HierarchicalSolver {
+public:
+  /// `rest_vertices` are the 2n rest shell vertices the tets' rest shapes come from (base rows
+  /// 0..n-1, top n..2n-1), `F` the base faces. Builds the tree, assembles and factors every level.
+  HierarchicalSolver(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const Eigen::MatrixXi& F,
+                     const PositionConstraints& constraints, const HierarchyOptions& options = {});
+  ~HierarchicalSolver();
+  HierarchicalSolver(HierarchicalSolver&&) noexcept;
+  HierarchicalSolver& operator=(HierarchicalSolver&&) noexcept;
+
+  /// Outer iterations from X (2n x 3), which is overwritten with the result; `targets`
+  /// (|constraints.vertices| x 3) are the constraint positions (hard rows of X are set to them).
+  /// Reduced levels continue from the state the previous solve left. `options.max_iterations`
+  /// and `tolerance` apply to outer iterations; energy[k] is the full energy after outer iteration k.
+  HierarchicalSolveResult solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const SolveOptions& options = {});
+
+  /// Full energy of X (with the soft term for soft constraints; hard rows are taken as they are).
+  double energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const;
+
+  /// Reduced levels back to the rest shape (identity maps).
+  void reset();
+
+  int num_levels() const;                ///< including the full level
+  const ClusterTree& tree() const;
+  int tree_depth(int level) const;       ///< cluster tree depth of reduced level `level`
+  int num_clusters(int level) const;     ///< clusters of a reduced level
+  /// Positions B_l z_l of reduced level l (0 <= l < num_levels()-1), 2n x 3.
+  Eigen::MatrixXd level_positions(int level) const;
+  /// Affine maps of reduced level l: 4 rows per cluster, [M_j^T; t_j^T] (x^T = [(u-c_j)^T 1] Z_j).
+  const Eigen::MatrixXd& level_parameters(int level) const;
+  /// Energy of reduced level l at its current parameters (springs included).
+  double level_energy(int level, const Eigen::MatrixXd& targets) const;
+  double factor_seconds() const;        ///< tree + assembly + factorisations in the constructor
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Mean diagonal entry of the stiffness matrix sum_t vol_t G_t^T G_t (the scale of soft weights).
+double mean_stiffness(const RestTets& rest, int num_vertices);
+
+} // namespace gshell

@@ -1,0 +1,206 @@
+#include <gshell/deform/handles.h>
+
+#include <gshell/error.h>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace gshell {
+
+using nlohmann::json;
+
+std::vector<int> HandleSet::constrained_vertices() const {
+  std::vector<int> out;
+  for (const auto& h : handles) out.insert(out.end(), h.vertices.begin(), h.vertices.end());
+  return out;
+}
+
+Eigen::MatrixXd HandleSet::targets(const Eigen::MatrixXd& rest_vertices, double fraction) const {
+  Eigen::MatrixXd P(static_cast<Eigen::Index>(constrained_vertices().size()), 3);
+  Eigen::Index row = 0;
+  for (const auto& h : handles) {
+    const double radians = fraction * h.degrees * M_PI / 180.0;
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(radians, h.axis).toRotationMatrix();
+    const Eigen::Vector3d shift = fraction * h.translate;
+    for (int v : h.vertices) {
+      const Eigen::Vector3d u = rest_vertices.row(v).transpose();
+      P.row(row++) = (R * (u - h.center) + h.center + shift).transpose();
+    }
+  }
+  return P;
+}
+
+namespace {
+
+/// Throws "NAME: WHERE: problem".
+struct Reporter {
+  std::string name;
+  [[noreturn]] void fail(const std::string& where, const std::string& problem) const {
+    throw InputError(with_file(name, where.empty() ? problem : where + ": " + problem));
+  }
+};
+
+void check_keys(const json& object, const std::set<std::string>& allowed, const std::string& where,
+                const Reporter& r) {
+  if (!object.is_object()) r.fail(where, "expected a JSON object");
+  for (const auto& [key, value] : object.items())
+    if (!allowed.count(key) && key != "comment") {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      r.fail(where, "unknown key \"" + key + "\" (expected " + list + ")");
+    }
+}
+
+double finite_number(const json& value, const std::string& where, const Reporter& r) {
+  if (!value.is_number()) r.fail(where, "expected a number, got " + value.dump());
+  const double x = value.get<double>();
+  if (!std::isfinite(x)) r.fail(where, "number is not finite");
+  return x;
+}
+
+Eigen::Vector3d vector3(const json& value, const std::string& where, const Reporter& r) {
+  if (!value.is_array() || value.size() != 3) r.fail(where, "expected [x, y, z], got " + value.dump());
+  Eigen::Vector3d v;
+  for (int k = 0; k < 3; ++k) v(k) = finite_number(value[k], where, r);
+  return v;
+}
+
+std::vector<int> explicit_vertices(const json& value, int num_vertices, const std::string& where,
+                                   const Reporter& r) {
+  if (!value.is_array()) r.fail(where, "\"vertices\" must be an array of vertex ids");
+  std::vector<int> ids;
+  for (const auto& id : value) {
+    if (!id.is_number_integer()) r.fail(where, "vertex id " + id.dump() + " is not an integer");
+    const auto v = id.get<long long>();
+    if (v < 0 || v >= num_vertices)
+      r.fail(where, "unknown vertex id " + std::to_string(v) + " (the shell has vertices 0.." +
+                        std::to_string(num_vertices - 1) + ")");
+    ids.push_back(static_cast<int>(v));
+  }
+  if (ids.empty()) r.fail(where, "\"vertices\" is empty");
+  return ids;
+}
+
+std::vector<int> selected_vertices(const json& select, const Shell& rest, const std::string& where,
+                                   const Reporter& r) {
+  check_keys(select, {"surface", "box"}, where + ": select", r);
+  std::string surface = "both";
+  if (select.contains("surface")) {
+    if (!select["surface"].is_string()) r.fail(where, "select.surface must be \"base\", \"top\" or \"both\"");
+    surface = select["surface"].get<std::string>();
+    if (surface != "base" && surface != "top" && surface != "both")
+      r.fail(where, "select.surface must be \"base\", \"top\" or \"both\", got \"" + surface + "\"");
+  }
+  if (!select.contains("box")) r.fail(where, "select needs a \"box\": [xmin, ymin, zmin, xmax, ymax, zmax]");
+  const json& box = select["box"];
+  if (!box.is_array() || box.size() != 6) r.fail(where, "select.box must be [xmin, ymin, zmin, xmax, ymax, zmax]");
+  Eigen::Vector3d lo, hi;
+  for (int k = 0; k < 3; ++k) {
+    lo(k) = finite_number(box[k], where + ": select.box", r);
+    hi(k) = finite_number(box[k + 3], where + ": select.box", r);
+    if (lo(k) > hi(k)) r.fail(where, "select.box has min > max along axis " + std::to_string(k));
+  }
+  const int n = rest.num_base_vertices();
+  std::vector<int> ids;
+  auto scan = [&](const Eigen::MatrixXd& P, int offset) {
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d p = P.row(i).transpose();
+      if ((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all()) ids.push_back(offset + i);
+    }
+  };
+  if (surface != "top") scan(rest.base, 0);
+  if (surface != "base") scan(rest.top, n);
+  if (ids.empty()) r.fail(where, "select matches no vertex (" + surface + " surface, box " + box.dump() + ")");
+  return ids;
+}
+
+Handle parse_handle(const json& h, int index, const Shell& rest, const Reporter& r) {
+  const std::string where = "handle " + std::to_string(index);
+  check_keys(h, {"name", "vertices", "select", "translate", "rotate"}, where, r);
+  const int num_vertices = 2 * rest.num_base_vertices();
+  const bool has_ids = h.contains("vertices"), has_select = h.contains("select");
+  if (has_ids == has_select) r.fail(where, "give exactly one of \"vertices\" and \"select\"");
+  Handle out;
+  out.vertices = has_ids ? explicit_vertices(h["vertices"], num_vertices, where, r)
+                         : selected_vertices(h["select"], rest, where, r);
+  std::sort(out.vertices.begin(), out.vertices.end());
+  out.vertices.erase(std::unique(out.vertices.begin(), out.vertices.end()), out.vertices.end());
+
+  const Eigen::MatrixXd X = rest.vertices();
+  out.center = Eigen::Vector3d::Zero();
+  for (int v : out.vertices) out.center += X.row(v).transpose();
+  out.center /= static_cast<double>(out.vertices.size());
+
+  if (h.contains("translate")) out.translate = vector3(h["translate"], where + ": translate", r);
+  if (h.contains("rotate")) {
+    const json& rot = h["rotate"];
+    check_keys(rot, {"axis", "degrees", "center"}, where + ": rotate", r);
+    if (!rot.contains("axis") || !rot.contains("degrees")) r.fail(where, "rotate needs \"axis\" and \"degrees\"");
+    const Eigen::Vector3d axis = vector3(rot["axis"], where + ": rotate.axis", r);
+    if (!(axis.norm() > 0)) r.fail(where, "rotate.axis is zero");
+    out.axis = axis.normalized();
+    out.degrees = finite_number(rot["degrees"], where + ": rotate.degrees", r);
+    if (rot.contains("center")) out.center = vector3(rot["center"], where + ": rotate.center", r);
+  }
+  return out;
+}
+
+} // namespace
+
+HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest) {
+  const Reporter r{name};
+  json doc;
+  try {
+    doc = json::parse(json_text);
+  } catch (const json::parse_error& e) {
+    // nlohmann's message carries the position and the offending text; drop its "[json...]" prefix
+    std::string what = e.what();
+    const auto pos = what.find("] ");
+    r.fail("", "not valid JSON (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
+  }
+  check_keys(doc, {"handles", "mode", "weight"}, "", r);
+  HandleSet set;
+  const bool has_weight = doc.contains("weight");
+  if (has_weight) {
+    set.weight = finite_number(doc["weight"], "weight", r);
+    if (!(set.weight > 0)) r.fail("weight", "must be > 0");
+  }
+  // A weight without a mode asks for soft constraints; otherwise hard is the default.
+  set.mode = has_weight ? ConstraintMode::Soft : ConstraintMode::Hard;
+  if (doc.contains("mode")) {
+    const json& m = doc["mode"];
+    if (!m.is_string() || (m != "hard" && m != "soft")) r.fail("mode", "must be \"hard\" or \"soft\", got " + m.dump());
+    set.mode = m == "hard" ? ConstraintMode::Hard : ConstraintMode::Soft;
+  }
+  if (!doc.contains("handles")) r.fail("", "missing \"handles\"");
+  const json& list = doc["handles"];
+  if (!list.is_array()) r.fail("handles", "must be an array");
+  if (list.empty()) r.fail("handles", "is empty: at least one handle is needed to pin the shell in space");
+  for (size_t k = 0; k < list.size(); ++k) set.handles.push_back(parse_handle(list[k], static_cast<int>(k), rest, r));
+
+  std::map<int, int> owner;
+  for (size_t k = 0; k < set.handles.size(); ++k)
+    for (int v : set.handles[k].vertices) {
+      const auto [it, fresh] = owner.emplace(v, static_cast<int>(k));
+      if (!fresh)
+        r.fail("", "vertex " + std::to_string(v) + " is in handles " + std::to_string(it->second) + " and " +
+                       std::to_string(k) + " (handles must not overlap)");
+    }
+  return set;
+}
+
+HandleSet read_handles(const std::string& path, const Shell& rest) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(with_file(path, "cannot open handle file"));
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_handles(text.str(), path, rest);
+}
+
+} // namespace gshell

@@ -1,0 +1,141 @@
+#include <gshell/deform/pose.h>
+
+#include <gshell/error.h>
+#include <gshell/shell/prism_tets.h>
+
+#include <chrono>
+#include <numeric>
+#include <string>
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+int find_root(std::vector<int>& parent, int v) {
+  while (parent[v] != v) v = parent[v] = parent[parent[v]];
+  return v;
+}
+
+/// Every connected part of the base mesh (its top goes with it) needs a handle vertex, or the
+/// energy does not pin it in space and the system is singular.
+void require_anchored_components(const Eigen::MatrixXi& F, int n, const std::vector<int>& constrained) {
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 1; k < 3; ++k) parent[find_root(parent, F(f, k))] = find_root(parent, F(f, 0));
+  std::vector<char> used(n, 0), anchored(n, 0);
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
+  for (int v : constrained) anchored[find_root(parent, v < n ? v : v - n)] = 1;
+  for (int v = 0; v < n; ++v)
+    if (used[v] && !anchored[find_root(parent, v)])
+      throw InputError("the handles leave a connected part of the shell free (e.g. the part with base vertex " +
+                       std::to_string(v) + "): give every part at least one handle vertex");
+}
+
+} // namespace
+
+struct PoseSolver::Impl {
+  PoseSolverKind kind;
+  HandleSet handles;
+  Eigen::MatrixXd rest_vertices;
+  RestTets rest;
+  std::vector<int> constrained;
+  double soft_weight = 0; // absolute
+  std::unique_ptr<HierarchicalSolver> hierarchical;
+  std::unique_ptr<ShellSolver> single;
+  double setup_seconds = 0;
+};
+
+PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKind kind,
+                       const HierarchyOptions& hierarchy)
+    : impl_(std::make_unique<Impl>()) {
+  const auto start = Clock::now();
+  Impl& s = *impl_;
+  s.kind = kind;
+  s.handles = handles;
+  s.rest_vertices = rest.vertices();
+  s.constrained = handles.constrained_vertices();
+  if (s.constrained.empty()) throw InputError("no handle vertices");
+  const int n = rest.num_base_vertices();
+  require_anchored_components(rest.F, n, s.constrained);
+  s.rest = rest_tets_from_positions(s.rest_vertices, build_prism_tets(rest.F, n));
+  const bool hard = handles.mode == ConstraintMode::Hard;
+  if (!hard) s.soft_weight = handles.weight * mean_stiffness(s.rest, 2 * n);
+
+  if (kind == PoseSolverKind::Hierarchical) {
+    PositionConstraints c;
+    c.vertices = s.constrained;
+    c.hard = hard;
+    c.weight = s.soft_weight;
+    s.hierarchical = std::make_unique<HierarchicalSolver>(s.rest, s.rest_vertices, rest.F, c, hierarchy);
+  } else if (hard) {
+    s.single = std::make_unique<ShellSolver>(s.rest, 2 * n, s.constrained);
+  } else {
+    SoftConstraints soft;
+    soft.vertices = s.constrained;
+    soft.weight = s.soft_weight;
+    s.single = std::make_unique<ShellSolver>(s.rest, 2 * n, std::vector<int>{}, soft);
+  }
+  s.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+PoseSolver::~PoseSolver() = default;
+PoseSolver::PoseSolver(PoseSolver&&) noexcept = default;
+PoseSolver& PoseSolver::operator=(PoseSolver&&) noexcept = default;
+
+Eigen::MatrixXd PoseSolver::targets(double fraction) const {
+  return impl_->handles.targets(impl_->rest_vertices, fraction);
+}
+
+SolveResult PoseSolver::solve(Eigen::MatrixXd& X, double fraction, const SolveOptions& options) {
+  Impl& s = *impl_;
+  const Eigen::MatrixXd P = targets(fraction);
+  if (s.hierarchical) return s.hierarchical->solve(X, P, options);
+  if (s.handles.mode == ConstraintMode::Hard) {
+    for (size_t r = 0; r < s.constrained.size(); ++r) X.row(s.constrained[r]) = P.row(r);
+    return s.single->solve(X, options);
+  }
+  return s.single->solve(X, options, P);
+}
+
+double PoseSolver::energy(const Eigen::MatrixXd& X, double fraction) const {
+  const Impl& s = *impl_;
+  const Eigen::MatrixXd P = targets(fraction);
+  if (s.hierarchical) return s.hierarchical->energy(X, P);
+  return s.handles.mode == ConstraintMode::Hard ? s.single->energy(X) : s.single->energy(X, P);
+}
+
+const std::vector<int>& PoseSolver::constrained_vertices() const { return impl_->constrained; }
+const Eigen::MatrixXd& PoseSolver::rest_vertices() const { return impl_->rest_vertices; }
+const RestTets& PoseSolver::rest_tets() const { return impl_->rest; }
+PoseSolverKind PoseSolver::kind() const { return impl_->kind; }
+double PoseSolver::setup_seconds() const { return impl_->setup_seconds; }
+const HierarchicalSolver* PoseSolver::hierarchical() const { return impl_->hierarchical.get(); }
+
+PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options) {
+  if (options.steps < 1) throw InputError("--steps must be >= 1");
+  PoseSolver solver(rest, handles, options.solver, options.hierarchy);
+  PoseResult result;
+  result.setup_seconds = solver.setup_seconds();
+  result.X = solver.rest_vertices();
+  for (int step = 1; step <= options.steps; ++step) {
+    PoseStepReport report;
+    report.fraction = static_cast<double>(step) / options.steps;
+    SolveOptions so = options.solve;
+    so.progress = nullptr;
+    if (options.step_progress)
+      so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
+    const SolveResult r = solver.solve(result.X, report.fraction, so);
+    report.iterations = r.iterations;
+    report.energy = r.energy.empty() ? 0 : r.energy.back();
+    report.seconds = r.seconds;
+    report.converged = r.converged;
+    result.steps.push_back(report);
+  }
+  return result;
+}
+
+} // namespace gshell

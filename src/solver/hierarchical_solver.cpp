@@ -1,0 +1,358 @@
+#include <gshell/solver/hierarchical_solver.h>
+
+#include "hierarchy_levels.h"
+
+#include <Eigen/Cholesky>
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace gshell {
+
+using detail::FullLevel;
+using detail::LocalCache;
+using detail::ReducedLevel;
+using detail::RigidChange;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+/// The reduced levels rely on the rest shapes being the tets of `rest_vertices` (then a tet inside
+/// a cluster has F = M exactly); a mismatch would silently solve another problem.
+void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
+  for (int t = 0; t < rest.size(); ++t) {
+    Eigen::Matrix3d D;
+    for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest.T(t, k + 1)) - X.row(rest.T(t, 0))).transpose();
+    if (((D * rest.Dm_inv[t]) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6)
+      throw std::invalid_argument("HierarchicalSolver: rest shapes do not match rest_vertices at tet " +
+                                  std::to_string(t));
+  }
+}
+
+/// The full level's iterate with its local step (rotations, energy).
+struct FullState {
+  Eigen::MatrixXd& X;
+  LocalCache cache;
+  double energy;
+};
+
+/// Anderson acceleration of the local/global fixed-point map x -> G(x) (type II, as in Peng et
+/// al. 2018): the next iterate combines the last few images so that the combined residual
+/// G(x) - x is smallest. The caller keeps it only if it lowers the energy.
+class AndersonHistory {
+public:
+  explicit AndersonHistory(int depth) : depth_(depth) {}
+  void clear() {
+    dF_.clear();
+    dG_.clear();
+    has_last_ = false;
+  }
+  /// Records (x, G(x)); returns true and the extrapolated iterate when there is history.
+  bool extrapolate(const Eigen::MatrixXd& x, const Eigen::MatrixXd& image, Eigen::MatrixXd& out) {
+    if (depth_ <= 0) return false;
+    const Eigen::Map<const Eigen::VectorXd> u(x.data(), x.size()), g(image.data(), image.size());
+    const Eigen::VectorXd f = g - u;
+    if (has_last_) {
+      if (static_cast<int>(dF_.size()) == depth_) {
+        dF_.erase(dF_.begin());
+        dG_.erase(dG_.begin());
+      }
+      dF_.push_back(f - last_f_);
+      dG_.push_back(g - last_g_);
+    }
+    last_f_ = f;
+    last_g_ = g;
+    has_last_ = true;
+    if (dF_.empty()) return false;
+    const int m = static_cast<int>(dF_.size());
+    Eigen::MatrixXd normal(m, m);
+    Eigen::VectorXd rhs(m);
+    for (int i = 0; i < m; ++i) {
+      rhs(i) = dF_[i].dot(f);
+      for (int j = 0; j <= i; ++j) normal(i, j) = normal(j, i) = dF_[i].dot(dF_[j]);
+    }
+    normal.diagonal().array() += 1e-12 * std::max(1e-300, normal.diagonal().maxCoeff());
+    const Eigen::VectorXd gamma = normal.ldlt().solve(rhs);
+    out.resize(x.rows(), x.cols());
+    Eigen::Map<Eigen::VectorXd> o(out.data(), out.size());
+    o = g;
+    for (int i = 0; i < m; ++i) o -= gamma(i) * dG_[i];
+    return gamma.allFinite();
+  }
+
+private:
+  int depth_;
+  std::vector<Eigen::VectorXd> dF_, dG_;
+  Eigen::VectorXd last_f_, last_g_;
+  bool has_last_ = false;
+};
+
+} // namespace
+
+double mean_stiffness(const RestTets& rest, int num_vertices) {
+  if (num_vertices <= 0) return 0;
+  return detail::stiffness_matrix(rest, num_vertices).diagonal().sum() / num_vertices;
+}
+
+struct HierarchicalSolver::Impl {
+  RestTets rest;
+  PositionConstraints constraints;
+  HierarchyOptions options;
+  ClusterTree tree;
+  std::vector<int> depth_of_level;
+  std::unique_ptr<FullLevel> full;
+  std::vector<ReducedLevel> reduced;
+  std::vector<LocalCache> reduced_cache;
+  std::vector<Eigen::MatrixXd> tau;  // per reduced level: fine residual coupling of this outer iteration
+  double factor_seconds = 0;
+
+  int num_vertices() const { return static_cast<int>(rest_vertices_rows); }
+  int rest_vertices_rows = 0;
+
+  /// The objective of reduced level l: its energy minus 2 <tau_l, z> (tau_l = 0 without residual coupling).
+  double reduced_objective(int l, const Eigen::MatrixXd& targets, const LocalCache& cache) const {
+    double e = cache.elastic + reduced[l].springs(targets);
+    if (tau[l].size() > 0) e -= 2.0 * tau[l].cwiseProduct(reduced[l].parameters()).sum();
+    return e;
+  }
+
+  void reduced_iterations(int l, const Eigen::MatrixXd& targets) {
+    ReducedLevel& level = reduced[l];
+    LocalCache& cache = reduced_cache[l];
+    for (int k = 0; k < options.level_iterations; ++k) {
+      Eigen::MatrixXd rhs = level.rhs(targets, cache);
+      if (tau[l].size() > 0) rhs += tau[l];
+      level.solve(rhs);
+      level.local(cache);
+    }
+  }
+
+  /// One coarse-to-fine pass over the reduced levels, ending in a candidate change of the full
+  /// state, which is kept only if it lowers the full energy. Returns whether it was kept.
+  bool coarse_correction(FullState& state, const Eigen::MatrixXd& targets, HierarchicalSolveResult& result) {
+    const int L = static_cast<int>(reduced.size());
+    const bool residual = options.residual_correction;
+    std::vector<Eigen::MatrixXd> before(L);
+    if (residual) {
+      // Full approximation scheme: every level starts from the affine fit of the full state and
+      // sees the full gradient through tau, so its fixed point is the full one's.
+      const Eigen::MatrixXd gradient = full->half_gradient(state.X, targets, state.cache);
+      for (int l = 0; l < L; ++l) {
+        reduced[l].fit(state.X);
+        reduced[l].local(reduced_cache[l]);
+        before[l] = reduced[l].parameters();
+        tau[l] = reduced[l].half_gradient(targets, reduced_cache[l]) - reduced[l].restrict_field(gradient);
+      }
+    } else {
+      for (int l = 0; l < L; ++l) {
+        before[l] = reduced[l].parameters();
+        if (!reduced_cache[l].valid) reduced[l].local(reduced_cache[l]);
+      }
+    }
+    for (int l = 0; l < L; ++l) {
+      if (l > 0) {
+        // The parent's change since the start of this pass goes to its children first.
+        ReducedLevel& level = reduced[l];
+        const double objective = reduced_objective(l, targets, reduced_cache[l]);
+        const Eigen::MatrixXd kept = level.parameters();
+        if (residual) level.apply_affine(reduced[l - 1], before[l - 1], parent_of(l));
+        else level.apply(reduced[l - 1].changes_since(before[l - 1]), parent_of(l));
+        LocalCache candidate;
+        level.local(candidate);
+        if (reduced_objective(l, targets, candidate) <= objective) {
+          std::swap(candidate, reduced_cache[l]);
+        } else {
+          level.parameters() = kept;
+          ++result.rejected_propagations;
+        }
+      }
+      reduced_iterations(l, targets);
+    }
+
+    // The finest reduced level's change goes into the full state.
+    const ReducedLevel& finest = reduced.back();
+    Eigen::MatrixXd trial;
+    if (residual) {
+      trial = state.X + finest.positions() - finest.positions(before.back());
+    } else {
+      const std::vector<RigidChange> change = finest.changes_since(before.back());
+      trial.resize(state.X.rows(), 3);
+      for (int v = 0; v < state.X.rows(); ++v)
+        trial.row(v) = change[finest.cluster_of_vertex(v)].apply(state.X.row(v).transpose()).transpose();
+    }
+    full->set_hard_rows(trial, targets);
+    LocalCache candidate;
+    full->local(trial, candidate);
+    const double e = candidate.elastic + full->springs(trial, targets);
+    if (!(e < state.energy)) {
+      ++result.rejected_propagations;
+      return false;
+    }
+    state.X.swap(trial);
+    std::swap(state.cache, candidate);
+    state.energy = e;
+    return true;
+  }
+
+  /// One local/global iteration of the full level (Anderson-accelerated when enabled). Returns
+  /// false when it could not lower the energy (converged to round-off).
+  bool full_iteration(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson) {
+    Eigen::MatrixXd image = state.X;
+    full->global(image, targets, state.cache);
+    LocalCache candidate;
+    Eigen::MatrixXd accelerated;
+    if (anderson.extrapolate(state.X, image, accelerated)) {
+      full->local(accelerated, candidate);
+      const double e = candidate.elastic + full->springs(accelerated, targets);
+      if (e < state.energy) {
+        state.X.swap(accelerated);
+        std::swap(state.cache, candidate);
+        state.energy = e;
+        return true;
+      }
+      anderson.clear(); // a failed extrapolation: fall back on the plain step, which cannot go up
+    }
+    full->local(image, candidate);
+    const double e = candidate.elastic + full->springs(image, targets);
+    if (!(e <= state.energy)) return false; // only round-off makes a plain step go up
+    state.X.swap(image);
+    std::swap(state.cache, candidate);
+    state.energy = e;
+    return true;
+  }
+
+  /// Parent (at the previous reduced level) of every cluster of reduced level l > 0.
+  std::vector<int> parent_of(int l) const {
+    const int d0 = depth_of_level[l - 1], d1 = depth_of_level[l];
+    std::vector<int> p(tree.num_clusters(d1));
+    for (int c = 0; c < static_cast<int>(p.size()); ++c) {
+      int q = c;
+      for (int d = d1; d > d0; --d) q = tree.parent[d][q];
+      p[c] = q;
+    }
+    return p;
+  }
+};
+
+HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::MatrixXd& rest_vertices,
+                                       const Eigen::MatrixXi& F, const PositionConstraints& constraints,
+                                       const HierarchyOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  const auto start = Clock::now();
+  Impl& s = *impl_;
+  s.rest = rest;
+  s.constraints = constraints;
+  s.options = options;
+  s.rest_vertices_rows = static_cast<int>(rest_vertices.rows());
+  if (options.levels < 1) throw std::invalid_argument("HierarchicalSolver: levels must be >= 1");
+  if (rest_vertices.rows() % 2 != 0) throw std::invalid_argument("HierarchicalSolver: rest_vertices must have 2n rows");
+  if (!constraints.hard && !(constraints.weight > 0))
+    throw std::invalid_argument("HierarchicalSolver: soft constraints need a positive weight");
+  require_matching_rest(s.rest, rest_vertices);
+
+  s.full = std::make_unique<FullLevel>(s.rest, s.num_vertices(), constraints);
+
+  const int reduced_levels = options.levels - 1;
+  const int split = std::max(1, options.splits_per_level);
+  ClusterTreeOptions tree_options;
+  tree_options.depth = reduced_levels > 0 ? (reduced_levels - 1) * split : 0;
+  tree_options.min_cluster_size = options.min_cluster_size;
+  s.tree = build_cluster_tree(rest_vertices, F, tree_options);
+  const double weight = constraints.hard ? options.reduced_hard_weight * mean_stiffness(s.rest, s.num_vertices())
+                                         : constraints.weight;
+  for (int l = 0; l < reduced_levels; ++l) {
+    const int d = l * split;
+    s.depth_of_level.push_back(d);
+    s.reduced.emplace_back(s.rest, rest_vertices, s.tree.cluster_of[d], s.tree.num_clusters(d),
+                           s.full->stiffness(), constraints.vertices, weight);
+  }
+  s.reduced_cache.resize(reduced_levels);
+  s.tau.resize(reduced_levels);
+  s.factor_seconds = seconds_since(start);
+}
+
+HierarchicalSolver::~HierarchicalSolver() = default;
+HierarchicalSolver::HierarchicalSolver(HierarchicalSolver&&) noexcept = default;
+HierarchicalSolver& HierarchicalSolver::operator=(HierarchicalSolver&&) noexcept = default;
+
+HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets,
+                                                  const SolveOptions& options) {
+  Impl& s = *impl_;
+  const auto start = Clock::now();
+  if (X.rows() != s.num_vertices() || X.cols() != 3)
+    throw std::invalid_argument("HierarchicalSolver::solve: X must be 2n x 3");
+  if (targets.rows() != static_cast<Eigen::Index>(s.constraints.vertices.size()) || targets.cols() != 3)
+    throw std::invalid_argument("HierarchicalSolver::solve: one target row per constrained vertex");
+
+  const FullLevel& full = *s.full;
+  full.set_hard_rows(X, targets);
+  FullState state{X, {}, 0};
+  full.local(X, state.cache);
+  state.energy = state.cache.elastic + full.springs(X, targets);
+
+  HierarchicalSolveResult result;
+  result.energy.push_back(state.energy);
+  AndersonHistory anderson(s.options.anderson_history);
+  int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
+  for (int it = 1; it <= options.max_iterations; ++it) {
+    const double previous = state.energy;
+    if (!s.reduced.empty() && skip-- <= 0) {
+      if (s.coarse_correction(state, targets, result)) {
+        backoff = 1;
+        anderson.clear(); // the accelerator's history describes a different iterate sequence
+      } else {
+        skip = backoff;
+        backoff = std::min(2 * backoff, 16);
+      }
+    }
+    for (int k = 0; k < s.options.full_iterations; ++k) {
+      ++result.full_iterations;
+      if (!s.full_iteration(state, targets, anderson)) break;
+    }
+    result.iterations = it;
+    result.energy.push_back(state.energy);
+    result.seconds = seconds_since(start);
+    if (options.progress) options.progress(it, state.energy, result.seconds);
+    if (previous <= 0 || (previous - state.energy) / previous < options.tolerance) {
+      result.converged = true;
+      break;
+    }
+  }
+  result.seconds = seconds_since(start);
+  return result;
+}
+
+double HierarchicalSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const {
+  LocalCache cache;
+  impl_->full->local(X, cache);
+  return cache.elastic + impl_->full->springs(X, targets);
+}
+
+void HierarchicalSolver::reset() {
+  for (auto& level : impl_->reduced) level.reset();
+  for (auto& cache : impl_->reduced_cache) cache.valid = false;
+}
+
+int HierarchicalSolver::num_levels() const { return static_cast<int>(impl_->reduced.size()) + 1; }
+const ClusterTree& HierarchicalSolver::tree() const { return impl_->tree; }
+int HierarchicalSolver::tree_depth(int level) const { return impl_->depth_of_level.at(level); }
+int HierarchicalSolver::num_clusters(int level) const { return impl_->reduced.at(level).num_clusters(); }
+Eigen::MatrixXd HierarchicalSolver::level_positions(int level) const { return impl_->reduced.at(level).positions(); }
+const Eigen::MatrixXd& HierarchicalSolver::level_parameters(int level) const {
+  return impl_->reduced.at(level).parameters();
+}
+double HierarchicalSolver::level_energy(int level, const Eigen::MatrixXd& targets) const {
+  LocalCache cache;
+  impl_->reduced.at(level).local(cache);
+  return cache.elastic + impl_->reduced.at(level).springs(targets);
+}
+double HierarchicalSolver::factor_seconds() const { return impl_->factor_seconds; }
+
+} // namespace gshell

@@ -1,0 +1,125 @@
+#pragma once
+// The two kinds of level of the hierarchical solver: the full problem over all shell vertices and
+// a reduced problem over per-cluster affine maps. Both do the local step (rotations, energy) into
+// a cache object, so the caller can evaluate a candidate state and keep or drop it.
+#include "hierarchy_linear.h"
+
+#include <gshell/solver/hierarchical_solver.h>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <vector>
+
+namespace gshell::detail {
+
+/// Result of a local step at one state: per element the 3x3 Q = vol * Dm_inv * R^T that the
+/// global step's right-hand side is gathered from, and the elastic energy (no springs).
+struct LocalCache {
+  std::vector<Eigen::Matrix3d> Q;
+  std::vector<double> element_energy;
+  double elastic = 0;
+  bool valid = false;
+};
+
+/// Stiffness matrix L = sum_t vol_t G_t^T G_t over `num_vertices` (one coordinate; same for x, y, z).
+Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices);
+
+class FullLevel {
+public:
+  FullLevel(const RestTets& rest, int num_vertices, const PositionConstraints& constraints);
+
+  /// Writes hard targets into X's constrained rows (no-op for soft constraints).
+  void set_hard_rows(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const;
+  void local(const Eigen::MatrixXd& X, LocalCache& cache) const;
+  double springs(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const;
+  /// Minimises over the free rows of X with the rotations of `cache`.
+  void global(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const LocalCache& cache) const;
+  /// Half the energy gradient at X (rotations of `cache` taken at X); rows of eliminated vertices are 0.
+  Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const LocalCache& cache) const;
+  const Eigen::SparseMatrix<double>& stiffness() const { return L_; }
+
+private:
+  const RestTets& rest_;
+  int N_;
+  PositionConstraints constraints_;
+  Eigen::SparseMatrix<double> L_;
+  std::vector<int> free_index_;          // -1 for eliminated vertices
+  std::vector<int> free_vertices_, fixed_vertices_;
+  std::vector<int> constraint_row_;      // per vertex: row in targets, or -1
+  Eigen::SparseMatrix<double> L_free_fixed_;
+  SpdSolver solver_;
+  std::vector<int> incidence_start_, incidence_; // per vertex: 4 * tet + corner
+
+  Eigen::RowVector3d gathered_rhs(int v, const Eigen::MatrixXd& targets, const LocalCache& cache) const;
+};
+
+/// Rigid change of one cluster between two affine maps: y -> dR (y - from) + to, where dR is the
+/// rotation change and from/to the cluster centroid's positions before and after.
+struct RigidChange {
+  Eigen::Matrix3d dR = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d from = Eigen::Vector3d::Zero(), to = Eigen::Vector3d::Zero();
+  Eigen::Vector3d apply(const Eigen::Vector3d& y) const { return dR * (y - from) + to; }
+};
+
+class ReducedLevel {
+public:
+  /// `cluster_of_base[i]` in 0..num_clusters-1; top vertex n+i shares base vertex i's cluster.
+  /// `weight` is the absolute spring weight of the constraints on this level.
+  ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const std::vector<int>& cluster_of_base,
+               int num_clusters, const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained,
+               double weight);
+
+  int num_clusters() const { return m_; }
+  void reset();                                   ///< identity maps (the rest shape)
+  const Eigen::MatrixXd& parameters() const { return Z_; }
+  Eigen::MatrixXd& parameters() { return Z_; }
+  Eigen::Matrix3d map(int cluster) const { return Z_.block(4 * cluster, 0, 3, 3).transpose(); }
+  Eigen::Vector3d translation(int cluster) const { return Z_.row(4 * cluster + 3).transpose(); }
+  Eigen::Vector3d position(int v) const;
+  Eigen::MatrixXd positions() const;              ///< B z, all 2n vertices
+  Eigen::MatrixXd positions(const Eigen::MatrixXd& parameters) const; ///< B z for other parameters
+  int cluster_of_vertex(int v) const { return cluster_[v]; }
+
+  void local(LocalCache& cache) const;            ///< Q: one per cluster, then one per border tet
+  double springs(const Eigen::MatrixXd& targets) const;
+  /// Right-hand side B^T (b(R) + springs) of the reduced global step for the rotations of `cache`.
+  Eigen::MatrixXd rhs(const Eigen::MatrixXd& targets, const LocalCache& cache) const;
+  /// Parameters <- A^-1 rhs: the exact minimiser in the subspace for fixed rotations.
+  void solve(const Eigen::MatrixXd& rhs);
+  /// Half the reduced energy gradient A z - rhs at the current parameters (cache taken there).
+  Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& targets, const LocalCache& cache) const;
+  /// Parameters <- the least-squares affine fit of every cluster to positions X (2n x 3).
+  void fit(const Eigen::MatrixXd& X);
+  /// B^T g for a per-vertex field g (2n x 3): how a fine-level force acts on the affine maps.
+  Eigen::MatrixXd restrict_field(const Eigen::MatrixXd& g) const;
+
+  /// Per-cluster rigid change from parameters `before` to the current ones.
+  std::vector<RigidChange> changes_since(const Eigen::MatrixXd& before) const;
+  /// Adds the parent level's affine change since `parent_before` to this level's maps (the
+  /// exact embedding: the parent's subspace lies inside this one).
+  void apply_affine(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before, const std::vector<int>& parent_of);
+  /// Applies each parent's rigid change to this level's clusters (parent_of[c] = parent cluster).
+  void apply(const std::vector<RigidChange>& parent_change, const std::vector<int>& parent_of);
+
+private:
+  const RestTets& rest_;
+  int N_, m_;
+  std::vector<int> cluster_;                 // per shell vertex
+  Eigen::MatrixXd local_coords_;             // u_v - c_cluster(v)
+  Eigen::VectorXd interior_volume_;          // per cluster
+  struct BorderTet {                          // a tet spanning several clusters
+    int tet;
+    int cluster[4];
+    Eigen::Vector3d coords[4];                // corner's u - c_cluster
+  };
+  std::vector<BorderTet> border_;
+  Eigen::MatrixXd centroid_;                  // rest centroid per cluster
+  std::vector<int> constrained_;
+  double weight_;
+  Eigen::SparseMatrix<double> A_;
+  std::vector<Eigen::Matrix4d> fit_inverse_;  // per cluster (sum_v [u_v - c; 1][u_v - c; 1]^T)^-1
+  SpdSolver solver_;
+  Eigen::MatrixXd Z_, Z_rest_;
+};
+
+} // namespace gshell::detail

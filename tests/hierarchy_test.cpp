@@ -1,0 +1,311 @@
+// The cluster tree and the hierarchical solver (paper §5): partition invariants, subspace
+// membership, monotone energy, agreement with the single-level solver.
+#include <gshell/deform/handles.h>
+#include <gshell/deform/pose.h>
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/quality/stretch.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/solver/cluster_tree.h>
+#include <gshell/solver/hierarchical_solver.h>
+#include <gshell/solver/rest_tets.h>
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <Eigen/QR>
+
+#include <algorithm>
+#include <set>
+
+using namespace gshell;
+
+namespace {
+
+Shell offset_shell(const TriMesh& mesh, double eta) {
+  Shell s;
+  s.base = mesh.V;
+  s.top = offset_top(mesh.V, mesh.F, eta);
+  s.F = mesh.F;
+  s.thickness = eta;
+  return s;
+}
+
+/// Hold the rim on one side of a unit bowl, move the rim on the other side by `move`.
+HandleSet bowl_pull(const Shell& shell, const Eigen::Vector3d& move) {
+  const Eigen::MatrixXd X = shell.vertices();
+  Handle hold, pull;
+  for (int v = 0; v < X.rows(); ++v) {
+    if (X(v, 2) > -0.2 && X(v, 0) < -0.6) hold.vertices.push_back(v);
+    if (X(v, 2) > -0.2 && X(v, 0) > 0.6) pull.vertices.push_back(v);
+  }
+  pull.translate = move;
+  HandleSet set;
+  set.handles = {hold, pull};
+  return set;
+}
+
+struct Problem {
+  Shell shell;
+  Eigen::MatrixXd X;
+  RestTets rest;
+  PositionConstraints constraints;
+  Eigen::MatrixXd targets;
+};
+
+Problem bowl_problem(int res, const Eigen::Vector3d& move, bool hard = true) {
+  Problem p;
+  p.shell = offset_shell(make_bowl(res), 0.06);
+  p.X = p.shell.vertices();
+  p.rest = rest_tets_from_positions(p.X, build_prism_tets(p.shell.F, p.shell.num_base_vertices()));
+  const HandleSet h = bowl_pull(p.shell, move);
+  p.constraints.vertices = h.constrained_vertices();
+  p.constraints.hard = hard;
+  p.constraints.weight = hard ? 0 : 1000 * mean_stiffness(p.rest, static_cast<int>(p.X.rows()));
+  p.targets = h.targets(p.X, 1.0);
+  return p;
+}
+
+void expect_partition(const ClusterTree& tree, int n) {
+  for (int d = 0; d < tree.num_depths(); ++d) {
+    ASSERT_EQ(static_cast<int>(tree.cluster_of[d].size()), n);
+    const auto members = tree.members(d);
+    std::vector<int> seen(n, 0);
+    for (const auto& cluster : members) {
+      EXPECT_FALSE(cluster.empty()) << "empty cluster at depth " << d;
+      for (int v : cluster) ++seen[v];
+    }
+    for (int v = 0; v < n; ++v) EXPECT_EQ(seen[v], 1) << "vertex " << v << " at depth " << d;
+    if (d == 0) continue;
+    // Nested: every vertex's cluster lies inside its parent's cluster.
+    for (int v = 0; v < n; ++v)
+      EXPECT_EQ(tree.parent[d][tree.cluster_of[d][v]], tree.cluster_of[d - 1][v]);
+  }
+}
+
+void expect_balanced_siblings(const ClusterTree& tree) {
+  for (int d = 1; d < tree.num_depths(); ++d) {
+    const auto members = tree.members(d);
+    std::vector<std::vector<int>> children(tree.num_clusters(d - 1));
+    for (int c = 0; c < tree.num_clusters(d); ++c) children[tree.parent[d][c]].push_back(c);
+    for (const auto& kids : children) {
+      ASSERT_GE(kids.size(), 1u);
+      ASSERT_LE(kids.size(), 2u);
+      if (kids.size() < 2) continue;
+      const double a = static_cast<double>(members[kids[0]].size()), b = static_cast<double>(members[kids[1]].size());
+      EXPECT_LE(std::max(a, b), 1.5 * std::min(a, b)) << "depth " << d << ": siblings of " << a << " and " << b;
+    }
+  }
+}
+
+} // namespace
+
+TEST(ClusterTree, EveryDepthPartitionsTheVerticesIntoNestedClusters) {
+  for (const TriMesh& mesh : {make_bowl(20), make_torus(32), make_plane(24)}) {
+    const Shell s = offset_shell(mesh, 0.05);
+    ClusterTreeOptions o;
+    o.depth = 7;
+    o.min_cluster_size = 4;
+    const ClusterTree tree = build_cluster_tree(s.vertices(), s.F, o);
+    ASSERT_EQ(tree.num_depths(), 8);
+    expect_partition(tree, mesh.num_vertices());
+    EXPECT_EQ(tree.num_clusters(0), 1);
+    EXPECT_GT(tree.num_clusters(7), 110); // nearly every cluster splits each round (2^7 = 128)
+  }
+}
+
+TEST(ClusterTree, SiblingsHaveNearlyEqualSizes) {
+  for (const TriMesh& mesh : {make_bowl(24), make_torus(40), make_cylinder(32)}) {
+    const Shell s = offset_shell(mesh, 0.05);
+    ClusterTreeOptions o;
+    o.depth = 6;
+    expect_balanced_siblings(build_cluster_tree(s.vertices(), s.F, o));
+  }
+}
+
+TEST(ClusterTree, ClustersStopSplittingAtTheMinimumSize) {
+  const Shell s = offset_shell(make_bowl(6), 0.05);
+  ClusterTreeOptions o;
+  o.depth = 10;
+  o.min_cluster_size = 10;
+  const ClusterTree tree = build_cluster_tree(s.vertices(), s.F, o);
+  expect_partition(tree, s.num_base_vertices());
+  for (const auto& cluster : tree.members(10)) EXPECT_GE(cluster.size(), 10u);
+}
+
+TEST(ClusterTree, HalvesAreSplitAlongTheLongestAxis) {
+  // A long strip: the first cut is across its length, at the median.
+  const TriMesh plane = make_plane(20);
+  Shell s = offset_shell(plane, 0.05);
+  s.base.col(0) *= 5.0;
+  s.top.col(0) *= 5.0;
+  ClusterTreeOptions o;
+  o.depth = 1;
+  const ClusterTree tree = build_cluster_tree(s.vertices(), s.F, o);
+  const auto halves = tree.members(1);
+  ASSERT_EQ(halves.size(), 2u);
+  double max_a = -1e9, min_b = 1e9;
+  const bool a_is_left = s.base(halves[0][0], 0) < 0;
+  for (int v : halves[a_is_left ? 0 : 1]) max_a = std::max(max_a, s.base(v, 0));
+  for (int v : halves[a_is_left ? 1 : 0]) min_b = std::min(min_b, s.base(v, 0));
+  EXPECT_LE(max_a, min_b);
+}
+
+TEST(HierarchicalSolver, ReducedLevelsAreExactMembersOfTheirSubspaces) {
+  Problem p = bowl_problem(12, {0.5, 0.1, 0.3});
+  for (bool residual : {true, false}) {
+    HierarchyOptions o;
+    o.residual_correction = residual;
+    HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+    ASSERT_EQ(solver.num_levels(), 5);
+    Eigen::MatrixXd X = p.X;
+    SolveOptions so;
+    so.max_iterations = 6;
+    solver.solve(X, p.targets, so);
+    const int n = p.shell.num_base_vertices();
+    for (int l = 0; l + 1 < solver.num_levels(); ++l) {
+      const Eigen::MatrixXd Y = solver.level_positions(l);
+      const auto members = solver.tree().members(solver.tree_depth(l));
+      ASSERT_EQ(static_cast<int>(members.size()), solver.num_clusters(l));
+      double worst = 0;
+      bool moved = false;
+      for (const auto& cluster : members) {
+        // Independent check: least-squares affine fit of the level's positions to the rest
+        // positions over the cluster's base and top vertices leaves no residual.
+        Eigen::MatrixXd U(2 * cluster.size(), 4), P(2 * cluster.size(), 3);
+        int r = 0;
+        for (int i : cluster)
+          for (int v : {i, n + i}) {
+            U.row(r) << p.X.row(v), 1.0;
+            P.row(r++) = Y.row(v);
+          }
+        const Eigen::MatrixXd A = U.colPivHouseholderQr().solve(P);
+        worst = std::max(worst, (U * A - P).cwiseAbs().maxCoeff());
+        moved = moved || (P - U.leftCols(3)).cwiseAbs().maxCoeff() > 1e-3;
+      }
+      EXPECT_LT(worst, 1e-10) << "level " << l;
+      EXPECT_TRUE(moved) << "level " << l << " never left the rest shape";
+    }
+  }
+}
+
+TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
+  Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
+  for (int variant = 0; variant < 3; ++variant) {
+    HierarchyOptions o;
+    o.residual_correction = variant != 1;
+    o.anderson_history = variant == 2 ? 5 : 0;
+    HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+    Eigen::MatrixXd X = p.X;
+    SolveOptions so;
+    so.max_iterations = 60;
+    so.tolerance = 0;
+    const auto r = solver.solve(X, p.targets, so);
+    ASSERT_GE(r.energy.size(), 2u);
+    for (size_t k = 1; k < r.energy.size(); ++k)
+      EXPECT_LE(r.energy[k], r.energy[k - 1]) << "variant " << variant << ", outer iteration " << k;
+    EXPECT_LT(r.energy.back(), 0.5 * r.energy.front());
+    EXPECT_NEAR(solver.energy(X, p.targets), r.energy.back(), 1e-12 * r.energy.back());
+  }
+}
+
+TEST(HierarchicalSolver, HardHandlesSitExactlyOnTheirTargets) {
+  Problem p = bowl_problem(10, {0.4, 0.0, 0.2});
+  HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints);
+  Eigen::MatrixXd X = p.X;
+  solver.solve(X, p.targets);
+  for (size_t r = 0; r < p.constraints.vertices.size(); ++r)
+    EXPECT_EQ((X.row(p.constraints.vertices[r]) - p.targets.row(r)).norm(), 0.0);
+}
+
+TEST(HierarchicalSolver, StateCarriesOverBetweenSolves) {
+  // A drag: each step starts from the previous result; the second solve of the same targets
+  // starts converged and stops at once.
+  Problem p = bowl_problem(10, {0.6, 0.1, 0.3});
+  HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints);
+  Eigen::MatrixXd X = p.X;
+  SolveOptions so;
+  so.max_iterations = 400;
+  so.tolerance = 1e-9;
+  for (int k = 1; k <= 4; ++k) {
+    const Eigen::MatrixXd P = p.X(p.constraints.vertices, Eigen::all) + (k / 4.0) * (p.targets - p.X(p.constraints.vertices, Eigen::all));
+    solver.solve(X, P, so);
+  }
+  const double E = solver.energy(X, p.targets);
+  so.max_iterations = 3;
+  so.tolerance = 1e-6;
+  const auto again = solver.solve(X, p.targets, so);
+  EXPECT_TRUE(again.converged);
+  EXPECT_LE(again.energy.back(), E);
+}
+
+TEST(PoseSolvers, BothReachTheSameMinimumOnASmallCase) {
+  const Shell shell = offset_shell(make_bowl(8), 0.08);
+  const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
+  SolveOptions so;
+  so.max_iterations = 20000;
+  so.tolerance = 1e-12;
+  double energies[2];
+  int k = 0;
+  for (PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical}) {
+    PoseSolver solver(shell, handles, kind);
+    Eigen::MatrixXd X = solver.rest_vertices();
+    const SolveResult r = solver.solve(X, 1.0, so);
+    EXPECT_TRUE(r.converged);
+    energies[k++] = solver.energy(X, 1.0);
+  }
+  EXPECT_GT(energies[0], 0);
+  EXPECT_NEAR(energies[1], energies[0], 1e-3 * energies[0]);
+}
+
+TEST(PoseSolvers, RigidHandleMotionGivesARigidResult) {
+  const Shell shell = offset_shell(make_bowl(10), 0.06);
+  HandleSet handles = bowl_pull(shell, Eigen::Vector3d::Zero());
+  // Both handles follow the same rigid motion: rotate 70 degrees about a tilted axis through a
+  // common center, then translate.
+  for (Handle& h : handles.handles) {
+    h.axis = Eigen::Vector3d(1, 2, 3).normalized();
+    h.degrees = 70;
+    h.center = Eigen::Vector3d(0.2, -0.1, 0.3);
+    h.translate = Eigen::Vector3d(0.5, -1.0, 2.0);
+  }
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(70 * M_PI / 180, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  for (PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical}) {
+    PoseSolver solver(shell, handles, kind);
+    Eigen::MatrixXd X = solver.rest_vertices();
+    SolveOptions so;
+    so.max_iterations = 3000;
+    so.tolerance = 1e-14;
+    solver.solve(X, 1.0, so);
+    const StretchStats stats = stretch_stats(solver.rest_tets(), X);
+    EXPECT_LT(stats.max, 1e-8) << (kind == PoseSolverKind::Single ? "single" : "hierarchical");
+    EXPECT_EQ(stats.inverted, 0);
+    double worst = 0;
+    for (int v = 0; v < X.rows(); ++v) {
+      const Eigen::Vector3d u = solver.rest_vertices().row(v).transpose();
+      const Eigen::Vector3d expected = R * (u - handles.handles[0].center) + handles.handles[0].center + handles.handles[0].translate;
+      worst = std::max(worst, (X.row(v).transpose() - expected).norm());
+    }
+    EXPECT_LT(worst, 1e-5);
+  }
+}
+
+TEST(PoseSolvers, SoftHandlesApproachTheirTargets) {
+  const Shell shell = offset_shell(make_bowl(10), 0.06);
+  HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.1});
+  handles.mode = ConstraintMode::Soft;
+  handles.weight = 1e4;
+  for (PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical}) {
+    PoseSolver solver(shell, handles, kind);
+    Eigen::MatrixXd X = solver.rest_vertices();
+    SolveOptions so;
+    so.max_iterations = 500;
+    so.tolerance = 1e-9;
+    solver.solve(X, 1.0, so);
+    const Eigen::MatrixXd P = solver.targets(1.0);
+    double worst = 0;
+    for (size_t r = 0; r < solver.constrained_vertices().size(); ++r)
+      worst = std::max(worst, (X.row(solver.constrained_vertices()[r]) - P.row(r)).norm());
+    EXPECT_LT(worst, 0.02); // of a 0.32 move
+  }
+}
