@@ -462,5 +462,104 @@ class EmbedTest(TempDirTest):
             e.carry(gshell.generate(*gshell.builtin("sphere:1"), thickness=0.1))
 
 
+HANDLES = {"handles": [
+    {"select": {"surface": "both", "box": [-2, -2, -2, 2, 2, -0.7]}},
+    {"select": {"surface": "both", "box": [-2, -2, 0.7, 2, 2, 2]}, "translate": [0.2, 0, 0.1],
+     "rotate": {"axis": [0, 1, 0], "degrees": 30}},
+]}
+
+
+class PoseTest(TempDirTest):
+    @classmethod
+    def setUpClass(cls):
+        V, F = gshell.builtin("sphere:2")
+        cls.shell = gshell.generate(V, F, thickness=0.05, count_intersections=False)
+
+    def test_agrees_with_cli(self):
+        out = self.path("shell")
+        run_cli("generate", "builtin:sphere:2", "-o", out, "--thickness", "0.05", "--quiet")
+        handles = self.path("handles.json")
+        with open(handles, "w") as f:
+            json.dump(HANDLES, f)
+        shell = gshell.load_shell(out)
+        for solver in ("hierarchical", "single"):
+            with self.subTest(solver=solver):
+                run_cli("pose", "--shell", out, "--handles", handles, "-o", self.path("posed"), "--solver", solver,
+                        "--levels", "3", "--iterations", "20", "--steps", "2", "--quiet")
+                cli_base, _ = gshell.read_mesh(os.path.join(self.path("posed"), "base.obj"))
+                cli_top, _ = gshell.read_mesh(os.path.join(self.path("posed"), "top.obj"))
+                with open(os.path.join(self.path("posed"), "report.json")) as f:
+                    cli = json.load(f)
+                poser = gshell.Poser(shell, solver=solver, levels=3)
+                base, top = poser.solve(HANDLES, iterations=20, steps=2)
+                np.testing.assert_allclose(base, cli_base, atol=1e-9)
+                np.testing.assert_allclose(top, cli_top, atol=1e-9)
+                last = poser.last
+                self.assertEqual([s["iterations"] for s in last["steps"]], [s["iterations"] for s in cli["steps"]])
+                self.assertEqual([s["fraction"] for s in last["steps"]], [0.5, 1.0])
+                for key in ("max", "volume_mean", "inverted"):
+                    self.assertAlmostEqual(last["stretch"][key], cli["stretch"][key], delta=1e-9)
+                self.assertEqual(last["handle_vertices"], cli["handle_vertices"])
+                # The same handles from the file give the same result.
+                base2, top2 = gshell.Poser(shell, solver=solver, levels=3).solve(handles, iterations=20, steps=2)
+                np.testing.assert_array_equal(base2, base)
+                np.testing.assert_array_equal(top2, top)
+
+    def test_rigid_handle_moves_everything_rigidly(self):
+        everything = {"handles": [{"select": {"box": [-5, -5, -5, 5, 5, 5]}, "translate": [1, 2, 3],
+                                   "rotate": {"axis": [1, 0, 0], "degrees": 90, "center": [0, 0, 0]}}]}
+        poser = gshell.Poser(self.shell, solver="single")
+        base, top = poser.solve(everything)
+        R = rotation([1, 0, 0], 90)
+        np.testing.assert_allclose(base, self.shell.base @ R.T + [1, 2, 3], atol=1e-12)
+        np.testing.assert_allclose(top, self.shell.top @ R.T + [1, 2, 3], atol=1e-12)
+        self.assertLess(poser.last["stretch"]["max"], 1e-20)
+
+    def test_held_handles_keep_the_rest_shell(self):
+        held = {"handles": [{"select": {"box": [-5, -5, -5, 5, 5, -0.5]}}]}
+        poser = gshell.Poser(self.shell, levels=3)
+        self.assertIsNone(poser.last)
+        np.testing.assert_array_equal(poser.vertices, self.shell.vertices)
+        base, top = poser.solve(held, iterations=5)
+        np.testing.assert_allclose(base, self.shell.base, atol=1e-9)
+        np.testing.assert_allclose(top, self.shell.top, atol=1e-9)
+        self.assertEqual(poser.last["stretch"]["inverted"], 0)
+
+    def test_drag_continues_with_the_same_handles(self):
+        poser = gshell.Poser(self.shell, solver="single")
+        poser.solve(HANDLES, fraction=0.5)
+        self.assertEqual(poser.last["steps"][0]["fraction"], 0.5)
+        poser.solve(HANDLES, steps=2)
+        self.assertEqual([s["fraction"] for s in poser.last["steps"]], [0.75, 1.0])
+        poser.reset()
+        poser.solve(HANDLES, steps=2)
+        self.assertEqual([s["fraction"] for s in poser.last["steps"]], [0.5, 1.0])
+
+    def test_bad_arguments(self):
+        poser = gshell.Poser(self.shell, solver="single")
+        bad_handles = {
+            "unknown key": {"handles": [{"vertices": [0], "pull": [0, 0, 1]}]},
+            "id out of range": {"handles": [{"vertices": [0, 10**6]}]},
+            "empty selection": {"handles": [{"select": {"box": [5, 5, 5, 6, 6, 6]}}]},
+            "NaN": {"handles": [{"vertices": [0], "translate": [float("nan"), 0, 0]}]},
+            "zero axis": {"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 0], "degrees": 5}}]},
+            "no handles": {"handles": []},
+            "not JSON": {"handles": [{"vertices": {1, 2}}]},
+        }
+        for name, handles in bad_handles.items():
+            with self.subTest(name), self.assertRaises(ValueError):
+                poser.solve(handles)
+        for handles in ([1, 2], 3.5, self.path("missing.json")):
+            with self.subTest(handles=handles), self.assertRaises(ValueError):
+                poser.solve(handles)
+        for kwargs in (dict(fraction=1.5), dict(steps=0), dict(iterations=0), dict(tolerance=float("nan"))):
+            with self.subTest(kwargs=kwargs), self.assertRaises(ValueError):
+                poser.solve(HANDLES, **kwargs)
+        with self.assertRaises(ValueError):
+            gshell.Poser(self.shell, solver="multigrid")
+        with self.assertRaises(ValueError):
+            gshell.Poser(self.shell, levels=0)
+
+
 if __name__ == "__main__":
     unittest.main()
