@@ -181,7 +181,7 @@ Returns:
                              "extrapolated).")
       .def_property_readonly("max_outside_distance", [](const EmbeddingObject& e) { return e.embedding.max_outside_distance; },
                              "Largest distance from an outside point to its tet (model units).")
-      .def("__len__", [](const EmbeddingObject& e) { return e.embedding.size(); });
+      .def("__len__", [](const EmbeddingObject& e) { return e.embedding.size(); }, "Number of embedded points.");
 
   m.def("embed",
         [](const ShellObject& shell, const ArrayArg& points) {

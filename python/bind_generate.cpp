@@ -159,7 +159,7 @@ stretch and report are measured as by metrics() without intersection counts.)")
       .def("__repr__", [](const ShellObject& s) {
         return "<gshell.Shell: " + std::to_string(s.shell.num_base_vertices()) + " base vertices, " +
                std::to_string(s.shell.F.rows()) + " faces, thickness " + std::to_string(s.shell.thickness) + ">";
-      });
+      }, "Sizes and thickness.");
 
   m.def("generate", &generate_py, py::arg("V"), py::arg("F"), py::arg("thickness") = py::none(), py::kw_only(),
         py::arg("thickness_ratio") = py::none(), py::arg("method") = "rigid", py::arg("iterations") = 50,

@@ -49,6 +49,24 @@ class TempDirTest(unittest.TestCase):
         return os.path.join(self.tmp, name)
 
 
+class DocstringTest(unittest.TestCase):
+    def test_everything_public_is_documented(self):
+        self.assertGreater(len(gshell.__doc__), 100)
+        names = [n for n in dir(gshell) if not n.startswith("_")]
+        self.assertTrue({"read_mesh", "write_mesh", "builtin", "generate", "metrics", "load_shell", "Shell",
+                         "Deformer", "Poser", "Embedding", "embed"} <= set(names))
+        for name in names:
+            obj = getattr(gshell, name)
+            with self.subTest(name):
+                self.assertTrue((obj.__doc__ or "").strip(), name)
+            if isinstance(obj, type):
+                for member, value in vars(obj).items():
+                    if member.startswith("_") and member not in ("__init__", "__len__", "__repr__"):
+                        continue
+                    with self.subTest(f"{name}.{member}"):
+                        self.assertTrue((getattr(value, "__doc__", None) or "").strip(), f"{name}.{member}")
+
+
 class MeshIOTest(TempDirTest):
     def test_builtin_sizes_and_types(self):
         for level in range(4):
