@@ -1,8 +1,8 @@
 // Times the quality measures on an offset shell (top = base + eta * area-weighted vertex normal):
 // top self-intersections, top/base intersections and per-vertex thickness. Medians of 5 runs.
-// Usage: bench_intersections [MESH ...]   (MESH = builtin spec or .off file; default
-//        builtin:sphere:7 and models/bunny00.off if present). Thickness ratios 0.01 and 0.03.
-#include <gshell/geometry/builtin_mesh.h>
+// Usage: bench_intersections [MESH ...]   (MESH = builtin spec or mesh file; default
+//        builtin:sphere:6 and :7 and models/bunny00.off if present). Thickness ratios 0.01, 0.03.
+#include <gshell/io/load_mesh.h>
 #include <gshell/quality/thickness.h>
 #include <gshell/quality/triangle_intersections.h>
 
@@ -12,9 +12,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -23,25 +21,6 @@
 namespace {
 
 using namespace gshell;
-
-// Minimal OFF reader (triangles only), so the benchmark does not depend on the io module.
-TriMesh read_off(const std::string& path) {
-  std::ifstream in(path);
-  std::string header;
-  in >> header;
-  int n = 0, m = 0, e = 0;
-  in >> n >> m >> e;
-  TriMesh mesh;
-  mesh.V.resize(n, 3);
-  mesh.F.resize(m, 3);
-  for (int i = 0; i < n; ++i) in >> mesh.V(i, 0) >> mesh.V(i, 1) >> mesh.V(i, 2);
-  for (int f = 0; f < m; ++f) {
-    int k = 0;
-    in >> k >> mesh.F(f, 0) >> mesh.F(f, 1) >> mesh.F(f, 2);
-    if (k != 3 || !in) throw std::runtime_error(path + ": not a triangle OFF");
-  }
-  return mesh;
-}
 
 Eigen::MatrixXd offset_top(const TriMesh& mesh, double ratio, double* eta) {
   const Eigen::RowVector3d centre = (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()) / 2;
@@ -92,6 +71,7 @@ Timing time_runs(const std::function<void()>& run, int repeats = 5) {
 int main(int argc, char** argv) {
   std::vector<std::string> inputs(argv + 1, argv + argc);
   if (inputs.empty()) {
+    inputs.push_back("builtin:sphere:6");
     inputs.push_back("builtin:sphere:7");
     if (std::filesystem::exists("models/bunny00.off")) inputs.push_back("models/bunny00.off");
   }
@@ -99,7 +79,7 @@ int main(int argc, char** argv) {
   std::printf("%-20s %5s %7s %7s | %6s %16s | %8s %16s | %16s %7s %8s\n", "mesh", "ratio", "verts",
               "faces", "self", "time", "top/base", "time", "thickness time", "min/eta", "mean/eta");
   for (const std::string& input : inputs) {
-    const TriMesh base = is_builtin_spec(input) ? make_builtin(input) : read_off(input);
+    const TriMesh base = load_mesh(input);
     for (double ratio : {0.01, 0.03}) {
       double eta = 0;
       const Eigen::MatrixXd top = offset_top(base, ratio, &eta);

@@ -9,6 +9,8 @@
 #include <CGAL/Intersections_3/Triangle_3_Triangle_3.h>
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <random>
 
 namespace gshell {
@@ -161,6 +163,28 @@ TEST(TriangleIntersections, RandomSoupMatchesBruteForce) {
   for (const auto& [f, g] : brute)
     if (f < half && g >= half) across.emplace_back(f, g - half);
   EXPECT_EQ(intersecting_pairs_between(V1, F1, V2, F2), across);
+}
+
+TEST(TriangleIntersections, StackOfNearCoincidentFaces) {
+  // 60 parallel copies of one triangle 1e-9 apart (same centroid cell, so the hierarchy has to
+  // split equal sort keys), pierced by one needle through all of them.
+  const int copies = 60;
+  Eigen::MatrixXd V(3 * copies + 3, 3);
+  Eigen::MatrixXi F(copies + 1, 3);
+  for (int c = 0; c < copies; ++c) {
+    const double z = 1e-9 * c;
+    V.row(3 * c) << 0, 0, z;
+    V.row(3 * c + 1) << 2, 0, z;
+    V.row(3 * c + 2) << 0, 2, z;
+    F.row(c) << 3 * c, 3 * c + 1, 3 * c + 2;
+  }
+  V.row(3 * copies) << 0.5, 0.5, -1;
+  V.row(3 * copies + 1) << 0.6, 0.5, 1;
+  V.row(3 * copies + 2) << 0.5, 0.6, 1;
+  F.row(copies) << 3 * copies, 3 * copies + 1, 3 * copies + 2;
+  const auto pairs = self_intersecting_pairs(V, F);
+  ASSERT_EQ(pairs.size(), static_cast<std::size_t>(copies));
+  for (int c = 0; c < copies; ++c) EXPECT_EQ(pairs[c], std::make_pair(c, copies));
 }
 
 TEST(TriangleIntersections, CleanSphereHasNone) {

@@ -307,3 +307,22 @@ TEST(ValidateMesh, WrongMatrixShapesAreErrorsNotCrashes) {
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(mesh_stats(m).edges, 0);
 }
+
+TEST(MeshTopology, StatsAgreeWithTheEdgeTable) {
+  // mesh_stats walks vertex stars; edge_incidence builds a global edge table: two independent
+  // ways to the same counts, also on a messy mesh (non-manifold, flipped, isolated pieces).
+  TriMesh messy = make_bowl(6);
+  const int n = messy.num_vertices();
+  messy.F.conservativeResize(messy.F.rows() + 4, 3);
+  messy.F.bottomRows(4) << 0, 1, n - 1, 1, 0, n - 2, 2, 3, 4, n - 3, n - 2, n - 1; // extra faces on edges
+  for (const TriMesh& m : {make_sphere(2), make_torus(10), make_cylinder(9), make_bowl(7), messy}) {
+    const MeshStats s = mesh_stats(m);
+    const EdgeIncidence inc = edge_incidence(m.F, m.num_vertices());
+    int boundary = 0;
+    for (int e = 0; e < inc.num_edges(); ++e) boundary += inc.valence(e) == 1;
+    EXPECT_EQ(s.edges, inc.num_edges());
+    EXPECT_EQ(s.boundary_edges, boundary);
+    EXPECT_EQ(s.boundary_loops, count_boundary_loops(inc, m.num_vertices()));
+    EXPECT_EQ(unique_edges(m.F), inc.edges);
+  }
+}

@@ -186,8 +186,8 @@ TriMesh make_bowl(int res, double radius) {
     const double theta = k * h;
     for (int j = 0; j < count[k]; ++j) {
       const double phi = 2 * kPi * (j + offset[k]) / count[k];
-      mesh.V.row(first[k] + j) << radius * std::sin(theta) * std::cos(phi), radius * std::sin(theta) * std::sin(phi),
-          -radius * std::cos(theta);
+      const double z = k == res ? 0.0 : -radius * std::cos(theta); // rim exactly at z = 0
+      mesh.V.row(first[k] + j) << radius * std::sin(theta) * std::cos(phi), radius * std::sin(theta) * std::sin(phi), z;
       // Mirrored in v because the outside of the bowl is seen from below: UV triangles stay
       // counter-clockwise like the faces.
       const double r = 0.5 * theta / (kPi / 2);

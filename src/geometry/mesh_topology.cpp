@@ -1,30 +1,16 @@
 #include <gshell/geometry/mesh_topology.h>
 
+#include "vertex_stars.h"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <utility>
 
 namespace gshell {
+using detail::DisjointSets;
+
 namespace {
-
-/// Union-find with path halving; enough for the linear-size graphs here.
-class DisjointSets {
-public:
-  explicit DisjointSets(int n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  int find(int x) {
-    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
-    return x;
-  }
-  void unite(int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
-private:
-  std::vector<int> parent_;
-};
 
 bool face_usable(const Eigen::MatrixXi& F, int f, int num_vertices) {
   for (int k = 0; k < 3; ++k)
@@ -130,33 +116,51 @@ MeshStats mesh_stats(const TriMesh& mesh) {
   const int n = mesh.V.cols() == 3 ? mesh.num_vertices() : 0;
   s.vertices = mesh.num_vertices();
   s.faces = mesh.num_faces();
-  const EdgeIncidence inc = edge_incidence(mesh.F, n);
-  s.edges = inc.num_edges();
-
-  std::vector<char> referenced(n, 0);
-  int used_faces = 0;
-  for (int f = 0; f < static_cast<int>(inc.face_used.size()); ++f) {
-    if (!inc.face_used[f]) continue;
-    ++used_faces;
-    for (int k = 0; k < 3; ++k) referenced[mesh.F(f, k)] = 1;
-  }
-  const int used_vertices = static_cast<int>(std::count(referenced.begin(), referenced.end(), 1));
-  s.unreferenced_vertices = n - used_vertices;
-
-  DisjointSets sets(n);
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P; // row-major: edges visit vertices at random
+  detail::RowMajorFaces T; // row-major copies: the pass below visits faces and vertices at random
+  if (mesh.F.cols() == 3) T = mesh.F;
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P;
   if (n > 0) P = mesh.V;
+
+  // Edge (v, w), v < w, is counted at v, from v's star: same figures as edge_incidence, in order.
+  const detail::VertexStars stars(T, n);
+  DisjointSets pieces(n), boundary_pieces(n);
+  std::vector<char> on_boundary(n, 0);
+  std::vector<detail::Neighbour> around;
   double length_sum = 0;
-  for (int e = 0; e < s.edges; ++e) {
-    const int a = inc.edges(e, 0), b = inc.edges(e, 1);
-    sets.unite(a, b);
-    length_sum += (P.row(a) - P.row(b)).norm();
-    if (inc.valence(e) == 1) ++s.boundary_edges;
+  int used_vertices = 0, finite_edges = 0;
+  for (int v = 0; v < n; ++v) {
+    if (stars.degree(v) == 0) continue;
+    ++used_vertices;
+    stars.neighbours(v, around);
+    for (size_t i = 0; i < around.size();) {
+      size_t j = i + 1;
+      while (j < around.size() && around[j].vertex == around[i].vertex) ++j;
+      const int w = around[i].vertex;
+      if (v < w) {
+        ++s.edges;
+        const double length = (P.row(v) - P.row(w)).norm();
+        if (std::isfinite(length)) {
+          length_sum += length;
+          ++finite_edges;
+        }
+        pieces.unite(v, w);
+        if (j - i == 1) {
+          ++s.boundary_edges;
+          boundary_pieces.unite(v, w);
+          on_boundary[v] = on_boundary[w] = 1;
+        }
+      }
+      i = j;
+    }
   }
-  for (int v = 0; v < n; ++v)
-    if (referenced[v] && sets.find(v) == v) ++s.components;
-  s.mean_edge_length = s.edges > 0 ? length_sum / s.edges : 0.0;
-  s.boundary_loops = count_boundary_loops(inc, n);
+  int used_faces = 0;
+  for (int f = 0; f < static_cast<int>(T.rows()); ++f) used_faces += stars.usable(f);
+  for (int v = 0; v < n; ++v) {
+    if (stars.degree(v) > 0 && pieces.find(v) == v) ++s.components;
+    if (on_boundary[v] && boundary_pieces.find(v) == v) ++s.boundary_loops;
+  }
+  s.unreferenced_vertices = n - used_vertices;
+  s.mean_edge_length = finite_edges > 0 ? length_sum / finite_edges : 0.0;
   s.euler_characteristic = used_vertices - s.edges + used_faces;
   s.genus = (2.0 * s.components - s.boundary_loops - s.euler_characteristic) / 2.0;
 

@@ -1,9 +1,10 @@
 #include <gshell/geometry/validate_mesh.h>
 
 #include <gshell/error.h>
-#include <gshell/geometry/mesh_topology.h>
 
 #include <Eigen/Geometry>
+
+#include "vertex_stars.h"
 
 #include <algorithm>
 #include <cmath>
@@ -83,7 +84,7 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   ProblemList list(problems);
   // Row-major copies: the checks below visit faces and vertices in random order, and one cache
   // line per face or vertex instead of three is most of the speed.
-  const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor> T = F;
+  const detail::RowMajorFaces T = F;
   const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P = V;
 
   std::vector<char> finite(n, 1);
@@ -127,97 +128,73 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
                face_text(T, f) + " has zero area (its vertices coincide or are collinear)");
   }
 
-  const EdgeIncidence inc = edge_incidence(F, n);
-  const auto corner_vertex = [&](int h) { return T(h / 3, h % 3); };
-  std::vector<char> on_bad_edge(n, 0);
-  for (int e = 0; e < inc.num_edges(); ++e) {
-    const int a = inc.edges(e, 0), b = inc.edges(e, 1);
-    const int* hs = inc.halfedges.data() + inc.offsets[e];
-    const int valence = inc.valence(e);
-    const auto edge_text = [&] { return "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")"; };
-    if (valence > 2) {
-      std::string faces;
-      for (int i = 0; i < std::min(valence, 6); ++i) faces += (i ? ", " : "") + std::to_string(hs[i] / 3);
-      if (valence > 6) faces += ", ...";
-      list.add(Severity::Error, "non-manifold edges",
-               edge_text() + " is non-manifold: shared by " + std::to_string(valence) + " faces (" + faces + ")");
-      on_bad_edge[a] = on_bad_edge[b] = 1;
-    } else if (valence == 2) {
-      const int f1 = hs[0] / 3, f2 = hs[1] / 3;
-      if (corner_vertex(hs[0]) == corner_vertex(hs[1]))
-        list.add(Severity::Error, "inconsistently oriented face pairs",
-                 "faces " + std::to_string(f1) + " and " + std::to_string(f2) +
-                     " are oriented inconsistently (both run along " + edge_text() + " in the same direction)");
-    }
-  }
-
-  // Corners grouped by vertex (counting sort), then distinct fans per vertex via a stamp per root.
-  std::vector<int> start(n + 1, 0);
-  for (int f = 0; f < m; ++f)
-    if (inc.face_used[f])
-      for (int k = 0; k < 3; ++k) ++start[T(f, k) + 1];
-  std::partial_sum(start.begin(), start.end(), start.begin());
-  std::vector<int> corners(start.back());
-  {
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int f = 0; f < m; ++f)
-      if (inc.face_used[f])
-        for (int k = 0; k < 3; ++k) corners[fill[T(f, k)]++] = 3 * f + k;
-  }
+  // Everything topological is checked per vertex on its star (see vertex_stars.h). Edge (v, w)
+  // with v < w is checked at v: the corners of v that have w as a neighbour are its faces.
+  const detail::VertexStars stars(T, n);
   std::vector<char> referenced(n, 0);
   for (int f = 0; f < m; ++f)
     for (int k = 0; k < 3; ++k)
       if (T(f, k) >= 0 && T(f, k) < n) referenced[T(f, k)] = 1;
-  // Fans around a vertex: its corners, joined when they share a manifold edge (same neighbour
-  // vertex, exactly two faces). Done per vertex on small local arrays, which is far more
-  // cache-friendly than a global union-find over all corners.
-  std::vector<std::pair<int, int>> around; // (neighbour vertex, local corner)
-  std::vector<int> parent;
+
+  std::vector<detail::Neighbour> around;
+  detail::DisjointSets fan_sets;
+  std::vector<std::pair<int, int>> boundary; // boundary edges (v < w)
   for (int v = 0; v < n; ++v) {
     if (!referenced[v]) {
       list.add(Severity::Warning, "unreferenced vertices", "vertex " + std::to_string(v) + " is used by no face");
       continue;
     }
-    if (on_bad_edge[v]) continue; // already reported through its non-manifold edge
-    const int degree = start[v + 1] - start[v];
-    around.clear();
-    for (int i = 0; i < degree; ++i) {
-      const int h = corners[start[v] + i], f = h / 3, k = h % 3;
-      around.emplace_back(T(f, (k + 1) % 3), i);
-      around.emplace_back(T(f, (k + 2) % 3), i);
-    }
-    std::sort(around.begin(), around.end());
-    parent.resize(degree);
-    std::iota(parent.begin(), parent.end(), 0);
-    const auto root = [&](int x) {
-      while (parent[x] != x) x = parent[x] = parent[parent[x]];
-      return x;
-    };
+    const int degree = stars.degree(v);
+    stars.neighbours(v, around);
+    // Fans: corners joined through manifold edges (exactly two faces).
+    fan_sets.reset(degree);
     int fans = degree;
-    for (size_t i = 0; i + 1 < around.size(); ++i) {
-      if (around[i].first != around[i + 1].first) continue;
-      const int x = root(around[i].second), y = root(around[i + 1].second);
-      if (x != y) {
-        parent[x] = y;
-        --fans;
+    bool on_bad_edge = false;
+    for (size_t i = 0; i < around.size();) {
+      size_t j = i + 1;
+      while (j < around.size() && around[j].vertex == around[i].vertex) ++j;
+      const int w = around[i].vertex, valence = static_cast<int>(j - i);
+      const auto edge_text = [&] { return "edge (" + std::to_string(std::min(v, w)) + ", " + std::to_string(std::max(v, w)) + ")"; };
+      if (valence > 2) {
+        on_bad_edge = true;
+        if (v < w) {
+          std::string faces;
+          for (int q = 0; q < std::min(valence, 6); ++q) faces += (q ? ", " : "") + std::to_string(around[i + q].face);
+          if (valence > 6) faces += ", ...";
+          list.add(Severity::Error, "non-manifold edges",
+                   edge_text() + " is non-manifold: shared by " + std::to_string(valence) + " faces (" + faces + ")");
+        }
+      } else if (valence == 2) {
+        if (fan_sets.unite(around[i].corner, around[i + 1].corner)) --fans;
+        if (v < w && around[i].outgoing == around[i + 1].outgoing)
+          list.add(Severity::Error, "inconsistently oriented face pairs",
+                   "faces " + std::to_string(around[i].face) + " and " + std::to_string(around[i + 1].face) +
+                       " are oriented inconsistently (both run along " + edge_text() + " in the same direction)");
+      } else if (v < w) {
+        boundary.emplace_back(v, w);
       }
+      i = j;
     }
-    if (fans > 1)
+    if (fans > 1 && !on_bad_edge) // a vertex on a non-manifold edge is reported through the edge
       list.add(Severity::Error, "non-manifold vertices",
                "vertex " + std::to_string(v) + " is non-manifold: its faces form " + std::to_string(fans) +
                    " separate fans");
   }
 
-  int boundary_edges = 0, first_boundary = -1;
-  for (int e = 0; e < inc.num_edges(); ++e)
-    if (inc.valence(e) == 1 && boundary_edges++ == 0) first_boundary = e;
-  if (boundary_edges > 0) {
-    const int loops = count_boundary_loops(inc, n);
+  if (!boundary.empty()) {
+    // Loops = connected pieces of the boundary-edge graph.
+    detail::DisjointSets pieces(n);
+    std::vector<char> seen(n, 0);
+    int loops = 0;
+    for (const auto& [a, b] : boundary) {
+      loops += !seen[a] + !seen[b];
+      seen[a] = seen[b] = 1;
+      if (pieces.unite(a, b)) --loops;
+    }
     list.add(Severity::Info, "open boundaries",
              "open surface: " + std::to_string(loops) + " boundary loop" + (loops == 1 ? "" : "s") + ", " +
-                 std::to_string(boundary_edges) + " boundary edges (e.g. edge (" +
-                 std::to_string(inc.edges(first_boundary, 0)) + ", " + std::to_string(inc.edges(first_boundary, 1)) +
-                 "))");
+                 std::to_string(boundary.size()) + " boundary edges (e.g. edge (" + std::to_string(boundary[0].first) +
+                 ", " + std::to_string(boundary[0].second) + "))");
   }
   list.finish();
   std::stable_sort(problems.begin(), problems.end(),

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -12,7 +13,9 @@
 namespace gshell::detail {
 namespace {
 
-constexpr int kLeafSize = 4;
+// Faces per leaf, at most (measured on bunny00 and builtin:sphere:7).
+constexpr int kPairLeafSize = 4;
+constexpr int kDistanceLeafSize = 16;
 
 // Spreads the low 21 bits of x to every third bit.
 std::uint64_t spread_bits(std::uint64_t x) {
@@ -51,26 +54,31 @@ double edges_squared_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b
 
 } // namespace
 
-FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
   const int m = static_cast<int>(F.rows());
   if (m == 0) return;
   auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
 
   // Sort faces along a Morton (Z-order) curve of their centroids: spatial neighbours become
-  // slot neighbours, and halving a slot range splits space.
+  // slot neighbours, and the code bits give spatial split planes.
+  std::vector<Eigen::Vector3d> centroids(m);
+  for (int f = 0; f < m; ++f) centroids[f] = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
   Eigen::AlignedBox3d extent;
-  for (int f = 0; f < m; ++f) extent.extend((corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0);
+  for (const Eigen::Vector3d& c : centroids) extent.extend(c);
   const Eigen::Vector3d origin = extent.min();
+  constexpr double kCells = (1 << 21) - 1;
   const Eigen::Vector3d scale =
-      (extent.sizes().array() > 0).select(((1 << 21) - 1) / extent.sizes().array(), 0.0);
+      (extent.sizes().array() > 0).select(kCells / extent.sizes().array(), 0.0);
+  auto cell = [&](const Eigen::Vector3d& c, int d) {
+    const double x = (c[d] - origin[d]) * scale[d];
+    return static_cast<std::uint64_t>(x > 0 ? std::min(x, kCells) : 0.0); // NaN (overflow) -> 0
+  };
   std::vector<std::pair<std::uint64_t, int>> keyed(m);
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
     for (int f = r.begin(); f < r.end(); ++f) {
-      const Eigen::Vector3d c = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
-      const Eigen::Vector3d cell = ((c - origin).array() * scale.array()).matrix();
-      keyed[f] = {spread_bits(static_cast<std::uint64_t>(cell.x())) |
-                      spread_bits(static_cast<std::uint64_t>(cell.y())) << 1 |
-                      spread_bits(static_cast<std::uint64_t>(cell.z())) << 2,
+      const Eigen::Vector3d& c = centroids[f];
+      keyed[f] = {spread_bits(cell(c, 0)) | spread_bits(cell(c, 1)) << 1 |
+                      spread_bits(cell(c, 2)) << 2,
                   f};
     }
   });
@@ -78,37 +86,36 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
 
   slot_face_.resize(m);
   slot_box_.resize(m);
-  slot_triangle_.resize(m);
+  const bool distances = use == Use::distances;
+  if (distances) slot_triangle_.resize(m);
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
     for (int s = r.begin(); s < r.end(); ++s) {
       const int f = keyed[s].second;
       slot_face_[s] = f;
-      Triangle& t = slot_triangle_[s];
-      t.a = corner(f, 0);
-      t.b = corner(f, 1);
-      t.c = corner(f, 2);
-      const Eigen::Vector3d ab = t.b - t.a, ac = t.c - t.a;
+      const Eigen::Vector3d a = corner(f, 0), b = corner(f, 1), c = corner(f, 2);
+      slot_box_[s] = Eigen::AlignedBox3d(a);
+      slot_box_[s].extend(b).extend(c);
+      if (!distances) continue;
+      const Eigen::Vector3d ab = b - a, ac = c - a;
       // sin^2 of the angle at a below 1e-24: within ~1e-12 edge lengths of a segment, where the
       // plane-projection formula loses its accuracy; the edges give the distance instead.
-      t.flat = ab.cross(ac).squaredNorm() <= 1e-24 * ab.squaredNorm() * ac.squaredNorm();
-      slot_box_[s] = Eigen::AlignedBox3d(t.a);
-      slot_box_[s].extend(t.b).extend(t.c);
+      slot_triangle_[s] = {a, b, c, ab.cross(ac).squaredNorm() <= 1e-24 * ab.squaredNorm() * ac.squaredNorm()};
     }
   });
   std::vector<std::uint64_t> codes(m);
   for (int s = 0; s < m; ++s) codes[s] = keyed[s].first;
-  nodes_.reserve(2 * (m / kLeafSize) + 1);
-  build(codes, 0, m);
+  nodes_.reserve(2 * static_cast<std::size_t>(m)); // at most 2m - 1 (one face per leaf)
+  build(codes, 0, m, distances ? kDistanceLeafSize : kPairLeafSize);
 }
 
 // Splits a slot range where its Morton codes first differ (an octree-like spatial split, so
 // every node covers one compact region); equal codes are split in the middle.
-int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end) {
+int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size) {
   const int node = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
   nodes_[node].begin = begin;
   nodes_[node].end = end;
-  if (end - begin <= kLeafSize) {
+  if (end - begin <= leaf_size) {
     Eigen::AlignedBox3d box;
     for (int s = begin; s < end; ++s) box.extend(slot_box_[s]);
     for (int d = 0; d < 3; ++d) {
@@ -126,8 +133,8 @@ int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end) 
                                                 [&](std::uint64_t c) { return !(c & bit); }) -
                            codes.begin());
   }
-  build(codes, begin, mid);
-  const int right = build(codes, mid, end);
+  build(codes, begin, mid, leaf_size);
+  const int right = build(codes, mid, end, leaf_size);
   Node& n = nodes_[node];
   const Node &l = nodes_[node + 1], &r = nodes_[right];
   n.right = right;
@@ -174,6 +181,7 @@ double FaceBvh::face_squared_distance(const Triangle& t, const Eigen::Vector3d& 
 }
 
 double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2) const {
+  assert(slot_triangle_.size() == slot_face_.size() && "FaceBvh built without Use::distances");
   double best = bound2;
   if (nodes_.empty()) return best;
   struct Entry {

@@ -15,8 +15,13 @@ namespace gshell::detail {
 
 class FaceBvh {
 public:
+  /// What the tree is built for: pair searches want small leaves (few box pairs per leaf pair),
+  /// distance queries bigger ones (fewer nodes; faces in a leaf are cheap to reject by box) and
+  /// a copy of the triangles in leaf order.
+  enum class Use { pairs, distances };
+
   /// F must index rows of V (checked by the caller).
-  FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+  FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use);
 
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
@@ -24,17 +29,19 @@ public:
   /// this order stays cache-friendly.
   const std::vector<int>& faces_in_leaf_order() const { return slot_face_; }
 
-  /// Calls visit(f, g) once for every unordered pair of distinct faces whose closed boxes meet
-  /// (f, g in any order). Face boxes are the exact min/max of the vertex doubles, so no
-  /// touching pair is missed. visit runs concurrently from several threads.
+  /// Calls visit(s, t) once for every unordered pair of distinct faces whose closed boxes meet,
+  /// with s, t their slots (positions in faces_in_leaf_order(), in any order): data the caller
+  /// keeps in slot order is read with good locality. Face boxes are the exact min/max of the
+  /// vertex doubles, so no touching pair is missed. visit runs concurrently from several threads.
   template <class Visit> void for_each_overlapping_pair(Visit&& visit) const;
 
-  /// Calls visit(f, g) for every face f of this mesh and g of `other` whose closed boxes meet.
-  /// visit runs concurrently from several threads.
+  /// Calls visit(s, t) for every slot s of this tree and t of `other` whose faces' closed boxes
+  /// meet. visit runs concurrently from several threads.
   template <class Visit>
   void for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const;
 
   /// Squared distance from q to the surface (model units squared), or bound2 if that is smaller.
+  /// Needs Use::distances.
   /// A good bound2 (e.g. the squared distance to a known point of the surface) prunes the search.
   double squared_distance(const Eigen::Vector3d& q, double bound2) const;
 
@@ -51,18 +58,18 @@ private:
     bool flat = false; // collinear corners (up to ~1e-12 relative): measured by its edges
   };
 
-  int build(const std::vector<std::uint64_t>& codes, int begin, int end);
+  int build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
   static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
   static bool nodes_meet(const Node& a, const Node& b);
   static double node_squared_distance(const Node& n, const Eigen::Vector3d& q);
 
   template <class Visit>
-  void join(int a, const FaceBvh& other, int b, bool same_tree, int depth, Visit& visit) const;
+  void join(int a, const FaceBvh& other, int b, bool same_tree, Visit& visit) const;
 
   // Per slot (leaf order): face id, exact box, triangle.
   std::vector<int> slot_face_;
   std::vector<Eigen::AlignedBox3d> slot_box_;
-  std::vector<Triangle> slot_triangle_;
+  std::vector<Triangle> slot_triangle_; // Use::distances only
   std::vector<Node> nodes_; // depth-first, root first
 };
 
@@ -78,54 +85,53 @@ inline bool exact_boxes_meet(const Eigen::AlignedBox3d& a, const Eigen::AlignedB
 }
 
 template <class Visit>
-void FaceBvh::join(int a, const FaceBvh& other, int b, bool same_tree, int depth,
-                   Visit& visit) const {
-  constexpr int kParallelDepth = 10; // up to ~2^10 tasks, plenty to balance 2-8 threads
+void FaceBvh::join(int a, const FaceBvh& other, int b, bool same_tree, Visit& visit) const {
+  // Node pairs over fewer faces are joined by one thread: a task costs about a microsecond.
+  constexpr int kParallelFaces = 2048;
   const Node& na = nodes_[a];
   const Node& nb = other.nodes_[b];
   if (!nodes_meet(na, nb)) return;
   auto run = [&](auto&&... jobs) {
-    if (depth < kParallelDepth) tbb::parallel_invoke(jobs...);
+    if ((na.end - na.begin) + (nb.end - nb.begin) > kParallelFaces) tbb::parallel_invoke(jobs...);
     else (jobs(), ...);
   };
   if (same_tree && a == b) { // pairs within one subtree
     if (na.leaf()) {
       for (int i = na.begin; i < na.end; ++i)
         for (int j = i + 1; j < na.end; ++j)
-          if (exact_boxes_meet(slot_box_[i], slot_box_[j])) visit(slot_face_[i], slot_face_[j]);
+          if (exact_boxes_meet(slot_box_[i], slot_box_[j])) visit(i, j);
       return;
     }
     const int l = a + 1, r = na.right;
-    run([&] { join(l, other, l, true, depth + 1, visit); },
-        [&] { join(r, other, r, true, depth + 1, visit); },
-        [&] { join(l, other, r, true, depth + 1, visit); });
+    run([&] { join(l, other, l, true, visit); },
+        [&] { join(r, other, r, true, visit); },
+        [&] { join(l, other, r, true, visit); });
     return;
   }
   if (na.leaf() && nb.leaf()) {
     for (int i = na.begin; i < na.end; ++i)
       for (int j = nb.begin; j < nb.end; ++j)
-        if (exact_boxes_meet(slot_box_[i], other.slot_box_[j]))
-          visit(slot_face_[i], other.slot_face_[j]);
+        if (exact_boxes_meet(slot_box_[i], other.slot_box_[j])) visit(i, j);
     return;
   }
   // Descend the node with more faces (a leaf cannot be split).
   if (nb.leaf() || (!na.leaf() && na.end - na.begin >= nb.end - nb.begin)) {
-    run([&] { join(a + 1, other, b, same_tree, depth + 1, visit); },
-        [&] { join(na.right, other, b, same_tree, depth + 1, visit); });
+    run([&] { join(a + 1, other, b, same_tree, visit); },
+        [&] { join(na.right, other, b, same_tree, visit); });
   } else {
-    run([&] { join(a, other, b + 1, same_tree, depth + 1, visit); },
-        [&] { join(a, other, nb.right, same_tree, depth + 1, visit); });
+    run([&] { join(a, other, b + 1, same_tree, visit); },
+        [&] { join(a, other, nb.right, same_tree, visit); });
   }
 }
 
 template <class Visit>
 void FaceBvh::for_each_overlapping_pair(Visit&& visit) const {
-  if (!nodes_.empty()) join(0, *this, 0, true, 0, visit);
+  if (!nodes_.empty()) join(0, *this, 0, true, visit);
 }
 
 template <class Visit>
 void FaceBvh::for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const {
-  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, 0, visit);
+  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, visit);
 }
 
 } // namespace gshell::detail

@@ -10,14 +10,29 @@
 
 namespace gshell {
 
-ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                           double eta, bool count_intersections) {
+namespace {
+
+void check_sizes(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, double eta) {
   if (!(eta > 0) || !std::isfinite(eta)) throw InputError("shell_metrics: thickness must be positive and finite");
   if (base.rows() != top.rows() || base.cols() != 3 || top.cols() != 3)
     throw InputError("shell_metrics: base and top must have the same number of vertices");
+}
+
+} // namespace
+
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections) {
+  check_sizes(base, top, eta);
+  const RestTets rest = prism_rest_tets(F, static_cast<int>(base.rows()), normal_prisms(base, F, eta));
+  return shell_metrics(base, F, top, eta, count_intersections, rest);
+}
+
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections, const RestTets& rest) {
+  check_sizes(base, top, eta);
+  if (rest.size() != 3 * F.rows()) throw InputError("shell_metrics: rest tets do not match the faces");
   const int n = static_cast<int>(base.rows());
   ShellMetrics m;
-  const RestTets rest = prism_rest_tets(F, n, normal_prisms(base, F, eta));
   Eigen::MatrixXd X(2 * n, 3);
   X << base, top;
   m.tet_stretch = tet_stretch(rest, X);

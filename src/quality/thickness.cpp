@@ -20,7 +20,7 @@ Eigen::VectorXd vertex_thickness(const Eigen::MatrixXd& base, const Eigen::Matri
     throw InputError("thickness (top): expected finite n x 3 vertex positions");
   if (F.rows() == 0) throw InputError("thickness (base): the base has no faces");
 
-  const detail::FaceBvh bvh(base, F);
+  const detail::FaceBvh bvh(base, F, detail::FaceBvh::Use::distances);
   const bool paired = top.rows() == base.rows();
   // Query order: vertices of the faces in the tree's leaf order, so that consecutive queries
   // walk the same part of the tree (cache-friendly). Vertices on no face come last.

@@ -33,9 +33,9 @@ struct FaceShape {
   std::array<Point, 3> p;
 };
 
-FaceShape face_shape(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::Index f) {
+FaceShape face_shape(const Eigen::MatrixXd& V, const Eigen::Vector3i& corners) {
   FaceShape s;
-  for (int k = 0; k < 3; ++k) s.p[k] = Point(V(F(f, k), 0), V(F(f, k), 1), V(F(f, k), 2));
+  for (int k = 0; k < 3; ++k) s.p[k] = Point(V(corners[k], 0), V(corners[k], 1), V(corners[k], 2));
   if (!CGAL::collinear(s.p[0], s.p[1], s.p[2])) return s;
   // Along a line the lexicographic order is the order on the line, so its extremes span it.
   Point lo = s.p[0], hi = s.p[0];
@@ -48,13 +48,22 @@ FaceShape face_shape(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Eigen::
   return s;
 }
 
-std::vector<FaceShape> face_shapes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  std::vector<FaceShape> shapes(static_cast<std::size_t>(F.rows()));
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, F.rows(), 4096), [&](const auto& r) {
-    for (Eigen::Index f = r.begin(); f < r.end(); ++f) shapes[f] = face_shape(V, F, f);
-  });
-  return shapes;
-}
+// The faces of a mesh in the slot order of its tree: vertex ids and shapes.
+struct SlotFaces {
+  std::vector<Eigen::Vector3i> corners;
+  std::vector<FaceShape> shapes;
+
+  SlotFaces(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const detail::FaceBvh& bvh)
+      : corners(bvh.num_faces()), shapes(bvh.num_faces()) {
+    const std::vector<int>& face = bvh.faces_in_leaf_order();
+    tbb::parallel_for(tbb::blocked_range<int>(0, bvh.num_faces(), 4096), [&](const auto& r) {
+      for (int s = r.begin(); s < r.end(); ++s) {
+        corners[s] = F.row(face[s]).transpose();
+        shapes[s] = face_shape(V, corners[s]);
+      }
+    });
+  }
+};
 
 bool shapes_intersect(const FaceShape& a, const FaceShape& b) {
   if (a.dim < b.dim) return shapes_intersect(b, a);
@@ -69,10 +78,10 @@ bool shapes_intersect(const FaceShape& a, const FaceShape& b) {
   }
 }
 
-bool share_vertex(const Eigen::MatrixXi& F, int f, int g) {
+bool share_vertex(const Eigen::Vector3i& a, const Eigen::Vector3i& b) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      if (F(f, i) == F(g, j)) return true;
+      if (a[i] == b[j]) return true;
   return false;
 }
 
@@ -97,12 +106,14 @@ private:
 
 Pairs self_intersecting_pairs(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   detail::check_triangle_mesh(V, F, "self-intersection test");
-  const detail::FaceBvh bvh(V, F);
-  const std::vector<FaceShape> shapes = face_shapes(V, F);
+  const detail::FaceBvh bvh(V, F, detail::FaceBvh::Use::pairs);
+  const SlotFaces faces(V, F, bvh);
+  const std::vector<int>& face = bvh.faces_in_leaf_order();
   PairCollector pairs;
-  bvh.for_each_overlapping_pair([&](int f, int g) {
-    if (!share_vertex(F, f, g) && shapes_intersect(shapes[f], shapes[g]))
-      pairs.add(std::min(f, g), std::max(f, g));
+  bvh.for_each_overlapping_pair([&](int s, int t) {
+    if (!share_vertex(faces.corners[s], faces.corners[t]) &&
+        shapes_intersect(faces.shapes[s], faces.shapes[t]))
+      pairs.add(std::min(face[s], face[t]), std::max(face[s], face[t]));
   });
   return pairs.sorted();
 }
@@ -115,11 +126,13 @@ Pairs intersecting_pairs_between(const Eigen::MatrixXd& V1, const Eigen::MatrixX
                                  const Eigen::MatrixXd& V2, const Eigen::MatrixXi& F2) {
   detail::check_triangle_mesh(V1, F1, "intersection test (first mesh)");
   detail::check_triangle_mesh(V2, F2, "intersection test (second mesh)");
-  const detail::FaceBvh bvh1(V1, F1), bvh2(V2, F2);
-  const std::vector<FaceShape> shapes1 = face_shapes(V1, F1), shapes2 = face_shapes(V2, F2);
+  const detail::FaceBvh bvh1(V1, F1, detail::FaceBvh::Use::pairs);
+  const detail::FaceBvh bvh2(V2, F2, detail::FaceBvh::Use::pairs);
+  const SlotFaces faces1(V1, F1, bvh1), faces2(V2, F2, bvh2);
+  const std::vector<int>&face1 = bvh1.faces_in_leaf_order(), &face2 = bvh2.faces_in_leaf_order();
   PairCollector pairs;
-  bvh1.for_each_overlapping_pair(bvh2, [&](int f1, int f2) {
-    if (shapes_intersect(shapes1[f1], shapes2[f2])) pairs.add(f1, f2);
+  bvh1.for_each_overlapping_pair(bvh2, [&](int s1, int s2) {
+    if (shapes_intersect(faces1.shapes[s1], faces2.shapes[s2])) pairs.add(face1[s1], face2[s2]);
   });
   return pairs.sorted();
 }

@@ -1,6 +1,7 @@
 #include <gshell/shell/generate_shell.h>
 
 #include <gshell/error.h>
+#include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -38,11 +39,35 @@ PrismCorners ideal_prisms_for(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   case ShellMethod::Rigid:
     return normal_prisms(V, F, options.thickness);
   case ShellMethod::Curvature:
-    throw InputError("--method curvature is not available yet");
+    return curvature_prisms(V, F, options.thickness, options.s_min, options.s_max);
   case ShellMethod::Offset:
     break;
   }
   throw InputError("generate: the offset method has no ideal prisms");
+}
+
+// Generation towards `ideal`; `ideal_is_normal` lets the metrics reuse the solver's rest tets.
+GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const PrismCorners& ideal,
+                                const GenerateOptions& options, bool ideal_is_normal) {
+  const auto t0 = Clock::now();
+  check_options(V, F, options);
+  const int n = static_cast<int>(V.rows());
+  GenerateResult r;
+  r.method = options.method;
+  std::vector<int> base_vertices(n);
+  std::iota(base_vertices.begin(), base_vertices.end(), 0);
+  const ShellSolver solver(prism_rest_tets(F, n, ideal), 2 * n, base_vertices);
+  r.seconds.factor = solver.factor_seconds();
+  Eigen::MatrixXd X(2 * n, 3);
+  X << V, offset_top(V, F, options.thickness);
+  r.solve = solver.solve(X, options.solve);
+  r.seconds.solve = r.solve.seconds;
+  r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
+  r.metrics = ideal_is_normal
+                  ? shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, solver.rest())
+                  : shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
+  r.seconds.total = seconds_since(t0);
+  return r;
 }
 
 } // namespace
@@ -74,30 +99,15 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
 
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options) {
-  const auto t0 = Clock::now();
-  check_options(V, F, options);
-  const int n = static_cast<int>(V.rows());
-  GenerateResult r;
-  r.method = options.method;
-  std::vector<int> base_vertices(n);
-  std::iota(base_vertices.begin(), base_vertices.end(), 0);
-  const ShellSolver solver(prism_rest_tets(F, n, ideal), 2 * n, base_vertices);
-  r.seconds.factor = solver.factor_seconds();
-  Eigen::MatrixXd X(2 * n, 3);
-  X << V, offset_top(V, F, options.thickness);
-  r.solve = solver.solve(X, options.solve);
-  r.seconds.solve = r.solve.seconds;
-  r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
-  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
-  r.seconds.total = seconds_since(t0);
-  return r;
+  return generate_towards(V, F, ideal, options, false);
 }
 
 GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
   check_options(V, F, options);
   if (options.method != ShellMethod::Offset) {
     const auto t0 = Clock::now();
-    GenerateResult r = generate_shell_from_prisms(V, F, ideal_prisms_for(V, F, options), options);
+    GenerateResult r = generate_towards(V, F, ideal_prisms_for(V, F, options), options,
+                                        options.method == ShellMethod::Rigid);
     r.seconds.total = seconds_since(t0);
     return r;
   }
@@ -105,9 +115,9 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   GenerateResult r;
   r.method = ShellMethod::Offset;
   r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
-  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
   // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
   const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
+  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
   r.solve.converged = true;
   r.seconds.total = seconds_since(t0);

@@ -40,10 +40,11 @@ struct ShellSolver::Impl {
   int nf = 0;     // free (solved-for) vertices
   SoftConstraints soft;
 
-  // Flat per-tet data for the local step: vertex ids, the 4x3 gradient operator G_t (row-major,
-  // F_t = X_t^T G_t with X_t the 4x3 stacked corner positions) and the rest volume.
+  // Flat per-tet data for the local step: vertex ids, Dm_inv (row-major) and the rest volume.
+  // The gradient operator is G_t = E Dm_inv with E = [-1 -1 -1; I] (4x3): F_t = X_t^T G_t for
+  // the 4x3 stacked corner positions X_t.
   std::vector<std::array<int, 4>> tet;
-  std::vector<double> G;
+  std::vector<double> Dinv;
   std::vector<double> vol;
 
   std::vector<int> free_vertices; // free index -> vertex
@@ -98,7 +99,7 @@ struct ShellSolver::Impl {
 void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
   K = rest.size();
   tet.resize(K);
-  G.resize(12 * static_cast<std::size_t>(K));
+  Dinv.resize(9 * static_cast<std::size_t>(K));
   vol.resize(K);
   for (int t = 0; t < K; ++t) {
     for (int j = 0; j < 4; ++j) {
@@ -107,13 +108,9 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
         throw InputError("tet " + std::to_string(t) + " has vertex id " + std::to_string(v) + " out of range");
       tet[t][j] = v;
     }
-    // D = X_t^T E with E = [-1 -1 -1; I], so F = D Dm_inv = X_t^T (E Dm_inv).
     const Eigen::Matrix3d& Di = rest.Dm_inv[t];
-    double* g = &G[12 * static_cast<std::size_t>(t)];
-    for (int c = 0; c < 3; ++c) {
-      g[c] = -(Di(0, c) + Di(1, c) + Di(2, c));
-      for (int k = 0; k < 3; ++k) g[3 * (k + 1) + c] = Di(k, c);
-    }
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c) Dinv[9 * static_cast<std::size_t>(t) + 3 * k + c] = Di(k, c);
     vol[t] = rest.volume[t];
   }
 
@@ -171,7 +168,12 @@ void ShellSolver::Impl::assemble_and_factor() {
     row.reserve(4 * (gather_start[j + 1] - gather_start[j]) + 1);
     for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
       const int t = gather_slot[s] / 4, k = gather_slot[s] % 4;
-      const double* g = &G[12 * static_cast<std::size_t>(t)];
+      double g[12]; // G_t = E Dm_inv, row-major 4x3
+      const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
+      for (int c = 0; c < 3; ++c) {
+        g[c] = -(di[c] + di[3 + c] + di[6 + c]);
+        for (int j = 0; j < 3; ++j) g[3 * (j + 1) + c] = di[3 * j + c];
+      }
       for (int a = 0; a < 4; ++a) {
         const double val = vol[t] * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]);
         row.emplace_back(tet[t][a], val);
@@ -264,21 +266,25 @@ double ShellSolver::Impl::local_step(const double* X, double* Q) const {
     alignas(64) double Fs[9 * W], Rs[9 * W];
     for (int t0 = ci * kChunk; t0 < t_end; t0 += W) {
       const int lanes = std::min(W, t_end - t0);
-      // F_t = X_t^T G_t for W tets, struct-of-arrays for the batched polar decomposition.
+      // F_t = D_t Dm_inv_t (D = current edge vectors) for W tets, struct-of-arrays for the
+      // batched polar decomposition; padding lanes get the identity.
       for (int l = 0; l < W; ++l) {
-        double F[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}; // padding lanes: identity
-        if (l < lanes) {
-          const int t = t0 + l;
-          const auto& v = tet[t];
-          const double* g = &G[12 * static_cast<std::size_t>(t)];
-          for (int r = 0; r < 9; ++r) F[r] = 0;
-          for (int k = 0; k < 4; ++k) {
-            const double* x = X + 3 * static_cast<std::size_t>(v[k]);
-            for (int r = 0; r < 3; ++r)
-              for (int c = 0; c < 3; ++c) F[3 * r + c] += x[r] * g[3 * k + c];
-          }
+        if (l >= lanes) {
+          for (int r = 0; r < 9; ++r) Fs[r * W + l] = (r % 4 == 0) ? 1.0 : 0.0;
+          continue;
         }
-        for (int r = 0; r < 9; ++r) Fs[r * W + l] = F[r];
+        const int t = t0 + l;
+        const auto& v = tet[t];
+        const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
+        const double* x0 = X + 3 * static_cast<std::size_t>(v[0]);
+        double D[3][3]; // D[r][j] = (x_{j+1} - x_0)[r]
+        for (int j = 0; j < 3; ++j) {
+          const double* xj = X + 3 * static_cast<std::size_t>(v[j + 1]);
+          for (int r = 0; r < 3; ++r) D[r][j] = xj[r] - x0[r];
+        }
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c)
+            Fs[(3 * r + c) * W + l] = D[r][0] * di[c] + D[r][1] * di[3 + c] + D[r][2] * di[6 + c];
       }
       detail::closest_rotations_lanes(Fs, Rs);
       for (int l = 0; l < lanes; ++l) {
@@ -289,16 +295,23 @@ double ShellSolver::Impl::local_step(const double* X, double* Q) const {
           d2 += d * d;
         }
         e += vol[t] * d2;
-        if (Q) { // rows of vol G_t R^T: this tet's share of the global step's right-hand side
-          const double* g = &G[12 * static_cast<std::size_t>(t)];
-          for (int k = 0; k < 4; ++k) {
-            const int slot = corner_slot[4 * static_cast<std::size_t>(t) + k];
-            if (slot < 0) continue;
-            double* q = Q + 3 * static_cast<std::size_t>(slot);
+        if (Q) { // rows of vol G_t R^T, G_t = [-1 -1 -1; I] Dm_inv: this tet's share of the RHS
+          const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
+          double P[3][3]; // vol Dm_inv R^T
+          for (int k = 0; k < 3; ++k)
             for (int r = 0; r < 3; ++r)
-              q[r] = vol[t] * (g[3 * k] * Rs[(3 * r) * W + l] + g[3 * k + 1] * Rs[(3 * r + 1) * W + l] +
-                               g[3 * k + 2] * Rs[(3 * r + 2) * W + l]);
+              P[k][r] = vol[t] * (di[3 * k] * Rs[(3 * r) * W + l] + di[3 * k + 1] * Rs[(3 * r + 1) * W + l] +
+                                  di[3 * k + 2] * Rs[(3 * r + 2) * W + l]);
+          const int* slots = &corner_slot[4 * static_cast<std::size_t>(t)];
+          if (slots[0] >= 0) {
+            double* q = Q + 3 * static_cast<std::size_t>(slots[0]);
+            for (int r = 0; r < 3; ++r) q[r] = -(P[0][r] + P[1][r] + P[2][r]);
           }
+          for (int k = 0; k < 3; ++k)
+            if (slots[k + 1] >= 0) {
+              double* q = Q + 3 * static_cast<std::size_t>(slots[k + 1]);
+              for (int r = 0; r < 3; ++r) q[r] = P[k][r];
+            }
         }
       }
     }
@@ -417,9 +430,12 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   std::vector<double> Q(3 * static_cast<std::size_t>(m.gather_start[nf]));
   std::vector<double> rhs(3 * static_cast<std::size_t>(nf));
   SolveResult result;
+  auto t_local = Clock::now();
   double E = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
+  result.local_seconds += seconds_since(t_local);
   result.energy.push_back(E);
   for (int it = 1; it <= options.max_iterations && nf > 0; ++it) {
+    const auto t_global = Clock::now();
     tbb::parallel_for(0, nf, [&](int j) {
       double b[3] = {0, 0, 0};
       for (int s = m.gather_start[j]; s < m.gather_start[j + 1]; ++s) {
@@ -438,7 +454,10 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
       for (int d = 0; d < 3; ++d)
         X[3 * static_cast<std::size_t>(m.free_vertices[j]) + d] = rhs[j + static_cast<std::size_t>(d) * nf];
     });
+    result.global_seconds += seconds_since(t_global);
+    t_local = Clock::now();
     const double E_new = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
+    result.local_seconds += seconds_since(t_local);
     result.energy.push_back(E_new);
     result.iterations = it;
     if (options.progress) options.progress(it, E_new, seconds_since(t0));

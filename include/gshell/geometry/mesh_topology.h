@@ -13,7 +13,7 @@ struct MeshStats {
   int euler_characteristic = 0; ///< V - E + F, V counting only vertices used by some face
   double genus = 0;             ///< (2*components - boundary_loops - chi) / 2 for orientable meshes
   Eigen::Vector3d bbox_min = Eigen::Vector3d::Zero(), bbox_max = Eigen::Vector3d::Zero(); ///< of finite vertices
-  double mean_edge_length = 0;  ///< over unique edges, model units
+  double mean_edge_length = 0;  ///< over unique edges with finite ends, model units
   int boundary_edges = 0;       ///< edges with exactly one face
   int unreferenced_vertices = 0;
 };

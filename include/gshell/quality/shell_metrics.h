@@ -21,4 +21,9 @@ struct ShellMetrics {
 ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
                            double eta, bool count_intersections = true);
 
+/// The same with the rest tets of the normal prisms already built
+/// (prism_rest_tets(F, n, normal_prisms(base, F, eta))), e.g. by the rigid method's solver.
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections, const RestTets& normal_rest);
+
 } // namespace gshell

@@ -23,6 +23,8 @@ struct SolveResult {
   std::vector<double> energy;     ///< energy[0] = start state, then one per iteration
   bool converged = false;         ///< stopped by tolerance (not by max_iterations)
   double seconds = 0;
+  double local_seconds = 0;  ///< of which local steps (rotations, energy, right-hand sides)
+  double global_seconds = 0; ///< of which global steps (gather, back-substitution, scatter)
 };
 
 /// Soft positional constraints: w * sum_c ||x_c - p_c||^2 over `vertices` (targets at solve).
