@@ -78,7 +78,7 @@ TEST(DeformCli, WritesFramesReportAndCarriedDetail) {
 
   const nlohmann::json report = read_json(out + "/report.json");
   ASSERT_EQ(report["frames"].size(), 3u);
-  EXPECT_EQ(report["warm_start"], "rotated");
+  EXPECT_EQ(report["warm_start"], "extrapolated");
   EXPECT_DOUBLE_EQ(report["tolerance"].get<double>(), 1e-4);
   EXPECT_EQ(report["tets"], 3 * 200);
   EXPECT_EQ(report["embed"]["points"], 121);
