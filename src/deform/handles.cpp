@@ -158,7 +158,7 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
   json doc;
   try {
     doc = json::parse(json_text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) { // parse errors, and number overflow such as 1e999
     // nlohmann's message carries the position and the offending text; drop its "[json...]" prefix
     std::string what = e.what();
     const auto pos = what.find("] ");

@@ -1,0 +1,252 @@
+// Handle files and `gshell pose`.
+#include <gshell/deform/handles.h>
+#include <gshell/error.h>
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/io/read_mesh.h>
+#include <gshell/io/tet_mesh_io.h>
+#include <gshell/io/write_mesh.h>
+#include <gshell/shell/offset_shell.h>
+
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Geometry>
+
+#include <filesystem>
+
+using namespace gshell;
+using gshell::test::run_cli;
+using gshell::test::TempDir;
+namespace fs = std::filesystem;
+
+namespace {
+
+Shell small_bowl() {
+  const TriMesh m = make_bowl(8);
+  Shell s;
+  s.base = m.V;
+  s.top = offset_top(m.V, m.F, 0.08);
+  s.F = m.F;
+  s.thickness = 0.08;
+  return s;
+}
+
+/// Expects parse_handles to throw an InputError whose one-line message names the file and
+/// contains `fragment`.
+void expect_error(const std::string& json, const std::string& fragment) {
+  try {
+    parse_handles(json, "H.json", small_bowl());
+    ADD_FAILURE() << "no error for " << json;
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("H.json: ", 0), 0u) << what;
+    EXPECT_NE(what.find(fragment), std::string::npos) << "'" << what << "' lacks '" << fragment << "'";
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+}
+
+void write_shell_dir(const Shell& s, const fs::path& dir) {
+  fs::create_directories(dir);
+  TriMesh base, top;
+  base.V = s.base;
+  base.F = s.F;
+  top.V = s.top;
+  top.F = s.F;
+  write_mesh((dir / "base.obj").string(), base);
+  write_mesh((dir / "top.obj").string(), top);
+  test::write_text((dir / "report.json").string(), nlohmann::json{{"thickness", s.thickness}}.dump());
+}
+
+const char* kPull = R"({"handles": [
+  {"select": {"surface": "both", "box": [-2, -2, -0.2, -0.6, 2, 2]}},
+  {"select": {"surface": "both", "box": [0.6, -2, -0.2, 2, 2, 2]}, "translate": [0.3, 0, 0.1]}]})";
+
+} // namespace
+
+TEST(Handles, ExplicitVerticesAndTargets) {
+  const Shell s = small_bowl();
+  const int n = s.num_base_vertices();
+  const std::string json = R"({"handles": [{"vertices": [0, 3, 3, )" + std::to_string(n + 1) +
+                           R"(], "translate": [1, 2, 3], "rotate": {"axis": [0, 0, 2], "degrees": 90, "center": [0, 0, 0]}}]})";
+  const HandleSet h = parse_handles(json, "H.json", s);
+  EXPECT_EQ(h.mode, ConstraintMode::Hard);
+  ASSERT_EQ(h.handles.size(), 1u);
+  EXPECT_EQ(h.handles[0].vertices, (std::vector<int>{0, 3, n + 1})); // sorted, duplicates dropped
+  const Eigen::MatrixXd X = s.vertices();
+  const Eigen::MatrixXd full = h.targets(X, 1.0), half = h.targets(X, 0.5), none = h.targets(X, 0.0);
+  for (int r = 0; r < 3; ++r) {
+    const Eigen::Vector3d u = X.row(h.handles[0].vertices[r]).transpose();
+    // 90 degrees about +z: (x, y, z) -> (-y, x, z); then the translation.
+    EXPECT_NEAR((full.row(r).transpose() - (Eigen::Vector3d(-u.y(), u.x(), u.z()) + Eigen::Vector3d(1, 2, 3))).norm(), 0, 1e-12);
+    const Eigen::Vector3d mid = Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitZ()) * u + Eigen::Vector3d(0.5, 1, 1.5);
+    EXPECT_NEAR((half.row(r).transpose() - mid).norm(), 0, 1e-12);
+    EXPECT_NEAR((none.row(r).transpose() - u).norm(), 0, 1e-15);
+  }
+}
+
+TEST(Handles, BoxSelectionPicksTheRightSurface) {
+  const Shell s = small_bowl();
+  const int n = s.num_base_vertices();
+  const std::string box = R"("box": [-5, -5, -0.3, 5, 5, 5])";
+  const HandleSet base = parse_handles(R"({"handles": [{"select": {"surface": "base", )" + box + "}}]}", "H", s);
+  const HandleSet top = parse_handles(R"({"handles": [{"select": {"surface": "top", )" + box + "}}]}", "H", s);
+  const HandleSet both = parse_handles(R"({"handles": [{"select": {)" + box + "}}]}", "H", s);
+  for (int v : base.handles[0].vertices) {
+    EXPECT_LT(v, n);
+    EXPECT_GE(s.base(v, 2), -0.3);
+  }
+  for (int v : top.handles[0].vertices) {
+    EXPECT_GE(v, n);
+    EXPECT_GE(s.top(v - n, 2), -0.3);
+  }
+  int expected = 0;
+  for (int i = 0; i < n; ++i) expected += (s.base(i, 2) >= -0.3) + (s.top(i, 2) >= -0.3);
+  EXPECT_EQ(static_cast<int>(both.handles[0].vertices.size()), expected);
+  EXPECT_EQ(both.handles[0].vertices.size(), base.handles[0].vertices.size() + top.handles[0].vertices.size());
+  // Rotation center defaults to the handle's rest centroid.
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  const Eigen::MatrixXd X = s.vertices();
+  for (int v : both.handles[0].vertices) c += X.row(v).transpose();
+  EXPECT_NEAR((both.handles[0].center - c / expected).norm(), 0, 1e-12);
+}
+
+TEST(Handles, ModeAndWeight) {
+  const Shell s = small_bowl();
+  const std::string h = R"("handles": [{"vertices": [0]}])";
+  EXPECT_EQ(parse_handles("{" + h + "}", "H", s).mode, ConstraintMode::Hard);
+  const HandleSet w = parse_handles(R"({"weight": 50, )" + h + "}", "H", s);
+  EXPECT_EQ(w.mode, ConstraintMode::Soft); // a weight asks for springs
+  EXPECT_EQ(w.weight, 50);
+  EXPECT_EQ(parse_handles(R"({"weight": 50, "mode": "hard", )" + h + "}", "H", s).mode, ConstraintMode::Hard);
+  EXPECT_EQ(parse_handles(R"({"mode": "soft", )" + h + "}", "H", s).mode, ConstraintMode::Soft);
+}
+
+TEST(Handles, BadFilesAreClearErrors) {
+  expect_error(R"({"handles": [{"vertices": [0, 99999]}]})", "unknown vertex id 99999");
+  expect_error(R"({"handles": [{"vertices": [-1]}]})", "unknown vertex id -1");
+  expect_error(R"({"handles": [{"select": {"box": [5, 5, 5, 6, 6, 6]}}]})", "select matches no vertex");
+  expect_error(R"({"handles": [{"vertices": [0], "translate": [NaN, 0, 0]}]})", "not valid JSON");
+  expect_error(R"({"handles": [{"vertices": [0], "translate": [1e999, 0, 0]}]})", "number overflow");
+  expect_error(R"({"handles": [{"vertices": [0], "translate": ["1", 0, 0]}]})", "expected a number");
+  expect_error(R"({"handles": [{"vertices": [0.5]}]})", "is not an integer");
+  expect_error(R"({"handles": [{"vertices": "all"}]})", "must be an array");
+  expect_error(R"({"handles": [{"vertices": []}]})", "is empty");
+  expect_error(R"({"handles": []})", "is empty");
+  expect_error(R"({"handle": []})", "unknown key \"handle\"");
+  expect_error(R"({"handles": [{"vertices": [0], "translation": [1, 0, 0]}]})", "unknown key \"translation\"");
+  expect_error(R"({"handles": [{"vertices": [0], "select": {"box": [0, 0, 0, 1, 1, 1]}}]})", "exactly one of");
+  expect_error(R"({"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 0], "degrees": 10}}]})", "axis is zero");
+  expect_error(R"({"handles": [{"vertices": [0, 1]}, {"vertices": [1, 2]}]})", "vertex 1 is in handles 0 and 1");
+  expect_error(R"({"weight": -1, "handles": [{"vertices": [0]}]})", "must be > 0");
+  expect_error(R"({"mode": "rigid", "handles": [{"vertices": [0]}]})", "\"hard\" or \"soft\"");
+  expect_error(R"({"handles": [{"select": {"surface": "middle", "box": [0, 0, 0, 1, 1, 1]}}]})", "\"base\", \"top\" or \"both\"");
+  expect_error("[1, 2", "not valid JSON");
+}
+
+TEST(Handles, MissingFileNamesIt) {
+  try {
+    read_handles("/nonexistent/h.json", small_bowl());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/h.json"), std::string::npos);
+  }
+}
+
+TEST(PoseCli, WritesTheDeformedShellAndAReport) {
+  TempDir tmp;
+  const Shell s = small_bowl();
+  write_shell_dir(s, tmp.path() / "shell");
+  test::write_text(tmp.file("pull.json"), kPull);
+  const std::string out = tmp.file("out");
+  const auto r = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("pull.json") +
+                         "' --steps 3 --levels 3 -o '" + out + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* f : {"top.obj", "base.obj", "shell.vtu", "report.json"}) EXPECT_TRUE(fs::exists(fs::path(out) / f)) << f;
+  EXPECT_EQ(test::count_entries(tmp.path()), 3); // shell, pull.json, out: no temporaries left
+  const TriMesh top = read_mesh(out + "/top.obj"), base = read_mesh(out + "/base.obj");
+  EXPECT_EQ(top.num_vertices(), s.num_base_vertices());
+  EXPECT_EQ(base.F, s.F);
+  const auto report = nlohmann::json::parse(test::read_text(out + "/report.json"));
+  ASSERT_EQ(report["steps"].size(), 3u);
+  double last = 0;
+  for (const auto& step : report["steps"]) {
+    EXPECT_GT(step["iterations"].get<int>(), 0);
+    EXPECT_GT(step["energy"].get<double>(), last); // the handles move further every step
+    last = step["energy"].get<double>();
+    EXPECT_GE(step["seconds"].get<double>(), 0);
+  }
+  EXPECT_EQ(report["solver"], "hierarchical");
+  EXPECT_EQ(report["mode"], "hard");
+  EXPECT_EQ(report["thickness"].get<double>(), s.thickness);
+  const TetMesh vtu = read_tet_mesh(out + "/shell.vtu");
+  EXPECT_EQ(vtu.X.rows(), 2 * s.num_base_vertices());
+  ASSERT_FALSE(vtu.cell_data.empty());
+  EXPECT_EQ(vtu.cell_data[0].first, "stretch");
+  EXPECT_GT(vtu.cell_data[0].second.maxCoeff(), 1e-6);
+
+  // The pulled rim moved by the handle's translation; the held rim stayed.
+  const HandleSet h = parse_handles(kPull, "pull", s);
+  const Eigen::MatrixXd targets = h.targets(s.vertices(), 1.0);
+  const auto verts = h.constrained_vertices();
+  const int n = s.num_base_vertices();
+  for (size_t k = 0; k < verts.size(); ++k) {
+    const int v = verts[k];
+    const Eigen::RowVector3d p = v < n ? base.V.row(v) : top.V.row(v - n);
+    EXPECT_LT((p - targets.row(k)).norm(), 1e-5);
+  }
+
+  // Same output folder again with the single-level solver: replaced, not merged.
+  const auto again = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("pull.json") +
+                             "' --solver single -q -o '" + out + "'");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_TRUE(again.err.empty()) << again.err;
+  EXPECT_EQ(nlohmann::json::parse(test::read_text(out + "/report.json"))["solver"], "single");
+  EXPECT_EQ(test::count_entries(tmp.path()), 3);
+}
+
+TEST(PoseCli, BadHandleFilesExitOneAndWriteNothing) {
+  TempDir tmp;
+  write_shell_dir(small_bowl(), tmp.path() / "shell");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {R"({"handles": [{"vertices": [123456]}]})", "unknown vertex id"},
+      {R"({"handles": [{"select": {"box": [9, 9, 9, 10, 10, 10]}}]})", "select matches no vertex"},
+      {R"({"handles": [{"vertices": [0], "translate": [NaN, 0, 0]}]})", "not valid JSON"},
+  };
+  for (const auto& [json, message] : cases) {
+    test::write_text(tmp.file("bad.json"), json);
+    const auto r = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("bad.json") + "' -o '" +
+                           tmp.file("out") + "'");
+    EXPECT_EQ(r.exit_code, 1) << json;
+    EXPECT_NE(r.err.find(message), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("bad.json"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(tmp.file("out")));
+    EXPECT_EQ(test::count_entries(tmp.path()), 2); // shell, bad.json
+  }
+  const auto missing = run_cli("pose --shell '" + tmp.file("nope") + "' --handles '" + tmp.file("bad.json") + "' -o '" +
+                               tmp.file("out") + "'");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_FALSE(fs::exists(tmp.file("out")));
+}
+
+TEST(PoseCli, AShellPartWithoutHandlesIsAnInputError) {
+  // Two separate bowls, a handle on one only: the other could drift anywhere.
+  TempDir tmp;
+  Shell a = small_bowl(), two;
+  const int n = a.num_base_vertices();
+  two.base.resize(2 * n, 3);
+  two.top.resize(2 * n, 3);
+  two.base << a.base, a.base.rowwise() + Eigen::RowVector3d(5, 0, 0);
+  two.top << a.top, a.top.rowwise() + Eigen::RowVector3d(5, 0, 0);
+  two.F.resize(2 * a.F.rows(), 3);
+  two.F << a.F, a.F.array() + n;
+  two.thickness = a.thickness;
+  write_shell_dir(two, tmp.path() / "shell");
+  test::write_text(tmp.file("h.json"), R"({"handles": [{"vertices": [0, 1, 2]}]})");
+  const auto r = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("h.json") + "' -o '" +
+                         tmp.file("out") + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("free"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(tmp.file("out")));
+}
