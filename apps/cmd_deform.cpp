@@ -38,7 +38,7 @@ struct DeformArgs {
   std::string out;
   double tolerance = 1e-4;
   int iterations = 50;
-  std::string warm_start = "rotated";
+  std::string warm_start = "extrapolated";
   bool compare_offset = false;
   std::string embed;
 };
@@ -99,6 +99,9 @@ void run_deform(const DeformArgs& args) {
   if (!quiet) {
     std::cerr << "deform: shell " << n << " base vertices, " << tets.rows() << " tets, factored in "
               << deformer.factor_seconds() << " s; " << frames.size() << " frames\n";
+    if (deformer.replaced_rest_tets() > 0)
+      std::cerr << "deform: " << deformer.replaced_rest_tets()
+                << " flat or inverted shell tets use their normal prism as rest shape\n";
     if (!args.embed.empty())
       std::cerr << "deform: embedded " << embedding.size() << " detail vertices, " << embedding.outside.size()
                 << " outside the shell\n";
@@ -193,6 +196,7 @@ void run_deform(const DeformArgs& args) {
               {"tolerance", options.tolerance},
               {"max_iterations", options.max_iterations},
               {"warm_start", gshell::warm_start_name(options.warm_start)},
+              {"replaced_rest_tets", deformer.replaced_rest_tets()},
               {"factor_seconds", deformer.factor_seconds()},
               {"setup_seconds", setup_seconds}};
   if (!args.embed.empty())
@@ -224,7 +228,7 @@ void add_deform_command(CLI::App& parent) {
   cmd->add_option("--tolerance", args->tolerance, "Relative energy change that ends a frame")->capture_default_str();
   cmd->add_option("--iterations", args->iterations, "Maximum local/global iterations per frame")
       ->capture_default_str();
-  cmd->add_option("--warm-start", args->warm_start, "Start of each frame: rotated, translated or previous")
+  cmd->add_option("--warm-start", args->warm_start, "Start of each frame: extrapolated, rotated, translated or previous")
       ->capture_default_str();
   cmd->add_flag("--compare-offset", args->compare_offset,
                 "Also report the stretch of re-extruding each frame by the plain vertex-normal offset");

@@ -78,7 +78,7 @@ TEST(DeformCli, WritesFramesReportAndCarriedDetail) {
 
   const nlohmann::json report = read_json(out + "/report.json");
   ASSERT_EQ(report["frames"].size(), 3u);
-  EXPECT_EQ(report["warm_start"], "rotated");
+  EXPECT_EQ(report["warm_start"], "extrapolated");
   EXPECT_DOUBLE_EQ(report["tolerance"].get<double>(), 1e-4);
   EXPECT_EQ(report["tets"], 3 * 200);
   EXPECT_EQ(report["embed"]["points"], 121);
@@ -167,6 +167,24 @@ TEST(DeformCli, RefusesToReplaceAnUnrelatedFolder) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(test::read_text(out + "/notes.txt"), "keep me");
   EXPECT_EQ(test::count_entries(out), 1);
+}
+
+TEST(DeformCli, EndToEndFromGenerate) {
+  // generate -> animate -> deform, and texture on the generated shell (the cylinder has UVs).
+  TempDir tmp;
+  const std::string shell = tmp.file("shell"), frames = tmp.file("frames"), out = tmp.file("out");
+  ASSERT_EQ(run_cli("generate builtin:cylinder:24 --thickness-ratio 0.05 -o '" + shell + "' -q").exit_code, 0);
+  ASSERT_EQ(run_cli("animate '" + shell + "/base.obj' --twist 60 --frames 2 -o '" + frames + "' -q").exit_code, 0);
+  const auto r = run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' '" + frames +
+                         "/frame_0002.obj' --compare-offset -o '" + out + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = read_json(out + "/report.json");
+  EXPECT_EQ(report["frames"].size(), 2u);
+  EXPECT_EQ(report["summary"]["inverted_tets"], 0);
+  EXPECT_TRUE(read_mesh(out + "/frame_0002/top.obj").has_uv()); // textures still apply to the deformed top
+  const auto t = run_cli("texture --shell '" + shell + "' --tile builtin:bumps:6 --repeat 8 2 -o '" + tmp.file("tex.ply") + "' -q");
+  ASSERT_EQ(t.exit_code, 0) << t.err;
+  EXPECT_EQ(read_mesh(tmp.file("tex.ply")).num_vertices(), 16 * 49);
 }
 
 TEST(TextureCli, TilesBumpsOverThePlaneShell) {

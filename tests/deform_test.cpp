@@ -49,7 +49,8 @@ TEST(ShellDeformer, RigidMotionOfTheBaseMovesTheTopRigidly) {
   const Shell rest = sphere_shell(1, 0.15);
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, -0.5).normalized()).toRotationMatrix();
   const Eigen::RowVector3d t(0.4, -1.2, 2.0);
-  for (WarmStart warm : {WarmStart::RotatedOffset, WarmStart::Translated, WarmStart::PreviousTop}) {
+  for (WarmStart warm :
+       {WarmStart::Extrapolated, WarmStart::RotatedOffset, WarmStart::Translated, WarmStart::PreviousTop}) {
     ShellDeformer deformer(rest);
     DeformOptions options;
     options.warm_start = warm;
@@ -69,7 +70,7 @@ TEST(ShellDeformer, RotatedOffsetWarmStartIsExactForRigidMotions) {
   const Eigen::Matrix3d R = Eigen::AngleAxisd(2.5, Eigen::Vector3d(-0.3, 0.1, 0.9).normalized()).toRotationMatrix();
   const Eigen::RowVector3d t(3, 2, 1);
   const Eigen::MatrixXd top = rotated_offset_top(rest.base, rest.top, rigidly_moved(rest.base, R, t), rest.F,
-                                                 vertex_neighbours(rest.F, rest.num_base_vertices()));
+                                                 vertex_rings(rest.F, rest.num_base_vertices()));
   EXPECT_LT((top - rigidly_moved(rest.top, R, t)).cwiseAbs().maxCoeff(), 1e-12);
 
   ShellDeformer deformer(rest);
@@ -102,6 +103,29 @@ TEST(ShellDeformer, FoldingAPlaneStretchesLessThanOffsetAndInvertsNothing) {
   }
 }
 
+TEST(ShellDeformer, InvertedRestTetsTakeTheirIdealShape) {
+  // A defective rest shell: one top vertex pushed below the base inverts its tets. They cannot be
+  // rest shapes; with their normal prisms as rest shapes, solving at the rest base repairs them.
+  Shell rest = flat_plane_shell(6, 0.1);
+  const int v = 3 * 7 + 3; // an interior vertex
+  rest.top(v, 2) = -0.05;
+  int replaced = 0;
+  const RestTets tets = deformation_rest_tets(rest, &replaced);
+  EXPECT_GT(replaced, 0);
+  EXPECT_GT(tets.volume.minCoeff(), 0);
+  ShellDeformer deformer(rest);
+  EXPECT_EQ(deformer.replaced_rest_tets(), replaced);
+  DeformOptions options;
+  options.tolerance = 1e-10;
+  options.max_iterations = 200;
+  const FrameResult r = deformer.solve(rest.base, options);
+  EXPECT_EQ(r.stretch.inverted, 0);
+  EXPECT_GT(r.top(v, 2), 0.05); // back above the base (tets it shares with sound neighbours keep it a bit low)
+  // A sound shell keeps all of its own tets.
+  deformation_rest_tets(flat_plane_shell(6, 0.1), &replaced);
+  EXPECT_EQ(replaced, 0);
+}
+
 TEST(ShellDeformer, BadFramesAreRejectedAndLeaveTheStateAlone) {
   const Shell rest = flat_plane_shell(4, 0.1);
   ShellDeformer deformer(rest);
@@ -127,6 +151,7 @@ TEST(ShellDeformer, FramesChainAndResetReturnsToTheRest) {
   deformer.reset();
   EXPECT_TRUE(deformer.current().isApprox(rest.vertices()));
   EXPECT_EQ(parse_warm_start("rotated"), WarmStart::RotatedOffset);
+  EXPECT_EQ(parse_warm_start("extrapolated"), WarmStart::Extrapolated);
   EXPECT_THROW(parse_warm_start("sideways"), InputError);
 }
 
