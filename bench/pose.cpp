@@ -4,8 +4,7 @@
 //
 //   bench_pose [bowl | PATH.off] [--steps K] [--runs R] [--thickness-ratio r] [--reference-iterations N]
 //
-// Shell: the base mesh plus a top generated the DESIGN.md way (normal prisms, vertex-normal offset,
-// 5 local/global iterations with the base fixed) at eta = r * bounding radius (default r = 0.02).
+// Shell: generate_shell, method rigid (normal prisms), eta = r * bounding radius (default r = 0.02).
 // Handles (hard): bowl: hold the rim on one side (x < -0.5, z > -0.15 R, both surfaces), pull the
 // rim on the other side (x > 0.7 R) by R * (0.8, 0.2, 0.5) (|move| = 0.97 R; the small sideways
 // part picks one of the two mirror-image buckled shapes). Other models: hold the lowest 8% along
@@ -16,10 +15,7 @@
 #include <gshell/deform/pose.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/load_mesh.h>
-#include <gshell/shell/ideal_prisms.h>
-#include <gshell/shell/offset_shell.h>
-#include <gshell/shell/prism_tets.h>
-#include <gshell/solver/rest_tets.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/solver/shell_solver.h>
 
 #include <algorithm>
@@ -41,32 +37,11 @@ double median(std::vector<double> v) {
 }
 
 Shell make_shell(const TriMesh& mesh, double ratio) {
-  Shell shell;
-  shell.base = mesh.V;
-  shell.F = mesh.F;
-  const Eigen::RowVector3d c = mesh.V.colwise().mean();
-  const double radius = (mesh.V.rowwise() - c).rowwise().norm().maxCoeff();
-  shell.thickness = ratio * radius;
-  const int n = mesh.num_vertices();
-  // DESIGN.md generation: ideal normal prisms, offset start, local/global with the base fixed.
-  const RestTets ideal = rest_tets_from_corners(build_prism_tets(mesh.F, n), [&] {
-    const PrismCorners P = normal_prisms(mesh.V, mesh.F, shell.thickness);
-    const Eigen::MatrixXi C = prism_tet_corners(mesh.F);
-    Eigen::MatrixXd corners(4 * C.rows(), 3);
-    for (int t = 0; t < C.rows(); ++t)
-      for (int k = 0; k < 4; ++k) corners.row(4 * t + k) = P.row(6 * (t / 3) + C(t, k));
-    return corners;
-  }());
-  std::vector<int> base(n);
-  for (int i = 0; i < n; ++i) base[i] = i;
-  ShellSolver generator(ideal, 2 * n, base);
-  Eigen::MatrixXd X(2 * n, 3);
-  X << mesh.V, offset_top(mesh.V, mesh.F, shell.thickness);
-  SolveOptions so;
-  so.max_iterations = 5;
-  generator.solve(X, so);
-  shell.top = X.bottomRows(n);
-  return shell;
+  GenerateOptions options;
+  options.method = ShellMethod::Rigid;
+  options.thickness = thickness_from_ratio(mesh.V, ratio);
+  options.count_intersections = false;
+  return generate_shell(mesh.V, mesh.F, options).shell;
 }
 
 HandleSet make_handles(const Shell& shell, bool bowl) {
@@ -139,8 +114,9 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
 } // namespace
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string model = "bowl";
-  int steps = 30, runs = 5, reference_iterations = 4000;
+  int steps = 30, runs = 3, drag_runs = 1, reference_iterations = 1500, drag_cap = 1500;
   double ratio = 0.02;
   std::vector<std::string> only;
   for (int i = 1; i < argc; ++i) {
@@ -150,10 +126,14 @@ int main(int argc, char** argv) {
     else if (a == "--runs") runs = std::atoi(next().c_str());
     else if (a == "--thickness-ratio") ratio = std::atof(next().c_str());
     else if (a == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
+    else if (a == "--drag-runs") drag_runs = std::atoi(next().c_str());
+    else if (a == "--drag-cap") drag_cap = std::atoi(next().c_str());
     else if (a == "--only") only.push_back(next());
     else model = a;
   }
   const bool bowl = model == "bowl";
+  std::printf("bench_pose: big move median of %d runs, drag %d run(s); reference = ShellSolver to relative change < 1e-8 or %d iterations\n",
+              runs, drag_runs, reference_iterations);
   const TriMesh mesh = bowl ? make_bowl() : load_mesh(model);
   const Shell shell = make_shell(mesh, ratio);
   const HandleSet handles = make_handles(shell, bowl);
@@ -171,9 +151,17 @@ int main(int argc, char** argv) {
     configs.push_back({"single + Anderson(5)", PoseSolverKind::Hierarchical, o});
   }
   {
-    HierarchyOptions o;
+    HierarchyOptions o; // the paper's recipe: own parameters, rigid propagation, ~5 iterations per level
     o.residual_correction = false;
+    o.level_iterations = 5;
+    o.full_iterations = 1;
+    o.anderson_history = 0;
     configs.push_back({"hierarchical, paper coupling", PoseSolverKind::Hierarchical, o});
+  }
+  {
+    HierarchyOptions o;
+    o.anderson_history = 0;
+    configs.push_back({"hierarchical, no Anderson", PoseSolverKind::Hierarchical, o});
   }
   configs.push_back({"hierarchical (default)", PoseSolverKind::Hierarchical, HierarchyOptions{}});
 
@@ -181,7 +169,7 @@ int main(int argc, char** argv) {
   PoseSolver reference(shell, handles, PoseSolverKind::Single);
   SolveOptions ref_options;
   ref_options.max_iterations = reference_iterations;
-  ref_options.tolerance = 1e-9;
+  ref_options.tolerance = 1e-8;
   Eigen::MatrixXd Xbig = reference.rest_vertices();
   SolveResult rb = reference.solve(Xbig, 1.0, ref_options);
   const double Ebig = rb.energy.back();
@@ -196,6 +184,7 @@ int main(int argc, char** argv) {
     SolveResult r = reference.solve(Xref[k], static_cast<double>(k) / steps, ref_options);
     Eref[k] = r.energy.back();
     ref_total += r.iterations;
+    std::printf("  reference step %d: E* = %.8g, %d iterations%s\n", k, Eref[k], r.iterations, r.converged ? "" : " (cap)");
   }
   std::printf("reference drag: %d steps, %d single-level iterations in all, E*_K = %.8g\n", steps, ref_total, Eref[steps]);
 
@@ -223,10 +212,10 @@ int main(int argc, char** argv) {
     // hierarchical solver's level state) carries over from step to step.
     std::vector<double> step_seconds, step_iterations;
     int missed = 0;
-    for (int r = 0; r < runs; ++r) {
+    for (int r = 0; r < drag_runs; ++r) {
       PoseSolver s(shell, handles, c.kind, c.options);
       for (int k = 1; k <= steps; ++k) {
-        const Reach hit = time_to_goal(s, Xref[k - 1], static_cast<double>(k) / steps, 1.001 * Eref[k], 2000);
+        const Reach hit = time_to_goal(s, Xref[k - 1], static_cast<double>(k) / steps, 1.001 * Eref[k], drag_cap);
         if (!hit.reached) {
           if (r == 0) ++missed;
           continue;
@@ -237,10 +226,10 @@ int main(int argc, char** argv) {
     }
     std::sort(step_iterations.begin(), step_iterations.end());
     std::printf("  drag (%d steps): per step median %.2f ms, max %.2f ms; iterations median %.0f, max %.0f; "
-                "%d steps not reached in 2000 iterations\n",
+                "%d steps not reached in %d iterations\n",
                 steps, 1e3 * median(step_seconds),
                 step_seconds.empty() ? 0.0 : 1e3 * *std::max_element(step_seconds.begin(), step_seconds.end()),
-                median(step_iterations), step_iterations.empty() ? 0.0 : step_iterations.back(), missed);
+                median(step_iterations), step_iterations.empty() ? 0.0 : step_iterations.back(), missed, drag_cap);
     std::fflush(stdout);
   }
   return 0;

@@ -5,13 +5,25 @@
 //
 // Levels 0..L-2 are reduced: every cluster j of the cluster tree carries an affine map, its
 // vertices sit at x_i = M_j (u_i - c_j) + t_j (u = rest positions, c_j = rest centroid), so
-// x = B_l z_l with 12 unknowns per cluster. Tets inside one cluster have F_t = M_j: one polar
-// decomposition serves all of them. Level L-1 is the full problem. One outer iteration goes coarse
-// to fine: each level first receives its parent clusters' change since the last outer iteration
-// (rotation change about the centroid + centroid translation), then runs a few local/global
-// iterations with its prefactored reduced matrix. Every level keeps its parameters between
-// solves, so a drag sequence is cheap. A propagated update is kept only if it does not raise
-// that level's energy, so the full energy never increases across outer iterations.
+// x = B_l z_l with 12 unknowns per cluster, and the reduced matrix A_l = B_l^T L B_l (+ springs)
+// is assembled and factored once. Tets inside one cluster have F_t = M_j: one polar decomposition
+// serves all of them; only tets across cluster borders need their own. Level L-1 is the full
+// problem (local/global over all 2n vertices, hard handles eliminated).
+//
+// One outer iteration goes coarse to fine: each reduced level first receives its parent's change
+// since the start of the pass, runs a few local/global iterations with its prefactored matrix,
+// and the finest reduced level's change goes into the full state, which then runs its own
+// local/global iteration(s). Two couplings of the levels are available:
+//  - residual (default): each level starts from the affine fit of the current full state and
+//    minimises its energy minus 2 <tau, z>, tau chosen so that its gradient there equals the
+//    full gradient seen through its subspace (full approximation scheme; our reading of the
+//    paper's "correct z_l and b_l"). Changes are passed on as affine maps (exact embedding).
+//  - paper: each level keeps its own parameters between outer iterations and solves (never
+//    overwritten by its parent's); the parent's rotation change about its centroid and centroid
+//    translation are applied to its children and, at the end, to the full state's vertices.
+// Every change handed down is kept only if it does not raise that level's objective, and the
+// full state's only if it lowers the full energy, so the energy never increases across outer
+// iterations. After a rejected pass the reduced levels pause for 1, 2, 4, ... outer iterations.
 #include <gshell/solver/cluster_tree.h>
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
@@ -34,8 +46,8 @@ struct HierarchyOptions {
   int levels = 5;             ///< levels including the full one; 1 = the plain single-level solver
   int splits_per_level = 2;   ///< bisection rounds between successive levels (up to 4x clusters)
   int min_cluster_size = 8;   ///< base vertices; clusters are not split below this
-  int level_iterations = 5;   ///< local/global iterations per reduced level and outer iteration
-  int full_iterations = 1;    ///< local/global iterations of the full level per outer iteration
+  int level_iterations = 1;   ///< local/global iterations per reduced level and outer iteration
+  int full_iterations = 4;    ///< local/global iterations of the full level per outer iteration
   /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
   /// targets), so there they become springs of this weight times the mean diagonal of the
   /// stiffness matrix.
@@ -47,7 +59,7 @@ struct HierarchyOptions {
   bool residual_correction = true;
   /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
   /// An extrapolated iterate is kept only if it lowers the energy.
-  int anderson_history = 0;
+  int anderson_history = 5;
 };
 
 struct HierarchicalSolveResult : SolveResult {
@@ -67,7 +79,8 @@ public:
 
   /// Outer iterations from X (2n x 3), which is overwritten with the result; `targets`
   /// (|constraints.vertices| x 3) are the constraint positions (hard rows of X are set to them).
-  /// Reduced levels continue from the state the previous solve left. `options.max_iterations`
+  /// With the paper coupling the reduced levels continue from the state the previous solve left
+  /// (with the residual coupling they restart from X every outer iteration). `options.max_iterations`
   /// and `tolerance` apply to outer iterations; energy[k] is the full energy after outer iteration k.
   HierarchicalSolveResult solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const SolveOptions& options = {});
 
