@@ -9,32 +9,15 @@
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include "shell_fixtures.h"
 
 #include <random>
 
 namespace gshell {
 namespace {
 
-Shell flat_plane_shell(int res, double eta) {
-  const TriMesh plane = make_plane(res);
-  Shell s;
-  s.base = plane.V;
-  s.top = plane.V;
-  s.top.col(2).array() += eta;
-  s.F = plane.F;
-  s.thickness = eta;
-  return s;
-}
-
-Shell sphere_shell(int level, double eta) {
-  const TriMesh sphere = make_sphere(level);
-  Shell s;
-  s.base = sphere.V;
-  s.top = offset_top(sphere.V, sphere.F, eta);
-  s.F = sphere.F;
-  s.thickness = eta;
-  return s;
-}
+using test::flat_plane_shell;
+using test::sphere_shell;
 
 /// Random points given by barycentric coordinates of random tets (strictly inside).
 Eigen::MatrixXd barycentric_points(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T, int count, unsigned seed) {

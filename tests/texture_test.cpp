@@ -6,6 +6,7 @@
 
 #include <Eigen/LU>
 #include <gtest/gtest.h>
+#include "shell_fixtures.h"
 
 #include <map>
 #include <random>
@@ -14,15 +15,7 @@
 namespace gshell {
 namespace {
 
-Shell flat_shell(const TriMesh& plane, double eta) {
-  Shell s;
-  s.base = plane.V;
-  s.top = plane.V;
-  s.top.col(2).array() += eta;
-  s.F = plane.F;
-  s.thickness = eta;
-  return s;
-}
+Shell flat_shell(const TriMesh& plane, double eta) { return test::lifted_shell(plane, eta); }
 
 /// A tube shell whose top is pushed out unevenly, so prisms are all different and a mismatch of
 /// cuts between neighbours would show.
