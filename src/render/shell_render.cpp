@@ -341,8 +341,23 @@ std::string render_shell_preview(const std::string& dir) {
       captions.push_back(frames[k].filename().string());
     }
   } else {
-    subjects.push_back(load_render_subject(dir));
-    captions.push_back(default_caption(subjects.back()));
+    RenderSubject subject = load_render_subject(dir);
+    // A pose output: the rest shell first, so the pose reads as a change. Its stretch against
+    // itself is 0 by definition (the posed panel's colors are measured against it).
+    const auto report = read_json(folder / "report.json");
+    if (subject.method == "pose" && report && report->contains("shell") && (*report)["shell"].is_string()) {
+      try {
+        RenderSubject rest = load_shell_folder((*report)["shell"].get<std::string>(), "rest");
+        rest.face_stretch = Eigen::VectorXd::Zero(rest.shell.F.rows());
+        rest.detail = TriMesh{};
+        subjects.push_back(std::move(rest));
+        captions.push_back("rest");
+      } catch (const InputError&) {
+        // the rest shell moved or is gone: the posed shell alone
+      }
+    }
+    captions.push_back(subjects.empty() ? default_caption(subject) : "posed");
+    subjects.push_back(std::move(subject));
   }
   ShellRenderOptions options;
   const std::string out = (folder / "preview.png").string();

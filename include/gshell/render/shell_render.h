@@ -80,8 +80,9 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
                       const ShellRenderOptions& options, FigureLayout* layout = nullptr);
 
 /// Renders a shell folder written by generate / deform / pose to DIR/preview.png (1280x720,
-/// iso view, colored by stretch; for a deform output: first, middle and last frame side by side).
-/// Returns the path written.
+/// iso view, colored by stretch; for a deform output: first, middle and last frame side by side;
+/// for a pose output: the rest shell named in its report.json (stretch 0) beside the posed one).
+/// Writes the PNG atomically. Returns the path written.
 std::string render_shell_preview(const std::string& dir);
 
 } // namespace gshell
