@@ -193,6 +193,9 @@ TEST(ReportCli, DeformationRunShowsTimePerFrame) {
   expect_self_contained(html);
   expect_every_figure(html, report);
   EXPECT_NE(html.find("time (seconds) per frame"), std::string::npos);
+  // Each frame's energy per iteration, one line per frame (3 frames: all of them).
+  EXPECT_NE(html.find("energy per iteration"), std::string::npos);
+  for (const char* name : {">frame 1<", ">frame 2<", ">frame 3<"}) EXPECT_NE(html.find(name), std::string::npos) << name;
   if (offscreen_rendering_available()) {
     EXPECT_NE(html.find("frame_0002 (first, middle and last frame)"), std::string::npos);
     EXPECT_EQ(html.find("No render"), std::string::npos);

@@ -217,6 +217,7 @@ void record_list_section(std::ostringstream& html, const std::string& key, const
     plot.title = (is_time ? "time (" + column + ")" : column) + (last_of_list ? " (last value)" : "") + " per " + unit +
                  (series.size() > 1 ? " vs offset" : "");
     plot.x_label = unit;
+    plot.x_start = 1; // frames and steps count from 1, as the CLI prints them
     plot.y_label = column;
     std::vector<double> all;
     for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
@@ -225,11 +226,42 @@ void record_list_section(std::ostringstream& html, const std::string& key, const
     plot.height = 240;
     html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
   }
-  html << "</div>\n<div class=\"scroll\"><table class=\"records\">\n<tr><th>" << xml_escape(unit) << "</th>";
+  // A column holding a list per record (deform's energy per iteration of each frame): one line
+  // per record, for the first, middle and last record (all when there are few).
+  for (const auto& column : columns) {
+    std::vector<size_t> picks;
+    if (rows.size() <= 4) {
+      for (size_t i = 0; i < rows.size(); ++i) picks.push_back(i);
+    } else {
+      picks = {0, rows.size() / 2, rows.size() - 1};
+    }
+    std::vector<PlotSeries> series;
+    for (size_t i : picks) {
+      auto it = std::find_if(rows[i].begin(), rows[i].end(), [&](const auto& kv) { return kv.first == column; });
+      if (it == rows[i].end() || !is_number_list(it->second) || it->second.size() < 2) continue;
+      series.push_back({unit + " " + std::to_string(i + 1), numbers_of(it->second)});
+    }
+    if (series.empty()) continue;
+    PlotOptions plot;
+    plot.title = column + " per iteration (0 = start state)";
+    plot.x_label = "iteration";
+    plot.y_label = column;
+    std::vector<double> all;
+    for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
+    plot.log_y = spans_decades(all);
+    plot.width = 460;
+    plot.height = 240;
+    html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
+  }
+  // The record number column, unless the records number themselves (deform's "frame").
+  const bool numbered = std::find(columns.begin(), columns.end(), unit) != columns.end();
+  html << "</div>\n<div class=\"scroll\"><table class=\"records\">\n<tr>";
+  if (!numbered) html << "<th>" << xml_escape(unit) << "</th>";
   for (const auto& column : columns) html << "<th>" << xml_escape(column) << "</th>";
   html << "</tr>\n";
   for (size_t i = 0; i < rows.size(); ++i) {
-    html << "<tr><td>" << i << "</td>";
+    html << "<tr>";
+    if (!numbered) html << "<td>" << i + 1 << "</td>";
     for (const auto& column : columns) {
       auto it = std::find_if(rows[i].begin(), rows[i].end(), [&](const auto& kv) { return kv.first == column; });
       html << "<td>" << (it == rows[i].end() ? std::string() : format_value(it->second)) << "</td>";
