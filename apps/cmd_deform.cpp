@@ -214,7 +214,7 @@ void run_deform(const DeformArgs& args) {
   gshell::write_file_atomically((staged.path() / "report.json").string(),
                                 [&](std::ostream& os) { os << report.dump(2) << "\n"; });
   // Rendered inside the staged folder, so the preview arrives together with the frames or not at all.
-  if (args.render) gshell::render_shell_preview(staged.path().string());
+  if (args.render) gshell::render_shell_preview(staged.path().string(), args.out);
   staged.commit(holds_deform_output);
   if (!quiet)
     std::cerr << "deform: " << frames.size() << " frames, median " << 1e3 * median(seconds) << " ms and "

@@ -158,7 +158,8 @@ void run(const PoseCliOptions& o) {
   report["steps"] = steps;
   report["stretch"] = stretch_json(stats);
   write_file_atomically(staging.file("report.json"), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
-  if (o.render) render_shell_preview(fs::path(staging.file("report.json")).parent_path().string()); // lands with the rest
+  if (o.render) // inside the staging folder: the preview lands with the rest or not at all
+    render_shell_preview(fs::path(staging.file("report.json")).parent_path().string(), o.output);
   staging.commit();
   if (!quiet)
     std::cerr << "gshell pose: wrote " << o.output << " (top.obj, base.obj, shell.vtu, report.json"

@@ -327,8 +327,12 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   return render_figure(panels, figure, layout);
 }
 
-std::string render_shell_preview(const std::string& dir) {
+std::string render_shell_preview(const std::string& dir, const std::string& name) {
   const fs::path folder(dir);
+  // A caption names the folder, not the path it was reached by (previews are seen inside it).
+  fs::path shown = fs::path(name.empty() ? dir : name).lexically_normal();
+  if (shown.filename().empty()) shown = shown.parent_path();
+  const std::string folder_name = shown.filename().string();
   std::vector<RenderSubject> subjects;
   std::vector<std::string> captions;
   const bool shell_here = fs::exists(folder / "shell.vtu") || fs::exists(folder / "top.obj");
@@ -356,6 +360,7 @@ std::string render_shell_preview(const std::string& dir) {
         // the rest shell moved or is gone: the posed shell alone
       }
     }
+    subject.name = folder_name;
     captions.push_back(subjects.empty() ? default_caption(subject) : "posed");
     subjects.push_back(std::move(subject));
   }

@@ -82,7 +82,8 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
 /// Renders a shell folder written by generate / deform / pose to DIR/preview.png (1280x720,
 /// iso view, colored by stretch; for a deform output: first, middle and last frame side by side;
 /// for a pose output: the rest shell named in its report.json (stretch 0) beside the posed one).
-/// Writes the PNG atomically. Returns the path written.
-std::string render_shell_preview(const std::string& dir);
+/// Writes the PNG atomically. Returns the path written. Captions name the folder by its last
+/// component, or by `name` when given (the final folder's name while DIR is a staging folder).
+std::string render_shell_preview(const std::string& dir, const std::string& name = {});
 
 } // namespace gshell
