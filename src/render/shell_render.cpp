@@ -323,7 +323,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   if (color_by == ColorBy::Stretch && figure.footnote.empty())
     figure.footnote = "stretch = sum (sigma_i - 1)^2 per tet; a face shows the volume-weighted mean of its prism's 3 tets";
   if (color_by == ColorBy::Thickness && figure.footnote.empty())
-    figure.footnote = "thickness = |top_i - base_i| / eta per vertex";
+    figure.footnote = "thickness = length(top_i - base_i) / eta per vertex";
   return render_figure(panels, figure, layout);
 }
 
