@@ -79,7 +79,9 @@ int draw_color_bar(Image& image, int x, int y, int w, int bar_h, const ColorScal
   for (int k = 0; k < 3; ++k) {
     const int tx = x + (k * (w - 1)) / 2;
     image.fill_rect(tx, y + bar_h, std::max(1, text_scale / 2), tick, ink.r, ink.g, ink.b);
-    const std::string label = format_number(values[k]);
+    // The ends saturate: values beyond them get the end colors, so say so.
+    const bool two_sided = scale.ramp == ColorScale::Ramp::BlueGreenRed;
+    const std::string label = (k == 2 ? ">=" : k == 0 && two_sided ? "<=" : "") + format_number(values[k]);
     const int lw = text_width(label, text_scale);
     draw_text(image, std::clamp(tx - lw / 2, 0, std::max(0, image.width - lw)), label_y, label, text_scale, ink);
   }

@@ -208,7 +208,14 @@ RenderSubject load_render_subject(const std::string& input) {
 }
 
 std::string default_caption(const RenderSubject& subject) {
-  return subject.method.empty() ? subject.name : subject.name + " (" + subject.method + ")";
+  // The folder or file name, not the whole path: captions are short, panels narrow.
+  fs::path path = fs::path(subject.name).lexically_normal();
+  if (path.filename().empty()) path = path.parent_path();
+  std::string name = path.filename().string();
+  if (name.rfind("frame_", 0) == 0 && !path.parent_path().filename().empty())
+    name = path.parent_path().filename().string() + "/" + name; // which run the frame belongs to
+  if (name.empty()) name = subject.name;
+  return subject.method.empty() ? name : name + " (" + subject.method + ")";
 }
 
 Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,

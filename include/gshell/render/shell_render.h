@@ -70,7 +70,8 @@ struct ShellRenderOptions {
   FigureOptions figure; ///< size, view, projection, anti-aliasing
 };
 
-/// Default panel caption: "NAME (METHOD)" or just NAME.
+/// Default panel caption: "NAME (METHOD)" or just NAME, NAME being the input's last path component
+/// (a deform frame: "RUN/frame_NNNN").
 std::string default_caption(const RenderSubject& subject);
 
 /// Renders the subjects side by side (captions: one per subject, or empty for the defaults).
