@@ -157,6 +157,7 @@ TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {
   expect_self_contained(html);
   expect_every_figure(html, read_json(dir + "/report.json"));
   EXPECT_NE(html.find("energy per iteration"), std::string::npos);
+  EXPECT_NE(html.find("convergence: (E_k - E_last) / E_last"), std::string::npos);
   EXPECT_NE(html.find("<svg"), std::string::npos);
   if (offscreen_rendering_available()) {
     EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
@@ -195,6 +196,7 @@ TEST(ReportCli, DeformationRunShowsTimePerFrame) {
   EXPECT_NE(html.find("time (seconds) per frame"), std::string::npos);
   // Each frame's energy per iteration, one line per frame (3 frames: all of them).
   EXPECT_NE(html.find("energy per iteration"), std::string::npos);
+  EXPECT_NE(html.find("convergence: (E_k - E_last) / E_last"), std::string::npos);
   for (const char* name : {">frame 1<", ">frame 2<", ">frame 3<"}) EXPECT_NE(html.find(name), std::string::npos) << name;
   if (offscreen_rendering_available()) {
     EXPECT_NE(html.find("frame_0002 (first, middle and last frame)"), std::string::npos);

@@ -252,6 +252,25 @@ void record_list_section(std::ostringstream& html, const std::string& key, const
     plot.width = 460;
     plot.height = 240;
     html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
+    // Energies of different records can lie decades apart; the convergence of each reads best as
+    // its distance to its own final value.
+    std::vector<PlotSeries> gaps;
+    for (const auto& line : series) {
+      PlotSeries gap{line.name, {}};
+      for (size_t k = 0; k + 1 < line.y.size(); ++k)
+        gap.y.push_back(line.y.back() > 0 ? (line.y[k] - line.y.back()) / line.y.back() : NAN);
+      if (std::any_of(gap.y.begin(), gap.y.end(), [](double g) { return g > 0; })) gaps.push_back(std::move(gap));
+    }
+    if (!gaps.empty()) {
+      for (auto& gap : gaps)
+        for (double& g : gap.y)
+          if (!(g > 0)) g = NAN; // a log axis has no place for 0 (converged) or a rise
+      PlotOptions rate = plot;
+      rate.title = "convergence: (E_k - E_last) / E_last";
+      rate.y_label = "relative gap";
+      rate.log_y = true;
+      html << "<div class=\"plot\">" << svg_line_plot(gaps, rate) << "</div>\n";
+    }
   }
   // The record number column, unless the records number themselves (deform's "frame").
   const bool numbered = std::find(columns.begin(), columns.end(), unit) != columns.end();
