@@ -204,6 +204,31 @@ TEST(ReportCli, DeformationRunShowsTimePerFrame) {
   }
 }
 
+TEST(ReportCli, PoseRunShowsTimeAndEnergyPerStepAndTheRestShell) {
+  TempDir tmp("report-pose");
+  const std::string rest = tmp.file("bowl"), out = tmp.file("pulled"), handles = tmp.file("pull.json");
+  ASSERT_EQ(run_cli("generate builtin:bowl:8 -o '" + rest + "' --thickness 0.08 --iterations 3 -q").exit_code, 0);
+  write_text(handles, R"({"handles": [
+    {"select": {"surface": "both", "box": [-2, -2, -0.2, -0.6, 2, 2]}},
+    {"select": {"surface": "both", "box": [0.6, -2, -0.2, 2, 2, 2]}, "translate": [0.3, 0, 0.1]}]})");
+  const CliResult p = run_cli("pose --shell '" + rest + "' --handles '" + handles + "' --steps 3 --levels 3 -o '" + out + "' -q");
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  const std::string page = tmp.file("pose.html");
+  const CliResult r = run_cli("report '" + out + "' -o '" + page + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string html = read_text(page);
+  EXPECT_EQ(tag_balance_problem(html), "");
+  EXPECT_TRUE(python_parses_as_xml(page));
+  expect_self_contained(html);
+  expect_every_figure(html, read_json(out + "/report.json"));
+  EXPECT_NE(html.find("time (seconds) per step"), std::string::npos);
+  EXPECT_NE(html.find("energy per step"), std::string::npos);
+  if (offscreen_rendering_available()) {
+    EXPECT_NE(html.find("rest and posed shell"), std::string::npos);
+    EXPECT_EQ(html.find("No render"), std::string::npos);
+  }
+}
+
 TEST(ReportCli, MissingReportIsAnInputErrorAndWritesNothing) {
   TempDir tmp("report-missing");
   fs::create_directories(tmp.file("empty"));

@@ -322,9 +322,19 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
       image_figure(html, render_subjects(subjects, captions, ro),
                    names + " (first, middle and last frame), colored by stretch against the rest shell (iso view)");
     } else {
-      const std::vector<RenderSubject> subject{load_render_subject(dir.string())};
-      image_figure(html, render_subjects(subject, {default_caption(subject[0])}, ro),
-                   "opaque base under a translucent top, colored by per-prism stretch (iso view)");
+      // A pose output is shown beside its rest shell, as its preview is.
+      PreviewPanels preview = preview_panels(dir.string());
+      if (preview.subjects.size() > 1) {
+        ro.figure.width = options.render_width * 3 / 2;
+        image_figure(html, render_subjects(preview.subjects, preview.captions, ro),
+                     "rest and posed shell, opaque base under a translucent top, colored by stretch against the rest "
+                     "shell (iso view)");
+        ro.figure.width = options.render_width;
+      }
+      const std::vector<RenderSubject> subject{preview.subjects.back()};
+      if (preview.subjects.size() == 1)
+        image_figure(html, render_subjects(subject, {default_caption(subject[0])}, ro),
+                     "opaque base under a translucent top, colored by per-prism stretch (iso view)");
       ro.style = ShellStyle::Cut;
       image_figure(html, render_subjects(subject, {"cut-away"}, ro),
                    "cut-away: the half nearer the eye removed, so the layer between base and top shows at the cut");

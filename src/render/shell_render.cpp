@@ -334,14 +334,15 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   return render_figure(panels, figure, layout);
 }
 
-std::string render_shell_preview(const std::string& dir, const std::string& name) {
+PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
   const fs::path folder(dir);
   // A caption names the folder, not the path it was reached by (previews are seen inside it).
   fs::path shown = fs::path(name.empty() ? dir : name).lexically_normal();
   if (shown.filename().empty()) shown = shown.parent_path();
   const std::string folder_name = shown.filename().string();
-  std::vector<RenderSubject> subjects;
-  std::vector<std::string> captions;
+  PreviewPanels panels;
+  std::vector<RenderSubject>& subjects = panels.subjects;
+  std::vector<std::string>& captions = panels.captions;
   const bool shell_here = fs::exists(folder / "shell.vtu") || fs::exists(folder / "top.obj");
   const std::vector<fs::path> frames = shell_here ? std::vector<fs::path>{} : frame_dirs(folder);
   if (!frames.empty()) {
@@ -371,9 +372,13 @@ std::string render_shell_preview(const std::string& dir, const std::string& name
     captions.push_back(subjects.empty() ? default_caption(subject) : "posed");
     subjects.push_back(std::move(subject));
   }
-  ShellRenderOptions options;
-  const std::string out = (folder / "preview.png").string();
-  write_png(out, render_subjects(subjects, captions, options));
+  return panels;
+}
+
+std::string render_shell_preview(const std::string& dir, const std::string& name) {
+  const PreviewPanels panels = preview_panels(dir, name);
+  const std::string out = (fs::path(dir) / "preview.png").string();
+  write_png(out, render_subjects(panels.subjects, panels.captions, ShellRenderOptions{}));
   return out;
 }
 

@@ -80,6 +80,13 @@ std::string default_caption(const RenderSubject& subject);
 Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,
                       const ShellRenderOptions& options, FigureLayout* layout = nullptr);
 
+/// What a preview of an output folder shows (see render_shell_preview), with captions.
+struct PreviewPanels {
+  std::vector<RenderSubject> subjects;
+  std::vector<std::string> captions;
+};
+PreviewPanels preview_panels(const std::string& dir, const std::string& name = {});
+
 /// Renders a shell folder written by generate / deform / pose to DIR/preview.png (1280x720,
 /// iso view, colored by stretch; for a deform output: first, middle and last frame side by side;
 /// for a pose output: the rest shell named in its report.json (stretch 0) beside the posed one).
