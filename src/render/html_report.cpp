@@ -114,6 +114,16 @@ bool spans_decades(const std::vector<double>& y) {
   return hi > 20 * lo;
 }
 
+/// A plot of several lines in the report's per-record size, log scale when they span decades.
+void write_series_plot(std::ostream& html, const std::vector<PlotSeries>& series, PlotOptions plot) {
+  std::vector<double> all;
+  for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
+  plot.log_y = spans_decades(all);
+  plot.width = 460;
+  plot.height = 240;
+  html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
+}
+
 std::string singular(const std::string& key) {
   if (key == "frames") return "frame";
   if (key == "steps") return "step";
@@ -219,12 +229,7 @@ void record_list_section(std::ostringstream& html, const std::string& key, const
     plot.x_label = unit;
     plot.x_start = 1; // frames and steps count from 1, as the CLI prints them
     plot.y_label = column;
-    std::vector<double> all;
-    for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
-    plot.log_y = spans_decades(all);
-    plot.width = 460;
-    plot.height = 240;
-    html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
+    write_series_plot(html, series, plot);
   }
   // A column holding a list per record (deform's energy per iteration of each frame): one line
   // per record, for the first, middle and last record (all when there are few).
@@ -246,12 +251,7 @@ void record_list_section(std::ostringstream& html, const std::string& key, const
     plot.title = column + " per iteration (0 = start state)";
     plot.x_label = "iteration";
     plot.y_label = column;
-    std::vector<double> all;
-    for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
-    plot.log_y = spans_decades(all);
-    plot.width = 460;
-    plot.height = 240;
-    html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
+    write_series_plot(html, series, plot);
     // Energies of different records can lie decades apart; the convergence of each reads best as
     // its distance to its own final value.
     std::vector<PlotSeries> gaps;
