@@ -2,7 +2,8 @@
 // > 10x speed-up). Measures wall time and iterations until E <= 1.001 E*, E* = the single-level
 // (ShellSolver) minimum, for one big move from rest and for every step of a K-step drag.
 //
-//   bench_pose [bowl | PATH.off] [--steps K] [--runs R] [--thickness-ratio r] [--reference-iterations N]
+//   bench_pose [bowl | PATH.off] [--steps K] [--runs R] [--drag-runs R] [--thickness-ratio r]
+//              [--reference-iterations N] [--drag-cap N] [--reference-cache FILE] [--only CONFIG]
 //
 // Shell: generate_shell, method rigid (normal prisms), eta = r * bounding radius (default r = 0.02).
 // Handles (hard): bowl: hold the rim on one side (x < -0.5, z > -0.15 R, both surfaces), pull the
@@ -21,6 +22,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
@@ -119,6 +121,7 @@ int main(int argc, char** argv) {
   int steps = 30, runs = 3, drag_runs = 1, reference_iterations = 1500, drag_cap = 1500;
   double ratio = 0.02;
   std::vector<std::string> only;
+  std::string cache_path; // references are slow: keep them between runs of the benchmark
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return std::string(i + 1 < argc ? argv[++i] : ""); };
@@ -126,6 +129,7 @@ int main(int argc, char** argv) {
     else if (a == "--runs") runs = std::atoi(next().c_str());
     else if (a == "--thickness-ratio") ratio = std::atof(next().c_str());
     else if (a == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
+    else if (a == "--reference-cache") cache_path = next();
     else if (a == "--drag-runs") drag_runs = std::atoi(next().c_str());
     else if (a == "--drag-cap") drag_cap = std::atoi(next().c_str());
     else if (a == "--only") only.push_back(next());
@@ -170,23 +174,50 @@ int main(int argc, char** argv) {
   SolveOptions ref_options;
   ref_options.max_iterations = reference_iterations;
   ref_options.tolerance = 1e-8;
-  Eigen::MatrixXd Xbig = reference.rest_vertices();
-  SolveResult rb = reference.solve(Xbig, 1.0, ref_options);
-  const double Ebig = rb.energy.back();
-  std::printf("reference big move: E* = %.8g after %d single-level iterations (%s, %.1f s)\n", Ebig, rb.iterations,
-              rb.converged ? "converged" : "iteration cap", rb.seconds);
   std::vector<Eigen::MatrixXd> Xref(steps + 1);
   std::vector<double> Eref(steps + 1);
+  double Ebig = 0;
   Xref[0] = reference.rest_vertices();
-  int ref_total = 0;
-  for (int k = 1; k <= steps; ++k) {
-    Xref[k] = Xref[k - 1];
-    SolveResult r = reference.solve(Xref[k], static_cast<double>(k) / steps, ref_options);
-    Eref[k] = r.energy.back();
-    ref_total += r.iterations;
-    std::printf("  reference step %d: E* = %.8g, %d iterations%s\n", k, Eref[k], r.iterations, r.converged ? "" : " (cap)");
+  std::ifstream cached(cache_path, std::ios::binary);
+  if (!cache_path.empty() && cached) {
+    int cached_steps = 0;
+    cached.read(reinterpret_cast<char*>(&cached_steps), sizeof cached_steps);
+    cached.read(reinterpret_cast<char*>(&Ebig), sizeof Ebig);
+    if (cached_steps != steps) {
+      std::fprintf(stderr, "bench_pose: %s holds %d steps, not %d\n", cache_path.c_str(), cached_steps, steps);
+      return 1;
+    }
+    for (int k = 1; k <= steps; ++k) {
+      Xref[k].resize(Xref[0].rows(), 3);
+      cached.read(reinterpret_cast<char*>(&Eref[k]), sizeof(double));
+      cached.read(reinterpret_cast<char*>(Xref[k].data()), static_cast<std::streamsize>(sizeof(double) * Xref[k].size()));
+    }
+    std::printf("references read from %s: E*(big move) = %.8g, E*_K = %.8g\n", cache_path.c_str(), Ebig, Eref[steps]);
+  } else {
+    Eigen::MatrixXd Xbig = reference.rest_vertices();
+    SolveResult rb = reference.solve(Xbig, 1.0, ref_options);
+    Ebig = rb.energy.back();
+    std::printf("reference big move: E* = %.8g after %d single-level iterations (%s, %.1f s)\n", Ebig, rb.iterations,
+                rb.converged ? "converged" : "iteration cap", rb.seconds);
+    int ref_total = 0;
+    for (int k = 1; k <= steps; ++k) {
+      Xref[k] = Xref[k - 1];
+      SolveResult r = reference.solve(Xref[k], static_cast<double>(k) / steps, ref_options);
+      Eref[k] = r.energy.back();
+      ref_total += r.iterations;
+      std::printf("  reference step %d: E* = %.8g, %d iterations%s\n", k, Eref[k], r.iterations, r.converged ? "" : " (cap)");
+    }
+    std::printf("reference drag: %d steps, %d single-level iterations in all, E*_K = %.8g\n", steps, ref_total, Eref[steps]);
+    if (!cache_path.empty()) {
+      std::ofstream out(cache_path, std::ios::binary);
+      out.write(reinterpret_cast<const char*>(&steps), sizeof steps);
+      out.write(reinterpret_cast<const char*>(&Ebig), sizeof Ebig);
+      for (int k = 1; k <= steps; ++k) {
+        out.write(reinterpret_cast<const char*>(&Eref[k]), sizeof(double));
+        out.write(reinterpret_cast<const char*>(Xref[k].data()), static_cast<std::streamsize>(sizeof(double) * Xref[k].size()));
+      }
+    }
   }
-  std::printf("reference drag: %d steps, %d single-level iterations in all, E*_K = %.8g\n", steps, ref_total, Eref[steps]);
 
   for (const Config& c : configs) {
     if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
