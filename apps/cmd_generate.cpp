@@ -5,6 +5,8 @@
 
 #include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
+#include <gshell/shell/curvature_shell.h>
+#include <gshell/render/shell_render.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
 
@@ -20,6 +22,8 @@ struct GenerateCliOptions {
   std::optional<double> thickness, ratio;
   int iterations = 50;
   double tolerance = 1e-5;
+  double s_min = gshell::kDefaultCurvatureSMin, s_max = gshell::kDefaultCurvatureSMax;
+  bool render = false;
 };
 
 void run_generate(const GenerateCliOptions& o) {
@@ -33,8 +37,11 @@ void run_generate(const GenerateCliOptions& o) {
     throw InputError("--thickness-ratio must be positive and finite");
   if (o.iterations < 0) throw InputError("--iterations must not be negative");
   if (!(o.tolerance >= 0) || !std::isfinite(o.tolerance)) throw InputError("--tolerance must be a non-negative number");
+  check_curvature_clamp(o.s_min, o.s_max);
   GenerateOptions options;
   options.method = parse_shell_method(o.method);
+  options.s_min = o.s_min;
+  options.s_max = o.s_max;
   cli::check_output_dir(o.output);
 
   const TriMesh mesh = load_mesh(o.input);
@@ -49,11 +56,17 @@ void run_generate(const GenerateCliOptions& o) {
       std::cerr << "  iteration " << it << "  energy " << energy << "  " << seconds << " s\n";
     };
   }
-  const GenerateResult result = generate_shell(mesh.V, mesh.F, options);
-  const nlohmann::json report = generate_report(result, o.input, o.ratio);
+  // The curvature method reports its clamps and its stretch against its own prisms too.
+  std::optional<CurvatureShellResult> curvature;
+  if (options.method == ShellMethod::Curvature) curvature = generate_curvature_shell(mesh.V, mesh.F, options);
+  const GenerateResult result = curvature ? curvature->result : generate_shell(mesh.V, mesh.F, options);
+  nlohmann::json report = generate_report(result, o.input, o.ratio);
+  if (curvature) add_curvature_report(report, *curvature);
   cli::write_shell_dir(o.output, mesh, result.shell, result.metrics, report);
-  std::cout << generate_summary(result, o.input) << "wrote        " << o.output
+  std::cout << generate_summary(result, o.input) << (curvature ? curvature_summary(*curvature) : "")
+            << "wrote        " << o.output
             << "/{top.obj, base.obj, shell.vtu, report.json}\n";
+  if (o.render) std::cout << "wrote        " << render_shell_preview(o.output) << "\n";
 }
 
 void add_generate_command(CLI::App& app) {
@@ -71,6 +84,9 @@ void add_generate_command(CLI::App& app) {
   cmd->add_option("--method", o->method, "rigid (optimised, default), offset (vertex-normal offset) or curvature");
   cmd->add_option("--iterations", o->iterations, "Maximum local/global iterations (default 50)");
   cmd->add_option("--tolerance", o->tolerance, "Stop when the relative energy change is below this (default 1e-5)");
+  cmd->add_option("--s-min", o->s_min, "Curvature method: smallest in-plane scale of a top triangle (default 0.5)");
+  cmd->add_option("--s-max", o->s_max, "Curvature method: largest in-plane scale of a top triangle (default 2)");
+  cmd->add_flag("--render", o->render, "Also write DIR/preview.png: a headless render colored by stretch");
   cmd->callback([o] { run_generate(*o); });
 }
 

@@ -94,6 +94,11 @@ int main(int argc, char** argv) {
   const int n = mesh.num_vertices(), m = mesh.num_faces();
   std::printf("mesh %s: %d vertices, %d faces, %d tets; %d threads\n", path.c_str(), n, m, 3 * m,
               tbb::this_task_arena::max_concurrency());
+  if (FILE* f = std::fopen("/proc/loadavg", "r")) { // the machine may be shared: say how busy it was
+    char line[128] = {0};
+    if (std::fgets(line, sizeof line, f)) std::printf("load average at start: %s", line);
+    std::fclose(f);
+  }
   const int runs = 5;
 
   for (double ratio : {0.01, 0.03}) {
@@ -105,9 +110,14 @@ int main(int argc, char** argv) {
     std::vector<int> base(n);
     std::iota(base.begin(), base.end(), 0);
 
-    std::vector<double> factor_times;
-    for (int i = 0; i < runs; ++i) factor_times.push_back(ShellSolver(rest, 2 * n, base).factor_seconds());
-    std::printf("assemble + factor: %.3f s\n", median(factor_times));
+    std::vector<double> factor_times, factor_cpu;
+    for (int i = 0; i < runs; ++i) {
+      double cpu = 0, wall = 0;
+      seconds([&] { wall = ShellSolver(rest, 2 * n, base).factor_seconds(); }, &cpu);
+      factor_times.push_back(wall);
+      factor_cpu.push_back(cpu);
+    }
+    std::printf("assemble + factor: %.3f s wall, %.3f s CPU\n", median(factor_times), median(factor_cpu));
 
     const ShellSolver solver(rest, 2 * n, base);
     SolveOptions ten;
@@ -159,8 +169,14 @@ int main(int argc, char** argv) {
     options.thickness = eta;
     options.solve = ten;
     options.count_intersections = false;
-    std::printf("generate end to end, 10 iterations, no file I/O or intersection counts: %.3f s\n",
-                median_of(runs, [&] { return seconds([&] { generate_shell(mesh.V, mesh.F, options); }); }));
+    std::vector<double> gen_wall, gen_cpu;
+    for (int i = 0; i < runs; ++i) {
+      double cpu = 0;
+      gen_wall.push_back(seconds([&] { generate_shell(mesh.V, mesh.F, options); }, &cpu));
+      gen_cpu.push_back(cpu);
+    }
+    std::printf("generate end to end, 10 iterations, no file I/O or intersection counts: %.3f s wall, %.3f s CPU\n",
+                median(gen_wall), median(gen_cpu));
 
     for (ShellMethod method : {ShellMethod::Offset, ShellMethod::Rigid}) {
       GenerateOptions o;

@@ -103,7 +103,8 @@ TEST(GenerateCli, BadParametersExitOneWithoutOutput) {
   for (const std::string args : {"--thickness 0", "--thickness -1", "--thickness nan", "--thickness-ratio 0",
                                  "--thickness 0.1 --thickness-ratio 0.1", "", "--thickness 0.1 --iterations -1",
                                  "--thickness 0.1 --tolerance -1", "--thickness 0.1 --method fancy",
-                                 "--thickness 0.1 --method curvature"}) {
+                                 "--thickness 0.1 --method curvature --s-min 0",
+                                 "--thickness 0.1 --method curvature --s-max 0.9"}) {
     const CliResult r = run_cli("generate builtin:sphere:1 -o '" + out + "' " + args);
     EXPECT_EQ(r.exit_code, 1) << args << "\n" << r.err;
     EXPECT_FALSE(r.err.empty()) << args;

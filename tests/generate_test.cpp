@@ -120,7 +120,9 @@ TEST(Generate, ReportHasEveryField) {
   EXPECT_FALSE(generate_summary(r, "builtin:torus:24").empty());
 }
 
-TEST(Generate, CurvatureIsNotAvailableYet) {
+TEST(Generate, CurvatureRejectsBadClamps) {
   const TriMesh mesh = make_sphere(1);
-  EXPECT_THROW(generate_shell(mesh.V, mesh.F, options_for(ShellMethod::Curvature, 0.1)), InputError);
+  GenerateOptions options = options_for(ShellMethod::Curvature, 0.1);
+  options.s_min = 0;
+  EXPECT_THROW(generate_shell(mesh.V, mesh.F, options), InputError);
 }

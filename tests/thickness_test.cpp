@@ -70,25 +70,50 @@ TEST(Thickness, ConcentricSpheres) {
   EXPECT_GT(tr.mean(), h + 0.1 * faceting); // most top vertices do sit over facet interiors
 }
 
-TEST(Thickness, MatchesAllFacesClosestPoint) {
+// Closest distance from p to any face of (V, F), by CGAL, face by face.
+double brute_force_distance(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                            const Eigen::Vector3d& p) {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  const K::Point_3 q(p.x(), p.y(), p.z());
+  double best = std::numeric_limits<double>::infinity();
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    auto corner = [&](int k) { return K::Point_3(V(F(f, k), 0), V(F(f, k), 1), V(F(f, k), 2)); };
+    best = std::min(best, CGAL::squared_distance(q, K::Triangle_3(corner(0), corner(1), corner(2))));
+  }
+  return std::sqrt(best);
+}
+
+TEST(Thickness, MatchesAllFacesClosestPoint) {
   const auto base = test::icosphere(2, 1.0, Eigen::Vector3d(0.2, -0.1, 0.3));
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> coord(-2, 2);
   Eigen::MatrixXd probes(300, 3);
   for (Eigen::Index i = 0; i < probes.rows(); ++i) probes.row(i) << coord(rng), coord(rng), coord(rng);
   const Eigen::VectorXd t = vertex_thickness(base.V, base.F, probes);
-  for (Eigen::Index i = 0; i < probes.rows(); ++i) {
-    const K::Point_3 q(probes(i, 0), probes(i, 1), probes(i, 2));
-    double best = std::numeric_limits<double>::infinity();
-    for (Eigen::Index f = 0; f < base.F.rows(); ++f) {
-      auto p = [&](int k) {
-        return K::Point_3(base.V(base.F(f, k), 0), base.V(base.F(f, k), 1), base.V(base.F(f, k), 2));
-      };
-      best = std::min(best, CGAL::squared_distance(q, K::Triangle_3(p(0), p(1), p(2))));
-    }
-    EXPECT_NEAR(t[i], std::sqrt(best), 1e-12) << i;
-  }
+  for (Eigen::Index i = 0; i < probes.rows(); ++i)
+    EXPECT_NEAR(t[i], brute_force_distance(base.V, base.F, probes.row(i).transpose()), 1e-12) << i;
+}
+
+TEST(Thickness, PairedShellMatchesAllFacesClosestPoint) {
+  // A bumpy base and a top whose vertex i wanders around base vertex i: the pairing only
+  // seeds the search, the answer must still be the global closest point.
+  TriMesh base = test::icosphere(3);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> bump(0.8, 1.2), jitter(-0.15, 0.15);
+  for (Eigen::Index i = 0; i < base.V.rows(); ++i) base.V.row(i) *= bump(rng);
+  Eigen::MatrixXd top = base.V;
+  for (Eigen::Index i = 0; i < top.rows(); ++i)
+    top.row(i) += Eigen::RowVector3d(jitter(rng), jitter(rng), jitter(rng)) + 0.1 * base.V.row(i);
+  // An extra base vertex that no face uses is not part of the surface.
+  base.V.conservativeResize(base.V.rows() + 1, 3);
+  base.V.row(base.V.rows() - 1) << 5, 5, 5;
+  top.conservativeResize(top.rows() + 1, 3);
+  top.row(top.rows() - 1) << 5, 5, 5.001;
+
+  const Eigen::VectorXd t = vertex_thickness(base.V, base.F, top);
+  for (Eigen::Index i = 0; i < top.rows(); ++i)
+    EXPECT_NEAR(t[i], brute_force_distance(base.V, base.F, top.row(i).transpose()), 1e-12) << i;
+  EXPECT_GT(t[top.rows() - 1], 5.0);
 }
 
 TEST(Thickness, DegenerateBaseFacesAreTheirSegments) {

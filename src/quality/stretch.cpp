@@ -23,10 +23,26 @@ Eigen::Matrix3d deformation_gradient(const RestTets& rest, const Eigen::MatrixXd
 } // namespace
 
 Eigen::VectorXd tet_stretch(const RestTets& rest, const Eigen::MatrixXd& X) {
-  Eigen::VectorXd s(rest.size());
-  tbb::parallel_for(0, rest.size(), [&](int t) {
-    const Eigen::Matrix3d F = deformation_gradient(rest, X, t);
-    s[t] = (F - detail::closest_rotation_inline(F)).squaredNorm();
+  // Blocks of tets through the batched (SIMD) polar decomposition.
+  constexpr int W = detail::kPolarLanes, kBlock = 64 * W;
+  const int K = rest.size();
+  Eigen::VectorXd s(K);
+  tbb::parallel_for(0, (K + kBlock - 1) / kBlock, [&](int b) {
+    alignas(64) double Fs[9 * W], Rs[9 * W];
+    const int t_end = std::min(K, (b + 1) * kBlock);
+    for (int t0 = b * kBlock; t0 < t_end; t0 += W) {
+      const int lanes = std::min(W, t_end - t0);
+      for (int l = 0; l < W; ++l) {
+        const Eigen::Matrix3d F = l < lanes ? deformation_gradient(rest, X, t0 + l) : Eigen::Matrix3d::Identity();
+        for (int k = 0; k < 9; ++k) Fs[k * W + l] = F(k / 3, k % 3);
+      }
+      detail::closest_rotations_lanes(Fs, Rs);
+      for (int l = 0; l < lanes; ++l) {
+        double d2 = 0;
+        for (int k = 0; k < 9; ++k) d2 += (Fs[k * W + l] - Rs[k * W + l]) * (Fs[k * W + l] - Rs[k * W + l]);
+        s[t0 + l] = d2;
+      }
+    }
   });
   return s;
 }

@@ -1,6 +1,7 @@
 #include <gshell/shell/generate_shell.h>
 
 #include <gshell/error.h>
+#include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -38,7 +39,7 @@ PrismCorners ideal_prisms_for(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   case ShellMethod::Rigid:
     return normal_prisms(V, F, options.thickness);
   case ShellMethod::Curvature:
-    throw InputError("--method curvature is not available yet");
+    return curvature_prisms(V, F, options.thickness, options.s_min, options.s_max);
   case ShellMethod::Offset:
     break;
   }

@@ -4,6 +4,8 @@
 
 #include "solver/polar_3x3.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -162,33 +164,47 @@ void ShellSolver::Impl::assemble_and_factor() {
   std::vector<double> soft_diag(nf, 0.0);
   for (int j : soft_free)
     if (j >= 0) soft_diag[j] += soft.weight;
-  std::vector<std::vector<std::pair<int, double>>> rows(nf);
-  tbb::parallel_for(0, nf, [&](int j) {
-    auto& row = rows[j];
-    row.reserve(4 * (gather_start[j + 1] - gather_start[j]) + 1);
-    for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
-      const int t = gather_slot[s] / 4, k = gather_slot[s] % 4;
-      double g[12]; // G_t = E Dm_inv, row-major 4x3
-      const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
-      for (int c = 0; c < 3; ++c) {
-        g[c] = -(di[c] + di[3 + c] + di[6 + c]);
-        for (int j = 0; j < 3; ++j) g[3 * (j + 1) + c] = di[3 * j + c];
+  // Each row goes to its own slice of a flat buffer (capacity: one entry per tet corner it
+  // touches, plus the diagonal), accumulated through a per-thread dense array indexed by vertex.
+  std::vector<int> row_cap(nf + 1, 0), row_len(nf, 0);
+  for (int j = 0; j < nf; ++j) row_cap[j + 1] = row_cap[j] + 4 * (gather_start[j + 1] - gather_start[j]) + 1;
+  std::vector<int> row_col(row_cap[nf]);
+  std::vector<double> row_val(row_cap[nf]);
+  struct Workspace {
+    std::vector<double> sum;
+    std::vector<int> touched;
+  };
+  tbb::enumerable_thread_specific<Workspace> workspaces([&] { return Workspace{std::vector<double>(N, 0.0), {}}; });
+  tbb::parallel_for(tbb::blocked_range<int>(0, nf, 256), [&](const tbb::blocked_range<int>& range) {
+    Workspace& w = workspaces.local();
+    for (int j = range.begin(); j != range.end(); ++j) {
+      w.touched.clear();
+      auto add = [&](int v, double val) {
+        if (w.sum[v] == 0.0) w.touched.push_back(v); // an exact zero sum is dropped as well
+        w.sum[v] += val;
+      };
+      add(free_vertices[j], soft_diag[j]);
+      for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
+        const int t = gather_slot[s] / 4, k = gather_slot[s] % 4;
+        double g[12]; // G_t = E Dm_inv, row-major 4x3
+        const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
+        for (int c = 0; c < 3; ++c) {
+          g[c] = -(di[c] + di[3 + c] + di[6 + c]);
+          for (int i = 0; i < 3; ++i) g[3 * (i + 1) + c] = di[3 * i + c];
+        }
+        for (int a = 0; a < 4; ++a)
+          add(tet[t][a], vol[t] * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]));
       }
-      for (int a = 0; a < 4; ++a) {
-        const double val = vol[t] * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]);
-        row.emplace_back(tet[t][a], val);
+      std::sort(w.touched.begin(), w.touched.end());
+      w.touched.erase(std::unique(w.touched.begin(), w.touched.end()), w.touched.end());
+      int out = row_cap[j];
+      for (int v : w.touched) {
+        row_col[out] = v;
+        row_val[out++] = w.sum[v];
+        w.sum[v] = 0.0;
       }
+      row_len[j] = out - row_cap[j];
     }
-    row.emplace_back(free_vertices[j], soft_diag[j]);
-    std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    std::size_t out = 0;
-    for (std::size_t i = 0; i < row.size(); ++i) {
-      if (out > 0 && row[out - 1].first == row[i].first)
-        row[out - 1].second += row[i].second;
-      else
-        row[out++] = row[i];
-    }
-    row.resize(out);
   });
 
   // Upper triangle of L_ff in CSC (= lower triangle rows of the symmetric matrix), and L_fc.
@@ -196,8 +212,8 @@ void ShellSolver::Impl::assemble_and_factor() {
   fc_start.assign(nf + 1, 0);
   for (int j = 0; j < nf; ++j) {
     int nff = 0, nfc = 0;
-    for (const auto& [v, val] : rows[j]) {
-      const int i = free_index[v];
+    for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) {
+      const int i = free_index[row_col[e]];
       if (i < 0)
         ++nfc;
       else if (i <= j)
@@ -212,7 +228,9 @@ void ShellSolver::Impl::assemble_and_factor() {
   fc_val.resize(fc_start[nf]);
   tbb::parallel_for(0, nf, [&](int j) {
     int a = ff_start[j], b = fc_start[j];
-    for (const auto& [v, val] : rows[j]) { // sorted by vertex id, and free ids follow vertex order
+    for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) { // sorted by vertex id = by free id
+      const int v = row_col[e];
+      const double val = row_val[e];
       const int i = free_index[v];
       if (i < 0) {
         fc_col[b] = v;
@@ -223,8 +241,6 @@ void ShellSolver::Impl::assemble_and_factor() {
       }
     }
   });
-  rows.clear();
-  rows.shrink_to_fit();
   if (nf == 0) return;
 
   const std::string singular =

@@ -1,0 +1,92 @@
+// gshell animate: synthetic base frames (a smooth bend or twist) to drive `gshell deform`.
+#include "command_registry.h"
+
+#include <gshell/deform/staged_folder.h>
+#include <gshell/deform/synthetic_motion.h>
+#include <gshell/error.h>
+#include <gshell/io/load_mesh.h>
+#include <gshell/io/write_mesh.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <regex>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct AnimateArgs {
+  std::string base;
+  double bend = NAN, twist = NAN;
+  double band = 1.0;
+  int frames = 30;
+  std::string out;
+};
+
+std::string frame_name(int k) {
+  char name[32];
+  std::snprintf(name, sizeof name, "frame_%04d.obj", k);
+  return name;
+}
+
+bool holds_only_frames(const fs::path& dir) {
+  static const std::regex frame_file(R"(frame_\d{4,}\.obj)");
+  for (const auto& entry : fs::directory_iterator(dir))
+    if (!std::regex_match(entry.path().filename().string(), frame_file)) return false;
+  return true;
+}
+
+void run_animate(const AnimateArgs& args) {
+  if (args.frames < 1) throw gshell::InputError("--frames must be >= 1");
+  if (!(args.band > 0 && args.band <= 1)) throw gshell::InputError("--band must be in (0, 1]");
+  const bool bending = !std::isnan(args.bend);
+  const double degrees = bending ? args.bend : args.twist;
+  if (!std::isfinite(degrees)) throw gshell::InputError("the angle must be finite");
+  gshell::TriMesh mesh = gshell::load_mesh(args.base);
+  const gshell::MotionFrame frame = gshell::motion_frame(mesh.V);
+  const Eigen::MatrixXd rest = mesh.V;
+
+  gshell::StagedFolder staged(args.out);
+  const bool quiet = gshell::cli::global_options().quiet;
+  for (int k = 1; k <= args.frames; ++k) {
+    const double angle = degrees * gshell::ramp(k, args.frames);
+    mesh.V = bending ? gshell::bend(rest, frame, angle, args.band) : gshell::twist(rest, frame, angle);
+    gshell::write_mesh((staged.path() / frame_name(k)).string(), mesh);
+    if (!quiet) std::cerr << "\ranimate: frame " << k << "/" << args.frames << std::flush;
+  }
+  if (!quiet) std::cerr << "\n";
+  staged.commit(holds_only_frames);
+  if (!quiet)
+    std::cerr << "animate: wrote " << args.frames << " frames of a " << (bending ? "bend" : "twist") << " to "
+              << degrees << " degrees to " << args.out << "\n";
+}
+
+void add_animate_command(CLI::App& parent) {
+  auto args = std::make_shared<AnimateArgs>();
+  auto* cmd = parent.add_subcommand(
+      "animate", "Write K frames of a smooth bend or twist of a base mesh (input for `gshell deform`)");
+  cmd->add_option("base", args->base, "Base mesh (file or builtin:NAME[:RES])")->required();
+  auto* bend = cmd->add_option("--bend", args->bend,
+                               "Bend the longest bounding-box axis into an arc of A degrees in total");
+  auto* twist = cmd->add_option("--twist", args->twist,
+                                "Twist about the longest bounding-box axis by A degrees end to end");
+  cmd->add_option("--band", args->band,
+                  "With --bend: fraction of the long axis that bends (a fold when < 1), centred")
+      ->capture_default_str();
+  bend->excludes(twist);
+  twist->excludes(bend);
+  cmd->add_option("--frames", args->frames, "Number of frames K; frame K reaches the full angle")
+      ->capture_default_str();
+  cmd->add_option("-o,--output", args->out, "Output folder: frame_0001.obj .. frame_K.obj")->required();
+  cmd->callback([args, bend, twist] {
+    if (bend->count() + twist->count() != 1) throw gshell::InputError("give exactly one of --bend A or --twist A");
+    run_animate(*args);
+  });
+}
+
+const gshell::cli::CommandRegistrar reg{45, add_animate_command};
+
+} // namespace

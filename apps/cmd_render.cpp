@@ -1,0 +1,109 @@
+// `gshell render`: headless PNG renders of shells and surfaces, side by side.
+#include "command_registry.h"
+
+#include <gshell/error.h>
+#include <gshell/render/image.h>
+#include <gshell/render/shell_render.h>
+
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <regex>
+
+namespace gshell::cli {
+namespace {
+
+struct RenderArgs {
+  std::vector<std::string> inputs;
+  std::string output;
+  std::string color = "auto";
+  std::string style = "translucent";
+  std::string view = "iso";
+  std::string size = "1280x720";
+  std::vector<std::string> captions;
+  std::string max = "default";
+  bool ortho = false;
+  int supersample = 2;
+};
+
+void parse_size(const std::string& text, int& width, int& height) {
+  std::smatch match;
+  static const std::regex pattern(R"((\d{1,5})[xX](\d{1,5}))");
+  if (!std::regex_match(text, match, pattern)) throw InputError("--size " + text + ": expected WIDTHxHEIGHT, e.g. 1280x720");
+  width = std::stoi(match[1]);
+  height = std::stoi(match[2]);
+  if (width < 32 || height < 32 || width > 8192 || height > 8192)
+    throw InputError("--size " + text + ": width and height must be in [32, 8192]");
+}
+
+void run_render(const RenderArgs& args) {
+  ShellRenderOptions options;
+  parse_size(args.size, options.figure.width, options.figure.height);
+  options.figure.view = parse_view(args.view);
+  options.figure.projection = args.ortho ? Projection::Orthographic : Projection::Perspective;
+  options.figure.supersample = args.supersample;
+  if (args.max == "auto") {
+    options.auto_max = true;
+  } else if (args.max != "default") {
+    std::size_t used = 0;
+    double value = 0;
+    try {
+      value = std::stod(args.max, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != args.max.size() || !(value > 0) || !std::isfinite(value))
+      throw InputError("--max " + args.max + ": expected a positive number or auto");
+    options.color_max = value;
+  }
+  const std::map<std::string, ColorBy> colors{{"auto", ColorBy::Auto}, {"stretch", ColorBy::Stretch},
+                                              {"thickness", ColorBy::Thickness}, {"none", ColorBy::None}};
+  const std::map<std::string, ShellStyle> styles{{"translucent", ShellStyle::Translucent}, {"cut", ShellStyle::Cut},
+                                                 {"base", ShellStyle::Base}, {"top", ShellStyle::Top}};
+  options.color_by = colors.at(args.color);
+  options.style = styles.at(args.style);
+
+  std::vector<RenderSubject> subjects;
+  for (const auto& input : args.inputs) subjects.push_back(load_render_subject(input));
+  const Image image = render_subjects(subjects, args.captions, options);
+  write_png(args.output, image);
+  if (!global_options().quiet) std::cerr << "render: wrote " << args.output << " (" << image.width << "x" << image.height << ")\n";
+}
+
+void add_render_command(CLI::App& parent) {
+  auto args = std::make_shared<RenderArgs>();
+  CLI::App* cmd = parent.add_subcommand(
+      "render", "Render shells or surfaces to a PNG (headless): INPUT is a shell folder from generate/deform/pose, "
+                "a mesh file or a builtin:NAME spec; several inputs are drawn side by side");
+  cmd->add_option("inputs", args->inputs, "Shell folders, mesh files or builtin specs")->required();
+  cmd->add_option("-o,--output", args->output, "Output PNG")->required();
+  cmd->add_option("--color", args->color,
+                  "Color by per-prism stretch (green 0 .. red at --max), thickness/eta per vertex, or none; "
+                  "auto = stretch when the input has it")
+      ->check(CLI::IsMember({"auto", "stretch", "thickness", "none"}))
+      ->capture_default_str();
+  cmd->add_option("--style", args->style,
+                  "translucent: opaque base under a see-through top; cut: the half nearer the eye cut away; "
+                  "base / top: one surface only")
+      ->check(CLI::IsMember({"translucent", "cut", "base", "top"}))
+      ->capture_default_str();
+  cmd->add_option("--view", args->view, "front|back|left|right|top|bottom|iso or AZIMUTH,ELEVATION in degrees (y up)")
+      ->capture_default_str();
+  cmd->add_option("--size", args->size, "Image size WIDTHxHEIGHT (all panels together)")->capture_default_str();
+  cmd->add_option("--caption", args->captions, "Panel caption, once per input (default: input name and method)");
+  cmd->add_option("--max", args->max,
+                  "Value drawn red: stretch (default 0.1), or the largest |thickness/eta - 1| (default 0.5); "
+                  "auto = the smallest 99th percentile of the panels, rounded up")
+      ->capture_default_str();
+  cmd->add_flag("--ortho", args->ortho, "Orthographic instead of perspective projection");
+  cmd->add_option("--supersample", args->supersample, "Anti-aliasing: render K times larger and filter down")
+      ->check(CLI::Range(1, 4))
+      ->capture_default_str();
+  cmd->callback([args] { run_render(*args); });
+}
+
+const CommandRegistrar reg{80, add_render_command};
+
+} // namespace
+} // namespace gshell::cli

@@ -1,0 +1,66 @@
+// gshell texture: geometric texture through the shell map (paper Fig. 5).
+#include "command_registry.h"
+
+#include <gshell/deform/geometric_texture.h>
+#include <gshell/error.h>
+#include <gshell/io/read_mesh.h>
+#include <gshell/io/write_mesh.h>
+#include <gshell/shell/shell_dir.h>
+
+#include <iostream>
+#include <memory>
+#include <vector>
+
+namespace {
+
+struct TextureArgs {
+  std::string shell;
+  std::string tile;
+  std::vector<int> repeat{1, 1};
+  std::string out;
+};
+
+void run_texture(const TextureArgs& args) {
+  const bool quiet = gshell::cli::global_options().quiet;
+  if (args.repeat.size() != 2 || args.repeat[0] < 1 || args.repeat[1] < 1)
+    throw gshell::InputError("--repeat needs two counts >= 1");
+  gshell::TriMesh uv_source;
+  const gshell::Shell shell = gshell::load_shell_dir(args.shell, &uv_source);
+  if (!uv_source.has_uv())
+    throw gshell::InputError(gshell::with_file(args.shell, "base.obj has no texture coordinates (vt)"));
+  const gshell::TriMesh tile =
+      gshell::is_builtin_tile(args.tile) ? gshell::make_builtin_tile(args.tile) : gshell::read_mesh(args.tile);
+  if (tile.num_vertices() == 0 || tile.num_faces() == 0)
+    throw gshell::InputError(gshell::with_file(args.tile, "the tile has no faces"));
+  if (!tile.V.allFinite()) throw gshell::InputError(gshell::with_file(args.tile, "has a non-finite coordinate"));
+  const gshell::GeometricTexture texture =
+      gshell::map_geometric_texture(shell, uv_source, tile, args.repeat[0], args.repeat[1]);
+  gshell::write_mesh(args.out, texture.mesh);
+  if (!quiet) {
+    std::cerr << "texture: " << args.repeat[0] << " x " << args.repeat[1] << " tiles, " << texture.points
+              << " vertices, " << texture.mesh.num_faces() << " faces over UV [" << texture.uv_min.x() << ", "
+              << texture.uv_max.x() << "] x [" << texture.uv_min.y() << ", " << texture.uv_max.y() << "]";
+    if (texture.outside > 0)
+      std::cerr << "; " << texture.outside << " vertices outside the UV prisms (extrapolated, up to "
+                << texture.max_outside_distance << " in texture space)";
+    std::cerr << "; wrote " << args.out << "\n";
+  }
+}
+
+void add_texture_command(CLI::App& parent) {
+  auto args = std::make_shared<TextureArgs>();
+  auto* cmd = parent.add_subcommand(
+      "texture", "Map a geometric texture tile (x, y = UV in [0,1], z = height in [0,1]) into a shell");
+  cmd->add_option("--shell", args->shell, "Shell folder written by `gshell generate` (its base.obj needs vt)")
+      ->required();
+  cmd->add_option("--tile", args->tile, "Tile mesh in texture space, or builtin:bumps[:N]")->required();
+  cmd->add_option("--repeat", args->repeat, "Tiles along U and V over the base's UV rectangle")
+      ->expected(2)
+      ->capture_default_str();
+  cmd->add_option("-o,--output", args->out, "Output mesh (.obj, .off, .ply)")->required();
+  cmd->callback([args] { run_texture(*args); });
+}
+
+const gshell::cli::CommandRegistrar reg{55, add_texture_command};
+
+} // namespace

@@ -1,0 +1,32 @@
+#pragma once
+// Detail embedded in a rest shell and carried along by its deformations (paper §4.2, Fig. 8):
+// each point is stored as (tet, barycentric coordinates) of the rest shell.
+#include <Eigen/Core>
+#include <vector>
+
+namespace gshell {
+
+struct Embedding {
+  Eigen::VectorXi tet;      ///< P: containing tet (nearest tet for outside points)
+  Eigen::MatrixXi vertices; ///< P x 4: that tet's vertex ids, so carrying needs no tet list
+  Eigen::MatrixXd bary;     ///< P x 4 affine coordinates, each row sums to 1
+  /// Points that no tet contains. They are bound to the nearest tet with *extrapolated*
+  /// coordinates (some negative), not clamped: the rest pose is still reproduced exactly and the
+  /// point follows the nearest tet's affine map, keeping its offset from the shell instead of
+  /// being flattened onto the shell's surface.
+  std::vector<int> outside;
+  double max_outside_distance = 0; ///< largest distance from an outside point to its tet (model units)
+
+  int size() const { return static_cast<int>(tet.size()); }
+};
+
+/// Locates every row of P (P x 3) in the tets T (K x 4) over the rest positions X_rest (N x 3),
+/// with a hashed grid (TetLocator), in parallel. Throws InputError if P has a non-finite
+/// coordinate or the tet mesh has no tet of positive volume.
+Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, const Eigen::MatrixXd& P);
+
+/// Positions of the embedded points for deformed shell vertices X (same vertex ids as X_rest):
+/// row p = sum_k bary(p,k) * X(vertices(p,k)).
+Eigen::MatrixXd carry(const Embedding& embedding, const Eigen::MatrixXd& X);
+
+} // namespace gshell

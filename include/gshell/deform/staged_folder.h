@@ -1,0 +1,34 @@
+#pragma once
+// Output folders written in one piece: everything goes into a hidden temporary folder beside the
+// destination, which is renamed into place only when complete. A failure leaves nothing behind.
+#include <filesystem>
+#include <functional>
+#include <string>
+
+namespace gshell {
+
+class StagedFolder {
+public:
+  /// Creates the temporary folder ".NAME.tmp-*" beside `destination` (the parent must exist).
+  /// Throws InputError naming the destination when it cannot.
+  explicit StagedFolder(const std::filesystem::path& destination);
+  /// Removes the temporary folder unless commit() succeeded.
+  ~StagedFolder();
+  StagedFolder(const StagedFolder&) = delete;
+  StagedFolder& operator=(const StagedFolder&) = delete;
+
+  /// Where to write: the temporary folder.
+  const std::filesystem::path& path() const { return staging_; }
+
+  /// Renames the temporary folder to the destination. An existing destination is replaced when it
+  /// is an empty folder or `is_previous_output(destination)` says it holds an earlier output of the
+  /// same command; otherwise InputError ("exists and is not ... output"), so a mistyped -o never
+  /// deletes unrelated files.
+  void commit(const std::function<bool(const std::filesystem::path&)>& is_previous_output);
+
+private:
+  std::filesystem::path destination_, staging_;
+  bool committed_ = false;
+};
+
+} // namespace gshell

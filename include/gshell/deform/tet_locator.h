@@ -1,0 +1,62 @@
+#pragma once
+// Point location in a tet mesh (a shell, or the texture-space prisms of a base's UVs).
+#include <Eigen/Core>
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace gshell {
+
+/// Where a point lies relative to a tet mesh.
+struct TetHit {
+  int tet = -1;                            ///< containing tet, or the nearest one when outside
+  Eigen::Vector4d bary = Eigen::Vector4d::Zero(); ///< affine coordinates w.r.t. that tet's 4 vertices (sum 1)
+  bool inside = false;                     ///< all coordinates >= -kInsideTolerance
+  double distance = 0;                     ///< Euclidean distance to the tet (0 when inside)
+};
+
+/// A hashed uniform grid over the tets' bounding boxes (cell size per axis = mean tet extent along
+/// that axis, so thin shells and the flat texture-space prisms get sensible cells).
+/// Built once, queried from many threads (locate is const and thread-safe).
+class TetLocator {
+public:
+  /// Coordinates count as inside down to -kInsideTolerance: points on a shared face or on the
+  /// shell's boundary surfaces are inside, whatever the rounding.
+  static constexpr double kInsideTolerance = 1e-9;
+
+  /// X: N x 3 points, T: K x 4 ids. Tets whose volume is negligible (below 1e-14 of their
+  /// bounding box) cannot carry affine coordinates and are left out of the index.
+  TetLocator(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T);
+
+  /// The tet containing p (the one where p is deepest when several share it), or, when no tet
+  /// contains p, the nearest tet with p's extrapolated affine coordinates in it. tet = -1 only
+  /// when the mesh has no usable tet.
+  TetHit locate(const Eigen::Vector3d& p) const;
+
+  /// Affine coordinates of p in tet t (t must be a usable tet).
+  Eigen::Vector4d affine_coordinates(int t, const Eigen::Vector3d& p) const;
+
+  int usable_tets() const { return static_cast<int>(usable_.size()); }
+
+private:
+  using Cell = Eigen::Matrix<std::int64_t, 3, 1>;
+  Cell cell_of(const Eigen::Vector3d& p) const;
+  std::uint64_t key(const Cell& c) const;
+  const std::vector<int>* tets_in(const Cell& c) const;
+  double distance_to_tet(int t, const Eigen::Vector3d& p) const;
+
+  Eigen::MatrixXd X_;
+  Eigen::MatrixXi T_;
+  std::vector<Eigen::Matrix3d> inverse_edges_; ///< [x1-x0, x2-x0, x3-x0]^-1 per tet
+  std::vector<int> usable_;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero(), cell_size_ = Eigen::Vector3d::Ones();
+  Cell lo_ = Cell::Zero(), hi_ = Cell::Zero(); ///< occupied cell range (inclusive)
+  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
+};
+
+/// Closest point to p on triangle (a, b, c), also for degenerate triangles.
+Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+
+} // namespace gshell

@@ -1,0 +1,45 @@
+#pragma once
+// Several rendered panels side by side, each with a caption, and an optional shared color bar.
+#include <gshell/render/camera.h>
+#include <gshell/render/color_map.h>
+#include <gshell/render/image.h>
+#include <gshell/render/scene.h>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gshell {
+
+struct Panel {
+  Scene scene;
+  std::string caption;
+};
+
+struct FigureOptions {
+  int width = 1280, height = 720;           ///< the whole image, pixels
+  ViewDirection view;                        ///< same direction for every panel
+  Projection projection = Projection::Perspective;
+  int supersample = 2;                       ///< anti-aliasing factor (see RenderOptions)
+  std::optional<ColorScale> color_bar;       ///< drawn along the bottom when set
+  std::string footnote;                      ///< small text at the bottom-left (e.g. how values were made)
+};
+
+/// Where render_figure put things, in pixels (x, y = top-left corner).
+struct PixelRect {
+  int x = 0, y = 0, w = 0, h = 0;
+};
+struct FigureLayout {
+  std::vector<PixelRect> panels; ///< the rendered area of each panel (below its caption)
+  PixelRect color_bar;           ///< the gradient itself (w = 0 when there is none); min at x, max at x + w - 1
+  std::optional<ColorScale> color_scale; ///< the scale of the bar
+
+  /// Pixel column of `value` on the color bar (clamped to it).
+  int color_bar_column(double value) const;
+};
+
+/// Panels share the width equally and are framed one by one (each camera fits its own scene).
+/// Text size grows with the image height. Throws InputError if the image is too small to hold them.
+Image render_figure(const std::vector<Panel>& panels, const FigureOptions& options, FigureLayout* layout = nullptr);
+
+} // namespace gshell

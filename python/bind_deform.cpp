@@ -1,0 +1,214 @@
+// Deformer (base-driven deformation), Embedding and embed (detail carried by a shell).
+#include "bindings.h"
+#include "numpy_arrays.h"
+#include "shell_object.h"
+
+#include <gshell/deform/embedding.h>
+#include <gshell/deform/shell_deformer.h>
+
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <memory>
+#include <mutex>
+
+namespace gshell::python {
+
+namespace {
+
+struct DeformerObject {
+  explicit DeformerObject(const Shell& rest) : deformer(rest) {}
+  ShellDeformer deformer;
+  FrameResult last;
+  bool solved = false;
+  /// solve() runs without the GIL and changes the deformer's state: two Python threads calling
+  /// it on one object must take turns.
+  std::mutex mutex;
+};
+
+struct EmbeddingObject {
+  Embedding embedding;
+  int shell_vertices = 0; ///< 2n of the shell it was made in: carry() needs that many rows
+};
+
+nlohmann::json frame_json(const FrameResult& r) {
+  return {{"iterations", r.iterations},
+          {"converged", r.converged},
+          {"energy", r.energy},
+          {"stretch",
+           {{"mean", r.stretch.mean}, {"volume_mean", r.stretch.volume_mean}, {"max", r.stretch.max}, {"p99", r.stretch.p99}}},
+          {"inverted_tets", r.stretch.inverted},
+          {"seconds", r.seconds}};
+}
+
+std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell) {
+  py::gil_scoped_release release;
+  return std::make_unique<DeformerObject>(shell.shell);
+}
+
+py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterations, double tolerance,
+                         const std::string& warm_start) {
+  const int n = d.deformer.rest_shell().num_base_vertices();
+  const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
+  if (iterations < 0) value_error("iterations must not be negative (got " + std::to_string(iterations) + ")");
+  if (!(tolerance >= 0) || !std::isfinite(tolerance))
+    value_error("tolerance must be a non-negative number (got " + std::to_string(tolerance) + ")");
+  DeformOptions options;
+  options.max_iterations = iterations;
+  options.tolerance = tolerance;
+  options.warm_start = parse_warm_start(warm_start);
+  Eigen::MatrixXd top;
+  {
+    py::gil_scoped_release release;
+    const std::lock_guard<std::mutex> lock(d.mutex); // released before the GIL is taken back
+    d.last = d.deformer.solve(base, options);
+    d.solved = true;
+    top = d.last.top;
+  }
+  return from_matrix(top);
+}
+
+Eigen::MatrixXd shell_vertices_of(const py::handle& object, int rows) {
+  if (py::isinstance<ShellObject>(object)) {
+    const Eigen::MatrixXd X = object.cast<const ShellObject&>().shell.vertices();
+    if (X.rows() != rows)
+      value_error("the shell has " + std::to_string(X.rows()) + " vertices; the embedding needs " + std::to_string(rows));
+    return X;
+  }
+  return to_matrix(object, "shell vertices", 3, rows);
+}
+
+} // namespace
+
+void bind_deform(py::module_& m) {
+  py::class_<DeformerObject>(m, "Deformer", R"(Base-driven shell deformation (paper section 4.2): someone
+else moves the base (same connectivity), the top follows with the least stretch relative to the
+rest shell. Built once per rest shell (the system matrix is factored once); each solve() only
+back-substitutes and is warm-started from the previous frame, as `gshell deform` does.)")
+      .def(py::init(&make_deformer), py::arg("shell"),
+           R"(Prepare the deformation of `shell` (a Shell, e.g. from generate()).
+
+Raises:
+    ValueError: the shell has a tet of non-positive volume.)")
+      .def("solve", &deformer_solve, py::arg("new_base"), py::kw_only(), py::arg("iterations") = 50,
+           py::arg("tolerance") = 1e-4, py::arg("warm_start") = "rotated",
+           R"(Solve the top for a new base.
+
+Args:
+    new_base: float array (n, 3), the rest base's vertex order.
+    iterations: maximum local/global iterations (>= 0).
+    tolerance: stop when the relative energy change is below this.
+    warm_start: "rotated" (previous offsets rotated with the base's 1-rings, default),
+        "translated" (previous top moved with the base) or "previous" (previous top as is).
+
+Returns:
+    float64 array (n, 3): the deformed top. Statistics are in .last.
+
+Raises:
+    ValueError: wrong shape, NaN, bad options.
+
+Releases the GIL while it runs.)")
+      .def("reset", [](DeformerObject& d) {
+             py::gil_scoped_release release;
+             const std::lock_guard<std::mutex> lock(d.mutex);
+             d.deformer.reset();
+             d.solved = false;
+           },
+           "Start the next solve() from the rest shell again.")
+      .def_property_readonly("vertices", [](DeformerObject& d) {
+             Eigen::MatrixXd X;
+             {
+               py::gil_scoped_release release;
+               const std::lock_guard<std::mutex> lock(d.mutex);
+               X = d.deformer.current();
+             }
+             return read_only(from_matrix(X));
+           },
+           "float64 (2n, 3): all shell vertices after the last solve (base rows, then top rows); "
+           "pass it to Embedding.carry().")
+      .def_property_readonly("last", [](DeformerObject& d) -> py::object {
+             nlohmann::json j; // stays null before the first solve
+             {
+               py::gil_scoped_release release;
+               const std::lock_guard<std::mutex> lock(d.mutex);
+               if (d.solved) j = frame_json(d.last);
+             }
+             return j.is_null() ? py::none() : to_python(j);
+           },
+           "dict about the last solve (None before the first): iterations, converged, energy (list, "
+           "energy[0] at the warm start), stretch {mean, volume_mean, max, p99} against the rest shell, "
+           "inverted_tets, seconds. The fields of a frame in `gshell deform`'s report.json.")
+      .def_property_readonly("factor_seconds", [](const DeformerObject& d) { return d.deformer.factor_seconds(); },
+                             "Seconds spent assembling and factoring the system matrix.");
+
+  py::class_<EmbeddingObject>(m, "Embedding", R"(Points embedded in a rest shell as (tet, barycentric
+coordinates), carried along by every deformation of that shell (paper Fig. 5, 8). Made by embed().)")
+      .def("carry",
+           [](const EmbeddingObject& e, const py::object& deformed) {
+             const Eigen::MatrixXd X = shell_vertices_of(deformed, e.shell_vertices);
+             Eigen::MatrixXd P;
+             {
+               py::gil_scoped_release release;
+               P = carry(e.embedding, X);
+             }
+             return from_matrix(P);
+           },
+           py::arg("deformed"),
+           R"(Positions of the embedded points in a deformed shell.
+
+Args:
+    deformed: a Shell with the rest shell's connectivity, or a float array (2n, 3) of all shell
+        vertices (base rows, then top rows), e.g. Deformer.vertices or
+        numpy.vstack([new_base, new_top]).
+
+Returns:
+    float64 array (P, 3). The rest shell gives back the embedded points.)")
+      .def_property_readonly("tet", [](const EmbeddingObject& e) { return read_only(from_index_vector(e.embedding.tet)); },
+                             "int64 (P,): the tet holding each point (the nearest tet for points outside).")
+      .def_property_readonly("tet_vertices",
+                             [](const EmbeddingObject& e) { return read_only(from_indices(e.embedding.vertices)); },
+                             "int64 (P, 4): that tet's shell vertex ids.")
+      .def_property_readonly("bary", [](const EmbeddingObject& e) { return read_only(from_matrix(e.embedding.bary)); },
+                             "float64 (P, 4): affine coordinates in that tet (rows sum to 1; some negative "
+                             "for points outside the shell).")
+      .def_property_readonly("outside",
+                             [](const EmbeddingObject& e) {
+                               Eigen::VectorXi v = Eigen::Map<const Eigen::VectorXi>(
+                                   e.embedding.outside.data(), static_cast<Eigen::Index>(e.embedding.outside.size()));
+                               return read_only(from_index_vector(v));
+                             },
+                             "int64: indices of the points no tet contains (bound to the nearest tet, "
+                             "extrapolated).")
+      .def_property_readonly("max_outside_distance", [](const EmbeddingObject& e) { return e.embedding.max_outside_distance; },
+                             "Largest distance from an outside point to its tet (model units).")
+      .def("__len__", [](const EmbeddingObject& e) { return e.embedding.size(); }, "Number of embedded points.");
+
+  m.def("embed",
+        [](const ShellObject& shell, const ArrayArg& points) {
+          const Eigen::MatrixXd P = to_matrix(points, "points", 3);
+          EmbeddingObject e;
+          {
+            py::gil_scoped_release release;
+            e.embedding = embed_points(shell.shell.vertices(), shell.tets, P);
+          }
+          e.shell_vertices = 2 * shell.shell.num_base_vertices();
+          return e;
+        },
+        py::arg("shell"), py::arg("points"),
+        R"(Embed points in a rest shell: each is stored as (tet, barycentric coordinates).
+
+Args:
+    shell: the rest Shell.
+    points: float array (P, 3). Points outside the shell are bound to the nearest tet (see
+        Embedding.outside).
+
+Returns:
+    Embedding; .carry(deformed shell) gives the points' new positions.
+
+Raises:
+    ValueError: bad array or NaN, or a shell without any tet of positive volume.
+
+Releases the GIL while it runs.)");
+}
+
+} // namespace gshell::python

@@ -1,0 +1,223 @@
+// Shell, generate, metrics, load_shell.
+#include "bindings.h"
+#include "numpy_arrays.h"
+#include "shell_object.h"
+
+#include <gshell/geometry/validate_mesh.h>
+#include <gshell/quality/shell_metrics.h>
+#include <gshell/shell/generate_report.h>
+#include <gshell/shell/generate_shell.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/shell/shell_dir.h>
+
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <cmath>
+#include <filesystem>
+#include <optional>
+
+namespace gshell::python {
+
+namespace {
+
+/// The report's "input" for arrays handed in from Python (the CLI writes the file or spec there).
+constexpr const char* kArrayInput = "<numpy arrays>";
+
+TriMesh checked_mesh(const py::handle& V, const py::handle& F, const char* v_name = "V", const char* f_name = "F") {
+  TriMesh mesh;
+  mesh.V = to_matrix(V, v_name, 3);
+  mesh.F = to_indices(F, f_name, 3, static_cast<int>(mesh.V.rows()));
+  return mesh;
+}
+
+/// Exactly one of the two, positive and finite; the absolute thickness in model units.
+double resolve_thickness(const Eigen::MatrixXd& V, std::optional<double> thickness, std::optional<double> ratio) {
+  if (thickness.has_value() == ratio.has_value()) value_error("give exactly one of thickness and thickness_ratio");
+  if (thickness) {
+    if (!(*thickness > 0) || !std::isfinite(*thickness))
+      value_error("thickness must be positive and finite (got " + std::to_string(*thickness) + ")");
+    return *thickness;
+  }
+  if (!(*ratio > 0) || !std::isfinite(*ratio))
+    value_error("thickness_ratio must be positive and finite (got " + std::to_string(*ratio) + ")");
+  return thickness_from_ratio(V, *ratio);
+}
+
+/// Shell object for a base/top pair that was not generated here: stretch and report measured
+/// like `gshell metrics` does, without intersection counts (they dominate the cost on big meshes).
+ShellObject measured_shell(Shell shell) {
+  ShellObject s;
+  const ShellMetrics m = shell_metrics(shell.base, shell.F, shell.top, shell.thickness, false);
+  s.tets = build_prism_tets(shell.F, shell.num_base_vertices());
+  s.stretch = m.tet_stretch;
+  s.report = metrics_report(m, shell.num_base_vertices(), static_cast<int>(shell.F.rows()), shell.thickness);
+  s.shell = std::move(shell);
+  return s;
+}
+
+ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayArg& top, double thickness) {
+  const TriMesh mesh = checked_mesh(base, faces, "base", "faces");
+  Shell shell;
+  shell.top = to_matrix(top, "top", 3, static_cast<int>(mesh.V.rows()));
+  if (!(thickness > 0) || !std::isfinite(thickness))
+    value_error("thickness must be positive and finite (got " + std::to_string(thickness) + ")");
+  shell.base = mesh.V;
+  shell.F = mesh.F;
+  shell.thickness = thickness;
+  py::gil_scoped_release release;
+  require_valid_mesh(mesh, "base");
+  return measured_shell(std::move(shell));
+}
+
+ShellObject load_shell_py(const std::filesystem::path& dir) {
+  py::gil_scoped_release release;
+  return measured_shell(load_shell_dir(dir.string()));
+}
+
+ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
+                        std::optional<double> thickness_ratio, const std::string& method, int iterations,
+                        double tolerance, bool count_intersections) {
+  const TriMesh mesh = checked_mesh(V, F);
+  GenerateOptions options;
+  options.method = parse_shell_method(method);
+  if (iterations < 0) value_error("iterations must not be negative (got " + std::to_string(iterations) + ")");
+  if (!(tolerance >= 0) || !std::isfinite(tolerance))
+    value_error("tolerance must be a non-negative number (got " + std::to_string(tolerance) + ")");
+  options.solve.max_iterations = iterations;
+  options.solve.tolerance = tolerance;
+  options.count_intersections = count_intersections;
+  py::gil_scoped_release release;
+  // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
+  require_valid_mesh(mesh, "mesh (V, F)");
+  options.thickness = resolve_thickness(mesh.V, thickness, thickness_ratio);
+  GenerateResult result = generate_shell(mesh.V, mesh.F, options);
+  ShellObject s;
+  s.tets = build_prism_tets(mesh.F, mesh.num_vertices());
+  s.stretch = result.metrics.tet_stretch;
+  s.report = generate_report(result, kArrayInput, thickness_ratio);
+  s.shell = std::move(result.shell);
+  return s;
+}
+
+py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, std::optional<double> thickness,
+                    std::optional<double> thickness_ratio, bool count_intersections) {
+  const TriMesh base = checked_mesh(Vb, F, "Vb", "F");
+  const Eigen::MatrixXd top = to_matrix(Vt, "Vt", 3, base.num_vertices());
+  ShellMetrics m;
+  double eta = 0;
+  {
+    py::gil_scoped_release release;
+    require_valid_mesh(base, "base (Vb, F)");
+    eta = resolve_thickness(base.V, thickness, thickness_ratio);
+    m = shell_metrics(base.V, base.F, top, eta, count_intersections);
+  }
+  py::dict d = to_python(metrics_report(m, base.num_vertices(), base.num_faces(), eta, thickness_ratio));
+  d["tet_stretch"] = from_vector(m.tet_stretch);
+  d["tet_determinant"] = from_vector(m.tet_determinant);
+  d["vertex_thickness"] = from_vector(m.vertex_thickness);
+  return d;
+}
+
+} // namespace
+
+void bind_generate(py::module_& m) {
+  py::class_<ShellObject, std::shared_ptr<ShellObject>>(m, "Shell", R"(A shell: base and top surfaces with the
+same faces and vertex order (top vertex i sits over base vertex i), cut into 3 tets per face.
+
+Made by generate(), load_shell(), or directly with Shell(base, faces, top, thickness). Array
+properties return read-only copies (use .copy() to modify).)")
+      .def(py::init(&make_shell), py::arg("base"), py::arg("faces"), py::arg("top"), py::arg("thickness"),
+           R"(Wrap an existing base/top pair (for example a top read from the CLI's top.obj).
+
+Args:
+    base: float array (n, 3), the base surface's vertices (a valid manifold surface).
+    faces: integer array (m, 3), counter-clockwise faces shared by base and top.
+    top: float array (n, 3), top vertex i over base vertex i.
+    thickness: eta in model units (> 0): the thickness the shell is measured against.
+
+stretch and report are measured as by metrics() without intersection counts.)")
+      .def_property_readonly("base", [](const ShellObject& s) { return read_only(from_matrix(s.shell.base)); },
+                             "float64 (n, 3): base surface vertices.")
+      .def_property_readonly("top", [](const ShellObject& s) { return read_only(from_matrix(s.shell.top)); },
+                             "float64 (n, 3): top surface vertices (top i over base i).")
+      .def_property_readonly("faces", [](const ShellObject& s) { return read_only(from_indices(s.shell.F)); },
+                             "int64 (m, 3): faces of both surfaces.")
+      .def_property_readonly("thickness", [](const ShellObject& s) { return s.shell.thickness; },
+                             "eta in model units.")
+      .def_property_readonly("vertices", [](const ShellObject& s) { return read_only(from_matrix(s.shell.vertices())); },
+                             "float64 (2n, 3): all shell vertices, base rows 0..n-1 then top rows n..2n-1.")
+      .def_property_readonly("tets", [](const ShellObject& s) { return read_only(from_indices(s.tets)); },
+                             "int64 (3m, 4): tets over vertices (3 per face, rows 3f..3f+2 for face f), "
+                             "positively oriented.")
+      .def_property_readonly("stretch", [](const ShellObject& s) { return read_only(from_vector(s.stretch)); },
+                             "float64 (3m,): per-tet stretch sum_i (sigma_i - 1)^2 against the ideal normal "
+                             "prisms of thickness eta.")
+      .def_property_readonly("report", [](const ShellObject& s) { return to_python(s.report); },
+                             "dict: the report, with the fields of the CLI's report.json (generate() fills "
+                             "iterations, energy, seconds; other shells have the metrics part only).")
+      .def("__repr__", [](const ShellObject& s) {
+        return "<gshell.Shell: " + std::to_string(s.shell.num_base_vertices()) + " base vertices, " +
+               std::to_string(s.shell.F.rows()) + " faces, thickness " + std::to_string(s.shell.thickness) + ">";
+      }, "Sizes and thickness.");
+
+  m.def("generate", &generate_py, py::arg("V"), py::arg("F"), py::arg("thickness") = py::none(), py::kw_only(),
+        py::arg("thickness_ratio") = py::none(), py::arg("method") = "rigid", py::arg("iterations") = 50,
+        py::arg("tolerance") = 1e-5, py::arg("count_intersections") = true,
+        R"(Generate the shell of a triangle surface (paper section 4.1), as `gshell generate` does.
+
+Args:
+    V: float array (n, 3), base vertices.
+    F: integer array (m, 3), counter-clockwise faces; the surface must be a valid manifold
+        (open boundaries, several components and any genus are fine).
+    thickness: eta in model units. Give exactly one of thickness and thickness_ratio.
+    thickness_ratio: eta as a ratio of the bounding sphere's radius (e.g. 0.01).
+    method: "rigid" (optimised towards the normal prisms), "offset" (vertex-normal offset, no
+        optimisation) or "curvature" (when the library provides it).
+    iterations: maximum local/global iterations (>= 0).
+    tolerance: stop when the relative energy change is below this.
+    count_intersections: count top/top and top/base triangle intersections for the report
+        (costly on big meshes; None in the report when False).
+
+Returns:
+    Shell with top, tets, per-tet stretch and report (dict, as the CLI's report.json).
+
+Raises:
+    ValueError: bad arrays, invalid mesh, both or neither thickness, unknown method, bad numbers.
+
+Releases the GIL while it runs.)");
+
+  m.def("metrics", &metrics_py, py::arg("Vb"), py::arg("F"), py::arg("Vt"), py::arg("thickness") = py::none(),
+        py::kw_only(), py::arg("thickness_ratio") = py::none(), py::arg("count_intersections") = true,
+        R"(Quality of a shell given by its base and top surfaces, as `gshell metrics` reports it.
+
+Args:
+    Vb: float array (n, 3), base vertices (a valid manifold surface with faces F).
+    F: integer array (m, 3), faces of both surfaces.
+    Vt: float array (n, 3), top vertices (top i over base i).
+    thickness: eta in model units. Give exactly one of thickness and thickness_ratio.
+    thickness_ratio: eta as a ratio of the base's bounding-sphere radius.
+    count_intersections: count top/top and top/base intersections (None in the result if False).
+
+Returns:
+    dict with the fields of the CLI's metrics report (thickness {eta, ratio, min, mean},
+    vertices, faces, tets, stretch {mean, volume_mean, max, p99} against the normal prisms,
+    inverted_tets, top_self_intersections, top_base_intersections), plus NumPy arrays
+    tet_stretch (3m,), tet_determinant (3m,) and vertex_thickness (n,) (distance to the base / eta).
+
+Raises:
+    ValueError: bad arrays, invalid base, both or neither thickness.
+
+Releases the GIL while it runs.)");
+
+  m.def("load_shell", &load_shell_py, py::arg("path"),
+        R"(Load a shell folder written by `gshell generate` (base.obj, top.obj, report.json).
+
+Returns:
+    Shell; its stretch and report are measured again (as metrics() without intersections).
+
+Raises:
+    ValueError: missing files or base/top that do not match.)");
+}
+
+} // namespace gshell::python

@@ -1,0 +1,94 @@
+// read_mesh, write_mesh, builtin.
+#include "bindings.h"
+#include "numpy_arrays.h"
+
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/io/read_mesh.h>
+#include <gshell/io/write_mesh.h>
+
+#include <pybind11/stl/filesystem.h>
+
+#include <filesystem>
+
+namespace gshell::python {
+
+namespace {
+
+py::tuple mesh_tuple(const TriMesh& mesh) { return py::make_tuple(from_matrix(mesh.V), from_indices(mesh.F)); }
+
+py::tuple read_mesh_py(const std::filesystem::path& path) {
+  TriMesh mesh;
+  {
+    py::gil_scoped_release release;
+    mesh = read_mesh(path.string());
+  }
+  return mesh_tuple(mesh);
+}
+
+void write_mesh_py(const std::filesystem::path& path, const ArrayArg& V, const ArrayArg& F) {
+  TriMesh mesh;
+  mesh.V = to_matrix(V, "V", 3);
+  mesh.F = to_indices(F, "F", 3, static_cast<int>(mesh.V.rows()));
+  py::gil_scoped_release release;
+  write_mesh(path.string(), mesh);
+}
+
+py::tuple builtin_py(const std::string& spec) {
+  const std::string full = is_builtin_spec(spec) ? spec : "builtin:" + spec;
+  TriMesh mesh;
+  {
+    py::gil_scoped_release release;
+    mesh = make_builtin(full);
+  }
+  return mesh_tuple(mesh);
+}
+
+} // namespace
+
+void bind_io(py::module_& m) {
+  m.def("read_mesh", &read_mesh_py, py::arg("path"),
+        R"(Read a triangle mesh: OBJ, OFF, PLY (ASCII or binary) or STL, by file extension.
+
+Polygons are fan-triangulated; the vertex order of the file is kept.
+
+Args:
+    path: file path (str or os.PathLike).
+
+Returns:
+    (V, F): float64 array (n, 3) of positions and int64 array (m, 3) of vertex ids.
+
+Raises:
+    ValueError: missing file, unknown format or malformed content (the message names the file
+        and, for text formats, the line).)");
+
+  m.def("write_mesh", &write_mesh_py, py::arg("path"), py::arg("V"), py::arg("F"),
+        R"(Write a triangle mesh as OBJ, OFF or PLY (binary), by file extension.
+
+The file is written atomically (temporary file, then rename); the vertex order is kept.
+
+Args:
+    path: output file (str or os.PathLike); .obj, .off or .ply.
+    V: float array (n, 3), finite.
+    F: integer array (m, 3) of vertex ids in [0, n).
+
+Raises:
+    ValueError: wrong shapes or dtypes, NaN, indices out of range, unknown extension or an
+        unwritable path.)");
+
+  m.def("builtin", &builtin_py, py::arg("spec"),
+        R"(Build one of gshell's built-in meshes (no files needed).
+
+Args:
+    spec: "NAME[:RES]" or "builtin:NAME[:RES]", NAME one of sphere (RES = subdivision level,
+        default 4), torus (segments around, default 64), plane (quads per side, default 32),
+        cylinder (segments around, default 64), bowl (rings, default 40). Same specs as the CLI.
+
+Returns:
+    (V, F): float64 array (n, 3) and int64 array (m, 3); faces are counter-clockwise seen from
+    outside.
+
+Raises:
+    ValueError: unknown name or resolution out of range.)");
+}
+
+} // namespace gshell::python

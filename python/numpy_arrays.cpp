@@ -1,0 +1,127 @@
+#include "numpy_arrays.h"
+
+#include <climits>
+#include <cmath>
+#include <sstream>
+
+namespace gshell::python {
+
+void value_error(const std::string& message) { throw py::value_error(message); }
+
+namespace {
+
+std::string shape_text(const py::array& a) {
+  std::ostringstream s;
+  s << "(";
+  for (py::ssize_t d = 0; d < a.ndim(); ++d) s << (d ? ", " : "") << a.shape(d);
+  s << (a.ndim() == 1 ? ",)" : ")");
+  return s.str();
+}
+
+std::string wanted_shape(int rows, int cols) {
+  return "(" + (rows < 0 ? std::string("n") : std::to_string(rows)) + ", " + std::to_string(cols) + ")";
+}
+
+std::string dtype_text(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
+
+/// np.asarray(object): lists and other array-likes behave as they do everywhere in NumPy.
+py::array as_array(const py::handle& object, const char* name) {
+  try {
+    return py::module_::import("numpy").attr("asarray")(object).cast<py::array>();
+  } catch (const py::error_already_set& e) {
+    value_error(std::string(name) + " is not an array: " + e.what());
+  }
+}
+
+void check_shape(const py::array& a, const char* name, const char* kind, int rows, int cols) {
+  if (a.ndim() != 2 || a.shape(1) != cols || (rows >= 0 && a.shape(0) != rows))
+    value_error(std::string(name) + " must be " + kind + " array of shape " + wanted_shape(rows, cols) +
+                "; got shape " + shape_text(a));
+}
+
+} // namespace
+
+Eigen::MatrixXd to_matrix(const py::handle& object, const char* name, int cols, int rows, bool finite) {
+  const py::array a = as_array(object, name);
+  if (a.dtype().kind() != 'f')
+    value_error(std::string(name) + " must be a float array (float64) of shape " + wanted_shape(rows, cols) +
+                "; got dtype " + dtype_text(a));
+  check_shape(a, name, "a float", rows, cols);
+  // forcecast + c_style: one contiguous float64 copy whatever the source's dtype and strides.
+  const auto c = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!c) throw py::error_already_set();
+  const Eigen::Index n = c.shape(0);
+  Eigen::MatrixXd M(n, cols);
+  const double* data = c.data();
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int j = 0; j < cols; ++j) {
+      const double x = data[i * cols + j];
+      if (finite && !std::isfinite(x))
+        value_error(std::string(name) + "[" + std::to_string(i) + ", " + std::to_string(j) +
+                    "] is not finite (" + std::to_string(x) + ")");
+      M(i, j) = x;
+    }
+  return M;
+}
+
+Eigen::MatrixXi to_indices(const py::handle& object, const char* name, int cols, int num_vertices, int rows) {
+  const py::array a = as_array(object, name);
+  const char kind = a.dtype().kind();
+  if (kind != 'i' && kind != 'u')
+    value_error(std::string(name) + " must be an integer array of shape " + wanted_shape(rows, cols) +
+                "; got dtype " + dtype_text(a));
+  check_shape(a, name, "an integer", rows, cols);
+  // Unsigned 64-bit values above INT64_MAX wrap to negatives here and are rejected below.
+  const auto c = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!c) throw py::error_already_set();
+  const Eigen::Index n = c.shape(0);
+  if (n > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(n) + ")");
+  Eigen::MatrixXi M(n, cols);
+  const std::int64_t* data = c.data();
+  const std::int64_t limit = num_vertices >= 0 ? num_vertices : std::int64_t(INT_MAX) + 1;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int j = 0; j < cols; ++j) {
+      const std::int64_t k = data[i * cols + j];
+      if (k < 0 || k >= limit)
+        value_error(std::string(name) + "[" + std::to_string(i) + ", " + std::to_string(j) + "] = " +
+                    std::to_string(k) + " is not a valid index" +
+                    (num_vertices >= 0 ? " for " + std::to_string(num_vertices) + " vertices" : std::string()));
+      M(i, j) = static_cast<int>(k);
+    }
+  return M;
+}
+
+py::array_t<double> from_matrix(const Eigen::MatrixXd& M) {
+  py::array_t<double> a({M.rows(), M.cols()});
+  auto out = a.mutable_unchecked<2>();
+  for (Eigen::Index i = 0; i < M.rows(); ++i)
+    for (Eigen::Index j = 0; j < M.cols(); ++j) out(i, j) = M(i, j);
+  return a;
+}
+
+py::array_t<double> from_vector(const Eigen::VectorXd& v) {
+  py::array_t<double> a(v.size());
+  std::copy(v.data(), v.data() + v.size(), a.mutable_data());
+  return a;
+}
+
+py::array_t<std::int64_t> from_indices(const Eigen::MatrixXi& M) {
+  py::array_t<std::int64_t> a({M.rows(), M.cols()});
+  auto out = a.mutable_unchecked<2>();
+  for (Eigen::Index i = 0; i < M.rows(); ++i)
+    for (Eigen::Index j = 0; j < M.cols(); ++j) out(i, j) = M(i, j);
+  return a;
+}
+
+py::array_t<std::int64_t> from_index_vector(const Eigen::VectorXi& v) {
+  py::array_t<std::int64_t> a(v.size());
+  std::copy(v.data(), v.data() + v.size(), a.mutable_data());
+  return a;
+}
+
+py::array read_only(py::array a) {
+  a.attr("flags").attr("writeable") = false;
+  return a;
+}
+
+} // namespace gshell::python

@@ -1,0 +1,583 @@
+"""Tests of the gshell Python module: results agree with the CLI's on the same input, invariants
+hold (rigid motions, round trips), and bad arguments raise ValueError instead of crashing.
+
+Run by CTest with PYTHONPATH=<build>/python and GSHELL_CLI=<build>/bin/gshell, or by hand:
+    PYTHONPATH=build/python GSHELL_CLI=build/bin/gshell /usr/bin/python3 -m unittest -v test_gshell
+(from python/tests).
+"""
+import json
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+
+import gshell
+
+CLI = os.environ.get("GSHELL_CLI", "")
+
+
+def run_cli(*args):
+    """Runs the gshell CLI and returns its stdout; fails the test on a non-zero exit."""
+    r = subprocess.run([CLI, *args], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise AssertionError(f"gshell {' '.join(args)} exited {r.returncode}: {r.stderr}")
+    return r.stdout
+
+
+def rotation(axis, degrees):
+    axis = np.asarray(axis, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    a = math.radians(degrees)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(a) * K + (1 - math.cos(a)) * K @ K
+
+
+class TempDirTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.mkdtemp(prefix="gshell_py_")
+
+    def tearDown(self):
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def path(self, name):
+        return os.path.join(self.tmp, name)
+
+
+class DocstringTest(unittest.TestCase):
+    def test_everything_public_is_documented(self):
+        self.assertGreater(len(gshell.__doc__), 100)
+        names = [n for n in dir(gshell) if not n.startswith("_")]
+        self.assertTrue({"read_mesh", "write_mesh", "builtin", "generate", "metrics", "load_shell", "Shell",
+                         "Deformer", "Poser", "Embedding", "embed"} <= set(names))
+        for name in names:
+            obj = getattr(gshell, name)
+            with self.subTest(name):
+                self.assertTrue((obj.__doc__ or "").strip(), name)
+            if isinstance(obj, type):
+                for member, value in vars(obj).items():
+                    if member.startswith("_") and member not in ("__init__", "__len__", "__repr__"):
+                        continue
+                    with self.subTest(f"{name}.{member}"):
+                        self.assertTrue((getattr(value, "__doc__", None) or "").strip(), f"{name}.{member}")
+
+
+class MeshIOTest(TempDirTest):
+    def test_builtin_sizes_and_types(self):
+        for level in range(4):
+            V, F = gshell.builtin(f"sphere:{level}")
+            self.assertEqual(V.shape, (10 * 4**level + 2, 3))
+            self.assertEqual(F.shape, (20 * 4**level, 3))
+            self.assertEqual(V.dtype, np.float64)
+            self.assertEqual(F.dtype, np.int64)
+            np.testing.assert_allclose(np.linalg.norm(V, axis=1), 1.0, atol=1e-12)
+        V1, F1 = gshell.builtin("builtin:torus:16")
+        V2, F2 = gshell.builtin("torus:16")
+        np.testing.assert_array_equal(V1, V2)
+        np.testing.assert_array_equal(F1, F2)
+        self.assertEqual(V1.shape, (16 * 8, 3))
+
+    def test_round_trip_every_format(self):
+        V, F = gshell.builtin("torus:12")
+        for ext in ("obj", "off", "ply"):
+            p = self.path("m." + ext)
+            gshell.write_mesh(p, V, F)
+            V2, F2 = gshell.read_mesh(p)
+            np.testing.assert_array_equal(V2, V)  # writers keep full precision
+            np.testing.assert_array_equal(F2, F)
+
+    def test_accepts_other_layouts_and_dtypes(self):
+        V, F = gshell.builtin("sphere:1")
+        p = self.path("m.obj")
+        # Fortran order, float32, int32, a strided view, Python lists: all are fine.
+        gshell.write_mesh(p, np.asfortranarray(V), F.astype(np.int32))
+        np.testing.assert_array_equal(gshell.read_mesh(p)[0], V)
+        gshell.write_mesh(p, V.astype(np.float32), F.astype(np.uint16))
+        np.testing.assert_allclose(gshell.read_mesh(p)[0], V, atol=1e-6)
+        wide = np.hstack([V, np.zeros((len(V), 1))])
+        gshell.write_mesh(p, wide[:, :3], F[::-1])
+        np.testing.assert_array_equal(gshell.read_mesh(p)[1], F[::-1])
+        gshell.write_mesh(p, V.tolist(), F.tolist())
+        np.testing.assert_array_equal(gshell.read_mesh(p)[0], V)
+
+    def test_read_matches_cli_output(self):
+        out = self.path("shell")
+        run_cli("generate", "builtin:sphere:2", "-o", out, "--thickness", "0.05", "--quiet")
+        V, F = gshell.read_mesh(os.path.join(out, "base.obj"))
+        Vb, Fb = gshell.builtin("sphere:2")
+        np.testing.assert_array_equal(V, Vb)
+        np.testing.assert_array_equal(F, Fb)
+
+    def test_bad_arguments_raise_value_error(self):
+        V, F = gshell.builtin("sphere:1")
+        p = self.path("bad.obj")
+        bad = [
+            (V.astype(np.int64), F, "dtype"),
+            (V[:, :2], F, "shape"),
+            (V.reshape(-1), F, "shape"),
+            (V, F.astype(float), "dtype"),
+            (V, F[:, :2], "shape"),
+            (V, F + len(V), "index"),
+            (V, -F, "index"),
+            (V, F.astype(bool), "dtype"),
+            (V.astype(complex), F, "dtype"),
+            (np.where(V > 0.9, np.nan, V), F, "finite"),
+            (np.where(V > 0.9, np.inf, V), F, "finite"),
+            ("not an array", F, "dtype"),
+            (V, None, "dtype"),
+            (V, np.full((2, 3), 2**40), "index"),
+        ]
+        for Vx, Fx, word in bad:
+            with self.subTest(word=word):
+                with self.assertRaises(ValueError) as cm:
+                    gshell.write_mesh(p, Vx, Fx)
+                self.assertIn(word, str(cm.exception).lower() if word != "finite" else str(cm.exception))
+        self.assertFalse(os.path.exists(p))
+        with self.assertRaises(ValueError):
+            gshell.write_mesh(self.path("m.xyz"), V, F)
+        with self.assertRaises(ValueError):
+            gshell.write_mesh(self.path("no/such/folder/m.obj"), V, F)
+        with self.assertRaises(ValueError):
+            gshell.read_mesh(self.path("missing.obj"))
+        with open(p, "w") as f:
+            f.write("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+        with self.assertRaises(ValueError):
+            gshell.read_mesh(p)
+        for spec in ("teapot", "sphere:99", "sphere:x", ""):
+            with self.subTest(spec=spec), self.assertRaises(ValueError):
+                gshell.builtin(spec)
+
+
+class GenerateTest(TempDirTest):
+    def cli_shell(self, spec, *options):
+        out = self.path("cli_" + spec.replace(":", "_") + "_" + str(len(os.listdir(self.tmp))))
+        run_cli("generate", spec, "-o", out, "--quiet", *options)
+        top, _ = gshell.read_mesh(os.path.join(out, "top.obj"))
+        with open(os.path.join(out, "report.json")) as f:
+            report = json.load(f)
+        return out, top, report
+
+    def assert_reports_agree(self, a, b):
+        """Same results; input names and timings differ by nature."""
+        skip = {"input", "seconds", "gshell_version", "base", "top"}
+        self.assertEqual(set(a) - skip, set(b) - skip)
+        for key in set(a) - skip:
+            va, vb = a[key], b[key]
+            if isinstance(va, dict):
+                self.assert_reports_agree(va, vb)
+            elif isinstance(va, list):
+                np.testing.assert_allclose(va, vb, rtol=1e-9, atol=1e-12, err_msg=key)
+            elif isinstance(va, float):
+                self.assertAlmostEqual(va, vb, delta=1e-9 * max(1.0, abs(va)), msg=key)
+            else:
+                self.assertEqual(va, vb, key)
+
+    def test_agrees_with_cli_sphere(self):
+        _, top, report = self.cli_shell("builtin:sphere:3", "--thickness", "0.05")
+        V, F = gshell.builtin("sphere:3")
+        shell = gshell.generate(V, F, thickness=0.05)
+        np.testing.assert_allclose(shell.top, top, atol=1e-9, rtol=0)
+        self.assert_reports_agree(shell.report, report)
+        self.assertEqual(shell.report["input"], "<numpy arrays>")
+
+    def test_agrees_with_cli_ratio_and_methods(self):
+        V, F = gshell.builtin("torus:24")
+        for method in ("offset", "rigid"):
+            with self.subTest(method=method):
+                _, top, report = self.cli_shell(
+                    "builtin:torus:24", "--thickness-ratio", "0.02", "--method", method,
+                    "--iterations", "7", "--tolerance", "1e-7")
+                shell = gshell.generate(V, F, thickness_ratio=0.02, method=method, iterations=7, tolerance=1e-7)
+                np.testing.assert_allclose(shell.top, top, atol=1e-9, rtol=0)
+                self.assert_reports_agree(shell.report, report)
+                self.assertEqual(shell.report["method"], method)
+
+    def test_shell_properties(self):
+        V, F = gshell.builtin("sphere:2")
+        shell = gshell.generate(V, F, thickness=0.1)
+        n, m = len(V), len(F)
+        np.testing.assert_array_equal(shell.base, V)
+        np.testing.assert_array_equal(shell.faces, F)
+        self.assertEqual(shell.top.shape, (n, 3))
+        self.assertEqual(shell.vertices.shape, (2 * n, 3))
+        np.testing.assert_array_equal(shell.vertices[n:], shell.top)
+        self.assertEqual(shell.tets.shape, (3 * m, 4))
+        self.assertEqual(shell.tets.dtype, np.int64)
+        self.assertEqual(shell.stretch.shape, (3 * m,))
+        self.assertEqual(shell.thickness, 0.1)
+        # Every tet of a generated sphere shell is positively oriented.
+        X = shell.vertices[shell.tets]
+        det = np.linalg.det(np.stack([X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]], axis=2))
+        self.assertTrue((det > 0).all())
+        # A sphere's shell is a thicker sphere: every top vertex sits about eta above the base.
+        np.testing.assert_allclose(np.linalg.norm(shell.top, axis=1), 1.1, rtol=2e-2)
+        self.assertGreaterEqual(shell.stretch.min(), 0.0)
+        np.testing.assert_allclose(shell.stretch.max(), shell.report["stretch"]["max"], rtol=1e-12)
+        with self.assertRaises(ValueError):
+            shell.top[0, 0] = 5.0  # read-only: the shell's state cannot change behind its back
+        self.assertIn("Shell", repr(shell))
+
+    def test_energy_does_not_increase(self):
+        V, F = gshell.builtin("bowl:12")
+        shell = gshell.generate(V, F, thickness_ratio=0.05, iterations=20, tolerance=0)
+        energy = shell.report["energy"]
+        self.assertEqual(len(energy), 21)
+        self.assertTrue(all(b <= a * (1 + 1e-12) for a, b in zip(energy, energy[1:])))
+
+    def test_shell_from_arrays_and_folder(self):
+        out, top, _ = self.cli_shell("builtin:sphere:2", "--thickness", "0.05")
+        V, F = gshell.builtin("sphere:2")
+        generated = gshell.generate(V, F, thickness=0.05)
+        wrapped = gshell.Shell(V, F, top, 0.05)
+        loaded = gshell.load_shell(out)
+        for s in (wrapped, loaded):
+            np.testing.assert_allclose(s.top, generated.top, atol=1e-9)
+            np.testing.assert_allclose(s.stretch, generated.stretch, atol=1e-9)
+            np.testing.assert_array_equal(s.tets, generated.tets)
+            self.assertAlmostEqual(s.thickness, 0.05)
+            self.assertIsNone(s.report["top_self_intersections"])
+
+    def test_bad_arguments_raise_value_error(self):
+        V, F = gshell.builtin("sphere:1")
+        cases = {
+            "both thicknesses": dict(thickness=0.1, thickness_ratio=0.1),
+            "no thickness": dict(),
+            "zero thickness": dict(thickness=0.0),
+            "nan thickness": dict(thickness=float("nan")),
+            "negative ratio": dict(thickness_ratio=-1.0),
+            "unknown method": dict(thickness=0.1, method="magic"),
+            "negative iterations": dict(thickness=0.1, iterations=-1),
+            "nan tolerance": dict(thickness=0.1, tolerance=float("nan")),
+        }
+        for name, kwargs in cases.items():
+            with self.subTest(name), self.assertRaises(ValueError):
+                gshell.generate(V, F, **kwargs)
+        arrays = {
+            "int V": (V.astype(int), F),
+            "float F": (V, F.astype(float)),
+            "V (n,2)": (V[:, :2], F),
+            "F (m,4)": (V, np.hstack([F, F[:, :1]])),
+            "NaN": (np.where(V > 0.5, np.nan, V), F),
+            "index out of range": (V, np.vstack([F, [[0, 1, len(V)]]])),
+            "negative index": (V, np.vstack([F, [[0, 1, -1]]])),
+            "repeated index": (V, np.vstack([F, [[0, 0, 1]]])),
+            "non-manifold": (V, np.vstack([F, F[:1]])),
+            "no faces": (V, np.zeros((0, 3), dtype=int)),
+            "no vertices": (np.zeros((0, 3)), np.zeros((0, 3), dtype=int)),
+        }
+        for name, (Vx, Fx) in arrays.items():
+            with self.subTest(name), self.assertRaises(ValueError):
+                gshell.generate(Vx, Fx, thickness=0.1)
+        with self.assertRaises(ValueError):
+            gshell.Shell(V, F, V[:-1], 0.1)
+        with self.assertRaises(ValueError):
+            gshell.Shell(V, F, V * 1.1, -1.0)
+        with self.assertRaises(ValueError):
+            gshell.load_shell(self.path("no_such_shell"))
+        with self.assertRaises(TypeError):  # not an array argument at all: Python's own error
+            gshell.generate(V, F, thickness="thick")
+
+
+class GilTest(unittest.TestCase):
+    def ticks_while(self, work):
+        """How many times the main thread woke from a 1 ms sleep while `work` ran in another thread.
+        A call that holds the GIL leaves the main thread no chance to wake until it returns."""
+        started = threading.Event()
+
+        def run():
+            started.set()
+            work()
+        t = threading.Thread(target=run)
+        t.start()
+        started.wait()
+        ticks = 0
+        while t.is_alive():
+            time.sleep(0.001)
+            ticks += 1
+        t.join()
+        return ticks
+
+    def test_long_calls_release_the_gil(self):
+        # 10242 vertices: each call below takes a few hundred ms, hundreds of ticks when the GIL is
+        # released; a call that holds it (e.g. sorted() of a long list) gets a handful.
+        V, F = gshell.builtin("sphere:5")
+        self.assertGreater(self.ticks_while(
+            lambda: gshell.generate(V, F, thickness=0.01, iterations=5, tolerance=0, count_intersections=False)), 20)
+        shell = gshell.generate(V, F, thickness=0.01, iterations=1, count_intersections=False)
+        deformer = gshell.Deformer(shell)
+        self.assertGreater(self.ticks_while(lambda: deformer.solve(V * 1.1, tolerance=0, iterations=10)), 20)
+
+
+class MetricsTest(TempDirTest):
+    def test_agrees_with_cli(self):
+        V, F = gshell.builtin("sphere:3")
+        top = V * 1.05 + 0.002 * np.sin(7 * V)  # a bumpy top: non-trivial stretch
+        gshell.write_mesh(self.path("top.obj"), top, F)
+        run_cli("metrics", "builtin:sphere:3", self.path("top.obj"), "--thickness", "0.05",
+                "-o", self.path("m.json"), "--quiet")
+        with open(self.path("m.json")) as f:
+            cli = json.load(f)
+        mine = gshell.metrics(V, F, top, 0.05)
+        for key in ("vertices", "faces", "tets", "inverted_tets", "top_self_intersections",
+                    "top_base_intersections"):
+            self.assertEqual(mine[key], cli[key], key)
+        for group in ("stretch", "thickness"):
+            for key, value in cli[group].items():
+                if value is None:
+                    self.assertIsNone(mine[group][key])
+                else:
+                    self.assertAlmostEqual(mine[group][key], value, delta=1e-9 * max(1, abs(value)), msg=key)
+        self.assertEqual(mine["tet_stretch"].shape, (3 * len(F),))
+        self.assertEqual(mine["vertex_thickness"].shape, (len(V),))
+        self.assertAlmostEqual(mine["vertex_thickness"].min(), cli["thickness"]["min"], delta=1e-9)
+
+    def test_exact_offset_sphere(self):
+        # The concentric sphere at distance eta: thickness exactly 1 (relative), no intersections.
+        V, F = gshell.builtin("sphere:2")
+        m = gshell.metrics(V, F, V * 1.1, thickness=0.1)
+        self.assertAlmostEqual(m["thickness"]["min"], 1.0, delta=1e-3)
+        self.assertEqual(m["inverted_tets"], 0)
+        self.assertEqual(m["top_self_intersections"], 0)
+        self.assertEqual(m["top_base_intersections"], 0)
+        m = gshell.metrics(V, F, V * 1.1, thickness_ratio=0.1, count_intersections=False)
+        self.assertIsNone(m["top_self_intersections"])
+        self.assertAlmostEqual(m["thickness"]["ratio"], 0.1)
+
+    def test_bad_arguments(self):
+        V, F = gshell.builtin("sphere:1")
+        for args, kwargs in [((V, F, V[:-1], 0.1), {}), ((V, F, V, 0.1), dict(thickness_ratio=0.1)),
+                             ((V, F, V), {}), ((V, F, np.full_like(V, np.nan), 0.1), {}),
+                             ((V, F, V.astype(np.int32), 0.1), {}), ((V, F + 1, V, 0.1), {})]:
+            with self.subTest(kwargs=kwargs), self.assertRaises(ValueError):
+                gshell.metrics(*args, **kwargs)
+
+
+class DeformTest(TempDirTest):
+    @classmethod
+    def setUpClass(cls):
+        V, F = gshell.builtin("sphere:3")
+        cls.shell = gshell.generate(V, F, thickness=0.05, count_intersections=False)
+
+    def test_rigid_motion_moves_top_rigidly(self):
+        d = gshell.Deformer(self.shell)
+        self.assertIsNone(d.last)
+        R, t = rotation([1, 2, 3], 40), np.array([0.3, -0.2, 0.5])
+        top = d.solve(self.shell.base @ R.T + t, tolerance=1e-9)
+        np.testing.assert_allclose(top, self.shell.top @ R.T + t, atol=1e-6)
+        self.assertLess(d.last["stretch"]["max"], 1e-9)
+        self.assertEqual(d.last["inverted_tets"], 0)
+        np.testing.assert_allclose(d.vertices[len(top):], top)
+
+    def test_agrees_with_cli(self):
+        out = self.path("shell")
+        run_cli("generate", "builtin:sphere:3", "-o", out, "--thickness", "0.05", "--quiet")
+        V = self.shell.base
+        bent = V.copy()
+        bent[:, 0] += 0.3 * V[:, 2] ** 2  # a bend: the top has to work
+        gshell.write_mesh(self.path("bent.obj"), bent, self.shell.faces)
+        run_cli("deform", "--shell", out, "--base", self.path("bent.obj"), "-o", self.path("def"), "--quiet")
+        cli_top, _ = gshell.read_mesh(os.path.join(self.path("def"), "frame_0001", "top.obj"))
+        with open(os.path.join(self.path("def"), "report.json")) as f:
+            cli_frame = json.load(f)["frames"][0]
+        d = gshell.Deformer(gshell.load_shell(out))
+        top = d.solve(bent)
+        np.testing.assert_allclose(top, cli_top, atol=1e-9)
+        self.assertEqual(d.last["iterations"], cli_frame["iterations"])
+        np.testing.assert_allclose(d.last["energy"], cli_frame["energy"], rtol=1e-9)
+        self.assertAlmostEqual(d.last["stretch"]["max"], cli_frame["stretch"]["max"], delta=1e-9)
+
+    def test_reset_and_threads(self):
+        d = gshell.Deformer(self.shell)
+        R = rotation([0, 0, 1], 30)
+        first = d.solve(self.shell.base @ R.T)
+        d.reset()
+        np.testing.assert_allclose(d.solve(self.shell.base @ R.T), first, atol=1e-12)
+        # Concurrent solves on one deformer take turns (the GIL is released inside).
+        results, errors = [], []
+
+        def work(k):
+            try:
+                results.append(d.solve(self.shell.base @ rotation([0, 1, 0], 5 * k).T, tolerance=1e-8))
+            except Exception as e:  # pragma: no cover - reported below
+                errors.append(e)
+        threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        self.assertEqual(errors, [])
+        self.assertEqual(len(results), 4)
+
+    def test_bad_arguments(self):
+        d = gshell.Deformer(self.shell)
+        V = self.shell.base
+        for args, kwargs in [((V[:-1],), {}), ((np.where(V > 0.9, np.nan, V),), {}), ((V.astype(int),), {}),
+                             ((V,), dict(warm_start="sideways")), ((V,), dict(iterations=-2)),
+                             ((V,), dict(tolerance=-1.0))]:
+            with self.subTest(kwargs=kwargs), self.assertRaises(ValueError):
+                d.solve(*args, **kwargs)
+        with self.assertRaises(TypeError):
+            gshell.Deformer("not a shell")
+
+
+class EmbedTest(TempDirTest):
+    @classmethod
+    def setUpClass(cls):
+        V, F = gshell.builtin("sphere:2")
+        cls.shell = gshell.generate(V, F, thickness=0.1, count_intersections=False)
+
+    def test_carry_reproduces_rest_and_follows_rigid_motion(self):
+        X = self.shell.vertices
+        points = X[self.shell.tets].mean(axis=1)  # tet centroids: inside by construction
+        e = gshell.embed(self.shell, points)
+        self.assertEqual(len(e), len(points))
+        self.assertEqual(len(e.outside), 0)
+        np.testing.assert_allclose(e.bary.sum(axis=1), 1.0, atol=1e-12)
+        np.testing.assert_allclose(e.carry(self.shell), points, atol=1e-12)
+        np.testing.assert_allclose(e.carry(X), points, atol=1e-12)
+        R, t = rotation([1, 1, 0], 70), np.array([1.0, 2.0, 3.0])
+        np.testing.assert_allclose(e.carry(X @ R.T + t), points @ R.T + t, atol=1e-12)
+        d = gshell.Deformer(self.shell)
+        d.solve(self.shell.base @ R.T + t, tolerance=1e-10)
+        np.testing.assert_allclose(e.carry(d.vertices), points @ R.T + t, atol=1e-6)
+
+    def test_outside_points(self):
+        e = gshell.embed(self.shell, np.array([[0.0, 0.0, 2.0], [0.0, 0.0, 1.05]]))
+        np.testing.assert_array_equal(e.outside, [0])
+        self.assertGreater(e.max_outside_distance, 0.5)
+        np.testing.assert_allclose(e.carry(self.shell), [[0, 0, 2], [0, 0, 1.05]], atol=1e-9)
+
+    def test_agrees_with_cli(self):
+        out = self.path("shell")
+        run_cli("generate", "builtin:sphere:2", "-o", out, "--thickness", "0.1", "--quiet")
+        detail = gshell.builtin("sphere:1")
+        dV = detail[0] * 1.05
+        gshell.write_mesh(self.path("detail.obj"), dV, detail[1])
+        R = rotation([0, 1, 1], 25)
+        gshell.write_mesh(self.path("moved.obj"), self.shell.base @ R.T, self.shell.faces)
+        run_cli("deform", "--shell", out, "--base", self.path("moved.obj"), "--embed", self.path("detail.obj"),
+                "-o", self.path("def"), "--quiet")
+        cli_detail, _ = gshell.read_mesh(os.path.join(self.path("def"), "frame_0001", "detail.obj"))
+        shell = gshell.load_shell(out)
+        d = gshell.Deformer(shell)
+        d.solve(shell.base @ R.T)
+        np.testing.assert_allclose(gshell.embed(shell, dV).carry(d.vertices), cli_detail, atol=1e-9)
+
+    def test_bad_arguments(self):
+        with self.assertRaises(ValueError):
+            gshell.embed(self.shell, np.array([[np.nan, 0, 0]]))
+        with self.assertRaises(ValueError):
+            gshell.embed(self.shell, np.zeros((3, 2)))
+        e = gshell.embed(self.shell, np.zeros((1, 3)))
+        with self.assertRaises(ValueError):
+            e.carry(self.shell.vertices[:-1])
+        with self.assertRaises(ValueError):
+            e.carry(gshell.generate(*gshell.builtin("sphere:1"), thickness=0.1))
+
+
+HANDLES = {"handles": [
+    {"select": {"surface": "both", "box": [-2, -2, -2, 2, 2, -0.7]}},
+    {"select": {"surface": "both", "box": [-2, -2, 0.7, 2, 2, 2]}, "translate": [0.2, 0, 0.1],
+     "rotate": {"axis": [0, 1, 0], "degrees": 30}},
+]}
+
+
+class PoseTest(TempDirTest):
+    @classmethod
+    def setUpClass(cls):
+        V, F = gshell.builtin("sphere:2")
+        cls.shell = gshell.generate(V, F, thickness=0.05, count_intersections=False)
+
+    def test_agrees_with_cli(self):
+        out = self.path("shell")
+        run_cli("generate", "builtin:sphere:2", "-o", out, "--thickness", "0.05", "--quiet")
+        handles = self.path("handles.json")
+        with open(handles, "w") as f:
+            json.dump(HANDLES, f)
+        shell = gshell.load_shell(out)
+        for solver in ("hierarchical", "single"):
+            with self.subTest(solver=solver):
+                run_cli("pose", "--shell", out, "--handles", handles, "-o", self.path("posed"), "--solver", solver,
+                        "--levels", "3", "--iterations", "20", "--steps", "2", "--quiet")
+                cli_base, _ = gshell.read_mesh(os.path.join(self.path("posed"), "base.obj"))
+                cli_top, _ = gshell.read_mesh(os.path.join(self.path("posed"), "top.obj"))
+                with open(os.path.join(self.path("posed"), "report.json")) as f:
+                    cli = json.load(f)
+                poser = gshell.Poser(shell, solver=solver, levels=3)
+                base, top = poser.solve(HANDLES, iterations=20, steps=2)
+                np.testing.assert_allclose(base, cli_base, atol=1e-9)
+                np.testing.assert_allclose(top, cli_top, atol=1e-9)
+                last = poser.last
+                self.assertEqual([s["iterations"] for s in last["steps"]], [s["iterations"] for s in cli["steps"]])
+                self.assertEqual([s["fraction"] for s in last["steps"]], [0.5, 1.0])
+                for key in ("max", "volume_mean", "inverted"):
+                    self.assertAlmostEqual(last["stretch"][key], cli["stretch"][key], delta=1e-9)
+                self.assertEqual(last["handle_vertices"], cli["handle_vertices"])
+                # The same handles from the file give the same result.
+                base2, top2 = gshell.Poser(shell, solver=solver, levels=3).solve(handles, iterations=20, steps=2)
+                np.testing.assert_array_equal(base2, base)
+                np.testing.assert_array_equal(top2, top)
+
+    def test_rigid_handle_moves_everything_rigidly(self):
+        everything = {"handles": [{"select": {"box": [-5, -5, -5, 5, 5, 5]}, "translate": [1, 2, 3],
+                                   "rotate": {"axis": [1, 0, 0], "degrees": 90, "center": [0, 0, 0]}}]}
+        poser = gshell.Poser(self.shell, solver="single")
+        base, top = poser.solve(everything)
+        R = rotation([1, 0, 0], 90)
+        np.testing.assert_allclose(base, self.shell.base @ R.T + [1, 2, 3], atol=1e-12)
+        np.testing.assert_allclose(top, self.shell.top @ R.T + [1, 2, 3], atol=1e-12)
+        self.assertLess(poser.last["stretch"]["max"], 1e-20)
+
+    def test_held_handles_keep_the_rest_shell(self):
+        held = {"handles": [{"select": {"box": [-5, -5, -5, 5, 5, -0.5]}}]}
+        poser = gshell.Poser(self.shell, levels=3)
+        self.assertIsNone(poser.last)
+        np.testing.assert_array_equal(poser.vertices, self.shell.vertices)
+        base, top = poser.solve(held, iterations=5)
+        np.testing.assert_allclose(base, self.shell.base, atol=1e-9)
+        np.testing.assert_allclose(top, self.shell.top, atol=1e-9)
+        self.assertEqual(poser.last["stretch"]["inverted"], 0)
+
+    def test_drag_continues_with_the_same_handles(self):
+        poser = gshell.Poser(self.shell, solver="single")
+        poser.solve(HANDLES, fraction=0.5)
+        self.assertEqual(poser.last["steps"][0]["fraction"], 0.5)
+        poser.solve(HANDLES, steps=2)
+        self.assertEqual([s["fraction"] for s in poser.last["steps"]], [0.75, 1.0])
+        poser.reset()
+        poser.solve(HANDLES, steps=2)
+        self.assertEqual([s["fraction"] for s in poser.last["steps"]], [0.5, 1.0])
+
+    def test_bad_arguments(self):
+        poser = gshell.Poser(self.shell, solver="single")
+        bad_handles = {
+            "unknown key": {"handles": [{"vertices": [0], "pull": [0, 0, 1]}]},
+            "id out of range": {"handles": [{"vertices": [0, 10**6]}]},
+            "empty selection": {"handles": [{"select": {"box": [5, 5, 5, 6, 6, 6]}}]},
+            "NaN": {"handles": [{"vertices": [0], "translate": [float("nan"), 0, 0]}]},
+            "zero axis": {"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 0], "degrees": 5}}]},
+            "no handles": {"handles": []},
+            "not JSON": {"handles": [{"vertices": {1, 2}}]},
+        }
+        for name, handles in bad_handles.items():
+            with self.subTest(name), self.assertRaises(ValueError):
+                poser.solve(handles)
+        for handles in ([1, 2], 3.5, self.path("missing.json")):
+            with self.subTest(handles=handles), self.assertRaises(ValueError):
+                poser.solve(handles)
+        for kwargs in (dict(fraction=1.5), dict(steps=0), dict(iterations=0), dict(tolerance=float("nan"))):
+            with self.subTest(kwargs=kwargs), self.assertRaises(ValueError):
+                poser.solve(HANDLES, **kwargs)
+        with self.assertRaises(ValueError):
+            gshell.Poser(self.shell, solver="multigrid")
+        with self.assertRaises(ValueError):
+            gshell.Poser(self.shell, levels=0)
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,54 @@
+#include <gshell/deform/embedding.h>
+
+#include <gshell/deform/tet_locator.h>
+#include <gshell/error.h>
+
+#include <tbb/parallel_for.h>
+
+#include <string>
+
+namespace gshell {
+
+Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, const Eigen::MatrixXd& P) {
+  if (P.cols() != 3) throw InputError("embedded points must have 3 coordinates");
+  for (Eigen::Index p = 0; p < P.rows(); ++p)
+    if (!P.row(p).allFinite())
+      throw InputError("embedded point " + std::to_string(p) + " has a non-finite coordinate");
+  const TetLocator locator(X_rest, T);
+  if (locator.usable_tets() == 0) throw InputError("the shell has no tet of positive volume to embed points in");
+
+  const int n = static_cast<int>(P.rows());
+  Embedding e;
+  e.tet.resize(n);
+  e.vertices.resize(n, 4);
+  e.bary.resize(n, 4);
+  std::vector<char> is_outside(n, 0);
+  Eigen::VectorXd distance = Eigen::VectorXd::Zero(n);
+  tbb::parallel_for(0, n, [&](int p) {
+    const TetHit hit = locator.locate(P.row(p).transpose());
+    e.tet(p) = hit.tet;
+    e.vertices.row(p) = T.row(hit.tet);
+    e.bary.row(p) = hit.bary.transpose();
+    is_outside[p] = hit.inside ? 0 : 1;
+    distance(p) = hit.distance;
+  });
+  for (int p = 0; p < n; ++p)
+    if (is_outside[p]) {
+      e.outside.push_back(p);
+      e.max_outside_distance = std::max(e.max_outside_distance, distance(p));
+    }
+  return e;
+}
+
+Eigen::MatrixXd carry(const Embedding& embedding, const Eigen::MatrixXd& X) {
+  const int n = embedding.size();
+  Eigen::MatrixXd out(n, 3);
+  for (int p = 0; p < n; ++p) {
+    Eigen::RowVector3d q = Eigen::RowVector3d::Zero();
+    for (int k = 0; k < 4; ++k) q += embedding.bary(p, k) * X.row(embedding.vertices(p, k));
+    out.row(p) = q;
+  }
+  return out;
+}
+
+} // namespace gshell

@@ -1,0 +1,265 @@
+#include <gshell/deform/shell_deformer.h>
+
+#include <gshell/error.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+
+#include <Eigen/Geometry>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <Eigen/LU>
+
+#include <chrono>
+#include <numeric>
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+double signed_volume(const Eigen::MatrixXd& corners, Eigen::Index first) {
+  Eigen::Matrix3d D;
+  for (int k = 0; k < 3; ++k) D.col(k) = (corners.row(first + k + 1) - corners.row(first)).transpose();
+  return D.determinant() / 6;
+}
+
+std::vector<int> base_ids(int n) {
+  std::vector<int> ids(n);
+  std::iota(ids.begin(), ids.end(), 0);
+  return ids;
+}
+
+} // namespace
+
+RestTets deformation_rest_tets(const Shell& shell, int* replaced) {
+  const int n = shell.num_base_vertices();
+  const Eigen::MatrixXi T = build_prism_tets(shell.F, n), C = prism_tet_corners(shell.F);
+  double eta = shell.thickness;
+  if (!(eta > 0) && n > 0) eta = (shell.top - shell.base).rowwise().norm().mean();
+  const PrismCorners ideal = normal_prisms(shell.base, shell.F, eta);
+  const Eigen::MatrixXd X = shell.vertices();
+  Eigen::MatrixXd corners(4 * T.rows(), 3), ideal_corners(4, 3);
+  int count = 0;
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    for (int k = 0; k < 4; ++k) {
+      corners.row(4 * t + k) = X.row(T(t, k));
+      ideal_corners.row(k) = ideal.row(6 * (t / 3) + C(t, k));
+    }
+    if (signed_volume(corners, 4 * t) < kMinRestVolumeRatio * signed_volume(ideal_corners, 0)) {
+      corners.middleRows(4 * t, 4) = ideal_corners;
+      ++count;
+    }
+  }
+  if (replaced) *replaced = count;
+  return rest_tets_from_corners(T, corners);
+}
+
+const char* warm_start_name(WarmStart w) {
+  switch (w) {
+  case WarmStart::PreviousTop: return "previous";
+  case WarmStart::Translated: return "translated";
+  case WarmStart::RotatedOffset: return "rotated";
+  case WarmStart::Extrapolated: return "extrapolated";
+  }
+  return "?";
+}
+
+WarmStart parse_warm_start(const std::string& name) {
+  if (name == "previous") return WarmStart::PreviousTop;
+  if (name == "translated") return WarmStart::Translated;
+  if (name == "rotated") return WarmStart::RotatedOffset;
+  if (name == "extrapolated") return WarmStart::Extrapolated;
+  throw InputError("unknown warm start '" + name + "' (previous, translated, rotated, extrapolated)");
+}
+
+VertexRings vertex_rings(const Eigen::MatrixXi& F, int n) {
+  std::vector<std::vector<int>> rings(n);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int a = F(f, c), b = F(f, (c + 1) % 3);
+      rings[a].push_back(b);
+      rings[b].push_back(a);
+    }
+  VertexRings out;
+  out.start.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    auto& r = rings[i];
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    out.start[i + 1] = out.start[i] + static_cast<int>(r.size());
+    out.ids.insert(out.ids.end(), r.begin(), r.end());
+  }
+  return out;
+}
+
+namespace {
+
+// Maximises tr(R^T C) over rotations by Newton steps on the rotation vector: for B = C R^T the
+// gradient is g = axial(B - B^T) and the Hessian tr(B) I - sym(B), positive definite near the
+// optimum; where it is not (far from it), the step of Mueller et al. 2016 ("A robust method to
+// extract the rotational part of deformations"), g / |tr B|, is taken instead. Started from the
+// identity, the small frame-to-frame rotations of an animation take 2-3 steps.
+Eigen::Matrix3d fit_rotation(const Eigen::Matrix3d& C) {
+  const double norm = C.norm();
+  if (!(norm > 0) || !std::isfinite(norm)) return Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d A = C / norm;
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  for (int iteration = 0; iteration < 30; ++iteration) {
+    const Eigen::Matrix3d B = A * R.transpose();
+    const Eigen::Vector3d g(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
+    const double trace = B.trace();
+    const Eigen::Matrix3d H = trace * Eigen::Matrix3d::Identity() - 0.5 * (B + B.transpose());
+    // Positive definite (Sylvester) -> Newton step by the adjugate, else the robust step.
+    const double m1 = H(0, 0), m2 = H(0, 0) * H(1, 1) - H(0, 1) * H(1, 0), det = H.determinant();
+    const Eigen::Vector3d w = m1 > 0 && m2 > 0 && det > 1e-12 ? Eigen::Vector3d(H.inverse() * g)
+                                                             : Eigen::Vector3d(g / (std::abs(trace) + 1e-9));
+    const double angle = w.norm();
+    // Capped so a step never overshoots; the quaternion form needs no trigonometry.
+    const Eigen::Vector3d v = angle > 1.0 ? Eigen::Vector3d(w / angle) : w;
+    q = Eigen::Quaterniond(1.0, 0.5 * v.x(), 0.5 * v.y(), 0.5 * v.z()) * q;
+    q.normalize();
+    R = q.toRotationMatrix();
+    // Newton converges quadratically: after a step below 1e-4 rad the error is ~1e-8 rad, which
+    // moves an offset of length eta by 1e-8 eta: plenty for a warm start.
+    if (angle < 1e-4) break;
+  }
+  return R;
+}
+
+} // namespace
+
+std::vector<Eigen::Matrix3d> ring_rotations(const Eigen::MatrixXd& old_base, const Eigen::MatrixXd& new_base,
+                                            const Eigen::MatrixXd& old_normals, const Eigen::MatrixXd& new_normals,
+                                            const VertexRings& rings) {
+  const int n = static_cast<int>(old_base.rows());
+  std::vector<Eigen::Matrix3d> rotations(n);
+  // Row-major copies: each ring visit reads one contiguous point instead of three strided values.
+  using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  const Points P = old_base, Q = new_base;
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 1024), [&](const tbb::blocked_range<int>& range) {
+    for (int i = range.begin(); i != range.end(); ++i) {
+      Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+      double squared_lengths = 0;
+      const Eigen::Vector3d p = P.row(i).transpose(), q = Q.row(i).transpose();
+      for (int k = rings.start[i]; k < rings.start[i + 1]; ++k) {
+        const int j = rings.ids[k];
+        const Eigen::Vector3d dp = P.row(j).transpose() - p, dq = Q.row(j).transpose() - q;
+        C.noalias() += dq * dp.transpose();
+        squared_lengths += dp.squaredNorm();
+      }
+      // A regular ring contributes about (sum |dp|^2 / 2) per in-plane direction: weighting the
+      // normal alike makes C nearly isotropic, and the fit converges in a few steps.
+      C.noalias() += 0.5 * squared_lengths * new_normals.row(i).transpose() * old_normals.row(i);
+      rotations[i] = fit_rotation(C);
+    }
+  });
+  return rotations;
+}
+
+namespace {
+
+Eigen::MatrixXd rotate_offsets(const Eigen::MatrixXd& old_base, const Eigen::MatrixXd& old_top,
+                               const Eigen::MatrixXd& new_base, const std::vector<Eigen::Matrix3d>& rotations) {
+  const int n = static_cast<int>(old_base.rows());
+  Eigen::MatrixXd top(n, 3);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 4096), [&](const tbb::blocked_range<int>& range) {
+    for (int i = range.begin(); i != range.end(); ++i)
+      top.row(i) = new_base.row(i) + (rotations[i] * (old_top.row(i) - old_base.row(i)).transpose()).transpose();
+  });
+  return top;
+}
+
+} // namespace
+
+Eigen::MatrixXd rotated_offset_top(const Eigen::MatrixXd& old_base, const Eigen::MatrixXd& old_top,
+                                   const Eigen::MatrixXd& new_base, const Eigen::MatrixXi& F,
+                                   const VertexRings& rings,
+                                   std::vector<Eigen::Matrix3d>* rotations) {
+  std::vector<Eigen::Matrix3d> R =
+      ring_rotations(old_base, new_base, vertex_normals(old_base, F), vertex_normals(new_base, F), rings);
+  Eigen::MatrixXd top = rotate_offsets(old_base, old_top, new_base, R);
+  if (rotations) *rotations = std::move(R);
+  return top;
+}
+
+ShellDeformer::ShellDeformer(const Shell& rest)
+    : rest_(rest),
+      solver_(deformation_rest_tets(rest, &replaced_), 2 * rest.num_base_vertices(), base_ids(rest.num_base_vertices())),
+      current_(rest.vertices()),
+      rings_(vertex_rings(rest.F, rest.num_base_vertices())),
+      current_normals_(vertex_normals(rest.base, rest.F)) {}
+
+void ShellDeformer::reset() {
+  current_ = rest_.vertices();
+  current_normals_ = vertex_normals(rest_.base, rest_.F);
+  last_correction_.resize(0, 3);
+  last_motion_ = 0;
+}
+
+FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOptions& options) {
+  const int n = rest_.num_base_vertices();
+  if (new_base.rows() != n || new_base.cols() != 3)
+    throw InputError("the new base has " + std::to_string(new_base.rows()) + " vertices, the shell's base has " +
+                     std::to_string(n));
+  if (!new_base.allFinite()) throw InputError("the new base has a non-finite coordinate");
+
+  const auto start = Clock::now();
+  const Eigen::MatrixXd old_base = current_.topRows(n), old_top = current_.bottomRows(n);
+  Eigen::MatrixXd X(2 * n, 3);
+  X.topRows(n) = new_base;
+  const double motion = (new_base - old_base).norm();
+  Eigen::MatrixXd rotated; // the RotatedOffset start, to measure the solver's correction
+  std::vector<Eigen::Matrix3d> rotations;
+  Eigen::MatrixXd new_normals = vertex_normals(new_base, rest_.F);
+  switch (options.warm_start) {
+  case WarmStart::PreviousTop: X.bottomRows(n) = old_top; break;
+  case WarmStart::Translated: X.bottomRows(n) = old_top + (new_base - old_base); break;
+  case WarmStart::RotatedOffset:
+  case WarmStart::Extrapolated:
+    rotations = ring_rotations(old_base, new_base, current_normals_, new_normals, rings_);
+    rotated = rotate_offsets(old_base, old_top, new_base, rotations);
+    X.bottomRows(n) = rotated;
+    if (options.warm_start == WarmStart::Extrapolated && last_correction_.rows() == n && last_motion_ > 0) {
+      const double scale = std::min(1.0, motion / last_motion_);
+      tbb::parallel_for(0, n, [&](int i) {
+        X.row(n + i) += scale * (rotations[i] * last_correction_.row(i).transpose()).transpose();
+      });
+    }
+    break;
+  }
+  const double warm_start_seconds = seconds_since(start);
+  SolveOptions solve_options;
+  solve_options.max_iterations = options.max_iterations;
+  solve_options.tolerance = options.tolerance;
+  const SolveResult solved = solver_.solve(X, solve_options);
+
+  FrameResult result;
+  result.seconds = seconds_since(start);
+  result.warm_start_seconds = warm_start_seconds;
+  result.iterations = solved.iterations;
+  result.energy = solved.energy;
+  result.converged = solved.converged;
+  if (options.measure_stretch) {
+    const auto stretch_start = Clock::now();
+    result.stretch = stretch_stats(solver_.rest(), X);
+    result.stretch_seconds = seconds_since(stretch_start);
+  }
+  result.top = X.bottomRows(n);
+  if (rotated.rows() == n) last_correction_ = result.top - rotated;
+  else last_correction_.resize(0, 3);
+  last_motion_ = motion;
+  current_ = std::move(X);
+  current_normals_ = std::move(new_normals);
+  return result;
+}
+
+} // namespace gshell

@@ -1,0 +1,73 @@
+#include <gshell/render/figure.h>
+
+#include <gshell/error.h>
+#include <gshell/render/annotate.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace gshell {
+
+int FigureLayout::color_bar_column(double value) const {
+  if (!color_scale || color_bar.w <= 0) return color_bar.x;
+  const double span = color_scale->max - color_scale->min;
+  const double t = span > 0 ? std::clamp((value - color_scale->min) / span, 0.0, 1.0) : 0.0;
+  return color_bar.x + static_cast<int>(std::lround(t * (color_bar.w - 1)));
+}
+
+Image render_figure(const std::vector<Panel>& panels, const FigureOptions& options, FigureLayout* layout) {
+  if (panels.empty()) throw InputError("render: nothing to render");
+  const int n = static_cast<int>(panels.size());
+  const int text_scale = std::clamp(static_cast<int>(std::lround(options.height / 360.0)), 1, 6);
+  const int pad = 4 * text_scale;
+  const bool any_caption = std::any_of(panels.begin(), panels.end(), [](const Panel& p) { return !p.caption.empty(); });
+  const int caption_h = any_caption ? text_height(text_scale) + 2 * pad : 0;
+  const int bar_h = 5 * text_scale;
+  const int bottom_h = options.color_bar ? bar_h + 4 * text_scale + text_height(text_scale) + 2 * pad
+                                         : (options.footnote.empty() ? 0 : text_height(text_scale) + 2 * pad);
+  const int panel_h = options.height - caption_h - bottom_h;
+  const int panel_w = options.width / n;
+  if (panel_w < 16 || panel_h < 16)
+    throw InputError("render: image " + std::to_string(options.width) + "x" + std::to_string(options.height) +
+                     " is too small for " + std::to_string(n) + " panel(s)");
+
+  Image figure(options.width, options.height);
+  FigureLayout placed;
+  const Rgb8 ink{30, 30, 30};
+  for (int i = 0; i < n; ++i) {
+    const Panel& panel = panels[i];
+    RenderOptions ro;
+    ro.width = panel_w;
+    ro.height = panel_h;
+    ro.supersample = options.supersample;
+    placed.panels.push_back({i * panel_w, caption_h, panel_w, panel_h});
+    const Eigen::MatrixXd points = scene_points(panel.scene);
+    if (points.rows() > 0) {
+      const Camera camera = frame_camera(points, options.view, static_cast<double>(panel_w) / panel_h, options.projection);
+      blit(figure, render_scene(panel.scene, camera, ro), i * panel_w, caption_h);
+    }
+    if (!panel.caption.empty()) {
+      const std::string text = fit_text(panel.caption, text_scale, panel_w - 2 * pad);
+      draw_text(figure, i * panel_w + (panel_w - text_width(text, text_scale)) / 2, pad, text, text_scale, ink);
+    }
+    if (i > 0) figure.fill_rect(i * panel_w, caption_h, 1, panel_h, 200, 200, 200); // thin divider
+  }
+  const int bottom_y = caption_h + panel_h + pad;
+  if (options.color_bar) {
+    const int label_w = text_width(options.color_bar->label, text_scale) + 6 * text_scale;
+    const int bar_w = std::max(options.width / 3, 40);
+    const int bar_x = std::max((options.width - bar_w) / 2, label_w + pad);
+    placed.color_scale = options.color_bar;
+    placed.color_bar = {bar_x, bottom_y, std::min(bar_w, options.width - bar_x - 4 * pad), bar_h};
+    draw_color_bar(figure, bar_x, bottom_y, placed.color_bar.w, bar_h, *options.color_bar, text_scale);
+  }
+  if (!options.footnote.empty()) {
+    const int small = std::max(1, text_scale - 1);
+    const int y = options.height - text_height(small) - pad / 2;
+    draw_text(figure, pad, y, fit_text(options.footnote, small, options.width - 2 * pad), small, Rgb8{90, 90, 90});
+  }
+  if (layout) *layout = std::move(placed);
+  return figure;
+}
+
+} // namespace gshell

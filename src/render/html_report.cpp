@@ -1,0 +1,330 @@
+#include <gshell/render/html_report.h>
+
+#include <gshell/error.h>
+#include <gshell/io/atomic_file.h>
+#include <gshell/render/color_map.h>
+#include <gshell/render/image.h>
+#include <gshell/render/shell_render.h>
+#include <gshell/render/svg_plot.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#ifndef GSHELL_VERSION
+#define GSHELL_VERSION "unknown"
+#endif
+
+namespace gshell {
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json; // keeps the order report.json was written in
+
+std::string base64_encode(const std::string& bytes) {
+  static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned v = (static_cast<unsigned char>(bytes[i]) << 16) | (static_cast<unsigned char>(bytes[i + 1]) << 8) |
+                       static_cast<unsigned char>(bytes[i + 2]);
+    out += alphabet[(v >> 18) & 63];
+    out += alphabet[(v >> 12) & 63];
+    out += alphabet[(v >> 6) & 63];
+    out += alphabet[v & 63];
+  }
+  if (i < bytes.size()) {
+    unsigned v = static_cast<unsigned char>(bytes[i]) << 16;
+    if (i + 1 < bytes.size()) v |= static_cast<unsigned char>(bytes[i + 1]) << 8;
+    out += alphabet[(v >> 18) & 63];
+    out += alphabet[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? alphabet[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+namespace {
+
+// Integers exactly, other numbers to 6 significant digits.
+std::string format_json_number(const json& v) {
+  if (v.is_number_integer() || v.is_number_unsigned()) return v.dump();
+  const double d = v.get<double>();
+  if (std::isfinite(d) && d == std::round(d) && std::abs(d) < 1e15) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.0f", d);
+    return buf;
+  }
+  return format_number(d, 6);
+}
+
+bool is_number_list(const json& v) {
+  if (!v.is_array() || v.empty()) return false;
+  for (const auto& x : v)
+    if (!x.is_number()) return false;
+  return true;
+}
+
+bool is_object_list(const json& v) {
+  if (!v.is_array() || v.empty()) return false;
+  for (const auto& x : v)
+    if (!x.is_object()) return false;
+  return true;
+}
+
+std::string format_value(const json& v) {
+  if (v.is_number()) return format_json_number(v);
+  if (v.is_string()) return xml_escape(v.get<std::string>());
+  if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
+  if (v.is_null()) return "null";
+  if (v.is_array()) {
+    std::string out;
+    for (const auto& x : v) out += (out.empty() ? "" : " ") + format_value(x);
+    return "[" + out + "]";
+  }
+  return xml_escape(v.dump()); // objects inside lists: rare, shown verbatim
+}
+
+// Leaves of a nested object as ("a.b", value); lists are leaves.
+void flatten(const json& v, const std::string& prefix, std::vector<std::pair<std::string, json>>& out) {
+  if (v.is_object()) {
+    for (auto it = v.begin(); it != v.end(); ++it) flatten(it.value(), prefix.empty() ? it.key() : prefix + "." + it.key(), out);
+  } else {
+    out.emplace_back(prefix, v);
+  }
+}
+
+std::vector<double> numbers_of(const json& list) {
+  std::vector<double> values;
+  for (const auto& x : list) values.push_back(x.get<double>());
+  return values;
+}
+
+bool spans_decades(const std::vector<double>& y) {
+  double lo = INFINITY, hi = 0;
+  for (double v : y) {
+    if (!(v > 0)) return false;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  return hi > 20 * lo;
+}
+
+std::string singular(const std::string& key) {
+  if (key == "frames") return "frame";
+  if (key == "steps") return "step";
+  if (key == "energy") return "iteration";
+  if (key.size() > 1 && key.back() == 's') return key.substr(0, key.size() - 1);
+  return "item";
+}
+
+void key_value_table(std::ostringstream& html, const std::string& caption,
+                     const std::vector<std::pair<std::string, json>>& rows) {
+  if (rows.empty()) return;
+  html << "<table class=\"kv\">\n<caption>" << xml_escape(caption) << "</caption>\n";
+  for (const auto& [key, value] : rows)
+    html << "<tr><th>" << xml_escape(key) << "</th><td>" << format_value(value) << "</td></tr>\n";
+  html << "</table>\n";
+}
+
+void number_list_section(std::ostringstream& html, const std::string& key, const json& list) {
+  const std::vector<double> y = numbers_of(list);
+  const bool energy = key == "energy" || key.find("energy") != std::string::npos;
+  html << "<h3>" << xml_escape(key) << (energy ? " per iteration" : "") << "</h3>\n";
+  PlotOptions plot;
+  plot.title = energy ? key + " per iteration (0 = start state)" : key;
+  plot.x_label = energy ? "iteration" : "index";
+  plot.y_label = key;
+  plot.log_y = spans_decades(y);
+  html << "<div class=\"plots\"><div class=\"plot\">" << svg_line_plot(y, plot) << "</div>\n";
+  // The convergence rate reads best as the distance to the final value on a log axis.
+  if (energy && y.size() >= 3 && y.back() > 0) {
+    std::vector<double> gap;
+    for (size_t i = 0; i + 1 < y.size(); ++i) gap.push_back((y[i] - y.back()) / y.back());
+    if (std::all_of(gap.begin(), gap.end(), [](double g) { return g > 0; })) {
+      PlotOptions rate;
+      rate.title = "convergence: (E_k - E_last) / E_last";
+      rate.x_label = "iteration";
+      rate.y_label = "relative gap";
+      rate.log_y = true;
+      html << "<div class=\"plot\">" << svg_line_plot(gap, rate) << "</div>\n";
+    }
+  }
+  html << "</div>\n<details><summary>" << y.size() << " values</summary>\n<table class=\"list\">\n<tr><th>"
+       << xml_escape(plot.x_label) << "</th><th>" << xml_escape(key) << "</th></tr>\n";
+  for (size_t i = 0; i < list.size(); ++i) html << "<tr><td>" << i << "</td><td>" << format_json_number(list[i]) << "</td></tr>\n";
+  html << "</table>\n</details>\n";
+}
+
+void record_list_section(std::ostringstream& html, const std::string& key, const json& list) {
+  const std::string unit = singular(key);
+  // Columns: the union of the flattened keys, in order of first appearance.
+  std::vector<std::string> columns;
+  std::vector<std::vector<std::pair<std::string, json>>> rows;
+  for (const auto& record : list) {
+    rows.emplace_back();
+    flatten(record, "", rows.back());
+    for (const auto& [name, value] : rows.back())
+      if (std::find(columns.begin(), columns.end(), name) == columns.end()) columns.push_back(name);
+  }
+  html << "<h3>" << xml_escape(key) << " (" << list.size() << ")</h3>\n";
+  // Time first: the figure people look for in a deformation run.
+  std::stable_sort(columns.begin(), columns.end(), [](const std::string& a, const std::string& b) {
+    auto rank = [](const std::string& c) { return c.find("seconds") != std::string::npos || c.find("time") != std::string::npos ? 0 : 1; };
+    return rank(a) < rank(b);
+  });
+  html << "<div class=\"plots\">\n";
+  for (const auto& column : columns) {
+    std::vector<double> y;
+    bool numeric = true, last_of_list = false;
+    for (const auto& row : rows) {
+      auto it = std::find_if(row.begin(), row.end(), [&](const auto& kv) { return kv.first == column; });
+      if (it == row.end()) {
+        y.push_back(NAN);
+      } else if (it->second.is_number()) {
+        y.push_back(it->second.get<double>());
+      } else if (is_number_list(it->second)) {
+        y.push_back(it->second.back().get<double>());
+        last_of_list = true;
+      } else {
+        numeric = false;
+        break;
+      }
+    }
+    if (!numeric || list.size() < 2) continue;
+    PlotOptions plot;
+    const bool is_time = column.find("seconds") != std::string::npos || column.find("time") != std::string::npos;
+    plot.title = (is_time ? "time (" + column + ")" : column) + (last_of_list ? " (last value)" : "") + " per " + unit;
+    plot.x_label = unit;
+    plot.y_label = column;
+    plot.log_y = spans_decades(y);
+    plot.width = 460;
+    plot.height = 240;
+    html << "<div class=\"plot\">" << svg_line_plot(y, plot) << "</div>\n";
+  }
+  html << "</div>\n<div class=\"scroll\"><table class=\"records\">\n<tr><th>" << xml_escape(unit) << "</th>";
+  for (const auto& column : columns) html << "<th>" << xml_escape(column) << "</th>";
+  html << "</tr>\n";
+  for (size_t i = 0; i < rows.size(); ++i) {
+    html << "<tr><td>" << i << "</td>";
+    for (const auto& column : columns) {
+      auto it = std::find_if(rows[i].begin(), rows[i].end(), [&](const auto& kv) { return kv.first == column; });
+      html << "<td>" << (it == rows[i].end() ? std::string() : format_value(it->second)) << "</td>";
+    }
+    html << "</tr>\n";
+  }
+  html << "</table></div>\n";
+}
+
+void image_figure(std::ostringstream& html, const Image& image, const std::string& caption) {
+  html << "<figure><img alt=\"" << xml_escape(caption) << "\" width=\"" << image.width << "\" height=\"" << image.height
+       << "\" src=\"data:image/png;base64," << base64_encode(encode_png(image)) << "\"/><figcaption>" << xml_escape(caption)
+       << "</figcaption></figure>\n";
+}
+
+void renders_section(std::ostringstream& html, const fs::path& dir, const ReportOptions& options) {
+  html << "<h2>Renders</h2>\n";
+  try {
+    ShellRenderOptions ro;
+    ro.figure.width = options.render_width;
+    ro.figure.height = options.render_height;
+    std::vector<fs::path> frames;
+    if (!fs::exists(dir / "shell.vtu") && !fs::exists(dir / "top.obj"))
+      for (const auto& entry : fs::directory_iterator(dir))
+        if (entry.is_directory() && entry.path().filename().string().rfind("frame_", 0) == 0) frames.push_back(entry.path());
+    std::sort(frames.begin(), frames.end());
+    if (!frames.empty()) {
+      std::vector<size_t> picks{0, frames.size() / 2, frames.size() - 1};
+      picks.erase(std::unique(picks.begin(), picks.end()), picks.end());
+      std::vector<RenderSubject> subjects;
+      std::vector<std::string> captions;
+      for (size_t k : picks) {
+        subjects.push_back(load_render_subject(frames[k].string()));
+        captions.push_back(frames[k].filename().string());
+      }
+      ro.figure.width = options.render_width * 3 / 2;
+      std::string names;
+      for (const auto& c : captions) names += (names.empty() ? "" : ", ") + c;
+      image_figure(html, render_subjects(subjects, captions, ro),
+                   names + " (first, middle and last frame), colored by stretch against the rest shell (iso view)");
+    } else {
+      const std::vector<RenderSubject> subject{load_render_subject(dir.string())};
+      image_figure(html, render_subjects(subject, {default_caption(subject[0])}, ro),
+                   "opaque base under a translucent top, colored by per-prism stretch (iso view)");
+      ro.style = ShellStyle::Cut;
+      image_figure(html, render_subjects(subject, {"cut-away"}, ro),
+                   "cut-away: the half nearer the eye removed, so the layer between base and top shows at the cut");
+    }
+  } catch (const std::exception& e) {
+    html << "<p class=\"note\">No render: " << xml_escape(e.what()) << "</p>\n";
+  }
+}
+
+const char* kStyle = R"(body{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#222;padding:0 1em}
+h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
+table{border-collapse:collapse;margin:.5em 1.5em .8em 0;font-size:.92em}
+th,td{border:1px solid #ddd;padding:.25em .6em;text-align:left;vertical-align:top}
+th{background:#f3f3f3;font-weight:600}td{font-variant-numeric:tabular-nums}
+caption{text-align:left;font-weight:bold;padding:.3em 0}
+table.kv{display:inline-table}
+.scroll{overflow-x:auto}.plots{display:flex;flex-wrap:wrap;gap:.5em}
+figure{margin:1em 0}img{max-width:100%;height:auto;border:1px solid #ddd}
+figcaption{color:#555;font-size:.9em}.note{color:#a33})";
+
+} // namespace
+
+std::string html_report(const std::string& dir_text, const ReportOptions& options) {
+  const fs::path dir(dir_text);
+  const fs::path report_path = dir / "report.json";
+  std::ifstream in(report_path);
+  if (!in) throw InputError(with_file(report_path.string(), "cannot open (is " + dir_text + " a gshell output folder?)"));
+  json report = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (report.is_discarded() || !report.is_object()) throw InputError(with_file(report_path.string(), "not a JSON object"));
+
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html xmlns=\"http://www.w3.org/1999/xhtml\" lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n"
+       << "<title>gshell report: " << xml_escape(dir_text) << "</title>\n<style>" << kStyle << "</style>\n</head>\n<body>\n";
+  html << "<h1>gshell report</h1>\n<p>Folder <code>" << xml_escape(fs::absolute(dir).lexically_normal().string())
+       << "</code>, written by gshell " << GSHELL_VERSION << ".</p>\n";
+
+  // Settings and scalar figures: the top-level scalars, then one table per nested object.
+  html << "<h2>Settings and figures</h2>\n";
+  std::vector<std::pair<std::string, json>> scalars;
+  for (auto it = report.begin(); it != report.end(); ++it)
+    if (!it->is_object() && !it->is_array()) scalars.emplace_back(it.key(), it.value());
+  key_value_table(html, "run", scalars);
+  for (auto it = report.begin(); it != report.end(); ++it)
+    if (it->is_object()) {
+      std::vector<std::pair<std::string, json>> rows;
+      flatten(it.value(), "", rows);
+      key_value_table(html, it.key(), rows);
+    }
+  // Short lists that are neither numbers nor records (e.g. input names).
+  for (auto it = report.begin(); it != report.end(); ++it)
+    if (it->is_array() && !is_number_list(it.value()) && !is_object_list(it.value()))
+      key_value_table(html, it.key(), {{it.key(), it.value()}});
+
+  bool any_series = false;
+  for (auto it = report.begin(); it != report.end(); ++it)
+    if (is_number_list(it.value()) || is_object_list(it.value())) any_series = true;
+  if (any_series) {
+    html << "<h2>Convergence and timings</h2>\n";
+    for (auto it = report.begin(); it != report.end(); ++it)
+      if (is_number_list(it.value())) number_list_section(html, it.key(), it.value());
+    for (auto it = report.begin(); it != report.end(); ++it)
+      if (is_object_list(it.value())) record_list_section(html, it.key(), it.value());
+  }
+  if (options.renders) renders_section(html, dir, options);
+  html << "</body>\n</html>\n";
+  return html.str();
+}
+
+void write_html_report(const std::string& dir, const std::string& path, const ReportOptions& options) {
+  const std::string page = html_report(dir, options);
+  write_file_atomically(path, [&](std::ostream& out) { out << page; });
+}
+
+} // namespace gshell

@@ -1,0 +1,231 @@
+#include <gshell/render/scene.h>
+
+#include <gshell/error.h>
+
+#ifdef GSHELL_HAVE_OSMESA
+#include <GL/gl.h>
+#include <GL/osmesa.h>
+#endif
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+namespace gshell {
+
+bool offscreen_rendering_available() {
+#ifdef GSHELL_HAVE_OSMESA
+  return true;
+#else
+  return false;
+#endif
+}
+
+Eigen::MatrixXd scene_points(const Scene& scene) {
+  Eigen::Index rows = 0;
+  for (const auto& layer : scene.layers) rows += layer.V.rows();
+  Eigen::MatrixXd points(rows, 3);
+  Eigen::Index at = 0;
+  for (const auto& layer : scene.layers) {
+    points.middleRows(at, layer.V.rows()) = layer.V;
+    at += layer.V.rows();
+  }
+  return points;
+}
+
+namespace {
+
+void check_layer(const SurfaceLayer& layer, size_t index) {
+  const std::string name = "render layer " + std::to_string(index);
+  if (layer.V.cols() != 3 || (layer.F.rows() > 0 && layer.F.cols() != 3))
+    throw InputError(name + ": positions and faces must have 3 columns");
+  if (layer.F.size() > 0 && (layer.F.minCoeff() < 0 || layer.F.maxCoeff() >= layer.V.rows()))
+    throw InputError(name + ": face index out of range");
+  if (layer.face_colors.size() > 0 && (layer.face_colors.rows() != layer.F.rows() || layer.face_colors.cols() != 3))
+    throw InputError(name + ": face colors must be one RGB row per face");
+  if (layer.vertex_colors.size() > 0 && (layer.vertex_colors.rows() != layer.V.rows() || layer.vertex_colors.cols() != 3))
+    throw InputError(name + ": vertex colors must be one RGB row per vertex");
+  if (!layer.V.allFinite()) throw InputError(name + ": non-finite vertex position");
+}
+
+#ifdef GSHELL_HAVE_OSMESA
+
+// Triangle soup of one layer: 3 corners per face, each with position, normal and RGBA color.
+struct Soup {
+  std::vector<float> position, normal, color;
+};
+
+Soup make_soup(const SurfaceLayer& layer) {
+  const auto& V = layer.V;
+  const auto& F = layer.F;
+  const Eigen::Index m = F.rows();
+  Eigen::MatrixX3f face_normal(m, 3);
+  Eigen::MatrixX3f vertex_normal = Eigen::MatrixX3f::Zero(V.rows(), 3);
+  for (Eigen::Index f = 0; f < m; ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    const Eigen::Vector3f n = (b - a).cross(c - a).cast<float>(); // length = 2 * area: area weighting for free
+    const float length = n.norm();
+    face_normal.row(f) = length > 0 ? Eigen::RowVector3f(n.transpose() / length) : Eigen::RowVector3f::Zero();
+    for (int k = 0; k < 3; ++k) vertex_normal.row(F(f, k)) += n.transpose();
+  }
+  for (Eigen::Index v = 0; v < vertex_normal.rows(); ++v) {
+    const float length = vertex_normal.row(v).norm();
+    if (length > 0) vertex_normal.row(v) /= length;
+  }
+  const bool by_face = layer.face_colors.size() > 0, by_vertex = !by_face && layer.vertex_colors.size() > 0;
+  const float alpha = std::clamp(layer.opacity, 0.0f, 1.0f);
+  Soup soup;
+  soup.position.resize(9 * m);
+  soup.normal.resize(9 * m);
+  soup.color.resize(12 * m);
+  float* position = soup.position.data();
+  float* normal = soup.normal.data();
+  float* color = soup.color.data();
+  for (Eigen::Index f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int v = F(f, k);
+      for (int d = 0; d < 3; ++d) {
+        *position++ = static_cast<float>(V(v, d));
+        *normal++ = layer.smooth ? vertex_normal(v, d) : face_normal(f, d);
+        const float c = by_face ? layer.face_colors(f, d) : by_vertex ? layer.vertex_colors(v, d) : layer.color[d];
+        *color++ = std::clamp(c, 0.0f, 1.0f);
+      }
+      *color++ = alpha;
+    }
+  return soup;
+}
+
+void draw_soup(const Soup& soup, const std::optional<Eigen::Vector3f>& back_color) {
+  if (back_color) {
+    const GLfloat back[] = {(*back_color)[0], (*back_color)[1], (*back_color)[2], soup.color.empty() ? 1.0f : soup.color[3]};
+    glColorMaterial(GL_FRONT, GL_AMBIENT_AND_DIFFUSE);
+    glMaterialfv(GL_BACK, GL_AMBIENT_AND_DIFFUSE, back);
+  } else {
+    glColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
+  }
+  glVertexPointer(3, GL_FLOAT, 0, soup.position.data());
+  glNormalPointer(GL_FLOAT, 0, soup.normal.data());
+  glColorPointer(4, GL_FLOAT, 0, soup.color.data());
+  glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(soup.position.size() / 3));
+}
+
+struct ContextDeleter {
+  void operator()(osmesa_context* context) const { OSMesaDestroyContext(context); }
+};
+
+#endif
+
+} // namespace
+
+Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions& options) {
+  if (options.width <= 0 || options.height <= 0 || options.supersample < 1)
+    throw InputError("render: image size must be positive");
+  for (size_t i = 0; i < scene.layers.size(); ++i) check_layer(scene.layers[i], i);
+#ifndef GSHELL_HAVE_OSMESA
+  (void)camera;
+  throw InputError("render: gshell was built without OSMesa (install libosmesa6-dev and rebuild)");
+#else
+  // Keep the supersampled buffer inside OSMesa's viewport limit.
+  int ss = options.supersample;
+  while (ss > 1 && std::max(options.width, options.height) * ss > 16384) --ss;
+  const int w = options.width * ss, h = options.height * ss;
+
+  const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_PROFILE, OSMESA_COMPAT_PROFILE, 0};
+  std::unique_ptr<osmesa_context, ContextDeleter> context(OSMesaCreateContextAttribs(attributes, nullptr));
+  if (!context) throw std::runtime_error("render: cannot create an OSMesa context");
+  std::vector<unsigned char> buffer(static_cast<size_t>(w) * h * 4);
+  if (!OSMesaMakeCurrent(context.get(), buffer.data(), GL_UNSIGNED_BYTE, w, h))
+    throw std::runtime_error("render: cannot bind the OSMesa buffer");
+  OSMesaPixelStore(OSMESA_Y_UP, 0); // row 0 = top, like Image
+
+  glViewport(0, 0, w, h);
+  glClearColor(options.background.x(), options.background.y(), options.background.z(), 1.0f);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LEQUAL);
+
+  glMatrixMode(GL_PROJECTION);
+  const Eigen::Matrix4d projection = camera.projection_matrix(static_cast<double>(w) / h);
+  glLoadMatrixd(projection.data());
+  glMatrixMode(GL_MODELVIEW);
+  glLoadIdentity();
+
+  // Headlight: a directional light along the view axis, fixed in eye space.
+  const GLfloat light_direction[] = {0, 0, 1, 0};
+  const GLfloat ambient[] = {options.ambient, options.ambient, options.ambient, 1};
+  const GLfloat diffuse[] = {options.diffuse, options.diffuse, options.diffuse, 1};
+  const GLfloat none[] = {0, 0, 0, 1};
+  glLightfv(GL_LIGHT0, GL_POSITION, light_direction);
+  glLightfv(GL_LIGHT0, GL_AMBIENT, ambient);
+  glLightfv(GL_LIGHT0, GL_DIFFUSE, diffuse);
+  glLightfv(GL_LIGHT0, GL_SPECULAR, none);
+  glLightModelfv(GL_LIGHT_MODEL_AMBIENT, none);
+  glLightModeli(GL_LIGHT_MODEL_TWO_SIDE, GL_TRUE); // open surfaces look the same from both sides
+  glMaterialfv(GL_FRONT_AND_BACK, GL_SPECULAR, none);
+  glMaterialfv(GL_FRONT_AND_BACK, GL_EMISSION, none);
+  glEnable(GL_LIGHTING);
+  glEnable(GL_LIGHT0);
+  glEnable(GL_COLOR_MATERIAL);
+  glColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
+  glShadeModel(GL_SMOOTH);
+
+  const Eigen::Matrix4d view = camera.view_matrix();
+  glLoadMatrixd(view.data());
+  if (scene.clip_plane) {
+    const GLdouble plane[4] = {(*scene.clip_plane)[0], (*scene.clip_plane)[1], (*scene.clip_plane)[2],
+                               (*scene.clip_plane)[3]};
+    glClipPlane(GL_CLIP_PLANE0, plane); // taken in world coordinates: the view matrix is current
+    glEnable(GL_CLIP_PLANE0);
+  }
+
+  glEnableClientState(GL_VERTEX_ARRAY);
+  glEnableClientState(GL_NORMAL_ARRAY);
+  glEnableClientState(GL_COLOR_ARRAY);
+  std::vector<std::pair<Soup, std::optional<Eigen::Vector3f>>> translucent;
+  for (const auto& layer : scene.layers) {
+    if (layer.opacity >= 1.0f) draw_soup(make_soup(layer), layer.back_color);
+    else if (layer.opacity > 0.0f) translucent.emplace_back(make_soup(layer), layer.back_color);
+  }
+  if (!translucent.empty()) {
+    // Blended after every opaque surface, without writing depth; back faces before front faces
+    // is the cheap ordering that is right for closed, convex-ish layers.
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glDepthMask(GL_FALSE);
+    glEnable(GL_CULL_FACE);
+    for (GLenum cull : {GL_FRONT, GL_BACK}) {
+      glCullFace(cull);
+      for (const auto& [soup, back_color] : translucent) draw_soup(soup, back_color);
+    }
+    glDisable(GL_CULL_FACE);
+    glDepthMask(GL_TRUE);
+    glDisable(GL_BLEND);
+  }
+  glFinish();
+  if (glGetError() != GL_NO_ERROR) throw std::runtime_error("render: OpenGL error");
+
+  OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
+  // Box filter straight from the RGBA buffer: one pass over the big image.
+  Image image(options.width, options.height);
+  const int n = ss * ss;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      int sum[3] = {0, 0, 0};
+      for (int dy = 0; dy < ss; ++dy) {
+        const unsigned char* p = buffer.data() + 4 * (static_cast<size_t>(y * ss + dy) * w + static_cast<size_t>(x) * ss);
+        for (int dx = 0; dx < ss; ++dx, p += 4) {
+          sum[0] += p[0];
+          sum[1] += p[1];
+          sum[2] += p[2];
+        }
+      }
+      std::uint8_t* q = image.at(x, y);
+      for (int c = 0; c < 3; ++c) q[c] = static_cast<std::uint8_t>((sum[c] + n / 2) / n);
+    }
+  return image;
+#endif
+}
+
+} // namespace gshell

@@ -1,0 +1,347 @@
+#include <gshell/render/shell_render.h>
+
+#include <gshell/error.h>
+#include <gshell/io/load_mesh.h>
+#include <gshell/io/read_mesh.h>
+#include <gshell/io/tet_mesh_io.h>
+#include <gshell/quality/stretch.h>
+#include <gshell/render/color_map.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/shell/shell_dir.h>
+#include <gshell/solver/rest_tets.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+
+namespace gshell {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::optional<nlohmann::json> read_json(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return std::nullopt;
+  nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) return std::nullopt;
+  return j;
+}
+
+std::string json_method(const std::optional<nlohmann::json>& report) {
+  if (report && report->is_object() && report->contains("method") && (*report)["method"].is_string())
+    return (*report)["method"].get<std::string>();
+  return {};
+}
+
+// eta as recorded by the writer of report.json: `thickness` as a number, or inside an object.
+double json_thickness(const std::optional<nlohmann::json>& report) {
+  if (!report || !report->is_object()) return 0;
+  for (const char* key : {"thickness", "eta"}) {
+    if (!report->contains(key)) continue;
+    const auto& v = (*report)[key];
+    if (v.is_number()) return v.get<double>();
+    if (v.is_object())
+      for (const char* inner : {"eta", "absolute", "value"})
+        if (v.contains(inner) && v[inner].is_number()) return v[inner].get<double>();
+  }
+  return 0;
+}
+
+// Base faces of a prism shell recovered from its tets (3 per face): the three base ids of the
+// prism, oriented so that the top lies on the side of the face normal.
+Eigen::MatrixXi faces_from_prism_tets(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, int n,
+                                      const std::string& name) {
+  const Eigen::Index m = T.rows() / 3;
+  Eigen::MatrixXi F(m, 3);
+  for (Eigen::Index f = 0; f < m; ++f) {
+    std::array<int, 3> base{};
+    int count = 0;
+    Eigen::Vector3d top_centre = Eigen::Vector3d::Zero();
+    int top_count = 0;
+    for (int t = 0; t < 3; ++t)
+      for (int k = 0; k < 4; ++k) {
+        const int id = T(3 * f + t, k);
+        if (id < n) {
+          if (std::find(base.begin(), base.begin() + count, id) == base.begin() + count) {
+            if (count == 3) throw InputError(name + ": tets " + std::to_string(3 * f) + ".." + std::to_string(3 * f + 2) +
+                                             " do not form a prism");
+            base[count++] = id;
+          }
+        } else {
+          top_centre += X.row(id).transpose();
+          ++top_count;
+        }
+      }
+    if (count != 3 || top_count == 0)
+      throw InputError(name + ": tets " + std::to_string(3 * f) + ".." + std::to_string(3 * f + 2) + " do not form a prism");
+    const Eigen::Vector3d a = X.row(base[0]), b = X.row(base[1]), c = X.row(base[2]);
+    if ((b - a).cross(c - a).dot(top_centre / top_count - (a + b + c) / 3) < 0) std::swap(base[1], base[2]);
+    F.row(f) << base[0], base[1], base[2];
+  }
+  return F;
+}
+
+double median_distance(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) {
+  const Eigen::VectorXd d = (top - base).rowwise().norm();
+  return quantile(std::vector<double>(d.data(), d.data() + d.size()), 0.5);
+}
+
+// Stretch of a base/top pair measured as `generate` does: against the ideal normal prisms.
+Eigen::VectorXd stretch_against_normal_prisms(const Shell& shell) {
+  const int n = shell.num_base_vertices();
+  const RestTets rest = prism_rest_tets(shell.F, n, normal_prisms(shell.base, shell.F, shell.thickness));
+  const Eigen::MatrixXd X = shell.vertices();
+  return face_stretch_from_tets(X, rest.T, tet_stretch(rest, X));
+}
+
+std::vector<fs::path> frame_dirs(const fs::path& dir) {
+  std::vector<fs::path> frames;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec))
+    if (entry.is_directory() && entry.path().filename().string().rfind("frame_", 0) == 0) frames.push_back(entry.path());
+  std::sort(frames.begin(), frames.end());
+  return frames;
+}
+
+fs::path last_frame_dir(const fs::path& dir) {
+  const std::vector<fs::path> frames = frame_dirs(dir);
+  return frames.empty() ? fs::path() : frames.back();
+}
+
+RenderSubject load_shell_folder(const fs::path& dir, const std::string& name) {
+  RenderSubject subject;
+  subject.name = name;
+  auto report = read_json(dir / "report.json");
+  if (!report) report = read_json(dir.parent_path() / "report.json"); // a deform frame: the run's report
+  subject.method = json_method(report);
+  const bool has_surfaces = fs::exists(dir / "base.obj") && fs::exists(dir / "top.obj");
+  const bool has_vtu = fs::exists(dir / "shell.vtu");
+  if (!has_surfaces && !has_vtu) throw InputError(name + ": not a shell folder (no shell.vtu, no base.obj + top.obj)");
+
+  std::optional<TetMesh> tets;
+  if (has_vtu) tets = read_tet_mesh((dir / "shell.vtu").string());
+  if (has_surfaces && fs::exists(dir / "report.json")) {
+    subject.shell = load_shell_dir(dir.string());
+  } else if (tets) {
+    if (tets->X.rows() % 2 || tets->T.rows() % 3)
+      throw InputError(name + ": shell.vtu is not a prism shell (2n points, 3m tets expected)");
+    const int n = static_cast<int>(tets->X.rows() / 2);
+    subject.shell.base = tets->X.topRows(n);
+    subject.shell.top = tets->X.bottomRows(n);
+    subject.shell.F = faces_from_prism_tets(tets->T, tets->X, n, name);
+    subject.shell.thickness = json_thickness(report);
+  } else {
+    subject.shell = load_shell_dir(dir.string());
+  }
+  if (!(subject.shell.thickness > 0)) subject.shell.thickness = median_distance(subject.shell.base, subject.shell.top);
+
+  const Eigen::Index m = subject.shell.F.rows();
+  if (tets) {
+    for (const auto& [array_name, values] : tets->cell_data)
+      if (array_name == "stretch" && values.rows() == 3 * m && values.cols() == 1 && tets->X.rows() == 2 * subject.shell.base.rows())
+        subject.face_stretch = face_stretch_from_tets(tets->X, tets->T, values.col(0));
+  }
+  if (subject.face_stretch.size() == 0 && subject.shell.thickness > 0)
+    subject.face_stretch = stretch_against_normal_prisms(subject.shell);
+  if (fs::exists(dir / "detail.obj")) subject.detail = read_mesh((dir / "detail.obj").string());
+  return subject;
+}
+
+} // namespace
+
+Eigen::VectorXd face_stretch_from_tets(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T, const Eigen::VectorXd& tet_stretch) {
+  if (T.rows() % 3 || tet_stretch.size() != T.rows())
+    throw InputError("face stretch: need 3 tets per face and one stretch value per tet");
+  const Eigen::Index m = T.rows() / 3;
+  Eigen::VectorXd faces(m);
+  for (Eigen::Index f = 0; f < m; ++f) {
+    double weighted = 0, volume = 0, plain = 0;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Index t = 3 * f + k;
+      const Eigen::Vector3d x0 = X.row(T(t, 0));
+      Eigen::Matrix3d D;
+      D << X.row(T(t, 1)).transpose() - x0, X.row(T(t, 2)).transpose() - x0, X.row(T(t, 3)).transpose() - x0;
+      const double v = std::abs(D.determinant()) / 6;
+      weighted += v * tet_stretch[t];
+      volume += v;
+      plain += tet_stretch[t];
+    }
+    faces[f] = volume > 0 ? weighted / volume : plain / 3; // fully collapsed prism: plain mean
+  }
+  return faces;
+}
+
+Eigen::VectorXd vertex_thickness_ratio(const Shell& shell) {
+  if (!(shell.thickness > 0)) throw InputError("thickness colors need the shell's thickness eta");
+  return (shell.top - shell.base).rowwise().norm() / shell.thickness;
+}
+
+RenderSubject load_render_subject(const std::string& input) {
+  const fs::path path(input);
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    const bool shell_here = fs::exists(path / "shell.vtu") || fs::exists(path / "top.obj");
+    if (!shell_here) {
+      const fs::path frame = last_frame_dir(path);
+      if (!frame.empty()) {
+        RenderSubject subject = load_shell_folder(frame, input);
+        subject.name = input + "/" + frame.filename().string();
+        return subject;
+      }
+    }
+    return load_shell_folder(path, input);
+  }
+  RenderSubject subject;
+  subject.name = input;
+  TriMesh mesh = load_mesh(input);
+  subject.shell.base = std::move(mesh.V);
+  subject.shell.F = std::move(mesh.F);
+  return subject;
+}
+
+std::string default_caption(const RenderSubject& subject) {
+  return subject.method.empty() ? subject.name : subject.name + " (" + subject.method + ")";
+}
+
+Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,
+                      const ShellRenderOptions& options, FigureLayout* layout) {
+  if (subjects.empty()) throw InputError("render: no input");
+  if (!captions.empty() && captions.size() != subjects.size())
+    throw InputError("render: " + std::to_string(captions.size()) + " captions for " + std::to_string(subjects.size()) +
+                     " inputs (give one per input, or none)");
+
+  ColorBy color_by = options.color_by;
+  const bool any_stretch = std::any_of(subjects.begin(), subjects.end(), [](const RenderSubject& s) { return s.face_stretch.size() > 0; });
+  const bool any_shell = std::any_of(subjects.begin(), subjects.end(), [](const RenderSubject& s) { return s.is_shell(); });
+  if (color_by == ColorBy::Auto) color_by = any_stretch ? ColorBy::Stretch : ColorBy::None;
+  if (color_by == ColorBy::Stretch && !any_stretch) throw InputError("render: --color stretch needs a shell folder input");
+  if (color_by == ColorBy::Thickness && !any_shell) throw InputError("render: --color thickness needs a shell folder input");
+
+  // Values per subject (faces for stretch, vertices for thickness) and one shared scale.
+  std::vector<Eigen::VectorXd> values(subjects.size());
+  double automatic = INFINITY;
+  for (size_t i = 0; i < subjects.size(); ++i) {
+    const RenderSubject& s = subjects[i];
+    if (color_by == ColorBy::Stretch) values[i] = s.face_stretch;
+    if (color_by == ColorBy::Thickness && s.is_shell()) values[i] = vertex_thickness_ratio(s.shell);
+    if (values[i].size() == 0) continue;
+    std::vector<double> magnitude(values[i].data(), values[i].data() + values[i].size());
+    if (color_by == ColorBy::Thickness)
+      for (double& v : magnitude) v = std::abs(v - 1);
+    automatic = std::min(automatic, quantile(magnitude, 0.99));
+  }
+  std::optional<ColorScale> scale;
+  if (color_by == ColorBy::Stretch) {
+    scale.emplace();
+    scale->max = options.auto_max      ? std::max(round_up_nice(automatic), 1e-4)
+                 : options.color_max > 0 ? options.color_max
+                                         : kDefaultStretchMax;
+    scale->label = "stretch";
+  } else if (color_by == ColorBy::Thickness) {
+    const double half = options.auto_max      ? std::max(round_up_nice(automatic), 0.01)
+                        : options.color_max > 0 ? options.color_max
+                                                : kDefaultThicknessSpread;
+    scale.emplace();
+    scale->ramp = ColorScale::Ramp::BlueGreenRed;
+    scale->min = 1 - half;
+    scale->max = 1 + half;
+    scale->label = "thickness/eta";
+  }
+
+  const Eigen::Vector3f base_grey(0.72f, 0.76f, 0.84f), top_grey(0.88f, 0.88f, 0.90f);
+  std::vector<Panel> panels;
+  for (size_t i = 0; i < subjects.size(); ++i) {
+    const RenderSubject& s = subjects[i];
+    Panel panel;
+    panel.caption = captions.empty() ? default_caption(s) : captions[i];
+    SurfaceLayer base, top;
+    base.V = s.shell.base;
+    base.F = s.shell.F;
+    base.color = base_grey;
+    if (!scale) base.back_color = Eigen::Vector3f(0.85f, 0.72f, 0.55f); // tells the inside of an open surface apart
+    if (scale && values[i].size() == s.shell.F.rows() && color_by == ColorBy::Stretch) base.face_colors = map_colors(*scale, values[i]);
+    if (scale && color_by == ColorBy::Thickness && values[i].size() > 0) base.vertex_colors = map_colors(*scale, values[i]);
+    if (s.is_shell()) {
+      top.V = s.shell.top;
+      top.F = s.shell.F;
+      top.face_colors = base.face_colors;
+      top.vertex_colors = base.vertex_colors;
+      top.color = top_grey;
+    }
+    if (s.detail.num_faces() > 0) {
+      SurfaceLayer detail;
+      detail.V = s.detail.V;
+      detail.F = s.detail.F;
+      detail.color = Eigen::Vector3f(0.93f, 0.90f, 0.82f); // ivory: apart from every ramp color
+      panel.scene.layers.push_back(detail);
+    }
+    switch (options.style) {
+    case ShellStyle::Translucent:
+      panel.scene.layers.push_back(base);
+      if (s.is_shell()) {
+        top.opacity = options.top_opacity;
+        if (!scale) top.color = top_grey;
+        panel.scene.layers.push_back(top);
+      }
+      break;
+    case ShellStyle::Cut: {
+      // The inside of the top gets a flat blue, visible between the two rims where the layer is;
+      // the base keeps its colors on both sides (a prism's value belongs to both).
+      top.back_color = Eigen::Vector3f(0.55f, 0.68f, 0.92f);
+      panel.scene.layers.push_back(base);
+      if (s.is_shell()) {
+        // The top stays neutral so the layer between the two cut rims reads at a glance.
+        top.face_colors.resize(0, 3);
+        top.vertex_colors.resize(0, 3);
+        panel.scene.layers.push_back(top);
+      }
+      const Eigen::MatrixXd points = scene_points(panel.scene);
+      const Eigen::Vector3d centre = 0.5 * (points.colwise().minCoeff() + points.colwise().maxCoeff()).transpose();
+      const Eigen::Vector3d towards_eye = eye_direction(options.figure.view);
+      panel.scene.clip_plane = Eigen::Vector4d(-towards_eye.x(), -towards_eye.y(), -towards_eye.z(), towards_eye.dot(centre));
+      break;
+    }
+    case ShellStyle::Base: panel.scene.layers.push_back(base); break;
+    case ShellStyle::Top: panel.scene.layers.push_back(s.is_shell() ? top : base); break;
+    }
+    panels.push_back(std::move(panel));
+  }
+  FigureOptions figure = options.figure;
+  figure.color_bar = scale;
+  if (color_by == ColorBy::Stretch && figure.footnote.empty())
+    figure.footnote = "stretch = sum (sigma_i - 1)^2 per tet; a face shows the volume-weighted mean of its prism's 3 tets";
+  if (color_by == ColorBy::Thickness && figure.footnote.empty())
+    figure.footnote = "thickness = |top_i - base_i| / eta per vertex";
+  return render_figure(panels, figure, layout);
+}
+
+std::string render_shell_preview(const std::string& dir) {
+  const fs::path folder(dir);
+  std::vector<RenderSubject> subjects;
+  std::vector<std::string> captions;
+  const bool shell_here = fs::exists(folder / "shell.vtu") || fs::exists(folder / "top.obj");
+  const std::vector<fs::path> frames = shell_here ? std::vector<fs::path>{} : frame_dirs(folder);
+  if (!frames.empty()) {
+    std::vector<size_t> picks{0, frames.size() / 2, frames.size() - 1};
+    picks.erase(std::unique(picks.begin(), picks.end()), picks.end());
+    for (size_t k : picks) {
+      subjects.push_back(load_shell_folder(frames[k], frames[k].string()));
+      captions.push_back(frames[k].filename().string());
+    }
+  } else {
+    subjects.push_back(load_render_subject(dir));
+    captions.push_back(default_caption(subjects.back()));
+  }
+  ShellRenderOptions options;
+  const std::string out = (folder / "preview.png").string();
+  write_png(out, render_subjects(subjects, captions, options));
+  return out;
+}
+
+} // namespace gshell

@@ -1,0 +1,235 @@
+// gshell animate / deform / texture end to end: outputs, report fields, and bad input caught
+// before anything is written.
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/io/read_mesh.h>
+#include <gshell/io/write_mesh.h>
+
+#include "test_support.h"
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+namespace gshell {
+namespace {
+
+namespace fs = std::filesystem;
+using test::run_cli;
+using test::TempDir;
+
+/// A shell folder as `gshell generate` writes it: flat plane base (with UVs), top eta above.
+std::string write_plane_shell(const TempDir& tmp, int res, double eta) {
+  const std::string dir = tmp.file("shell");
+  fs::create_directory(dir);
+  TriMesh plane = make_plane(res);
+  write_mesh(dir + "/base.obj", plane);
+  plane.V.col(2).array() += eta;
+  write_mesh(dir + "/top.obj", plane);
+  test::write_text(dir + "/report.json", "{\"thickness\": " + std::to_string(eta) + "}\n");
+  return dir;
+}
+
+nlohmann::json read_json(const std::string& path) { return nlohmann::json::parse(test::read_text(path)); }
+
+TEST(AnimateCli, WritesKFramesOfABendOrTwist) {
+  TempDir tmp;
+  const auto r = run_cli("animate builtin:plane:6 --bend 90 --frames 4 -o '" + tmp.file("bend") + "' --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(test::count_entries(tmp.file("bend")), 4);
+  const TriMesh rest = make_plane(6), last = read_mesh(tmp.file("bend") + "/frame_0004.obj");
+  ASSERT_EQ(last.num_vertices(), rest.num_vertices());
+  EXPECT_TRUE((last.F.array() == rest.F.array()).all());
+  EXPECT_TRUE(last.has_uv()); // UVs are kept for `gshell texture` on the frames
+  // Full bend: the x = +-1 edges have turned by +-45 degrees.
+  EXPECT_GT(last.V.col(2).maxCoeff(), 0.1);
+
+  const auto t = run_cli("animate builtin:cylinder:12 --twist 60 --frames 2 -o '" + tmp.file("twist") + "' -q");
+  ASSERT_EQ(t.exit_code, 0) << t.err;
+  EXPECT_TRUE(fs::exists(tmp.file("twist") + "/frame_0002.obj"));
+}
+
+TEST(AnimateCli, RejectsBadArguments) {
+  TempDir tmp;
+  const std::string out = tmp.file("out");
+  EXPECT_EQ(run_cli("animate builtin:plane --frames 3 -o '" + out + "'").exit_code, 1);
+  EXPECT_EQ(run_cli("animate builtin:plane --bend 10 --twist 10 -o '" + out + "'").exit_code, 1);
+  EXPECT_EQ(run_cli("animate builtin:plane --bend 10 --frames 0 -o '" + out + "'").exit_code, 1);
+  EXPECT_EQ(run_cli("animate builtin:plane --bend 10 --band 0 -o '" + out + "'").exit_code, 1);
+  EXPECT_EQ(run_cli("animate missing.obj --bend 10 -o '" + out + "'").exit_code, 1);
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(test::count_entries(tmp.path()), 0); // no temporary folder left behind
+}
+
+TEST(DeformCli, WritesFramesReportAndCarriedDetail) {
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 10, 0.2);
+  const std::string frames = tmp.file("frames");
+  ASSERT_EQ(run_cli("animate '" + shell + "/base.obj' --bend 90 --band 0.2 --frames 3 -o '" + frames + "' -q").exit_code, 0);
+  // The detail: the base surface itself, so each carried detail must be that frame's base.
+  const std::string out = tmp.file("out");
+  const auto r = run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' '" + frames +
+                         "/frame_0002.obj' '" + frames + "/frame_0003.obj' -o '" + out + "' --compare-offset --embed '" +
+                         shell + "/base.obj'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("frame 3/3"), std::string::npos) << r.err; // progress on stderr
+
+  const nlohmann::json report = read_json(out + "/report.json");
+  ASSERT_EQ(report["frames"].size(), 3u);
+  EXPECT_EQ(report["warm_start"], "extrapolated");
+  EXPECT_DOUBLE_EQ(report["tolerance"].get<double>(), 1e-4);
+  EXPECT_EQ(report["tets"], 3 * 200);
+  EXPECT_EQ(report["embed"]["points"], 121);
+  EXPECT_EQ(report["embed"]["outside"], 0);
+  for (int k = 0; k < 3; ++k) {
+    const auto& f = report["frames"][k];
+    EXPECT_EQ(f["frame"], k + 1);
+    EXPECT_GE(f["iterations"].get<int>(), 1);
+    EXPECT_EQ(f["energy"].size(), f["iterations"].get<std::size_t>() + 1);
+    for (const char* key : {"mean", "volume_mean", "max", "p99"}) EXPECT_TRUE(f["stretch"].contains(key)) << key;
+    EXPECT_EQ(f["inverted_tets"], 0);
+    EXPECT_GT(f["seconds"].get<double>(), 0);
+    EXPECT_LT(f["stretch"]["volume_mean"].get<double>(), f["offset"]["stretch"]["volume_mean"].get<double>());
+    char name[32];
+    std::snprintf(name, sizeof name, "/frame_%04d", k + 1);
+    const std::string dir = out + name;
+    const TriMesh top = read_mesh(dir + "/top.obj"), detail = read_mesh(dir + "/detail.obj");
+    const TriMesh base = read_mesh(frames + name + ".obj");
+    EXPECT_EQ(top.num_vertices(), 121);
+    EXPECT_LT((detail.V - base.V).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_TRUE(fs::exists(dir + "/shell.vtu"));
+  }
+  EXPECT_EQ(report["summary"]["frames"], 3);
+  EXPECT_TRUE(report["summary"].contains("median_seconds"));
+  EXPECT_TRUE(report["summary"]["offset"].contains("inverted_tets"));
+
+  // Running again into the same folder replaces the earlier output.
+  const auto again = run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' -o '" + out + "' -q");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(read_json(out + "/report.json")["frames"].size(), 1u);
+  EXPECT_FALSE(fs::exists(out + "/frame_0002"));
+}
+
+TEST(DeformCli, RigidFrameMovesTheTopRigidly) {
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 6, 0.1);
+  TriMesh base = read_mesh(shell + "/base.obj"), top = read_mesh(shell + "/top.obj");
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.9, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  const Eigen::RowVector3d t(1, 2, 3);
+  base.V = (base.V * R.transpose()).rowwise() + t;
+  write_mesh(tmp.file("moved.obj"), base);
+  const auto r = run_cli("deform --shell '" + shell + "' --base '" + tmp.file("moved.obj") + "' -o '" + tmp.file("out") + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const TriMesh moved_top = read_mesh(tmp.file("out") + "/frame_0001/top.obj");
+  const Eigen::MatrixXd expected = (top.V * R.transpose()).rowwise() + t;
+  EXPECT_LT((moved_top.V - expected).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT(read_json(tmp.file("out") + "/report.json")["frames"][0]["stretch"]["max"].get<double>(), 1e-12);
+}
+
+TEST(DeformCli, BadFramesFailBeforeAnythingIsWritten) {
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 4, 0.1);
+  const std::string good = shell + "/base.obj";
+  write_mesh(tmp.file("small.obj"), make_plane(3));
+  TriMesh flipped = make_plane(4);
+  flipped.F.row(0) = flipped.F.row(0).reverse().eval();
+  write_mesh(tmp.file("faces.obj"), flipped);
+  std::string with_nan = test::read_text(good);
+  with_nan.replace(with_nan.find("v "), 2, "v nan ");
+  test::write_text(tmp.file("nan.obj"), with_nan);
+
+  const std::string out = tmp.file("out");
+  for (const std::string bad : {"small.obj", "faces.obj", "nan.obj", "missing.obj"}) {
+    // The bad frame comes last: no frame may be solved or written before all are checked.
+    const auto r = run_cli("deform --shell '" + shell + "' --base '" + good + "' '" + good + "' '" + tmp.file(bad) +
+                           "' -o '" + out + "'");
+    EXPECT_EQ(r.exit_code, 1) << bad << ": " << r.err;
+    EXPECT_NE(r.err.find(bad), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+  EXPECT_EQ(run_cli("deform --shell '" + tmp.file("nope") + "' --base '" + good + "' -o '" + out + "'").exit_code, 1);
+  EXPECT_EQ(run_cli("deform --shell '" + shell + "' --base '" + good + "' --tolerance -1 -o '" + out + "'").exit_code, 1);
+  EXPECT_FALSE(fs::exists(out));
+  // Leftovers: only what the test itself wrote.
+  for (const auto& entry : fs::directory_iterator(tmp.path()))
+    EXPECT_NE(entry.path().filename().string().front(), '.') << entry.path();
+}
+
+TEST(DeformCli, RefusesToReplaceAnUnrelatedFolder) {
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 4, 0.1);
+  const std::string out = tmp.file("precious");
+  fs::create_directory(out);
+  test::write_text(out + "/notes.txt", "keep me");
+  const auto r = run_cli("deform --shell '" + shell + "' --base '" + shell + "/base.obj' -o '" + out + "' -q");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(test::read_text(out + "/notes.txt"), "keep me");
+  EXPECT_EQ(test::count_entries(out), 1);
+}
+
+TEST(DeformCli, EndToEndFromGenerate) {
+  // generate -> animate -> deform, and texture on the generated shell (the cylinder has UVs).
+  TempDir tmp;
+  const std::string shell = tmp.file("shell"), frames = tmp.file("frames"), out = tmp.file("out");
+  ASSERT_EQ(run_cli("generate builtin:cylinder:24 --thickness-ratio 0.05 -o '" + shell + "' -q").exit_code, 0);
+  ASSERT_EQ(run_cli("animate '" + shell + "/base.obj' --twist 60 --frames 2 -o '" + frames + "' -q").exit_code, 0);
+  const auto r = run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' '" + frames +
+                         "/frame_0002.obj' --compare-offset -o '" + out + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = read_json(out + "/report.json");
+  EXPECT_EQ(report["frames"].size(), 2u);
+  EXPECT_EQ(report["summary"]["inverted_tets"], 0);
+  EXPECT_TRUE(read_mesh(out + "/frame_0002/top.obj").has_uv()); // textures still apply to the deformed top
+  const auto t = run_cli("texture --shell '" + shell + "' --tile builtin:bumps:6 --repeat 8 2 -o '" + tmp.file("tex.ply") + "' -q");
+  ASSERT_EQ(t.exit_code, 0) << t.err;
+  EXPECT_EQ(read_mesh(tmp.file("tex.ply")).num_vertices(), 16 * 49);
+}
+
+TEST(TextureCli, TilesBumpsOverThePlaneShell) {
+  TempDir tmp;
+  const double eta = 0.2;
+  const std::string shell = write_plane_shell(tmp, 8, eta);
+  const auto r = run_cli("texture --shell '" + shell + "' --tile builtin:bumps:4 --repeat 3 2 -o '" + tmp.file("t.obj") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const TriMesh tex = read_mesh(tmp.file("t.obj"));
+  EXPECT_EQ(tex.num_vertices(), 6 * 25);
+  EXPECT_EQ(tex.num_faces(), 6 * 32);
+  // Flat shell, identity UVs: x, y span the plane and heights span [0.1, 0.9] * eta.
+  EXPECT_NEAR(tex.V.col(0).minCoeff(), -1.0, 1e-9);
+  EXPECT_NEAR(tex.V.col(1).maxCoeff(), 1.0, 1e-9);
+  EXPECT_NEAR(tex.V.col(2).minCoeff(), 0.1 * eta, 1e-9);
+  EXPECT_NEAR(tex.V.col(2).maxCoeff(), 0.9 * eta, 1e-9);
+
+  // A tile from a file works the same way.
+  TriMesh tile;
+  tile.V.resize(3, 3);
+  tile.V << 0.2, 0.2, 0.5, 0.8, 0.2, 0.5, 0.5, 0.8, 1.0;
+  tile.F.resize(1, 3);
+  tile.F << 0, 1, 2;
+  write_mesh(tmp.file("tile.obj"), tile);
+  EXPECT_EQ(run_cli("texture --shell '" + shell + "' --tile '" + tmp.file("tile.obj") + "' -o '" + tmp.file("u.obj") + "' -q").exit_code, 0);
+  const TriMesh one = read_mesh(tmp.file("u.obj"));
+  EXPECT_NEAR(one.V(2, 2), eta, 1e-12);
+  EXPECT_NEAR(one.V(0, 0), -0.6, 1e-12);
+}
+
+TEST(TextureCli, RejectsBadInput) {
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 4, 0.1);
+  const std::string out = tmp.file("t.obj");
+  EXPECT_EQ(run_cli("texture --shell '" + shell + "' --tile builtin:bumps --repeat 0 1 -o '" + out + "'").exit_code, 1);
+  EXPECT_EQ(run_cli("texture --shell '" + shell + "' --tile builtin:nope -o '" + out + "'").exit_code, 1);
+  EXPECT_EQ(run_cli("texture --shell '" + shell + "' --tile missing.obj -o '" + out + "'").exit_code, 1);
+  // A base without UVs cannot carry a texture.
+  write_mesh(shell + "/base.obj", make_sphere(0));
+  write_mesh(shell + "/top.obj", make_sphere(0));
+  const auto r = run_cli("texture --shell '" + shell + "' --tile builtin:bumps -o '" + out + "'");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("texture coordinates"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+} // namespace
+} // namespace gshell

@@ -1,0 +1,212 @@
+// `gshell report`: the page is well-formed, self-contained, and shows every figure of report.json
+// (generation runs, and deformation runs with per-frame records).
+#include <gshell/render/html_report.h>
+#include <gshell/render/scene.h>
+#include <gshell/render/svg_plot.h>
+
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+
+using namespace gshell;
+using namespace gshell::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+// Tag balance of an XHTML-syntax page: every element closed in order (void elements self-closed).
+// Returns an empty string when fine, else what went wrong.
+std::string tag_balance_problem(const std::string& html) {
+  std::vector<std::string> open;
+  size_t i = 0;
+  while ((i = html.find('<', i)) != std::string::npos) {
+    const size_t end = html.find('>', i);
+    if (end == std::string::npos) return "unterminated tag at " + std::to_string(i);
+    const std::string tag = html.substr(i + 1, end - i - 1);
+    i = end + 1;
+    if (tag.empty()) return "empty tag";
+    if (tag[0] == '!' || tag[0] == '?') continue; // doctype, comments, XML declaration
+    const bool closing = tag[0] == '/';
+    const bool self_closing = tag.back() == '/';
+    std::string name = tag.substr(closing ? 1 : 0);
+    name = name.substr(0, name.find_first_of(" \t\n/"));
+    if (self_closing) continue;
+    if (!closing) {
+      open.push_back(name);
+    } else {
+      if (open.empty() || open.back() != name) return "</" + name + "> closes <" + (open.empty() ? "" : open.back()) + ">";
+      open.pop_back();
+    }
+  }
+  return open.empty() ? "" : "<" + open.back() + "> never closed";
+}
+
+bool python_parses_as_xml(const std::string& path) {
+  if (!fs::exists("/usr/bin/python3")) return true; // optional stronger check
+  const std::string cmd = "/usr/bin/python3 -c \"import sys, xml.etree.ElementTree as ET, html.parser; "
+                          "ET.parse(sys.argv[1]); html.parser.HTMLParser().feed(open(sys.argv[1]).read())\" '" + path +
+                          "' 2>/dev/null";
+  return std::system(cmd.c_str()) == 0;
+}
+
+// Numbers written in table cells of the page (the figures; plot coordinates do not count).
+std::vector<double> table_numbers(const std::string& html) {
+  std::vector<double> numbers;
+  static const std::regex cell("<td>([^<]*)</td>");
+  static const std::regex number(R"([-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?)");
+  for (auto it = std::sregex_iterator(html.begin(), html.end(), cell); it != std::sregex_iterator(); ++it) {
+    const std::string text = (*it)[1];
+    for (auto n = std::sregex_iterator(text.begin(), text.end(), number); n != std::sregex_iterator(); ++n)
+      numbers.push_back(std::stod((*n)[0]));
+  }
+  return numbers;
+}
+
+void collect_json_numbers(const nlohmann::json& v, const std::string& path, std::vector<std::pair<std::string, double>>& out) {
+  if (v.is_number()) out.emplace_back(path, v.get<double>());
+  if (v.is_object())
+    for (auto it = v.begin(); it != v.end(); ++it) collect_json_numbers(it.value(), path + "." + it.key(), out);
+  if (v.is_array())
+    for (size_t i = 0; i < v.size(); ++i) collect_json_numbers(v[i], path + "[" + std::to_string(i) + "]", out);
+}
+
+void collect_json_keys(const nlohmann::json& v, std::vector<std::string>& out) {
+  if (v.is_object())
+    for (auto it = v.begin(); it != v.end(); ++it) {
+      out.push_back(it.key());
+      collect_json_keys(it.value(), out);
+    }
+  if (v.is_array())
+    for (const auto& x : v) collect_json_keys(x, out);
+}
+
+// Every number and every key of report.json shows up in the page.
+void expect_every_figure(const std::string& html, const nlohmann::json& report) {
+  const std::vector<double> shown = table_numbers(html);
+  std::vector<std::pair<std::string, double>> figures;
+  collect_json_numbers(report, "", figures);
+  ASSERT_FALSE(figures.empty());
+  for (const auto& [path, value] : figures) {
+    const bool found = std::any_of(shown.begin(), shown.end(), [&](double s) {
+      return std::abs(s - value) <= 1e-5 * std::abs(value) + 1e-300;
+    });
+    EXPECT_TRUE(found) << path << " = " << value << " is not in the page";
+  }
+  std::vector<std::string> keys;
+  collect_json_keys(report, keys);
+  for (const auto& key : keys) EXPECT_NE(html.find(key), std::string::npos) << "key " << key;
+}
+
+void expect_self_contained(const std::string& html) {
+  EXPECT_EQ(html.find("src=\"http"), std::string::npos);
+  EXPECT_EQ(html.find("href="), std::string::npos);
+  EXPECT_EQ(html.find("<link"), std::string::npos);
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  for (size_t i = html.find("<img"); i != std::string::npos; i = html.find("<img", i + 1)) {
+    const size_t src = html.find("src=\"", i);
+    ASSERT_NE(src, std::string::npos);
+    EXPECT_EQ(html.compare(src + 5, 22, "data:image/png;base64,"), 0);
+  }
+}
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+} // namespace
+
+TEST(Base64, KnownVectors) {
+  EXPECT_EQ(base64_encode(""), "");
+  EXPECT_EQ(base64_encode("f"), "Zg==");
+  EXPECT_EQ(base64_encode("fo"), "Zm8=");
+  EXPECT_EQ(base64_encode("foo"), "Zm9v");
+  EXPECT_EQ(base64_encode("foobar"), "Zm9vYmFy");
+  EXPECT_EQ(base64_encode(std::string("\xff\x00\x10", 3)), "/wAQ");
+}
+
+TEST(SvgPlot, IsBalancedAndEscapesText) {
+  PlotOptions options;
+  options.title = "a < b & c";
+  options.log_y = true;
+  const std::string svg = svg_line_plot({10, 1, 0.1, NAN, 0.01}, options);
+  EXPECT_EQ(tag_balance_problem(svg), "");
+  EXPECT_NE(svg.find("a &lt; b &amp; c"), std::string::npos);
+  EXPECT_NE(svg.find("<polyline"), std::string::npos);
+  EXPECT_EQ(tag_balance_problem(svg_line_plot({}, options)), ""); // no data: still a valid element
+}
+
+TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {
+  TempDir tmp("report-generate");
+  const std::string dir = tmp.file("torus");
+  const CliResult g = run_cli("generate builtin:torus:24 -o '" + dir + "' --thickness-ratio 0.05 --iterations 8 -q");
+  ASSERT_EQ(g.exit_code, 0) << g.err;
+  const std::string page = tmp.file("report.html");
+  const CliResult r = run_cli("report '" + dir + "' -o '" + page + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find(page), std::string::npos); // prints where the page is
+  const std::string html = read_text(page);
+  EXPECT_EQ(tag_balance_problem(html), "");
+  EXPECT_TRUE(python_parses_as_xml(page));
+  expect_self_contained(html);
+  expect_every_figure(html, read_json(dir + "/report.json"));
+  EXPECT_NE(html.find("energy per iteration"), std::string::npos);
+  EXPECT_NE(html.find("<svg"), std::string::npos);
+  if (offscreen_rendering_available()) {
+    EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+    EXPECT_EQ(html.find("No render"), std::string::npos);
+  }
+}
+
+TEST(ReportCli, DeformationRunShowsTimePerFrame) {
+  TempDir tmp("report-deform");
+  const std::string rest = tmp.file("rest"), out = tmp.file("deformed");
+  ASSERT_EQ(run_cli("generate builtin:plane:8 -o '" + rest + "' --thickness 0.1 --iterations 3 -q").exit_code, 0);
+  // A deform-like output: per-frame folders with shell.vtu, and a report with a `frames` array.
+  const int frames = 3;
+  for (int k = 0; k < frames; ++k) {
+    const std::string frame = out + "/frame_000" + std::to_string(k);
+    fs::create_directories(frame);
+    fs::copy_file(rest + "/shell.vtu", frame + "/shell.vtu");
+    fs::copy_file(rest + "/top.obj", frame + "/top.obj");
+  }
+  nlohmann::json report = {{"shell", rest}, {"tolerance", 1e-4}, {"frames", nlohmann::json::array()}};
+  for (int k = 0; k < frames; ++k)
+    report["frames"].push_back({{"iterations", 3 + k},
+                                {"energy", {1.5 / (k + 1), 0.7 / (k + 1)}},
+                                {"stretch", {{"mean", 0.001 * (k + 1)}, {"max", 0.0123 * (k + 2)}}},
+                                {"inverted_tets", k},
+                                {"seconds", 0.0421 + 0.001 * k}});
+  write_text(out + "/report.json", report.dump(2));
+  const std::string page = tmp.file("deform.html");
+  const CliResult r = run_cli("report '" + out + "' -o '" + page + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string html = read_text(page);
+  EXPECT_EQ(tag_balance_problem(html), "");
+  EXPECT_TRUE(python_parses_as_xml(page));
+  expect_self_contained(html);
+  expect_every_figure(html, report);
+  EXPECT_NE(html.find("time (seconds) per frame"), std::string::npos);
+  if (offscreen_rendering_available()) {
+    EXPECT_NE(html.find("frame_0002 (first, middle and last frame)"), std::string::npos);
+    EXPECT_EQ(html.find("No render"), std::string::npos);
+  }
+}
+
+TEST(ReportCli, MissingReportIsAnInputErrorAndWritesNothing) {
+  TempDir tmp("report-missing");
+  fs::create_directories(tmp.file("empty"));
+  const CliResult r = run_cli("report '" + tmp.file("empty") + "' -o '" + tmp.file("out.html") + "'");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("report.json"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(tmp.file("out.html")));
+  write_text(tmp.file("empty") + "/report.json", "{not json");
+  EXPECT_EQ(run_cli("report '" + tmp.file("empty") + "' -o '" + tmp.file("out.html") + "'").exit_code, 1);
+  EXPECT_FALSE(fs::exists(tmp.file("out.html")));
+}
