@@ -46,8 +46,15 @@ struct HierarchyOptions {
   int levels = 5;             ///< levels including the full one; 1 = the plain single-level solver
   int splits_per_level = 2;   ///< bisection rounds between successive levels (up to 4x clusters)
   int min_cluster_size = 8;   ///< base vertices; clusters are not split below this
-  int level_iterations = 1;   ///< local/global iterations per reduced level and outer iteration
-  int full_iterations = 4;    ///< local/global iterations of the full level per outer iteration
+  int level_iterations = 5;   ///< local/global iterations per reduced level and coarse pass (at most)
+  /// A reduced level stops its iterations early once its objective falls by less than this
+  /// fraction of its value in one iteration (0: always run level_iterations).
+  double level_tolerance = 0;
+  int full_iterations = 1;    ///< local/global iterations of the full level per outer iteration
+  /// The coarse-to-fine pass over the reduced levels runs on outer iterations coarse_period,
+  /// 2 coarse_period, ... (1: every outer iteration). With a period > 1 an outer iteration that
+  /// already suffices (a drag step from a good start) costs only its full iterations.
+  int coarse_period = 4;
   /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
   /// targets), so there they become springs of this weight times the mean diagonal of the
   /// stiffness matrix.
