@@ -92,6 +92,7 @@ struct Reach {
   bool reached = false;
   int iterations = 0;
   double seconds = 0;
+  double energy = 0; ///< at the end (when not reached)
 };
 
 /// Thrown from the progress callback to end a solve at the first iteration that reaches the goal
@@ -112,9 +113,9 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
   };
   try {
     const SolveResult res = solver.solve(X, fraction, so);
-    return {false, res.iterations, res.seconds};
+    return {false, res.iterations, res.seconds, res.energy.empty() ? 0.0 : res.energy.back()};
   } catch (const GoalReached& g) {
-    return {true, g.iteration, g.seconds};
+    return {true, g.iteration, g.seconds, goal};
   }
 }
 
@@ -288,7 +289,8 @@ int main(int argc, char** argv) {
       std::printf("  big move: %d iterations, %.3f s (median of %d) to E <= 1.001 E*\n", big.iterations,
                   median(big_seconds), runs);
     else
-      std::printf("  big move: not within 1.001 E* after %d iterations (%.1f s)\n", big.iterations, big.seconds);
+      std::printf("  big move: not within 1.001 E* after %d iterations (%.1f s; E = %.6f E*)\n", big.iterations,
+                big.seconds, big.energy / Ebig);
 
     // Drag: per step, from the reference state of the previous step; the solver (and the
     // hierarchical solver's level state) carries over from step to step.

@@ -54,7 +54,7 @@ struct HierarchyOptions {
   /// The coarse-to-fine pass over the reduced levels runs on outer iterations coarse_period,
   /// 2 coarse_period, ... (1: every outer iteration). With a period > 1 an outer iteration that
   /// already suffices (a drag step from a good start) costs only its full iterations.
-  int coarse_period = 4;
+  int coarse_period = 16;
   /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
   /// targets), so there they become springs of this weight times the mean diagonal of the
   /// stiffness matrix.
