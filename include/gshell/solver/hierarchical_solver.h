@@ -10,10 +10,12 @@
 // serves all of them; only tets across cluster borders need their own. Level L-1 is the full
 // problem (local/global over all 2n vertices, hard handles eliminated).
 //
-// One outer iteration goes coarse to fine: each reduced level first receives its parent's change
-// since the start of the pass, runs a few local/global iterations with its prefactored matrix,
-// and the finest reduced level's change goes into the full state, which then runs its own
-// local/global iteration(s). Two couplings of the levels are available:
+// One outer iteration is full_iterations local/global iterations of the full state (Anderson-
+// accelerated), preceded on every coarse_period-th outer iteration by a coarse-to-fine pass: each
+// reduced level first receives its parent's change since the start of the pass, runs a few
+// local/global iterations with its prefactored matrix, and the finest reduced level's change goes
+// into the full state. (Measured on the bowl and bunny00 shells: the pass is worth its cost only
+// every ~16 full iterations; see bench_pose.) Two couplings of the levels are available:
 //  - residual (default): each level starts from the affine fit of the current full state and
 //    minimises its energy minus 2 <tau, z>, tau chosen so that its gradient there equals the
 //    full gradient seen through its subspace (full approximation scheme; our reading of the
