@@ -11,6 +11,8 @@
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/render/scene.h>
+#include <gshell/render/shell_render.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 #include <gshell/shell/shell_dir.h>
@@ -41,6 +43,7 @@ struct DeformArgs {
   std::string warm_start = "extrapolated";
   bool compare_offset = false;
   std::string embed;
+  bool render = false;
 };
 
 std::string frame_folder(int k) {
@@ -64,7 +67,7 @@ bool holds_deform_output(const fs::path& dir) {
   static const std::regex frame_dir(R"(frame_\d{4,})");
   for (const auto& entry : fs::directory_iterator(dir)) {
     const std::string name = entry.path().filename().string();
-    if (name != "report.json" && !std::regex_match(name, frame_dir)) return false;
+    if (name != "report.json" && name != "preview.png" && !std::regex_match(name, frame_dir)) return false;
   }
   return true;
 }
@@ -75,6 +78,8 @@ void run_deform(const DeformArgs& args) {
   const bool quiet = gshell::cli::global_options().quiet;
   if (!(args.tolerance >= 0) || !std::isfinite(args.tolerance)) throw gshell::InputError("--tolerance must be >= 0");
   if (args.iterations < 0) throw gshell::InputError("--iterations must be >= 0");
+  if (args.render && !gshell::offscreen_rendering_available())
+    throw gshell::InputError("--render: gshell was built without OSMesa");
   gshell::DeformOptions options;
   options.tolerance = args.tolerance;
   options.max_iterations = args.iterations;
@@ -208,10 +213,13 @@ void run_deform(const DeformArgs& args) {
   report["frames"] = frame_reports;
   gshell::write_file_atomically((staged.path() / "report.json").string(),
                                 [&](std::ostream& os) { os << report.dump(2) << "\n"; });
+  // Rendered inside the staged folder, so the preview arrives together with the frames or not at all.
+  if (args.render) gshell::render_shell_preview(staged.path().string(), args.out);
   staged.commit(holds_deform_output);
   if (!quiet)
     std::cerr << "deform: " << frames.size() << " frames, median " << 1e3 * median(seconds) << " ms and "
               << median(iterations) << " iterations per frame; wrote " << args.out << "\n";
+  if (args.render && !quiet) std::cerr << "deform: wrote " << (fs::path(args.out) / "preview.png").string() << "\n";
 }
 
 void add_deform_command(CLI::App& parent) {
@@ -234,6 +242,9 @@ void add_deform_command(CLI::App& parent) {
                 "Also report the stretch of re-extruding each frame by the plain vertex-normal offset");
   cmd->add_option("--embed", args->embed,
                   "Detail mesh in the rest shell's space, carried along: frame_NNNN/detail.obj");
+  cmd->add_flag("--render", args->render,
+                "Also write OUT/preview.png: first, middle and last frame side by side, colored by stretch "
+                "against the rest shell");
   cmd->callback([args] { run_deform(*args); });
 }
 

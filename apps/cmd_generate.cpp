@@ -1,6 +1,7 @@
 // `gshell generate INPUT -o DIR`: builds the shell of a surface and writes top.obj, base.obj,
 // shell.vtu and report.json into DIR (paper §4.1; DESIGN.md "Shell generation").
 #include "command_registry.h"
+#include "thickness_option.h"
 #include "shell_output.h"
 
 #include <gshell/error.h>
@@ -19,7 +20,7 @@ namespace {
 
 struct GenerateCliOptions {
   std::string input, output, method = "rigid";
-  std::optional<double> thickness, ratio;
+  gshell::cli::ThicknessOption thickness;
   int iterations = 50;
   double tolerance = 1e-5;
   double s_min = gshell::kDefaultCurvatureSMin, s_max = gshell::kDefaultCurvatureSMax;
@@ -29,12 +30,7 @@ struct GenerateCliOptions {
 void run_generate(const GenerateCliOptions& o) {
   using namespace gshell;
   // Every parameter is checked before anything is read or written.
-  if (o.thickness.has_value() == o.ratio.has_value())
-    throw InputError("give exactly one of --thickness and --thickness-ratio");
-  if (o.thickness && (!(*o.thickness > 0) || !std::isfinite(*o.thickness)))
-    throw InputError("--thickness must be positive and finite");
-  if (o.ratio && (!(*o.ratio > 0) || !std::isfinite(*o.ratio)))
-    throw InputError("--thickness-ratio must be positive and finite");
+  o.thickness.check();
   if (o.iterations < 0) throw InputError("--iterations must not be negative");
   if (!(o.tolerance >= 0) || !std::isfinite(o.tolerance)) throw InputError("--tolerance must be a non-negative number");
   check_curvature_clamp(o.s_min, o.s_max);
@@ -45,7 +41,7 @@ void run_generate(const GenerateCliOptions& o) {
   cli::check_output_dir(o.output);
 
   const TriMesh mesh = load_mesh(o.input);
-  options.thickness = o.thickness ? *o.thickness : thickness_from_ratio(mesh.V, *o.ratio);
+  options.thickness = o.thickness.eta(mesh.V);
   options.solve.max_iterations = o.iterations;
   options.solve.tolerance = o.tolerance;
   const bool quiet = cli::global_options().quiet;
@@ -60,7 +56,7 @@ void run_generate(const GenerateCliOptions& o) {
   std::optional<CurvatureShellResult> curvature;
   if (options.method == ShellMethod::Curvature) curvature = generate_curvature_shell(mesh.V, mesh.F, options);
   const GenerateResult result = curvature ? curvature->result : generate_shell(mesh.V, mesh.F, options);
-  nlohmann::json report = generate_report(result, o.input, o.ratio);
+  nlohmann::json report = generate_report(result, o.input, o.thickness.ratio);
   if (curvature) add_curvature_report(report, *curvature);
   cli::write_shell_dir(o.output, mesh, result.shell, result.metrics, report);
   std::cout << generate_summary(result, o.input) << (curvature ? curvature_summary(*curvature) : "")
@@ -78,9 +74,7 @@ void add_generate_command(CLI::App& app) {
       ->required();
   cmd->add_option("-o,--output", o->output, "Output folder (created; existing files of the same names are replaced)")
       ->required();
-  cmd->add_option("--thickness", o->thickness, "Shell thickness eta in model units");
-  cmd->add_option("--thickness-ratio", o->ratio,
-                  "Shell thickness as a ratio of the bounding sphere's radius (e.g. 0.01)");
+  o->thickness.add_to(*cmd);
   cmd->add_option("--method", o->method, "rigid (optimised, default), offset (vertex-normal offset) or curvature");
   cmd->add_option("--iterations", o->iterations, "Maximum local/global iterations (default 50)");
   cmd->add_option("--tolerance", o->tolerance, "Stop when the relative energy change is below this (default 1e-5)");

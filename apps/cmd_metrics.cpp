@@ -1,5 +1,6 @@
 // `gshell metrics BASE TOP`: the quality report of any base/top pair (DESIGN.md "Quality measures").
 #include "command_registry.h"
+#include "thickness_option.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
@@ -18,17 +19,12 @@ namespace {
 
 struct MetricsCliOptions {
   std::string base, top, output;
-  std::optional<double> thickness, ratio;
+  gshell::cli::ThicknessOption thickness;
 };
 
 void run_metrics(const MetricsCliOptions& o) {
   using namespace gshell;
-  if (o.thickness.has_value() == o.ratio.has_value())
-    throw InputError("give exactly one of --thickness and --thickness-ratio");
-  if (o.thickness && (!(*o.thickness > 0) || !std::isfinite(*o.thickness)))
-    throw InputError("--thickness must be positive and finite");
-  if (o.ratio && (!(*o.ratio > 0) || !std::isfinite(*o.ratio)))
-    throw InputError("--thickness-ratio must be positive and finite");
+  o.thickness.check();
 
   const TriMesh base = load_mesh(o.base);
   // The top is not validated as a surface: a bad shell may well have degenerate top faces.
@@ -36,10 +32,10 @@ void run_metrics(const MetricsCliOptions& o) {
   if (top.V.rows() != base.V.rows() || top.F.rows() != base.F.rows() || top.F != base.F)
     throw InputError(with_file(o.top, "must have the same vertex count and faces as " + o.base));
   if (!top.V.allFinite()) throw InputError(with_file(o.top, "non-finite vertex coordinates"));
-  const double eta = o.thickness ? *o.thickness : thickness_from_ratio(base.V, *o.ratio);
+  const double eta = o.thickness.eta(base.V);
   const ShellMetrics m = shell_metrics(base.V, base.F, top.V, eta, true);
   if (!o.output.empty()) {
-    nlohmann::json report = metrics_report(m, base.num_vertices(), base.num_faces(), eta, o.ratio);
+    nlohmann::json report = metrics_report(m, base.num_vertices(), base.num_faces(), eta, o.thickness.ratio);
     report["base"] = o.base;
     report["top"] = o.top;
     write_file_atomically(o.output, [&](std::ostream& out) { out << report.dump(2) << "\n"; });
@@ -54,8 +50,7 @@ void add_metrics_command(CLI::App& app) {
                  "against the normal prisms, inverted tets, intersections, thickness.");
   cmd->add_option("base", o->base, "Base surface (mesh file or builtin:NAME)")->required();
   cmd->add_option("top", o->top, "Top surface with the base's faces and vertex order")->required();
-  cmd->add_option("--thickness", o->thickness, "Shell thickness eta in model units");
-  cmd->add_option("--thickness-ratio", o->ratio, "Shell thickness as a ratio of the base's bounding-sphere radius");
+  o->thickness.add_to(*cmd);
   cmd->add_option("-o,--output", o->output, "Write the report as JSON to this file");
   cmd->callback([o] { run_metrics(*o); });
 }

@@ -9,6 +9,8 @@
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/render/scene.h>
+#include <gshell/render/shell_render.h>
 #include <gshell/shell/prism_tets.h>
 #include <gshell/shell/shell_dir.h>
 #include <gshell/solver/rest_tets.h>
@@ -32,6 +34,7 @@ struct PoseCliOptions {
   std::string shell_dir, handles, output, solver = "hierarchical";
   int levels = 5, steps = 1, iterations = 500; // as the Python Poser.solve defaults
   double tolerance = 1e-6;
+  bool render = false;
 };
 
 /// A fresh folder next to `out`, renamed onto `out` by commit(); removed if never committed.
@@ -84,6 +87,7 @@ void run(const PoseCliOptions& o) {
   if (o.levels < 1) throw InputError("--levels must be >= 1");
   if (o.iterations < 1) throw InputError("--iterations must be >= 1");
   if (!(o.tolerance >= 0)) throw InputError("--tolerance must be >= 0");
+  if (o.render && !offscreen_rendering_available()) throw InputError("--render: gshell was built without OSMesa");
 
   TriMesh base_mesh;
   const Shell rest = load_shell_dir(o.shell_dir, &base_mesh);
@@ -154,8 +158,12 @@ void run(const PoseCliOptions& o) {
   report["steps"] = steps;
   report["stretch"] = stretch_json(stats);
   write_file_atomically(staging.file("report.json"), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
+  if (o.render) // inside the staging folder: the preview lands with the rest or not at all
+    render_shell_preview(fs::path(staging.file("report.json")).parent_path().string(), o.output);
   staging.commit();
-  if (!quiet) std::cerr << "gshell pose: wrote " << o.output << " (top.obj, base.obj, shell.vtu, report.json)\n";
+  if (!quiet)
+    std::cerr << "gshell pose: wrote " << o.output << " (top.obj, base.obj, shell.vtu, report.json"
+              << (o.render ? ", preview.png" : "") << ")\n";
 }
 
 void add_pose_command(CLI::App& app) {
@@ -174,6 +182,7 @@ void add_pose_command(CLI::App& app) {
   cmd->add_option("--tolerance", o->tolerance, "Stop a step when the relative energy change per iteration is below this (default 1e-6)");
   cmd->add_option("--iterations", o->iterations, "Maximum iterations per step (default 500)");
   cmd->add_option("-o,--output", o->output, "Output folder (replaced if it exists)")->required();
+  cmd->add_flag("--render", o->render, "Also write OUT/preview.png: the rest and the posed shell, colored by stretch");
   cmd->callback([o] { run(*o); });
 }
 

@@ -24,6 +24,7 @@ struct RenderArgs {
   std::vector<std::string> captions;
   std::string max = "default";
   bool ortho = false;
+  bool frame_each = false;
   int supersample = 2;
 };
 
@@ -43,6 +44,7 @@ void run_render(const RenderArgs& args) {
   options.figure.view = parse_view(args.view);
   options.figure.projection = args.ortho ? Projection::Orthographic : Projection::Perspective;
   options.figure.supersample = args.supersample;
+  options.figure.shared_camera = !args.frame_each;
   if (args.max == "auto") {
     options.auto_max = true;
   } else if (args.max != "default") {
@@ -97,6 +99,8 @@ void add_render_command(CLI::App& parent) {
                   "auto = the smallest 99th percentile of the panels, rounded up")
       ->capture_default_str();
   cmd->add_flag("--ortho", args->ortho, "Orthographic instead of perspective projection");
+  cmd->add_flag("--frame-each", args->frame_each,
+                "Frame every panel on its own (default: one camera for all panels, same scale)");
   cmd->add_option("--supersample", args->supersample, "Anti-aliasing: render K times larger and filter down")
       ->check(CLI::Range(1, 4))
       ->capture_default_str();

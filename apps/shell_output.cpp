@@ -17,7 +17,9 @@ void check_output_dir(const std::string& dir) {
   const fs::path path(dir);
   if (dir.empty()) throw InputError("no output folder given");
   if (fs::exists(path) && !fs::is_directory(path)) throw InputError(with_file(dir, "exists and is not a folder"));
-  const fs::path parent = fs::absolute(path).parent_path();
+  fs::path absolute = fs::absolute(path).lexically_normal();
+  if (absolute.filename().empty()) absolute = absolute.parent_path(); // "DIR/" names DIR
+  const fs::path parent = absolute.parent_path();
   if (!fs::is_directory(parent)) throw InputError(with_file(dir, "parent folder does not exist"));
 }
 
@@ -28,7 +30,8 @@ class StagingDir {
 public:
   explicit StagingDir(const fs::path& dir) {
     std::random_device rd;
-    const fs::path abs = fs::absolute(dir);
+    fs::path abs = fs::absolute(dir).lexically_normal();
+    if (abs.filename().empty()) abs = abs.parent_path(); // "DIR/" names DIR
     path_ = abs.parent_path() / ("." + abs.filename().string() + ".tmp-" + std::to_string(rd()));
     std::error_code ec;
     if (!fs::create_directory(path_, ec)) throw InputError(with_file(path_.string(), "cannot create folder"));

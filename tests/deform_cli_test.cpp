@@ -3,6 +3,8 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/write_mesh.h>
+#include <gshell/render/image.h>
+#include <gshell/render/scene.h>
 
 #include "test_support.h"
 
@@ -185,6 +187,39 @@ TEST(DeformCli, EndToEndFromGenerate) {
   const auto t = run_cli("texture --shell '" + shell + "' --tile builtin:bumps:6 --repeat 8 2 -o '" + tmp.file("tex.ply") + "' -q");
   ASSERT_EQ(t.exit_code, 0) << t.err;
   EXPECT_EQ(read_mesh(tmp.file("tex.ply")).num_vertices(), 16 * 49);
+}
+
+TEST(DeformCli, RenderWritesAPreviewOfTheFrames) {
+  if (!offscreen_rendering_available()) GTEST_SKIP() << "built without OSMesa";
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 6, 0.1);
+  const std::string frames = tmp.file("frames"), out = tmp.file("out");
+  ASSERT_EQ(run_cli("animate '" + shell + "/base.obj' --bend 90 --frames 3 -o '" + frames + "' -q").exit_code, 0);
+  const std::string bases = "'" + frames + "/frame_0001.obj' '" + frames + "/frame_0002.obj' '" + frames + "/frame_0003.obj'";
+  const auto r = run_cli("deform --shell '" + shell + "' --base " + bases + " -o '" + out + "' --render -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(test::read_text(out + "/preview.png").substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  const Image preview = read_png(out + "/preview.png");
+  EXPECT_EQ(preview.width, 1280);
+  EXPECT_EQ(preview.height, 720);
+  // The shell covers a good part of the image (white background) and shows stretch colors: a
+  // bend the top follows without stretch is mostly green (0 on the color bar).
+  long covered = 0, green = 0;
+  for (int y = 0; y < preview.height; ++y)
+    for (int x = 0; x < preview.width; ++x) {
+      const std::uint8_t* p = preview.at(x, y);
+      if (p[0] < 235 || p[1] < 235 || p[2] < 235) ++covered;
+      if (p[1] > p[0] + 40 && p[1] > p[2] + 40) ++green;
+    }
+  const double pixels = double(preview.width) * preview.height;
+  EXPECT_GT(covered / pixels, 0.05);
+  EXPECT_GT(green / pixels, 0.03);
+  EXPECT_EQ(test::count_entries(tmp.path()), 3); // shell, frames, out: no temporaries left
+
+  // A folder holding a preview is still recognised as an earlier deform output and replaced.
+  const auto again = run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' -o '" + out + "' -q");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_FALSE(fs::exists(out + "/preview.png"));
 }
 
 TEST(TextureCli, TilesBumpsOverThePlaneShell) {

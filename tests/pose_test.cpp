@@ -5,6 +5,8 @@
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
+#include <gshell/render/image.h>
+#include <gshell/render/scene.h>
 #include <gshell/shell/offset_shell.h>
 
 #include "test_support.h"
@@ -204,6 +206,38 @@ TEST(PoseCli, WritesTheDeformedShellAndAReport) {
   EXPECT_TRUE(again.err.empty()) << again.err;
   EXPECT_EQ(nlohmann::json::parse(test::read_text(out + "/report.json"))["solver"], "single");
   EXPECT_EQ(test::count_entries(tmp.path()), 3);
+}
+
+TEST(PoseCli, RenderWritesAPreviewOfRestAndPose) {
+  if (!offscreen_rendering_available()) GTEST_SKIP() << "built without OSMesa";
+  TempDir tmp;
+  write_shell_dir(small_bowl(), tmp.path() / "shell");
+  test::write_text(tmp.file("pull.json"), kPull);
+  const std::string out = tmp.file("out");
+  const auto r = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("pull.json") +
+                         "' --levels 3 --render -q -o '" + out + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(test::read_text(out + "/preview.png").substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  const Image preview = read_png(out + "/preview.png");
+  EXPECT_EQ(preview.width, 1280);
+  EXPECT_EQ(preview.height, 720);
+  // Two panels (rest | posed) split at the middle: each holds a good part of the shell, the rest
+  // one green (stretch 0 against itself), the posed one also shows stretch (non-green) colors.
+  long covered[2] = {0, 0}, green[2] = {0, 0}, warm[2] = {0, 0};
+  for (int y = 0; y < preview.height; ++y)
+    for (int x = 0; x < preview.width; ++x) {
+      const std::uint8_t* p = preview.at(x, y);
+      const int half = x < preview.width / 2 ? 0 : 1;
+      if (p[0] < 235 || p[1] < 235 || p[2] < 235) ++covered[half];
+      if (p[1] > p[0] + 40 && p[1] > p[2] + 40) ++green[half];
+      if (p[0] > p[1] + 20 && p[0] > p[2] + 40) ++warm[half];
+    }
+  const double half_pixels = double(preview.width / 2) * preview.height;
+  for (int half : {0, 1}) EXPECT_GT(covered[half] / half_pixels, 0.05) << half;
+  EXPECT_GT(green[0] / half_pixels, 0.03);
+  EXPECT_LT(warm[0], green[0] / 50);
+  EXPECT_GT(warm[1], warm[0]);
+  EXPECT_EQ(test::count_entries(tmp.path()), 3); // shell, pull.json, out
 }
 
 TEST(PoseCli, BadHandleFilesExitOneAndWriteNothing) {

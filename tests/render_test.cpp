@@ -544,7 +544,8 @@ TEST(RenderCli, GenerateWithRenderWritesAPreview) {
   REQUIRE_RENDERER();
   test::TempDir dir("render-preview");
   const std::string out = dir.file("torus");
-  const auto r = test::run_cli("generate builtin:torus:16 -o '" + out + "' --thickness-ratio 0.05 --iterations 3 --render -q");
+  // A trailing slash names the same folder.
+  const auto r = test::run_cli("generate builtin:torus:16 -o '" + out + "/' --thickness-ratio 0.05 --iterations 3 --render -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("preview.png"), std::string::npos);
   const Image preview = read_png(out + "/preview.png");

@@ -139,7 +139,7 @@ TEST(SvgPlot, IsBalancedAndEscapesText) {
   EXPECT_EQ(tag_balance_problem(svg), "");
   EXPECT_NE(svg.find("a &lt; b &amp; c"), std::string::npos);
   EXPECT_NE(svg.find("<polyline"), std::string::npos);
-  EXPECT_EQ(tag_balance_problem(svg_line_plot({}, options)), ""); // no data: still a valid element
+  EXPECT_EQ(tag_balance_problem(svg_line_plot(std::vector<double>{}, options)), ""); // no data: still a valid element
 }
 
 TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {
@@ -157,6 +157,7 @@ TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {
   expect_self_contained(html);
   expect_every_figure(html, read_json(dir + "/report.json"));
   EXPECT_NE(html.find("energy per iteration"), std::string::npos);
+  EXPECT_NE(html.find("convergence: (E_k - E_last) / E_last"), std::string::npos);
   EXPECT_NE(html.find("<svg"), std::string::npos);
   if (offscreen_rendering_available()) {
     EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
@@ -193,8 +194,37 @@ TEST(ReportCli, DeformationRunShowsTimePerFrame) {
   expect_self_contained(html);
   expect_every_figure(html, report);
   EXPECT_NE(html.find("time (seconds) per frame"), std::string::npos);
+  // Each frame's energy per iteration, one line per frame (3 frames: all of them).
+  EXPECT_NE(html.find("energy per iteration"), std::string::npos);
+  EXPECT_NE(html.find("convergence: (E_k - E_last) / E_last"), std::string::npos);
+  for (const char* name : {">frame 1<", ">frame 2<", ">frame 3<"}) EXPECT_NE(html.find(name), std::string::npos) << name;
   if (offscreen_rendering_available()) {
     EXPECT_NE(html.find("frame_0002 (first, middle and last frame)"), std::string::npos);
+    EXPECT_EQ(html.find("No render"), std::string::npos);
+  }
+}
+
+TEST(ReportCli, PoseRunShowsTimeAndEnergyPerStepAndTheRestShell) {
+  TempDir tmp("report-pose");
+  const std::string rest = tmp.file("bowl"), out = tmp.file("pulled"), handles = tmp.file("pull.json");
+  ASSERT_EQ(run_cli("generate builtin:bowl:8 -o '" + rest + "' --thickness 0.08 --iterations 3 -q").exit_code, 0);
+  write_text(handles, R"({"handles": [
+    {"select": {"surface": "both", "box": [-2, -2, -0.2, -0.6, 2, 2]}},
+    {"select": {"surface": "both", "box": [0.6, -2, -0.2, 2, 2, 2]}, "translate": [0.3, 0, 0.1]}]})");
+  const CliResult p = run_cli("pose --shell '" + rest + "' --handles '" + handles + "' --steps 3 --levels 3 -o '" + out + "' -q");
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  const std::string page = tmp.file("pose.html");
+  const CliResult r = run_cli("report '" + out + "' -o '" + page + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string html = read_text(page);
+  EXPECT_EQ(tag_balance_problem(html), "");
+  EXPECT_TRUE(python_parses_as_xml(page));
+  expect_self_contained(html);
+  expect_every_figure(html, read_json(out + "/report.json"));
+  EXPECT_NE(html.find("time (seconds) per step"), std::string::npos);
+  EXPECT_NE(html.find("energy per step"), std::string::npos);
+  if (offscreen_rendering_available()) {
+    EXPECT_NE(html.find("rest and posed shell"), std::string::npos);
     EXPECT_EQ(html.find("No render"), std::string::npos);
   }
 }

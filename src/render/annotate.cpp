@@ -33,7 +33,8 @@ int text_width(const std::string& text, int scale) {
 int text_height(int scale) { return kLineHeight * scale; }
 
 void draw_text(Image& image, int x, int y, const std::string& text, int scale, Rgb8 color) {
-  std::vector<char> copy(text.begin(), text.end());
+  std::vector<char> copy;
+  for (unsigned char c : text) copy.push_back(c >= 32 && c < 127 ? static_cast<char>(c) : '?'); // the font is ASCII
   copy.push_back('\0');
   std::vector<FontVertex> quads(4 * (text.size() * 60 + 16)); // ~270 bytes per character, generous
   const int count = stb_easy_font_print(0, 0, copy.data(), nullptr, quads.data(),
@@ -78,7 +79,9 @@ int draw_color_bar(Image& image, int x, int y, int w, int bar_h, const ColorScal
   for (int k = 0; k < 3; ++k) {
     const int tx = x + (k * (w - 1)) / 2;
     image.fill_rect(tx, y + bar_h, std::max(1, text_scale / 2), tick, ink.r, ink.g, ink.b);
-    const std::string label = format_number(values[k]);
+    // The ends saturate: values beyond them get the end colors, so say so.
+    const bool two_sided = scale.ramp == ColorScale::Ramp::BlueGreenRed;
+    const std::string label = (k == 2 ? ">=" : k == 0 && two_sided ? "<=" : "") + format_number(values[k]);
     const int lw = text_width(label, text_scale);
     draw_text(image, std::clamp(tx - lw / 2, 0, std::max(0, image.width - lw)), label_y, label, text_scale, ink);
   }

@@ -18,13 +18,16 @@ int FigureLayout::color_bar_column(double value) const {
 Image render_figure(const std::vector<Panel>& panels, const FigureOptions& options, FigureLayout* layout) {
   if (panels.empty()) throw InputError("render: nothing to render");
   const int n = static_cast<int>(panels.size());
-  const int text_scale = std::clamp(static_cast<int>(std::lround(options.height / 360.0)), 1, 6);
+  // Text grows in whole font pixels: 1 up to 360 px high, 2 up to 720, ...
+  const int text_scale = std::clamp((options.height + 359) / 360, 1, 6);
+  const int small = std::max(1, text_scale - 1); // footnote
   const int pad = 4 * text_scale;
   const bool any_caption = std::any_of(panels.begin(), panels.end(), [](const Panel& p) { return !p.caption.empty(); });
   const int caption_h = any_caption ? text_height(text_scale) + 2 * pad : 0;
   const int bar_h = 5 * text_scale;
-  const int bottom_h = options.color_bar ? bar_h + 4 * text_scale + text_height(text_scale) + 2 * pad
-                                         : (options.footnote.empty() ? 0 : text_height(text_scale) + 2 * pad);
+  const int bar_block = bar_h + std::max(2, bar_h / 3) + text_scale + text_height(text_scale); // as draw_color_bar
+  const int foot_block = options.footnote.empty() ? 0 : text_height(small) + pad / 2;
+  const int bottom_h = (options.color_bar ? pad + bar_block : 0) + foot_block + (options.color_bar || foot_block ? pad / 2 : 0);
   const int panel_h = options.height - caption_h - bottom_h;
   const int panel_w = options.width / n;
   if (panel_w < 16 || panel_h < 16)
@@ -33,6 +36,21 @@ Image render_figure(const std::vector<Panel>& panels, const FigureOptions& optio
 
   Image figure(options.width, options.height);
   FigureLayout placed;
+  Eigen::MatrixXd all_points;
+  if (options.shared_camera) {
+    std::vector<Eigen::MatrixXd> each;
+    Eigen::Index rows = 0;
+    for (const auto& panel : panels) {
+      each.push_back(scene_points(panel.scene)); // without what a cut removes
+      rows += each.back().rows();
+    }
+    all_points.resize(rows, 3);
+    rows = 0;
+    for (const auto& points : each) {
+      all_points.middleRows(rows, points.rows()) = points;
+      rows += points.rows();
+    }
+  }
   const Rgb8 ink{30, 30, 30};
   for (int i = 0; i < n; ++i) {
     const Panel& panel = panels[i];
@@ -41,8 +59,8 @@ Image render_figure(const std::vector<Panel>& panels, const FigureOptions& optio
     ro.height = panel_h;
     ro.supersample = options.supersample;
     placed.panels.push_back({i * panel_w, caption_h, panel_w, panel_h});
-    const Eigen::MatrixXd points = scene_points(panel.scene);
-    if (points.rows() > 0) {
+    const Eigen::MatrixXd points = options.shared_camera ? all_points : scene_points(panel.scene);
+    if (scene_points(panel.scene).rows() > 0) {
       const Camera camera = frame_camera(points, options.view, static_cast<double>(panel_w) / panel_h, options.projection);
       blit(figure, render_scene(panel.scene, camera, ro), i * panel_w, caption_h);
     }
@@ -62,7 +80,6 @@ Image render_figure(const std::vector<Panel>& panels, const FigureOptions& optio
     draw_color_bar(figure, bar_x, bottom_y, placed.color_bar.w, bar_h, *options.color_bar, text_scale);
   }
   if (!options.footnote.empty()) {
-    const int small = std::max(1, text_scale - 1);
     const int y = options.height - text_height(small) - pad / 2;
     draw_text(figure, pad, y, fit_text(options.footnote, small, options.width - 2 * pad), small, Rgb8{90, 90, 90});
   }

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #ifndef GSHELL_VERSION
@@ -176,40 +177,110 @@ void record_list_section(std::ostringstream& html, const std::string& key, const
     auto rank = [](const std::string& c) { return c.find("seconds") != std::string::npos || c.find("time") != std::string::npos ? 0 : 1; };
     return rank(a) < rank(b);
   });
-  html << "<div class=\"plots\">\n";
-  for (const auto& column : columns) {
+  // One plot per numeric column; a column X with a twin "offset.X" (deform --compare-offset)
+  // shares its plot, so the benefit over the plain offset is one glance.
+  auto column_values = [&](const std::string& column, bool& last_of_list) -> std::optional<std::vector<double>> {
     std::vector<double> y;
-    bool numeric = true, last_of_list = false;
     for (const auto& row : rows) {
       auto it = std::find_if(row.begin(), row.end(), [&](const auto& kv) { return kv.first == column; });
       if (it == row.end()) {
         y.push_back(NAN);
       } else if (it->second.is_number()) {
-        y.push_back(it->second.get<double>());
+        y.push_back(it->second.template get<double>());
       } else if (is_number_list(it->second)) {
-        y.push_back(it->second.back().get<double>());
+        y.push_back(it->second.back().template get<double>());
         last_of_list = true;
       } else {
-        numeric = false;
-        break;
+        return std::nullopt;
       }
     }
-    if (!numeric || list.size() < 2) continue;
+    return y;
+  };
+  const std::string twin_prefix = "offset.";
+  html << "<div class=\"plots\">\n";
+  for (const auto& column : columns) {
+    if (list.size() < 2 || column == unit || column == "index") continue; // the x axis itself
+    const bool has_twin = std::find(columns.begin(), columns.end(), twin_prefix + column) != columns.end();
+    if (column.rfind(twin_prefix, 0) == 0 &&
+        std::find(columns.begin(), columns.end(), column.substr(twin_prefix.size())) != columns.end())
+      continue; // drawn with its twin
+    bool last_of_list = false;
+    const auto y = column_values(column, last_of_list);
+    if (!y) continue;
+    std::vector<PlotSeries> series{{key == "frames" && has_twin ? "shell" : column, *y}};
+    if (has_twin) {
+      bool twin_last = false;
+      if (auto twin = column_values(twin_prefix + column, twin_last)) series.push_back({"offset", *twin});
+    }
     PlotOptions plot;
     const bool is_time = column.find("seconds") != std::string::npos || column.find("time") != std::string::npos;
-    plot.title = (is_time ? "time (" + column + ")" : column) + (last_of_list ? " (last value)" : "") + " per " + unit;
+    plot.title = (is_time ? "time (" + column + ")" : column) + (last_of_list ? " (last value)" : "") + " per " + unit +
+                 (series.size() > 1 ? " vs offset" : "");
     plot.x_label = unit;
+    plot.x_start = 1; // frames and steps count from 1, as the CLI prints them
     plot.y_label = column;
-    plot.log_y = spans_decades(y);
+    std::vector<double> all;
+    for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
+    plot.log_y = spans_decades(all);
     plot.width = 460;
     plot.height = 240;
-    html << "<div class=\"plot\">" << svg_line_plot(y, plot) << "</div>\n";
+    html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
   }
-  html << "</div>\n<div class=\"scroll\"><table class=\"records\">\n<tr><th>" << xml_escape(unit) << "</th>";
+  // A column holding a list per record (deform's energy per iteration of each frame): one line
+  // per record, for the first, middle and last record (all when there are few).
+  for (const auto& column : columns) {
+    std::vector<size_t> picks;
+    if (rows.size() <= 4) {
+      for (size_t i = 0; i < rows.size(); ++i) picks.push_back(i);
+    } else {
+      picks = {0, rows.size() / 2, rows.size() - 1};
+    }
+    std::vector<PlotSeries> series;
+    for (size_t i : picks) {
+      auto it = std::find_if(rows[i].begin(), rows[i].end(), [&](const auto& kv) { return kv.first == column; });
+      if (it == rows[i].end() || !is_number_list(it->second) || it->second.size() < 2) continue;
+      series.push_back({unit + " " + std::to_string(i + 1), numbers_of(it->second)});
+    }
+    if (series.empty()) continue;
+    PlotOptions plot;
+    plot.title = column + " per iteration (0 = start state)";
+    plot.x_label = "iteration";
+    plot.y_label = column;
+    std::vector<double> all;
+    for (const auto& s : series) all.insert(all.end(), s.y.begin(), s.y.end());
+    plot.log_y = spans_decades(all);
+    plot.width = 460;
+    plot.height = 240;
+    html << "<div class=\"plot\">" << svg_line_plot(series, plot) << "</div>\n";
+    // Energies of different records can lie decades apart; the convergence of each reads best as
+    // its distance to its own final value.
+    std::vector<PlotSeries> gaps;
+    for (const auto& line : series) {
+      PlotSeries gap{line.name, {}};
+      for (size_t k = 0; k + 1 < line.y.size(); ++k)
+        gap.y.push_back(line.y.back() > 0 ? (line.y[k] - line.y.back()) / line.y.back() : NAN);
+      if (std::any_of(gap.y.begin(), gap.y.end(), [](double g) { return g > 0; })) gaps.push_back(std::move(gap));
+    }
+    if (!gaps.empty()) {
+      for (auto& gap : gaps)
+        for (double& g : gap.y)
+          if (!(g > 0)) g = NAN; // a log axis has no place for 0 (converged) or a rise
+      PlotOptions rate = plot;
+      rate.title = "convergence: (E_k - E_last) / E_last";
+      rate.y_label = "relative gap";
+      rate.log_y = true;
+      html << "<div class=\"plot\">" << svg_line_plot(gaps, rate) << "</div>\n";
+    }
+  }
+  // The record number column, unless the records number themselves (deform's "frame").
+  const bool numbered = std::find(columns.begin(), columns.end(), unit) != columns.end();
+  html << "</div>\n<div class=\"scroll\"><table class=\"records\">\n<tr>";
+  if (!numbered) html << "<th>" << xml_escape(unit) << "</th>";
   for (const auto& column : columns) html << "<th>" << xml_escape(column) << "</th>";
   html << "</tr>\n";
   for (size_t i = 0; i < rows.size(); ++i) {
-    html << "<tr><td>" << i << "</td>";
+    html << "<tr>";
+    if (!numbered) html << "<td>" << i + 1 << "</td>";
     for (const auto& column : columns) {
       auto it = std::find_if(rows[i].begin(), rows[i].end(), [&](const auto& kv) { return kv.first == column; });
       html << "<td>" << (it == rows[i].end() ? std::string() : format_value(it->second)) << "</td>";
@@ -251,9 +322,19 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
       image_figure(html, render_subjects(subjects, captions, ro),
                    names + " (first, middle and last frame), colored by stretch against the rest shell (iso view)");
     } else {
-      const std::vector<RenderSubject> subject{load_render_subject(dir.string())};
-      image_figure(html, render_subjects(subject, {default_caption(subject[0])}, ro),
-                   "opaque base under a translucent top, colored by per-prism stretch (iso view)");
+      // A pose output is shown beside its rest shell, as its preview is.
+      PreviewPanels preview = preview_panels(dir.string());
+      if (preview.subjects.size() > 1) {
+        ro.figure.width = options.render_width * 3 / 2;
+        image_figure(html, render_subjects(preview.subjects, preview.captions, ro),
+                     "rest and posed shell, opaque base under a translucent top, colored by stretch against the rest "
+                     "shell (iso view)");
+        ro.figure.width = options.render_width;
+      }
+      const std::vector<RenderSubject> subject{preview.subjects.back()};
+      if (preview.subjects.size() == 1)
+        image_figure(html, render_subjects(subject, {default_caption(subject[0])}, ro),
+                     "opaque base under a translucent top, colored by per-prism stretch (iso view)");
       ro.style = ShellStyle::Cut;
       image_figure(html, render_subjects(subject, {"cut-away"}, ro),
                    "cut-away: the half nearer the eye removed, so the layer between base and top shows at the cut");

@@ -28,10 +28,13 @@ Eigen::MatrixXd scene_points(const Scene& scene) {
   for (const auto& layer : scene.layers) rows += layer.V.rows();
   Eigen::MatrixXd points(rows, 3);
   Eigen::Index at = 0;
-  for (const auto& layer : scene.layers) {
-    points.middleRows(at, layer.V.rows()) = layer.V;
-    at += layer.V.rows();
-  }
+  for (const auto& layer : scene.layers)
+    for (Eigen::Index i = 0; i < layer.V.rows(); ++i) {
+      const Eigen::Vector3d p = layer.V.row(i);
+      if (scene.clip_plane && scene.clip_plane->head<3>().dot(p) + (*scene.clip_plane)[3] < 0) continue;
+      points.row(at++) = p;
+    }
+  points.conservativeResize(at, 3);
   return points;
 }
 

@@ -33,9 +33,11 @@ std::optional<nlohmann::json> read_json(const fs::path& path) {
   return j;
 }
 
+// What made the folder: generate's `method`, else the `command` (deform, pose).
 std::string json_method(const std::optional<nlohmann::json>& report) {
-  if (report && report->is_object() && report->contains("method") && (*report)["method"].is_string())
-    return (*report)["method"].get<std::string>();
+  for (const char* key : {"method", "command"})
+    if (report && report->is_object() && report->contains(key) && (*report)[key].is_string())
+      return (*report)[key].get<std::string>();
   return {};
 }
 
@@ -206,7 +208,14 @@ RenderSubject load_render_subject(const std::string& input) {
 }
 
 std::string default_caption(const RenderSubject& subject) {
-  return subject.method.empty() ? subject.name : subject.name + " (" + subject.method + ")";
+  // The folder or file name, not the whole path: captions are short, panels narrow.
+  fs::path path = fs::path(subject.name).lexically_normal();
+  if (path.filename().empty()) path = path.parent_path();
+  std::string name = path.filename().string();
+  if (name.rfind("frame_", 0) == 0 && !path.parent_path().filename().empty())
+    name = path.parent_path().filename().string() + "/" + name; // which run the frame belongs to
+  if (name.empty()) name = subject.name;
+  return subject.method.empty() ? name : name + " (" + subject.method + ")";
 }
 
 Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,
@@ -232,9 +241,13 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
     if (color_by == ColorBy::Thickness && s.is_shell()) values[i] = vertex_thickness_ratio(s.shell);
     if (values[i].size() == 0) continue;
     std::vector<double> magnitude(values[i].data(), values[i].data() + values[i].size());
-    if (color_by == ColorBy::Thickness)
+    if (color_by == ColorBy::Thickness) {
+      // Thickness: the widest spread, so no panel saturates.
       for (double& v : magnitude) v = std::abs(v - 1);
-    automatic = std::min(automatic, quantile(magnitude, 0.99));
+      automatic = std::isfinite(automatic) ? std::max(automatic, quantile(magnitude, 0.99)) : quantile(magnitude, 0.99);
+    } else {
+      automatic = std::min(automatic, quantile(magnitude, 0.99));
+    }
   }
   std::optional<ColorScale> scale;
   if (color_by == ColorBy::Stretch) {
@@ -317,14 +330,19 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   if (color_by == ColorBy::Stretch && figure.footnote.empty())
     figure.footnote = "stretch = sum (sigma_i - 1)^2 per tet; a face shows the volume-weighted mean of its prism's 3 tets";
   if (color_by == ColorBy::Thickness && figure.footnote.empty())
-    figure.footnote = "thickness = |top_i - base_i| / eta per vertex";
+    figure.footnote = "thickness = length(top_i - base_i) / eta per vertex";
   return render_figure(panels, figure, layout);
 }
 
-std::string render_shell_preview(const std::string& dir) {
+PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
   const fs::path folder(dir);
-  std::vector<RenderSubject> subjects;
-  std::vector<std::string> captions;
+  // A caption names the folder, not the path it was reached by (previews are seen inside it).
+  fs::path shown = fs::path(name.empty() ? dir : name).lexically_normal();
+  if (shown.filename().empty()) shown = shown.parent_path();
+  const std::string folder_name = shown.filename().string();
+  PreviewPanels panels;
+  std::vector<RenderSubject>& subjects = panels.subjects;
+  std::vector<std::string>& captions = panels.captions;
   const bool shell_here = fs::exists(folder / "shell.vtu") || fs::exists(folder / "top.obj");
   const std::vector<fs::path> frames = shell_here ? std::vector<fs::path>{} : frame_dirs(folder);
   if (!frames.empty()) {
@@ -335,12 +353,32 @@ std::string render_shell_preview(const std::string& dir) {
       captions.push_back(frames[k].filename().string());
     }
   } else {
-    subjects.push_back(load_render_subject(dir));
-    captions.push_back(default_caption(subjects.back()));
+    RenderSubject subject = load_render_subject(dir);
+    // A pose output: the rest shell first, so the pose reads as a change. Its stretch against
+    // itself is 0 by definition (the posed panel's colors are measured against it).
+    const auto report = read_json(folder / "report.json");
+    if (subject.method == "pose" && report && report->contains("shell") && (*report)["shell"].is_string()) {
+      try {
+        RenderSubject rest = load_shell_folder((*report)["shell"].get<std::string>(), "rest");
+        rest.face_stretch = Eigen::VectorXd::Zero(rest.shell.F.rows());
+        rest.detail = TriMesh{};
+        subjects.push_back(std::move(rest));
+        captions.push_back("rest");
+      } catch (const InputError&) {
+        // the rest shell moved or is gone: the posed shell alone
+      }
+    }
+    subject.name = folder_name;
+    captions.push_back(subjects.empty() ? default_caption(subject) : "posed");
+    subjects.push_back(std::move(subject));
   }
-  ShellRenderOptions options;
-  const std::string out = (folder / "preview.png").string();
-  write_png(out, render_subjects(subjects, captions, options));
+  return panels;
+}
+
+std::string render_shell_preview(const std::string& dir, const std::string& name) {
+  const PreviewPanels panels = preview_panels(dir, name);
+  const std::string out = (fs::path(dir) / "preview.png").string();
+  write_png(out, render_subjects(panels.subjects, panels.captions, ShellRenderOptions{}));
   return out;
 }
 

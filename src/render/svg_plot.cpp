@@ -44,15 +44,28 @@ std::string xml_escape(const std::string& text) {
 }
 
 std::string svg_line_plot(const std::vector<double>& y, const PlotOptions& options) {
+  return svg_line_plot(std::vector<PlotSeries>{{"", y}}, options);
+}
+
+std::string svg_line_plot(const std::vector<PlotSeries>& series, const PlotOptions& options) {
+  static const char* palette[] = {"#1f5fbf", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c"};
   const double W = options.width, H = options.height;
-  const double left = 70, right = 16, top = options.title.empty() ? 12 : 30, bottom = 44;
-  std::vector<std::pair<double, double>> points;
-  for (size_t i = 0; i < y.size(); ++i)
-    if (std::isfinite(y[i])) points.emplace_back(options.x_start + static_cast<double>(i), y[i]);
+  const bool legend = series.size() > 1;
+  const double left = 70, right = 16, top = (options.title.empty() ? 12 : 30) + (legend ? 16 : 0), bottom = 44;
+  std::vector<std::vector<std::pair<double, double>>> lines;
+  size_t longest = 0;
+  for (const auto& s : series) {
+    lines.emplace_back();
+    longest = std::max(longest, s.y.size());
+    for (size_t i = 0; i < s.y.size(); ++i)
+      if (std::isfinite(s.y[i])) lines.back().emplace_back(options.x_start + static_cast<double>(i), s.y[i]);
+  }
+  std::vector<std::pair<double, double>> points; // all of them, for the axes
+  for (const auto& line : lines) points.insert(points.end(), line.begin(), line.end());
   bool log_y = options.log_y && !points.empty() &&
                std::all_of(points.begin(), points.end(), [](const auto& p) { return p.second > 0; });
 
-  double x_lo = options.x_start, x_hi = options.x_start + std::max<double>(1, static_cast<double>(y.size()) - 1);
+  double x_lo = options.x_start, x_hi = options.x_start + std::max<double>(1, static_cast<double>(longest) - 1);
   double y_lo = 0, y_hi = 1;
   if (!points.empty()) {
     y_lo = y_hi = log_y ? std::log10(points[0].second) : points[0].second;
@@ -116,14 +129,26 @@ std::string svg_line_plot(const std::vector<double>& y, const PlotOptions& optio
   if (!options.y_label.empty())
     svg << "<text transform=\"translate(14 " << fixed(top + (H - top - bottom) / 2) << ") rotate(-90)\" text-anchor=\"middle\">"
         << xml_escape(options.y_label + (log_y ? " (log)" : "")) << "</text>\n";
-  if (!points.empty()) {
-    svg << "<polyline fill=\"none\" stroke=\"#1f5fbf\" stroke-width=\"2\" points=\"";
-    for (const auto& p : points) svg << fixed(sx(p.first)) << ',' << fixed(sy(log_y ? std::log10(p.second) : p.second)) << ' ';
+  for (size_t k = 0; k < lines.size(); ++k) {
+    if (lines[k].empty()) continue;
+    const char* color = palette[k % 5];
+    svg << "<polyline fill=\"none\" stroke=\"" << color << "\" stroke-width=\"2\" points=\"";
+    for (const auto& p : lines[k]) svg << fixed(sx(p.first)) << ',' << fixed(sy(log_y ? std::log10(p.second) : p.second)) << ' ';
     svg << "\"/>\n";
-    if (points.size() <= 60)
-      for (const auto& p : points)
+    if (lines[k].size() <= 60)
+      for (const auto& p : lines[k])
         svg << "<circle cx=\"" << fixed(sx(p.first)) << "\" cy=\"" << fixed(sy(log_y ? std::log10(p.second) : p.second))
-            << "\" r=\"2.5\" fill=\"#1f5fbf\"/>\n";
+            << "\" r=\"2.5\" fill=\"" << color << "\"/>\n";
+  }
+  if (legend) { // one row between the title and the frame
+    double lx = left;
+    for (size_t k = 0; k < series.size(); ++k) {
+      const double ly = top - 8;
+      svg << "<line x1=\"" << fixed(lx) << "\" y1=\"" << fixed(ly - 4) << "\" x2=\"" << fixed(lx + 20) << "\" y2=\""
+          << fixed(ly - 4) << "\" stroke=\"" << palette[k % 5] << "\" stroke-width=\"2\"/>\n";
+      svg << "<text x=\"" << fixed(lx + 25) << "\" y=\"" << fixed(ly) << "\">" << xml_escape(series[k].name) << "</text>\n";
+      lx += 40 + 7.0 * static_cast<double>(series[k].name.size());
+    }
   }
   svg << "</svg>\n";
   return svg.str();

@@ -13,12 +13,15 @@ void closest_rotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, std::size_t
   alignas(64) double Fs[9 * W], Rs[9 * W];
   for (std::size_t i0 = 0; i0 < count; i0 += W) {
     const int lanes = static_cast<int>(std::min<std::size_t>(W, count - i0));
+    // Entry (r, c) is at r + 3 c of a column-major Eigen matrix and at 3 r + c of a lane block.
     for (int l = 0; l < W; ++l)
-      for (int k = 0; k < 9; ++k)
-        Fs[k * W + l] = l < lanes ? F[i0 + l](k / 3, k % 3) : (k % 4 == 0 ? 1.0 : 0.0);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          Fs[(3 * r + c) * W + l] = l < lanes ? F[i0 + l].data()[r + 3 * c] : (r == c ? 1.0 : 0.0);
     detail::closest_rotations_lanes(Fs, Rs);
     for (int l = 0; l < lanes; ++l)
-      for (int k = 0; k < 9; ++k) R[i0 + l](k / 3, k % 3) = Rs[k * W + l];
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) R[i0 + l].data()[r + 3 * c] = Rs[(3 * r + c) * W + l];
   }
 }
 

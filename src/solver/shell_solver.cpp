@@ -7,6 +7,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
@@ -33,6 +34,10 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 // how TBB happened to split the work (the monotonicity test compares energies to round-off).
 constexpr int kChunk = 2048;
 
+// Free vertices from which the x column and the y, z columns are back-substituted concurrently:
+// CHOLMOD's triangular solves are single-threaded, and one column costs about 60% of three.
+constexpr int kParallelSolveRows = 4096;
+
 } // namespace
 
 struct ShellSolver::Impl {
@@ -54,9 +59,6 @@ struct ShellSolver::Impl {
   // Per free vertex: the (tet * 4 + corner) slots of the local step's RHS rows to sum (a gather,
   // so the global step's right-hand side is built in parallel without atomics).
   std::vector<int> gather_start, gather_slot;
-  // Where the local step writes tet t's corner k row (tet * 4 + corner -> slot), -1 for kept
-  // vertices: rows land in gather order, so the gather reads memory sequentially.
-  std::vector<int> corner_slot;
   // Coupling of free rows to the kept vertices (CSR over free rows, columns = vertex ids): the
   // exact Dirichlet elimination term L_fc x_c.
   std::vector<int> fc_start, fc_col;
@@ -69,6 +71,26 @@ struct ShellSolver::Impl {
 #ifdef GSHELL_HAVE_CHOLMOD
   mutable cholmod_common cm;
   cholmod_factor* factor = nullptr;
+  // A CHOLMOD common with the solution and workspaces of one concurrent triangular solve. They
+  // persist between solves: allocating them per call costs page faults comparable to the solve.
+  struct SolveLane {
+    cholmod_common cm;
+    cholmod_dense *x = nullptr, *y = nullptr, *e = nullptr;
+    SolveLane() {
+      cholmod_start(&cm);
+      cm.print = 0;
+      cm.error_handler = nullptr;
+    }
+    ~SolveLane() {
+      cholmod_free_dense(&x, &cm);
+      cholmod_free_dense(&y, &cm);
+      cholmod_free_dense(&e, &cm);
+      cholmod_finish(&cm);
+    }
+    SolveLane(const SolveLane&) = delete;
+    SolveLane& operator=(const SolveLane&) = delete;
+  };
+  mutable SolveLane lanes[2];
 #else
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper> ldlt;
 #endif
@@ -93,6 +115,7 @@ struct ShellSolver::Impl {
   void setup(const std::vector<int>& fixed);
   void assemble_and_factor();
 
+  // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS.
   double local_step(const double* X, double* Q) const;
   double soft_energy(const double* X, const Eigen::MatrixXd& targets) const;
   void linear_solve(std::vector<double>& rhs) const; // rhs: nf x 3 column-major, overwritten
@@ -151,8 +174,6 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
       const int j = free_index[tet[t][k]];
       if (j >= 0) gather_slot[fill[j]++] = 4 * t + k;
     }
-  corner_slot.assign(4 * static_cast<std::size_t>(K), -1);
-  for (int s = 0; s < gather_start[nf]; ++s) corner_slot[gather_slot[s]] = s;
 
   soft_free.clear();
   if (has_soft)
@@ -279,21 +300,26 @@ double ShellSolver::Impl::local_step(const double* X, double* Q) const {
   tbb::parallel_for(0, chunks, [&](int ci) {
     const int t_end = std::min(K, (ci + 1) * kChunk);
     double e = 0;
-    alignas(64) double Fs[9 * W], Rs[9 * W];
+    // W tets at a time in struct-of-arrays layout (entry k of lane l at [k * W + l]) so that the
+    // polar decomposition and everything after it run across lanes in SIMD registers.
+    alignas(64) double Fs[9 * W], Rs[9 * W], Ds[9 * W], Ps[9 * W], vols[W];
     for (int t0 = ci * kChunk; t0 < t_end; t0 += W) {
       const int lanes = std::min(W, t_end - t0);
-      // F_t = D_t Dm_inv_t (D = current edge vectors) for W tets, struct-of-arrays for the
-      // batched polar decomposition; padding lanes get the identity.
       for (int l = 0; l < W; ++l) {
-        if (l >= lanes) {
-          for (int r = 0; r < 9; ++r) Fs[r * W + l] = (r % 4 == 0) ? 1.0 : 0.0;
+        if (l >= lanes) { // padding: identity F, zero volume, so it adds nothing
+          for (int k = 0; k < 9; ++k) {
+            Fs[k * W + l] = (k % 4 == 0) ? 1.0 : 0.0;
+            Ds[k * W + l] = 0.0;
+          }
+          vols[l] = 0.0;
           continue;
         }
+        // F_t = D_t Dm_inv_t with D = the current edge vectors x_{j+1} - x_0 as columns.
         const int t = t0 + l;
         const auto& v = tet[t];
         const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
         const double* x0 = X + 3 * static_cast<std::size_t>(v[0]);
-        double D[3][3]; // D[r][j] = (x_{j+1} - x_0)[r]
+        double D[3][3];
         for (int j = 0; j < 3; ++j) {
           const double* xj = X + 3 * static_cast<std::size_t>(v[j + 1]);
           for (int r = 0; r < 3; ++r) D[r][j] = xj[r] - x0[r];
@@ -301,35 +327,30 @@ double ShellSolver::Impl::local_step(const double* X, double* Q) const {
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c)
             Fs[(3 * r + c) * W + l] = D[r][0] * di[c] + D[r][1] * di[3 + c] + D[r][2] * di[6 + c];
+        for (int k = 0; k < 9; ++k) Ds[k * W + l] = di[k];
+        vols[l] = vol[t];
       }
       detail::closest_rotations_lanes(Fs, Rs);
-      for (int l = 0; l < lanes; ++l) {
-        const int t = t0 + l;
-        double d2 = 0;
-        for (int r = 0; r < 9; ++r) {
-          const double d = Fs[r * W + l] - Rs[r * W + l];
-          d2 += d * d;
+      alignas(64) double d2[W] = {};
+      for (int k = 0; k < 9; ++k)
+        for (int l = 0; l < W; ++l) {
+          const double d = Fs[k * W + l] - Rs[k * W + l];
+          d2[l] += d * d;
         }
-        e += vol[t] * d2;
-        if (Q) { // rows of vol G_t R^T, G_t = [-1 -1 -1; I] Dm_inv: this tet's share of the RHS
-          const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
-          double P[3][3]; // vol Dm_inv R^T
-          for (int k = 0; k < 3; ++k)
-            for (int r = 0; r < 3; ++r)
-              P[k][r] = vol[t] * (di[3 * k] * Rs[(3 * r) * W + l] + di[3 * k + 1] * Rs[(3 * r + 1) * W + l] +
-                                  di[3 * k + 2] * Rs[(3 * r + 2) * W + l]);
-          const int* slots = &corner_slot[4 * static_cast<std::size_t>(t)];
-          if (slots[0] >= 0) {
-            double* q = Q + 3 * static_cast<std::size_t>(slots[0]);
-            for (int r = 0; r < 3; ++r) q[r] = -(P[0][r] + P[1][r] + P[2][r]);
-          }
-          for (int k = 0; k < 3; ++k)
-            if (slots[k + 1] >= 0) {
-              double* q = Q + 3 * static_cast<std::size_t>(slots[k + 1]);
-              for (int r = 0; r < 3; ++r) q[r] = P[k][r];
-            }
-        }
-      }
+      for (int l = 0; l < W; ++l) e += vols[l] * d2[l];
+      if (!Q) continue;
+      // vol Dm_inv R^T: rows 1..3 of this tet's share vol G_t R^T of the right-hand side (row 0
+      // is minus their sum, G_t = [-1 -1 -1; I] Dm_inv).
+      for (int k = 0; k < 3; ++k)
+        for (int r = 0; r < 3; ++r)
+          for (int l = 0; l < W; ++l)
+            Ps[(3 * k + r) * W + l] =
+                vols[l] * (Ds[(3 * k) * W + l] * Rs[(3 * r) * W + l] + Ds[(3 * k + 1) * W + l] * Rs[(3 * r + 1) * W + l] +
+                           Ds[(3 * k + 2) * W + l] * Rs[(3 * r + 2) * W + l]);
+      // Stored per tet, contiguously, so the writes stream; the gather picks the rows it needs.
+      double* q = Q + 9 * static_cast<std::size_t>(t0);
+      for (int l = 0; l < lanes; ++l)
+        for (int k = 0; k < 9; ++k) q[9 * l + k] = Ps[k * W + l];
     }
     chunk_energy[ci] = e;
   });
@@ -352,24 +373,28 @@ double ShellSolver::Impl::soft_energy(const double* X, const Eigen::MatrixXd& ta
 void ShellSolver::Impl::linear_solve(std::vector<double>& rhs) const {
   std::lock_guard<std::mutex> lock(solve_mutex);
 #ifdef GSHELL_HAVE_CHOLMOD
-  cholmod_dense B;
-  B.nrow = nf;
-  B.ncol = 3;
-  B.nzmax = 3 * static_cast<std::size_t>(nf);
-  B.d = nf;
-  B.x = rhs.data();
-  B.z = nullptr;
-  B.xtype = CHOLMOD_REAL;
-  B.dtype = CHOLMOD_DOUBLE;
-  cholmod_dense* Xs = nullptr;
-  cholmod_dense *Y = nullptr, *E = nullptr;
-  const int ok = cholmod_solve2(CHOLMOD_A, factor, &B, nullptr, &Xs, nullptr, &Y, &E, &cm);
-  if (!ok || !Xs) throw std::runtime_error("CHOLMOD solve failed (status " + std::to_string(cm.status) + ")");
-  const double* x = static_cast<const double*>(Xs->x);
-  std::copy(x, x + 3 * static_cast<std::size_t>(nf), rhs.begin());
-  cholmod_free_dense(&Xs, &cm);
-  cholmod_free_dense(&Y, &cm);
-  cholmod_free_dense(&E, &cm);
+  // Column groups solved concurrently, each through its own CHOLMOD common and workspaces (the
+  // factor is only read): the triangular solves are memory-bound and single-threaded in CHOLMOD.
+  auto solve_columns = [&](SolveLane& lane, int first, int count) {
+    cholmod_dense B;
+    B.nrow = nf;
+    B.ncol = count;
+    B.nzmax = static_cast<std::size_t>(count) * nf;
+    B.d = nf;
+    B.x = rhs.data() + static_cast<std::size_t>(first) * nf;
+    B.z = nullptr;
+    B.xtype = CHOLMOD_REAL;
+    B.dtype = CHOLMOD_DOUBLE;
+    const int ok = cholmod_solve2(CHOLMOD_A, factor, &B, nullptr, &lane.x, nullptr, &lane.y, &lane.e, &lane.cm);
+    if (!ok || !lane.x) throw std::runtime_error("CHOLMOD solve failed (status " + std::to_string(lane.cm.status) + ")");
+    const double* x = static_cast<const double*>(lane.x->x);
+    std::copy(x, x + static_cast<std::size_t>(count) * nf, static_cast<double*>(B.x));
+  };
+  // Small systems solve faster in one sweep than with a second thread joining in.
+  if (nf < kParallelSolveRows)
+    solve_columns(lanes[0], 0, 3);
+  else
+    tbb::parallel_invoke([&] { solve_columns(lanes[0], 0, 1); }, [&] { solve_columns(lanes[1], 1, 2); });
 #else
   Eigen::Map<Eigen::MatrixXd> B(rhs.data(), nf, 3);
   B = ldlt.solve(Eigen::MatrixXd(B));
@@ -443,7 +468,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
     if (m.soft_free[c] >= 0)
       for (int d = 0; d < 3; ++d) rhs_const[m.soft_free[c] + static_cast<std::size_t>(d) * nf] += m.soft.weight * soft_targets(c, d);
 
-  std::vector<double> Q(3 * static_cast<std::size_t>(m.gather_start[nf]));
+  std::vector<double> Q(9 * static_cast<std::size_t>(m.K));
   std::vector<double> rhs(3 * static_cast<std::size_t>(nf));
   SolveResult result;
   auto t_local = Clock::now();
@@ -455,10 +480,12 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
     tbb::parallel_for(0, nf, [&](int j) {
       double b[3] = {0, 0, 0};
       for (int s = m.gather_start[j]; s < m.gather_start[j + 1]; ++s) {
-        const double* q = &Q[3 * static_cast<std::size_t>(s)];
-        b[0] += q[0];
-        b[1] += q[1];
-        b[2] += q[2];
+        const int t = m.gather_slot[s] >> 2, k = m.gather_slot[s] & 3;
+        const double* q = &Q[9 * static_cast<std::size_t>(t)];
+        if (k == 0) // corner 0's row of G_t is minus the sum of the other three
+          for (int r = 0; r < 3; ++r) b[r] -= q[r] + q[3 + r] + q[6 + r];
+        else
+          for (int r = 0; r < 3; ++r) b[r] += q[3 * (k - 1) + r];
       }
       for (int d = 0; d < 3; ++d) {
         const std::size_t i = j + static_cast<std::size_t>(d) * nf;

@@ -16,7 +16,7 @@ struct Rgb8 {
 int text_width(const std::string& text, int scale);
 int text_height(int scale);
 
-/// Draws `text` with its top-left corner at (x, y); clipped to the image. ASCII only.
+/// Draws `text` with its top-left corner at (x, y); clipped to the image. ASCII only (other bytes show as ?).
 void draw_text(Image& image, int x, int y, const std::string& text, int scale, Rgb8 color = {});
 
 /// `text` shortened with "..." so that it is at most `max_width` pixels wide.

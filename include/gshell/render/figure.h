@@ -23,6 +23,9 @@ struct FigureOptions {
   int supersample = 2;                       ///< anti-aliasing factor (see RenderOptions)
   std::optional<ColorScale> color_bar;       ///< drawn along the bottom when set
   std::string footnote;                      ///< small text at the bottom-left (e.g. how values were made)
+  /// One camera framing all panels together, so they show at the same scale (before/after,
+  /// method A/B). False: each panel is framed on its own scene.
+  bool shared_camera = true;
 };
 
 /// Where render_figure put things, in pixels (x, y = top-left corner).
@@ -38,7 +41,8 @@ struct FigureLayout {
   int color_bar_column(double value) const;
 };
 
-/// Panels share the width equally and are framed one by one (each camera fits its own scene).
+/// Panels share the width equally; the camera frames all of them together or each on its own
+/// (FigureOptions::shared_camera).
 /// Text size grows with the image height. Throws InputError if the image is too small to hold them.
 Image render_figure(const std::vector<Panel>& panels, const FigureOptions& options, FigureLayout* layout = nullptr);
 

@@ -44,7 +44,7 @@ bool offscreen_rendering_available();
 /// Throws InputError on a bad size or index, std::runtime_error if the GL context fails.
 Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions& options);
 
-/// All vertices of all layers stacked (for framing the camera).
+/// All vertices of all layers stacked, without those the clip plane cuts away (for framing).
 Eigen::MatrixXd scene_points(const Scene& scene);
 
 } // namespace gshell

@@ -14,7 +14,7 @@ namespace gshell {
 /// One render input, loaded. A plain surface has an empty `shell.top`.
 struct RenderSubject {
   std::string name;            ///< the input as given (path or builtin spec)
-  std::string method;          ///< "rigid", "offset", ... from report.json; empty if unknown
+  std::string method;          ///< report.json `method` (rigid, offset, ...) or `command` (deform, pose); may be empty
   Shell shell;                 ///< base, top (may be empty), faces, thickness eta (0 if unknown)
   Eigen::VectorXd face_stretch;///< one value per face (see face_stretch_from_tets), or empty
   TriMesh detail;              ///< geometry embedded in the shell (DIR/detail.obj of deform), or empty
@@ -62,15 +62,16 @@ struct ShellRenderOptions {
   /// 0 = the default: kDefaultStretchMax for stretch (absolute, so figures compare across runs),
   /// kDefaultThicknessSpread for thickness. Ignored when auto_max is set.
   double color_max = 0;
-  /// Scale to the data instead: the smallest of the panels' 99th percentiles (of face stretch, or
-  /// of |t - 1| per vertex), rounded up to 1, 2, 2.5 or 5 x 10^k: the best panel spans the ramp,
-  /// worse ones turn red where they are worse.
+  /// Scale to the data instead, rounded up to 1, 2, 2.5 or 5 x 10^k. Stretch: the smallest of the
+  /// panels' 99th percentiles (the best panel spans the ramp, worse ones turn red where they are
+  /// worse). Thickness: the largest of the panels' 99th percentiles of |t - 1| (none saturates).
   bool auto_max = false;
   float top_opacity = 0.35f;
   FigureOptions figure; ///< size, view, projection, anti-aliasing
 };
 
-/// Default panel caption: "NAME (METHOD)" or just NAME.
+/// Default panel caption: "NAME (METHOD)" or just NAME, NAME being the input's last path component
+/// (a deform frame: "RUN/frame_NNNN").
 std::string default_caption(const RenderSubject& subject);
 
 /// Renders the subjects side by side (captions: one per subject, or empty for the defaults).
@@ -79,9 +80,18 @@ std::string default_caption(const RenderSubject& subject);
 Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,
                       const ShellRenderOptions& options, FigureLayout* layout = nullptr);
 
+/// What a preview of an output folder shows (see render_shell_preview), with captions.
+struct PreviewPanels {
+  std::vector<RenderSubject> subjects;
+  std::vector<std::string> captions;
+};
+PreviewPanels preview_panels(const std::string& dir, const std::string& name = {});
+
 /// Renders a shell folder written by generate / deform / pose to DIR/preview.png (1280x720,
-/// iso view, colored by stretch; for a deform output: first, middle and last frame side by side).
-/// Returns the path written.
-std::string render_shell_preview(const std::string& dir);
+/// iso view, colored by stretch; for a deform output: first, middle and last frame side by side;
+/// for a pose output: the rest shell named in its report.json (stretch 0) beside the posed one).
+/// Writes the PNG atomically. Returns the path written. Captions name the folder by its last
+/// component, or by `name` when given (the final folder's name while DIR is a staging folder).
+std::string render_shell_preview(const std::string& dir, const std::string& name = {});
 
 } // namespace gshell

@@ -12,8 +12,17 @@ struct PlotOptions {
   int x_start = 0;           ///< x of the first value (0: iteration 0 = the start state)
 };
 
-/// One line through (x_start + i, y[i]); non-finite values are skipped. Returns an <svg> element
+/// One named line of a plot: points (x_start + i, y[i]); non-finite values are skipped.
+struct PlotSeries {
+  std::string name;
+  std::vector<double> y;
+};
+
+/// Lines on shared axes (a legend when there are several). Returns an <svg> element
 /// (well-formed XML; all text escaped).
+std::string svg_line_plot(const std::vector<PlotSeries>& series, const PlotOptions& options);
+
+/// A single line.
 std::string svg_line_plot(const std::vector<double>& y, const PlotOptions& options);
 
 /// Escapes & < > " ' for XML text and attributes.
