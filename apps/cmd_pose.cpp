@@ -32,8 +32,8 @@ using Clock = std::chrono::steady_clock;
 
 struct PoseCliOptions {
   std::string shell_dir, handles, output, solver = "hierarchical";
-  int levels = 5, steps = 1, iterations = 200;
-  double tolerance = 1e-5;
+  int levels = 5, steps = 1, iterations = 500; // as the Python Poser.solve defaults
+  double tolerance = 1e-6;
   bool render = false;
 };
 
@@ -179,8 +179,8 @@ void add_pose_command(CLI::App& app) {
       ->check(CLI::IsMember({"hierarchical", "single"}));
   cmd->add_option("--levels", o->levels, "Levels of the hierarchical solver including the full one (default 5)");
   cmd->add_option("--steps", o->steps, "Move the handles from rest to target in K equal steps, solving after each (default 1)");
-  cmd->add_option("--tolerance", o->tolerance, "Stop a step when the relative energy change per iteration is below this (default 1e-5)");
-  cmd->add_option("--iterations", o->iterations, "Maximum iterations per step (default 200)");
+  cmd->add_option("--tolerance", o->tolerance, "Stop a step when the relative energy change per iteration is below this (default 1e-6)");
+  cmd->add_option("--iterations", o->iterations, "Maximum iterations per step (default 500)");
   cmd->add_option("-o,--output", o->output, "Output folder (replaced if it exists)")->required();
   cmd->add_flag("--render", o->render, "Also write OUT/preview.png: the rest and the posed shell, colored by stretch");
   cmd->callback([o] { run(*o); });

@@ -2,15 +2,23 @@
 // > 10x speed-up). Measures wall time and iterations until E <= 1.001 E*, E* = the single-level
 // (ShellSolver) minimum, for one big move from rest and for every step of a K-step drag.
 //
-//   bench_pose [bowl | PATH.off] [--steps K] [--runs R] [--thickness-ratio r] [--reference-iterations N]
+//   bench_pose [bowl | PATH.off] [--steps K] [--runs R] [--drag-runs R] [--thickness-ratio r]
+//              [--reference-iterations N] [--cap N] [--drag-cap N] [--drag-every N]
+//              [--reference-cache FILE] [--only CONFIG]...
+//
+// The reference is the single-level fixed point computed with Anderson acceleration (the same
+// minimum as plain local/global, reached much sooner), to relative change < 1e-10 or N
+// iterations; --reference-cache keeps it in a file between runs. --drag-every N times only every
+// N-th drag step (all steps are still solved for the references).
 //
 // Shell: generate_shell, method rigid (normal prisms), eta = r * bounding radius (default r = 0.02).
 // Handles (hard): bowl: hold the rim on one side (x < -0.5, z > -0.15 R, both surfaces), pull the
 // rim on the other side (x > 0.7 R) by R * (0.8, 0.2, 0.5) (|move| = 0.97 R; the small sideways
 // part picks one of the two mirror-image buckled shapes). Other models: hold the lowest 8% along
 // y, pull the highest 8% by R * (0.5, 0.1, 0.3).
-// Drag protocol: step k starts every solver from the reference state of step k-1, so all solvers
-// are timed on the same problems; the hierarchical solver's levels carry over between steps.
+// Drag protocol: step k starts every solver from the reference states of steps k-1 and k-2 (their
+// motion continued, PoseSolver::predict_start, timed; --no-extrapolate: from step k-1's state),
+// so all solvers are timed on the same problems; the hierarchical solver's levels carry over.
 #include <gshell/deform/handles.h>
 #include <gshell/deform/pose.h>
 #include <gshell/geometry/builtin_mesh.h>
@@ -19,8 +27,10 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
@@ -82,33 +92,59 @@ struct Reach {
   bool reached = false;
   int iterations = 0;
   double seconds = 0;
+  double energy = 0; ///< at the end (when not reached)
 };
 
-/// Solves in chunks of iterations (so a slow solver is not run far past the goal) and takes the
-/// time at the iteration that first reaches the goal from the solver's own progress clock.
+/// Thrown from the progress callback to end a solve at the first iteration that reaches the goal
+/// (so a slow solver is not run past it and accelerators keep their history).
+struct GoalReached {
+  int iteration;
+  double seconds;
+};
+
+/// Iterations and seconds (the solver's own clock) until E <= goal from X0, or the cap.
 Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fraction, double goal, int cap) {
-  constexpr int kChunk = 25;
-  Reach r;
   Eigen::MatrixXd X = X0;
-  while (r.iterations < cap) {
-    SolveOptions so;
-    so.max_iterations = std::min(kChunk, cap - r.iterations);
-    so.tolerance = 0;
-    int hit = -1;
-    double hit_seconds = 0;
-    so.progress = [&](int it, double e, double sec) {
-      if (hit < 0 && e <= goal) {
-        hit = it;
-        hit_seconds = sec;
-      }
-    };
+  SolveOptions so;
+  so.max_iterations = cap;
+  so.tolerance = 0;
+  so.progress = [&](int it, double e, double sec) {
+    if (e <= goal) throw GoalReached{it, sec};
+  };
+  try {
     const SolveResult res = solver.solve(X, fraction, so);
-    if (hit > 0) return {true, r.iterations + hit, r.seconds + hit_seconds};
-    r.iterations += res.iterations;
-    r.seconds += res.seconds;
-    if (res.iterations < so.max_iterations) break; // converged above the goal
+    return {false, res.iterations, res.seconds, res.energy.empty() ? 0.0 : res.energy.back()};
+  } catch (const GoalReached& g) {
+    return {true, g.iteration, g.seconds, goal};
   }
-  return r;
+}
+
+/// A hierarchical configuration from "levels=5,split=2,li=1,fi=4,aa=5,fas=1,lt=0,min=8" (any subset).
+Config parse_config(const std::string& spec) {
+  Config c{"hierarchical " + spec, PoseSolverKind::Hierarchical, {}};
+  size_t pos = 0;
+  while (pos < spec.size()) {
+    const size_t comma = std::min(spec.find(',', pos), spec.size());
+    const std::string item = spec.substr(pos, comma - pos);
+    pos = comma + 1;
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos) continue;
+    const std::string key = item.substr(0, eq);
+    const double value = std::atof(item.substr(eq + 1).c_str());
+    HierarchyOptions& o = c.options;
+    if (key == "levels") o.levels = static_cast<int>(value);
+    else if (key == "split") o.splits_per_level = static_cast<int>(value);
+    else if (key == "li") o.level_iterations = static_cast<int>(value);
+    else if (key == "fi") o.full_iterations = static_cast<int>(value);
+    else if (key == "aa") o.anderson_history = static_cast<int>(value);
+    else if (key == "fas") o.residual_correction = value != 0;
+    else if (key == "lt") o.level_tolerance = value;
+    else if (key == "min") o.min_cluster_size = static_cast<int>(value);
+    else if (key == "hw") o.reduced_hard_weight = value;
+    else if (key == "period") o.coarse_period = static_cast<int>(value);
+    else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
+  }
+  return c;
 }
 
 } // namespace
@@ -116,9 +152,12 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   std::string model = "bowl";
-  int steps = 30, runs = 3, drag_runs = 1, reference_iterations = 1500, drag_cap = 1500;
+  int steps = 30, runs = 3, drag_runs = 1, reference_iterations = 3000, cap = 2000, drag_cap = 600, drag_every = 3;
   double ratio = 0.02;
+  bool extrapolate = true; // drag steps start from the previous steps' motion continued
   std::vector<std::string> only;
+  std::vector<Config> extra; // --config SPEC
+  std::string cache_path; // references are slow: keep them between runs of the benchmark
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return std::string(i + 1 < argc ? argv[++i] : ""); };
@@ -126,13 +165,21 @@ int main(int argc, char** argv) {
     else if (a == "--runs") runs = std::atoi(next().c_str());
     else if (a == "--thickness-ratio") ratio = std::atof(next().c_str());
     else if (a == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
+    else if (a == "--reference-cache") cache_path = next();
     else if (a == "--drag-runs") drag_runs = std::atoi(next().c_str());
     else if (a == "--drag-cap") drag_cap = std::atoi(next().c_str());
+    else if (a == "--drag-every") drag_every = std::max(1, std::atoi(next().c_str()));
+    else if (a == "--no-extrapolate") extrapolate = false;
+    else if (a == "--no-drag") drag_runs = 0;
+    else if (a == "--no-big") runs = 0;
+    else if (a == "--cap") cap = std::atoi(next().c_str());
     else if (a == "--only") only.push_back(next());
+    else if (a == "--config") extra.push_back(parse_config(next()));
     else model = a;
   }
   const bool bowl = model == "bowl";
-  std::printf("bench_pose: big move median of %d runs, drag %d run(s); reference = ShellSolver to relative change < 1e-8 or %d iterations\n",
+  std::printf("drag steps start %s\n", extrapolate ? "from the previous motion continued" : "from the previous state");
+  std::printf("bench_pose: big move median of %d runs, drag %d run(s); reference = single level + Anderson(5) to relative change < 1e-10 or %d iterations\n",
               runs, drag_runs, reference_iterations);
   const TriMesh mesh = bowl ? make_bowl() : load_mesh(model);
   const Shell shell = make_shell(mesh, ratio);
@@ -145,8 +192,9 @@ int main(int argc, char** argv) {
   std::vector<Config> configs;
   configs.push_back({"single (ShellSolver)", PoseSolverKind::Single, {}});
   {
-    HierarchyOptions o;
+    HierarchyOptions o; // the same fixed-point iteration as ShellSolver, Anderson-accelerated
     o.levels = 1;
+    o.full_iterations = 1;
     o.anderson_history = 5;
     configs.push_back({"single + Anderson(5)", PoseSolverKind::Hierarchical, o});
   }
@@ -155,6 +203,7 @@ int main(int argc, char** argv) {
     o.residual_correction = false;
     o.level_iterations = 5;
     o.full_iterations = 1;
+    o.coarse_period = 1;
     o.anderson_history = 0;
     configs.push_back({"hierarchical, paper coupling", PoseSolverKind::Hierarchical, o});
   }
@@ -164,29 +213,63 @@ int main(int argc, char** argv) {
     configs.push_back({"hierarchical, no Anderson", PoseSolverKind::Hierarchical, o});
   }
   configs.push_back({"hierarchical (default)", PoseSolverKind::Hierarchical, HierarchyOptions{}});
+  for (const Config& c : extra) {
+    configs.push_back(c);
+    only.push_back(c.name); // --config runs only what is asked (plus any --only)
+  }
 
   // ---- references: single-level runs to convergence ----
-  PoseSolver reference(shell, handles, PoseSolverKind::Single);
+  HierarchyOptions reference_options;
+  reference_options.levels = 1;
+  reference_options.anderson_history = 5;
+  PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, reference_options);
   SolveOptions ref_options;
   ref_options.max_iterations = reference_iterations;
-  ref_options.tolerance = 1e-8;
-  Eigen::MatrixXd Xbig = reference.rest_vertices();
-  SolveResult rb = reference.solve(Xbig, 1.0, ref_options);
-  const double Ebig = rb.energy.back();
-  std::printf("reference big move: E* = %.8g after %d single-level iterations (%s, %.1f s)\n", Ebig, rb.iterations,
-              rb.converged ? "converged" : "iteration cap", rb.seconds);
+  ref_options.tolerance = 1e-10;
   std::vector<Eigen::MatrixXd> Xref(steps + 1);
   std::vector<double> Eref(steps + 1);
+  double Ebig = 0;
   Xref[0] = reference.rest_vertices();
-  int ref_total = 0;
-  for (int k = 1; k <= steps; ++k) {
-    Xref[k] = Xref[k - 1];
-    SolveResult r = reference.solve(Xref[k], static_cast<double>(k) / steps, ref_options);
-    Eref[k] = r.energy.back();
-    ref_total += r.iterations;
-    std::printf("  reference step %d: E* = %.8g, %d iterations%s\n", k, Eref[k], r.iterations, r.converged ? "" : " (cap)");
+  std::ifstream cached(cache_path, std::ios::binary);
+  if (!cache_path.empty() && cached) {
+    int cached_steps = 0;
+    cached.read(reinterpret_cast<char*>(&cached_steps), sizeof cached_steps);
+    cached.read(reinterpret_cast<char*>(&Ebig), sizeof Ebig);
+    if (cached_steps != steps) {
+      std::fprintf(stderr, "bench_pose: %s holds %d steps, not %d\n", cache_path.c_str(), cached_steps, steps);
+      return 1;
+    }
+    for (int k = 1; k <= steps; ++k) {
+      Xref[k].resize(Xref[0].rows(), 3);
+      cached.read(reinterpret_cast<char*>(&Eref[k]), sizeof(double));
+      cached.read(reinterpret_cast<char*>(Xref[k].data()), static_cast<std::streamsize>(sizeof(double) * Xref[k].size()));
+    }
+    std::printf("references read from %s: E*(big move) = %.8g, E*_K = %.8g\n", cache_path.c_str(), Ebig, Eref[steps]);
+  } else {
+    Eigen::MatrixXd Xbig = reference.rest_vertices();
+    SolveResult rb = reference.solve(Xbig, 1.0, ref_options);
+    Ebig = rb.energy.back();
+    std::printf("reference big move: E* = %.8g after %d reference iterations (%s, %.1f s)\n", Ebig, rb.iterations,
+                rb.converged ? "converged" : "iteration cap", rb.seconds);
+    int ref_total = 0;
+    for (int k = 1; k <= steps; ++k) {
+      Xref[k] = Xref[k - 1];
+      SolveResult r = reference.solve(Xref[k], static_cast<double>(k) / steps, ref_options);
+      Eref[k] = r.energy.back();
+      ref_total += r.iterations;
+      std::printf("  reference step %d: E* = %.8g, %d iterations%s\n", k, Eref[k], r.iterations, r.converged ? "" : " (cap)");
+    }
+    std::printf("reference drag: %d steps, %d reference iterations in all, E*_K = %.8g\n", steps, ref_total, Eref[steps]);
+    if (!cache_path.empty()) {
+      std::ofstream out(cache_path, std::ios::binary);
+      out.write(reinterpret_cast<const char*>(&steps), sizeof steps);
+      out.write(reinterpret_cast<const char*>(&Ebig), sizeof Ebig);
+      for (int k = 1; k <= steps; ++k) {
+        out.write(reinterpret_cast<const char*>(&Eref[k]), sizeof(double));
+        out.write(reinterpret_cast<const char*>(Xref[k].data()), static_cast<std::streamsize>(sizeof(double) * Xref[k].size()));
+      }
+    }
   }
-  std::printf("reference drag: %d steps, %d single-level iterations in all, E*_K = %.8g\n", steps, ref_total, Eref[steps]);
 
   for (const Config& c : configs) {
     if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
@@ -197,7 +280,7 @@ int main(int argc, char** argv) {
     for (int r = 0; r < runs; ++r) {
       PoseSolver s(shell, handles, c.kind, c.options);
       setup = s.setup_seconds();
-      big = time_to_goal(s, s.rest_vertices(), 1.0, 1.001 * Ebig, 3 * reference_iterations);
+      big = time_to_goal(s, s.rest_vertices(), 1.0, 1.001 * Ebig, cap);
       if (!big.reached) break;
       big_seconds.push_back(big.seconds);
     }
@@ -206,7 +289,8 @@ int main(int argc, char** argv) {
       std::printf("  big move: %d iterations, %.3f s (median of %d) to E <= 1.001 E*\n", big.iterations,
                   median(big_seconds), runs);
     else
-      std::printf("  big move: not within 1.001 E* after %d iterations (%.1f s)\n", big.iterations, big.seconds);
+      std::printf("  big move: not within 1.001 E* after %d iterations (%.1f s; E = %.6f E*)\n", big.iterations,
+                big.seconds, big.energy / Ebig);
 
     // Drag: per step, from the reference state of the previous step; the solver (and the
     // hierarchical solver's level state) carries over from step to step.
@@ -215,7 +299,15 @@ int main(int argc, char** argv) {
     for (int r = 0; r < drag_runs; ++r) {
       PoseSolver s(shell, handles, c.kind, c.options);
       for (int k = 1; k <= steps; ++k) {
-        const Reach hit = time_to_goal(s, Xref[k - 1], static_cast<double>(k) / steps, 1.001 * Eref[k], drag_cap);
+        if (k % drag_every != 0 && k != steps) continue;
+        const double f = static_cast<double>(k) / steps;
+        const auto t0 = std::chrono::steady_clock::now();
+        const Eigen::MatrixXd X0 = extrapolate && k >= 2
+                                       ? s.predict_start(Xref[k - 2], (k - 2.0) / steps, Xref[k - 1], (k - 1.0) / steps, f)
+                                       : Xref[k - 1];
+        const double predict = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        Reach hit = time_to_goal(s, X0, f, 1.001 * Eref[k], drag_cap);
+        hit.seconds += predict;
         if (!hit.reached) {
           if (r == 0) ++missed;
           continue;
@@ -225,9 +317,9 @@ int main(int argc, char** argv) {
       }
     }
     std::sort(step_iterations.begin(), step_iterations.end());
-    std::printf("  drag (%d steps): per step median %.2f ms, max %.2f ms; iterations median %.0f, max %.0f; "
+    std::printf("  drag (%d steps, every %d-th timed): per step median %.2f ms, max %.2f ms; iterations median %.0f, max %.0f; "
                 "%d steps not reached in %d iterations\n",
-                steps, 1e3 * median(step_seconds),
+                steps, drag_every, 1e3 * median(step_seconds),
                 step_seconds.empty() ? 0.0 : 1e3 * *std::max_element(step_seconds.begin(), step_seconds.end()),
                 median(step_iterations), step_iterations.empty() ? 0.0 : step_iterations.back(), missed, drag_cap);
     std::fflush(stdout);

@@ -49,6 +49,8 @@ struct PoserObject {
   std::string key;
   Eigen::MatrixXd X;
   double fraction = 0;
+  Eigen::MatrixXd X_before; ///< the state before X (empty after a rebuild), to extrapolate a drag
+  double fraction_before = 0;
   nlohmann::json last; ///< null before the first solve
   std::mutex mutex;    ///< solve() runs without the GIL
 };
@@ -103,12 +105,19 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
       p.key = key;
       p.X = p.solver->rest_vertices();
       p.fraction = 0;
+      p.X_before.resize(0, 0);
     }
     // Steps as in `gshell pose --steps K`: equal parts of the way from the current fraction.
     const double from = p.fraction;
     nlohmann::json step_reports = nlohmann::json::array();
     for (int k = 1; k <= steps; ++k) {
       const double f = from + (fraction - from) * (static_cast<double>(k) / steps);
+      // Like run_pose: continue the previous step's motion for the start state.
+      Eigen::MatrixXd start =
+          p.X_before.size() > 0 ? p.solver->predict_start(p.X_before, p.fraction_before, p.X, p.fraction, f) : p.X;
+      p.X_before = std::move(p.X);
+      p.fraction_before = p.fraction;
+      p.X = std::move(start);
       const SolveResult r = p.solver->solve(p.X, f, options);
       p.fraction = f;
       step_reports.push_back({{"fraction", f},

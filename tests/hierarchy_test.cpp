@@ -156,6 +156,7 @@ TEST(HierarchicalSolver, ReducedLevelsAreExactMembersOfTheirSubspaces) {
   for (bool residual : {true, false}) {
     HierarchyOptions o;
     o.residual_correction = residual;
+    o.coarse_period = 1; // a coarse pass on every outer iteration, so 6 of them move the levels
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
     ASSERT_EQ(solver.num_levels(), 5);
     Eigen::MatrixXd X = p.X;
@@ -195,6 +196,7 @@ TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
     HierarchyOptions o;
     o.residual_correction = variant != 1;
     o.anderson_history = variant == 2 ? 5 : 0;
+    o.coarse_period = variant == 2 ? 16 : 1; // the default period and a coarse pass every time
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
     Eigen::MatrixXd X = p.X;
     SolveOptions so;
@@ -308,4 +310,47 @@ TEST(PoseSolvers, SoftHandlesApproachTheirTargets) {
       worst = std::max(worst, (X.row(solver.constrained_vertices()[r]) - P.row(r)).norm());
     EXPECT_LT(worst, 0.02); // of a 0.32 move
   }
+}
+
+TEST(PoseSolvers, DragPredictionContinuesTheMotion) {
+  const Shell shell = offset_shell(make_bowl(8), 0.08);
+  const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
+  PoseSolver solver(shell, handles, PoseSolverKind::Hierarchical);
+  const Eigen::MatrixXd U = solver.rest_vertices();
+  Eigen::MatrixXd D(U.rows(), 3);
+  for (int v = 0; v < U.rows(); ++v) D.row(v) << 0.1 * U(v, 2), 0.05, -0.02 * U(v, 0);
+  // Half-way at 0.5 after moving by D from 0: the straight continuation to 1.0 is U + 2D.
+  const Eigen::MatrixXd X = solver.predict_start(U, 0.0, U + D, 0.5, 1.0);
+  const Eigen::MatrixXd P = solver.targets(1.0);
+  std::vector<char> handle(U.rows(), 0);
+  for (size_t r = 0; r < solver.constrained_vertices().size(); ++r) {
+    const int v = solver.constrained_vertices()[r];
+    handle[v] = 1;
+    EXPECT_EQ((X.row(v) - P.row(r)).norm(), 0.0);
+  }
+  double worst = 0;
+  for (int v = 0; v < U.rows(); ++v)
+    if (!handle[v]) worst = std::max(worst, (X.row(v) - U.row(v) - 2 * D.row(v)).norm());
+  EXPECT_LT(worst, 1e-12);
+  // A reversal or a jump far past the last step keeps the previous state.
+  EXPECT_EQ((solver.predict_start(U, 0.0, U + D, 0.5, 0.25) - (U + D)).norm(), 0.0);
+  EXPECT_EQ((solver.predict_start(U, 0.4, U + D, 0.5, 1.0) - (U + D)).norm(), 0.0);
+}
+
+TEST(PoseSolvers, ExtrapolatedDragReachesTheSameMinimum) {
+  const Shell shell = offset_shell(make_bowl(8), 0.08);
+  const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
+  double energies[2];
+  for (int k = 0; k < 2; ++k) {
+    PoseOptions o;
+    o.steps = 4;
+    o.extrapolate = k == 1;
+    o.solve.max_iterations = 5000;
+    o.solve.tolerance = 1e-11;
+    const PoseResult r = run_pose(shell, handles, o);
+    ASSERT_EQ(r.steps.size(), 4u);
+    energies[k] = r.steps.back().energy;
+  }
+  EXPECT_GT(energies[0], 0);
+  EXPECT_NEAR(energies[1], energies[0], 1e-3 * energies[0]);
 }

@@ -101,6 +101,19 @@ SolveResult PoseSolver::solve(Eigen::MatrixXd& X, double fraction, const SolveOp
   return s.single->solve(X, options, P);
 }
 
+Eigen::MatrixXd PoseSolver::predict_start(const Eigen::MatrixXd& X_before, double f_before, const Eigen::MatrixXd& X_prev,
+                                          double f_prev, double fraction) const {
+  if (X_before.rows() != X_prev.rows() || X_before.cols() != X_prev.cols() || f_prev == f_before) return X_prev;
+  const double s = (fraction - f_prev) / (f_prev - f_before);
+  // Far beyond the last step the straight continuation is no longer a good guess.
+  if (!(s > 0 && s <= 2)) return X_prev;
+  Eigen::MatrixXd X = X_prev + s * (X_prev - X_before);
+  const Eigen::MatrixXd P = targets(fraction);
+  if (impl_->handles.mode == ConstraintMode::Hard)
+    for (size_t r = 0; r < impl_->constrained.size(); ++r) X.row(impl_->constrained[r]) = P.row(r);
+  return X;
+}
+
 double PoseSolver::energy(const Eigen::MatrixXd& X, double fraction) const {
   const Impl& s = *impl_;
   const Eigen::MatrixXd P = targets(fraction);
@@ -121,6 +134,7 @@ PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptio
   PoseResult result;
   result.setup_seconds = solver.setup_seconds();
   result.X = solver.rest_vertices();
+  Eigen::MatrixXd before = result.X; // the state one step earlier, for extrapolation
   for (int step = 1; step <= options.steps; ++step) {
     PoseStepReport report;
     report.fraction = static_cast<double>(step) / options.steps;
@@ -128,10 +142,21 @@ PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptio
     so.progress = nullptr;
     if (options.step_progress)
       so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
+    const auto start = Clock::now();
+    if (options.extrapolate && step >= 2) {
+      const double f_prev = static_cast<double>(step - 1) / options.steps;
+      const double f_before = static_cast<double>(step - 2) / options.steps;
+      Eigen::MatrixXd next = solver.predict_start(before, f_before, result.X, f_prev, report.fraction);
+      before = result.X;
+      result.X = std::move(next);
+    } else {
+      before = result.X;
+    }
+    const double predict_seconds = std::chrono::duration<double>(Clock::now() - start).count();
     const SolveResult r = solver.solve(result.X, report.fraction, so);
     report.iterations = r.iterations;
     report.energy = r.energy.empty() ? 0 : r.energy.back();
-    report.seconds = r.seconds;
+    report.seconds = r.seconds + predict_seconds;
     report.converged = r.converged;
     result.steps.push_back(report);
   }

@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -54,6 +55,8 @@ public:
     dG_.clear();
     has_last_ = false;
   }
+  /// Forgets the last iterate only: the next pair would span a jump that is not a step of the map.
+  void restart() { has_last_ = false; }
   /// Records (x, G(x)); returns true and the extrapolated iterate when there is history.
   bool extrapolate(const Eigen::MatrixXd& x, const Eigen::MatrixXd& image, Eigen::MatrixXd& out) {
     if (depth_ <= 0) return false;
@@ -126,11 +129,19 @@ struct HierarchicalSolver::Impl {
   void reduced_iterations(int l, const Eigen::MatrixXd& targets) {
     ReducedLevel& level = reduced[l];
     LocalCache& cache = reduced_cache[l];
+    double objective = options.level_tolerance > 0 ? reduced_objective(l, targets, cache) : 0;
     for (int k = 0; k < options.level_iterations; ++k) {
       Eigen::MatrixXd rhs = level.rhs(targets, cache);
       if (tau[l].size() > 0) rhs += tau[l];
       level.solve(rhs);
       level.local(cache);
+      if (options.level_tolerance > 0) {
+        const double next = reduced_objective(l, targets, cache);
+        // The objective (energy minus a linear term) can be negative: compare against the energy.
+        const bool stalled = objective - next <= options.level_tolerance * std::abs(cache.elastic);
+        objective = next;
+        if (stalled) break;
+      }
     }
   }
 
@@ -303,10 +314,13 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.energy;
-    if (!s.reduced.empty() && skip-- <= 0) {
+    const int period = std::max(1, s.options.coarse_period);
+    if (!s.reduced.empty() && it % period == 0 && skip-- <= 0) {
       if (s.coarse_correction(state, targets, result)) {
         backoff = 1;
-        anderson.clear(); // the accelerator's history describes a different iterate sequence
+        // The secant pairs recorded so far still describe the full level's fixed-point map; only
+        // a pair spanning the coarse jump would not (measured: fewer outer iterations than clearing).
+        anderson.restart();
       } else {
         skip = backoff;
         backoff = std::min(2 * backoff, 16);

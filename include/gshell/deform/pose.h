@@ -33,6 +33,15 @@ public:
   /// Solves for the handles at `fraction` of their motion from the state X (2n x 3, updated in
   /// place). The hierarchical solver keeps its levels' state from the previous call.
   SolveResult solve(Eigen::MatrixXd& X, double fraction, const SolveOptions& options = {});
+  /// Start state for a drag step to `fraction`: the previous step's motion continued,
+  /// X_prev + s (X_prev - X_before), s = (fraction - f_prev) / (f_prev - f_before) (a solved path
+  /// is smooth, so this is second-order close to the new minimum while X_prev is first-order), with
+  /// hard handle rows at their targets. Not checked against X_prev: that would cost two local
+  /// steps, and the solve that follows cannot raise the energy anyway. Returns X_prev when s is
+  /// not in (0, 2] (a jump or reversal, where a straight continuation is no good guess).
+  Eigen::MatrixXd predict_start(const Eigen::MatrixXd& X_before, double f_before, const Eigen::MatrixXd& X_prev,
+                                double f_prev, double fraction) const;
+
   /// Energy of X for the handles at `fraction` (springs included in soft mode).
   double energy(const Eigen::MatrixXd& X, double fraction) const;
 
@@ -54,6 +63,9 @@ struct PoseOptions {
   PoseSolverKind solver = PoseSolverKind::Hierarchical;
   HierarchyOptions hierarchy;
   int steps = 1;              ///< handles move from rest to target in this many equal steps
+  /// Start every step after the second from the previous steps' motion continued
+  /// (PoseSolver::predict_start) instead of from the previous result.
+  bool extrapolate = true;
   SolveOptions solve;         ///< per step; `progress` is replaced by `step_progress`
   /// Called after every iteration with (step 1..steps, iteration, energy, seconds in this step).
   std::function<void(int, int, double, double)> step_progress;

@@ -10,10 +10,12 @@
 // serves all of them; only tets across cluster borders need their own. Level L-1 is the full
 // problem (local/global over all 2n vertices, hard handles eliminated).
 //
-// One outer iteration goes coarse to fine: each reduced level first receives its parent's change
-// since the start of the pass, runs a few local/global iterations with its prefactored matrix,
-// and the finest reduced level's change goes into the full state, which then runs its own
-// local/global iteration(s). Two couplings of the levels are available:
+// One outer iteration is full_iterations local/global iterations of the full state (Anderson-
+// accelerated), preceded on every coarse_period-th outer iteration by a coarse-to-fine pass: each
+// reduced level first receives its parent's change since the start of the pass, runs a few
+// local/global iterations with its prefactored matrix, and the finest reduced level's change goes
+// into the full state. (Measured on the bowl and bunny00 shells: the pass is worth its cost only
+// every ~16 full iterations; see bench_pose.) Two couplings of the levels are available:
 //  - residual (default): each level starts from the affine fit of the current full state and
 //    minimises its energy minus 2 <tau, z>, tau chosen so that its gradient there equals the
 //    full gradient seen through its subspace (full approximation scheme; our reading of the
@@ -46,8 +48,15 @@ struct HierarchyOptions {
   int levels = 5;             ///< levels including the full one; 1 = the plain single-level solver
   int splits_per_level = 2;   ///< bisection rounds between successive levels (up to 4x clusters)
   int min_cluster_size = 8;   ///< base vertices; clusters are not split below this
-  int level_iterations = 1;   ///< local/global iterations per reduced level and outer iteration
-  int full_iterations = 4;    ///< local/global iterations of the full level per outer iteration
+  int level_iterations = 5;   ///< local/global iterations per reduced level and coarse pass (at most)
+  /// A reduced level stops its iterations early once its objective falls by less than this
+  /// fraction of its value in one iteration (0: always run level_iterations).
+  double level_tolerance = 0;
+  int full_iterations = 1;    ///< local/global iterations of the full level per outer iteration
+  /// The coarse-to-fine pass over the reduced levels runs on outer iterations coarse_period,
+  /// 2 coarse_period, ... (1: every outer iteration). With a period > 1 an outer iteration that
+  /// already suffices (a drag step from a good start) costs only its full iterations.
+  int coarse_period = 16;
   /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
   /// targets), so there they become springs of this weight times the mean diagonal of the
   /// stiffness matrix.
