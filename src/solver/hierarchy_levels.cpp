@@ -27,12 +27,6 @@ Eigen::Matrix<double, 4, 3> gradient_rows(const Eigen::Matrix3d& Dm_inv) {
   return G;
 }
 
-Eigen::Matrix3d deformation_gradient(const Eigen::MatrixXd& X, const Eigen::Vector4i& tet, const Eigen::Matrix3d& Dm_inv) {
-  Eigen::Matrix3d D;
-  for (int k = 0; k < 3; ++k) D.col(k) = (X.row(tet(k + 1)) - X.row(tet(0))).transpose();
-  return D * Dm_inv;
-}
-
 /// Row k of vol * G * R^T, the tet's share of the right-hand side at its corner k.
 Eigen::RowVector3d corner_rhs(const Eigen::Matrix3d& Q, int k) {
   return k == 0 ? Eigen::RowVector3d(-Q.colwise().sum()) : Eigen::RowVector3d(Q.row(k - 1));
