@@ -115,6 +115,15 @@ void expect_self_contained(const std::string& html) {
   }
 }
 
+/// The page's text, after checking that it is balanced, parses as XML and needs no other file.
+std::string read_well_formed_page(const std::string& page) {
+  const std::string html = read_text(page);
+  EXPECT_EQ(tag_balance_problem(html), "");
+  EXPECT_TRUE(python_parses_as_xml(page));
+  expect_self_contained(html);
+  return html;
+}
+
 nlohmann::json read_json(const std::string& path) {
   std::ifstream in(path);
   return nlohmann::json::parse(in);
@@ -151,10 +160,7 @@ TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {
   const CliResult r = run_cli("report '" + dir + "' -o '" + page + "' -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find(page), std::string::npos); // prints where the page is
-  const std::string html = read_text(page);
-  EXPECT_EQ(tag_balance_problem(html), "");
-  EXPECT_TRUE(python_parses_as_xml(page));
-  expect_self_contained(html);
+  const std::string html = read_well_formed_page(page);
   expect_every_figure(html, read_json(dir + "/report.json"));
   EXPECT_NE(html.find("energy per iteration"), std::string::npos);
   EXPECT_NE(html.find("convergence: (E_k - E_last) / E_last"), std::string::npos);
@@ -188,10 +194,7 @@ TEST(ReportCli, DeformationRunShowsTimePerFrame) {
   const std::string page = tmp.file("deform.html");
   const CliResult r = run_cli("report '" + out + "' -o '" + page + "' -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string html = read_text(page);
-  EXPECT_EQ(tag_balance_problem(html), "");
-  EXPECT_TRUE(python_parses_as_xml(page));
-  expect_self_contained(html);
+  const std::string html = read_well_formed_page(page);
   expect_every_figure(html, report);
   EXPECT_NE(html.find("time (seconds) per frame"), std::string::npos);
   // Each frame's energy per iteration, one line per frame (3 frames: all of them).
@@ -216,10 +219,7 @@ TEST(ReportCli, PoseRunShowsTimeAndEnergyPerStepAndTheRestShell) {
   const std::string page = tmp.file("pose.html");
   const CliResult r = run_cli("report '" + out + "' -o '" + page + "' -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string html = read_text(page);
-  EXPECT_EQ(tag_balance_problem(html), "");
-  EXPECT_TRUE(python_parses_as_xml(page));
-  expect_self_contained(html);
+  const std::string html = read_well_formed_page(page);
   expect_every_figure(html, read_json(out + "/report.json"));
   EXPECT_NE(html.find("time (seconds) per step"), std::string::npos);
   EXPECT_NE(html.find("energy per step"), std::string::npos);
