@@ -1,4 +1,5 @@
 // The curvature method of shell generation against the rigid one, library and CLI.
+#include "shell_fixtures.h"
 #include "test_support.h"
 
 #include <gshell/error.h>
@@ -13,24 +14,12 @@
 using namespace gshell;
 using namespace gshell::test;
 
-namespace {
-
-GenerateOptions options_for(ShellMethod method, double eta) {
-  GenerateOptions o;
-  o.method = method;
-  o.thickness = eta;
-  o.count_intersections = false;
-  return o;
-}
-
-} // namespace
-
 TEST(CurvatureShell, PlaneGivesTheRigidShell) {
   const TriMesh plane = make_plane(12, 1.0);
   const double eta = 0.2;
-  const GenerateResult rigid = generate_shell(plane.V, plane.F, options_for(ShellMethod::Rigid, eta));
-  const GenerateResult curved = generate_shell(plane.V, plane.F, options_for(ShellMethod::Curvature, eta));
-  const CurvatureShellResult c = generate_curvature_shell(plane.V, plane.F, options_for(ShellMethod::Rigid, eta));
+  const GenerateResult rigid = generate_shell(plane.V, plane.F, generate_options(ShellMethod::Rigid, eta));
+  const GenerateResult curved = generate_shell(plane.V, plane.F, generate_options(ShellMethod::Curvature, eta));
+  const CurvatureShellResult c = generate_curvature_shell(plane.V, plane.F, generate_options(ShellMethod::Rigid, eta));
   EXPECT_EQ(curved.method, ShellMethod::Curvature);
   EXPECT_LT((curved.shell.top - rigid.shell.top).cwiseAbs().maxCoeff(), 1e-9 * eta);
   EXPECT_LT((c.result.shell.top - rigid.shell.top).cwiseAbs().maxCoeff(), 1e-9 * eta);
@@ -41,8 +30,8 @@ TEST(CurvatureShell, PlaneGivesTheRigidShell) {
 TEST(CurvatureShell, SphereKeepsTheThicknessBetterThanRigid) {
   const double r = 1.0, eta = 0.15;
   const TriMesh sphere = make_sphere(3, r);
-  const GenerateResult rigid = generate_shell(sphere.V, sphere.F, options_for(ShellMethod::Rigid, eta));
-  const CurvatureShellResult c = generate_curvature_shell(sphere.V, sphere.F, options_for(ShellMethod::Curvature, eta));
+  const GenerateResult rigid = generate_shell(sphere.V, sphere.F, generate_options(ShellMethod::Rigid, eta));
+  const CurvatureShellResult c = generate_curvature_shell(sphere.V, sphere.F, generate_options(ShellMethod::Curvature, eta));
   const Eigen::VectorXd rigid_radius = rigid.shell.top.rowwise().norm();
   const Eigen::VectorXd curved_radius = c.result.shell.top.rowwise().norm();
   const double rigid_error = std::abs(rigid_radius.mean() - r - eta);
@@ -62,7 +51,7 @@ TEST(CurvatureShell, SphereKeepsTheThicknessBetterThanRigid) {
 
 TEST(CurvatureShell, ReportCarriesClampsAndOwnStretch) {
   const TriMesh torus = make_torus(24);
-  GenerateOptions options = options_for(ShellMethod::Curvature, 0.3);
+  GenerateOptions options = generate_options(ShellMethod::Curvature, 0.3);
   options.s_min = 0.8; // the inner equator wants ~0.5 (1 - 0.3/0.6): clamped
   const CurvatureShellResult c = generate_curvature_shell(torus.V, torus.F, options);
   EXPECT_GT(c.prisms.clamped, 0);

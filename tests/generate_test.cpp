@@ -1,4 +1,6 @@
 // Shell generation: sphere analytic case, rigid vs offset on every builtin mesh, report fields.
+#include "shell_fixtures.h"
+
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/shell/generate_report.h>
@@ -9,17 +11,9 @@
 #include <gtest/gtest.h>
 
 using namespace gshell;
+using gshell::test::generate_options;
 
 namespace {
-
-GenerateOptions options_for(ShellMethod method, double eta, int iterations = 50) {
-  GenerateOptions o;
-  o.method = method;
-  o.thickness = eta;
-  o.solve.max_iterations = iterations;
-  o.count_intersections = false;
-  return o;
-}
 
 // Round-off of the energy sum: relative to the start energy, or to the shell's volume when the
 // start is already (nearly) exact, as for a flat plane.
@@ -37,8 +31,8 @@ double shell_volume(const TriMesh& mesh, double eta) {
 TEST(Generate, SphereGivesANearConcentricThinnerSphere) {
   const double r = 2.0, eta = 0.05;
   const TriMesh sphere = make_sphere(3, r);
-  const GenerateResult rigid = generate_shell(sphere.V, sphere.F, options_for(ShellMethod::Rigid, eta));
-  const GenerateResult offset = generate_shell(sphere.V, sphere.F, options_for(ShellMethod::Offset, eta));
+  const GenerateResult rigid = generate_shell(sphere.V, sphere.F, generate_options(ShellMethod::Rigid, eta));
+  const GenerateResult offset = generate_shell(sphere.V, sphere.F, generate_options(ShellMethod::Offset, eta));
   const Eigen::VectorXd radius = rigid.shell.top.rowwise().norm();
   const double spread = radius.maxCoeff() - radius.minCoeff();
   const double thickness = radius.mean() - r;
@@ -61,8 +55,8 @@ TEST(Generate, RigidBeatsOffsetOnEveryBuiltinMesh) {
     const TriMesh mesh = make_builtin(spec);
     for (double ratio : {0.01, 0.05}) {
       const double eta = thickness_from_ratio(mesh.V, ratio);
-      const GenerateResult rigid = generate_shell(mesh.V, mesh.F, options_for(ShellMethod::Rigid, eta, 20));
-      const GenerateResult offset = generate_shell(mesh.V, mesh.F, options_for(ShellMethod::Offset, eta));
+      const GenerateResult rigid = generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, eta, 20));
+      const GenerateResult offset = generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Offset, eta));
       // On the flat plane the offset shell is already exact (zero stretch): rigid can only tie.
       if (offset.metrics.stretch.volume_mean > 1e-12)
         EXPECT_LT(rigid.metrics.stretch.volume_mean, offset.metrics.stretch.volume_mean) << "ratio " << ratio;
@@ -92,14 +86,14 @@ TEST(Generate, MethodsAndBadOptions) {
   EXPECT_EQ(parse_shell_method("curvature"), ShellMethod::Curvature);
   EXPECT_THROW(parse_shell_method("fancy"), InputError);
   const TriMesh mesh = make_sphere(1);
-  EXPECT_THROW(generate_shell(mesh.V, mesh.F, options_for(ShellMethod::Rigid, 0)), InputError);
-  EXPECT_THROW(generate_shell(mesh.V, mesh.F, options_for(ShellMethod::Rigid, std::nan(""))), InputError);
-  EXPECT_THROW(generate_shell(mesh.V, mesh.F, options_for(ShellMethod::Rigid, 0.1, -1)), InputError);
+  EXPECT_THROW(generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, 0)), InputError);
+  EXPECT_THROW(generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, std::nan(""))), InputError);
+  EXPECT_THROW(generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, 0.1, -1)), InputError);
 }
 
 TEST(Generate, ReportHasEveryField) {
   const TriMesh mesh = make_builtin("builtin:torus:24");
-  GenerateOptions o = options_for(ShellMethod::Rigid, 0.05, 5);
+  GenerateOptions o = generate_options(ShellMethod::Rigid, 0.05, 5);
   o.count_intersections = true;
   const GenerateResult r = generate_shell(mesh.V, mesh.F, o);
   const nlohmann::json j = generate_report(r, "builtin:torus:24", 0.02);
@@ -122,7 +116,7 @@ TEST(Generate, ReportHasEveryField) {
 
 TEST(Generate, CurvatureRejectsBadClamps) {
   const TriMesh mesh = make_sphere(1);
-  GenerateOptions options = options_for(ShellMethod::Curvature, 0.1);
+  GenerateOptions options = generate_options(ShellMethod::Curvature, 0.1);
   options.s_min = 0;
   EXPECT_THROW(generate_shell(mesh.V, mesh.F, options), InputError);
 }

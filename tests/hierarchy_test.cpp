@@ -4,7 +4,7 @@
 #include <gshell/deform/pose.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/stretch.h>
-#include <gshell/shell/offset_shell.h>
+#include "shell_fixtures.h"
 #include <gshell/shell/prism_tets.h>
 #include <gshell/solver/cluster_tree.h>
 #include <gshell/solver/hierarchical_solver.h>
@@ -19,17 +19,9 @@
 #include <set>
 
 using namespace gshell;
+using gshell::test::offset_shell;
 
 namespace {
-
-Shell offset_shell(const TriMesh& mesh, double eta) {
-  Shell s;
-  s.base = mesh.V;
-  s.top = offset_top(mesh.V, mesh.F, eta);
-  s.F = mesh.F;
-  s.thickness = eta;
-  return s;
-}
 
 /// Hold the rim on one side of a unit bowl, move the rim on the other side by `move`.
 HandleSet bowl_pull(const Shell& shell, const Eigen::Vector3d& move) {

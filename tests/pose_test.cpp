@@ -7,8 +7,8 @@
 #include <gshell/io/write_mesh.h>
 #include <gshell/render/image.h>
 #include <gshell/render/scene.h>
-#include <gshell/shell/offset_shell.h>
 
+#include "shell_fixtures.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -25,15 +25,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Shell small_bowl() {
-  const TriMesh m = make_bowl(8);
-  Shell s;
-  s.base = m.V;
-  s.top = offset_top(m.V, m.F, 0.08);
-  s.F = m.F;
-  s.thickness = 0.08;
-  return s;
-}
+Shell small_bowl() { return gshell::test::offset_shell(make_bowl(8), 0.08); }
 
 /// Expects parse_handles to throw an InputError whose one-line message names the file and
 /// contains `fragment`.

@@ -327,7 +327,8 @@ double ShellSolver::Impl::local_step(const double* X, double* Q) const {
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c)
             Fs[(3 * r + c) * W + l] = D[r][0] * di[c] + D[r][1] * di[3 + c] + D[r][2] * di[6 + c];
-        for (int k = 0; k < 9; ++k) Ds[k * W + l] = di[k];
+        if (Q)
+          for (int k = 0; k < 9; ++k) Ds[k * W + l] = di[k];
         vols[l] = vol[t];
       }
       detail::closest_rotations_lanes(Fs, Rs);

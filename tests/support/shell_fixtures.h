@@ -1,6 +1,7 @@
 #pragma once
-// Small analytic shells shared by the deformation, embedding and texture tests.
+// Small analytic shells shared by the deformation, embedding, texture, pose and hierarchy tests.
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/shell.h>
 
@@ -20,15 +21,27 @@ inline Shell lifted_shell(const TriMesh& surface, double eta) {
 /// Flat shell of thickness eta over builtin:plane:RES.
 inline Shell flat_plane_shell(int res, double eta) { return lifted_shell(make_plane(res), eta); }
 
-/// Offset shell of thickness eta over the unit icosphere of the given level.
-inline Shell sphere_shell(int level, double eta) {
-  const TriMesh sphere = make_sphere(level);
+/// Offset shell of thickness eta over `surface` (the paper's baseline: vertex normals).
+inline Shell offset_shell(const TriMesh& surface, double eta) {
   Shell s;
-  s.base = sphere.V;
-  s.top = offset_top(sphere.V, sphere.F, eta);
-  s.F = sphere.F;
+  s.base = surface.V;
+  s.top = offset_top(surface.V, surface.F, eta);
+  s.F = surface.F;
   s.thickness = eta;
   return s;
+}
+
+/// Offset shell of thickness eta over the unit icosphere of the given level.
+inline Shell sphere_shell(int level, double eta) { return offset_shell(make_sphere(level), eta); }
+
+/// generate_shell options for a method and thickness, without the (slow) intersection counts.
+inline GenerateOptions generate_options(ShellMethod method, double eta, int iterations = 50) {
+  GenerateOptions o;
+  o.method = method;
+  o.thickness = eta;
+  o.solve.max_iterations = iterations;
+  o.count_intersections = false;
+  return o;
 }
 
 } // namespace gshell::test
