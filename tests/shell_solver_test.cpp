@@ -169,6 +169,46 @@ TEST(ShellSolver, SoftAndFixedTogether) {
   for (int c = 0; c < 3; ++c) EXPECT_GT(g.X(soft.vertices[c], 2), free_run.X(soft.vertices[c], 2));
 }
 
+TEST(ShellSolver, StepsReproduceSolveAndGradientMatchesFiniteDifferences) {
+  // Soft pull on the top of a fixed-base plane shell: both the eliminated rows and the springs
+  // enter the steps and the gradient.
+  Generation g = generation(test::plane(10, 0.2), 0.1);
+  SoftConstraints soft;
+  soft.vertices = {g.n + 3, g.n + 50};
+  soft.weight = 2.0;
+  const ShellSolver solver(g.rest, 2 * g.n, range(g.n), soft);
+  Eigen::MatrixXd P(2, 3);
+  for (int c = 0; c < 2; ++c) P.row(c) = g.X.row(soft.vertices[c]) + Eigen::RowVector3d(0.03, 0, 0.05);
+
+  Eigen::MatrixXd by_solve = g.X, by_steps = g.X;
+  SolveOptions options;
+  options.max_iterations = 5;
+  options.tolerance = 0;
+  const SolveResult r = solver.solve(by_solve, options, P);
+  LocalStep step;
+  solver.local_step(by_steps, step, P);
+  EXPECT_DOUBLE_EQ(step.energy, r.energy[0]);
+  for (int k = 1; k <= 5; ++k) {
+    solver.global_step(by_steps, step, P);
+    solver.local_step(by_steps, step, P);
+    EXPECT_DOUBLE_EQ(step.energy, r.energy[k]) << "iteration " << k;
+  }
+  EXPECT_TRUE(by_steps == by_solve);
+
+  // The rotations minimise the energy, so the gradient at fixed rotations is E's gradient.
+  const Eigen::MatrixXd g_half = solver.half_gradient(by_steps, step, P);
+  EXPECT_TRUE(g_half.topRows(g.n).isZero()) << "kept vertices have no gradient";
+  const double h = 1e-6;
+  for (int v : {g.n + 3, g.n + 17, g.n + 50, 2 * g.n - 1})
+    for (int d = 0; d < 3; ++d) {
+      Eigen::MatrixXd plus = by_steps, minus = by_steps;
+      plus(v, d) += h;
+      minus(v, d) -= h;
+      const double fd = (solver.energy(plus, P) - solver.energy(minus, P)) / (2 * h);
+      EXPECT_NEAR(2 * g_half(v, d), fd, 1e-6 * std::max(1.0, std::abs(fd))) << "vertex " << v << " axis " << d;
+    }
+}
+
 TEST(ShellSolver, UnconstrainedSystemIsRejected) {
   const SimpleMesh m = test::icosphere(1);
   const int n = static_cast<int>(m.V.rows());

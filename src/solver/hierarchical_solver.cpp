@@ -12,7 +12,6 @@
 
 namespace gshell {
 
-using detail::FullLevel;
 using detail::LocalCache;
 using detail::ReducedLevel;
 using detail::RigidChange;
@@ -37,11 +36,12 @@ void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
   }
 }
 
-/// The full level's iterate with its local step (rotations, energy).
+/// The full level's iterate with its local step (rotations, energy), and buffers for candidate
+/// iterates that persist across iterations (fresh megabyte-sized buffers cost page faults).
 struct FullState {
   Eigen::MatrixXd& X;
-  LocalCache cache;
-  double energy;
+  LocalStep step, candidate;
+  Eigen::MatrixXd image, accelerated;
 };
 
 /// Anderson acceleration of the local/global fixed-point map x -> G(x) (type II, as in Peng et
@@ -61,14 +61,18 @@ public:
   bool extrapolate(const Eigen::MatrixXd& x, const Eigen::MatrixXd& image, Eigen::MatrixXd& out) {
     if (depth_ <= 0) return false;
     const Eigen::Map<const Eigen::VectorXd> u(x.data(), x.size()), g(image.data(), image.size());
-    const Eigen::VectorXd f = g - u;
+    f_ = g - u;
+    const Eigen::VectorXd& f = f_;
     if (has_last_) {
-      if (static_cast<int>(dF_.size()) == depth_) {
-        dF_.erase(dF_.begin());
-        dG_.erase(dG_.begin());
+      if (static_cast<int>(dF_.size()) == depth_) { // oldest pair out; its storage is reused
+        std::rotate(dF_.begin(), dF_.begin() + 1, dF_.end());
+        std::rotate(dG_.begin(), dG_.begin() + 1, dG_.end());
+      } else {
+        dF_.emplace_back();
+        dG_.emplace_back();
       }
-      dF_.push_back(f - last_f_);
-      dG_.push_back(g - last_g_);
+      dF_.back() = f - last_f_;
+      dG_.back() = g - last_g_;
     }
     last_f_ = f;
     last_g_ = g;
@@ -93,7 +97,7 @@ public:
 private:
   int depth_;
   std::vector<Eigen::VectorXd> dF_, dG_;
-  Eigen::VectorXd last_f_, last_g_;
+  Eigen::VectorXd f_, last_f_, last_g_;
   bool has_last_ = false;
 };
 
@@ -110,7 +114,7 @@ struct HierarchicalSolver::Impl {
   HierarchyOptions options;
   ClusterTree tree;
   std::vector<int> depth_of_level;
-  std::unique_ptr<FullLevel> full;
+  std::unique_ptr<ShellSolver> full; // the full level: hard constraints eliminated, soft ones as springs
   std::vector<ReducedLevel> reduced;
   std::vector<LocalCache> reduced_cache;
   std::vector<Eigen::MatrixXd> tau;  // per reduced level: fine residual coupling of this outer iteration
@@ -118,6 +122,15 @@ struct HierarchicalSolver::Impl {
 
   int num_vertices() const { return static_cast<int>(rest_vertices_rows); }
   int rest_vertices_rows = 0;
+
+  /// What the full level takes as soft targets: the constraint targets in soft mode, none in hard.
+  Eigen::MatrixXd soft_targets(const Eigen::MatrixXd& targets) const {
+    return constraints.hard ? Eigen::MatrixXd() : targets;
+  }
+  void set_hard_rows(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const {
+    if (!constraints.hard) return;
+    for (size_t r = 0; r < constraints.vertices.size(); ++r) X.row(constraints.vertices[r]) = targets.row(r);
+  }
 
   /// The objective of reduced level l: its energy minus 2 <tau_l, z> (tau_l = 0 without residual coupling).
   double reduced_objective(int l, const Eigen::MatrixXd& targets, const LocalCache& cache) const {
@@ -154,7 +167,7 @@ struct HierarchicalSolver::Impl {
     if (residual) {
       // Full approximation scheme: every level starts from the affine fit of the full state and
       // sees the full gradient through tau, so its fixed point is the full one's.
-      const Eigen::MatrixXd gradient = full->half_gradient(state.X, targets, state.cache);
+      const Eigen::MatrixXd gradient = full->half_gradient(state.X, state.step, soft_targets(targets));
       for (int l = 0; l < L; ++l) {
         reduced[l].fit(state.X);
         reduced[l].local(reduced_cache[l]);
@@ -198,44 +211,37 @@ struct HierarchicalSolver::Impl {
       for (int v = 0; v < state.X.rows(); ++v)
         trial.row(v) = change[finest.cluster_of_vertex(v)].apply(state.X.row(v).transpose()).transpose();
     }
-    full->set_hard_rows(trial, targets);
-    LocalCache candidate;
-    full->local(trial, candidate);
-    const double e = candidate.elastic + full->springs(trial, targets);
-    if (!(e < state.energy)) {
+    set_hard_rows(trial, targets);
+    full->local_step(trial, state.candidate, soft_targets(targets));
+    if (!(state.candidate.energy < state.step.energy)) {
       ++result.rejected_propagations;
       return false;
     }
     state.X.swap(trial);
-    std::swap(state.cache, candidate);
-    state.energy = e;
+    std::swap(state.step, state.candidate);
     return true;
   }
 
   /// One local/global iteration of the full level (Anderson-accelerated when enabled). Returns
   /// false when it could not lower the energy (converged to round-off).
   bool full_iteration(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson) {
-    Eigen::MatrixXd image = state.X;
-    full->global(image, targets, state.cache);
-    LocalCache candidate;
-    Eigen::MatrixXd accelerated;
-    if (anderson.extrapolate(state.X, image, accelerated)) {
-      full->local(accelerated, candidate);
-      const double e = candidate.elastic + full->springs(accelerated, targets);
-      if (e < state.energy) {
-        state.X.swap(accelerated);
-        std::swap(state.cache, candidate);
-        state.energy = e;
+    const Eigen::MatrixXd soft = soft_targets(targets);
+    Eigen::MatrixXd& image = state.image;
+    image = state.X;
+    full->global_step(image, state.step, soft);
+    if (anderson.extrapolate(state.X, image, state.accelerated)) {
+      full->local_step(state.accelerated, state.candidate, soft);
+      if (state.candidate.energy < state.step.energy) {
+        state.X.swap(state.accelerated);
+        std::swap(state.step, state.candidate);
         return true;
       }
       anderson.clear(); // a failed extrapolation: fall back on the plain step, which cannot go up
     }
-    full->local(image, candidate);
-    const double e = candidate.elastic + full->springs(image, targets);
-    if (!(e <= state.energy)) return false; // only round-off makes a plain step go up
+    full->local_step(image, state.candidate, soft);
+    if (!(state.candidate.energy <= state.step.energy)) return false; // only round-off makes a plain step go up
     state.X.swap(image);
-    std::swap(state.cache, candidate);
-    state.energy = e;
+    std::swap(state.step, state.candidate);
     return true;
   }
 
@@ -268,7 +274,15 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
     throw std::invalid_argument("HierarchicalSolver: soft constraints need a positive weight");
   require_matching_rest(s.rest, rest_vertices);
 
-  s.full = std::make_unique<FullLevel>(s.rest, s.num_vertices(), constraints);
+  if (constraints.hard) {
+    s.full = std::make_unique<ShellSolver>(s.rest, s.num_vertices(), constraints.vertices);
+  } else {
+    SoftConstraints soft;
+    soft.vertices = constraints.vertices;
+    soft.weight = constraints.weight;
+    s.full = std::make_unique<ShellSolver>(s.rest, s.num_vertices(), std::vector<int>{}, soft);
+  }
+  const Eigen::SparseMatrix<double> L = detail::stiffness_matrix(s.rest, s.num_vertices());
 
   const int reduced_levels = options.levels - 1;
   const int split = std::max(1, options.splits_per_level);
@@ -282,7 +296,7 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
     const int d = l * split;
     s.depth_of_level.push_back(d);
     s.reduced.emplace_back(s.rest, rest_vertices, s.tree.cluster_of[d], s.tree.num_clusters(d),
-                           s.full->stiffness(), constraints.vertices, weight);
+                           L, constraints.vertices, weight);
   }
   s.reduced_cache.resize(reduced_levels);
   s.tau.resize(reduced_levels);
@@ -302,18 +316,16 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   if (targets.rows() != static_cast<Eigen::Index>(s.constraints.vertices.size()) || targets.cols() != 3)
     throw std::invalid_argument("HierarchicalSolver::solve: one target row per constrained vertex");
 
-  const FullLevel& full = *s.full;
-  full.set_hard_rows(X, targets);
-  FullState state{X, {}, 0};
-  full.local(X, state.cache);
-  state.energy = state.cache.elastic + full.springs(X, targets);
+  s.set_hard_rows(X, targets);
+  FullState state{X, {}, {}, {}, {}};
+  s.full->local_step(X, state.step, s.soft_targets(targets));
 
   HierarchicalSolveResult result;
-  result.energy.push_back(state.energy);
+  result.energy.push_back(state.step.energy);
   AndersonHistory anderson(s.options.anderson_history);
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
   for (int it = 1; it <= options.max_iterations; ++it) {
-    const double previous = state.energy;
+    const double previous = state.step.energy;
     const int period = std::max(1, s.options.coarse_period);
     if (!s.reduced.empty() && it % period == 0 && skip-- <= 0) {
       if (s.coarse_correction(state, targets, result)) {
@@ -331,10 +343,10 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
       if (!s.full_iteration(state, targets, anderson)) break;
     }
     result.iterations = it;
-    result.energy.push_back(state.energy);
+    result.energy.push_back(state.step.energy);
     result.seconds = seconds_since(start);
-    if (options.progress) options.progress(it, state.energy, result.seconds);
-    if (previous <= 0 || (previous - state.energy) / previous < options.tolerance) {
+    if (options.progress) options.progress(it, state.step.energy, result.seconds);
+    if (previous <= 0 || (previous - state.step.energy) / previous < options.tolerance) {
       result.converged = true;
       break;
     }
@@ -344,9 +356,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
 }
 
 double HierarchicalSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const {
-  LocalCache cache;
-  impl_->full->local(X, cache);
-  return cache.elastic + impl_->full->springs(X, targets);
+  return impl_->full->energy(X, impl_->soft_targets(targets));
 }
 
 void HierarchicalSolver::reset() {

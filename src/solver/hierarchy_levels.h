@@ -1,7 +1,7 @@
 #pragma once
-// The two kinds of level of the hierarchical solver: the full problem over all shell vertices and
-// a reduced problem over per-cluster affine maps. Both do the local step (rotations, energy) into
-// a cache object, so the caller can evaluate a candidate state and keep or drop it.
+// The reduced levels of the hierarchical solver: the problem over per-cluster affine maps. (The
+// full level is a ShellSolver.) The local step (rotations, energy) goes into a cache object, so the
+// caller can evaluate a candidate state and keep or drop it.
 #include "hierarchy_linear.h"
 
 #include <gshell/solver/hierarchical_solver.h>
@@ -12,8 +12,9 @@
 
 namespace gshell::detail {
 
-/// Result of a local step at one state: per element the 3x3 Q = vol * Dm_inv * R^T that the
-/// global step's right-hand side is gathered from, and the elastic energy (no springs).
+/// Result of a reduced level's local step: per element (a cluster's interior, or one border tet)
+/// the 3x3 Q = vol * Dm_inv * R^T that the global step's right-hand side is gathered from, and
+/// the elastic energy (no springs).
 struct LocalCache {
   std::vector<Eigen::Matrix3d> Q;
   std::vector<double> element_energy;
@@ -23,35 +24,6 @@ struct LocalCache {
 
 /// Stiffness matrix L = sum_t vol_t G_t^T G_t over `num_vertices` (one coordinate; same for x, y, z).
 Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices);
-
-class FullLevel {
-public:
-  FullLevel(const RestTets& rest, int num_vertices, const PositionConstraints& constraints);
-
-  /// Writes hard targets into X's constrained rows (no-op for soft constraints).
-  void set_hard_rows(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const;
-  void local(const Eigen::MatrixXd& X, LocalCache& cache) const;
-  double springs(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const;
-  /// Minimises over the free rows of X with the rotations of `cache`.
-  void global(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const LocalCache& cache) const;
-  /// Half the energy gradient at X (rotations of `cache` taken at X); rows of eliminated vertices are 0.
-  Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const LocalCache& cache) const;
-  const Eigen::SparseMatrix<double>& stiffness() const { return L_; }
-
-private:
-  const RestTets& rest_;
-  int N_;
-  PositionConstraints constraints_;
-  Eigen::SparseMatrix<double> L_;
-  std::vector<int> free_index_;          // -1 for eliminated vertices
-  std::vector<int> free_vertices_, fixed_vertices_;
-  std::vector<int> constraint_row_;      // per vertex: row in targets, or -1
-  Eigen::SparseMatrix<double> L_free_fixed_;
-  SpdSolver solver_;
-  std::vector<int> incidence_start_, incidence_; // per vertex: 4 * tet + corner
-
-  Eigen::RowVector3d gathered_rhs(int v, const Eigen::MatrixXd& targets, const LocalCache& cache) const;
-};
 
 /// Rigid change of one cluster between two affine maps: y -> dR (y - from) + to, where dR is the
 /// rotation change and from/to the cluster centroid's positions before and after.

@@ -63,6 +63,10 @@ struct ShellSolver::Impl {
   // exact Dirichlet elimination term L_fc x_c.
   std::vector<int> fc_start, fc_col;
   std::vector<double> fc_val;
+  // Every free row of the system matrix (L plus the soft springs' diagonal) over all columns
+  // (vertex ids), for the gradient.
+  std::vector<int> A_start, A_col;
+  std::vector<double> A_val;
   std::vector<int> soft_free; // free index of every soft vertex, -1 if that vertex is kept
 
   double factor_seconds = 0;
@@ -119,6 +123,24 @@ struct ShellSolver::Impl {
   double local_step(const double* X, double* Q) const;
   double soft_energy(const double* X, const Eigen::MatrixXd& targets) const;
   void linear_solve(std::vector<double>& rhs) const; // rhs: nf x 3 column-major, overwritten
+  // The part of the right-hand side that does not depend on the rotations: -L_fc x_c (exact
+  // elimination of the kept vertices) plus the soft constraints' w p; nf x 3 column-major.
+  std::vector<double> rhs_constant(const double* X, const Eigen::MatrixXd& soft_targets) const;
+  // Row j of the rotations' part of the right-hand side, sum_t vol G_t R_t^T at free vertex j.
+  void gather_rhs(int j, const double* Q, double b[3]) const;
+  // X's free rows <- the minimiser for the rotations in Q (rhs: nf x 3 scratch).
+  void global_step(double* X, const double* Q, const std::vector<double>& rhs_const, std::vector<double>& rhs) const;
+
+  void check_positions(const Eigen::MatrixXd& X, const char* where) const {
+    if (X.rows() != N || X.cols() != 3)
+      throw InputError(std::string("ShellSolver::") + where + ": expected " + std::to_string(N) + " x 3 positions");
+  }
+  void check_soft_targets(const Eigen::MatrixXd& targets, const char* where) const {
+    if (!soft_free.empty() &&
+        (targets.rows() != static_cast<Eigen::Index>(soft.vertices.size()) || targets.cols() != 3))
+      throw InputError(std::string("ShellSolver::") + where + ": expected " + std::to_string(soft.vertices.size()) +
+                       " x 3 soft constraint targets");
+  }
 };
 
 void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
@@ -262,6 +284,14 @@ void ShellSolver::Impl::assemble_and_factor() {
       }
     }
   });
+  A_start.assign(nf + 1, 0);
+  for (int j = 0; j < nf; ++j) A_start[j + 1] = A_start[j] + row_len[j];
+  A_col.resize(A_start[nf]);
+  A_val.resize(A_start[nf]);
+  tbb::parallel_for(0, nf, [&](int j) {
+    std::copy_n(row_col.begin() + row_cap[j], row_len[j], A_col.begin() + A_start[j]);
+    std::copy_n(row_val.begin() + row_cap[j], row_len[j], A_val.begin() + A_start[j]);
+  });
   if (nf == 0) return;
 
   const std::string singular =
@@ -371,6 +401,47 @@ double ShellSolver::Impl::soft_energy(const double* X, const Eigen::MatrixXd& ta
   return soft.weight * e;
 }
 
+std::vector<double> ShellSolver::Impl::rhs_constant(const double* X, const Eigen::MatrixXd& soft_targets) const {
+  std::vector<double> b(3 * static_cast<std::size_t>(nf), 0.0);
+  tbb::parallel_for(0, nf, [&](int j) {
+    for (int s = fc_start[j]; s < fc_start[j + 1]; ++s)
+      for (int d = 0; d < 3; ++d)
+        b[j + static_cast<std::size_t>(d) * nf] -= fc_val[s] * X[3 * static_cast<std::size_t>(fc_col[s]) + d];
+  });
+  for (std::size_t c = 0; c < soft_free.size(); ++c)
+    if (soft_free[c] >= 0)
+      for (int d = 0; d < 3; ++d) b[soft_free[c] + static_cast<std::size_t>(d) * nf] += soft.weight * soft_targets(c, d);
+  return b;
+}
+
+void ShellSolver::Impl::gather_rhs(int j, const double* Q, double b[3]) const {
+  b[0] = b[1] = b[2] = 0;
+  for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
+    const int t = gather_slot[s] >> 2, k = gather_slot[s] & 3;
+    const double* q = Q + 9 * static_cast<std::size_t>(t);
+    if (k == 0) // corner 0's row of G_t is minus the sum of the other three
+      for (int r = 0; r < 3; ++r) b[r] -= q[r] + q[3 + r] + q[6 + r];
+    else
+      for (int r = 0; r < 3; ++r) b[r] += q[3 * (k - 1) + r];
+  }
+}
+
+void ShellSolver::Impl::global_step(double* X, const double* Q, const std::vector<double>& rhs_const,
+                                    std::vector<double>& rhs) const {
+  tbb::parallel_for(0, nf, [&](int j) {
+    double b[3];
+    gather_rhs(j, Q, b);
+    for (int d = 0; d < 3; ++d) {
+      const std::size_t i = j + static_cast<std::size_t>(d) * nf;
+      rhs[i] = b[d] + rhs_const[i];
+    }
+  });
+  linear_solve(rhs);
+  tbb::parallel_for(0, nf, [&](int j) {
+    for (int d = 0; d < 3; ++d) X[3 * static_cast<std::size_t>(free_vertices[j]) + d] = rhs[j + static_cast<std::size_t>(d) * nf];
+  });
+}
+
 void ShellSolver::Impl::linear_solve(std::vector<double>& rhs) const {
   std::lock_guard<std::mutex> lock(solve_mutex);
 #ifdef GSHELL_HAVE_CHOLMOD
@@ -428,16 +499,18 @@ namespace {
 
 std::vector<double> to_row_major(const Eigen::MatrixXd& X) {
   std::vector<double> x(3 * static_cast<std::size_t>(X.rows()));
-  for (Eigen::Index i = 0; i < X.rows(); ++i)
-    for (int d = 0; d < 3; ++d) x[3 * i + d] = X(i, d);
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(x.data(), X.rows(), 3) = X;
   return x;
+}
+
+void from_row_major(const std::vector<double>& x, Eigen::MatrixXd& X) {
+  X = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(x.data(), X.rows(), 3);
 }
 
 } // namespace
 
 double ShellSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& soft_targets) const {
-  if (X.rows() != impl_->N || X.cols() != 3)
-    throw InputError("ShellSolver::energy: expected " + std::to_string(impl_->N) + " x 3 positions");
+  impl_->check_positions(X, "energy");
   const std::vector<double> x = to_row_major(X);
   return impl_->local_step(x.data(), nullptr) + impl_->soft_energy(x.data(), soft_targets);
 }
@@ -448,56 +521,20 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   const auto t0 = Clock::now();
   if (Xio.rows() != m.N || Xio.cols() != 3)
     throw InputError("ShellSolver::solve: expected " + std::to_string(m.N) + " x 3 positions");
-  if (!m.soft_free.empty() && (soft_targets.rows() != static_cast<Eigen::Index>(m.soft.vertices.size()) ||
-                               soft_targets.cols() != 3))
-    throw InputError("ShellSolver::solve: expected " + std::to_string(m.soft.vertices.size()) +
-                     " x 3 soft constraint targets");
+  m.check_soft_targets(soft_targets, "solve");
   if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
   std::vector<double> X = to_row_major(Xio);
-
-  // Constant part of the right-hand side: -L_fc x_c (exact elimination of the kept vertices)
-  // plus the soft constraints' w p.
-  const int nf = m.nf;
-  std::vector<double> rhs_const(3 * static_cast<std::size_t>(nf), 0.0);
-  tbb::parallel_for(0, nf, [&](int j) {
-    double b[3] = {0, 0, 0};
-    for (int s = m.fc_start[j]; s < m.fc_start[j + 1]; ++s)
-      for (int d = 0; d < 3; ++d) b[d] -= m.fc_val[s] * X[3 * static_cast<std::size_t>(m.fc_col[s]) + d];
-    for (int d = 0; d < 3; ++d) rhs_const[j + static_cast<std::size_t>(d) * nf] = b[d];
-  });
-  for (std::size_t c = 0; c < m.soft_free.size(); ++c)
-    if (m.soft_free[c] >= 0)
-      for (int d = 0; d < 3; ++d) rhs_const[m.soft_free[c] + static_cast<std::size_t>(d) * nf] += m.soft.weight * soft_targets(c, d);
-
+  const std::vector<double> rhs_const = m.rhs_constant(X.data(), soft_targets);
   std::vector<double> Q(9 * static_cast<std::size_t>(m.K));
-  std::vector<double> rhs(3 * static_cast<std::size_t>(nf));
+  std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf));
   SolveResult result;
   auto t_local = Clock::now();
   double E = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
   result.local_seconds += seconds_since(t_local);
   result.energy.push_back(E);
-  for (int it = 1; it <= options.max_iterations && nf > 0; ++it) {
+  for (int it = 1; it <= options.max_iterations && m.nf > 0; ++it) {
     const auto t_global = Clock::now();
-    tbb::parallel_for(0, nf, [&](int j) {
-      double b[3] = {0, 0, 0};
-      for (int s = m.gather_start[j]; s < m.gather_start[j + 1]; ++s) {
-        const int t = m.gather_slot[s] >> 2, k = m.gather_slot[s] & 3;
-        const double* q = &Q[9 * static_cast<std::size_t>(t)];
-        if (k == 0) // corner 0's row of G_t is minus the sum of the other three
-          for (int r = 0; r < 3; ++r) b[r] -= q[r] + q[3 + r] + q[6 + r];
-        else
-          for (int r = 0; r < 3; ++r) b[r] += q[3 * (k - 1) + r];
-      }
-      for (int d = 0; d < 3; ++d) {
-        const std::size_t i = j + static_cast<std::size_t>(d) * nf;
-        rhs[i] = b[d] + rhs_const[i];
-      }
-    });
-    m.linear_solve(rhs);
-    tbb::parallel_for(0, nf, [&](int j) {
-      for (int d = 0; d < 3; ++d)
-        X[3 * static_cast<std::size_t>(m.free_vertices[j]) + d] = rhs[j + static_cast<std::size_t>(d) * nf];
-    });
+    m.global_step(X.data(), Q.data(), rhs_const, rhs);
     result.global_seconds += seconds_since(t_global);
     t_local = Clock::now();
     const double E_new = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
@@ -512,10 +549,54 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
       break;
     }
   }
-  for (Eigen::Index i = 0; i < Xio.rows(); ++i)
-    for (int d = 0; d < 3; ++d) Xio(i, d) = X[3 * i + d];
+  from_row_major(X, Xio);
   result.seconds = seconds_since(t0);
   return result;
+}
+
+void ShellSolver::local_step(const Eigen::MatrixXd& X, LocalStep& step, const Eigen::MatrixXd& soft_targets) const {
+  const Impl& m = *impl_;
+  m.check_positions(X, "local_step");
+  m.check_soft_targets(soft_targets, "local_step");
+  const std::vector<double> x = to_row_major(X);
+  step.Q.resize(9 * static_cast<std::size_t>(m.K));
+  step.energy = m.local_step(x.data(), step.Q.data()) + m.soft_energy(x.data(), soft_targets);
+}
+
+void ShellSolver::global_step(Eigen::MatrixXd& X, const LocalStep& step, const Eigen::MatrixXd& soft_targets) const {
+  const Impl& m = *impl_;
+  m.check_positions(X, "global_step");
+  m.check_soft_targets(soft_targets, "global_step");
+  if (step.Q.size() != 9 * static_cast<std::size_t>(m.K))
+    throw InputError("ShellSolver::global_step: the local step is for another solver");
+  if (m.nf == 0) return;
+  std::vector<double> x = to_row_major(X);
+  std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf));
+  m.global_step(x.data(), step.Q.data(), m.rhs_constant(x.data(), soft_targets), rhs);
+  from_row_major(x, X);
+}
+
+Eigen::MatrixXd ShellSolver::half_gradient(const Eigen::MatrixXd& X, const LocalStep& step,
+                                           const Eigen::MatrixXd& soft_targets) const {
+  const Impl& m = *impl_;
+  m.check_positions(X, "half_gradient");
+  m.check_soft_targets(soft_targets, "half_gradient");
+  // 1/2 dE/dx_j = (A x)_j - b_j(R) - w p_j: the system row times x minus the right-hand side.
+  std::vector<double> soft_rhs(3 * static_cast<std::size_t>(m.nf), 0.0);
+  for (std::size_t c = 0; c < m.soft_free.size(); ++c)
+    if (m.soft_free[c] >= 0)
+      for (int d = 0; d < 3; ++d) soft_rhs[m.soft_free[c] + static_cast<std::size_t>(d) * m.nf] += m.soft.weight * soft_targets(c, d);
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(m.N, 3);
+  tbb::parallel_for(0, m.nf, [&](int j) {
+    double b[3];
+    m.gather_rhs(j, step.Q.data(), b);
+    for (int d = 0; d < 3; ++d) {
+      double ax = 0;
+      for (int e = m.A_start[j]; e < m.A_start[j + 1]; ++e) ax += m.A_val[e] * X(m.A_col[e], d);
+      g(m.free_vertices[j], d) = ax - b[d] - soft_rhs[j + static_cast<std::size_t>(d) * m.nf];
+    }
+  });
+  return g;
 }
 
 } // namespace gshell

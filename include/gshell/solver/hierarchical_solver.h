@@ -8,7 +8,7 @@
 // x = B_l z_l with 12 unknowns per cluster, and the reduced matrix A_l = B_l^T L B_l (+ springs)
 // is assembled and factored once. Tets inside one cluster have F_t = M_j: one polar decomposition
 // serves all of them; only tets across cluster borders need their own. Level L-1 is the full
-// problem (local/global over all 2n vertices, hard handles eliminated).
+// problem: a ShellSolver over all 2n vertices (hard handles eliminated), driven step by step.
 //
 // One outer iteration is full_iterations local/global iterations of the full state (Anderson-
 // accelerated), preceded on every coarse_period-th outer iteration by a coarse-to-fine pass: each

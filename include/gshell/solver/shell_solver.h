@@ -27,6 +27,12 @@ struct SolveResult {
   double global_seconds = 0; ///< of which global steps (gather, back-substitution, scatter)
 };
 
+/// The rotations found by one local step, folded into the operands of the next global step.
+struct LocalStep {
+  std::vector<double> Q; ///< per tet, vol * Dm_inv * R^T (row-major 3x3)
+  double energy = 0;     ///< E at the state the step was taken at (soft term included)
+};
+
 /// Soft positional constraints: w * sum_c ||x_c - p_c||^2 over `vertices` (targets at solve).
 struct SoftConstraints {
   std::vector<int> vertices;
@@ -51,6 +57,15 @@ public:
 
   /// E(X) including the soft term (if soft_targets are given).
   double energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& soft_targets = {}) const;
+
+  /// The two halves of an iteration, for drivers that combine iterates (Anderson acceleration,
+  /// the hierarchical solver's coarse corrections). local_step: rotations and E at X.
+  void local_step(const Eigen::MatrixXd& X, LocalStep& step, const Eigen::MatrixXd& soft_targets = {}) const;
+  /// X's free rows <- the minimiser of E for the rotations of `step`; the kept rows are only read.
+  void global_step(Eigen::MatrixXd& X, const LocalStep& step, const Eigen::MatrixXd& soft_targets = {}) const;
+  /// Half the gradient of E at X (`step` taken at X); rows of kept vertices are 0.
+  Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const LocalStep& step,
+                                const Eigen::MatrixXd& soft_targets = {}) const;
 
   double factor_seconds() const; ///< time spent assembling and factoring in the constructor
   const RestTets& rest() const;
