@@ -119,7 +119,8 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
   }
 }
 
-/// A hierarchical configuration from "levels=5,split=2,li=1,fi=4,aa=5,fas=1,lt=0,min=8" (any subset).
+/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4"
+/// (any subset; the rest keep their defaults).
 Config parse_config(const std::string& spec) {
   Config c{"hierarchical " + spec, PoseSolverKind::Hierarchical, {}};
   size_t pos = 0;
@@ -141,6 +142,9 @@ Config parse_config(const std::string& spec) {
     else if (key == "lt") o.level_tolerance = value;
     else if (key == "min") o.min_cluster_size = static_cast<int>(value);
     else if (key == "hw") o.reduced_hard_weight = value;
+    else if (key == "cr") o.cluster_rotations = value != 0;
+    else if (key == "fcs") o.finest_cluster_size = static_cast<int>(value);
+    else if (key == "laa") o.level_anderson_history = static_cast<int>(value);
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
@@ -201,15 +205,18 @@ int main(int argc, char** argv) {
   {
     HierarchyOptions o; // the paper's recipe: own parameters, rigid propagation, ~5 iterations per level
     o.residual_correction = false;
+    o.cluster_rotations = false; // border tets get their own rotations
     o.level_iterations = 5;
     o.full_iterations = 1;
     o.coarse_period = 1;
     o.anderson_history = 0;
+    o.level_anderson_history = 0;
     configs.push_back({"hierarchical, paper coupling", PoseSolverKind::Hierarchical, o});
   }
   {
     HierarchyOptions o;
     o.anderson_history = 0;
+    o.level_anderson_history = 0;
     configs.push_back({"hierarchical, no Anderson", PoseSolverKind::Hierarchical, o});
   }
   configs.push_back({"hierarchical (default)", PoseSolverKind::Hierarchical, HierarchyOptions{}});

@@ -14,6 +14,8 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/QR>
+#include <Eigen/SVD>
+#include <Eigen/LU>
 
 #include <algorithm>
 #include <set>
@@ -184,11 +186,14 @@ TEST(HierarchicalSolver, ReducedLevelsAreExactMembersOfTheirSubspaces) {
 
 TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
   Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
-  for (int variant = 0; variant < 3; ++variant) {
+  // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations.
+  for (int variant = 0; variant < 4; ++variant) {
     HierarchyOptions o;
     o.residual_correction = variant != 1;
     o.anderson_history = variant == 2 ? 5 : 0;
-    o.coarse_period = variant == 2 ? 16 : 1; // the default period and a coarse pass every time
+    o.level_anderson_history = variant == 2 ? 5 : 0;
+    o.coarse_period = variant == 2 ? HierarchyOptions{}.coarse_period : 1; // else a coarse pass every time
+    o.cluster_rotations = variant != 3;
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
     Eigen::MatrixXd X = p.X;
     SolveOptions so;
@@ -200,6 +205,45 @@ TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
       EXPECT_LE(r.energy[k], r.energy[k - 1]) << "variant " << variant << ", outer iteration " << k;
     EXPECT_LT(r.energy.back(), 0.5 * r.energy.front());
     EXPECT_NEAR(solver.energy(X, p.targets), r.energy.back(), 1e-12 * r.energy.back());
+  }
+}
+
+TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {
+  // With cluster rotations a reduced level's energy is sum_t vol ||F_t - R_j(t)||^2 + springs,
+  // j(t) = the cluster of the tet's corner 0 and R_j the rotation closest to sum_{t in j} vol F_t.
+  // Recomputed here from the level's positions, tet by tet (soft constraints: known weight).
+  Problem p = bowl_problem(10, {0.5, 0.1, 0.3}, /*hard=*/false);
+  HierarchyOptions o;
+  o.coarse_period = 1;
+  HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+  Eigen::MatrixXd X = p.X;
+  SolveOptions so;
+  so.max_iterations = 3;
+  solver.solve(X, p.targets, so);
+  const int n = p.shell.num_base_vertices();
+  for (int l = 0; l + 1 < solver.num_levels(); ++l) {
+    const Eigen::MatrixXd Y = solver.level_positions(l);
+    const std::vector<int>& cluster = solver.tree().cluster_of[solver.tree_depth(l)];
+    std::vector<Eigen::Matrix3d> F(p.rest.size()), S(solver.num_clusters(l), Eigen::Matrix3d::Zero());
+    for (int t = 0; t < p.rest.size(); ++t) {
+      Eigen::Matrix3d D;
+      for (int k = 0; k < 3; ++k) D.col(k) = (Y.row(p.rest.T(t, k + 1)) - Y.row(p.rest.T(t, 0))).transpose();
+      F[t] = D * p.rest.Dm_inv[t];
+      S[cluster[p.rest.T(t, 0) % n]] += p.rest.volume(t) * F[t];
+    }
+    std::vector<Eigen::Matrix3d> R(S.size());
+    for (size_t j = 0; j < S.size(); ++j) {
+      Eigen::JacobiSVD<Eigen::Matrix3d> svd(S[j], Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d U = svd.matrixU();
+      if ((U * svd.matrixV().transpose()).determinant() < 0) U.col(2) *= -1;
+      R[j] = U * svd.matrixV().transpose();
+    }
+    double expected = 0;
+    for (int t = 0; t < p.rest.size(); ++t)
+      expected += p.rest.volume(t) * (F[t] - R[cluster[p.rest.T(t, 0) % n]]).squaredNorm();
+    for (size_t r = 0; r < p.constraints.vertices.size(); ++r)
+      expected += p.constraints.weight * (Y.row(p.constraints.vertices[r]) - p.targets.row(r)).squaredNorm();
+    EXPECT_NEAR(solver.level_energy(l, p.targets), expected, 1e-9 * expected) << "level " << l;
   }
 }
 

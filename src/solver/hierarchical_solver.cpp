@@ -143,11 +143,16 @@ struct HierarchicalSolver::Impl {
     ReducedLevel& level = reduced[l];
     LocalCache& cache = reduced_cache[l];
     double objective = options.level_tolerance > 0 ? reduced_objective(l, targets, cache) : 0;
+    AndersonHistory anderson(options.level_anderson_history);
+    Eigen::MatrixXd before, accelerated;
     for (int k = 0; k < options.level_iterations; ++k) {
       Eigen::MatrixXd rhs = level.rhs(targets, cache);
       if (tau[l].size() > 0) rhs += tau[l];
+      before = level.parameters();
       level.solve(rhs);
-      level.local(cache);
+      if (anderson.extrapolate(before, level.parameters(), accelerated)) level.parameters().swap(accelerated);
+      // Only the last iteration's energy is read (unless the tolerance needs every one).
+      level.local(cache, options.level_tolerance > 0 || k + 1 == options.level_iterations);
       if (options.level_tolerance > 0) {
         const double next = reduced_objective(l, targets, cache);
         // The objective (energy minus a linear term) can be negative: compare against the energy.
@@ -177,7 +182,7 @@ struct HierarchicalSolver::Impl {
     } else {
       for (int l = 0; l < L; ++l) {
         before[l] = reduced[l].parameters();
-        if (!reduced_cache[l].valid) reduced[l].local(reduced_cache[l]);
+        if (!reduced_cache[l].energy_valid) reduced[l].local(reduced_cache[l]);
       }
     }
     for (int l = 0; l < L; ++l) {
@@ -204,7 +209,7 @@ struct HierarchicalSolver::Impl {
     const ReducedLevel& finest = reduced.back();
     Eigen::MatrixXd trial;
     if (residual) {
-      trial = state.X + finest.positions() - finest.positions(before.back());
+      trial = state.X + finest.positions(finest.parameters() - before.back()); // B is linear in z
     } else {
       const std::vector<RigidChange> change = finest.changes_since(before.back());
       trial.resize(state.X.rows(), 3);
@@ -287,16 +292,22 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   const int reduced_levels = options.levels - 1;
   const int split = std::max(1, options.splits_per_level);
   ClusterTreeOptions tree_options;
-  tree_options.depth = reduced_levels > 0 ? (reduced_levels - 1) * split : 0;
+  // The finest reduced level has about finest_cluster_size base vertices per cluster; each coarser
+  // one is splits_per_level bisection rounds up (never above the root).
+  const int n_base = s.num_vertices() / 2;
+  const int finest = static_cast<int>(std::lround(std::log2(std::max(1.0, static_cast<double>(n_base) /
+                                                                         std::max(1, options.finest_cluster_size)))));
+  const int first = std::max(0, finest - (reduced_levels - 1) * split);
+  tree_options.depth = reduced_levels > 0 ? first + (reduced_levels - 1) * split : 0;
   tree_options.min_cluster_size = options.min_cluster_size;
   s.tree = build_cluster_tree(rest_vertices, F, tree_options);
   const double weight = constraints.hard ? options.reduced_hard_weight * mean_stiffness(s.rest, s.num_vertices())
                                          : constraints.weight;
   for (int l = 0; l < reduced_levels; ++l) {
-    const int d = l * split;
+    const int d = first + l * split;
     s.depth_of_level.push_back(d);
     s.reduced.emplace_back(s.rest, rest_vertices, s.tree.cluster_of[d], s.tree.num_clusters(d),
-                           L, constraints.vertices, weight);
+                           L, constraints.vertices, weight, options.cluster_rotations);
   }
   s.reduced_cache.resize(reduced_levels);
   s.tau.resize(reduced_levels);
@@ -361,7 +372,7 @@ double HierarchicalSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixX
 
 void HierarchicalSolver::reset() {
   for (auto& level : impl_->reduced) level.reset();
-  for (auto& cache : impl_->reduced_cache) cache.valid = false;
+  for (auto& cache : impl_->reduced_cache) cache.valid = cache.energy_valid = false;
 }
 
 int HierarchicalSolver::num_levels() const { return static_cast<int>(impl_->reduced.size()) + 1; }

@@ -52,9 +52,10 @@ Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_verti
 
 ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices,
                            const std::vector<int>& cluster_of_base, int num_clusters,
-                           const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained, double weight)
+                           const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained, double weight,
+                           bool cluster_rotations)
     : rest_(rest), N_(static_cast<int>(rest_vertices.rows())), m_(num_clusters), constrained_(constrained),
-      weight_(weight) {
+      weight_(weight), cluster_rotations_(cluster_rotations) {
   const int n = N_ / 2;
   cluster_.resize(N_);
   for (int v = 0; v < N_; ++v) cluster_[v] = cluster_of_base[v < n ? v : v - n];
@@ -104,6 +105,10 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
   const Eigen::SparseMatrix<double> Bt = B.transpose();
   A_ = Bt * ((L + springs_diag) * B);
   solver_.factor(A_);
+  if (cluster_rotations_) {
+    A_elastic_ = Bt * (L * B);
+    build_pairs();
+  }
 
   std::vector<Eigen::Matrix4d> moments(m_, Eigen::Matrix4d::Zero());
   for (int v = 0; v < N_; ++v) {
@@ -135,12 +140,68 @@ Eigen::MatrixXd ReducedLevel::positions(const Eigen::MatrixXd& Z) const {
   Eigen::MatrixXd X(N_, 3);
   for (int v = 0; v < N_; ++v) {
     const int j = cluster_[v];
-    X.row(v) = local_coords_.row(v) * Z.block(4 * j, 0, 3, 3) + Z.row(4 * j + 3);
+    const Eigen::Matrix<double, 4, 3> Zj = Z.middleRows<4>(4 * j);
+    X.row(v) = local_coords_.row(v) * Zj.topRows<3>() + Zj.row(3);
   }
   return X;
 }
 
-void ReducedLevel::local(LocalCache& cache) const {
+void ReducedLevel::build_pairs() {
+  using Block = Eigen::Matrix<double, 4, 3>;
+  std::vector<std::vector<std::pair<int, Block>>> by_owner(m_);
+  auto add = [&](int j, int i, const Block& w) {
+    for (auto& [c, acc] : by_owner[j])
+      if (c == i) {
+        acc += w;
+        return;
+      }
+    by_owner[j].emplace_back(i, w);
+  };
+  for (int t = 0; t < rest_.size(); ++t) {
+    const int j = cluster_[rest_.T(t, 0)];
+    const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest_.Dm_inv[t]);
+    total_volume_ += rest_.volume(t);
+    for (int k = 0; k < 4; ++k) {
+      const int v = rest_.T(t, k);
+      Eigen::Vector4d u;
+      u << local_coords_.row(v).transpose(), 1.0;
+      add(j, cluster_[v], rest_.volume(t) * u * G.row(k));
+    }
+  }
+  pair_start_.assign(m_ + 1, 0);
+  pairs_.clear();
+  for (int j = 0; j < m_; ++j) {
+    for (const auto& [i, w] : by_owner[j]) pairs_.push_back({i, w});
+    pair_start_[j + 1] = static_cast<int>(pairs_.size());
+  }
+}
+
+void ReducedLevel::local_cluster_rotations(LocalCache& cache, bool with_energy) const {
+  using Block = Eigen::Matrix<double, 4, 3>;
+  std::vector<Block> Z(m_);
+  for (int j = 0; j < m_; ++j) Z[j] = Z_.middleRows<4>(4 * j);
+  std::vector<Eigen::Matrix3d> S(m_, Eigen::Matrix3d::Zero()), R(m_);
+  for (int j = 0; j < m_; ++j)
+    for (int p = pair_start_[j]; p < pair_start_[j + 1]; ++p) S[j].noalias() += Z[pairs_[p].cluster].transpose() * pairs_[p].W;
+  closest_rotations(S.data(), R.data(), m_);
+  cache.Q.resize(m_);
+  for (int j = 0; j < m_; ++j) cache.Q[j] = R[j].transpose();
+  cache.valid = true;
+  cache.energy_valid = with_energy;
+  if (!with_energy) return;
+  // sum_t vol ||F_t - R_j||^2 = tr(Z^T A_elastic Z) - 2 sum_j tr(R_j^T S_j) + 3 * total volume.
+  cache.element_energy.resize(m_);
+  for (int j = 0; j < m_; ++j) cache.element_energy[j] = -2.0 * (R[j].cwiseProduct(S[j])).sum();
+  const double quadratic = (Z_.transpose() * (A_elastic_ * Z_)).trace();
+  cache.elastic = quadratic + std::accumulate(cache.element_energy.begin(), cache.element_energy.end(), 0.0) +
+                  3.0 * total_volume_;
+}
+
+void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
+  if (cluster_rotations_) {
+    local_cluster_rotations(cache, with_energy);
+    return;
+  }
   const int nb = static_cast<int>(border_.size());
   cache.Q.resize(m_ + nb);
   cache.element_energy.resize(m_ + nb);
@@ -177,7 +238,7 @@ void ReducedLevel::local(LocalCache& cache) const {
     }
   });
   cache.elastic = std::accumulate(cache.element_energy.begin(), cache.element_energy.end(), 0.0);
-  cache.valid = true;
+  cache.valid = cache.energy_valid = true;
 }
 
 double ReducedLevel::springs(const Eigen::MatrixXd& targets) const {
@@ -190,6 +251,12 @@ double ReducedLevel::springs(const Eigen::MatrixXd& targets) const {
 Eigen::MatrixXd ReducedLevel::rhs(const Eigen::MatrixXd& targets, const LocalCache& cache) const {
   using Block = Eigen::Matrix<double, 4, 3>;
   std::vector<Block> acc(m_, Block::Zero());
+  if (cluster_rotations_) {
+    // d/dZ_i of sum_j tr(R_j^T S_j) = sum_j W_ji R_j^T; cache.Q[j] holds R_j^T.
+    for (int j = 0; j < m_; ++j)
+      for (int p = pair_start_[j]; p < pair_start_[j + 1]; ++p)
+        acc[pairs_[p].cluster].noalias() += pairs_[p].W * cache.Q[j];
+  } else {
   // Inside a cluster sum_k [u_k - c; 1] g_k^T = [I; 0] (rest F = I, rows of G sum to 0), so the
   // interior tets add vol * R^T to the M rows only; cache.Q[j] holds V_j * R_j^T.
   for (int j = 0; j < m_; ++j) acc[j].topRows<3>() = cache.Q[j];
@@ -203,6 +270,7 @@ Eigen::MatrixXd ReducedLevel::rhs(const Eigen::MatrixXd& targets, const LocalCac
       a.topRows<3>().noalias() += bt.coords[k] * q;
       a.row(3) += q;
     }
+  }
   }
   for (size_t r = 0; r < constrained_.size(); ++r) {
     const int v = constrained_[r];

@@ -19,7 +19,8 @@ struct LocalCache {
   std::vector<Eigen::Matrix3d> Q;
   std::vector<double> element_energy;
   double elastic = 0;
-  bool valid = false;
+  bool valid = false;        ///< rotations computed
+  bool energy_valid = false; ///< element_energy and elastic computed
 };
 
 /// Stiffness matrix L = sum_t vol_t G_t^T G_t over `num_vertices` (one coordinate; same for x, y, z).
@@ -37,9 +38,13 @@ class ReducedLevel {
 public:
   /// `cluster_of_base[i]` in 0..num_clusters-1; top vertex n+i shares base vertex i's cluster.
   /// `weight` is the absolute spring weight of the constraints on this level.
+  /// With `cluster_rotations`, every tet takes the rotation of the cluster that owns it (the
+  /// cluster of its corner 0), border tets included: then the local step and the right-hand side
+  /// come from precomputed per-cluster-pair matrices and cost O(cluster pairs), not O(tets).
+  /// Without, tets across cluster borders get their own rotation (the exact subspace energy).
   ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const std::vector<int>& cluster_of_base,
                int num_clusters, const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained,
-               double weight);
+               double weight, bool cluster_rotations);
 
   int num_clusters() const { return m_; }
   void reset();                                   ///< identity maps (the rest shape)
@@ -52,7 +57,9 @@ public:
   Eigen::MatrixXd positions(const Eigen::MatrixXd& parameters) const; ///< B z for other parameters
   int cluster_of_vertex(int v) const { return cluster_[v]; }
 
-  void local(LocalCache& cache) const;            ///< Q: one per cluster, then one per border tet
+  /// Q: one per cluster (R^T with cluster rotations, else interior volume * R^T), then one per border tet.
+  /// Without `with_energy` (cluster rotations only) the energies are left out and marked invalid.
+  void local(LocalCache& cache, bool with_energy = true) const;
   double springs(const Eigen::MatrixXd& targets) const;
   /// Right-hand side B^T (b(R) + springs) of the reduced global step for the rotations of `cache`.
   Eigen::MatrixXd rhs(const Eigen::MatrixXd& targets, const LocalCache& cache) const;
@@ -92,6 +99,20 @@ private:
   std::vector<Eigen::Matrix4d> fit_inverse_;  // per cluster (sum_v [u_v - c; 1][u_v - c; 1]^T)^-1
   SpdSolver solver_;
   Eigen::MatrixXd Z_, Z_rest_;
+
+  // Cluster rotations: sum over the tets owned by cluster j of vol F_t = sum_i Z_i^T W_ji, with
+  // W_ji = sum over those tets' corners k in cluster i of vol [u_k - c_i; 1] g_k^T (4x3).
+  struct Pair {
+    int cluster; // i
+    Eigen::Matrix<double, 4, 3> W;
+  };
+  bool cluster_rotations_;
+  std::vector<int> pair_start_;  // per owner cluster j, into pairs_
+  std::vector<Pair> pairs_;
+  Eigen::SparseMatrix<double> A_elastic_; // B^T L B: sum vol ||F_t||^2 = tr(Z^T A_elastic Z)
+  double total_volume_ = 0;
+  void build_pairs();
+  void local_cluster_rotations(LocalCache& cache, bool with_energy) const;
 };
 
 } // namespace gshell::detail

@@ -25,6 +25,9 @@ struct SpdSolver::Impl {
   cholmod_common cm;
   cholmod_factor* factor = nullptr;
   std::mutex mutex; // CHOLMOD's workspace is shared: one solve at a time
+  // Solution and workspaces of cholmod_solve2, kept between solves (reallocating them costs more
+  // than a small level's solve).
+  cholmod_dense *x = nullptr, *y = nullptr, *e = nullptr;
   Impl() {
     cholmod_start(&cm);
     cm.print = 0;
@@ -32,6 +35,9 @@ struct SpdSolver::Impl {
     cm.supernodal = CHOLMOD_AUTO;
   }
   ~Impl() {
+    cholmod_free_dense(&x, &cm);
+    cholmod_free_dense(&y, &cm);
+    cholmod_free_dense(&e, &cm);
     if (factor) cholmod_free_factor(&factor, &cm);
     cholmod_finish(&cm);
   }
@@ -106,13 +112,9 @@ void SpdSolver::solve_in_place(Eigen::MatrixXd& B) const {
   rhs.z = nullptr;
   rhs.xtype = CHOLMOD_REAL;
   rhs.dtype = CHOLMOD_DOUBLE;
-  cholmod_dense *X = nullptr, *Y = nullptr, *E = nullptr;
-  if (!cholmod_solve2(CHOLMOD_A, s.factor, &rhs, nullptr, &X, nullptr, &Y, &E, &s.cm) || !X)
+  if (!cholmod_solve2(CHOLMOD_A, s.factor, &rhs, nullptr, &s.x, nullptr, &s.y, &s.e, &s.cm) || !s.x)
     throw std::runtime_error("CHOLMOD solve failed");
-  std::copy(static_cast<const double*>(X->x), static_cast<const double*>(X->x) + B.size(), B.data());
-  cholmod_free_dense(&X, &s.cm);
-  cholmod_free_dense(&Y, &s.cm);
-  cholmod_free_dense(&E, &s.cm);
+  std::copy(static_cast<const double*>(s.x->x), static_cast<const double*>(s.x->x) + B.size(), B.data());
 #else
   B = s.sparse.solve(B);
 #endif

@@ -7,15 +7,20 @@
 // vertices sit at x_i = M_j (u_i - c_j) + t_j (u = rest positions, c_j = rest centroid), so
 // x = B_l z_l with 12 unknowns per cluster, and the reduced matrix A_l = B_l^T L B_l (+ springs)
 // is assembled and factored once. Tets inside one cluster have F_t = M_j: one polar decomposition
-// serves all of them; only tets across cluster borders need their own. Level L-1 is the full
-// problem: a ShellSolver over all 2n vertices (hard handles eliminated), driven step by step.
+// serves all of them. By default (cluster_rotations) the tets across cluster borders take the
+// rotation of the cluster that owns them as well, so a reduced iteration costs O(cluster pairs),
+// independent of the tet count; otherwise each border tet gets its own rotation. The finest
+// reduced level has about 8 base vertices per cluster, the coarser ones 4x fewer clusters each.
+// Level L-1 is the full problem: a ShellSolver over all 2n vertices (hard handles eliminated),
+// driven step by step.
 //
 // One outer iteration is full_iterations local/global iterations of the full state (Anderson-
 // accelerated), preceded on every coarse_period-th outer iteration by a coarse-to-fine pass: each
 // reduced level first receives its parent's change since the start of the pass, runs a few
-// local/global iterations with its prefactored matrix, and the finest reduced level's change goes
-// into the full state. (Measured on the bowl and bunny00 shells: the pass is worth its cost only
-// every ~16 full iterations; see bench_pose.) Two couplings of the levels are available:
+// (Anderson-accelerated) local/global iterations with its prefactored matrix, and the finest
+// reduced level's change goes into the full state. (Defaults measured with bench_pose on the
+// bowl: a pass every 4th iteration with 10 iterations per level; README.) Two couplings of the
+// levels are available:
 //  - residual (default): each level starts from the affine fit of the current full state and
 //    minimises its energy minus 2 <tau, z>, tau chosen so that its gradient there equals the
 //    full gradient seen through its subspace (full approximation scheme; our reading of the
@@ -47,8 +52,11 @@ struct PositionConstraints {
 struct HierarchyOptions {
   int levels = 5;             ///< levels including the full one; 1 = the plain single-level solver
   int splits_per_level = 2;   ///< bisection rounds between successive levels (up to 4x clusters)
+  /// Base vertices per cluster at the finest reduced level (its tree depth is log2(n / this),
+  /// rounded); the coarser levels lie splits_per_level bisection rounds apart above it.
+  int finest_cluster_size = 8;
   int min_cluster_size = 8;   ///< base vertices; clusters are not split below this
-  int level_iterations = 5;   ///< local/global iterations per reduced level and coarse pass (at most)
+  int level_iterations = 10;  ///< local/global iterations per reduced level and coarse pass (at most)
   /// A reduced level stops its iterations early once its objective falls by less than this
   /// fraction of its value in one iteration (0: always run level_iterations).
   double level_tolerance = 0;
@@ -56,7 +64,7 @@ struct HierarchyOptions {
   /// The coarse-to-fine pass over the reduced levels runs on outer iterations coarse_period,
   /// 2 coarse_period, ... (1: every outer iteration). With a period > 1 an outer iteration that
   /// already suffices (a drag step from a good start) costs only its full iterations.
-  int coarse_period = 16;
+  int coarse_period = 4;
   /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
   /// targets), so there they become springs of this weight times the mean diagonal of the
   /// stiffness matrix.
@@ -66,6 +74,15 @@ struct HierarchyOptions {
   /// gradient restricted to its subspace (the paper's correction of b_l; full approximation
   /// scheme). Without it the reduced levels only see the handles, not the full state.
   bool residual_correction = true;
+  /// One rotation per cluster for all the tets it owns (those whose corner 0 it holds), border
+  /// tets included: a reduced iteration then costs O(cluster pairs) instead of O(tets), at the
+  /// price of an approximate reduced energy (the residual coupling still makes the fixed points
+  /// agree). Off: tets across cluster borders get their own rotation (the exact subspace energy).
+  bool cluster_rotations = true;
+  /// Anderson acceleration of every reduced level's iterations within one coarse pass (history
+  /// length; 0 = off). Not safeguarded per iteration: the full level keeps a pass's result only
+  /// if it lowers the full energy.
+  int level_anderson_history = 5;
   /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
   /// An extrapolated iterate is kept only if it lowers the energy.
   int anderson_history = 5;
