@@ -11,6 +11,7 @@
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/render/camera.h>
 #include <gshell/render/scene.h>
 #include <gshell/render/shell_render.h>
 #include <gshell/shell/offset_shell.h>
@@ -44,6 +45,7 @@ struct DeformArgs {
   bool compare_offset = false;
   std::string embed;
   bool render = false;
+  std::string view = "iso";
 };
 
 std::string frame_folder(int k) {
@@ -78,6 +80,7 @@ void run_deform(const DeformArgs& args) {
   const bool quiet = gshell::cli::global_options().quiet;
   if (!(args.tolerance >= 0) || !std::isfinite(args.tolerance)) throw gshell::InputError("--tolerance must be >= 0");
   if (args.iterations < 0) throw gshell::InputError("--iterations must be >= 0");
+  const gshell::ViewDirection view = gshell::parse_view(args.view); // fails before the solve, not after
   if (args.render && !gshell::offscreen_rendering_available())
     throw gshell::InputError("--render: gshell was built without OSMesa");
   gshell::DeformOptions options;
@@ -214,7 +217,7 @@ void run_deform(const DeformArgs& args) {
   gshell::write_file_atomically((staged.path() / "report.json").string(),
                                 [&](std::ostream& os) { os << report.dump(2) << "\n"; });
   // Rendered inside the staged folder, so the preview arrives together with the frames or not at all.
-  if (args.render) gshell::render_shell_preview(staged.path().string(), args.out);
+  if (args.render) gshell::render_shell_preview(staged.path().string(), args.out, view);
   staged.commit(holds_deform_output);
   if (!quiet)
     std::cerr << "deform: " << frames.size() << " frames, median " << 1e3 * median(seconds) << " ms and "
@@ -242,9 +245,12 @@ void add_deform_command(CLI::App& parent) {
                 "Also report the stretch of re-extruding each frame by the plain vertex-normal offset");
   cmd->add_option("--embed", args->embed,
                   "Detail mesh in the rest shell's space, carried along: frame_NNNN/detail.obj");
-  cmd->add_flag("--render", args->render,
-                "Also write OUT/preview.png: first, middle and last frame side by side, colored by stretch "
-                "against the rest shell");
+  CLI::Option* render = cmd->add_flag("--render", args->render,
+                                      "Also write OUT/preview.png: first, middle and last frame side by side, "
+                                      "colored by stretch against the rest shell");
+  cmd->add_option("--view", args->view,
+                  "Preview direction: front|back|left|right|top|bottom|iso or AZIMUTH,ELEVATION (y up)")
+      ->needs(render);
   cmd->callback([args] { run_deform(*args); });
 }
 

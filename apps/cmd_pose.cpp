@@ -9,6 +9,7 @@
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/render/camera.h>
 #include <gshell/render/scene.h>
 #include <gshell/render/shell_render.h>
 #include <gshell/shell/prism_tets.h>
@@ -35,6 +36,7 @@ struct PoseCliOptions {
   int levels = 5, steps = 1, iterations = 500; // as the Python Poser.solve defaults
   double tolerance = 1e-6;
   bool render = false;
+  std::string view = "iso";
 };
 
 /// A fresh folder next to `out`, renamed onto `out` by commit(); removed if never committed.
@@ -88,6 +90,7 @@ void run(const PoseCliOptions& o) {
   if (o.iterations < 1) throw InputError("--iterations must be >= 1");
   if (!(o.tolerance >= 0)) throw InputError("--tolerance must be >= 0");
   if (o.render && !offscreen_rendering_available()) throw InputError("--render: gshell was built without OSMesa");
+  const ViewDirection view = parse_view(o.view); // a bad view fails before the solve, not after
 
   TriMesh base_mesh;
   const Shell rest = load_shell_dir(o.shell_dir, &base_mesh);
@@ -159,7 +162,7 @@ void run(const PoseCliOptions& o) {
   report["stretch"] = stretch_json(stats);
   write_file_atomically(staging.file("report.json"), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
   if (o.render) // inside the staging folder: the preview lands with the rest or not at all
-    render_shell_preview(fs::path(staging.file("report.json")).parent_path().string(), o.output);
+    render_shell_preview(fs::path(staging.file("report.json")).parent_path().string(), o.output, view);
   staging.commit();
   if (!quiet)
     std::cerr << "gshell pose: wrote " << o.output << " (top.obj, base.obj, shell.vtu, report.json"
@@ -182,7 +185,10 @@ void add_pose_command(CLI::App& app) {
   cmd->add_option("--tolerance", o->tolerance, "Stop a step when the relative energy change per iteration is below this (default 1e-6)");
   cmd->add_option("--iterations", o->iterations, "Maximum iterations per step (default 500)");
   cmd->add_option("-o,--output", o->output, "Output folder (replaced if it exists)")->required();
-  cmd->add_flag("--render", o->render, "Also write OUT/preview.png: the rest and the posed shell, colored by stretch");
+  CLI::Option* render =
+      cmd->add_flag("--render", o->render, "Also write OUT/preview.png: the rest and the posed shell, colored by stretch");
+  cmd->add_option("--view", o->view, "Preview direction: front|back|left|right|top|bottom|iso or AZIMUTH,ELEVATION (y up)")
+      ->needs(render);
   cmd->callback([o] { run(*o); });
 }
 

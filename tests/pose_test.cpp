@@ -232,6 +232,42 @@ TEST(PoseCli, RenderWritesAPreviewOfRestAndPose) {
   EXPECT_EQ(test::count_entries(tmp.path()), 3); // shell, pull.json, out
 }
 
+TEST(PoseCli, ViewTurnsThePreview) {
+  if (!offscreen_rendering_available()) GTEST_SKIP() << "built without OSMesa";
+  TempDir tmp;
+  write_shell_dir(small_bowl(), tmp.path() / "shell");
+  test::write_text(tmp.file("pull.json"), kPull);
+  const std::string base_args = "pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("pull.json") +
+                                "' --levels 3 --render -q";
+  // Width / height of the rest bowl (left panel): seen from below its rim (the bowl axis is z,
+  // views are y-up) it is a half-ellipse, much wider than tall; the iso view looks into it.
+  auto rest_aspect = [&](const std::string& view, const std::string& out) {
+    const auto r = run_cli(base_args + (view.empty() ? "" : " --view " + view) + " -o '" + out + "'");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const Image image = read_png(out + "/preview.png");
+    int x0 = image.width, x1 = -1, y0 = image.height, y1 = -1;
+    for (int y = 40; y < image.height * 9 / 10; ++y) // below the caption, above the color bar
+      for (int x = 0; x < image.width / 2 - 4; ++x) {
+        const std::uint8_t* p = image.at(x, y);
+        if (p[0] < 200 || p[1] < 200 || p[2] < 200) {
+          x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+        }
+      }
+    return x1 > x0 && y1 > y0 ? double(x1 - x0) / (y1 - y0) : 0.0;
+  };
+  const double iso = rest_aspect("", tmp.file("iso")), below = rest_aspect("0,-70", tmp.file("below"));
+  EXPECT_GT(below, 1.3 * iso) << "iso " << iso << ", from below " << below;
+
+  const auto bad = run_cli(base_args + " --view sideways -o '" + tmp.file("bad") + "'");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("--view sideways"), std::string::npos) << bad.err;
+  const auto no_render = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("pull.json") +
+                                 "' --view top -o '" + tmp.file("bad") + "'");
+  EXPECT_NE(no_render.exit_code, 0);
+  EXPECT_NE(no_render.err.find("--render"), std::string::npos) << no_render.err;
+  EXPECT_FALSE(fs::exists(tmp.file("bad")));
+}
+
 TEST(PoseCli, BadHandleFilesExitOneAndWriteNothing) {
   TempDir tmp;
   write_shell_dir(small_bowl(), tmp.path() / "shell");

@@ -375,10 +375,12 @@ PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
   return panels;
 }
 
-std::string render_shell_preview(const std::string& dir, const std::string& name) {
+std::string render_shell_preview(const std::string& dir, const std::string& name, const ViewDirection& view) {
   const PreviewPanels panels = preview_panels(dir, name);
   const std::string out = (fs::path(dir) / "preview.png").string();
-  write_png(out, render_subjects(panels.subjects, panels.captions, ShellRenderOptions{}));
+  ShellRenderOptions options;
+  options.figure.view = view;
+  write_png(out, render_subjects(panels.subjects, panels.captions, options));
   return out;
 }
 

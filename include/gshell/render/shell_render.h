@@ -92,6 +92,7 @@ PreviewPanels preview_panels(const std::string& dir, const std::string& name = {
 /// for a pose output: the rest shell named in its report.json (stretch 0) beside the posed one).
 /// Writes the PNG atomically. Returns the path written. Captions name the folder by its last
 /// component, or by `name` when given (the final folder's name while DIR is a staging folder).
-std::string render_shell_preview(const std::string& dir, const std::string& name = {});
+/// `view`: the direction every panel is seen from (default iso).
+std::string render_shell_preview(const std::string& dir, const std::string& name = {}, const ViewDirection& view = {});
 
 } // namespace gshell
