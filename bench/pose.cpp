@@ -119,7 +119,7 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
   }
 }
 
-/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4"
+/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4,path=1"
 /// (any subset; the rest keep their defaults).
 Config parse_config(const std::string& spec) {
   Config c{"hierarchical " + spec, PoseSolverKind::Hierarchical, {}};
@@ -146,6 +146,7 @@ Config parse_config(const std::string& spec) {
     else if (key == "fcs") o.finest_cluster_size = static_cast<int>(value);
     else if (key == "laa") o.level_anderson_history = static_cast<int>(value);
     else if (key == "period") o.coarse_period = static_cast<int>(value);
+    else if (key == "path") o.path_extrapolation = value != 0;
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
   return c;
@@ -200,6 +201,7 @@ int main(int argc, char** argv) {
     o.levels = 1;
     o.full_iterations = 1;
     o.anderson_history = 5;
+    o.path_extrapolation = false;
     configs.push_back({"single + Anderson(5)", PoseSolverKind::Hierarchical, o});
   }
   {
@@ -211,6 +213,7 @@ int main(int argc, char** argv) {
     o.coarse_period = 1;
     o.anderson_history = 0;
     o.level_anderson_history = 0;
+    o.path_extrapolation = false;
     configs.push_back({"hierarchical, paper coupling", PoseSolverKind::Hierarchical, o});
   }
   {
@@ -229,6 +232,7 @@ int main(int argc, char** argv) {
   HierarchyOptions reference_options;
   reference_options.levels = 1;
   reference_options.anderson_history = 5;
+  reference_options.path_extrapolation = false;
   PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, reference_options);
   SolveOptions ref_options;
   ref_options.max_iterations = reference_iterations;

@@ -42,7 +42,10 @@ struct FullState {
   Eigen::MatrixXd& X;
   LocalStep step, candidate;
   Eigen::MatrixXd image, accelerated;
+  Eigen::MatrixXd checkpoint; // the iterate at the last path extrapolation
 };
+
+constexpr int kPathDoublings = 10; // a path extrapolation goes at most 2^10 - 1 times the path further
 
 /// Anderson acceleration of the local/global fixed-point map x -> G(x) (type II, as in Peng et
 /// al. 2018): the next iterate combines the last few images so that the combined residual
@@ -250,6 +253,28 @@ struct HierarchicalSolver::Impl {
     return true;
   }
 
+  /// Line search along the path of the iterations: the displacement d since the last checkpoint is
+  /// added again at 1, 2, 4, ... times its length, each step kept while it lowers the energy.
+  /// Returns whether X moved. The iterate becomes the next checkpoint either way.
+  bool extrapolate_path(FullState& state, const Eigen::MatrixXd& targets) {
+    bool moved = false;
+    if (state.checkpoint.size() == state.X.size()) {
+      const Eigen::MatrixXd d = state.X - state.checkpoint;
+      double scale = 1;
+      for (int k = 0; k < kPathDoublings; ++k, scale *= 2) {
+        state.accelerated = state.X + scale * d;
+        set_hard_rows(state.accelerated, targets);
+        full->local_step(state.accelerated, state.candidate, soft_targets(targets));
+        if (!(state.candidate.energy < state.step.energy)) break;
+        state.X.swap(state.accelerated);
+        std::swap(state.step, state.candidate);
+        moved = true;
+      }
+    }
+    state.checkpoint = state.X;
+    return moved;
+  }
+
   /// Parent (at the previous reduced level) of every cluster of reduced level l > 0.
   std::vector<int> parent_of(int l) const {
     const int d0 = depth_of_level[l - 1], d1 = depth_of_level[l];
@@ -328,7 +353,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     throw std::invalid_argument("HierarchicalSolver::solve: one target row per constrained vertex");
 
   s.set_hard_rows(X, targets);
-  FullState state{X, {}, {}, {}, {}};
+  FullState state{X, {}, {}, {}, {}, {}};
   s.full->local_step(X, state.step, s.soft_targets(targets));
 
   HierarchicalSolveResult result;
@@ -353,6 +378,8 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
       ++result.full_iterations;
       if (!s.full_iteration(state, targets, anderson)) break;
     }
+    // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
+    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets)) anderson.restart();
     result.iterations = it;
     result.energy.push_back(state.step.energy);
     result.seconds = seconds_since(start);
