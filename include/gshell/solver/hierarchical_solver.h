@@ -19,8 +19,8 @@
 // reduced level first receives its parent's change since the start of the pass, runs a few
 // (Anderson-accelerated) local/global iterations with its prefactored matrix, and the finest
 // reduced level's change goes into the full state. (Defaults measured with bench_pose on the
-// bowl: a pass every 4th iteration with 10 iterations per level; README.) Two couplings of the
-// levels are available:
+// bowl and bunny00: a pass every 2nd iteration with 10 iterations per level; README.) Two
+// couplings of the levels are available:
 //  - residual (default): each level starts from the affine fit of the current full state and
 //    minimises its energy minus 2 <tau, z>, tau chosen so that its gradient there equals the
 //    full gradient seen through its subspace (full approximation scheme; our reading of the
@@ -65,7 +65,7 @@ struct HierarchyOptions {
   /// The coarse-to-fine pass over the reduced levels runs on outer iterations coarse_period,
   /// 2 coarse_period, ... (1: every outer iteration). With a period > 1 an outer iteration that
   /// already suffices (a drag step from a good start) costs only its full iterations.
-  int coarse_period = 4;
+  int coarse_period = 2;
   /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
   /// targets), so there they become springs of this weight times the mean diagonal of the
   /// stiffness matrix.
@@ -88,8 +88,8 @@ struct HierarchyOptions {
   /// iterates follow: the displacement since the previous such point is added again at 1, 2, 4,
   /// ... times its length, each step kept only while it lowers the energy. Iterations that creep
   /// along a soft mode (a thin shell buckling or snapping through) then cover the way in far fewer
-  /// steps (bench_pose bowl, big move: 52 -> 40 outer iterations; the two snap-through steps of
-  /// the drag: 304 and 464 -> 88 and 127).
+  /// steps (bench_pose bowl, big move: 35 -> 19 outer iterations; the slowest drag step, where
+  /// the bowl snaps through: 320 -> 138).
   bool path_extrapolation = true;
   /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
   /// An extrapolated iterate is kept only if it lowers the energy.
