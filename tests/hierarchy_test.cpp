@@ -60,6 +60,18 @@ Problem bowl_problem(int res, const Eigen::Vector3d& move, bool hard = true) {
   return p;
 }
 
+/// A solver after `iterations` outer iterations with a coarse pass on every one, so that its
+/// reduced levels have left the rest shape.
+HierarchicalSolver after_coarse_passes(const Problem& p, HierarchyOptions o, int iterations) {
+  o.coarse_period = 1;
+  HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+  Eigen::MatrixXd X = p.X;
+  SolveOptions so;
+  so.max_iterations = iterations;
+  solver.solve(X, p.targets, so);
+  return solver;
+}
+
 void expect_partition(const ClusterTree& tree, int n) {
   for (int d = 0; d < tree.num_depths(); ++d) {
     ASSERT_EQ(static_cast<int>(tree.cluster_of[d].size()), n);
@@ -150,13 +162,8 @@ TEST(HierarchicalSolver, ReducedLevelsAreExactMembersOfTheirSubspaces) {
   for (bool residual : {true, false}) {
     HierarchyOptions o;
     o.residual_correction = residual;
-    o.coarse_period = 1; // a coarse pass on every outer iteration, so 6 of them move the levels
-    HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+    const HierarchicalSolver solver = after_coarse_passes(p, o, 6);
     ASSERT_EQ(solver.num_levels(), 5);
-    Eigen::MatrixXd X = p.X;
-    SolveOptions so;
-    so.max_iterations = 6;
-    solver.solve(X, p.targets, so);
     const int n = p.shell.num_base_vertices();
     for (int l = 0; l + 1 < solver.num_levels(); ++l) {
       const Eigen::MatrixXd Y = solver.level_positions(l);
@@ -213,13 +220,7 @@ TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {
   // j(t) = the cluster of the tet's corner 0 and R_j the rotation closest to sum_{t in j} vol F_t.
   // Recomputed here from the level's positions, tet by tet (soft constraints: known weight).
   Problem p = bowl_problem(10, {0.5, 0.1, 0.3}, /*hard=*/false);
-  HierarchyOptions o;
-  o.coarse_period = 1;
-  HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
-  Eigen::MatrixXd X = p.X;
-  SolveOptions so;
-  so.max_iterations = 3;
-  solver.solve(X, p.targets, so);
+  const HierarchicalSolver solver = after_coarse_passes(p, {}, 3);
   const int n = p.shell.num_base_vertices();
   for (int l = 0; l + 1 < solver.num_levels(); ++l) {
     const Eigen::MatrixXd Y = solver.level_positions(l);
