@@ -4,7 +4,9 @@
 //
 //   bench_pose [bowl | PATH.off] [--steps K] [--runs R] [--drag-runs R] [--thickness-ratio r]
 //              [--reference-iterations N] [--cap N] [--drag-cap N] [--drag-every N]
-//              [--reference-cache FILE] [--only CONFIG]...
+//              [--reference-cache FILE] [--only CONFIG]... [--config SPEC]...
+//
+// --config runs an extra hierarchical configuration given as key=value pairs (see parse_config).
 //
 // The reference is the single-level fixed point computed with Anderson acceleration (the same
 // minimum as plain local/global, reached much sooner), to relative change < 1e-10 or N
@@ -203,6 +205,8 @@ int main(int argc, char** argv) {
     o.anderson_history = 5;
     o.path_extrapolation = false;
     configs.push_back({"single + Anderson(5)", PoseSolverKind::Hierarchical, o});
+    o.path_extrapolation = true; // the hierarchical default's accelerations without the reduced levels
+    configs.push_back({"single + Anderson(5) + path search", PoseSolverKind::Hierarchical, o});
   }
   {
     HierarchyOptions o; // the paper's recipe: own parameters, rigid propagation, ~5 iterations per level
