@@ -4,6 +4,7 @@
 
 #include <gshell/deform/handles.h>
 #include <gshell/deform/pose.h>
+#include <gshell/deform/staged_folder.h>
 #include <gshell/error.h>
 #include <gshell/io/atomic_file.h>
 #include <gshell/io/tet_mesh_io.h>
@@ -23,7 +24,6 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
-#include <random>
 #include <sstream>
 
 namespace {
@@ -39,44 +39,15 @@ struct PoseCliOptions {
   std::string view = "iso";
 };
 
-/// A fresh folder next to `out`, renamed onto `out` by commit(); removed if never committed.
-class StagingDir {
-public:
-  explicit StagingDir(const fs::path& out) : out_(fs::absolute(out)) {
-    if (fs::exists(out_) && !fs::is_directory(out_))
-      throw gshell::InputError(gshell::with_file(out.string(), "exists and is not a folder"));
-    suffix_ = std::to_string(std::random_device{}());
-    path_ = out_.parent_path() / ("." + out_.filename().string() + ".tmp-" + suffix_);
-    std::error_code ec;
-    fs::create_directories(path_, ec);
-    if (ec) throw gshell::InputError(gshell::with_file(out.string(), "cannot create output folder: " + ec.message()));
+/// An existing -o folder is replaced only if it holds nothing but an earlier pose output.
+bool holds_pose_output(const fs::path& dir) {
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name != "top.obj" && name != "base.obj" && name != "shell.vtu" && name != "report.json" && name != "preview.png")
+      return false;
   }
-  ~StagingDir() {
-    std::error_code ec;
-    if (!committed_) fs::remove_all(path_, ec);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  void commit() {
-    // An existing OUT is replaced: moved aside first so a failed rename never loses both.
-    const fs::path old = out_.parent_path() / ("." + out_.filename().string() + ".old-" + suffix_);
-    std::error_code ec;
-    const bool had_old = fs::exists(out_);
-    if (had_old) fs::rename(out_, old, ec);
-    if (ec) throw gshell::InputError(gshell::with_file(out_.string(), "cannot replace: " + ec.message()));
-    fs::rename(path_, out_, ec);
-    if (ec) {
-      if (had_old) fs::rename(old, out_);
-      throw gshell::InputError(gshell::with_file(out_.string(), "cannot write: " + ec.message()));
-    }
-    committed_ = true;
-    if (had_old) fs::remove_all(old, ec);
-  }
-
-private:
-  fs::path out_, path_;
-  std::string suffix_;
-  bool committed_ = false;
-};
+  return true;
+}
 
 nlohmann::json stretch_json(const gshell::StretchStats& s) {
   return {{"mean", s.mean}, {"volume_mean", s.volume_mean}, {"max", s.max}, {"p99", s.p99}, {"inverted", s.inverted}};
@@ -95,7 +66,8 @@ void run(const PoseCliOptions& o) {
   TriMesh base_mesh;
   const Shell rest = load_shell_dir(o.shell_dir, &base_mesh);
   const HandleSet handles = read_handles(o.handles, rest);
-  StagingDir staging(o.output); // fail on a bad output path before the long part
+  StagedFolder staging(o.output); // fail on a bad output path before the long part
+  auto staged = [&](const char* name) { return (staging.path() / name).string(); };
 
   PoseOptions options;
   options.solver = o.solver == "single" ? PoseSolverKind::Single : PoseSolverKind::Hierarchical;
@@ -130,14 +102,14 @@ void run(const PoseCliOptions& o) {
   TriMesh base = base_mesh, top = base_mesh;
   base.V = result.X.topRows(n);
   top.V = result.X.bottomRows(n);
-  write_mesh(staging.file("base.obj"), base);
-  write_mesh(staging.file("top.obj"), top);
+  write_mesh(staged("base.obj"), base);
+  write_mesh(staged("top.obj"), top);
   TetMesh shell_mesh;
   shell_mesh.X = result.X;
   shell_mesh.T = tets.T;
   shell_mesh.cell_data.emplace_back("stretch", tet_stretch(tets, result.X));
   shell_mesh.cell_data.emplace_back("det_F", tet_deformation_determinants(tets, result.X));
-  write_tet_mesh(staging.file("shell.vtu"), shell_mesh);
+  write_tet_mesh(staged("shell.vtu"), shell_mesh);
 
   nlohmann::json report;
   report["command"] = "pose";
@@ -160,10 +132,10 @@ void run(const PoseCliOptions& o) {
                      {"seconds", s.seconds}, {"converged", s.converged}});
   report["steps"] = steps;
   report["stretch"] = stretch_json(stats);
-  write_file_atomically(staging.file("report.json"), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
+  write_file_atomically(staged("report.json"), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
   if (o.render) // inside the staging folder: the preview lands with the rest or not at all
-    render_shell_preview(fs::path(staging.file("report.json")).parent_path().string(), o.output, view);
-  staging.commit();
+    render_shell_preview(staging.path().string(), o.output, view);
+  staging.commit(holds_pose_output);
   if (!quiet)
     std::cerr << "gshell pose: wrote " << o.output << " (top.obj, base.obj, shell.vtu, report.json"
               << (o.render ? ", preview.png" : "") << ")\n";
@@ -184,7 +156,9 @@ void add_pose_command(CLI::App& app) {
   cmd->add_option("--steps", o->steps, "Move the handles from rest to target in K equal steps, solving after each (default 1)");
   cmd->add_option("--tolerance", o->tolerance, "Stop a step when the relative energy change per iteration is below this (default 1e-6)");
   cmd->add_option("--iterations", o->iterations, "Maximum iterations per step (default 500)");
-  cmd->add_option("-o,--output", o->output, "Output folder (replaced if it exists)")->required();
+  cmd->add_option("-o,--output", o->output,
+                  "Output folder (an earlier pose output there is replaced; a folder of other files is an error)")
+      ->required();
   CLI::Option* render =
       cmd->add_flag("--render", o->render, "Also write OUT/preview.png: the rest and the posed shell, colored by stretch");
   cmd->add_option("--view", o->view, "Preview direction: front|back|left|right|top|bottom|iso or AZIMUTH,ELEVATION (y up)")

@@ -268,6 +268,21 @@ TEST(PoseCli, ViewTurnsThePreview) {
   EXPECT_FALSE(fs::exists(tmp.file("bad")));
 }
 
+TEST(PoseCli, AFolderOfOtherFilesIsNotReplaced) {
+  TempDir tmp;
+  write_shell_dir(small_bowl(), tmp.path() / "shell");
+  test::write_text(tmp.file("pull.json"), kPull);
+  fs::create_directory(tmp.path() / "mine");
+  test::write_text(tmp.file("mine/notes.txt"), "keep me");
+  const auto r = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("pull.json") +
+                         "' --levels 3 -q -o '" + tmp.file("mine") + "'");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("not an earlier output"), std::string::npos) << r.err;
+  EXPECT_EQ(test::read_text(tmp.file("mine/notes.txt")), "keep me");
+  EXPECT_EQ(test::count_entries(tmp.path() / "mine"), 1);
+  EXPECT_EQ(test::count_entries(tmp.path()), 3); // shell, pull.json, mine: no temporaries left
+}
+
 TEST(PoseCli, BadHandleFilesExitOneAndWriteNothing) {
   TempDir tmp;
   write_shell_dir(small_bowl(), tmp.path() / "shell");
