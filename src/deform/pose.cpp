@@ -65,20 +65,14 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
   const bool hard = handles.mode == ConstraintMode::Hard;
   if (!hard) s.soft_weight = handles.weight * mean_stiffness(s.rest, 2 * n);
 
-  if (kind == PoseSolverKind::Hierarchical) {
-    PositionConstraints c;
-    c.vertices = s.constrained;
-    c.hard = hard;
-    c.weight = s.soft_weight;
+  PositionConstraints c;
+  c.vertices = s.constrained;
+  c.hard = hard;
+  c.weight = s.soft_weight;
+  if (kind == PoseSolverKind::Hierarchical)
     s.hierarchical = std::make_unique<HierarchicalSolver>(s.rest, s.rest_vertices, rest.F, c, hierarchy);
-  } else if (hard) {
-    s.single = std::make_unique<ShellSolver>(s.rest, 2 * n, s.constrained);
-  } else {
-    SoftConstraints soft;
-    soft.vertices = s.constrained;
-    soft.weight = s.soft_weight;
-    s.single = std::make_unique<ShellSolver>(s.rest, 2 * n, std::vector<int>{}, soft);
-  }
+  else
+    s.single = make_shell_solver(s.rest, 2 * n, c);
   s.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
 }
 

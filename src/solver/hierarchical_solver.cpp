@@ -106,6 +106,15 @@ private:
 
 } // namespace
 
+std::unique_ptr<ShellSolver> make_shell_solver(const RestTets& rest, int num_vertices,
+                                               const PositionConstraints& constraints) {
+  if (constraints.hard) return std::make_unique<ShellSolver>(rest, num_vertices, constraints.vertices);
+  SoftConstraints soft;
+  soft.vertices = constraints.vertices;
+  soft.weight = constraints.weight;
+  return std::make_unique<ShellSolver>(rest, num_vertices, std::vector<int>{}, soft);
+}
+
 double mean_stiffness(const RestTets& rest, int num_vertices) {
   if (num_vertices <= 0) return 0;
   return detail::stiffness_matrix(rest, num_vertices).diagonal().sum() / num_vertices;
@@ -127,9 +136,10 @@ struct HierarchicalSolver::Impl {
   int rest_vertices_rows = 0;
 
   /// What the full level takes as soft targets: the constraint targets in soft mode, none in hard.
-  Eigen::MatrixXd soft_targets(const Eigen::MatrixXd& targets) const {
-    return constraints.hard ? Eigen::MatrixXd() : targets;
+  const Eigen::MatrixXd& soft_targets(const Eigen::MatrixXd& targets) const {
+    return constraints.hard ? no_targets : targets;
   }
+  Eigen::MatrixXd no_targets; // stays empty
   void set_hard_rows(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const {
     if (!constraints.hard) return;
     for (size_t r = 0; r < constraints.vertices.size(); ++r) X.row(constraints.vertices[r]) = targets.row(r);
@@ -233,7 +243,7 @@ struct HierarchicalSolver::Impl {
   /// One local/global iteration of the full level (Anderson-accelerated when enabled). Returns
   /// false when it could not lower the energy (converged to round-off).
   bool full_iteration(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson) {
-    const Eigen::MatrixXd soft = soft_targets(targets);
+    const Eigen::MatrixXd& soft = soft_targets(targets);
     Eigen::MatrixXd& image = state.image;
     image = state.X;
     full->global_step(image, state.step, soft);
@@ -304,14 +314,7 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
     throw std::invalid_argument("HierarchicalSolver: soft constraints need a positive weight");
   require_matching_rest(s.rest, rest_vertices);
 
-  if (constraints.hard) {
-    s.full = std::make_unique<ShellSolver>(s.rest, s.num_vertices(), constraints.vertices);
-  } else {
-    SoftConstraints soft;
-    soft.vertices = constraints.vertices;
-    soft.weight = constraints.weight;
-    s.full = std::make_unique<ShellSolver>(s.rest, s.num_vertices(), std::vector<int>{}, soft);
-  }
+  s.full = make_shell_solver(s.rest, s.num_vertices(), constraints);
   const Eigen::SparseMatrix<double> L = detail::stiffness_matrix(s.rest, s.num_vertices());
 
   const int reduced_levels = options.levels - 1;
@@ -399,7 +402,7 @@ double HierarchicalSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixX
 
 void HierarchicalSolver::reset() {
   for (auto& level : impl_->reduced) level.reset();
-  for (auto& cache : impl_->reduced_cache) cache.valid = cache.energy_valid = false;
+  for (auto& cache : impl_->reduced_cache) cache.energy_valid = false;
 }
 
 int HierarchicalSolver::num_levels() const { return static_cast<int>(impl_->reduced.size()) + 1; }

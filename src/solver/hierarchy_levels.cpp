@@ -71,8 +71,9 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
   local_coords_.resize(N_, 3);
   for (int v = 0; v < N_; ++v) local_coords_.row(v) = rest_vertices.row(v) - centroid.row(cluster_[v]);
 
+  // Exact border-tet rotations: split the tets into cluster interiors and border tets.
   interior_volume_ = Eigen::VectorXd::Zero(m_);
-  for (int t = 0; t < rest.size(); ++t) {
+  for (int t = 0; t < rest.size() && !cluster_rotations_; ++t) {
     const int c = cluster_[rest.T(t, 0)];
     bool inside = true;
     for (int k = 1; k < 4; ++k) inside = inside && cluster_[rest.T(t, k)] == c;
@@ -186,15 +187,12 @@ void ReducedLevel::local_cluster_rotations(LocalCache& cache, bool with_energy) 
   closest_rotations(S.data(), R.data(), m_);
   cache.Q.resize(m_);
   for (int j = 0; j < m_; ++j) cache.Q[j] = R[j].transpose();
-  cache.valid = true;
   cache.energy_valid = with_energy;
   if (!with_energy) return;
   // sum_t vol ||F_t - R_j||^2 = tr(Z^T A_elastic Z) - 2 sum_j tr(R_j^T S_j) + 3 * total volume.
-  cache.element_energy.resize(m_);
-  for (int j = 0; j < m_; ++j) cache.element_energy[j] = -2.0 * (R[j].cwiseProduct(S[j])).sum();
-  const double quadratic = (Z_.transpose() * (A_elastic_ * Z_)).trace();
-  cache.elastic = quadratic + std::accumulate(cache.element_energy.begin(), cache.element_energy.end(), 0.0) +
-                  3.0 * total_volume_;
+  double e = (Z_.transpose() * (A_elastic_ * Z_)).trace() + 3.0 * total_volume_;
+  for (int j = 0; j < m_; ++j) e -= 2.0 * R[j].cwiseProduct(S[j]).sum();
+  cache.elastic = e;
 }
 
 void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
@@ -204,7 +202,8 @@ void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
   }
   const int nb = static_cast<int>(border_.size());
   cache.Q.resize(m_ + nb);
-  cache.element_energy.resize(m_ + nb);
+  // Summed in a fixed order after the parallel part, so energies are reproducible to the bit.
+  std::vector<double> energy(m_ + nb);
   // Every tet inside cluster j has F = M_j: one polar decomposition serves all of them.
   std::vector<Eigen::Matrix3d> M(m_), R(m_);
   std::vector<Eigen::Vector3d> T(m_);
@@ -214,7 +213,7 @@ void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
   }
   closest_rotations(M.data(), R.data(), m_);
   for (int j = 0; j < m_; ++j) {
-    cache.element_energy[j] = interior_volume_(j) * (M[j] - R[j]).squaredNorm();
+    energy[j] = interior_volume_(j) * (M[j] - R[j]).squaredNorm();
     cache.Q[j] = interior_volume_(j) * R[j].transpose();
   }
   tbb::parallel_for(tbb::blocked_range<int>(0, nb, kGrain), [&](const tbb::blocked_range<int>& range) {
@@ -232,13 +231,13 @@ void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
       closest_rotations(F, Rb, count);
       for (int i = 0; i < count; ++i) {
         const int t = border_[b0 + i].tet;
-        cache.element_energy[m_ + b0 + i] = rest_.volume(t) * (F[i] - Rb[i]).squaredNorm();
+        energy[m_ + b0 + i] = rest_.volume(t) * (F[i] - Rb[i]).squaredNorm();
         cache.Q[m_ + b0 + i] = rest_.volume(t) * rest_.Dm_inv[t] * Rb[i].transpose();
       }
     }
   });
-  cache.elastic = std::accumulate(cache.element_energy.begin(), cache.element_energy.end(), 0.0);
-  cache.valid = cache.energy_valid = true;
+  cache.elastic = std::accumulate(energy.begin(), energy.end(), 0.0);
+  cache.energy_valid = true;
 }
 
 double ReducedLevel::springs(const Eigen::MatrixXd& targets) const {

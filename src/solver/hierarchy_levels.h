@@ -12,15 +12,12 @@
 
 namespace gshell::detail {
 
-/// Result of a reduced level's local step: per element (a cluster's interior, or one border tet)
-/// the 3x3 Q = vol * Dm_inv * R^T that the global step's right-hand side is gathered from, and
-/// the elastic energy (no springs).
+/// Result of a reduced level's local step: the rotations as the 3x3 operands Q of the global
+/// step's right-hand side (see ReducedLevel::local), and the elastic energy (no springs).
 struct LocalCache {
   std::vector<Eigen::Matrix3d> Q;
-  std::vector<double> element_energy;
   double elastic = 0;
-  bool valid = false;        ///< rotations computed
-  bool energy_valid = false; ///< element_energy and elastic computed
+  bool energy_valid = false; ///< `elastic` was computed along with Q
 };
 
 /// Stiffness matrix L = sum_t vol_t G_t^T G_t over `num_vertices` (one coordinate; same for x, y, z).

@@ -59,13 +59,10 @@ struct ShellSolver::Impl {
   // Per free vertex: the (tet * 4 + corner) slots of the local step's RHS rows to sum (a gather,
   // so the global step's right-hand side is built in parallel without atomics).
   std::vector<int> gather_start, gather_slot;
-  // Coupling of free rows to the kept vertices (CSR over free rows, columns = vertex ids): the
-  // exact Dirichlet elimination term L_fc x_c.
-  std::vector<int> fc_start, fc_col;
-  std::vector<double> fc_val;
   // Every free row of the system matrix (L plus the soft springs' diagonal) over all columns
-  // (vertex ids), for the gradient.
-  std::vector<int> A_start, A_col;
+  // (vertex ids), CSR: the entries in free columns first, then from A_kept[j] on those in kept
+  // columns, L_fc (the exact Dirichlet elimination term L_fc x_c). The gradient reads the first.
+  std::vector<int> A_start, A_kept, A_col;
   std::vector<double> A_val;
   std::vector<int> soft_free; // free index of every soft vertex, -1 if that vertex is kept
 
@@ -250,47 +247,40 @@ void ShellSolver::Impl::assemble_and_factor() {
     }
   });
 
-  // Upper triangle of L_ff in CSC (= lower triangle rows of the symmetric matrix), and L_fc.
+  // The rows (free columns first, then kept ones), and the upper triangle of L_ff in CSC (= lower
+  // triangle rows of the symmetric matrix) for the factorisation.
   std::vector<int> ff_start(nf + 1, 0);
-  fc_start.assign(nf + 1, 0);
+  A_start.assign(nf + 1, 0);
+  A_kept.assign(nf, 0);
   for (int j = 0; j < nf; ++j) {
-    int nff = 0, nfc = 0;
+    int nff = 0, nfree = 0;
     for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) {
       const int i = free_index[row_col[e]];
-      if (i < 0)
-        ++nfc;
-      else if (i <= j)
-        ++nff;
+      nfree += i >= 0;
+      nff += i >= 0 && i <= j;
     }
     ff_start[j + 1] = ff_start[j] + nff;
-    fc_start[j + 1] = fc_start[j] + nfc;
+    A_start[j + 1] = A_start[j] + row_len[j];
+    A_kept[j] = A_start[j] + nfree;
   }
   std::vector<int> ff_row(ff_start[nf]);
   std::vector<double> ff_val(ff_start[nf]);
-  fc_col.resize(fc_start[nf]);
-  fc_val.resize(fc_start[nf]);
+  A_col.resize(A_start[nf]);
+  A_val.resize(A_start[nf]);
   tbb::parallel_for(0, nf, [&](int j) {
-    int a = ff_start[j], b = fc_start[j];
+    int a = ff_start[j], free_out = A_start[j], kept_out = A_kept[j];
     for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) { // sorted by vertex id = by free id
       const int v = row_col[e];
       const double val = row_val[e];
       const int i = free_index[v];
-      if (i < 0) {
-        fc_col[b] = v;
-        fc_val[b++] = val;
-      } else if (i <= j) {
+      const int out = i < 0 ? kept_out++ : free_out++;
+      A_col[out] = v;
+      A_val[out] = val;
+      if (i >= 0 && i <= j) {
         ff_row[a] = i;
         ff_val[a++] = val;
       }
     }
-  });
-  A_start.assign(nf + 1, 0);
-  for (int j = 0; j < nf; ++j) A_start[j + 1] = A_start[j] + row_len[j];
-  A_col.resize(A_start[nf]);
-  A_val.resize(A_start[nf]);
-  tbb::parallel_for(0, nf, [&](int j) {
-    std::copy_n(row_col.begin() + row_cap[j], row_len[j], A_col.begin() + A_start[j]);
-    std::copy_n(row_val.begin() + row_cap[j], row_len[j], A_val.begin() + A_start[j]);
   });
   if (nf == 0) return;
 
@@ -404,9 +394,9 @@ double ShellSolver::Impl::soft_energy(const double* X, const Eigen::MatrixXd& ta
 std::vector<double> ShellSolver::Impl::rhs_constant(const double* X, const Eigen::MatrixXd& soft_targets) const {
   std::vector<double> b(3 * static_cast<std::size_t>(nf), 0.0);
   tbb::parallel_for(0, nf, [&](int j) {
-    for (int s = fc_start[j]; s < fc_start[j + 1]; ++s)
+    for (int e = A_kept[j]; e < A_start[j + 1]; ++e)
       for (int d = 0; d < 3; ++d)
-        b[j + static_cast<std::size_t>(d) * nf] -= fc_val[s] * X[3 * static_cast<std::size_t>(fc_col[s]) + d];
+        b[j + static_cast<std::size_t>(d) * nf] -= A_val[e] * X[3 * static_cast<std::size_t>(A_col[e]) + d];
   });
   for (std::size_t c = 0; c < soft_free.size(); ++c)
     if (soft_free[c] >= 0)
@@ -519,8 +509,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
                                const Eigen::MatrixXd& soft_targets) const {
   const Impl& m = *impl_;
   const auto t0 = Clock::now();
-  if (Xio.rows() != m.N || Xio.cols() != 3)
-    throw InputError("ShellSolver::solve: expected " + std::to_string(m.N) + " x 3 positions");
+  m.check_positions(Xio, "solve");
   m.check_soft_targets(soft_targets, "solve");
   if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
   std::vector<double> X = to_row_major(Xio);
@@ -581,19 +570,17 @@ Eigen::MatrixXd ShellSolver::half_gradient(const Eigen::MatrixXd& X, const Local
   const Impl& m = *impl_;
   m.check_positions(X, "half_gradient");
   m.check_soft_targets(soft_targets, "half_gradient");
-  // 1/2 dE/dx_j = (A x)_j - b_j(R) - w p_j: the system row times x minus the right-hand side.
-  std::vector<double> soft_rhs(3 * static_cast<std::size_t>(m.nf), 0.0);
-  for (std::size_t c = 0; c < m.soft_free.size(); ++c)
-    if (m.soft_free[c] >= 0)
-      for (int d = 0; d < 3; ++d) soft_rhs[m.soft_free[c] + static_cast<std::size_t>(d) * m.nf] += m.soft.weight * soft_targets(c, d);
+  // 1/2 dE/dx_f = A_ff x_f - (b(R) + rhs_constant): what the global step solves, as a residual.
+  const std::vector<double> x = to_row_major(X);
+  const std::vector<double> rhs_const = m.rhs_constant(x.data(), soft_targets);
   Eigen::MatrixXd g = Eigen::MatrixXd::Zero(m.N, 3);
   tbb::parallel_for(0, m.nf, [&](int j) {
     double b[3];
     m.gather_rhs(j, step.Q.data(), b);
     for (int d = 0; d < 3; ++d) {
       double ax = 0;
-      for (int e = m.A_start[j]; e < m.A_start[j + 1]; ++e) ax += m.A_val[e] * X(m.A_col[e], d);
-      g(m.free_vertices[j], d) = ax - b[d] - soft_rhs[j + static_cast<std::size_t>(d) * m.nf];
+      for (int e = m.A_start[j]; e < m.A_kept[j]; ++e) ax += m.A_val[e] * x[3 * static_cast<std::size_t>(m.A_col[e]) + d];
+      g(m.free_vertices[j], d) = ax - b[d] - rhs_const[j + static_cast<std::size_t>(d) * m.nf];
     }
   });
   return g;

@@ -141,6 +141,10 @@ private:
   std::unique_ptr<Impl> impl_;
 };
 
+/// The single-level solver for these constraints: hard ones eliminated, soft ones as springs.
+std::unique_ptr<ShellSolver> make_shell_solver(const RestTets& rest, int num_vertices,
+                                               const PositionConstraints& constraints);
+
 /// Mean diagonal entry of the stiffness matrix sum_t vol_t G_t^T G_t (the scale of soft weights).
 double mean_stiffness(const RestTets& rest, int num_vertices);
 
