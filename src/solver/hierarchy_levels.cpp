@@ -203,7 +203,8 @@ void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
   const int nb = static_cast<int>(border_.size());
   cache.Q.resize(m_ + nb);
   // Summed in a fixed order after the parallel part, so energies are reproducible to the bit.
-  std::vector<double> energy(m_ + nb);
+  std::vector<double>& energy = cache.element_energy;
+  energy.resize(m_ + nb);
   // Every tet inside cluster j has F = M_j: one polar decomposition serves all of them.
   std::vector<Eigen::Matrix3d> M(m_), R(m_);
   std::vector<Eigen::Vector3d> T(m_);

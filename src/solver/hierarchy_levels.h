@@ -16,6 +16,9 @@ namespace gshell::detail {
 /// step's right-hand side (see ReducedLevel::local), and the elastic energy (no springs).
 struct LocalCache {
   std::vector<Eigen::Matrix3d> Q;
+  /// Exact border-tet rotations only: per cluster interior, then per border tet, the energy
+  /// (kept here so that its storage is reused from one local step to the next).
+  std::vector<double> element_energy;
   double elastic = 0;
   bool energy_valid = false; ///< `elastic` was computed along with Q
 };
