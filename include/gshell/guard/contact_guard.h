@@ -1,0 +1,78 @@
+#pragma once
+// Contacts between the boundary triangles of a shell (top, base, side walls: shell_boundary()),
+// for solvers that must keep the layer free of intersections while they move it:
+// - a barrier that grows without bound as two boundary primitives approach each other and is
+//   exactly zero beyond a distance dhat (IPC-style), with its gradient and a positive
+//   semi-definite Hessian approximation;
+// - the largest step along a motion that creates no contact (conservative continuous collision
+//   detection), so that a solver started from an intersection-free state stays intersection-free.
+//
+// Primitive pairs (those of Incremental Potential Contact): a vertex against a boundary triangle
+// it is not a corner of, and two boundary edges without a common vertex. Left out: pairs whose
+// vertices are all fixed (the base against itself), and pairs touching an excluded triangle (see
+// the constructor). These pairs cover every way two triangles of a closed surface can start to
+// intersect, neighbours sharing a vertex or an edge included.
+//
+// Candidate pairs are kept in a list of all pairs closer than dhat + slack (a Verlet list); it is
+// rebuilt, with a bounding-volume hierarchy as broad phase, only when some movable vertex has
+// moved more than slack / 2 since the last build, so iterations that move little cost only the
+// pairs near contact.
+#include <gshell/quality/shell_boundary.h>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <memory>
+#include <vector>
+
+namespace gshell {
+
+struct ContactOptions {
+  double dhat = 0;  ///< barrier support (model units, > 0): pairs closer than this repel
+  double slack = 0; ///< candidate-list slack (model units, >= 0; 0 = dhat)
+  /// step_bound keeps every pair at least this fraction of its distance at the start of the
+  /// step (in (0, 1)): a step never ends in contact, and the barrier stays finite.
+  double keep_fraction = 0.1;
+};
+
+class ContactGuard {
+public:
+  /// `boundary` over `num_vertices` shell vertices (2n; rows of every X below). `movable[v]` != 0
+  /// for the vertices the solver moves; pairs among fixed vertices only are skipped (fixed
+  /// vertices may still be moved by the caller: every X may differ from the last in any row).
+  /// `excluded_triangles` (empty, or one flag per boundary triangle): a vertex-triangle pair is
+  /// skipped when its triangle is excluded or its vertex is a corner of an excluded triangle; an
+  /// edge-edge pair when either edge belongs to an excluded triangle (e.g. the triangles around
+  /// the crossings of a base that intersects itself, which no top can keep clean).
+  /// Throws InputError on bad sizes or options.
+  ContactGuard(const ShellBoundary& boundary, int num_vertices, std::vector<char> movable,
+               const ContactOptions& options, std::vector<char> excluded_triangles = {});
+  ~ContactGuard();
+  ContactGuard(ContactGuard&&) noexcept;
+  ContactGuard& operator=(ContactGuard&&) noexcept;
+
+  /// Barrier B(X) = sum over pairs of b(d^2), b(s) = -(s - dhat^2)^2 log(s / dhat^2) for
+  /// s < dhat^2 and 0 beyond (d: the distance of the pair). +infinity if a pair touches.
+  double energy(const Eigen::MatrixXd& X);
+  /// G (num_vertices x 3) += scale * dB/dX.
+  void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G);
+  /// Appends scale * H, H a positive semi-definite approximation of d^2B/dX^2 (each pair's block
+  /// projected onto its positive eigenvalues), as triplets indexed 3 * vertex + axis.
+  void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H);
+
+  /// The largest alpha in [0, max_step] such that along X + s D, 0 <= s <= alpha, no pair comes
+  /// closer than keep_fraction times its distance at X (conservative: the true bound may be
+  /// larger, never smaller). D has the shape of X; it may move fixed vertices too (a prescribed
+  /// motion of the base, as when a deformed base drags its shell along).
+  double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step = 1);
+
+  /// Pairs closer than dhat at the last energy, gradient or Hessian evaluation.
+  int active_pairs() const;
+  /// Smallest pair distance at X over the candidate list (dhat + slack if no pair is that close).
+  double min_distance(const Eigen::MatrixXd& X);
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+} // namespace gshell
