@@ -1,6 +1,7 @@
 #include <gshell/shell/shell_dir.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/read_mesh.h>
 
 #include <nlohmann/json.hpp>
@@ -21,6 +22,8 @@ Shell load_shell_dir(const std::string& dir, TriMesh* uv_source) {
   TriMesh top = read_mesh((root / "top.obj").string());
   if (base.V.rows() != top.V.rows() || base.F.rows() != top.F.rows() || base.F != top.F)
     throw InputError(with_file(dir, "base.obj and top.obj differ in vertex count or faces"));
+  require_usable_coordinates(base.V, (root / "base.obj").string());
+  require_usable_coordinates(top.V, (root / "top.obj").string());
 
   double thickness = 0;
   try {
