@@ -111,7 +111,7 @@ std::string default_caption(const RenderSubject& subject) {
   fs::path path = fs::path(subject.name).lexically_normal();
   if (path.filename().empty()) path = path.parent_path();
   std::string name = path.filename().string();
-  if (name.rfind("frame_", 0) == 0 && !path.parent_path().filename().empty())
+  if (frame_number(name) && !path.parent_path().filename().empty())
     name = path.parent_path().filename().string() + "/" + name; // which run the frame belongs to
   if (name.empty()) name = subject.name;
   return subject.method.empty() ? name : name + " (" + subject.method + ")";

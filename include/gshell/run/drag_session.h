@@ -49,11 +49,12 @@ public:
   ///         zero rotation axis, non-finite numbers or a weight <= 0.
   void set_handles(HandleSet handles);
   /// Adds a group (its center defaults to its vertices' rest centroid when `center_from_rest`);
-  /// returns its index. Same checks as set_handles.
+  /// returns its index. \throws InputError as set_handles.
   int add_handle(Handle handle, bool center_from_rest = true);
   /// Removes group k. \throws InputError when k is out of range.
   void remove_handle(int k);
   /// Sets group k's vertex set (its center moves to their rest centroid).
+  /// \throws InputError when k is out of range, or as set_handles.
   void set_handle_vertices(int k, std::vector<int> vertices);
   /// Sets group k's rigid motion: rotate by `degrees` about `axis` through its center, then
   /// translate. Only the targets change: no rebuild, no undo point.
@@ -69,7 +70,7 @@ public:
   /// event. Records a step. \throws InputError when the handles leave a part of the shell free.
   PoseStepReport drag(double fraction = 1.0, const std::optional<SolveOptions>& options = std::nullopt);
   /// Runs on from the current state for the same targets (the mouse rests), with the session's
-  /// options by default. Records a step.
+  /// options by default. Records a step. \throws InputError as drag().
   PoseStepReport settle(const std::optional<SolveOptions>& options = std::nullopt);
 
   // ---- state -----------------------------------------------------------------------------
