@@ -47,6 +47,7 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
       progress.update(text);
     };
   const GenerateRun result = run_generate(mesh, a.input, a.options);
+  progress.finish_status();
   result.write(a.output, cli::preview_writer(a.render, a.output, view));
   std::cout << result.summary() << "wrote        " << a.output << "/{top.obj, base.obj, shell.vtu, report.json"
             << (a.render ? ", preview.png" : "") << "}\n";

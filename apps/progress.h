@@ -21,9 +21,10 @@ public:
   void update(const std::string& text);
   /// A line that stays.
   void line(const std::string& text);
+  /// Clears an open status line (on a terminal), e.g. before printing to stdout.
+  void finish_status();
 
 private:
-  void finish_status();
 
   std::string prefix_;
   bool enabled_ = false, terminal_ = false, status_open_ = false;
