@@ -53,6 +53,7 @@ public:
                                 double f_prev, double fraction) const;
 
   /// Energy of X for the handles at `targets` / at `fraction` (springs included in soft mode).
+  /// \throws InputError when X or targets have the wrong shape (predict_start: the targets).
   double energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const;
   double energy(const Eigen::MatrixXd& X, double fraction) const;
 
