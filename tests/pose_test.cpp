@@ -170,9 +170,9 @@ TEST(Handles, ExtremeButAcceptedNumbersGiveFiniteTargets) {
 
 TEST(Handles, TranslationsAndCentersBeyondTheCoordinateLimitAreErrors) {
   expect_error(R"({"handles": [{"vertices": [0], "translate": [0, 1e60, 0]}]})",
-               "handle 0: translate: magnitude 1e+60 is too large; gshell needs |x| < 1e+50");
+               "handle 0: translate: a coordinate of magnitude 1e+60; gshell needs |x| < 1e+50");
   expect_error(R"({"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 1], "degrees": 5, "center": [-1e300, 0, 0]}}]})",
-               "rotate.center: magnitude 1e+300 is too large");
+               "rotate.center: a coordinate of magnitude 1e+300;");
 }
 
 TEST(Handles, MissingFileNamesIt) {

@@ -10,6 +10,7 @@
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/validate_mesh.h>
+#include <gshell/run/pose_run.h>
 #include <gshell/shell/generate_shell.h>
 
 #include <gtest/gtest.h>
@@ -112,7 +113,8 @@ TEST(ScaleInvariance, DeformedFramesAreTheSameAtEveryScale) {
 
 TEST(ScaleInvariance, PosesAreTheSameAtEveryScaleWithBothSolvers) {
   const TriMesh plane = make_plane(8);
-  auto pose_at = [&](double s, PoseSolverKind kind) {
+  // Returns a matrix, not `X / s` as an Eigen expression: that would refer to the destroyed result.
+  auto pose_at = [&](double s, PoseSolverKind kind) -> Eigen::MatrixXd {
     const Shell rest = generate(plane, s, ShellMethod::Rigid).shell;
     const int n = rest.num_base_vertices();
     Handle hold, pull;

@@ -69,14 +69,18 @@ std::string short_number(double x) {
 /// Why vertex v cannot be used (its row of V given), or "" when it can.
 std::string coordinate_problem(const Eigen::Vector3d& p, int v) {
   if (!p.allFinite()) return "vertex " + std::to_string(v) + " has a non-finite coordinate (NaN or infinity)";
-  if (const double magnitude = p.cwiseAbs().maxCoeff(); magnitude >= max_coordinate_magnitude)
-    return "vertex " + std::to_string(v) + " has a coordinate of magnitude " + short_number(magnitude) +
-           "; gshell needs |x| < " + short_number(max_coordinate_magnitude) +
-           " (volumes and products of lengths would overflow)";
+  if (std::string problem = too_large_coordinate(p); !problem.empty()) return "vertex " + std::to_string(v) + " has " + problem;
   return {};
 }
 
 } // namespace
+
+std::string too_large_coordinate(const Eigen::Vector3d& p) {
+  const double magnitude = p.cwiseAbs().maxCoeff();
+  if (!(magnitude >= max_coordinate_magnitude)) return {};
+  return "a coordinate of magnitude " + short_number(magnitude) + "; gshell needs |x| < " +
+         short_number(max_coordinate_magnitude) + " (volumes and products of lengths would overflow)";
+}
 
 const char* severity_name(MeshProblem::Severity severity) {
   switch (severity) {

@@ -1,5 +1,7 @@
 #pragma once
 #include <gshell/mesh.h>
+
+#include <Eigen/Core>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,11 @@ constexpr double min_mesh_size = 1e-40;
 /// Errors come first, then warnings, then information. Each kind lists at most 10 places
 /// individually and then one summary entry with `count` = the rest.
 std::vector<MeshProblem> validate_mesh(const TriMesh& mesh);
+
+/// "" when every coordinate of p is below max_coordinate_magnitude in magnitude, else the problem
+/// as a phrase: "a coordinate of magnitude 1e+60; gshell needs |x| < 1e+50 (...)". For inputs that
+/// are positions or offsets without being mesh vertices (handle translations and centres).
+std::string too_large_coordinate(const Eigen::Vector3d& p);
 
 /// For positions that are not validated as a surface (a shell's top, deformed base frames):
 /// throws InputError "NAME: vertex V has ..." on the first non-finite coordinate or one of
