@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <sstream>
 #include <string>
 
 using gshell::test::count_entries;
@@ -40,6 +42,38 @@ std::string tetrahedron_off(double scale) {
   std::snprintf(text, sizeof text, "OFF\n4 4 0\n0 0 0\n%.17g 0 0\n0 %.17g 0\n0 0 %.17g\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
                 scale, scale, scale);
   return text;
+}
+
+/// OBJ text with every vertex position multiplied by `factor` (other lines kept).
+std::string scaled_obj(const std::string& obj, double factor) {
+  std::istringstream in(obj);
+  std::ostringstream out;
+  out.precision(17);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("v ", 0) == 0) {
+      std::istringstream v(line.substr(2));
+      double x, y, z;
+      v >> x >> y >> z;
+      out << "v " << x * factor << " " << y * factor << " " << z * factor << "\n";
+    } else {
+      out << line << "\n";
+    }
+  }
+  return out.str();
+}
+
+/// Expects stderr written as a log: lines (each ended) that all start with "gshell COMMAND: ",
+/// no carriage return or terminal escape, and at least `min_lines` of them.
+void expect_log_lines(const std::string& err, const std::string& command, int min_lines) {
+  EXPECT_EQ(err.find('\r'), std::string::npos) << err;
+  EXPECT_EQ(err.find('\x1b'), std::string::npos) << err;
+  ASSERT_FALSE(err.empty());
+  EXPECT_EQ(err.back(), '\n') << err;
+  std::istringstream in(err);
+  int lines = 0;
+  for (std::string line; std::getline(in, line); ++lines)
+    EXPECT_EQ(line.rfind("gshell " + command + ": ", 0), 0u) << "'" << line << "' in\n" << err;
+  EXPECT_GE(lines, min_lines) << err;
 }
 
 } // namespace
@@ -129,4 +163,58 @@ TEST(CliMessages, DeformedFramesBeyondTheLimitNameTheFrame) {
                               quoted(dir.file("out")),
                           frame + ": vertex 0 has a coordinate of magnitude 3e+60; gshell needs |x| < 1e+50");
   EXPECT_FALSE(std::filesystem::exists(dir.file("out")));
+}
+
+TEST(CliMessages, HugeCoordinatesInShellFoldersAndHandlesSayTheyAreTooLarge) {
+  // The positions of metrics' top, a shell folder's surfaces and a handle's translation are not
+  // validated as a surface, but 1e150 must still be "too large", not an overflow further on.
+  TempDir dir;
+  const std::string shell = dir.file("shell"), huge = dir.file("huge");
+  ASSERT_EQ(run_cli("generate builtin:sphere:1 -o " + quoted(shell) + " --thickness-ratio 0.05 -q").exit_code, 0);
+  std::filesystem::copy(shell, huge);
+  for (const std::string name : {"/base.obj", "/top.obj"})
+    write_text(huge + name, scaled_obj(gshell::test::read_text(shell + name), 1e150));
+  const std::string too_large = "; gshell needs |x| < 1e+50 (volumes and products of lengths would overflow)";
+  const std::string out = " -o " + quoted(dir.file("out"));
+
+  expect_error_containing("metrics " + quoted(shell + "/base.obj") + " " + quoted(huge + "/top.obj") +
+                              " --thickness-ratio 0.05",
+                          huge + "/top.obj: vertex 0 has a coordinate of magnitude "); // 1e150 x (1 + eta)
+  // Vertex 0 of the icosphere: (-1, phi, 0) / |(1, phi)|, phi the golden ratio.
+  expect_error_containing("metrics " + quoted(huge + "/base.obj") + " " + quoted(huge + "/top.obj") +
+                              " --thickness-ratio 0.05",
+                          huge + "/base.obj: vertex 0 has a coordinate of magnitude 8.51e+149" + too_large);
+  expect_error_line("deform --shell " + quoted(huge) + " --base " + quoted(shell + "/base.obj") + out,
+                    huge + "/base.obj: vertex 0 has a coordinate of magnitude 8.51e+149" + too_large);
+  const std::string handles = dir.file("handles.json");
+  write_text(handles, R"({"handles": [{"vertices": [0], "translate": [0, 0, 0.01]}, {"vertices": [5]}]})");
+  expect_error_line("pose --shell " + quoted(huge) + " --handles " + quoted(handles) + out,
+                    huge + "/base.obj: vertex 0 has a coordinate of magnitude 8.51e+149" + too_large);
+  write_text(handles, R"({"handles": [{"vertices": [0], "translate": [0, 0, 1e150]}, {"vertices": [5]}]})");
+  expect_error_line("pose --shell " + quoted(shell) + " --handles " + quoted(handles) + out,
+                    handles + ": handle 0: translate: a coordinate of magnitude 1e+150" + too_large);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out")));
+}
+
+TEST(CliMessages, ProgressInALogIsOneLinePerUpdate) {
+  // run_cli's stderr is a file, not a terminal: the status line of a terminal becomes one line per
+  // update (animate: deform_cli_test).
+  TempDir dir;
+  const std::string shell = dir.file("shell"), frames = dir.file("frames");
+  const auto generate = run_cli("generate builtin:sphere:2 -o " + quoted(shell) +
+                                " --thickness-ratio 0.05 --tolerance 0 --iterations 3");
+  ASSERT_EQ(generate.exit_code, 0) << generate.err;
+  expect_log_lines(generate.err, "generate", 4); // the input line and 3 iterations
+  ASSERT_EQ(run_cli("animate " + quoted(shell + "/base.obj") + " --bend 30 --frames 3 -o " + quoted(frames) + " -q").exit_code, 0);
+  const auto deform = run_cli("deform --shell " + quoted(shell) + " --base " + quoted(frames + "/frame_0001.obj") + " " +
+                              quoted(frames + "/frame_0002.obj") + " " + quoted(frames + "/frame_0003.obj") + " -o " +
+                              quoted(dir.file("deformed")));
+  ASSERT_EQ(deform.exit_code, 0) << deform.err;
+  expect_log_lines(deform.err, "deform", 4); // the setup line and 3 frames
+  const std::string handles = dir.file("handles.json");
+  write_text(handles, R"({"handles": [{"vertices": [0], "translate": [0, 0, 0.05]}, {"vertices": [5]}]})");
+  const auto pose = run_cli("pose --shell " + quoted(shell) + " --handles " + quoted(handles) + " --steps 2 -o " +
+                            quoted(dir.file("posed")));
+  ASSERT_EQ(pose.exit_code, 0) << pose.err;
+  expect_log_lines(pose.err, "pose", 3); // the setup line and 2 steps
 }
