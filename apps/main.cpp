@@ -52,10 +52,11 @@ std::string closest(const std::string& word, const std::vector<std::string>& can
 
 std::string suggestion(const std::string& best) { return best.empty() ? "" : " (did you mean '" + best + "'?)"; }
 
-/// A clearer message than CLI11's for the two mistakes people make most: a mistyped command
-/// ("A subcommand is required") and a mistyped long option ("The following arguments were not
-/// expected: ..."). Empty when neither is the cause.
-std::string explain_typo(CLI::App& app, int argc, char** argv) {
+/// The message for CLI11's parse error `what`: clearer than CLI11's for the two mistakes people
+/// make most, a mistyped command ("A subcommand is required") and a mistyped long option ("The
+/// following arguments were not expected: ..."); otherwise `what` pointing at the help of the
+/// command it is about.
+std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std::string& what) {
   CLI::App* command = nullptr;
   std::vector<std::string> long_options; // of the parsed command (if any) and the global ones
   const auto add_long_options = [&](const CLI::App& a) {
@@ -85,7 +86,7 @@ std::string explain_typo(CLI::App& app, int argc, char** argv) {
     command = named.front();
     add_long_options(*command);
   }
-  return {};
+  return what + " (see gshell " + (command ? command->get_name() + " " : "") + "--help)";
 }
 
 } // namespace
@@ -112,8 +113,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
       return app.exit(e);
     } catch (const CLI::ParseError& e) {
-      const std::string typo = explain_typo(app, argc, argv);
-      std::cerr << "gshell: error: " << (typo.empty() ? e.what() + std::string(" (see gshell --help)") : typo) << "\n";
+      std::cerr << "gshell: error: " << explain_parse_error(app, argc, argv, e.what()) << "\n";
       return 1;
     }
   } catch (const gshell::InputError& e) {

@@ -104,7 +104,8 @@ TEST(CliMessages, MistypedOptionSuggestsTheClosestOne) {
 
 TEST(CliMessages, OtherArgumentErrorsKeepTheirMessage) {
   // Not a typo: the command and options exist, an operand is missing.
-  expect_error_line("info", "MESH is required (see gshell --help)");
+  expect_error_line("info", "MESH is required (see gshell info --help)");
+  expect_error_line("pose --handles h.json -o out", "--shell is required (see gshell pose --help)");
   expect_error_line("", "A subcommand is required (see gshell --help)");
   // Correct spellings still work after the check.
   EXPECT_EQ(run_cli("--quiet info builtin:sphere:1 --json").exit_code, 0);
