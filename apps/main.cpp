@@ -50,6 +50,25 @@ std::string closest(const std::string& word, const std::vector<std::string>& can
   return best;
 }
 
+/// For a long option without a close spelling: the one option with a word (between dashes) close
+/// to `name`'s, e.g. "--ratoi" -> "--thickness-ratio"; "" when none or several.
+std::string option_with_word(const std::string& name, const std::vector<std::string>& options) {
+  const std::string word = name.substr(2);
+  if (word.size() < 3) return {};
+  std::string found;
+  for (const auto& o : options) {
+    std::vector<std::string> words;
+    for (size_t start = 2, end; start <= o.size(); start = end + 1) {
+      end = std::min(o.find('-', start), o.size());
+      words.push_back(o.substr(start, end - start));
+    }
+    if (closest(word, words).empty()) continue;
+    if (!found.empty() && found != o) return {}; // ambiguous
+    found = o;
+  }
+  return found;
+}
+
 std::string suggestion(const std::string& best) { return best.empty() ? "" : " (did you mean '" + best + "'?)"; }
 
 /// The message for CLI11's parse error `what`: clearer than CLI11's for the two mistakes people
@@ -70,7 +89,8 @@ std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std:
     if (arg.rfind("--", 0) == 0) {
       const std::string name = arg.substr(0, arg.find('='));
       if (app.get_option_no_throw(name) || (command && command->get_option_no_throw(name))) continue;
-      const std::string best = closest(name, long_options);
+      std::string best = closest(name, long_options);
+      if (best.empty()) best = option_with_word(name, long_options);
       const std::string where = command ? " for '" + command->get_name() + "'" : "";
       const std::string help = command ? "gshell " + command->get_name() + " --help" : "gshell --help";
       return "unknown option '" + name + "'" + where + (best.empty() ? " (see " + help + ")" : suggestion(best));

@@ -96,6 +96,12 @@ TEST(CliMessages, MistypedOptionSuggestsTheClosestOne) {
                     "unknown option '--thicknes' for 'generate' (did you mean '--thickness'?)");
   expect_error_line("generate builtin:sphere:1" + out + " --thickness-ratoi=0.1",
                     "unknown option '--thickness-ratoi' for 'generate' (did you mean '--thickness-ratio'?)");
+  // One word of a longer option, misspelt or not; an ambiguous word suggests nothing.
+  expect_error_line("generate builtin:sphere:1" + out + " --ratoi 0.1",
+                    "unknown option '--ratoi' for 'generate' (did you mean '--thickness-ratio'?)");
+  expect_error_line("deform --start previous", "unknown option '--start' for 'deform' (did you mean '--warm-start'?)");
+  expect_error_line("generate builtin:sphere:1" + out + " --thick 0.1",
+                    "unknown option '--thick' for 'generate' (see gshell generate --help)");
   expect_error_line("info --jsn builtin:sphere", "unknown option '--jsn' for 'info' (did you mean '--json'?)");
   expect_error_line("--quite info builtin:sphere", "unknown option '--quite' (did you mean '--quiet'?)");
   expect_error_line("generate builtin:sphere:1" + out + " --zzzzzz", "unknown option '--zzzzzz' for 'generate' (see gshell generate --help)");
