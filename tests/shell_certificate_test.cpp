@@ -2,9 +2,12 @@
 // answers, and the adjacency-aware pair test against an independent brute force that computes
 // every intersection exactly (CGAL's exact constructions) and checks where it lies.
 #include <gshell/error.h>
+#include <gshell/quality/certificate_report.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
+#include <gshell/quality/shell_metrics.h>
 #include <gshell/quality/triangle_intersections.h>
+#include <gshell/shell/generate_report.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -457,6 +460,61 @@ TEST(ShellCertificate, TestsCanBeSkippedAndBadInputIsRefused) {
   Eigen::MatrixXd nan = m.V;
   nan(3, 1) = std::nan("");
   EXPECT_THROW(certify_shell(m.V, nan, m.F), InputError);
+}
+
+// ---- the certificate in the metrics and their report -------------------------------------------
+
+TEST(ShellMetricsCertificate, ReportSaysValidInvalidOrUnknown) {
+  const int res = 4;
+  const SimpleMesh m = test::plane(res);
+  const double eta = 0.25;
+  Eigen::MatrixXd top = m.V;
+  top.col(2).array() += eta;
+  const int n = static_cast<int>(m.V.rows()), faces = static_cast<int>(m.F.rows());
+
+  const ShellMetrics clean = shell_metrics(m.V, m.F, top, eta);
+  nlohmann::json j = metrics_report(clean, n, faces, eta);
+  EXPECT_EQ(j["valid"], true);
+  EXPECT_EQ(j["certificate"]["exact"], true);
+  EXPECT_EQ(j["certificate"]["wall_intersections"], 0);
+  EXPECT_EQ(j["base_self_intersections"], 0);
+  EXPECT_FALSE(j.contains("inverted_tets"));
+  EXPECT_NE(metrics_summary(clean, n, faces, eta).find("valid        yes"), std::string::npos);
+
+  // Without intersection counts the pair tests are skipped: validity unknown, counts null...
+  const ShellMetrics untested = shell_metrics(m.V, m.F, top, eta, false);
+  j = metrics_report(untested, n, faces, eta);
+  EXPECT_TRUE(j["valid"].is_null());
+  EXPECT_TRUE(j["certificate"]["top_self_intersections"].is_null());
+  EXPECT_TRUE(j["certificate"]["wall_intersections"].is_null());
+  EXPECT_TRUE(j["base_self_intersections"].is_null());
+  EXPECT_EQ(j["certificate"]["inverted_tets"], 0);
+  EXPECT_NE(metrics_summary(untested, n, faces, eta).find("valid        unknown"), std::string::npos);
+
+  // ... but an inverted tet settles it.
+  const int v = grid_vertex(res, 2, 2);
+  top(v, 2) = -0.1;
+  const ShellMetrics inverted = shell_metrics(m.V, m.F, top, eta, false);
+  j = metrics_report(inverted, n, faces, eta);
+  EXPECT_EQ(j["valid"], false);
+  EXPECT_EQ(j["certificate"]["inverted_tets"], static_cast<int>(tets_through_vertical_edge(m.F, n, v).size()));
+  EXPECT_NE(metrics_summary(inverted, n, faces, eta).find("valid        NO"), std::string::npos);
+}
+
+TEST(ShellMetricsCertificate, ThinnedVerticesAreThoseBelowNineTenthsOfEta) {
+  // Flat plane shell: every top vertex is exactly eta above the base, except the lowered ones.
+  const int res = 4;
+  const SimpleMesh m = test::plane(res);
+  const double eta = 0.25;
+  Eigen::MatrixXd top = m.V;
+  top.col(2).array() += eta;
+  EXPECT_EQ(shell_metrics(m.V, m.F, top, eta, false).thinned_vertices, 0);
+  top(grid_vertex(res, 2, 2), 2) = 0.5 * eta;
+  top(grid_vertex(res, 1, 3), 2) = 0.89 * eta;
+  top(grid_vertex(res, 3, 1), 2) = 0.91 * eta; // thinner than eta, not below 0.9 eta
+  const ShellMetrics metrics = shell_metrics(m.V, m.F, top, eta, false);
+  EXPECT_EQ(metrics.thinned_vertices, 2);
+  EXPECT_EQ(metrics_report(metrics, static_cast<int>(m.V.rows()), static_cast<int>(m.F.rows()), eta)["thinned_vertices"], 2);
 }
 
 } // namespace
