@@ -14,10 +14,12 @@
 #include "core_test_meshes.h"
 
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Intersections_3/Triangle_3_Triangle_3.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <set>
 
@@ -123,6 +125,49 @@ TEST(ShellCertificate, DegenerateTopTriangleIsReportedAsAFlatTet) {
   // The prism's third tet (base corner + the whole top triangle) has no volume.
   EXPECT_TRUE(std::count(c.inverted_tet_ids.begin(), c.inverted_tet_ids.end(), 3 * f + 2)) << n;
   EXPECT_FALSE(c.valid());
+}
+
+TEST(ShellCertificate, TetSignsAreExactNearZero) {
+  // One prism whose top corners lie on (or a rounding error off) planes through base corners:
+  // the tets' orientations are zero or tiny, and must match CGAL's exact orientation.
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> coordinate(-1, 1), weight(-0.5, 1.5);
+  const Eigen::MatrixXi F = (Eigen::MatrixXi(1, 3) << 0, 1, 2).finished();
+  const auto tets = prism_corner_tets(0, 1, 2);
+  int zero = 0, inverted = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    // Odd trials: random doubles, each top corner in the base plane up to the rounding of its
+    // construction. Even trials: small dyadic numbers, so that the construction is exact and the
+    // top corners lie exactly in the base plane.
+    const bool exact = trial % 2 == 0;
+    std::uniform_int_distribution<int> small(-8, 8), quarter(-2, 6);
+    const double scale = std::pow(2.0, trial % 7 * 9 - 27);
+    Eigen::MatrixXd base(3, 3), top(3, 3);
+    for (Eigen::Index i = 0; i < base.size(); ++i) base(i) = (exact ? small(rng) : coordinate(rng)) * scale;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::RowVector3d a = base.row(k), b = base.row((k + 1) % 3), c = base.row((k + 2) % 3);
+      const double u = exact ? quarter(rng) / 4.0 : weight(rng), v = exact ? quarter(rng) / 4.0 : weight(rng);
+      top.row(k) = a + u * (b - a) + v * (c - a);
+    }
+    if (trial % 5 == 0) top(trial % 3, 2) += base(0, 2) * 1e-300;
+    const ShellCertificate c = certify_shell(base, top, F, CertifyOptions{false, false});
+    auto corner = [&](int j) {
+      const Eigen::RowVector3d p = j < 3 ? base.row(j) : top.row(j - 3);
+      return K::Point_3(p[0], p[1], p[2]);
+    };
+    std::vector<int> expected;
+    for (int t = 0; t < 3; ++t) {
+      const CGAL::Orientation o =
+          CGAL::orientation(corner(tets[t][0]), corner(tets[t][1]), corner(tets[t][2]), corner(tets[t][3]));
+      if (o != CGAL::POSITIVE) expected.push_back(t);
+      zero += o == CGAL::ZERO;
+    }
+    EXPECT_EQ(c.inverted_tet_ids, expected) << "trial " << trial;
+    inverted += static_cast<int>(expected.size());
+  }
+  EXPECT_GT(zero, 100); // exact zeros do occur (tets through a base triangle's plane)
+  EXPECT_GT(inverted, 1000);
 }
 
 // Two faces, given by their base and top corners; the base lies flat at z = 0.
@@ -391,6 +436,38 @@ TEST(ShellCertificate, ShellPairsMatchExactConstructionsOnLatticeShells) {
   }
   EXPECT_GT(meeting, 50);
   EXPECT_EQ(kinds.size(), 3u); // top/top, top/base and wall pairs all occur (the bases are clean)
+}
+
+TEST(ShellCertificate, NearlyFlatStarTrianglesAreJudgedExactly) {
+  // Flat fans of six triangles around a vertex, one far corner placed on the line through the
+  // centre and the previous far corner up to rounding: that triangle is a hair's breadth from
+  // degenerate, folded back over its neighbour or not. The star shortcut must only accept fans
+  // whose projected triangles are all exactly positive.
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3), stretch(0.3, 3);
+  int folded = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    Eigen::MatrixXd V(7, 3);
+    V.row(0) << jitter(rng), jitter(rng), 0;
+    for (int i = 0; i < 6; ++i) {
+      const double angle = M_PI / 3 * (i + jitter(rng));
+      V.row(1 + i) << std::cos(angle), std::sin(angle), 0;
+    }
+    const int k = 2 + trial % 5; // far corner k lands on the ray from the centre through k - 1
+    V.row(k) = V.row(0) + stretch(rng) * (V.row(k - 1) - V.row(0));
+    Eigen::MatrixXi F(6, 3);
+    for (int i = 0; i < 6; ++i) F.row(i) << 0, 1 + i, 1 + (i + 1) % 6;
+    const Pairs found = surface_self_intersections(V, F);
+    const std::set<std::pair<int, int>> found_set(found.begin(), found.end());
+    for (int f = 0; f < 6; ++f)
+      for (int g = f + 1; g < 6; ++g) {
+        if (degenerate(V, F, f) || degenerate(V, F, g)) continue;
+        const bool expected = brute_force_meets_beyond_shared(V, F, f, g);
+        EXPECT_EQ(found_set.count({f, g}) == 1, expected) << "trial " << trial << " faces " << f << ", " << g;
+        folded += expected;
+      }
+  }
+  EXPECT_GT(folded, 50);
 }
 
 TEST(ShellCertificate, AStarWindingTwiceAroundItsVertexIsFound) {
