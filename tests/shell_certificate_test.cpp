@@ -297,6 +297,7 @@ TEST(ShellCertificate, BaseSelfIntersectionsAreCountedApart) {
   ASSERT_GT(base_pairs.size(), 0u);
   EXPECT_EQ(pairs_of(c, IntersectionKind::BaseBase), base_pairs); // base rows are face ids
   EXPECT_EQ(c.base_self_intersections, static_cast<int>(base_pairs.size()));
+  EXPECT_FALSE(c.valid()); // no shell over a base that crosses itself is an embedding
   // Every pair today's counter finds is among them (it skips neighbours).
   for (const auto& p : self_intersecting_pairs(m.V, m.F))
     EXPECT_TRUE(std::binary_search(base_pairs.begin(), base_pairs.end(), p)) << p.first << "," << p.second;

@@ -40,7 +40,7 @@ std::string certificate_summary(const ShellCertificate& c) {
     line += "intersections not tested)\n";
   if (c.base_self_intersections > 0)
     line += "base         intersects itself: " + std::to_string(c.base_self_intersections) +
-            " face pairs (the input's own)\n";
+            " face pairs (the input's own; no shell over it is one-to-one)\n";
   return line;
 }
 

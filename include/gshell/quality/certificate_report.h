@@ -8,8 +8,9 @@
 
 namespace gshell {
 
-/// Whether the shell is valid: true or false when the certificate decides it, empty when the pair
-/// tests were skipped and no tet is inverted (validity unknown).
+/// Whether the shell is valid (ShellCertificate::valid: conditions 1-3, and the base does not
+/// intersect itself): true or false when the certificate decides it, empty when the pair tests
+/// were skipped and no tet is inverted (validity unknown).
 std::optional<bool> certified_validity(const ShellCertificate& certificate);
 
 /// {"valid": true | false | null (certified_validity), "certificate": {"inverted_tets",
