@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <random>
 #include <set>
 
@@ -62,6 +63,13 @@ std::vector<int> tets_through_vertical_edge(const Eigen::MatrixXi& F, int n, int
   return ids;
 }
 
+// The base lifted along +z: the top of a flat shell over a plane in z = 0.
+Eigen::MatrixXd lifted(const Eigen::MatrixXd& base, double eta) {
+  Eigen::MatrixXd top = base;
+  top.col(2).array() += eta;
+  return top;
+}
+
 // A vertex of the grid plane (test::plane(res)) at grid position (i, j).
 int grid_vertex(int res, int i, int j) { return i * (res + 1) + j; }
 
@@ -99,8 +107,7 @@ TEST(ShellCertificate, ZeroVolumeCountsAsInvertedExactly) {
   const SimpleMesh m = test::plane(res);
   const int n = static_cast<int>(m.V.rows()), v = grid_vertex(res, 2, 2);
   const double eta = 0.25;
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += eta;
+  Eigen::MatrixXd top = lifted(m.V, eta);
 
   top(v, 2) = 1e-300;
   expect_clean(certify_shell(m.V, top, m.F));
@@ -115,8 +122,7 @@ TEST(ShellCertificate, ZeroVolumeCountsAsInvertedExactly) {
 TEST(ShellCertificate, DegenerateTopTriangleIsReportedAsAFlatTet) {
   const int res = 4;
   const SimpleMesh m = test::plane(res);
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += 0.25;
+  Eigen::MatrixXd top = lifted(m.V, 0.25);
   const int f = 10, n = static_cast<int>(m.V.rows());
   // Corner 2 of face f's top onto the midpoint of its other two corners (exact: grid coordinates
   // are multiples of 0.5).
@@ -176,17 +182,19 @@ struct TwoFaces {
   Eigen::MatrixXi F;
 };
 
-// Faces (0, 1, 2) and (1, 0, 3) share the edge 0-1: r = vertex 2 on one side, s = 3 on the other.
-TwoFaces edge_neighbours() {
+// Faces F over base corners V (rows: x y z), the top lifted by 1.
+TwoFaces lifted_faces(std::initializer_list<double> V, std::initializer_list<int> F) {
   TwoFaces t;
-  t.base.resize(4, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0.5, 1, 0, 0.5, -1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(2, 3);
-  t.F << 0, 1, 2, 1, 0, 3;
+  t.base.resize(static_cast<Eigen::Index>(V.size() / 3), 3);
+  std::copy(V.begin(), V.end(), t.base.reshaped<Eigen::RowMajor>().begin());
+  t.top = lifted(t.base, 1);
+  t.F.resize(static_cast<Eigen::Index>(F.size() / 3), 3);
+  std::copy(F.begin(), F.end(), t.F.reshaped<Eigen::RowMajor>().begin());
   return t;
 }
+
+// Faces (0, 1, 2) and (1, 0, 3) share the edge 0-1: r = vertex 2 on one side, s = 3 on the other.
+TwoFaces edge_neighbours() { return lifted_faces({0, 0, 0, 1, 0, 0, 0.5, 1, 0, 0.5, -1, 0}, {0, 1, 2, 1, 0, 3}); }
 
 TEST(ShellCertificate, EdgeNeighboursFoldedFlatOntoEachOtherAreCounted) {
   TwoFaces t = edge_neighbours();
@@ -205,14 +213,7 @@ TEST(ShellCertificate, EdgeNeighboursFoldedFlatOntoEachOtherAreCounted) {
 
 // Faces (0, 1, 2) and (0, 3, 4) share vertex 0 only.
 TwoFaces vertex_neighbours() {
-  TwoFaces t;
-  t.base.resize(5, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(2, 3);
-  t.F << 0, 1, 2, 0, 3, 4;
-  return t;
+  return lifted_faces({0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0}, {0, 1, 2, 0, 3, 4});
 }
 
 TEST(ShellCertificate, VertexNeighboursMayMeetOnlyAtTheirVertex) {
@@ -240,13 +241,7 @@ TEST(ShellCertificate, VertexNeighboursMayMeetOnlyAtTheirVertex) {
 }
 
 TEST(ShellCertificate, NonAdjacentTrianglesTouchingAtAPointAreCounted) {
-  TwoFaces t;
-  t.base.resize(6, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0, 3, 0, 0, 2, 1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(2, 3);
-  t.F << 0, 1, 2, 3, 4, 5;
+  TwoFaces t = lifted_faces({0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0, 3, 0, 0, 2, 1, 0}, {0, 1, 2, 3, 4, 5});
   EXPECT_EQ(certify_shell(t.base, t.top, t.F).top_self_intersections, 0);
   t.top.row(3) << 0.25, 0.25, 1; // a corner of the second top on the first one's interior
   const ShellCertificate c = certify_shell(t.base, t.top, t.F);
@@ -255,13 +250,7 @@ TEST(ShellCertificate, NonAdjacentTrianglesTouchingAtAPointAreCounted) {
 }
 
 TEST(ShellCertificate, TopThroughTheBaseIsATopBasePair) {
-  TwoFaces t;
-  t.base.resize(3, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0, 1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(1, 3);
-  t.F << 0, 1, 2;
+  TwoFaces t = lifted_faces({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 2});
   expect_clean(certify_shell(t.base, t.top, t.F));
   t.top.row(2) << 0.2, 0.2, -1; // one top corner through the base triangle
   const ShellCertificate c = certify_shell(t.base, t.top, t.F);
@@ -272,8 +261,7 @@ TEST(ShellCertificate, TopThroughTheBaseIsATopBasePair) {
 TEST(ShellCertificate, TopPushedAcrossASideWallIsAWallIntersection) {
   const int res = 4;
   const SimpleMesh m = test::plane(res);
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += 0.25;
+  Eigen::MatrixXd top = lifted(m.V, 0.25);
   // The vertex next to the x = -1 border, its top pushed out beyond the wall at half height.
   const int v = grid_vertex(res, 1, 2);
   top.row(v) << -1.5, m.V(v, 1), 0.125;
@@ -546,8 +534,7 @@ TEST(ShellMetricsCertificate, ReportSaysValidInvalidOrUnknown) {
   const int res = 4;
   const SimpleMesh m = test::plane(res);
   const double eta = 0.25;
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += eta;
+  Eigen::MatrixXd top = lifted(m.V, eta);
   const int n = static_cast<int>(m.V.rows()), faces = static_cast<int>(m.F.rows());
 
   const ShellMetrics clean = shell_metrics(m.V, m.F, top, eta);
@@ -584,8 +571,7 @@ TEST(ShellMetricsCertificate, ThinnedVerticesAreThoseBelowNineTenthsOfEta) {
   const int res = 4;
   const SimpleMesh m = test::plane(res);
   const double eta = 0.25;
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += eta;
+  Eigen::MatrixXd top = lifted(m.V, eta);
   EXPECT_EQ(shell_metrics(m.V, m.F, top, eta, false).thinned_vertices, 0);
   top(grid_vertex(res, 2, 2), 2) = 0.5 * eta;
   top(grid_vertex(res, 1, 3), 2) = 0.89 * eta;
