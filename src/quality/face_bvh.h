@@ -23,6 +23,10 @@ public:
   /// F must index rows of V (checked by the caller).
   FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use);
 
+  /// A tree for pair searches (Use::pairs) over given boxes, one per face: faces swept along a
+  /// motion, or grown by a search radius (contact candidates). Slot boxes are these boxes.
+  explicit FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes);
+
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
   /// Face ids in the tree's leaf order: consecutive faces are close in space, so work done in
@@ -58,6 +62,9 @@ private:
     bool flat = false; // collinear corners (up to ~1e-12 relative): measured by its edges
   };
 
+  /// (Morton code, face) of every face by its centroid, sorted along the curve.
+  static std::vector<std::pair<std::uint64_t, int>> morton_order(const std::vector<Eigen::Vector3d>& centroids);
+  void build_nodes(const std::vector<std::pair<std::uint64_t, int>>& keyed, int leaf_size);
   int build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
   static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
   static bool nodes_meet(const Node& a, const Node& b);
