@@ -12,6 +12,17 @@ using Vec3 = Eigen::Vector3d;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
+double mollifier(double q) {
+  if (!(q < kParallelSin2)) return 1; // also for a zero-length edge (q NaN)
+  const double t = q / kParallelSin2;
+  return t * (2 - t);
+}
+
+double parallel_sin2(const PairPoints& x) {
+  const Vec3 e0 = x[1] - x[0], e1 = x[3] - x[2];
+  return e0.cross(e1).squaredNorm() / (e0.squaredNorm() * e1.squaredNorm());
+}
+
 // q = sin^2 of the angle between e0 = x1 - x0 and e1 = x3 - x2, with its gradient and Hessian
 // by the 12 coordinates. q = 1 - w, w = u^2 / (A B), u = e0.e1, A = |e0|^2, B = |e1|^2; the
 // derivatives go through (u, A, B) by the chain rule, the value through |e0 x e1|^2 / (A B)
@@ -26,7 +37,7 @@ ParallelMeasure parallel_measure(const PairPoints& x, bool want_hessian) {
   ParallelMeasure p;
   const Vec3 e0 = x[1] - x[0], e1 = x[3] - x[2];
   const double A = e0.squaredNorm(), B = e1.squaredNorm(), u = e0.dot(e1);
-  p.q = e0.cross(e1).squaredNorm() / (A * B);
+  p.q = parallel_sin2(x);
   // Gradients of u, A, B by (e0, e1).
   Eigen::Matrix<double, 6, 3> J;
   J << e1, 2 * e0, Vec3::Zero(), e0, Vec3::Zero(), 2 * e1;
@@ -89,7 +100,7 @@ double pair_barrier(PairKind kind, const PairPoints& x, double dhat, Vector12d* 
     dm = (2 - 2 * t) / kParallelSin2;
     d2m = -2 / (kParallelSin2 * kParallelSin2);
   }
-  if (!gradient && !hessian) return m * b.b;
+  if (!gradient && !hessian) return pair_barrier_energy(kind, x, d.squared, dhat);
   const Vector12d gs = squared_distance_gradient(x, d);
   const Vector12d gb = b.db * gs;
   if (gradient) *gradient = m * gb + (mollified ? Vector12d(b.b * dm * par.grad) : Vector12d::Zero());
@@ -103,6 +114,14 @@ double pair_barrier(PairKind kind, const PairPoints& x, double dhat, Vector12d* 
     *hessian = h;
   }
   return m * b.b;
+}
+
+double pair_barrier_energy(PairKind kind, const PairPoints& x, double s, double dhat) {
+  const double s_hat = dhat * dhat;
+  if (s >= s_hat) return 0;
+  if (!(s > 0)) return std::numeric_limits<double>::infinity();
+  const double b = barrier(s, s_hat).b;
+  return kind == PairKind::EdgeEdge ? mollifier(parallel_sin2(x)) * b : b;
 }
 
 void project_to_psd(Matrix12d& h) {

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -46,7 +47,10 @@ struct ContactGuard::Impl {
   ContactOptions options;
   double radius; // the candidate list holds the pairs closer than this when it was built
 
-  std::vector<Ids> pairs[2]; // candidate list per PairKind (vertex ids), sorted
+  // The candidate list per PairKind, sorted by primitive ids: vertex ids, and the distance at the
+  // build rounded down to a float. A pair at d_b then is at least d_b - 2 drift apart at x.
+  std::vector<Ids> pairs[2];
+  std::vector<float> built_distance[2];
   std::vector<Vec3> built_at; // positions at the last build
   int builds = 0;
   double drift = 0; // largest displacement of a boundary vertex from built_at, at x
@@ -59,6 +63,7 @@ struct ContactGuard::Impl {
   struct Active {
     PairKind kind;
     int index;
+    double energy; // its barrier
   };
   std::vector<Active> active;
   int last_active = 0; // active.size() at the last pass (kept when x moves on)
@@ -130,16 +135,30 @@ struct ContactGuard::Impl {
     const Vec3 grow = Vec3::Constant(radius / 2);
     std::vector<Eigen::AlignedBox3d> box(n);
     for (int v : primitives.boundary_vertices()) box[v] = Eigen::AlignedBox3d(x[v] - grow, x[v] + grow);
-    tbb::enumerable_thread_specific<std::array<std::vector<Ids>, 2>> found;
+    struct Found {
+      std::uint64_t key; // primitive ids a, b
+      Ids ids;
+      float distance;
+    };
+    tbb::enumerable_thread_specific<std::array<std::vector<Found>, 2>> found;
     const double radius2 = radius * radius;
-    primitives.for_each_pair(box, [&](PairKind kind, int a, int b) {
-      const Ids ids = kind == PairKind::PointTriangle ? primitives.point_triangle(a, b) : primitives.edge_edge(a, b);
-      if (pair_distance(kind, points(ids)).squared < radius2) found.local()[static_cast<int>(kind)].push_back(ids);
+    primitives.for_each_pair(box, [&](PairKind kind, int a, int b, const Ids& ids) {
+      const double d2 = pair_squared_distance(kind, points(ids));
+      if (!(d2 < radius2)) return;
+      const float d = std::nextafter(static_cast<float>(std::sqrt(d2)), 0.0f); // <= the distance
+      found.local()[static_cast<int>(kind)].push_back(
+          {static_cast<std::uint64_t>(a) << 32 | static_cast<std::uint32_t>(b), ids, std::max(d, 0.0f)});
     });
     for (int k = 0; k < 2; ++k) {
-      pairs[k].clear();
-      for (const auto& local : found) pairs[k].insert(pairs[k].end(), local[k].begin(), local[k].end());
-      tbb::parallel_sort(pairs[k].begin(), pairs[k].end());
+      std::vector<Found> all;
+      for (const auto& local : found) all.insert(all.end(), local[k].begin(), local[k].end());
+      tbb::parallel_sort(all.begin(), all.end(), [](const Found& p, const Found& q) { return p.key < q.key; });
+      pairs[k].resize(all.size());
+      built_distance[k].resize(all.size());
+      for (std::size_t i = 0; i < all.size(); ++i) {
+        pairs[k][i] = all[i].ids;
+        built_distance[k][i] = all[i].distance;
+      }
     }
     built_at = x;
     drift = 0;
@@ -160,12 +179,16 @@ struct ContactGuard::Impl {
       const int blocks = (static_cast<int>(list.size()) + kBlock - 1) / kBlock;
       std::vector<std::vector<Active>> block_active(blocks);
       std::vector<double> block_min(blocks, std::numeric_limits<double>::infinity());
+      const std::vector<float>& built = built_distance[k];
+      const double cut = options.dhat + 2 * drift; // pairs beyond it at the build are inactive now
       for_blocks(static_cast<int>(list.size()), [&](int begin, int end, int b) {
         double m = std::numeric_limits<double>::infinity();
         for (int i = begin; i < end; ++i) {
-          const double d2 = pair_distance(kind, points(list[i])).squared;
+          if (built[i] >= cut) continue;
+          const double d2 = pair_squared_distance(kind, points(list[i]));
           m = std::min(m, d2);
-          if (d2 < s_hat) block_active[b].push_back({kind, i});
+          if (d2 < s_hat)
+            block_active[b].push_back({kind, i, pair_barrier_energy(kind, points(list[i]), d2, options.dhat)});
         }
         block_min[b] = m;
       });
@@ -177,6 +200,22 @@ struct ContactGuard::Impl {
     touching = !(min_squared > 0);
     last_active = static_cast<int>(active.size());
     scanned = true;
+  }
+
+  // Smallest squared distance over the whole list at x.
+  double list_min_squared() const {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 2; ++k)
+      best = std::min(best, tbb::parallel_reduce(
+                                tbb::blocked_range<int>(0, static_cast<int>(pairs[k].size()), kBlock),
+                                std::numeric_limits<double>::infinity(),
+                                [&](const tbb::blocked_range<int>& r, double m) {
+                                  for (int i = r.begin(); i < r.end(); ++i)
+                                    m = std::min(m, pair_squared_distance(static_cast<PairKind>(k), points(pairs[k][i])));
+                                  return m;
+                                },
+                                [](double a, double b) { return std::min(a, b); }));
+    return best;
   }
 
   const Ids& ids(const Active& a) const { return pairs[static_cast<int>(a.kind)][a.index]; }
@@ -193,12 +232,8 @@ double ContactGuard::energy(const Eigen::MatrixXd& X) {
   Impl& m = *impl_;
   m.scan(X);
   if (m.touching) return std::numeric_limits<double>::infinity();
-  std::vector<double> e(m.active.size());
-  tbb::parallel_for(0, static_cast<int>(e.size()), [&](int i) {
-    e[i] = pair_barrier(m.active[i].kind, m.points(m.ids(m.active[i])), m.options.dhat);
-  });
   double sum = 0;
-  for (double v : e) sum += v; // list order: the same bits for the same X
+  for (const Impl::Active& a : m.active) sum += a.energy; // list order: the same bits for the same X
   return sum;
 }
 
@@ -265,14 +300,21 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
     const PairPoints p = m.points(ids), d = {dx[ids[0]], dx[ids[1]], dx[ids[2]], dx[ids[3]]};
     lower_to(alpha, pair_step_bound(kind, p, d, alpha.load(std::memory_order_relaxed), ccd));
   };
-  for (int k = 0; k < 2; ++k)
+  // A listed pair at d_b at the build is at least d_b - 2 drift - 2 rho alpha apart along the
+  // step, never below its floor while that exceeds keep_fraction * dhat: no CCD needed.
+  const double floor_max = m.options.keep_fraction * m.options.dhat;
+  for (int k = 0; k < 2; ++k) {
+    const std::vector<float>& built = m.built_distance[k];
     for_blocks(static_cast<int>(m.pairs[k].size()), [&](int begin, int end, int) {
-      for (int i = begin; i < end; ++i) bound_pair(static_cast<PairKind>(k), m.pairs[k][i]);
+      for (int i = begin; i < end; ++i)
+        if (built[i] - 2 * m.drift < 2 * rho * alpha.load(std::memory_order_relaxed) + floor_max)
+          bound_pair(static_cast<PairKind>(k), m.pairs[k][i]);
     });
+  }
 
-  // Pairs off the list are at least radius - 2 drift apart; their floor is at most
-  // keep_fraction * dhat. They cannot reach it before alpha_far.
-  const double alpha_far = (m.radius - 2 * m.drift - m.options.keep_fraction * m.options.dhat) / (2 * rho);
+  // Pairs off the list are at least radius - 2 drift apart: they cannot reach floor_max before
+  // alpha_far.
+  const double alpha_far = (m.radius - 2 * m.drift - floor_max) / (2 * rho);
   const double listed = alpha.load();
   if (alpha_far >= listed) return listed;
 
@@ -286,17 +328,15 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
     box[v].min() -= grow;
     box[v].max() += grow;
   }
-  m.primitives.for_each_pair(box, [&](PairKind kind, int a, int b) {
-    bound_pair(kind, kind == PairKind::PointTriangle ? m.primitives.point_triangle(a, b) : m.primitives.edge_edge(a, b));
-  });
+  m.primitives.for_each_pair(box, [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); });
   return alpha.load();
 }
 
 int ContactGuard::active_pairs() const { return impl_->last_active; }
 
 double ContactGuard::min_distance(const Eigen::MatrixXd& X) {
-  impl_->scan(X);
-  return std::min(std::sqrt(impl_->min_squared), impl_->radius);
+  impl_->set_positions(X);
+  return std::min(std::sqrt(impl_->list_min_squared()), impl_->radius);
 }
 
 std::vector<ContactPair> ContactGuard::candidate_pairs() const {

@@ -9,7 +9,7 @@ namespace gshell::detail {
 
 ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vertices, const std::vector<char>& movable,
                                      const std::vector<char>& excluded_triangles)
-    : num_vertices_(num_vertices), movable_(movable) {
+    : num_vertices_(num_vertices) {
   const int m = boundary.size();
   if (num_vertices < 0) throw InputError("ContactGuard: negative vertex count");
   if (static_cast<int>(movable.size()) != num_vertices)
@@ -31,17 +31,20 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
       throw InputError("ContactGuard: boundary triangle " + std::to_string(t) + " repeats a vertex");
 
   triangles_.resize(m);
-  triangle_excluded_.assign(m, 0);
-  triangle_fixed_.resize(m);
-  vertex_excluded_.assign(num_vertices, 0);
+  triangle_flags_.assign(m, 0);
+  vertex_flags_.assign(num_vertices, 0);
+  for (int v = 0; v < num_vertices; ++v)
+    if (!movable[v]) vertex_flags_[v] = kFixed;
   std::vector<int> vertex_owner(num_vertices, -1);
   for (int t = 0; t < m; ++t) {
     triangles_[t] = {boundary.F(t, 0), boundary.F(t, 1), boundary.F(t, 2)};
-    triangle_excluded_[t] = !excluded_triangles.empty() && excluded_triangles[t];
-    triangle_fixed_[t] = !movable_[triangles_[t][0]] && !movable_[triangles_[t][1]] && !movable_[triangles_[t][2]];
+    const bool excluded = !excluded_triangles.empty() && excluded_triangles[t];
+    if (excluded) triangle_flags_[t] |= kExcluded;
+    if (!movable[triangles_[t][0]] && !movable[triangles_[t][1]] && !movable[triangles_[t][2]])
+      triangle_flags_[t] |= kFixed;
     for (int v : triangles_[t]) {
       if (vertex_owner[v] < 0) vertex_owner[v] = t;
-      if (triangle_excluded_[t]) vertex_excluded_[v] = 1;
+      if (excluded) vertex_flags_[v] |= kExcluded;
     }
   }
   for (int v = 0; v < num_vertices; ++v)
@@ -49,15 +52,14 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
 
   const int num_edges = incidence.num_edges();
   edges_.resize(num_edges);
-  edge_excluded_.assign(num_edges, 0);
-  edge_fixed_.resize(num_edges);
+  edge_flags_.assign(num_edges, 0);
   std::vector<int> edge_owner(num_edges);
   for (int e = 0; e < num_edges; ++e) {
     edges_[e] = {incidence.edges(e, 0), incidence.edges(e, 1)};
-    edge_fixed_[e] = !movable_[edges_[e][0]] && !movable_[edges_[e][1]];
+    if (!movable[edges_[e][0]] && !movable[edges_[e][1]]) edge_flags_[e] |= kFixed;
     edge_owner[e] = incidence.halfedges[incidence.offsets[e]] / 3; // lowest face: half-edges ascend
     for (int i = incidence.offsets[e]; i < incidence.offsets[e + 1]; ++i)
-      if (triangle_excluded_[incidence.halfedges[i] / 3]) edge_excluded_[e] = 1;
+      if (triangle_flags_[incidence.halfedges[i] / 3] & kExcluded) edge_flags_[e] |= kExcluded;
   }
 
   auto group = [m](const std::vector<int>& owner, std::vector<int>& offsets, std::vector<int>& owned) {

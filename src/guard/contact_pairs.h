@@ -6,17 +6,84 @@
 // its corners' boxes (a corner's box: the point grown by a search radius, or swept along a
 // motion). Every vertex and every edge is owned by one triangle that contains it; a pair of
 // primitives is visited only through the pair of their owners, so each is found once, and is
-// found whenever the two primitives' boxes meet (the owners' boxes contain them).
+// found whenever the two primitives' boxes meet (the owners' boxes contain them). The records a
+// visit reads are laid out in the tree's leaf order: neighbouring slots are neighbours in space,
+// so the visits of one subtree stay within a small piece of memory.
 #include "quality/face_bvh.h"
 
 #include <gshell/guard/primitive_distance.h>
 #include <gshell/quality/shell_boundary.h>
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
+#include <bit>
+#include <cstdint>
+#include <cmath>
+#include <limits>
 #include <vector>
 
 namespace gshell::detail {
+
+/// Axis-aligned boxes as six float arrays (structure of arrays: box tests over a run of boxes
+/// vectorise), each bound rounded outwards from its double (conservative, half the bytes).
+class FloatBoxes {
+public:
+  static constexpr int kChunk = 8; ///< boxes per vector step; runs are read in whole chunks
+
+  void resize(std::size_t n) {
+    for (int d = 0; d < 3; ++d) { // padded: a run's last chunk may read past its end
+      lo_[d].assign(n + kChunk, 0);
+      hi_[d].assign(n + kChunk, 0);
+    }
+  }
+  void set(std::size_t i, const Eigen::AlignedBox3d& b) {
+    for (int d = 0; d < 3; ++d) {
+      lo_[d][i] = below(b.min()[d]);
+      hi_[d][i] = above(b.max()[d]);
+    }
+  }
+  /// Bit k set iff box i of this meets box first + k of `other`, for k < count <= 32.
+  std::uint32_t meets(std::size_t i, const FloatBoxes& other, std::size_t first, int count) const {
+    const float l0 = lo_[0][i], l1 = lo_[1][i], l2 = lo_[2][i], h0 = hi_[0][i], h1 = hi_[1][i], h2 = hi_[2][i];
+    std::uint32_t mask = 0;
+    for (int c = 0; c < count; c += kChunk) {
+      const std::size_t o = first + c;
+      const float *__restrict ol0 = &other.lo_[0][o], *__restrict ol1 = &other.lo_[1][o], *__restrict ol2 = &other.lo_[2][o];
+      const float *__restrict oh0 = &other.hi_[0][o], *__restrict oh1 = &other.hi_[1][o], *__restrict oh2 = &other.hi_[2][o];
+      int hit[kChunk]; // a fixed-length loop of int lanes: vectorised on every target at -O3
+      for (int k = 0; k < kChunk; ++k)
+        hit[k] = (ol0[k] <= h0) & (l0 <= oh0[k]) & (ol1[k] <= h1) & (l1 <= oh1[k]) & (ol2[k] <= h2) & (l2 <= oh2[k]);
+      for (int k = 0; k < kChunk; ++k) mask |= static_cast<std::uint32_t>(hit[k]) << (c + k);
+    }
+    return count >= 32 ? mask : mask & ((std::uint32_t{1} << count) - 1);
+  }
+
+  /// The box around boxes [first, first + count) as {lo0, lo1, lo2, hi0, hi1, hi2}.
+  std::array<float, 6> hull(std::size_t first, int count) const {
+    std::array<float, 6> h = {lo_[0][first], lo_[1][first], lo_[2][first], hi_[0][first], hi_[1][first], hi_[2][first]};
+    for (std::size_t i = first + 1; i < first + count; ++i)
+      for (int d = 0; d < 3; ++d) {
+        h[d] = std::min(h[d], lo_[d][i]);
+        h[3 + d] = std::max(h[3 + d], hi_[d][i]);
+      }
+    return h;
+  }
+  /// Whether box i meets the box h (as hull() returns it).
+  bool meets(std::size_t i, const std::array<float, 6>& h) const {
+    return lo_[0][i] <= h[3] && h[0] <= hi_[0][i] && lo_[1][i] <= h[4] && h[1] <= hi_[1][i] && lo_[2][i] <= h[5] &&
+           h[2] <= hi_[2][i];
+  }
+
+private:
+  // x moved out by 2^-22 |x| (+ a tiny absolute step) in double, then rounded to the nearest
+  // float: the rounding (at most 2^-24 |x|) cannot undo the move.
+  static float below(double x) { return static_cast<float>(x - (std::abs(x) * 0x1p-22 + 1e-37)); }
+  static float above(double x) { return static_cast<float>(x + (std::abs(x) * 0x1p-22 + 1e-37)); }
+  std::vector<float> lo_[3], hi_[3];
+};
 
 class ContactPrimitives {
 public:
@@ -38,31 +105,27 @@ public:
     return {edges_[e][0], edges_[e][1], edges_[f][0], edges_[f][1]};
   }
 
-  /// Whether the pair is one of the module's pairs: no shared vertex, not all four vertices
-  /// fixed, nothing excluded (contact_guard.h).
-  bool point_triangle_allowed(int v, int t) const {
-    const auto& c = triangles_[t];
-    return v != c[0] && v != c[1] && v != c[2] && !triangle_excluded_[t] && !vertex_excluded_[v] &&
-           (movable_[v] || !triangle_fixed_[t]);
-  }
-  bool edge_edge_allowed(int e, int f) const {
-    const auto &a = edges_[e], &b = edges_[f];
-    return a[0] != b[0] && a[0] != b[1] && a[1] != b[0] && a[1] != b[1] && !edge_excluded_[e] &&
-           !edge_excluded_[f] && !(edge_fixed_[e] && edge_fixed_[f]);
-  }
-
-  /// Calls visit(kind, a, b) for every allowed pair, (vertex a, triangle b) or (edge a, edge b)
-  /// with a < b, whose boxes meet; a vertex's box is vertex_box[v], an edge's or a triangle's the
-  /// union of its vertices' boxes. visit runs concurrently from several threads.
+  /// Calls visit(kind, a, b, vertices) for every pair of the module (no shared vertex, not all
+  /// four vertices fixed, nothing excluded: contact_guard.h) whose boxes meet: (vertex a,
+  /// triangle b) or (edge a, edge b) with a < b, and the pair's vertex ids in PairPoints order.
+  /// A vertex's box is vertex_box[v], an edge's or a triangle's the union of its vertices' boxes.
+  /// visit runs concurrently from several threads.
   template <class Visit>
   void for_each_pair(const std::vector<Eigen::AlignedBox3d>& vertex_box, Visit&& visit) const;
 
 private:
+  // Faces per leaf of the broad phase's tree: a leaf pair tests all its primitives' boxes in
+  // vectorised runs, so leaves hold more faces than a face-by-face search would want. A leaf
+  // owns at most 3 kLeafFaces edges: runs fit FloatBoxes::meets' 32 bits.
+  static constexpr int kLeafFaces = 8;
+  // Flags of a primitive.
+  static constexpr unsigned char kExcluded = 1, kFixed = 2;
+
   int num_vertices_ = 0;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
   std::vector<int> boundary_vertices_;
-  std::vector<char> movable_, vertex_excluded_, triangle_excluded_, triangle_fixed_, edge_excluded_, edge_fixed_;
+  std::vector<unsigned char> vertex_flags_, triangle_flags_, edge_flags_;
   // Per triangle, the vertices and edges it owns: owned_*[offsets[t] .. offsets[t + 1]).
   std::vector<int> vertex_owner_offsets_, owned_vertices_, edge_owner_offsets_, owned_edges_;
 };
@@ -70,32 +133,94 @@ private:
 template <class Visit>
 void ContactPrimitives::for_each_pair(const std::vector<Eigen::AlignedBox3d>& vertex_box, Visit&& visit) const {
   const int m = num_triangles();
+  if (m == 0) return;
   std::vector<Eigen::AlignedBox3d> box(m);
-  for (int t = 0; t < m; ++t) {
-    box[t] = vertex_box[triangles_[t][0]];
-    box[t].extend(vertex_box[triangles_[t][1]]).extend(vertex_box[triangles_[t][2]]);
-  }
-  auto edge_box = [&](int e) { return vertex_box[edges_[e][0]].merged(vertex_box[edges_[e][1]]); };
-  const FaceBvh tree(box);
-  const std::vector<int>& face = tree.faces_in_leaf_order();
-  auto owned_against = [&](int f, int g) { // f's vertices against triangle g
-    for (int i = vertex_owner_offsets_[f]; i < vertex_owner_offsets_[f + 1]; ++i) {
-      const int v = owned_vertices_[i];
-      if (point_triangle_allowed(v, g) && exact_boxes_meet(vertex_box[v], box[g])) visit(PairKind::PointTriangle, v, g);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int t = r.begin(); t < r.end(); ++t) {
+      box[t] = vertex_box[triangles_[t][0]];
+      box[t].extend(vertex_box[triangles_[t][1]]).extend(vertex_box[triangles_[t][2]]);
     }
-  };
-  tree.for_each_overlapping_pair([&](int s, int t) {
-    const int f = face[s], g = face[t];
-    owned_against(f, g);
-    owned_against(g, f);
-    for (int i = edge_owner_offsets_[f]; i < edge_owner_offsets_[f + 1]; ++i) {
-      const int e = owned_edges_[i];
-      const Eigen::AlignedBox3d be = edge_box(e);
-      if (!exact_boxes_meet(be, box[g])) continue;
-      for (int j = edge_owner_offsets_[g]; j < edge_owner_offsets_[g + 1]; ++j) {
-        const int e2 = owned_edges_[j];
-        if (edge_edge_allowed(e, e2) && exact_boxes_meet(be, edge_box(e2)))
-          visit(PairKind::EdgeEdge, std::min(e, e2), std::max(e, e2));
+  });
+  const FaceBvh tree(box, kLeafFaces);
+  const std::vector<int>& face = tree.faces_in_leaf_order();
+
+  // Primitives in slot order: triangle s, then the vertices and edges its face owns, so a leaf's
+  // (a slot range's) triangles, vertices and edges are three runs, with their ids and flags.
+  std::vector<int> vertex_begin(m + 1, 0), edge_begin(m + 1, 0), movable_before(m + 1, 0);
+  for (int s = 0; s < m; ++s) {
+    const int f = face[s];
+    vertex_begin[s + 1] = vertex_begin[s] + vertex_owner_offsets_[f + 1] - vertex_owner_offsets_[f];
+    edge_begin[s + 1] = edge_begin[s] + edge_owner_offsets_[f + 1] - edge_owner_offsets_[f];
+    movable_before[s + 1] = movable_before[s] + !(triangle_flags_[f] & kFixed);
+  }
+  FloatBoxes tri_box, vert_box, edge_box;
+  tri_box.resize(m);
+  vert_box.resize(vertex_begin[m]);
+  edge_box.resize(edge_begin[m]);
+  std::vector<std::array<int, 3>> tri_corner(m);
+  std::vector<int> vert_id(vertex_begin[m]);
+  std::vector<std::array<int, 2>> edge_end(edge_begin[m]);
+  std::vector<int> edge_id(edge_begin[m]);
+  std::vector<unsigned char> tri_flags(m), vert_flags(vertex_begin[m]), edge_flags(edge_begin[m]);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 2048), [&](const tbb::blocked_range<int>& r) {
+    for (int s = r.begin(); s < r.end(); ++s) {
+      const int f = face[s];
+      tri_box.set(s, box[f]);
+      tri_corner[s] = triangles_[f];
+      tri_flags[s] = triangle_flags_[f];
+      int out = vertex_begin[s];
+      for (int i = vertex_owner_offsets_[f]; i < vertex_owner_offsets_[f + 1]; ++i, ++out) {
+        const int v = owned_vertices_[i];
+        vert_id[out] = v;
+        vert_flags[out] = vertex_flags_[v];
+        vert_box.set(out, vertex_box[v]);
+      }
+      out = edge_begin[s];
+      for (int i = edge_owner_offsets_[f]; i < edge_owner_offsets_[f + 1]; ++i, ++out) {
+        const int e = owned_edges_[i];
+        edge_id[out] = e;
+        edge_end[out] = edges_[e];
+        edge_flags[out] = edge_flags_[e];
+        edge_box.set(out, vertex_box[edges_[e][0]].merged(vertex_box[edges_[e][1]]));
+      }
+    }
+  });
+
+  tree.for_each_overlapping_leaf_pair([&](int a0, int a1, int b0, int b1) {
+    // Two leaves of fixed triangles only (the base against itself) hold no pair of the module.
+    if (movable_before[a1] == movable_before[a0] && movable_before[b1] == movable_before[b0]) return;
+    // Primitives of one leaf are tested against the other leaf's box first: leaves that meet
+    // mostly overlap in part.
+    const std::array<float, 6> box_a = tri_box.hull(a0, a1 - a0), box_b = tri_box.hull(b0, b1 - b0);
+    auto points_against = [&](int from, int to, int t0, int t1, const std::array<float, 6>& hull) {
+      for (int i = from; i < to; ++i) { // vertices [from, to) against the triangles of slots [t0, t1)
+        if ((vert_flags[i] & kExcluded) || !vert_box.meets(i, hull)) continue;
+        const int v = vert_id[i];
+        for (std::uint32_t hit = vert_box.meets(i, tri_box, t0, t1 - t0); hit; hit &= hit - 1) {
+          const int t = t0 + std::countr_zero(hit);
+          const auto& c = tri_corner[t];
+          if (v == c[0] || v == c[1] || v == c[2] || (tri_flags[t] & kExcluded) || (vert_flags[i] & tri_flags[t] & kFixed))
+            continue;
+          visit(PairKind::PointTriangle, v, face[t], std::array<int, 4>{v, c[0], c[1], c[2]});
+        }
+      }
+    };
+    points_against(vertex_begin[a0], vertex_begin[a1], b0, b1, box_b);
+    const bool self = a0 == b0;
+    if (!self) points_against(vertex_begin[b0], vertex_begin[b1], a0, a1, box_a);
+    const int f1 = edge_begin[b1];
+    for (int i = edge_begin[a0]; i < edge_begin[a1]; ++i) {
+      if ((edge_flags[i] & kExcluded) || !edge_box.meets(i, box_b)) continue;
+      const int f0 = self ? i + 1 : edge_begin[b0];
+      const auto& p = edge_end[i];
+      for (std::uint32_t hit = edge_box.meets(i, edge_box, f0, f1 - f0); hit; hit &= hit - 1) {
+        const int j = f0 + std::countr_zero(hit);
+        const auto& q = edge_end[j];
+        if (p[0] == q[0] || p[0] == q[1] || p[1] == q[0] || p[1] == q[1] || (edge_flags[j] & kExcluded) ||
+            (edge_flags[i] & edge_flags[j] & kFixed))
+          continue;
+        if (edge_id[i] < edge_id[j]) visit(PairKind::EdgeEdge, edge_id[i], edge_id[j], std::array<int, 4>{p[0], p[1], q[0], q[1]});
+        else visit(PairKind::EdgeEdge, edge_id[j], edge_id[i], std::array<int, 4>{q[0], q[1], p[0], p[1]});
       }
     }
   });

@@ -34,13 +34,11 @@ double pair_step_bound(PairKind kind, const PairPoints& x, const PairPoints& dx,
   const double coordinate = std::max(box.min().lpNorm<Eigen::Infinity>(), box.max().lpNorm<Eigen::Infinity>()) + reach;
   const double slack2 = 2e-15 * extent * extent;
   const double slack = 32 * std::numeric_limits<double>::epsilon() * coordinate;
-  auto lowered = [&](const PairPoints& p) {
-    return std::sqrt(std::max(pair_distance(kind, p).squared - slack2, 0.0)) - slack;
-  };
+  auto lowered = [&](double squared) { return std::sqrt(std::max(squared - slack2, 0.0)) - slack; };
 
-  const double d0 = std::sqrt(pair_distance(kind, x).squared);
-  const double floor = options.keep_fraction * std::min(d0, options.max_floor_distance);
-  double d = lowered(x);
+  const double d0_squared = pair_squared_distance(kind, x);
+  const double floor = options.keep_fraction * std::min(std::sqrt(d0_squared), options.max_floor_distance);
+  double d = lowered(d0_squared);
   if (!(d > floor)) return 0; // touching (or within rounding of it), or not finite
   const double stop = 1e-4 * (d - floor);
   double t = 0;
@@ -51,7 +49,7 @@ double pair_step_bound(PairKind kind, const PairPoints& x, const PairPoints& dx,
     if (t + tau >= t_max) return t_max;
     t += tau;
     for (int k = 0; k < 4; ++k) xt[k] = x[k] + t * dx[k];
-    d = lowered(xt);
+    d = lowered(pair_squared_distance(kind, xt));
     if (!(d - floor > stop)) return t;
   }
   return t;

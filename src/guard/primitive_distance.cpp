@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 
 #include <algorithm>
+#include <limits>
 
 namespace gshell {
 namespace {
@@ -15,92 +16,133 @@ constexpr double kFlatSin2 = 1e-15;
 
 using Vec3 = Eigen::Vector3d;
 
-PairDistance point_point(const PairPoints& x, int i, int j) {
-  PairDistance d;
-  d.features = ClosestFeatures::PointPoint;
-  d.a[i] = 1;
-  d.a[j] = -1;
-  d.squared = (x[i] - x[j]).squaredNorm();
-  return d;
-}
+// The closest features as found by the distance core: point x[i] against segment x[j] x[k] at
+// parameter beta (0 or 1: against that end), or an interior case with two parameters.
+struct Closest {
+  double squared = std::numeric_limits<double>::infinity();
+  bool interior = false;
+  int i = 0, j = 0, k = 0;
+  double beta0 = 0, beta1 = 0;
+};
 
-// Point x[i] against the closed segment x[j] x[k].
-PairDistance point_segment(const PairPoints& x, int i, int j, int k) {
-  const Vec3 e = x[k] - x[j];
+// Point x[i] against the closed segment x[j] x[k]; keeps the nearer of this and `best`.
+void point_segment(const PairPoints& x, int i, int j, int k, Closest& best) {
+  const Vec3 e = x[k] - x[j], w = x[i] - x[j];
   const double len2 = e.squaredNorm();
-  if (!(len2 > 0)) return point_point(x, i, j);
-  const double beta = (x[i] - x[j]).dot(e) / len2;
-  if (beta <= 0) return point_point(x, i, j);
-  if (beta >= 1) return point_point(x, i, k);
-  PairDistance d;
-  d.features = ClosestFeatures::PointEdge;
-  d.parameters = 1;
-  // r = x_i - (1 - beta) x_j - beta x_k
-  d.a[i] = 1;
-  d.a[j] = -(1 - beta);
-  d.a[k] = -beta;
-  d.da[0][j] = 1;
-  d.da[0][k] = -1;
-  d.squared = (x[i] - x[j] - beta * e).squaredNorm();
-  return d;
+  double beta = len2 > 0 ? w.dot(e) / len2 : 0;
+  double d2;
+  if (beta <= 0) {
+    beta = 0;
+    d2 = w.squaredNorm();
+  } else if (beta >= 1) {
+    beta = 1;
+    d2 = (x[i] - x[k]).squaredNorm();
+  } else {
+    d2 = (w - beta * e).squaredNorm();
+  }
+  if (d2 < best.squared) best = {d2, false, i, j, k, beta, 0};
 }
 
-const PairDistance& nearer(const PairDistance& a, const PairDistance& b) {
-  return b.squared < a.squared ? b : a;
+// Convex quadratic over a triangle or a square: when its unconstrained minimiser lies outside,
+// the constrained one lies on a side whose constraint the minimiser violates (the segment from
+// any inner point to the minimiser, along which the quadratic falls, leaves through such a side).
+Closest point_triangle_core(const PairPoints& x) {
+  const Vec3 e1 = x[2] - x[1], e2 = x[3] - x[1], w = x[0] - x[1];
+  const double a11 = e1.squaredNorm(), a22 = e2.squaredNorm(), a12 = e1.dot(e2);
+  const double det = e1.cross(e2).squaredNorm();
+  Closest c;
+  if (!(det > kFlatSin2 * a11 * a22)) { // flat: its edges
+    point_segment(x, 0, 1, 2, c);
+    point_segment(x, 0, 2, 3, c);
+    point_segment(x, 0, 3, 1, c);
+    return c;
+  }
+  const double b1 = e1.dot(w), b2 = e2.dot(w);
+  const double beta1 = (a22 * b1 - a12 * b2) / det, beta2 = (a11 * b2 - a12 * b1) / det;
+  const double beta0 = 1 - beta1 - beta2;
+  if (beta0 >= 0 && beta1 >= 0 && beta2 >= 0) return {(w - beta1 * e1 - beta2 * e2).squaredNorm(), true, 0, 0, 0, beta1, beta2};
+  if (beta2 < 0) point_segment(x, 0, 1, 2, c); // side x1 x2 (barycentric of x3 = 0)
+  if (beta0 < 0) point_segment(x, 0, 2, 3, c);
+  if (beta1 < 0) point_segment(x, 0, 3, 1, c);
+  return c;
+}
+
+Closest edge_edge_core(const PairPoints& x) {
+  const Vec3 e0 = x[1] - x[0], e1 = x[3] - x[2], w = x[0] - x[2];
+  const double a = e0.squaredNorm(), b = e0.dot(e1), c2 = e1.squaredNorm();
+  const double det = e0.cross(e1).squaredNorm();
+  Closest c;
+  if (!(det > kFlatSin2 * a * c2)) { // parallel: every end against the other segment
+    point_segment(x, 0, 2, 3, c);
+    point_segment(x, 1, 2, 3, c);
+    point_segment(x, 2, 0, 1, c);
+    point_segment(x, 3, 0, 1, c);
+    return c;
+  }
+  const double d0 = e0.dot(w), d1 = e1.dot(w);
+  const double s = (b * d1 - c2 * d0) / det, t = (a * d1 - b * d0) / det;
+  if (s >= 0 && s <= 1 && t >= 0 && t <= 1) return {(w + s * e0 - t * e1).squaredNorm(), true, 0, 0, 0, s, t};
+  if (s < 0) point_segment(x, 0, 2, 3, c); // side s = 0: x0 against the second segment
+  if (s > 1) point_segment(x, 1, 2, 3, c);
+  if (t < 0) point_segment(x, 2, 0, 1, c);
+  if (t > 1) point_segment(x, 3, 0, 1, c);
+  return c;
+}
+
+// Non-finite input (no side compared) must not read as "infinitely far".
+Closest checked(Closest c) {
+  if (!(c.squared < std::numeric_limits<double>::infinity())) c.squared = std::numeric_limits<double>::quiet_NaN();
+  return c;
+}
+
+PairDistance stencil(PairKind kind, const Closest& c) {
+  PairDistance d;
+  d.squared = c.squared;
+  if (c.interior) {
+    d.parameters = 2;
+    const double u = c.beta0, v = c.beta1;
+    if (kind == PairKind::PointTriangle) { // r = x0 - (1 - u - v) x1 - u x2 - v x3
+      d.features = ClosestFeatures::PointFace;
+      d.a = {1, -(1 - u - v), -u, -v};
+      d.da[0] = {0, 1, -1, 0};
+      d.da[1] = {0, 1, 0, -1};
+    } else { // r = (1 - s) x0 + s x1 - (1 - t) x2 - t x3
+      d.features = ClosestFeatures::EdgeEdge;
+      d.a = {1 - u, u, -(1 - v), -v};
+      d.da[0] = {-1, 1, 0, 0};
+      d.da[1] = {0, 0, 1, -1};
+    }
+    return d;
+  }
+  d.a[c.i] = 1;
+  if (c.beta0 == 0 || c.beta0 == 1) { // r = x_i - x_end
+    d.features = ClosestFeatures::PointPoint;
+    d.a[c.beta0 == 0 ? c.j : c.k] = -1;
+    return d;
+  }
+  d.features = ClosestFeatures::PointEdge; // r = x_i - (1 - beta) x_j - beta x_k
+  d.parameters = 1;
+  d.a[c.j] = -(1 - c.beta0);
+  d.a[c.k] = -c.beta0;
+  d.da[0][c.j] = 1;
+  d.da[0][c.k] = -1;
+  return d;
 }
 
 } // namespace
 
 PairDistance point_triangle_distance(const PairPoints& x) {
-  const Vec3 e1 = x[2] - x[1], e2 = x[3] - x[1], w = x[0] - x[1];
-  const double a11 = e1.squaredNorm(), a22 = e2.squaredNorm(), a12 = e1.dot(e2);
-  const double det = e1.cross(e2).squaredNorm();
-  if (det > kFlatSin2 * a11 * a22) {
-    const double b1 = e1.dot(w), b2 = e2.dot(w);
-    const double beta1 = (a22 * b1 - a12 * b2) / det, beta2 = (a11 * b2 - a12 * b1) / det;
-    if (beta1 >= 0 && beta2 >= 0 && beta1 + beta2 <= 1) {
-      PairDistance d;
-      d.features = ClosestFeatures::PointFace;
-      d.parameters = 2;
-      // r = x0 - (1 - beta1 - beta2) x1 - beta1 x2 - beta2 x3
-      d.a = {1, -(1 - beta1 - beta2), -beta1, -beta2};
-      d.da[0] = {0, 1, -1, 0};
-      d.da[1] = {0, 1, 0, -1};
-      d.squared = (w - beta1 * e1 - beta2 * e2).squaredNorm();
-      return d;
-    }
-  }
-  // The projection falls outside (or the triangle is flat): the closest point is on the boundary.
-  return nearer(nearer(point_segment(x, 0, 1, 2), point_segment(x, 0, 2, 3)), point_segment(x, 0, 3, 1));
+  return stencil(PairKind::PointTriangle, checked(point_triangle_core(x)));
 }
 
-PairDistance edge_edge_distance(const PairPoints& x) {
-  const Vec3 e0 = x[1] - x[0], e1 = x[3] - x[2], w = x[0] - x[2];
-  const double a = e0.squaredNorm(), b = e0.dot(e1), c = e1.squaredNorm();
-  const double det = e0.cross(e1).squaredNorm();
-  if (det > kFlatSin2 * a * c) {
-    const double d0 = e0.dot(w), d1 = e1.dot(w);
-    const double s = (b * d1 - c * d0) / det, t = (a * d1 - b * d0) / det;
-    if (s >= 0 && s <= 1 && t >= 0 && t <= 1) {
-      PairDistance d;
-      d.features = ClosestFeatures::EdgeEdge;
-      d.parameters = 2;
-      // r = (1 - s) x0 + s x1 - (1 - t) x2 - t x3
-      d.a = {1 - s, s, -(1 - t), -t};
-      d.da[0] = {-1, 1, 0, 0};
-      d.da[1] = {0, 0, 1, -1};
-      d.squared = (w + s * e0 - t * e1).squaredNorm();
-      return d;
-    }
-  }
-  // The lines' closest points lie outside the segments (or the segments are parallel): the
-  // minimum over the parameter square is on its boundary, an end against the other segment.
-  return nearer(nearer(point_segment(x, 0, 2, 3), point_segment(x, 1, 2, 3)),
-                nearer(point_segment(x, 2, 0, 1), point_segment(x, 3, 0, 1)));
-}
+PairDistance edge_edge_distance(const PairPoints& x) { return stencil(PairKind::EdgeEdge, checked(edge_edge_core(x))); }
 
 PairDistance pair_distance(PairKind kind, const PairPoints& x) {
   return kind == PairKind::PointTriangle ? point_triangle_distance(x) : edge_edge_distance(x);
+}
+
+double pair_squared_distance(PairKind kind, const PairPoints& x) {
+  return checked(kind == PairKind::PointTriangle ? point_triangle_core(x) : edge_edge_core(x)).squared;
 }
 
 Vector12d squared_distance_gradient(const PairPoints& x, const PairDistance& d) {

@@ -118,7 +118,7 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
   build_nodes(keyed, distances ? kDistanceLeafSize : kPairLeafSize);
 }
 
-FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes) {
+FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {
   const int m = static_cast<int>(boxes.size());
   if (m == 0) return;
   std::vector<Eigen::Vector3d> centroids(m);
@@ -130,7 +130,7 @@ FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes) {
     slot_face_[s] = keyed[s].second;
     slot_box_[s] = boxes[keyed[s].second];
   }
-  build_nodes(keyed, kPairLeafSize);
+  build_nodes(keyed, std::max(leaf_size, 1));
 }
 
 // Splits a slot range where its Morton codes first differ (an octree-like spatial split, so

@@ -28,6 +28,9 @@ BarrierValue barrier(double s, double s_hat);
 double pair_barrier(PairKind kind, const PairPoints& x, double dhat, Vector12d* gradient = nullptr,
                     Matrix12d* hessian = nullptr);
 
+/// pair_barrier's value when the pair's squared distance s is known (the same bits).
+double pair_barrier_energy(PairKind kind, const PairPoints& x, double s, double dhat);
+
 /// Projects a symmetric matrix onto the positive semi-definite cone (negative eigenvalues set to
 /// 0), the Hessian approximation of Newton-type solvers. Rows and columns that are zero (points
 /// a pair's closest features do not involve) are left out of the eigen-decomposition.

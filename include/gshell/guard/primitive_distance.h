@@ -52,8 +52,12 @@ PairDistance point_triangle_distance(const PairPoints& x);
 /// (sin^2 of their angle) are measured by their ends, for the same reason.
 PairDistance edge_edge_distance(const PairPoints& x);
 
-/// point_triangle_distance or edge_edge_distance.
+/// point_triangle_distance or edge_edge_distance. Non-finite points give a NaN distance.
 PairDistance pair_distance(PairKind kind, const PairPoints& x);
+
+/// pair_distance(kind, x).squared (the same bits), without building the stencil: the fast path
+/// of passes over many pairs.
+double pair_squared_distance(PairKind kind, const PairPoints& x);
 
 /// d(d^2)/dx at the points the distance was measured at.
 Vector12d squared_distance_gradient(const PairPoints& x, const PairDistance& d);
