@@ -541,6 +541,33 @@ TEST(ContactGuard, CandidateListEqualsBruteForceAndIsKeptForSmallMoves) {
   }
 }
 
+TEST(ContactGuard, CandidateListOfAPartlyMovableTopFollowsItsMoves) {
+  // Only the top over x > 0 moves (a solver repairing a region): the fixed part's search structure
+  // is kept across rebuilds while it stays, and remade when a fixed vertex moves.
+  ShellCase s = make_shell(test::plane(8, 0.3), 0.1);
+  for (int i = s.n; i < 2 * s.n; ++i) s.movable[i] = s.X(i, 0) > 0;
+  const Eigen::MatrixXd X0 = jitter(s.X, 0.05, 21);
+  ContactOptions o;
+  o.dhat = 0.1;
+  o.slack = 0.04;
+  ContactGuard guard(s.boundary, 2 * s.n, s.movable, o);
+  guard.energy(X0);
+  EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(s, X0, o.dhat + o.slack));
+  Eigen::MatrixXd X1 = X0;
+  const Eigen::MatrixXd noise = jitter(Eigen::MatrixXd::Zero(2 * s.n, 3), 0.08, 22);
+  for (int i = 0; i < 2 * s.n; ++i)
+    if (s.movable[i]) X1.row(i) += noise.row(i);
+  guard.energy(X1);
+  EXPECT_EQ(guard.candidate_builds(), 2);
+  EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(s, X1, o.dhat + o.slack));
+  Eigen::MatrixXd X2 = X1;
+  X2.row(3) += Eigen::RowVector3d(0.03, -0.02, 0.04); // a base vertex: the fixed part moves
+  X2.row(2 * s.n - 1) += Eigen::RowVector3d(0.05, 0.05, 0.05);
+  guard.energy(X2);
+  EXPECT_EQ(guard.candidate_builds(), 3);
+  EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(s, X2, o.dhat + o.slack));
+}
+
 TEST(ContactGuard, SkipsFixedOnlyPairsAndExcludedTriangles) {
   // A base folded so tightly that base triangles come close to each other, and a jittered top.
   test::SimpleMesh base = test::plane(6, 0);

@@ -53,6 +53,9 @@ struct ContactGuard::Impl {
   std::vector<float> built_distance[2];
   std::vector<Vec3> built_at; // positions at the last build
   int builds = 0;
+  // The fixed patch of the broad phase, kept while its vertices stay where they were.
+  detail::ContactPatch fixed_patch;
+  std::vector<Vec3> fixed_patch_at; // positions of fixed_patch_vertices() when it was made
   double drift = 0; // largest displacement of a boundary vertex from built_at, at x
 
   std::vector<Vec3> x; // the last X seen, packed (a pair's point is one cache line)
@@ -140,9 +143,18 @@ struct ContactGuard::Impl {
       Ids ids;
       float distance;
     };
+    const std::vector<int>& fixed_vertices = primitives.fixed_patch_vertices();
+    bool fixed_moved = fixed_patch_at.size() != fixed_vertices.size();
+    for (std::size_t i = 0; i < fixed_vertices.size() && !fixed_moved; ++i)
+      fixed_moved = x[fixed_vertices[i]] != fixed_patch_at[i];
+    if (fixed_moved) {
+      fixed_patch = primitives.patch(false, box);
+      fixed_patch_at.resize(fixed_vertices.size());
+      for (std::size_t i = 0; i < fixed_vertices.size(); ++i) fixed_patch_at[i] = x[fixed_vertices[i]];
+    }
     tbb::enumerable_thread_specific<std::array<std::vector<Found>, 2>> found;
     const double radius2 = radius * radius;
-    primitives.for_each_pair(box, [&](PairKind kind, int a, int b, const Ids& ids) {
+    primitives.for_each_pair(primitives.patch(true, box), fixed_patch, [&](PairKind kind, int a, int b, const Ids& ids) {
       const double d2 = pair_squared_distance(kind, points(ids));
       if (!(d2 < radius2)) return;
       const float d = std::nextafter(static_cast<float>(std::sqrt(d2)), 0.0f); // <= the distance

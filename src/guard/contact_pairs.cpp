@@ -3,6 +3,8 @@
 #include <gshell/error.h>
 #include <gshell/geometry/mesh_topology.h>
 
+#include <tbb/parallel_for.h>
+
 #include <string>
 
 namespace gshell::detail {
@@ -74,6 +76,79 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
   };
   group(vertex_owner, vertex_owner_offsets_, owned_vertices_);
   group(edge_owner, edge_owner_offsets_, owned_edges_);
+
+  std::vector<char> in_fixed_patch(num_vertices, 0);
+  for (int t = 0; t < m; ++t) {
+    const bool fixed = triangle_flags_[t] & kFixed;
+    patch_triangles_[fixed ? 0 : 1].push_back(t);
+    if (fixed)
+      for (int v : triangles_[t]) in_fixed_patch[v] = 1;
+  }
+  for (int v = 0; v < num_vertices; ++v)
+    if (in_fixed_patch[v]) fixed_patch_vertices_.push_back(v);
+}
+
+ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box) const {
+  const std::vector<int>& tris = patch_triangles_[movable ? 1 : 0];
+  const int m = static_cast<int>(tris.size());
+  ContactPatch p;
+  if (m == 0) return p;
+  std::vector<Eigen::AlignedBox3d> box(m);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i < r.end(); ++i) {
+      const auto& c = triangles_[tris[i]];
+      box[i] = vertex_box[c[0]];
+      box[i].extend(vertex_box[c[1]]).extend(vertex_box[c[2]]);
+    }
+  });
+  p.tree = FaceBvh(box, kLeafFaces);
+  const std::vector<int>& local = p.tree.faces_in_leaf_order();
+
+  // Slot s: triangle tris[local[s]], then the vertices and edges it owns, so a leaf's (a slot
+  // range's) triangles, vertices and edges are three runs, with their ids and flags.
+  p.triangle.resize(m);
+  p.vertex_begin.assign(m + 1, 0);
+  p.edge_begin.assign(m + 1, 0);
+  for (int s = 0; s < m; ++s) {
+    const int f = p.triangle[s] = tris[local[s]];
+    p.vertex_begin[s + 1] = p.vertex_begin[s] + vertex_owner_offsets_[f + 1] - vertex_owner_offsets_[f];
+    p.edge_begin[s + 1] = p.edge_begin[s] + edge_owner_offsets_[f + 1] - edge_owner_offsets_[f];
+  }
+  const int nv = p.vertex_begin[m], ne = p.edge_begin[m];
+  p.tri_box.resize(m);
+  p.vert_box.resize(nv);
+  p.edge_box.resize(ne);
+  p.tri_corner.resize(m);
+  p.tri_flags.resize(m);
+  p.vert_id.resize(nv);
+  p.vert_flags.resize(nv);
+  p.edge_id.resize(ne);
+  p.edge_end.resize(ne);
+  p.edge_flags.resize(ne);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 2048), [&](const tbb::blocked_range<int>& r) {
+    for (int s = r.begin(); s < r.end(); ++s) {
+      const int f = p.triangle[s];
+      p.tri_box.set(s, box[local[s]]);
+      p.tri_corner[s] = triangles_[f];
+      p.tri_flags[s] = triangle_flags_[f];
+      int out = p.vertex_begin[s];
+      for (int i = vertex_owner_offsets_[f]; i < vertex_owner_offsets_[f + 1]; ++i, ++out) {
+        const int v = owned_vertices_[i];
+        p.vert_id[out] = v;
+        p.vert_flags[out] = vertex_flags_[v];
+        p.vert_box.set(out, vertex_box[v]);
+      }
+      out = p.edge_begin[s];
+      for (int i = edge_owner_offsets_[f]; i < edge_owner_offsets_[f + 1]; ++i, ++out) {
+        const int e = owned_edges_[i];
+        p.edge_id[out] = e;
+        p.edge_end[out] = edges_[e];
+        p.edge_flags[out] = edge_flags_[e];
+        p.edge_box.set(out, vertex_box[edges_[e][0]].merged(vertex_box[edges_[e][1]]));
+      }
+    }
+  });
+  return p;
 }
 
 } // namespace gshell::detail

@@ -9,6 +9,12 @@
 // found whenever the two primitives' boxes meet (the owners' boxes contain them). The records a
 // visit reads are laid out in the tree's leaf order: neighbouring slots are neighbours in space,
 // so the visits of one subtree stay within a small piece of memory.
+//
+// The triangles fall into two patches with a tree each: those with a movable corner and the
+// fixed ones. A pair of the module has a movable vertex, so its owners are both movable or one
+// movable and one fixed: the movable patch is joined with itself and with the fixed patch, never
+// the fixed patch with itself. The fixed patch can be kept while the fixed vertices stay put
+// (a solver that moves a small region joins only that region against it).
 #include "quality/face_bvh.h"
 
 #include <gshell/guard/primitive_distance.h>
@@ -85,6 +91,23 @@ private:
   std::vector<float> lo_[3], hi_[3];
 };
 
+class ContactPrimitives;
+
+/// The triangles of one patch in the leaf order of a tree over their boxes, with the vertices
+/// and edges they own: what a leaf pair reads, in slot order (made by ContactPrimitives::patch).
+struct ContactPatch {
+  FaceBvh tree{std::vector<Eigen::AlignedBox3d>{}};
+  std::vector<int> triangle;                    ///< per slot: boundary triangle id
+  std::vector<int> vertex_begin, edge_begin;    ///< per slot + 1: owned vertices / edges start
+  FloatBoxes tri_box, vert_box, edge_box;
+  std::vector<std::array<int, 3>> tri_corner;
+  std::vector<unsigned char> tri_flags, vert_flags, edge_flags;
+  std::vector<int> vert_id, edge_id;
+  std::vector<std::array<int, 2>> edge_end;
+
+  int size() const { return static_cast<int>(triangle.size()); }
+};
+
 class ContactPrimitives {
 public:
   /// Checks sizes and indices (InputError).
@@ -96,6 +119,8 @@ public:
   int num_edges() const { return static_cast<int>(edges_.size()); }
   /// Vertices some boundary triangle uses, ascending.
   const std::vector<int>& boundary_vertices() const { return boundary_vertices_; }
+  /// Corners of triangles that have no movable corner (the fixed patch's vertices), ascending.
+  const std::vector<int>& fixed_patch_vertices() const { return fixed_patch_vertices_; }
 
   /// The pair's four vertex ids in PairPoints order (vertex v and triangle t, or edges e and f).
   std::array<int, 4> point_triangle(int v, int t) const {
@@ -105,124 +130,98 @@ public:
     return {edges_[e][0], edges_[e][1], edges_[f][0], edges_[f][1]};
   }
 
+  /// The movable or the fixed patch, its primitives' boxes from vertex_box (a vertex's box is
+  /// vertex_box[v], an edge's or a triangle's the union of its vertices' boxes; only the
+  /// patch's vertices are read).
+  ContactPatch patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box) const;
+
   /// Calls visit(kind, a, b, vertices) for every pair of the module (no shared vertex, not all
   /// four vertices fixed, nothing excluded: contact_guard.h) whose boxes meet: (vertex a,
   /// triangle b) or (edge a, edge b) with a < b, and the pair's vertex ids in PairPoints order.
-  /// A vertex's box is vertex_box[v], an edge's or a triangle's the union of its vertices' boxes.
-  /// visit runs concurrently from several threads.
+  /// `movable` and `fixed` are the two patches made from the same boxes. visit runs concurrently
+  /// from several threads.
   template <class Visit>
-  void for_each_pair(const std::vector<Eigen::AlignedBox3d>& vertex_box, Visit&& visit) const;
+  void for_each_pair(const ContactPatch& movable, const ContactPatch& fixed, Visit&& visit) const;
+
+  /// The same with both patches made from vertex_box.
+  template <class Visit>
+  void for_each_pair(const std::vector<Eigen::AlignedBox3d>& vertex_box, Visit&& visit) const {
+    for_each_pair(patch(true, vertex_box), patch(false, vertex_box), visit);
+  }
+
+  /// Faces per leaf of the patches' trees: a leaf pair tests all its primitives' boxes in
+  /// vectorised runs, so leaves hold more faces than a face-by-face search would want. A leaf
+  /// owns at most 3 kLeafFaces edges: runs fit FloatBoxes::meets' 32 bits.
+  static constexpr int kLeafFaces = 8;
+  /// Flags of a primitive.
+  static constexpr unsigned char kExcluded = 1, kFixed = 2;
 
 private:
-  // Faces per leaf of the broad phase's tree: a leaf pair tests all its primitives' boxes in
-  // vectorised runs, so leaves hold more faces than a face-by-face search would want. A leaf
-  // owns at most 3 kLeafFaces edges: runs fit FloatBoxes::meets' 32 bits.
-  static constexpr int kLeafFaces = 8;
-  // Flags of a primitive.
-  static constexpr unsigned char kExcluded = 1, kFixed = 2;
+  // The pairs between leaf [a0, a1) of patch A and leaf [b0, b1) of patch B (the same leaf of
+  // one patch when self).
+  template <class Visit>
+  static void leaf_pair(const ContactPatch& A, int a0, int a1, const ContactPatch& B, int b0, int b1, bool self,
+                        Visit& visit);
 
   int num_vertices_ = 0;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
-  std::vector<int> boundary_vertices_;
+  std::vector<int> boundary_vertices_, fixed_patch_vertices_;
   std::vector<unsigned char> vertex_flags_, triangle_flags_, edge_flags_;
+  std::vector<int> patch_triangles_[2]; // [0] fixed, [1] movable, ascending
   // Per triangle, the vertices and edges it owns: owned_*[offsets[t] .. offsets[t + 1]).
   std::vector<int> vertex_owner_offsets_, owned_vertices_, edge_owner_offsets_, owned_edges_;
 };
 
 template <class Visit>
-void ContactPrimitives::for_each_pair(const std::vector<Eigen::AlignedBox3d>& vertex_box, Visit&& visit) const {
-  const int m = num_triangles();
-  if (m == 0) return;
-  std::vector<Eigen::AlignedBox3d> box(m);
-  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
-    for (int t = r.begin(); t < r.end(); ++t) {
-      box[t] = vertex_box[triangles_[t][0]];
-      box[t].extend(vertex_box[triangles_[t][1]]).extend(vertex_box[triangles_[t][2]]);
-    }
-  });
-  const FaceBvh tree(box, kLeafFaces);
-  const std::vector<int>& face = tree.faces_in_leaf_order();
-
-  // Primitives in slot order: triangle s, then the vertices and edges its face owns, so a leaf's
-  // (a slot range's) triangles, vertices and edges are three runs, with their ids and flags.
-  std::vector<int> vertex_begin(m + 1, 0), edge_begin(m + 1, 0), movable_before(m + 1, 0);
-  for (int s = 0; s < m; ++s) {
-    const int f = face[s];
-    vertex_begin[s + 1] = vertex_begin[s] + vertex_owner_offsets_[f + 1] - vertex_owner_offsets_[f];
-    edge_begin[s + 1] = edge_begin[s] + edge_owner_offsets_[f + 1] - edge_owner_offsets_[f];
-    movable_before[s + 1] = movable_before[s] + !(triangle_flags_[f] & kFixed);
-  }
-  FloatBoxes tri_box, vert_box, edge_box;
-  tri_box.resize(m);
-  vert_box.resize(vertex_begin[m]);
-  edge_box.resize(edge_begin[m]);
-  std::vector<std::array<int, 3>> tri_corner(m);
-  std::vector<int> vert_id(vertex_begin[m]);
-  std::vector<std::array<int, 2>> edge_end(edge_begin[m]);
-  std::vector<int> edge_id(edge_begin[m]);
-  std::vector<unsigned char> tri_flags(m), vert_flags(vertex_begin[m]), edge_flags(edge_begin[m]);
-  tbb::parallel_for(tbb::blocked_range<int>(0, m, 2048), [&](const tbb::blocked_range<int>& r) {
-    for (int s = r.begin(); s < r.end(); ++s) {
-      const int f = face[s];
-      tri_box.set(s, box[f]);
-      tri_corner[s] = triangles_[f];
-      tri_flags[s] = triangle_flags_[f];
-      int out = vertex_begin[s];
-      for (int i = vertex_owner_offsets_[f]; i < vertex_owner_offsets_[f + 1]; ++i, ++out) {
-        const int v = owned_vertices_[i];
-        vert_id[out] = v;
-        vert_flags[out] = vertex_flags_[v];
-        vert_box.set(out, vertex_box[v]);
-      }
-      out = edge_begin[s];
-      for (int i = edge_owner_offsets_[f]; i < edge_owner_offsets_[f + 1]; ++i, ++out) {
-        const int e = owned_edges_[i];
-        edge_id[out] = e;
-        edge_end[out] = edges_[e];
-        edge_flags[out] = edge_flags_[e];
-        edge_box.set(out, vertex_box[edges_[e][0]].merged(vertex_box[edges_[e][1]]));
-      }
-    }
-  });
-
-  tree.for_each_overlapping_leaf_pair([&](int a0, int a1, int b0, int b1) {
-    // Two leaves of fixed triangles only (the base against itself) hold no pair of the module.
-    if (movable_before[a1] == movable_before[a0] && movable_before[b1] == movable_before[b0]) return;
-    // Primitives of one leaf are tested against the other leaf's box first: leaves that meet
-    // mostly overlap in part.
-    const std::array<float, 6> box_a = tri_box.hull(a0, a1 - a0), box_b = tri_box.hull(b0, b1 - b0);
-    auto points_against = [&](int from, int to, int t0, int t1, const std::array<float, 6>& hull) {
-      for (int i = from; i < to; ++i) { // vertices [from, to) against the triangles of slots [t0, t1)
-        if ((vert_flags[i] & kExcluded) || !vert_box.meets(i, hull)) continue;
-        const int v = vert_id[i];
-        for (std::uint32_t hit = vert_box.meets(i, tri_box, t0, t1 - t0); hit; hit &= hit - 1) {
-          const int t = t0 + std::countr_zero(hit);
-          const auto& c = tri_corner[t];
-          if (v == c[0] || v == c[1] || v == c[2] || (tri_flags[t] & kExcluded) || (vert_flags[i] & tri_flags[t] & kFixed))
-            continue;
-          visit(PairKind::PointTriangle, v, face[t], std::array<int, 4>{v, c[0], c[1], c[2]});
-        }
-      }
-    };
-    points_against(vertex_begin[a0], vertex_begin[a1], b0, b1, box_b);
-    const bool self = a0 == b0;
-    if (!self) points_against(vertex_begin[b0], vertex_begin[b1], a0, a1, box_a);
-    const int f1 = edge_begin[b1];
-    for (int i = edge_begin[a0]; i < edge_begin[a1]; ++i) {
-      if ((edge_flags[i] & kExcluded) || !edge_box.meets(i, box_b)) continue;
-      const int f0 = self ? i + 1 : edge_begin[b0];
-      const auto& p = edge_end[i];
-      for (std::uint32_t hit = edge_box.meets(i, edge_box, f0, f1 - f0); hit; hit &= hit - 1) {
-        const int j = f0 + std::countr_zero(hit);
-        const auto& q = edge_end[j];
-        if (p[0] == q[0] || p[0] == q[1] || p[1] == q[0] || p[1] == q[1] || (edge_flags[j] & kExcluded) ||
-            (edge_flags[i] & edge_flags[j] & kFixed))
+void ContactPrimitives::leaf_pair(const ContactPatch& A, int a0, int a1, const ContactPatch& B, int b0, int b1,
+                                  bool self, Visit& visit) {
+  // Primitives of one leaf are tested against the other leaf's box first: leaves that meet
+  // mostly overlap in part.
+  const std::array<float, 6> box_a = A.tri_box.hull(a0, a1 - a0), box_b = B.tri_box.hull(b0, b1 - b0);
+  // Vertices [from, to) of P against the triangles of slots [t0, t1) of Q (box: theirs).
+  auto points_against = [&](const ContactPatch& P, int from, int to, const ContactPatch& Q, int t0, int t1,
+                            const std::array<float, 6>& box) {
+    for (int i = from; i < to; ++i) {
+      if ((P.vert_flags[i] & kExcluded) || !P.vert_box.meets(i, box)) continue;
+      const int v = P.vert_id[i];
+      for (std::uint32_t hit = P.vert_box.meets(i, Q.tri_box, t0, t1 - t0); hit; hit &= hit - 1) {
+        const int t = t0 + std::countr_zero(hit);
+        const auto& c = Q.tri_corner[t];
+        if (v == c[0] || v == c[1] || v == c[2] || (Q.tri_flags[t] & kExcluded) ||
+            (P.vert_flags[i] & Q.tri_flags[t] & kFixed))
           continue;
-        if (edge_id[i] < edge_id[j]) visit(PairKind::EdgeEdge, edge_id[i], edge_id[j], std::array<int, 4>{p[0], p[1], q[0], q[1]});
-        else visit(PairKind::EdgeEdge, edge_id[j], edge_id[i], std::array<int, 4>{q[0], q[1], p[0], p[1]});
+        visit(PairKind::PointTriangle, v, Q.triangle[t], std::array<int, 4>{v, c[0], c[1], c[2]});
       }
     }
+  };
+  points_against(A, A.vertex_begin[a0], A.vertex_begin[a1], B, b0, b1, box_b);
+  if (!self) points_against(B, B.vertex_begin[b0], B.vertex_begin[b1], A, a0, a1, box_a);
+  const int f1 = B.edge_begin[b1];
+  for (int i = A.edge_begin[a0]; i < A.edge_begin[a1]; ++i) {
+    if ((A.edge_flags[i] & kExcluded) || !A.edge_box.meets(i, box_b)) continue;
+    const int f0 = self ? i + 1 : B.edge_begin[b0];
+    const auto& p = A.edge_end[i];
+    for (std::uint32_t hit = A.edge_box.meets(i, B.edge_box, f0, f1 - f0); hit; hit &= hit - 1) {
+      const int j = f0 + std::countr_zero(hit);
+      const auto& q = B.edge_end[j];
+      if (p[0] == q[0] || p[0] == q[1] || p[1] == q[0] || p[1] == q[1] || (B.edge_flags[j] & kExcluded) ||
+          (A.edge_flags[i] & B.edge_flags[j] & kFixed))
+        continue;
+      const int e = A.edge_id[i], g = B.edge_id[j];
+      if (e < g) visit(PairKind::EdgeEdge, e, g, std::array<int, 4>{p[0], p[1], q[0], q[1]});
+      else visit(PairKind::EdgeEdge, g, e, std::array<int, 4>{q[0], q[1], p[0], p[1]});
+    }
+  }
+}
+
+template <class Visit>
+void ContactPrimitives::for_each_pair(const ContactPatch& movable, const ContactPatch& fixed, Visit&& visit) const {
+  movable.tree.for_each_overlapping_leaf_pair([&](int a0, int a1, int b0, int b1) {
+    leaf_pair(movable, a0, a1, movable, b0, b1, a0 == b0, visit);
+  });
+  movable.tree.for_each_overlapping_leaf_pair(fixed.tree, [&](int a0, int a1, int b0, int b1) {
+    leaf_pair(movable, a0, a1, fixed, b0, b1, false, visit);
   });
 }
 

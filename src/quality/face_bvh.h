@@ -52,6 +52,10 @@ public:
   /// visit runs concurrently from several threads.
   template <class Visit> void for_each_overlapping_leaf_pair(Visit&& visit) const;
 
+  /// Calls visit(b0, e0, b1, e1) for every leaf [b0, e0) of this tree and [b1, e1) of `other`
+  /// whose boxes meet. visit runs concurrently from several threads.
+  template <class Visit> void for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const;
+
   /// Squared distance from q to the surface (model units squared), or bound2 if that is smaller.
   /// Needs Use::distances.
   /// A good bound2 (e.g. the squared distance to a known point of the surface) prunes the search.
@@ -161,6 +165,12 @@ template <class Visit>
 void FaceBvh::for_each_overlapping_leaf_pair(Visit&& visit) const {
   auto leaves = [&](const Node& na, const Node& nb, bool) { visit(na.begin, na.end, nb.begin, nb.end); };
   if (!nodes_.empty()) join(0, *this, 0, true, leaves);
+}
+
+template <class Visit>
+void FaceBvh::for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const {
+  auto leaves = [&](const Node& na, const Node& nb, bool) { visit(na.begin, na.end, nb.begin, nb.end); };
+  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 
 } // namespace gshell::detail
