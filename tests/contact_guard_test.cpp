@@ -544,7 +544,7 @@ TEST(ContactGuard, CandidateListEqualsBruteForceAndIsKeptForSmallMoves) {
 TEST(ContactGuard, CandidateListOfAPartlyMovableTopFollowsItsMoves) {
   // Only the top over x > 0 moves (a solver repairing a region): the fixed part's search structure
   // is kept across rebuilds while it stays, and remade when a fixed vertex moves.
-  ShellCase s = make_shell(test::plane(8, 0.3), 0.1);
+  ShellCase s = make_shell(test::plane(8, 0.3), 0.3); // thicker than dhat + slack
   for (int i = s.n; i < 2 * s.n; ++i) s.movable[i] = s.X(i, 0) > 0;
   const Eigen::MatrixXd X0 = jitter(s.X, 0.05, 21);
   ContactOptions o;
@@ -560,12 +560,18 @@ TEST(ContactGuard, CandidateListOfAPartlyMovableTopFollowsItsMoves) {
   guard.energy(X1);
   EXPECT_EQ(guard.candidate_builds(), 2);
   EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(s, X1, o.dhat + o.slack));
+  // A base vertex under the moving top rises within reach of it: new pairs with fixed vertices.
   Eigen::MatrixXd X2 = X1;
-  X2.row(3) += Eigen::RowVector3d(0.03, -0.02, 0.04); // a base vertex: the fixed part moves
-  X2.row(2 * s.n - 1) += Eigen::RowVector3d(0.05, 0.05, 0.05);
+  int lifted = 0;
+  while (!(s.X(lifted, 0) > 0.4 && std::abs(s.X(lifted, 1)) < 0.5)) ++lifted;
+  X2(lifted, 2) += 0.3;
   guard.energy(X2);
   EXPECT_EQ(guard.candidate_builds(), 3);
-  EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(s, X2, o.dhat + o.slack));
+  const auto expected = brute_force_pairs(s, X2, o.dhat + o.slack);
+  EXPECT_TRUE(std::any_of(expected.begin(), expected.end(), [&](const std::vector<int>& k) {
+    return std::find(k.begin() + 1, k.end(), lifted) != k.end();
+  }));
+  EXPECT_EQ(keys(guard.candidate_pairs()), expected);
 }
 
 TEST(ContactGuard, SkipsFixedOnlyPairsAndExcludedTriangles) {
