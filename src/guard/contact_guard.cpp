@@ -267,23 +267,24 @@ void ContactGuard::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::M
 void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H) {
   Impl& m = *impl_;
   m.scan(X);
-  std::vector<Matrix12d> h(m.active.size());
-  tbb::parallel_for(0, static_cast<int>(h.size()), [&](int i) {
-    h[i].setZero();
-    pair_barrier(m.active[i].kind, m.points(m.ids(m.active[i])), m.options.dhat, nullptr, &h[i]);
-    project_to_psd(h[i]);
+  const int n = static_cast<int>(m.active.size());
+  std::vector<std::vector<Eigen::Triplet<double>>> block_triplets((n + kBlock - 1) / kBlock);
+  for_blocks(n, [&](int begin, int end, int b) {
+    std::vector<Eigen::Triplet<double>>& out = block_triplets[b];
+    Matrix12d h;
+    for (int i = begin; i < end; ++i) {
+      h.setZero(); // stays zero for a touching pair
+      const Ids& ids = m.ids(m.active[i]);
+      pair_barrier(m.active[i].kind, m.points(ids), m.options.dhat, nullptr, &h);
+      project_to_psd(h);
+      for (int k = 0; k < 4; ++k)
+        for (int l = 0; l < 4; ++l)
+          for (int a = 0; a < 3; ++a)
+            for (int c = 0; c < 3; ++c)
+              if (const double v = h(3 * k + a, 3 * l + c); v != 0) out.emplace_back(3 * ids[k] + a, 3 * ids[l] + c, scale * v);
+    }
   });
-  for (std::size_t i = 0; i < h.size(); ++i) {
-    const Ids& ids = m.ids(m.active[i]);
-    for (int k = 0; k < 4; ++k)
-      for (int l = 0; l < 4; ++l) {
-        const auto block = h[i].block<3, 3>(3 * k, 3 * l);
-        if (block.isZero(0)) continue;
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            if (block(a, b) != 0) H.emplace_back(3 * ids[k] + a, 3 * ids[l] + b, scale * block(a, b));
-      }
-  }
+  for (const auto& out : block_triplets) H.insert(H.end(), out.begin(), out.end()); // list order
 }
 
 double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step) {
