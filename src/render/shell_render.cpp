@@ -227,8 +227,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   FigureOptions figure = options.figure;
   figure.color_bar = scale;
   if (color_by == ColorBy::Stretch && figure.footnote.empty())
-    figure.footnote = "stretch = \u03a3\u1d62 (\u03c3\u1d62 \u2212 1)\u00b2 per tet (\u03c3\u1d62: singular values); a face shows the "
-                       "volume-weighted mean of its prism's 3 tets";
+    figure.footnote = "stretch = \u03a3\u1d62 (\u03c3\u1d62 \u2212 1)\u00b2 per tet; faces show their prism's volume-weighted mean";
   if (color_by == ColorBy::Thickness && figure.footnote.empty())
     figure.footnote = "thickness = |top\u1d62 \u2212 base\u1d62| / \u03b7 per vertex";
   return render_figure(panels, figure, layout);
