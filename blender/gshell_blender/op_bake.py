@@ -81,24 +81,34 @@ class Bake:
             raise shell_store.ShellError(f"cannot write the cache: {e}") from e
         self.done = 0
         self.frame_stats = []
-        self.seconds = []
 
     def step(self):
         """Bakes the next frame; True when every frame is done."""
-        start = time.perf_counter()
+        clock = [time.perf_counter()]
+
+        def lap():
+            clock.append(time.perf_counter())
+            return clock[-1] - clock[-2]
+
         frame = self.frames[self.done]
         self.scene.frame_set(frame)
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-        V = evaluated_base_positions(self.base, depsgraph, self.n)
+        V = evaluated_base_positions(self.base, bpy.context.evaluated_depsgraph_get(), self.n)
+        evaluate = lap()
         top = self.deformer.solve(V)
-        self.writers[0].write(top)
         X = self.deformer.vertices
-        for detail, embedding, writer in zip(self.details, self.embeddings, self.writers[1:]):
-            writer.write(shell_store.detail_local_points(detail, embedding.carry(X)))
+        solve = lap()
+        carried = [e.carry(X) for e in self.embeddings]
+        carry = lap()
+        self.writers[0].write(top)
+        for detail, P, writer in zip(self.details, carried, self.writers[1:]):
+            writer.write(shell_store.detail_local_points(detail, P))
+        write = lap()
         last = self.deformer.last
-        self.frame_stats.append({"frame": frame, "iterations": last["iterations"], "converged": last["converged"],
-                                 "stretch_max": last["stretch"]["max"], "inverted_tets": last["inverted_tets"]})
-        self.seconds.append(time.perf_counter() - start)
+        self.frame_stats.append({
+            "frame": frame, "iterations": last["iterations"], "converged": last["converged"],
+            "stretch_max": last["stretch"]["max"], "inverted_tets": last["inverted_tets"],
+            "seconds": {"total": clock[-1] - clock[0], "evaluate": evaluate, "solve": solve, "carry": carry,
+                        "write": write}})
         self.done += 1
         return self.done == len(self.frames)
 
@@ -109,7 +119,8 @@ class Bake:
         for obj, writer in zip([self.top] + self.details, self.writers):
             point_cache.attach(obj, writer.path, self.frames[0])
         self.scene.frame_set(self.frame_before)
-        per_frame = sorted(self.seconds)[len(self.seconds) // 2]
+        seconds = sorted(s["seconds"]["total"] for s in self.frame_stats)
+        per_frame = seconds[len(seconds) // 2]
         worst = max(s["stretch_max"] for s in self.frame_stats)
         inverted = max(s["inverted_tets"] for s in self.frame_stats)
         self.top[shell_store.BAKE_REPORT_KEY] = json.dumps({

@@ -1,6 +1,6 @@
 """Tests of the gshell Blender add-on, run inside Blender in the background with a fresh user profile:
 
-    blender/run_headless blender/tests/test_addon.py build/gshell_blender.zip     (CTest: blender_addon)
+    blender/headless/run blender/tests/test_addon.py build/gshell_blender.zip     (CTest: blender_addon)
 
 The zip is installed and enabled the way a user does it (Preferences > Add-ons > Install...), then:
 the top of a quad UV sphere equals the Python module's shell of the same mesh cut into triangles;
@@ -17,15 +17,12 @@ import unittest
 import numpy as np
 
 import bpy
-from mathutils import Euler, Matrix, Vector
+from mathutils import Euler, Vector
 
-ZIP = os.path.abspath(sys.argv[sys.argv.index("--") + 1])
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "headless"))
+import addon_session  # noqa: E402 (blender/headless/addon_session.py)
+
 THICKNESS_RATIO = 0.05
-
-
-def install_addon():
-    bpy.ops.preferences.addon_install(filepath=ZIP)
-    bpy.ops.preferences.addon_enable(module="gshell_blender")
 
 
 def the_module():
@@ -96,6 +93,18 @@ class AddonTest(unittest.TestCase):
         self.assertTrue(gshell_blender.__file__.startswith(profile), gshell_blender.__file__)
         self.assertTrue(gshell.__file__.startswith(os.path.join(profile, "addons", "gshell_blender", "lib")),
                         gshell.__file__)
+
+    def test_sidebar_tab_offers_the_operators(self):
+        from unittest import mock
+        panel = bpy.types.VIEW3D_PT_gshell
+        self.assertEqual((panel.bl_space_type, panel.bl_region_type, panel.bl_category), ("VIEW_3D", "UI", "gshell"))
+        uv_sphere(segments=8, rings=4)
+        bpy.ops.object.gshell_generate()
+        fake = mock.MagicMock()  # records the layout calls
+        panel.draw(fake, bpy.context)
+        drawn = str(fake.layout.mock_calls)
+        for operator in ("object.gshell_generate", "object.gshell_bind", "object.gshell_bake"):
+            self.assertIn(operator, drawn)
 
     def test_top_of_quad_sphere_equals_module_shell(self):
         gshell = the_module()
@@ -238,7 +247,7 @@ class AddonTest(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    install_addon()
+    addon_session.install_addon(addon_session.script_args()[0])
     suite = unittest.defaultTestLoader.loadTestsFromTestCase(AddonTest)
     result = unittest.TextTestRunner(stream=sys.stderr, verbosity=2).run(suite)
     if not result.wasSuccessful():
