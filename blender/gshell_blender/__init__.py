@@ -3,6 +3,7 @@
 Operators (Object menu search, and the "gshell" tab of the 3D view's sidebar):
   object.gshell_generate  shell of the active mesh -> new object "<name>.top"
   object.gshell_bind      bind the selected objects to the active object's shell
+  object.gshell_unbind    release the selected detail objects
   object.gshell_bake      carry the shell and the bound detail through the base's animation,
                           written as point caches (PC2) played by Mesh Cache modifiers
 
@@ -39,6 +40,7 @@ _classes = (
     panel.GShellSceneSettings,
     op_generate.OBJECT_OT_gshell_generate,
     op_bind.OBJECT_OT_gshell_bind,
+    op_bind.OBJECT_OT_gshell_unbind,
     op_bake.OBJECT_OT_gshell_bake,
     panel.VIEW3D_PT_gshell,
 )
@@ -48,6 +50,7 @@ def _menu(self, context):
     self.layout.separator()
     self.layout.operator(op_generate.OBJECT_OT_gshell_generate.bl_idname, text="gshell: Generate Shell")
     self.layout.operator(op_bind.OBJECT_OT_gshell_bind.bl_idname, text="gshell: Bind to Shell")
+    self.layout.operator(op_bind.OBJECT_OT_gshell_unbind.bl_idname, text="gshell: Unbind from Shell")
     self.layout.operator(op_bake.OBJECT_OT_gshell_bake.bl_idname, text="gshell: Bake Shell")
 
 

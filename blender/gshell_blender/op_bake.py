@@ -193,12 +193,14 @@ class OBJECT_OT_gshell_bake(bpy.types.Operator):
         count = len(self._bake.frames)
         wm = context.window_manager
         wm.progress_begin(0, count)
+        printed = time.perf_counter()
         try:
             while True:
                 state = self._step()
                 wm.progress_update(self._bake.done)
-                if bpy.app.background:
-                    print(f"gshell bake: frame {self._bake.done}/{count}", file=sys.stderr)
+                if bpy.app.background and (state == "done" or time.perf_counter() - printed > 1.0):
+                    printed = time.perf_counter()  # no window to show progress: a line a second
+                    print(f"gshell bake: '{self._bake.base.name}' frame {self._bake.done}/{count}", file=sys.stderr)
                 if state == "failed":
                     return {"CANCELLED"}
                 if state == "done":

@@ -1,7 +1,7 @@
 """object.gshell_bind: the selected objects become detail carried by the active object's shell."""
 import bpy
 
-from . import gshell_module, shell_store
+from . import gshell_module, point_cache, shell_store
 
 
 class OBJECT_OT_gshell_bind(bpy.types.Operator):
@@ -60,4 +60,24 @@ class OBJECT_OT_gshell_bind(bpy.types.Operator):
             message += (f"; {outside} vertices lie outside the shell (up to {farthest:.3g} away, local units) "
                         f"and follow the nearest tet")
         self.report({"WARNING"} if outside else {"INFO"}, message)
+        return {"FINISHED"}
+
+
+class OBJECT_OT_gshell_unbind(bpy.types.Operator):
+    """Release the selected detail objects from their shells (their baked motion is removed too)"""
+    bl_idname = "object.gshell_unbind"
+    bl_label = "Unbind from Shell"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return any(o.gshell.role == "DETAIL" for o in context.selected_objects)
+
+    def execute(self, context):
+        details = [o for o in context.selected_objects if o.gshell.role == "DETAIL"]
+        for detail in details:
+            detail.gshell.role = "NONE"
+            detail.gshell.base = None
+            point_cache.detach(detail)
+        self.report({"INFO"}, f"gshell: unbound {len(details)} object(s)")
         return {"FINISHED"}

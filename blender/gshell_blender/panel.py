@@ -49,7 +49,9 @@ class VIEW3D_PT_gshell(bpy.types.Panel):
                 box.label(text=f"stretch max {report['stretch']['max']:.3g}, {report['inverted_tets']} inverted")
             box = layout.box()
             box.label(text="Detail and bake", icon="RENDER_ANIMATION")
-            box.operator("object.gshell_bind")
+            row = box.row(align=True)
+            row.operator("object.gshell_bind")
+            row.operator("object.gshell_unbind")
             details = shell_store.details_of(base, context.scene)
             box.label(text=f"{len(details)} bound object(s)")
             row = box.row(align=True)
@@ -59,5 +61,7 @@ class VIEW3D_PT_gshell(bpy.types.Panel):
             mod = top.modifiers.get(point_cache.MODIFIER_NAME)
             if mod is not None:
                 box.label(text=f"cache: {mod.filepath}")
+        elif obj is not None and obj.gshell.role == "DETAIL":
+            layout.operator("object.gshell_unbind")
         elif obj is not None and obj.type == "MESH":
             layout.label(text=f"'{obj.name}' has no shell yet")

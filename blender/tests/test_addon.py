@@ -103,7 +103,7 @@ class AddonTest(unittest.TestCase):
         fake = mock.MagicMock()  # records the layout calls
         panel.draw(fake, bpy.context)
         drawn = str(fake.layout.mock_calls)
-        for operator in ("object.gshell_generate", "object.gshell_bind", "object.gshell_bake"):
+        for operator in ("object.gshell_generate", "object.gshell_bind", "object.gshell_unbind", "object.gshell_bake"):
             self.assertIn(operator, drawn)
 
     def test_top_of_quad_sphere_equals_module_shell(self):
@@ -207,6 +207,13 @@ class AddonTest(unittest.TestCase):
         self.assertGreater(np.abs(moved[8][0] - moved[2][0]).max(), 0.3)
         for a, b in zip(moved[8][1], moved[2][1]):
             self.assertGreater(np.linalg.norm(a - b, axis=1).min(), 0.02)
+
+        # Unbinding releases a detail and removes its baked motion.
+        select_only(details[:1], details[0])
+        self.assertEqual(bpy.ops.object.gshell_unbind(), {"FINISHED"})
+        self.assertEqual(details[0].gshell.role, "NONE")
+        self.assertNotIn("gshell bake", details[0].modifiers)
+        self.assertIn("gshell bake", details[1].modifiers)
 
     def test_topology_changing_modifier_is_an_error(self):
         sphere = uv_sphere(segments=12, rings=6)
