@@ -12,7 +12,6 @@ solve the top, carry the detail, write the caches) and of a whole frame, and the
 frame (frame change with and without the Mesh Cache modifiers).
 """
 import json
-import math
 import os
 import statistics
 import sys
@@ -68,12 +67,7 @@ def balls(gshell, base, count, rng):
         centre = 0.5 * (w @ V[F[f]] + w @ T[F[f]])
         ball = bmesh.ops.create_icosphere(bm, subdivisions=1, radius=0.3 * eta)
         bmesh.ops.translate(bm, vec=centre, verts=ball["verts"])
-    mesh = bpy.data.meshes.new("Balls")
-    bm.to_mesh(mesh)
-    bm.free()
-    obj = bpy.data.objects.new("Balls", mesh)
-    bpy.context.collection.objects.link(obj)
-    return obj
+    return addon_session.object_from_bmesh(bm, "Balls")
 
 
 def median_ms(values):
@@ -94,18 +88,9 @@ def main():
     bpy.ops.object.gshell_generate(thickness_ratio=0.02)
     generate_seconds = time.perf_counter() - start
     detail = balls(gshell, base, 400, np.random.default_rng(1))
-    bpy.ops.object.select_all(action="DESELECT")
-    detail.select_set(True)
-    base.select_set(True)
-    bpy.context.view_layer.objects.active = base
+    addon_session.select([detail, base], base)
     bpy.ops.object.gshell_bind()
-    bend = base.modifiers.new("Bend", "SIMPLE_DEFORM")
-    bend.deform_method = "BEND"
-    bend.deform_axis = "X"
-    bend.angle = 0.0
-    bend.keyframe_insert("angle", frame=1)
-    bend.angle = math.radians(90)
-    bend.keyframe_insert("angle", frame=frames)
+    addon_session.animate_bend(base, 90, 1, frames)
 
     stats, factor, iterations = [], [], []
     for _ in range(runs):

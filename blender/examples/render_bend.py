@@ -77,12 +77,7 @@ def spikes(base, eta, count, rng):
         frame = normal.to_track_quat("Z", "Y").to_matrix().to_4x4()
         frame.translation = point + normal * (0.08 * eta + 0.5 * height)
         bmesh.ops.transform(bm, matrix=frame, verts=cone["verts"])
-    mesh = bpy.data.meshes.new("Spikes")
-    bm.to_mesh(mesh)
-    bm.free()
-    obj = bpy.data.objects.new("Spikes", mesh)
-    bpy.context.collection.objects.link(obj)
-    return obj
+    return addon_session.object_from_bmesh(bm, "Spikes")
 
 
 def beads(base, eta, count):
@@ -97,13 +92,8 @@ def beads(base, eta, count):
         point = Vector((c * RADII[0] * math.sin(theta), s * RADII[1] * math.sin(theta), z)) + normal * (0.5 * eta)
         ball = bmesh.ops.create_icosphere(bm, subdivisions=2, radius=0.4 * eta)
         bmesh.ops.translate(bm, vec=point, verts=ball["verts"])
-    mesh = bpy.data.meshes.new("Beads")
-    bm.to_mesh(mesh)
-    bm.free()
-    for polygon in mesh.polygons:
-        polygon.use_smooth = True
-    obj = bpy.data.objects.new("Beads", mesh)
-    bpy.context.collection.objects.link(obj)
+    obj = addon_session.object_from_bmesh(bm, "Beads")
+    obj.data.polygons.foreach_set("use_smooth", [True] * len(obj.data.polygons))
     return obj
 
 
@@ -165,19 +155,9 @@ def main():
     top = base.gshell.top
     eta = top.gshell.thickness
     detail = [spikes(base, eta, 240, np.random.default_rng(7)), beads(base, eta, 15)]
-    bpy.ops.object.select_all(action="DESELECT")
-    for obj in detail + [base]:
-        obj.select_set(True)
-    bpy.context.view_layer.objects.active = base
+    addon_session.select(detail + [base], base)
     bpy.ops.object.gshell_bind()
-
-    bend = base.modifiers.new("Bend", "SIMPLE_DEFORM")
-    bend.deform_method = "BEND"
-    bend.deform_axis = "X"
-    bend.angle = 0.0
-    bend.keyframe_insert("angle", frame=FRAMES[0])
-    bend.angle = math.radians(150)
-    bend.keyframe_insert("angle", frame=FRAMES[-1])
+    addon_session.animate_bend(base, 150, FRAMES[0], FRAMES[-1])
     bpy.ops.object.gshell_bake(frame_start=FRAMES[0], frame_end=FRAMES[-1])
 
     base.data.materials.append(material("Base", (0.05, 0.35, 0.4)))

@@ -9,7 +9,6 @@ same base positions) and the bound detail (equal to embed().carry in world space
 module rejects (non-manifold, degenerate) and topology-changing modifiers give an error and change
 nothing.
 """
-import math
 import os
 import sys
 import unittest
@@ -64,13 +63,6 @@ def uv_sphere(name="Sphere", segments=24, rings=12):
     obj = bpy.context.active_object
     obj.name = name
     return obj
-
-
-def select_only(objects, active):
-    bpy.ops.object.select_all(action="DESELECT")
-    for o in objects:
-        o.select_set(True)
-    bpy.context.view_layer.objects.active = active
 
 
 def bounding_radius(V):
@@ -161,17 +153,11 @@ class AddonTest(unittest.TestCase):
             details.append(obj)
         bpy.context.view_layer.update()
         rest_world = [to_world(d.matrix_world, positions(d.data)) for d in details]
-        select_only(details + [sphere], sphere)
+        addon_session.select(details + [sphere], sphere)
         self.assertEqual(bpy.ops.object.gshell_bind(), {"FINISHED"})
         self.assertTrue(all(d.gshell.role == "DETAIL" and d.parent == sphere for d in details))
 
-        bend = sphere.modifiers.new("bend", "SIMPLE_DEFORM")
-        bend.deform_method = "BEND"
-        bend.deform_axis = "X"
-        bend.angle = 0.0
-        bend.keyframe_insert("angle", frame=1)
-        bend.angle = math.radians(90)
-        bend.keyframe_insert("angle", frame=8)
+        addon_session.animate_bend(sphere, 90, 1, 8)
         self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=8), {"FINISHED"})
         self.assertEqual(bpy.context.scene.frame_current, 1)
         np.testing.assert_array_equal(positions(top.data), rest_top)  # the rest top is kept
@@ -209,7 +195,7 @@ class AddonTest(unittest.TestCase):
             self.assertGreater(np.linalg.norm(a - b, axis=1).min(), 0.02)
 
         # Unbinding releases a detail and removes its baked motion.
-        select_only(details[:1], details[0])
+        addon_session.select(details[:1], details[0])
         self.assertEqual(bpy.ops.object.gshell_unbind(), {"FINISHED"})
         self.assertEqual(details[0].gshell.role, "NONE")
         self.assertNotIn("gshell bake", details[0].modifiers)
@@ -231,7 +217,7 @@ class AddonTest(unittest.TestCase):
         mesh.from_pydata(V, [], F)
         obj = bpy.data.objects.new(name, mesh)
         bpy.context.collection.objects.link(obj)
-        select_only([obj], obj)
+        addon_session.select([obj], obj)
         objects, meshes = set(bpy.data.objects), set(bpy.data.meshes)
         with self.assertRaises(RuntimeError) as error:
             bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
