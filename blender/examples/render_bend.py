@@ -61,17 +61,17 @@ def capsule():
     return obj
 
 
-def spikes(base, eta, count, rng):
-    """`count` cones standing on the base's faces, from just above the base to just below the top."""
+def spikes(eta, count, rng):
+    """`count` cones standing on the capsule, from just above the base to just below the top.
+
+    Placed on the ideal ellipsoid, not on the mesh's faces: Blender's UV sphere does not number its
+    faces the same way from run to run, and the picture should not change."""
     bm = bmesh.new()
-    base.data.calc_loop_triangles()
-    tris = list(base.data.loop_triangles)
-    areas = np.array([t.area for t in tris])
-    for t in rng.choice(len(tris), size=count, replace=False, p=areas / areas.sum()):
-        tri = tris[t]
-        w = rng.dirichlet((2.0, 2.0, 2.0))
-        point = sum((base.data.vertices[v].co * float(wi) for v, wi in zip(tri.vertices, w)), Vector())
-        normal = tri.normal
+    radii = Vector(RADII)
+    for u in rng.normal(size=(count, 3)):
+        u = Vector(u).normalized()
+        point = u * radii
+        normal = Vector((u.x / radii.x, u.y / radii.y, u.z / radii.z)).normalized()
         height = 0.8 * eta
         cone = bmesh.ops.create_cone(bm, cap_ends=True, segments=8, radius1=0.05, radius2=0.0, depth=height)
         frame = normal.to_track_quat("Z", "Y").to_matrix().to_4x4()
@@ -80,7 +80,7 @@ def spikes(base, eta, count, rng):
     return addon_session.object_from_bmesh(bm, "Spikes")
 
 
-def beads(base, eta, count):
+def beads(eta, count):
     """A row of small balls in the middle of the layer, down the capsule's side facing the camera."""
     c, s = math.cos(BEADS_AZIMUTH), math.sin(BEADS_AZIMUTH)
     bm = bmesh.new()
@@ -154,7 +154,7 @@ def main():
     bpy.ops.object.gshell_generate(thickness_ratio=0.05, method="rigid")
     top = base.gshell.top
     eta = top.gshell.thickness
-    detail = [spikes(base, eta, 240, np.random.default_rng(7)), beads(base, eta, 15)]
+    detail = [spikes(eta, 240, np.random.default_rng(7)), beads(eta, 15)]
     addon_session.select(detail + [base], base)
     bpy.ops.object.gshell_bind()
     addon_session.animate_bend(base, 150, FRAMES[0], FRAMES[-1])

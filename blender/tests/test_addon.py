@@ -203,8 +203,9 @@ class AddonTest(unittest.TestCase):
 
     def test_topology_changing_modifier_is_an_error(self):
         sphere = uv_sphere(segments=12, rings=6)
-        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        bpy.ops.object.gshell_generate(thickness_mode="ABSOLUTE", thickness=0.07)
         top = sphere.gshell.top
+        self.assertAlmostEqual(top.gshell.thickness, 0.07, places=6)
         sphere.modifiers.new("Subdivision", "SUBSURF")
         with self.assertRaises(RuntimeError) as error:
             bpy.ops.object.gshell_bake(frame_start=1, frame_end=3)
