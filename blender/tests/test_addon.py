@@ -11,6 +11,7 @@ nothing.
 """
 import os
 import sys
+import tempfile
 import unittest
 
 import numpy as np
@@ -200,6 +201,32 @@ class AddonTest(unittest.TestCase):
         self.assertEqual(details[0].gshell.role, "NONE")
         self.assertNotIn("gshell bake", details[0].modifiers)
         self.assertIn("gshell bake", details[1].modifiers)
+
+    def test_bake_of_a_saved_file_is_kept_next_to_it(self):
+        import gshell_blender
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        addon_session.animate_bend(sphere, 60, 1, 4)
+        with tempfile.TemporaryDirectory() as folder:
+            blend = os.path.join(folder, "scene.blend")
+            bpy.ops.wm.save_as_mainfile(filepath=blend)
+            self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=4), {"FINISHED"})
+            top = sphere.gshell.top
+            modifier = top.modifiers["gshell bake"]
+            self.assertEqual(modifier.filepath, "//gshell_cache/Sphere/Sphere_top.pc2")
+            self.assertEqual(os.listdir(os.path.join(folder, "gshell_cache", "Sphere")), ["Sphere_top.pc2"])
+            start, samples = gshell_blender.point_cache.read(bpy.path.abspath(modifier.filepath))
+            self.assertEqual((start, samples.shape), (1.0, (4, len(sphere.data.vertices), 3)))
+            bpy.context.scene.frame_set(3)
+            played = evaluated_positions(top)
+            np.testing.assert_allclose(played, samples[2], atol=1e-6)
+            bpy.ops.wm.save_mainfile()
+
+            bpy.ops.wm.open_mainfile(filepath=blend)
+            top = bpy.data.objects["Sphere.top"]
+            self.assertEqual(top.gshell.base, bpy.data.objects["Sphere"])
+            bpy.context.scene.frame_set(3)
+            np.testing.assert_allclose(evaluated_positions(top), played, atol=1e-6)
 
     def test_topology_changing_modifier_is_an_error(self):
         sphere = uv_sphere(segments=12, rings=6)
