@@ -79,6 +79,11 @@ class Bake:
         except OSError as e:
             self.cancel()
             raise shell_store.ShellError(f"cannot write the cache: {e}") from e
+        # Earlier caches of these objects would be evaluated at every frame for nothing.
+        self.muted = [m for m in (o.modifiers.get(point_cache.MODIFIER_NAME) for o in [self.top] + self.details)
+                      if m is not None and m.show_viewport]
+        for modifier in self.muted:
+            modifier.show_viewport = False
         self.done = 0
         self.frame_stats = []
 
@@ -117,7 +122,7 @@ class Bake:
         for writer in self.writers:
             writer.commit()
         for obj, writer in zip([self.top] + self.details, self.writers):
-            point_cache.attach(obj, writer.path, self.frames[0])
+            point_cache.attach(obj, writer.path, self.frames[0]).show_viewport = True
         self.scene.frame_set(self.frame_before)
         seconds = sorted(s["seconds"]["total"] for s in self.frame_stats)
         per_frame = seconds[len(seconds) // 2]
@@ -135,6 +140,8 @@ class Bake:
     def cancel(self):
         for writer in self.writers:
             writer.discard()
+        for modifier in getattr(self, "muted", []):
+            modifier.show_viewport = True
         self.scene.frame_set(self.frame_before)
 
 

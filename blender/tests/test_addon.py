@@ -195,6 +195,12 @@ class AddonTest(unittest.TestCase):
         for a, b in zip(moved[8][1], moved[2][1]):
             self.assertGreater(np.linalg.norm(a - b, axis=1).min(), 0.02)
 
+        # Baking again (the first bake's caches are playing meanwhile) gives the same motion.
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=8), {"FINISHED"})
+        self.assertTrue(top.modifiers["gshell bake"].show_viewport)
+        bpy.context.scene.frame_set(8)
+        np.testing.assert_array_equal(evaluated_positions(top), moved[8][0])
+
         # Unbinding releases a detail and removes its baked motion.
         addon_session.select(details[:1], details[0])
         self.assertEqual(bpy.ops.object.gshell_unbind(), {"FINISHED"})
