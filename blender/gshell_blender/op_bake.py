@@ -17,6 +17,13 @@ from . import gshell_module, mesh_arrays, point_cache, shell_store
 
 DEFAULT_DIRECTORY = "//gshell_cache/"
 
+# Modifiers that only move vertices (keep their number and order).
+_DEFORM_ONLY = {"ARMATURE", "CAST", "CURVE", "DISPLACE", "HOOK", "LAPLACIANDEFORM", "LATTICE", "MESH_DEFORM",
+                "SHRINKWRAP", "SIMPLE_DEFORM", "SMOOTH", "CORRECTIVE_SMOOTH", "LAPLACIANSMOOTH", "SURFACE_DEFORM",
+                "WARP", "WAVE", "MESH_CACHE", "MESH_SEQUENCE_CACHE", "CLOTH", "SOFT_BODY", "WEIGHTED_NORMAL",
+                "NORMAL_EDIT", "UV_PROJECT", "UV_WARP", "VERTEX_WEIGHT_EDIT", "VERTEX_WEIGHT_MIX",
+                "VERTEX_WEIGHT_PROXIMITY", "DATA_TRANSFER", "TRIANGULATE"}
+
 
 def evaluated_base_positions(base, depsgraph, num_vertices):
     """The base's vertices at the current frame, after its modifiers, in its local space."""
@@ -28,19 +35,11 @@ def evaluated_base_positions(base, depsgraph, num_vertices):
             raise shell_store.ShellError(
                 f"'{base.name}' has {len(mesh.vertices)} vertices after its modifiers at frame "
                 f"{depsgraph.scene.frame_current}, its shell {num_vertices}: the bake needs the same vertices in the "
-                f"same order (disable or apply the modifiers that change the topology: "
+                f"same order (hide the modifiers that change them in the viewport while baking: "
                 f"{', '.join(changing) or 'none found'})")
         return mesh_arrays.vertex_positions(mesh)
     finally:
         evaluated.to_mesh_clear()
-
-
-# Modifiers that only move vertices (keep their number and order).
-_DEFORM_ONLY = {"ARMATURE", "CAST", "CURVE", "DISPLACE", "HOOK", "LAPLACIANDEFORM", "LATTICE", "MESH_DEFORM",
-                "SHRINKWRAP", "SIMPLE_DEFORM", "SMOOTH", "CORRECTIVE_SMOOTH", "LAPLACIANSMOOTH", "SURFACE_DEFORM",
-                "WARP", "WAVE", "MESH_CACHE", "MESH_SEQUENCE_CACHE", "CLOTH", "SOFT_BODY", "WEIGHTED_NORMAL",
-                "NORMAL_EDIT", "UV_PROJECT", "UV_WARP", "VERTEX_WEIGHT_EDIT", "VERTEX_WEIGHT_MIX",
-                "VERTEX_WEIGHT_PROXIMITY", "DATA_TRANSFER", "TRIANGULATE"}
 
 
 def cache_directory(base, directory):
