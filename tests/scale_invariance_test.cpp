@@ -68,8 +68,12 @@ TEST(ScaleInvariance, GeneratedShellsAreTheSameAtEveryScale) {
                                  std::to_string(s);
         const GenerateResult r = generate(*mesh, s, method);
         expect_same_stretch(one.metrics.stretch, r.metrics.stretch, what);
-        EXPECT_EQ(one.metrics.top_self_intersections, r.metrics.top_self_intersections) << what;
-        EXPECT_EQ(one.metrics.top_base_intersections, r.metrics.top_base_intersections) << what;
+        // The exact certificate (orient3d and exact intersection tests) at every scale too.
+        const ShellCertificate &c1 = one.metrics.certificate, &cs = r.metrics.certificate;
+        EXPECT_EQ(c1.inverted_tets, cs.inverted_tets) << what;
+        EXPECT_EQ(c1.top_self_intersections, cs.top_self_intersections) << what;
+        EXPECT_EQ(c1.top_base_intersections, cs.top_base_intersections) << what;
+        EXPECT_EQ(c1.wall_intersections, cs.wall_intersections) << what;
         expect_same(one.metrics.thickness_min, r.metrics.thickness_min, what + " thickness min");
         expect_same(one.metrics.thickness_mean, r.metrics.thickness_mean, what + " thickness mean");
         EXPECT_EQ(one.solve.converged, r.solve.converged) << what;
