@@ -62,7 +62,7 @@ def in_polygons(message, polygon):
 
 
 def inverted_tets(report):
-    """The inverted tet count of a generate report: the exact certificate's where there is one."""
+    """The shell's inverted tets: the exact certificate's count (older reports: the top-level key)."""
     return report.get("certificate", {}).get("inverted_tets", report.get("inverted_tets", 0))
 
 
@@ -71,7 +71,7 @@ def validity(report):
     if isinstance(report.get("valid"), bool):
         return "valid" if report["valid"] else "NOT valid"
     inverted = inverted_tets(report)
-    crossings = [report.get(k) for k in ("top_self_intersections", "top_base_intersections")]
+    crossings = [report.get("certificate", report).get(k) for k in ("top_self_intersections", "top_base_intersections")]
     if inverted or any(crossings):
         return "NOT valid"
     if any(c is None for c in crossings):
