@@ -456,7 +456,14 @@ bool ViewSession::settle(const ViewSink& send, const std::function<bool()>& inte
     s.send_positions(send, static_cast<float>(1000 * seconds), 0);
     last_stream = Clock::now();
   };
-  const std::optional<PoseStepReport> step = s.drag->settle(limits, interrupt);
+  std::optional<PoseStepReport> step;
+  try {
+    step = s.drag->settle(limits, interrupt);
+  } catch (const InputError&) { // e.g. a part of the shell without a handle: no use retrying
+    s.settle_pending = false;
+    s.phase = "rest";
+    throw;
+  }
   s.changed();
   s.handles_changed = false;
   if (!step) {
