@@ -70,7 +70,9 @@ function onText(m) {
     case 'stats': state.stats = m; return showStats();
     case 'error': return status(m.message, true);
     case 'saved': return status(`saved ${m.path}`);
-    case 'handles_file': return download('handles.json', JSON.stringify(m.handles, null, 2));
+    case 'handles_file':
+      state.handlesFile = m.handles;
+      return download('handles.json', JSON.stringify(m.handles, null, 2));
     case 'pages': $('pages').textContent = m.count > 1 ? `${m.count} pages share this session (each sees and drags the same shell)` : ''; return;
     default: console.warn('gshell view: unknown message', m.type);
   }
@@ -117,12 +119,12 @@ function onFrame(f) {
   }
 }
 
-view.onDrawn((seq, now) => {
+view.onDrawn((seq, now, applyMs, renderMs) => {
   if (state.loadMs === null && view.framed) {
     state.loadMs = now; // since navigation started: the page's load time
     resolveReady();
   }
-  bench.drawn(seq, now);
+  bench.drawn(seq, now, applyMs, renderMs);
 });
 
 // ---- display -------------------------------------------------------------------------------------
@@ -366,15 +368,18 @@ const bench = {
   answers: [],
   draws: [],
   sent(seq) { if (this.record) this.sentAt.set(seq, performance.now()); },
-  arrived(seq, solveMs, latencyMs) { if (this.record) this.answers.push({ seq, at: performance.now(), solveMs, latencyMs }); },
-  drawn(seq, now) {
-    if (!this.record || !this.sentAt.has(seq)) return;
+  // Frames answering a drag carry its in->out milliseconds (> 0); settle progress and jumps carry 0.
+  arrived(seq, solveMs, latencyMs) { if (this.record && latencyMs > 0) this.answers.push({ seq, at: performance.now(), solveMs, latencyMs }); },
+  drawn(seq, now, applyMs, renderMs) {
+    if (!this.record || !this.sentAt.has(seq) || this.draws.some((d) => d.seq === seq)) return;
     if (this.syncDraw) {
       const gl = view.renderer.getContext();
       gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
-      now = performance.now();
+      const finished = performance.now();
+      renderMs += finished - now;
+      now = finished;
     }
-    this.draws.push({ seq, at: now });
+    this.draws.push({ seq, at: now, applyMs, renderMs });
   },
 };
 
@@ -386,6 +391,9 @@ window.gshellView = {
   get groups() { return state.groups.map((g) => ({ name: g.name, vertices: g.vertices.length })); },
   get selected() { return tools.selection.size; },
   get answered() { return state.answered; },
+  /** The last handle file the server sent (after a save_handles). */
+  get handlesFile() { return state.handlesFile; },
+  send,
   /** The positions drawn last (2n x 3, flat). */
   positions() { return Array.from(view.positions); },
   /** Where vertex v is on the screen (page coordinates), or null when cut away. */

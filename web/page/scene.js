@@ -18,7 +18,9 @@ function srgb(rgb) {
 export class ShellView {
   constructor(container) {
     this.container = container;
-    this.renderer = new THREE.WebGLRenderer({ antialias: true });
+    // ?antialias=0 in the URL: no multisampling (software WebGL, e.g. the headless benchmark).
+    const antialias = new URLSearchParams(location.search).get('antialias') !== '0';
+    this.renderer = new THREE.WebGLRenderer({ antialias });
     this.renderer.setPixelRatio(window.devicePixelRatio);
     this.renderer.localClippingEnabled = true;
     this.renderer.setClearColor(0xf4f5f7);
@@ -255,10 +257,12 @@ export class ShellView {
     if (!this.dirty || !this.base) return;
     this.dirty = false;
     const drawn = this.pending;
+    const t0 = performance.now();
     if (drawn) {
       this.applyPositions(drawn.positions);
       this.pending = null;
     }
+    const t1 = performance.now();
     if (this.cut && this.centre) {
       // Keep the half beyond the plane through the middle, facing the eye.
       const towardsEye = this.camera.position.clone().sub(this.controls.target).normalize();
@@ -267,7 +271,7 @@ export class ShellView {
     this.renderer.render(this.scene, this.camera);
     ++this.framesDrawn;
     const now = performance.now();
-    if (drawn) for (const l of this.drawnListeners) l(drawn.seq, now);
+    if (drawn) for (const l of this.drawnListeners) l(drawn.seq, now, t1 - t0, now - t1);
   }
 
   /** Screen position (CSS pixels in the canvas) and view depth of every vertex; clipped ones get NaN. */
