@@ -2,10 +2,10 @@
 // headless, WebGL on SwiftShader) driven by puppeteer-core, as a user drags.
 //
 //   node bench/view.mjs [bowl] [bunny] [--runs R] [--events N] [--interval MS] [--loads L] [--no-pose]
-//                       [--gshell build/bin/gshell] [--out out/bench-view]
+//                       [--gshell build/bin/gshell] [--out out/bench-view] [--models models]
 //
 // Shells: bowl = `gshell generate builtin:bowl --thickness-ratio 0.02`, bunny = models/bunny00.off at
-// ratio 0.01 (scripts/fetch-models); made once into --out. Handles as bench_pose's: the bowl's rim
+// ratio 0.01 (scripts/fetch-models; --models DIR reads bunny00.off from DIR); made once into --out. Handles as bench_pose's: the bowl's rim
 // held on one side and pulled on the other by R (0.8, 0.2, 0.5); other models: the lowest 8% along y
 // held, the highest 8% pulled by R (0.5, 0.1, 0.3) (R = bounding radius).
 //
@@ -24,6 +24,7 @@
 // --steps N` with the saved handle file -- the same targets in the same steps.
 //
 // Page load: navigation start to the first frame drawn with the shell (median of L loads).
+// A screenshot of the page after the drags: --out/MODEL-view.png.
 // Prints sizes, medians and the machine's load average (2 shared cores: compare medians).
 import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
@@ -35,7 +36,7 @@ import { launchBrowser, readObj, startViewer } from '../tests/support/view_brows
 
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
 const WebSocket = createRequire(path.join(root, 'web/package.json'))('ws');
-const opts = { runs: 3, events: 60, interval: 1000 / 60, loads: 5, pose: true, gshell: path.join(root, 'build/bin/gshell'), out: path.join(root, 'out/bench-view') };
+const opts = { runs: 3, events: 60, interval: 1000 / 60, loads: 5, pose: true, gshell: path.join(root, 'build/bin/gshell'), out: path.join(root, 'out/bench-view'), models: path.join(root, 'models') };
 const models = [];
 for (let i = 2; i < process.argv.length; ++i) {
   const a = process.argv[i];
@@ -46,6 +47,7 @@ for (let i = 2; i < process.argv.length; ++i) {
   else if (a === '--no-pose') opts.pose = false;
   else if (a === '--gshell') opts.gshell = process.argv[++i];
   else if (a === '--out') opts.out = process.argv[++i];
+  else if (a === '--models') opts.models = process.argv[++i];
   else models.push(a);
 }
 if (!models.length) models.push('bowl', 'bunny');
@@ -63,7 +65,7 @@ const load = () => os.loadavg().map((x) => x.toFixed(1)).join(' ');
 function shellOf(model) {
   const dir = path.join(opts.out, model);
   if (fs.existsSync(path.join(dir, 'top.obj'))) return dir;
-  const [input, ratio] = model === 'bowl' ? ['builtin:bowl', '0.02'] : model === 'bunny' ? [path.join(root, 'models/bunny00.off'), '0.01'] : [model, '0.01'];
+  const [input, ratio] = model === 'bowl' ? ['builtin:bowl', '0.02'] : model === 'bunny' ? [path.join(opts.models, 'bunny00.off'), '0.01'] : [model, '0.01'];
   console.log(`generating ${dir} from ${input} (ratio ${ratio})`);
   execFileSync(opts.gshell, ['generate', input, '--thickness-ratio', ratio, '-o', dir, '-q'], { stdio: ['ignore', 'ignore', 'inherit'] });
   return dir;
@@ -94,16 +96,19 @@ function handles(P, bowl) {
 function connect(url) {
   return new Promise((resolve, reject) => {
     const ws = new WebSocket(url.replace('http://', 'ws://') + 'ws');
-    const c = { ws, listeners: [], stats: null };
+    const c = { ws, listeners: [], stats: null, hello: null };
+    // The server's first messages can arrive in the same tick as 'open', before anyone listens.
+    c.helloArrived = new Promise((done) => { c.gotHello = done; });
     ws.on('message', (data, binary) => {
       const m = binary ? { kind: data.readUInt32LE(0), seq: data.readUInt32LE(4), a: data.readFloatLE(8), b: data.readFloatLE(12), at: performance.now() } : JSON.parse(data);
       if (!binary && m.type === 'stats') c.stats = m;
+      if (!binary && m.type === 'hello') c.gotHello(m);
       for (const l of c.listeners) l(m, binary);
     });
     ws.on('open', () => resolve(c));
     ws.on('error', reject);
     c.send = (m) => ws.send(JSON.stringify(m));
-    c.until = (pred, ms = 600000) => new Promise((done, fail) => {
+    c.until = (pred, ms = 300000) => new Promise((done, fail) => {
       const timer = setTimeout(() => fail(new Error('timeout')), ms);
       const l = (m, binary) => { if (pred(m, binary)) { clearTimeout(timer); c.listeners.splice(c.listeners.indexOf(l), 1); done(m); } };
       c.listeners.push(l);
@@ -113,7 +118,7 @@ function connect(url) {
 
 async function serverRuns(url, h) {
   const c = await connect(url);
-  await c.until((m) => m.type === 'hello');
+  await c.helloArrived;
   const runs = [];
   for (let r = 0; r < opts.runs; ++r) {
     c.send({ type: 'reset' });
@@ -219,6 +224,10 @@ async function benchModel(model) {
         `message in -> positions out ${f1(run.serverInOut)} ms, page send -> positions ${f1(run.pageToArrived)} ms, send -> drawn ${f1(run.pageToDrawn)} ms ` +
         `(apply ${f1(run.apply)} + render ${f1(run.render)}); settle ${run.settle.iterations} iterations, ${f1(run.settle.seconds * 1000)} ms; load ${load()}`);
     }
+    // The page after the last drag (README's screenshot of the viewer).
+    await page.evaluate(() => window.gshellView.send(JSON.stringify({ type: 'certify' })));
+    await page.waitForFunction(() => window.gshellView.stats && window.gshellView.stats.validity, { timeout: 300000 }).catch(() => {});
+    await page.screenshot({ path: path.join(opts.out, `${model}-view.png`) });
     for (const key of ['solve', 'pageToArrived', 'pageToDrawn', 'render', 'rate']) result[key] = median(runs.map((r) => r[key]));
     result.inOut = median(runs.map((r) => r.serverInOut));
     console.log(`  browser: median of ${runs.length} runs: message in -> positions out ${f1(result.inOut)} ms, send -> drawn ${f1(result.pageToDrawn)} ms ` +

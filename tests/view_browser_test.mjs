@@ -93,6 +93,12 @@ try {
 
   const stats = await page.evaluate(() => window.gshellView.stats);
   check(stats.handles === 2 && stats.stretch && stats.stretch.against === 'rest shell', 'the stats panel shows the posed shell');
+  // The exact certificate runs off the interactive path once the shell rests; the panel shows it.
+  await page.waitForFunction(() => window.gshellView.stats.validity, { timeout: 60000 });
+  const validity = await page.evaluate(() => window.gshellView.stats.validity);
+  const panel = await page.$eval('#stats-body', (el) => el.textContent);
+  check(validity.certificate && validity.certificate.exact === true && validity.valid === true && validity.certificate.inverted_tets === 0 &&
+        /valid \(exact\)yes/.test(panel), `the panel shows the certificate of the dragged shell (${JSON.stringify(validity.certificate)})`);
   const shot = path.join(outDir, 'view_browser_dragged.png');
   await page.screenshot({ path: shot });
   check(fs.statSync(shot).size > 10000, `screenshot of the dragged shell: ${shot}`);

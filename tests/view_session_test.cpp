@@ -326,8 +326,11 @@ TEST(ViewSession, ValidityAndColorsFollowTheShell) {
   out.clear();
   session.certify(out.sink());
   json stats = out.messages("stats").back();
+  // The shell certificate's report (certificate_report): exact counts, base pairs tested.
   EXPECT_EQ(stats["validity"]["valid"], true);
-  EXPECT_EQ(stats["validity"]["inverted_tets"], 0);
+  EXPECT_EQ(stats["validity"]["certificate"]["inverted_tets"], 0);
+  EXPECT_EQ(stats["validity"]["certificate"]["top_base_intersections"], 0);
+  EXPECT_EQ(stats["validity"]["base_self_intersections"], 0);
   EXPECT_FALSE(session.certify_task().has_value());
 
   // Fold the plate onto itself: +x end carried over to the -x end, upside down.
@@ -346,6 +349,11 @@ TEST(ViewSession, ValidityAndColorsFollowTheShell) {
   out.clear();
   session.certify(out.sink());
   stats = out.messages("stats").back();
+  // Folded onto itself the layer crosses itself: the certificate says so.
+  EXPECT_EQ(stats["validity"]["valid"], false);
+  EXPECT_GT(stats["validity"]["certificate"]["top_base_intersections"].get<int>() +
+                stats["validity"]["certificate"]["wall_intersections"].get<int>(),
+            0);
   EXPECT_EQ(stats["stretch"]["against"], "rest shell");
   EXPECT_GT(stats["stretch"]["max"].get<double>(), 0.01);
 }

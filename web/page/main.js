@@ -178,10 +178,13 @@ function showStats() {
   if (s.stretch) rows.push([`stretch (${s.stretch.against === 'input' ? 'input' : 'vs loaded'})`, `mean ${num(s.stretch.mean)}, max ${num(s.stretch.max)}`]);
   const v = s.validity;
   if (v && !v.error) {
-    rows.push(['inverted tets', v.inverted_tets, v.inverted_tets ? 'bad' : 'good']);
-    const i = v.intersections || {};
-    rows.push(['intersections', `top/top ${i.top_self}, top/base ${i.top_base}`, i.top_self || i.top_base ? 'bad' : 'good']);
-    rows.push(['valid', v.valid ? 'yes' : 'no', v.valid ? 'good' : 'bad']);
+    // The exact shell certificate (docs/validity.md): counts decided by exact predicates.
+    const c = v.certificate || {};
+    rows.push(['inverted tets', c.inverted_tets, c.inverted_tets ? 'bad' : 'good']);
+    const crossing = (c.top_self_intersections || 0) + (c.top_base_intersections || 0) + (c.wall_intersections || 0);
+    rows.push(['intersections', `top/top ${c.top_self_intersections}, top/base ${c.top_base_intersections}, wall ${c.wall_intersections}`, crossing ? 'bad' : 'good']);
+    if (v.base_self_intersections) rows.push(['base intersects itself', `${v.base_self_intersections} face pairs`, 'bad']);
+    rows.push(['valid (exact)', v.valid === null ? 'unknown' : v.valid ? 'yes' : 'no', v.valid ? 'good' : 'bad']);
   } else {
     if (s.inverted_tets !== null && s.inverted_tets !== undefined) rows.push(['inverted tets', `${s.inverted_tets} (det F)`, s.inverted_tets ? 'bad' : '']);
     rows.push(['intersections', v && v.error ? `check failed: ${v.error}` : 'checked when the shell rests']);
