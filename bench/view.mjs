@@ -1,7 +1,7 @@
 // bench/view.mjs: `gshell view` latency and page load, measured in a real browser (Debian's chromium,
 // headless, WebGL on SwiftShader) driven by puppeteer-core, as a user drags.
 //
-//   node bench/view.mjs [bowl] [bunny] [--runs R] [--events N] [--interval MS] [--loads L] [--no-pose]
+//   node bench/view.mjs [bowl] [bunny] [--runs R] [--events N] [--interval MS] [--loads L] [--no-pose] [--server-only]
 //                       [--gshell build/bin/gshell] [--out out/bench-view] [--models models]
 //
 // Shells: bowl = `gshell generate builtin:bowl --thickness-ratio 0.02`, bunny = models/bunny00.off at
@@ -14,7 +14,8 @@
 // Messages that arrive while the server solves coalesce: only answered events have latencies.
 //  - server: a WebSocket client without a browser (npm ws) sends the drags; per answered event the
 //    server's message-in to positions-out milliseconds (frame header) and the client's
-//    send-to-receive time. No browser competes for the 2 cores.
+//    send-to-receive time, and the server process's CPU time per answered event (all threads,
+//    from /proc: little changed by other load). No browser competes for the 2 cores.
 //  - browser: the page itself sends them (window.gshellView.scriptedDrag) and records when the
 //    positions arrived and when the frame showing them was drawn (a pixel read back, so the GPU,
 //    here SwiftShader's software rasteriser on the same 2 cores, has finished), with the page's
@@ -36,7 +37,7 @@ import { launchBrowser, readObj, startViewer } from '../tests/support/view_brows
 
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
 const WebSocket = createRequire(path.join(root, 'web/package.json'))('ws');
-const opts = { runs: 3, events: 60, interval: 1000 / 60, loads: 5, pose: true, gshell: path.join(root, 'build/bin/gshell'), out: path.join(root, 'out/bench-view'), models: path.join(root, 'models') };
+const opts = { runs: 3, events: 60, interval: 1000 / 60, loads: 5, pose: true, browser: true, gshell: path.join(root, 'build/bin/gshell'), out: path.join(root, 'out/bench-view'), models: path.join(root, 'models') };
 const models = [];
 for (let i = 2; i < process.argv.length; ++i) {
   const a = process.argv[i];
@@ -45,6 +46,7 @@ for (let i = 2; i < process.argv.length; ++i) {
   else if (a === '--interval') opts.interval = +process.argv[++i];
   else if (a === '--loads') opts.loads = +process.argv[++i];
   else if (a === '--no-pose') opts.pose = false;
+  else if (a === '--server-only') opts.browser = opts.pose = false; // no drags in the page, no pose comparison
   else if (a === '--gshell') opts.gshell = process.argv[++i];
   else if (a === '--out') opts.out = process.argv[++i];
   else if (a === '--models') opts.models = process.argv[++i];
@@ -116,7 +118,15 @@ function connect(url) {
   });
 }
 
-async function serverRuns(url, h) {
+// CPU milliseconds the process has used, all threads (Linux /proc; 10 ms ticks): per answered event
+// it is a figure the other work on a shared machine does not inflate (about the wall time on one
+// quiet core; less wall time when the solver's parallel parts use both).
+function cpuMs(pid) {
+  const f = fs.readFileSync(`/proc/${pid}/stat`, 'utf8').split(') ')[1].split(' ');
+  return (Number(f[11]) + Number(f[12])) * (1000 / 100);
+}
+
+async function serverRuns(url, h, pid) {
   const c = await connect(url);
   await c.helloArrived;
   const runs = [];
@@ -126,6 +136,7 @@ async function serverRuns(url, h) {
     const sent = new Map(), answers = [];
     const listener = (m, binary) => { if (binary && m.kind === 2 && m.b > 0 && sent.has(m.seq)) answers.push(m); };
     c.listeners.push(listener);
+    const cpu0 = cpuMs(pid);
     c.send({ type: 'grab', handle: 1 });
     const first = 1000000 * (r + 1);
     for (let k = 1; k <= opts.events; ++k) {
@@ -136,6 +147,7 @@ async function serverRuns(url, h) {
     }
     const last = first + opts.events;
     if (!answers.some((a) => a.seq === last)) await c.until((m, binary) => binary && m.kind === 2 && m.seq === last && m.b > 0);
+    const cpu = (cpuMs(pid) - cpu0) / answers.length;
     c.listeners.splice(c.listeners.indexOf(listener), 1);
     c.send({ type: 'release' });
     const settled = await c.until((m) => m.type === 'stats' && m.phase === 'settled');
@@ -147,10 +159,12 @@ async function serverRuns(url, h) {
       roundTrip: median(answers.map((a) => a.at - sent.get(a.seq))),
       rate: answers.length / span,
       settle: settled.step,
+      cpu,
     };
     runs.push(run);
     console.log(`  server run ${r + 1}: ${run.answered}/${opts.events} events answered (${f1(run.rate)}/s); medians: solve ${f1(run.solve)} ms, ` +
       `message in -> positions out ${f1(run.inOut)} ms, client send -> positions received ${f1(run.roundTrip)} ms; ` +
+      `process CPU per answered event ${f1(run.cpu)} ms; ` +
       `settle ${run.settle.iterations} iterations, ${f1(run.settle.seconds * 1000)} ms; load ${load()}`);
   }
   c.ws.close();
@@ -189,11 +203,13 @@ async function benchModel(model) {
     console.log(`  handles: hold ${h.hold.length}, pull ${h.pull.length} vertices, pull by (${h.move.map((x) => x.toFixed(3)).join(', ')})`);
     // Without a browser drawing on the same cores first.
     await page.goto('about:blank');
-    const serverRuns_ = await serverRuns(viewer.url, h);
-    for (const [key, name] of [['solve', 'serverSolve'], ['inOut', 'serverInOut'], ['roundTrip', 'serverRoundTrip'], ['rate', 'serverRate']])
+    const serverRuns_ = await serverRuns(viewer.url, h, viewer.process.pid);
+    for (const [key, name] of [['solve', 'serverSolve'], ['inOut', 'serverInOut'], ['roundTrip', 'serverRoundTrip'], ['rate', 'serverRate'], ['cpu', 'serverCpu']])
       result[name] = median(serverRuns_.map((r) => r[key]));
     console.log(`  server: median of ${serverRuns_.length} runs: message in -> positions out ${f1(result.serverInOut)} ms, ` +
-      `send -> received ${f1(result.serverRoundTrip)} ms, solve ${f1(result.serverSolve)} ms, ${f1(result.serverRate)} updates/s`);
+      `send -> received ${f1(result.serverRoundTrip)} ms, solve ${f1(result.serverSolve)} ms, ${f1(result.serverRate)} updates/s, ` +
+      `process CPU per answered event ${f1(result.serverCpu)} ms`);
+    if (!opts.browser) return result;
     await page.goto(viewer.url + '?antialias=0');
     await page.waitForFunction(() => window.gshellView && window.gshellView.loadMs !== null && window.gshellView.groups.length === 2, { timeout: 120000 });
 
