@@ -12,6 +12,7 @@
 #include <gshell/geometry/mesh_topology.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/shell/offset_shell.h>
+#include <gshell/view/view_protocol.h>
 
 #include <cstdint>
 #include <cstdio>
