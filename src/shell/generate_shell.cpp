@@ -22,6 +22,7 @@ void check_options(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Gen
   if (options.solve.max_iterations < 0) throw InputError("iterations must not be negative");
   if (!(options.solve.tolerance >= 0)) throw InputError("tolerance must not be negative");
   if (V.cols() != 3 || F.cols() != 3 || F.rows() == 0) throw InputError("generate: need an n x 3 V and a non-empty m x 3 F");
+  if (!options.allow_invalid && options.method != ShellMethod::Offset) check_guard_options(options.guard);
 }
 
 Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top, double eta) {
@@ -46,6 +47,12 @@ PrismCorners ideal_prisms_for(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   throw InputError("generate: the offset method has no ideal prisms");
 }
 
+void fill_thinned(GenerateResult& r) {
+  r.thinned_vertices.clear();
+  for (int i = 0; i < r.metrics.vertex_thickness.size(); ++i)
+    if (r.metrics.vertex_thickness[i] < kThinnedFraction) r.thinned_vertices.push_back(i);
+}
+
 // Generation towards `ideal`; `ideal_is_normal` lets the metrics reuse the solver's rest tets.
 GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const PrismCorners& ideal,
                                 const GenerateOptions& options, bool ideal_is_normal) {
@@ -54,18 +61,38 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   const int n = static_cast<int>(V.rows());
   GenerateResult r;
   r.method = options.method;
-  std::vector<int> base_vertices(n);
-  std::iota(base_vertices.begin(), base_vertices.end(), 0);
-  const ShellSolver solver(prism_rest_tets(F, n, ideal), 2 * n, base_vertices);
-  r.seconds.factor = solver.factor_seconds();
-  Eigen::MatrixXd X(2 * n, 3);
-  X << V, offset_top(V, F, options.thickness);
-  r.solve = solver.solve(X, options.solve);
-  r.seconds.solve = r.solve.seconds;
-  r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
+  const RestTets rest = prism_rest_tets(F, n, ideal);
+  if (options.allow_invalid) {
+    std::vector<int> base_vertices(n);
+    std::iota(base_vertices.begin(), base_vertices.end(), 0);
+    const ShellSolver solver(rest, 2 * n, base_vertices);
+    r.seconds.factor = solver.factor_seconds();
+    Eigen::MatrixXd X(2 * n, 3);
+    X << V, offset_top(V, F, options.thickness);
+    r.solve = solver.solve(X, options.solve);
+    r.seconds.solve = r.solve.seconds;
+    r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
+  } else {
+    GuardedSolveOptions solve;
+    solve.max_iterations = options.solve.max_iterations;
+    solve.tolerance = options.solve.tolerance;
+    solve.progress = options.solve.progress;
+    r.guard = guarded_shell(V, F, rest, options.thickness, options.guard, solve);
+    r.guarded = true;
+    r.unextrudable_vertices = r.guard.directions.unextrudable;
+    r.solve.iterations = r.guard.solve.iterations;
+    r.solve.energy = r.guard.solve.energy;
+    r.solve.converged = r.guard.solve.converged;
+    r.solve.seconds = r.guard.solve.seconds;
+    r.seconds.factor = r.guard.factor_seconds;
+    r.seconds.solve = r.guard.solve.seconds;
+    r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.guard.solve.seconds;
+    r.shell = make_shell(V, F, r.guard.top, options.thickness);
+  }
   r.metrics = ideal_is_normal
-                  ? shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, solver.rest())
+                  ? shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, rest)
                   : shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
+  fill_thinned(r);
   r.seconds.total = seconds_since(t0);
   return r;
 }
@@ -119,6 +146,7 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
   r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
+  fill_thinned(r);
   r.solve.converged = true;
   r.seconds.total = seconds_since(t0);
   return r;

@@ -481,6 +481,37 @@ ShellSolver::~ShellSolver() = default;
 ShellSolver::ShellSolver(ShellSolver&&) noexcept = default;
 ShellSolver& ShellSolver::operator=(ShellSolver&&) noexcept = default;
 
+Eigen::MatrixXd ShellSolver::apply_inverse(const Eigen::MatrixXd& B) const {
+  const Impl& m = *impl_;
+  m.check_positions(B, "apply_inverse");
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(m.N, 3);
+  if (m.nf == 0) return out;
+  std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf));
+  for (int j = 0; j < m.nf; ++j)
+    for (int d = 0; d < 3; ++d) rhs[j + static_cast<std::size_t>(d) * m.nf] = B(m.free_vertices[j], d);
+  m.linear_solve(rhs);
+  for (int j = 0; j < m.nf; ++j)
+    for (int d = 0; d < 3; ++d) out(m.free_vertices[j], d) = rhs[j + static_cast<std::size_t>(d) * m.nf];
+  return out;
+}
+
+Eigen::MatrixXd ShellSolver::multiply(const Eigen::MatrixXd& P) const {
+  const Impl& m = *impl_;
+  m.check_positions(P, "multiply");
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(m.N, 3);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m.nf, 1024), [&](const tbb::blocked_range<int>& r) {
+    for (int j = r.begin(); j < r.end(); ++j) {
+      double s[3] = {0, 0, 0};
+      for (int e = m.A_start[j]; e < m.A_start[j + 1]; ++e)
+        for (int d = 0; d < 3; ++d) s[d] += m.A_val[e] * P(m.A_col[e], d);
+      for (int d = 0; d < 3; ++d) out(m.free_vertices[j], d) = s[d];
+    }
+  });
+  return out;
+}
+
+bool ShellSolver::is_free(int v) const { return v >= 0 && v < impl_->N && impl_->free_index[v] >= 0; }
+
 double ShellSolver::factor_seconds() const { return impl_->factor_seconds; }
 const RestTets& ShellSolver::rest() const { return impl_->rest; }
 int ShellSolver::num_vertices() const { return impl_->N; }

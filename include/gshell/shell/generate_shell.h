@@ -1,6 +1,7 @@
 #pragma once
 // Shell generation (DESIGN.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
 // local/global solve of the top with the base fixed, started from the offset surface.
+#include <gshell/guard/guarded_shell.h>
 #include <gshell/quality/shell_metrics.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/shell.h>
@@ -28,6 +29,10 @@ struct GenerateOptions {
   SolveOptions solve = {50, 1e-5, {}};
   double s_min = 0.5, s_max = 2.0; ///< clamp of the curvature method's in-plane scales
   bool count_intersections = true; ///< count top/top and top/base intersections in the metrics
+  /// Rigid and curvature: skip the guard and return the paper's unguarded result (bit for bit
+  /// what these methods gave before the guard), valid or not. Offset is never guarded.
+  bool allow_invalid = false;
+  GuardOptions guard; ///< parameters of the guarded generation (guarded_shell.h)
 };
 
 /// Thickness for a ratio of the bounding sphere's radius (centre = bounding-box centre, radius =
@@ -37,7 +42,9 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio);
 struct GenerateTimings {
   double total = 0;  ///< whole generate_shell call, metrics included (seconds)
   double factor = 0; ///< assembling and factoring the system matrix
-  double solve = 0;  ///< local/global iterations
+  double solve = 0;  ///< local/global iterations (guarded: the guarded solve)
+  double guard = 0;  ///< guarded generation beyond factor and solve: directions, base
+                     ///< self-intersections, valid start (0 when unguarded)
 };
 
 struct GenerateResult {
@@ -46,7 +53,18 @@ struct GenerateResult {
   SolveResult solve; ///< energy[0] = offset start; for Offset only energy[0] (no iterations)
   GenerateTimings seconds;
   ShellMetrics metrics; ///< stretch against the normal prisms, whatever the method
+  bool guarded = false; ///< made by the guarded generation
+  /// Top vertices thinner than kThinnedFraction of eta (metrics.vertex_thickness), ascending.
+  std::vector<int> thinned_vertices;
+  /// Base vertices where no extrusion direction sees every incident face from its positive side
+  /// (extrusion_directions); only tets of prisms touching them may be inverted. Ascending.
+  std::vector<int> unextrudable_vertices;
+  /// The guarded generation's own account (start, solver statistics); empty when unguarded.
+  GuardedShell guard;
 };
+
+/// A top vertex is reported thinned when its thickness is below this fraction of eta.
+inline constexpr double kThinnedFraction = 0.9;
 
 /// Rigid-style generation towards the given ideal prisms (6m x 3, ideal_prisms.h layout): rest
 /// tets cut from them (prism_rest_tets), base fixed, top started at offset_top and solved.

@@ -67,6 +67,17 @@ public:
   Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const LocalStep& step,
                                 const Eigen::MatrixXd& soft_targets = {}) const;
 
+  /// The system matrix A (the energy's Hessian for fixed rotations, halved: E's quadratic part is
+  /// x^T A x) on free rows, for drivers that build their own steps (the guarded solver's Newton
+  /// and preconditioned directions). B and P are num_vertices x 3; rows of kept vertices of the
+  /// results are 0. apply_inverse: A_ff^-1 B_f (kept rows of B ignored), one back-substitution
+  /// with the factor of the constructor. multiply: A_f. P = A_ff P_f + A_fc P_c (kept rows of P
+  /// enter through the coupling, as a prescribed motion of kept vertices does).
+  Eigen::MatrixXd apply_inverse(const Eigen::MatrixXd& B) const;
+  Eigen::MatrixXd multiply(const Eigen::MatrixXd& P) const;
+  /// Whether vertex v is solved for (not kept where it starts).
+  bool is_free(int v) const;
+
   double factor_seconds() const; ///< time spent assembling and factoring in the constructor
   const RestTets& rest() const;
   int num_vertices() const;

@@ -1,0 +1,130 @@
+#include <gshell/guard/guarded_shell.h>
+
+#include <gshell/error.h>
+#include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/triangle_intersections.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+void require(bool ok, const char* name, const char* range) {
+  if (!ok) throw InputError(std::string("guard option ") + name + " must be " + range);
+}
+
+// Mean length over the faces' half-edges and mean base area per vertex.
+std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  double length = 0, area = 0;
+  for (int f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    length += (b - a).norm() + (c - b).norm() + (a - c).norm();
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return {length / (3.0 * static_cast<double>(F.rows())), area / static_cast<double>(V.rows())};
+}
+
+} // namespace
+
+void check_guard_options(const GuardOptions& o) {
+  require(o.j_hat > 0 && o.j_hat <= 1, "j_hat", "in (0, 1]");
+  require(o.volume_weight > 0 && std::isfinite(o.volume_weight), "volume_weight", "positive");
+  require(o.contact_distance > 0 && std::isfinite(o.contact_distance), "contact_distance", "positive");
+  require(o.contact_weight > 0 && std::isfinite(o.contact_weight), "contact_weight", "positive");
+  require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
+  require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
+  require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
+  require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
+  require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
+  require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
+}
+
+GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
+                           const GuardOptions& options, const GuardedSolveOptions& solve) {
+  const auto t0 = Clock::now();
+  check_guard_options(options);
+  if (!(eta > 0) || !std::isfinite(eta)) throw InputError("guarded_shell: thickness must be positive and finite");
+  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  if (ideal.size() != 3 * m) throw InputError("guarded_shell: expected 3 rest tets per face");
+  GuardedShell g;
+  const ShellBoundary boundary = shell_boundary(F, n);
+  g.directions = extrusion_directions(V, F, options.normal_margin);
+  g.base_self_intersections = self_intersecting_pairs(V, F);
+
+  // Faces around each vertex, for marking stars.
+  std::vector<int> start(n + 1, 0), star;
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) ++start[F(f, k) + 1];
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  star.resize(start[n]);
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int f = 0; f < m; ++f)
+      for (int k = 0; k < 3; ++k) star[fill[F(f, k)]++] = f;
+  }
+  // Prisms around unextrudable vertices cannot all be valid: their tets are not guarded and their
+  // boundary triangles see no contacts. Around the crossings of a self-intersecting base no top
+  // can be clean: the triangles of the faces touching a crossing face see no contacts.
+  std::vector<char> unguarded_face(m, 0), excluded_face(m, 0);
+  for (int v : g.directions.unextrudable)
+    for (int s = start[v]; s < start[v + 1]; ++s) unguarded_face[star[s]] = excluded_face[star[s]] = 1;
+  for (const auto& [f1, f2] : g.base_self_intersections)
+    for (int f : {f1, f2})
+      for (int k = 0; k < 3; ++k)
+        for (int s = start[F(f, k)]; s < start[F(f, k) + 1]; ++s) excluded_face[star[s]] = 1;
+  GuardedSolverParameters& p = g.parameters;
+  p.skip_tets.assign(3 * static_cast<std::size_t>(m), 0);
+  for (int f = 0; f < m; ++f)
+    if (unguarded_face[f]) p.skip_tets[3 * f] = p.skip_tets[3 * f + 1] = p.skip_tets[3 * f + 2] = 1;
+  p.excluded_triangles.assign(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
+
+  Eigen::VectorXd target = Eigen::VectorXd::Constant(n, eta);
+  for (int v : g.directions.unextrudable) target[v] = options.unextrudable_thickness * eta;
+  ValidStartOptions start_options;
+  start_options.thinning = options.start_thinning;
+  g.start = valid_start(V, F, g.directions, target, boundary, p.skip_tets, p.excluded_triangles, start_options);
+  // Whatever the start could not mend (only a degenerate base leaves anything) is left unguarded
+  // too, so that the solver starts valid for its barriers; the certificate reports it.
+  for (int t : g.start.inverted_tets) p.skip_tets[t] = 1;
+  for (const auto& [a, b] : g.start.intersections) p.excluded_triangles[a] = p.excluded_triangles[b] = 1;
+  {
+    std::vector<char> face_out(m, 0);
+    for (int r = 0; r < boundary.size(); ++r)
+      if (p.excluded_triangles[r]) face_out[boundary.face[r]] = 1;
+    g.excluded_faces = static_cast<int>(std::count(face_out.begin(), face_out.end(), 1));
+  }
+
+  const auto [edge, vertex_area] = mean_edge_and_vertex_area(V, F);
+  p.j_hat = options.j_hat;
+  p.volume_weight = options.volume_weight;
+  p.contact_distance = options.contact_distance * std::min(eta, edge);
+  p.contact_stiffness = options.contact_weight * vertex_area / std::pow(p.contact_distance, 3);
+  p.keep_fraction = options.keep_fraction;
+  p.cg_iterations = options.cg_iterations;
+  p.cg_tolerance = options.cg_tolerance;
+
+  std::vector<int> fixed(n);
+  std::iota(fixed.begin(), fixed.end(), 0);
+  for (int v : g.directions.unextrudable) fixed.push_back(n + v);
+  GuardedSolver solver(ideal, 2 * n, fixed, boundary, p);
+  g.factor_seconds = solver.shell_solver().factor_seconds();
+  Eigen::MatrixXd X(2 * n, 3);
+  X << V, g.start.top;
+  g.solve = solver.solve(X, solve);
+  g.top = X.bottomRows(n);
+  g.seconds = seconds_since(t0);
+  return g;
+}
+
+} // namespace gshell
