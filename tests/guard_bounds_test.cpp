@@ -135,7 +135,7 @@ TEST(VolumeBarrier, GradientMatchesFiniteDifferences) {
     if (!(J > 0.05 && J < 0.45)) continue; // inside the barrier, away from its kink
     ++tested;
     Eigen::MatrixXd G = Eigen::MatrixXd::Zero(4, 3);
-    barrier.add_gradient(X, 1.0, G);
+    barrier.add_gradient(X, 1.0, G, barrier.active_tets(X));
     const double h = 1e-6;
     for (int i = 0; i < 4; ++i)
       for (int k = 0; k < 3; ++k) {

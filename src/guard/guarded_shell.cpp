@@ -3,6 +3,7 @@
 #include <gshell/error.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/triangle_intersections.h>
+#include <gshell/shell/offset_shell.h>
 
 #include <Eigen/Geometry>
 
@@ -39,14 +40,16 @@ std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, co
 void check_guard_options(const GuardOptions& o) {
   require(o.j_hat > 0 && o.j_hat <= 1, "j_hat", "in (0, 1]");
   require(o.volume_weight > 0 && std::isfinite(o.volume_weight), "volume_weight", "positive");
-  require(o.contact_distance > 0 && std::isfinite(o.contact_distance), "contact_distance", "positive");
+  require(o.contact_distance >= 0 && std::isfinite(o.contact_distance), "contact_distance", ">= 0");
   require(o.contact_weight > 0 && std::isfinite(o.contact_weight), "contact_weight", "positive");
   require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
   require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
+  require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
   require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
+  require(o.repair_rings >= 0, "repair_rings", ">= 0");
 }
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
@@ -89,11 +92,39 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   p.excluded_triangles.assign(boundary.size(), 0);
   for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
 
-  Eigen::VectorXd target = Eigen::VectorXd::Constant(n, eta);
-  for (int v : g.directions.unextrudable) target[v] = options.unextrudable_thickness * eta;
+  // The barrier parameters, in model units.
+  const auto [edge, vertex_area] = mean_edge_and_vertex_area(V, F);
+  p.j_hat = options.j_hat;
+  p.volume_weight = options.volume_weight;
+  p.contact_distance = options.contact_distance * std::min(eta, edge);
+  p.contact_stiffness =
+      p.contact_distance > 0 ? options.contact_weight * vertex_area / std::pow(p.contact_distance, 3) : 0.0;
+  p.keep_fraction = options.keep_fraction;
+  p.cg_iterations = options.cg_iterations;
+  p.cg_tolerance = options.cg_tolerance;
+  std::vector<int> fixed(n);
+  std::iota(fixed.begin(), fixed.end(), 0);
+  for (int v : g.directions.unextrudable) fixed.push_back(n + v);
+  const ShellSolver paper_solver(ideal, 2 * n, fixed);
+  g.factor_seconds = paper_solver.factor_seconds();
+
+  // The paper's iterations from the offset surface give the top wanted everywhere; the tops of
+  // unextrudable vertices are held low along their best direction.
+  Eigen::MatrixXd X(2 * n, 3);
+  X << V, offset_top(V, F, eta);
+  for (int v : g.directions.unextrudable)
+    X.row(n + v) = V.row(v) + options.unextrudable_thickness * eta * g.directions.direction.row(v);
+  SolveOptions paper;
+  paper.max_iterations = solve.max_iterations;
+  paper.tolerance = solve.tolerance;
+  g.paper = paper_solver.solve(X, paper);
+
+  // Valid start: that top, pulled towards the base only where it is not valid.
+  const Eigen::MatrixXd W =
+      extrusion_vectors(V, F, X.bottomRows(n), g.directions, options.start_margin, eta);
   ValidStartOptions start_options;
   start_options.thinning = options.start_thinning;
-  g.start = valid_start(V, F, g.directions, target, boundary, p.skip_tets, p.excluded_triangles, start_options);
+  g.start = valid_start(V, F, W, boundary, p.skip_tets, p.excluded_triangles, start_options);
   // Whatever the start could not mend (only a degenerate base leaves anything) is left unguarded
   // too, so that the solver starts valid for its barriers; the certificate reports it.
   for (int t : g.start.inverted_tets) p.skip_tets[t] = 1;
@@ -104,24 +135,50 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
       if (p.excluded_triangles[r]) face_out[boundary.face[r]] = 1;
     g.excluded_faces = static_cast<int>(std::count(face_out.begin(), face_out.end(), 1));
   }
-
-  const auto [edge, vertex_area] = mean_edge_and_vertex_area(V, F);
-  p.j_hat = options.j_hat;
-  p.volume_weight = options.volume_weight;
-  p.contact_distance = options.contact_distance * std::min(eta, edge);
-  p.contact_stiffness = options.contact_weight * vertex_area / std::pow(p.contact_distance, 3);
-  p.keep_fraction = options.keep_fraction;
-  p.cg_iterations = options.cg_iterations;
-  p.cg_tolerance = options.cg_tolerance;
-
-  std::vector<int> fixed(n);
-  std::iota(fixed.begin(), fixed.end(), 0);
-  for (int v : g.directions.unextrudable) fixed.push_back(n + v);
-  GuardedSolver solver(ideal, 2 * n, fixed, boundary, p);
-  g.factor_seconds = solver.shell_solver().factor_seconds();
-  Eigen::MatrixXd X(2 * n, 3);
-  X << V, g.start.top;
-  g.solve = solver.solve(X, solve);
+  // Repair: the guarded solver moves only the top vertices the start pulled in and a few rings
+  // around them; everywhere else the paper's result stands (its barriers are zero there and it is
+  // converged), so the repair costs in proportion to the trouble, not to the shell.
+  std::vector<char> in_region(n, 0);
+  for (int i = 0; i < n; ++i) in_region[i] = g.start.scale[i] < 1;
+  for (int v : g.directions.unextrudable) in_region[v] = 0;
+  for (int ring = 0; ring < options.repair_rings; ++ring) {
+    std::vector<char> grown = in_region;
+    for (int f = 0; f < m; ++f)
+      if (in_region[F(f, 0)] || in_region[F(f, 1)] || in_region[F(f, 2)])
+        for (int k = 0; k < 3; ++k) grown[F(f, k)] = 1;
+    in_region = grown;
+  }
+  for (int v : g.directions.unextrudable) in_region[v] = 0;
+  g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
+  X.bottomRows(n) = g.start.top;
+  if (g.repaired_vertices > 0) {
+    std::vector<int> held(n);
+    std::iota(held.begin(), held.end(), 0);
+    for (int i = 0; i < n; ++i)
+      if (!in_region[i]) held.push_back(n + i);
+    // Only tets with a moving vertex change: the others are left out of the solver altogether.
+    std::vector<int> tets;
+    for (int t = 0; t < ideal.size(); ++t)
+      for (int j = 0; j < 4; ++j)
+        if (ideal.T(t, j) >= n && in_region[ideal.T(t, j) - n]) {
+          tets.push_back(t);
+          break;
+        }
+    RestTets local;
+    local.T.resize(static_cast<int>(tets.size()), 4);
+    local.volume.resize(static_cast<int>(tets.size()));
+    GuardedSolverParameters q = p;
+    q.skip_tets.clear();
+    for (std::size_t k = 0; k < tets.size(); ++k) {
+      local.T.row(static_cast<int>(k)) = ideal.T.row(tets[k]);
+      local.Dm_inv.push_back(ideal.Dm_inv[tets[k]]);
+      local.volume[static_cast<int>(k)] = ideal.volume[tets[k]];
+      q.skip_tets.push_back(p.skip_tets[tets[k]]);
+    }
+    GuardedSolver repair(local, 2 * n, held, boundary, q);
+    g.factor_seconds += repair.shell_solver().factor_seconds();
+    g.solve = repair.solve(X, solve);
+  }
   g.top = X.bottomRows(n);
   g.seconds = seconds_since(t0);
   return g;

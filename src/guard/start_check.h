@@ -1,7 +1,10 @@
 #pragma once
-// INTERIM exact validity check for the guarded start, until the certificate (certify_shell) lands:
-// inverted tets by exact orient3d, intersecting boundary triangle pairs by the exact pair test
-// (pairs sharing a vertex are not tested yet).
+// Exact validity checks for the guarded start's rounds: tets by exact orient3d, boundary triangle
+// pairs by an exact intersection test. The first check covers the whole shell; later ones only
+// what touches the vertices moved since (pairs and tets among unmoved vertices were decided
+// already), so a round costs little more than its few moved vertices.
+// INTERIM: pairs sharing a vertex are not tested yet; the certificate's exact neighbour test
+// replaces the pair test when it lands.
 #include <gshell/quality/shell_boundary.h>
 
 #include <Eigen/Core>
@@ -11,11 +14,25 @@
 namespace gshell::detail {
 
 struct StartViolations {
-  std::vector<int> inverted_tets;                  ///< rows of T
-  std::vector<std::pair<int, int>> intersections;  ///< rows of the boundary, base/base pairs left out
+  std::vector<int> inverted_tets;                 ///< rows of T, not skipped
+  std::vector<std::pair<int, int>> intersections; ///< boundary rows a < b, neither excluded, not both base
 };
 
-/// X: 2n x 3 shell vertices.
-StartViolations start_violations(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T, const ShellBoundary& boundary);
+class StartChecker {
+public:
+  /// T: tets over the 2n shell vertices; skip / excluded: one flag per tet / boundary row or empty.
+  StartChecker(const Eigen::MatrixXi& T, const ShellBoundary& boundary, std::vector<char> skip_tets,
+               std::vector<char> excluded_triangles, int num_vertices);
+
+  /// Violations at X (2n x 3). With `moved` (one flag per vertex of X), only tets and pairs with
+  /// a moved vertex are tested.
+  StartViolations check(const Eigen::MatrixXd& X, const std::vector<char>* moved = nullptr) const;
+
+private:
+  Eigen::MatrixXi T_;
+  ShellBoundary boundary_;
+  std::vector<char> skip_, excluded_;
+  int N_;
+};
 
 } // namespace gshell::detail

@@ -54,12 +54,13 @@ double VolumeBarrier::relative_volume(const Eigen::MatrixXd& X, int t, Eigen::Ve
   return c * e1.dot(c1);
 }
 
-double VolumeBarrier::energy(const Eigen::MatrixXd& X) const {
+double VolumeBarrier::energy(const Eigen::MatrixXd& X, std::vector<int>* active) const {
   const int K = static_cast<int>(T_.rows());
   // Fixed-size chunks summed in order: the value does not depend on the thread schedule.
   constexpr int kChunk = 4096;
   const int chunks = (K + kChunk - 1) / kChunk;
   std::vector<double> part(chunks, 0.0);
+  std::vector<std::vector<int>> chunk_active(active ? chunks : 0);
   tbb::parallel_for(0, chunks, [&](int ci) {
     double e = 0;
     for (int t = ci * kChunk; t < std::min(K, (ci + 1) * kChunk); ++t) {
@@ -69,19 +70,25 @@ double VolumeBarrier::energy(const Eigen::MatrixXd& X) const {
         e = kInf;
         break;
       }
-      if (u < 1) e += weight_[t] * psi(u);
+      if (u < 1) {
+        e += weight_[t] * psi(u);
+        if (active) chunk_active[ci].push_back(t);
+      }
     }
     part[ci] = e;
   });
   double E = 0;
   for (double e : part) E += e;
+  if (active) {
+    active->clear();
+    for (const auto& c : chunk_active) active->insert(active->end(), c.begin(), c.end());
+  }
   return E;
 }
 
-void VolumeBarrier::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G) const {
-  const int K = static_cast<int>(T_.rows());
-  for (int t = 0; t < K; ++t) { // active tets are few: a serial pass that skips the rest is cheap
-    if (skip_[t]) continue;
+void VolumeBarrier::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G,
+                                 const std::vector<int>& active) const {
+  for (int t : active) {
     Eigen::Vector3d g[4];
     const double u = relative_volume(X, t, g) / j_hat_;
     if (!(u > 0) || u >= 1) continue;
@@ -90,10 +97,9 @@ void VolumeBarrier::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::
   }
 }
 
-void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H) const {
-  const int K = static_cast<int>(T_.rows());
-  for (int t = 0; t < K; ++t) {
-    if (skip_[t]) continue;
+void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
+                                const std::vector<int>& active) const {
+  for (int t : active) {
     Eigen::Vector3d g[4];
     const double u = relative_volume(X, t, g) / j_hat_;
     if (!(u > 0) || u >= 1) continue;
@@ -106,14 +112,10 @@ void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vec
   }
 }
 
-int VolumeBarrier::active_tets(const Eigen::MatrixXd& X) const {
-  int count = 0;
-  for (int t = 0; t < T_.rows(); ++t) {
-    if (skip_[t]) continue;
-    const double J = relative_volume(X, t, nullptr);
-    count += J > 0 && J < j_hat_;
-  }
-  return count;
+std::vector<int> VolumeBarrier::active_tets(const Eigen::MatrixXd& X) const {
+  std::vector<int> active;
+  energy(X, &active);
+  return active;
 }
 
 double VolumeBarrier::min_relative_volume(const Eigen::MatrixXd& X) const {

@@ -20,7 +20,8 @@ struct GuardOptions {
   double j_hat = 0.1;
   /// Weight of the volume barrier (dimensionless; its terms are rest volume times psi(J / j_hat)).
   double volume_weight = 1.0;
-  /// Contact barrier support dhat as a fraction of min(eta, mean base edge length) (> 0).
+  /// Contact barrier support dhat as a fraction of min(eta, mean base edge length) (>= 0; 0 turns
+  /// contacts off: only tets are guarded, intersections are not prevented).
   double contact_distance = 0.1;
   /// Weight of the contact barrier (dimensionless): the barrier (length^4) is scaled by
   /// contact_weight * A / dhat^3, A the mean base area per vertex, so that at dhat / 2 its push
@@ -35,9 +36,16 @@ struct GuardOptions {
   /// this cosine margin (extrusion_directions), in [-1, 1].
   double normal_margin = 0.5;
   double start_thinning = 0.5; ///< ValidStartOptions::thinning
+  /// The start pulls an invalid top vertex towards its base vertex along the line joining them
+  /// when that line sees every incident face with at least this cosine margin, otherwise along
+  /// the extrusion direction (extrusion_vectors), in (0, 1].
+  double start_margin = 0.1;
   /// Top vertices of unextrudable vertices are held at this fraction of eta along their best
   /// direction (the prisms around them cannot all be valid; only those are left unguarded).
   double unextrudable_thickness = 0.1;
+  /// The guarded solver moves the top vertices the start pulled in and this many rings of
+  /// neighbours around them; the rest keeps the paper's result (>= 0).
+  int repair_rings = 3;
 };
 
 /// Throws InputError naming the parameter unless every field is in range.
@@ -48,15 +56,20 @@ struct GuardedShell {
   ExtrusionDirections directions;      ///< directions.unextrudable: vertices no direction serves
   std::vector<std::pair<int, int>> base_self_intersections; ///< pairs of base faces (the input's)
   int excluded_faces = 0;              ///< faces whose prisms' boundary triangles see no contacts
-  ValidStart start;
-  GuardedSolveResult solve;
+  int repaired_vertices = 0;           ///< top vertices the guarded solver moved
+  SolveResult paper;                   ///< the paper's iterations that give the wanted top
+  ValidStart start;                    ///< that top, pulled in where it is not valid
+  GuardedSolveResult solve;            ///< the guarded iterations from the start
   GuardedSolverParameters parameters;  ///< the absolute parameters used
-  double factor_seconds = 0;           ///< matrix assembly + factorisation (in the constructor)
+  double factor_seconds = 0;           ///< matrix assembly + factorisation (both solvers)
   double seconds = 0;                  ///< everything, factor and solve included
 };
 
 /// The guarded top over base (V, F) towards the rest tets `ideal` (prism_rest_tets of the ideal
-/// prisms: normal or curvature), thickness eta (model units). Throws InputError on bad options.
+/// prisms: normal or curvature), thickness eta (model units): the paper's local/global iterations
+/// from the offset surface (the unguarded result), a valid start made from it (valid_start), and
+/// the guarded solver from there. solve.max_iterations and tolerance apply to both solves.
+/// Throws InputError on bad options.
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
                            const GuardOptions& options, const GuardedSolveOptions& solve);
 

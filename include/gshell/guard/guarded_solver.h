@@ -53,6 +53,9 @@ struct GuardedSolverParameters {
   double keep_fraction = 0.1;
   int cg_iterations = 20;      ///< cap on CG iterations per direction (0: the plain A^-1 step)
   double cg_tolerance = 0.1;   ///< relative residual (A^-1 norm) at which CG stops
+  /// Before CG, the model is solved exactly on the vertices within this many rings of those the
+  /// barriers act on (a small sparse factorisation); -1 skips it.
+  int local_rings = 2;
   /// Tets left out of the volume barrier and bound (empty or one flag per tet): those that
   /// cannot be valid (around unextrudable vertices); they may stay inverted.
   std::vector<char> skip_tets;
@@ -81,6 +84,7 @@ struct GuardedSolveResult {
   int clamped_steps = 0;       ///< iterations whose step the tet or contact bound cut below 1
   double final_energy = 0;     ///< E alone (the shell energy, no barriers) at the result
   int active_tets = 0;         ///< tets inside the volume barrier at the result
+  double min_relative_volume = 0; ///< smallest det F over the guarded tets at the result
   int active_contacts = 0;     ///< boundary pairs inside the contact barrier at the result
 };
 

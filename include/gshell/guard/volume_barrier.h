@@ -19,16 +19,20 @@ public:
   /// `skip` (empty or one flag per tet): tets left out (e.g. prisms around unextrudable vertices).
   VolumeBarrier(const RestTets& rest, double j_hat, std::vector<char> skip = {});
 
-  /// B at X (2n x 3 shell positions); +infinity if a guarded tet is flat or inverted.
-  double energy(const Eigen::MatrixXd& X) const;
-  /// G += scale * dB/dX.
-  void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G) const;
-  /// Appends scale * H, H the Gauss-Newton part of d^2B/dX^2 (vol psi'' grad J grad J^T per tet,
-  /// positive semi-definite), as triplets indexed 3 * vertex + axis.
-  void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H) const;
+  /// B at X (2n x 3 shell positions); +infinity if a guarded tet is flat or inverted. With
+  /// `active`, also the tets where the barrier acts (0 < J < j_hat), ascending.
+  double energy(const Eigen::MatrixXd& X, std::vector<int>* active = nullptr) const;
+  /// G += scale * dB/dX, summed over `active` (the list energy() gave at this X).
+  void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G, const std::vector<int>& active) const;
+  /// Appends scale * H over `active`, H the Gauss-Newton part of d^2B/dX^2 (vol psi'' grad J
+  /// grad J^T per tet, positive semi-definite), as triplets indexed 3 * vertex + axis.
+  void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
+                   const std::vector<int>& active) const;
 
-  /// Tets with 0 < J < j_hat at X (where the barrier acts).
-  int active_tets(const Eigen::MatrixXd& X) const;
+  /// Tets with 0 < J < j_hat at X (where the barrier acts), ascending.
+  std::vector<int> active_tets(const Eigen::MatrixXd& X) const;
+  /// J of tet t at X.
+  double relative_volume_of(const Eigen::MatrixXd& X, int t) const { return relative_volume(X, t, nullptr); }
   /// Smallest J over the guarded tets at X (+infinity if none).
   double min_relative_volume(const Eigen::MatrixXd& X) const;
 
