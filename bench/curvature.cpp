@@ -6,7 +6,6 @@
 // inverted tets, intersections, clamp counts and generation time; then a sweep of the clamps.
 #include <gshell/geometry/curvature.h>
 #include <gshell/io/read_mesh.h>
-#include <gshell/shell/curvature_shell.h>
 #include <gshell/shell/generate_shell.h>
 
 #include <algorithm>
@@ -67,15 +66,9 @@ Run generate(const TriMesh& mesh, ShellMethod method, double eta, double s_min, 
   options.count_intersections = intersections;
   Run run;
   run.seconds = seconds_of([&] {
-    if (method == ShellMethod::Curvature) {
-      CurvatureShellResult c = generate_curvature_shell(mesh.V, mesh.F, options);
-      run.result = std::move(c.result);
-      run.prisms = c.prisms;
-      run.own = c.own_stretch;
-    } else {
-      run.result = generate_shell(mesh.V, mesh.F, options);
-      run.own = run.result.metrics.stretch;
-    }
+    run.result = generate_shell(mesh.V, mesh.F, options);
+    run.own = run.result.curvature ? run.result.curvature->own_stretch : run.result.metrics.stretch;
+    if (run.result.curvature) run.prisms = run.result.curvature->prisms;
   });
   return run;
 }

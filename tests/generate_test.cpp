@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 using namespace gshell;
 using gshell::test::generate_options;
 
@@ -111,7 +113,20 @@ TEST(Generate, ReportHasEveryField) {
   EXPECT_DOUBLE_EQ(j["thickness"]["eta"].get<double>(), 0.05);
   EXPECT_EQ(j["top_self_intersections"], 0); // a thin shell of a smooth torus is clean
   EXPECT_EQ(j["top_base_intersections"], 0);
-  EXPECT_FALSE(generate_summary(r, "builtin:torus:24").empty());
+  // The terminal summary says the same as the report.
+  const std::string summary = generate_summary(r, "builtin:torus:24");
+  const std::string faces = std::to_string(mesh.F.rows());
+  for (const std::string& part :
+       {std::string("input        builtin:torus:24"),
+        "shell        " + std::to_string(mesh.V.rows()) + " vertices, " + faces + " faces, " +
+            std::to_string(3 * mesh.F.rows()) + " tets, eta 0.05, method rigid",
+        "after " + std::to_string(r.solve.iterations) + " iterations",
+        "inverted     " + std::to_string(r.metrics.stretch.inverted) + " tets",
+        std::string("intersect    top/top 0, top/base 0 face pairs")})
+    EXPECT_NE(summary.find(part), std::string::npos) << part << "\n" << summary;
+  char stretch[64];
+  std::snprintf(stretch, sizeof stretch, "volume-weighted %.4g", r.metrics.stretch.volume_mean);
+  EXPECT_NE(summary.find(stretch), std::string::npos) << stretch << "\n" << summary;
 }
 
 TEST(Generate, CurvatureRejectsBadClamps) {

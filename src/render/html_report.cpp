@@ -6,6 +6,7 @@
 #include <gshell/render/image.h>
 #include <gshell/render/shell_render.h>
 #include <gshell/render/svg_plot.h>
+#include <gshell/run/shell_folder.h>
 
 #include <nlohmann/json.hpp>
 
@@ -302,28 +303,16 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
     ShellRenderOptions ro;
     ro.figure.width = options.render_width;
     ro.figure.height = options.render_height;
-    std::vector<fs::path> frames;
-    if (!fs::exists(dir / "shell.vtu") && !fs::exists(dir / "top.obj"))
-      for (const auto& entry : fs::directory_iterator(dir))
-        if (entry.is_directory() && entry.path().filename().string().rfind("frame_", 0) == 0) frames.push_back(entry.path());
-    std::sort(frames.begin(), frames.end());
-    if (!frames.empty()) {
-      std::vector<size_t> picks{0, frames.size() / 2, frames.size() - 1};
-      picks.erase(std::unique(picks.begin(), picks.end()), picks.end());
-      std::vector<RenderSubject> subjects;
-      std::vector<std::string> captions;
-      for (size_t k : picks) {
-        subjects.push_back(load_render_subject(frames[k].string()));
-        captions.push_back(frames[k].filename().string());
-      }
+    // The panels of the folder's preview: first, middle and last frame of a deformation, the rest
+    // shell beside a pose, or the shell alone.
+    PreviewPanels preview = preview_panels(dir.string());
+    if (!is_shell_folder(dir)) {
       ro.figure.width = options.render_width * 3 / 2;
       std::string names;
-      for (const auto& c : captions) names += (names.empty() ? "" : ", ") + c;
-      image_figure(html, render_subjects(subjects, captions, ro),
+      for (const auto& c : preview.captions) names += (names.empty() ? "" : ", ") + c;
+      image_figure(html, render_subjects(preview.subjects, preview.captions, ro),
                    names + " (first, middle and last frame), colored by stretch against the rest shell (iso view)");
     } else {
-      // A pose output is shown beside its rest shell, as its preview is.
-      PreviewPanels preview = preview_panels(dir.string());
       if (preview.subjects.size() > 1) {
         ro.figure.width = options.render_width * 3 / 2;
         image_figure(html, render_subjects(preview.subjects, preview.captions, ro),
@@ -359,11 +348,7 @@ figcaption{color:#555;font-size:.9em}.note{color:#a33})";
 
 std::string html_report(const std::string& dir_text, const ReportOptions& options) {
   const fs::path dir(dir_text);
-  const fs::path report_path = dir / "report.json";
-  std::ifstream in(report_path);
-  if (!in) throw InputError(with_file(report_path.string(), "cannot open (is " + dir_text + " a gshell output folder?)"));
-  json report = json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (report.is_discarded() || !report.is_object()) throw InputError(with_file(report_path.string(), "not a JSON object"));
+  const json report = read_report(dir);
 
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html xmlns=\"http://www.w3.org/1999/xhtml\" lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n"

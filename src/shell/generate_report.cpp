@@ -1,5 +1,7 @@
 #include <gshell/shell/generate_report.h>
 
+#include <gshell/quality/stretch_report.h>
+
 #include <cstdio>
 #include <sstream>
 
@@ -38,9 +40,7 @@ nlohmann::json metrics_report(const ShellMetrics& m, int vertices, int faces, do
   j["vertices"] = vertices;
   j["faces"] = faces;
   j["tets"] = 3 * faces;
-  j["stretch"] = {{"mean", m.stretch.mean}, {"volume_mean", m.stretch.volume_mean}, {"max", m.stretch.max},
-                  {"p99", m.stretch.p99}};
-  j["inverted_tets"] = m.stretch.inverted;
+  j.update(nlohmann::json(stretch_report(m.stretch)));
   j["top_self_intersections"] = count_or_null(m.top_self_intersections);
   j["top_base_intersections"] = count_or_null(m.top_base_intersections);
   return j;
@@ -57,6 +57,15 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
   j["converged"] = r.solve.converged;
   j["energy"] = r.solve.energy;
   j["seconds"] = {{"total", r.seconds.total}, {"factor", r.seconds.factor}, {"solve", r.seconds.solve}};
+  if (r.curvature) {
+    const CurvatureGeneration& c = *r.curvature;
+    j["curvature"] = {{"s_min", c.s_min},
+                      {"s_max", c.s_max},
+                      {"clamped_prisms", c.prisms.clamped},
+                      {"limited_prisms", c.prisms.limited},
+                      {"own_prisms", nlohmann::json(stretch_report(c.own_stretch))},
+                      {"seconds", c.prism_seconds}};
+  }
   return j;
 }
 
@@ -82,6 +91,16 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
     out << "\n";
   }
   quality_lines(out, r.metrics);
+  if (r.curvature) {
+    const CurvatureGeneration& c = *r.curvature;
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "curvature    %d of %d prisms clamped to s in [%g, %g], %d anisotropy-limited (%.3f s)\n"
+                  "own prisms   stretch mean %.4g  volume-weighted %.4g  p99 %.4g  max %.4g, %d inverted\n",
+                  c.prisms.clamped, m, c.s_min, c.s_max, c.prisms.limited, c.prism_seconds, c.own_stretch.mean,
+                  c.own_stretch.volume_mean, c.own_stretch.p99, c.own_stretch.max, c.own_stretch.inverted);
+    out << buf;
+  }
   out << format("time         %.3f s (factor %.3f s, solve %.3f s)\n", r.seconds.total, r.seconds.factor,
                 r.seconds.solve);
   return out.str();

@@ -13,7 +13,9 @@ namespace gshell {
 ///   thickness / eta)}, vertices, faces, tets, iterations, converged, energy [E_0 = offset start,
 ///   one per iteration], stretch {mean, volume_mean, max, p99} (against the normal prisms),
 ///   inverted_tets, top_self_intersections, top_base_intersections (null if not counted),
-///   seconds {total, factor, solve}, gshell_version.
+///   seconds {total, factor, solve}, gshell_version; the curvature method adds curvature {s_min,
+///   s_max, clamped_prisms, limited_prisms, own_prisms {stretch, inverted_tets} (against the
+///   prisms it was optimised towards), seconds (of the curvature prisms)}.
 nlohmann::json generate_report(const GenerateResult& result, const std::string& input,
                                std::optional<double> thickness_ratio = std::nullopt);
 
@@ -22,7 +24,8 @@ nlohmann::json generate_report(const GenerateResult& result, const std::string& 
 nlohmann::json metrics_report(const ShellMetrics& metrics, int vertices, int faces, double eta,
                               std::optional<double> thickness_ratio = std::nullopt);
 
-/// A few lines for a terminal: sizes, method, energy, stretch, inversions, intersections, times.
+/// A few lines for a terminal: sizes, method, energy, stretch, inversions, intersections, times
+/// (and the curvature method's clamp counts).
 std::string generate_summary(const GenerateResult& result, const std::string& input);
 
 /// The same for `gshell metrics`.
