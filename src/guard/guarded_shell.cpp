@@ -35,6 +35,19 @@ std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, co
   return {length / (3.0 * static_cast<double>(F.rows())), area / static_cast<double>(V.rows())};
 }
 
+// Boundary rows the contact guard cannot protect: the excluded rows and every row sharing a vertex
+// with one (ContactGuard skips the pairs of a vertex that is a corner of an excluded row, and the
+// edges of excluded rows). Two rows outside this set are kept apart by the guard.
+std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vector<char>& excluded, int num_vertices) {
+  std::vector<char> corner(num_vertices, 0), out(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r)
+    if (excluded[r])
+      for (int k = 0; k < 3; ++k) corner[boundary.F(r, k)] = 1;
+  for (int r = 0; r < boundary.size(); ++r)
+    out[r] = corner[boundary.F(r, 0)] || corner[boundary.F(r, 1)] || corner[boundary.F(r, 2)];
+  return out;
+}
+
 } // namespace
 
 void check_guard_options(const GuardOptions& o) {
@@ -62,7 +75,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   GuardedShell g;
   const ShellBoundary boundary = shell_boundary(F, n);
   g.directions = extrusion_directions(V, F, options.normal_margin);
-  g.base_self_intersections = self_intersecting_pairs(V, F);
+  g.base_self_intersections = surface_self_intersections(V, F);
 
   // Faces around each vertex, for marking stars.
   std::vector<int> start(n + 1, 0), star;
@@ -124,16 +137,20 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
       extrusion_vectors(V, F, X.bottomRows(n), g.directions, options.start_margin, eta);
   ValidStartOptions start_options;
   start_options.thinning = options.start_thinning;
-  g.start = valid_start(V, F, W, boundary, p.skip_tets, p.excluded_triangles, start_options);
+  g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
+  g.start = valid_start(V, F, W, p.skip_tets, g.unprotected_triangles, start_options);
   // Whatever the start could not mend (only a degenerate base leaves anything) is left unguarded
   // too, so that the solver starts valid for its barriers; the certificate reports it.
-  for (int t : g.start.inverted_tets) p.skip_tets[t] = 1;
-  for (const auto& [a, b] : g.start.intersections) p.excluded_triangles[a] = p.excluded_triangles[b] = 1;
+  if (!g.start.inverted_tets.empty() || !g.start.intersections.empty()) {
+    for (int t : g.start.inverted_tets) p.skip_tets[t] = 1;
+    for (const auto& [a, b] : g.start.intersections) p.excluded_triangles[a] = p.excluded_triangles[b] = 1;
+    g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
+  }
   {
     std::vector<char> face_out(m, 0);
     for (int r = 0; r < boundary.size(); ++r)
-      if (p.excluded_triangles[r]) face_out[boundary.face[r]] = 1;
-    g.excluded_faces = static_cast<int>(std::count(face_out.begin(), face_out.end(), 1));
+      if (g.unprotected_triangles[r]) face_out[boundary.face[r]] = 1;
+    g.unprotected_faces = static_cast<int>(std::count(face_out.begin(), face_out.end(), 1));
   }
   // Repair: the guarded solver moves only the top vertices the start pulled in and a few rings
   // around them; everywhere else the paper's result stands (its barriers are zero there and it is
@@ -177,7 +194,10 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     }
     GuardedSolver repair(local, 2 * n, held, boundary, q);
     g.factor_seconds += repair.shell_solver().factor_seconds();
-    g.solve = repair.solve(X, solve);
+    // Converged as the paper's iterations are: relative to the whole shell's energy.
+    GuardedSolveOptions repair_options = solve;
+    repair_options.energy_scale = g.paper.energy.back();
+    g.solve = repair.solve(X, repair_options);
   }
   g.top = X.bottomRows(n);
   g.seconds = seconds_since(t0);

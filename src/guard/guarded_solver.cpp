@@ -357,7 +357,9 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     if (options.progress) options.progress(it, E_new, seconds_since(t0));
     // Converged when the decrease is small and no bound held the step back (a clamped step with a
     // large predicted decrease is progress still to be made).
-    const bool small = E <= 0 || ((E - E_new) < options.tolerance * E && (!clamped || predicted < options.tolerance * E));
+    const double scale = options.energy_scale > 0 ? options.energy_scale : E;
+    const bool small = E <= 0 || ((E - E_new) < options.tolerance * scale &&
+                                  (!clamped || predicted < options.tolerance * scale));
     if (tau >= 1 && (small || !moved)) {
       result.converged = small;
       break;

@@ -1,10 +1,8 @@
 #pragma once
-// Exact validity checks for the guarded start's rounds: tets by exact orient3d, boundary triangle
-// pairs by an exact intersection test. The first check covers the whole shell; later ones only
-// what touches the vertices moved since (pairs and tets among unmoved vertices were decided
-// already), so a round costs little more than its few moved vertices.
-// INTERIM: pairs sharing a vertex are not tested yet; the certificate's exact neighbour test
-// replaces the pair test when it lands.
+// Exact validity checks for the guarded start's rounds, by the certificate's predicates: the first
+// round certifies the whole shell (certify_shell); later ones test only the tets and boundary
+// triangle pairs that touch the vertices moved since (pairs and tets among unmoved vertices were
+// decided already), so a round costs little more than its moved vertices.
 #include <gshell/quality/shell_boundary.h>
 
 #include <Eigen/Core>
@@ -20,19 +18,23 @@ struct StartViolations {
 
 class StartChecker {
 public:
-  /// T: tets over the 2n shell vertices; skip / excluded: one flag per tet / boundary row or empty.
-  StartChecker(const Eigen::MatrixXi& T, const ShellBoundary& boundary, std::vector<char> skip_tets,
-               std::vector<char> excluded_triangles, int num_vertices);
+  /// Over base faces F (n base vertices); skip / excluded: one flag per tet of build_prism_tets /
+  /// boundary row, or empty.
+  StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets, std::vector<char> excluded_triangles);
 
-  /// Violations at X (2n x 3). With `moved` (one flag per vertex of X), only tets and pairs with
-  /// a moved vertex are tested.
-  StartViolations check(const Eigen::MatrixXd& X, const std::vector<char>* moved = nullptr) const;
+  /// Violations of the shell (base, top). With `moved` (one flag per top vertex), only tets and
+  /// pairs with a moved top vertex are tested.
+  StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                        const std::vector<char>* moved = nullptr) const;
+
+  const ShellBoundary& boundary() const { return boundary_; }
+  const Eigen::MatrixXi& tets() const { return T_; }
 
 private:
-  Eigen::MatrixXi T_;
+  Eigen::MatrixXi F_, T_;
+  int n_;
   ShellBoundary boundary_;
   std::vector<char> skip_, excluded_;
-  int N_;
 };
 
 } // namespace gshell::detail

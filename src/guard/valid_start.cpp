@@ -44,25 +44,23 @@ Eigen::MatrixXd extrusion_vectors(const Eigen::MatrixXd& V, const Eigen::MatrixX
 }
 
 ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& W,
-                       const ShellBoundary& boundary,
                        const std::vector<char>& skip_tets, const std::vector<char>& excluded_triangles,
                        const ValidStartOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(V.rows());
   if (W.rows() != n || W.cols() != 3) throw InputError("valid_start: expected one extrusion vector per vertex");
   if (!(options.thinning > 0 && options.thinning < 1)) throw InputError("valid_start: thinning must be in (0, 1)");
-  const Eigen::MatrixXi T = build_prism_tets(F, n);
-  const detail::StartChecker checker(T, boundary, skip_tets, excluded_triangles, 2 * n);
+  const detail::StartChecker checker(F, n, skip_tets, excluded_triangles);
+  const Eigen::MatrixXi& T = checker.tets();
+  const ShellBoundary& boundary = checker.boundary();
 
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
-  Eigen::MatrixXd X(2 * n, 3);
-  std::vector<char> thin(n), moved(2 * n, 0);
+  std::vector<char> thin(n), moved(n, 0);
   for (s.rounds = 1;; ++s.rounds) {
     s.top = V + s.scale.asDiagonal() * W;
-    X << V, s.top;
     // The first round checks everything, later ones what the last thinning moved.
-    const detail::StartViolations found = checker.check(X, s.rounds == 1 ? nullptr : &moved);
+    const detail::StartViolations found = checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
     s.inverted_tets = found.inverted_tets;
     s.intersections = found.intersections;
     std::fill(thin.begin(), thin.end(), 0);
@@ -75,7 +73,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
           if (boundary.F(row, k) >= n) thin[boundary.F(row, k) - n] = 1;
     if ((s.inverted_tets.empty() && s.intersections.empty()) || s.rounds >= options.max_rounds) break;
     for (int i = 0; i < n; ++i) {
-      moved[n + i] = thin[i];
+      moved[i] = thin[i];
       if (thin[i]) s.scale[i] *= options.thinning;
     }
   }

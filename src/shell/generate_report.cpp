@@ -56,7 +56,33 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
   j["iterations"] = r.solve.iterations;
   j["converged"] = r.solve.converged;
   j["energy"] = r.solve.energy;
-  j["seconds"] = {{"total", r.seconds.total}, {"factor", r.seconds.factor}, {"solve", r.seconds.solve}};
+  j["seconds"] = {{"total", r.seconds.total},
+                  {"factor", r.seconds.factor},
+                  {"solve", r.seconds.solve},
+                  {"guard", r.seconds.guard},
+                  {"certificate", r.seconds.certificate}};
+  const ShellCertificate& c = r.certificate;
+  j["valid"] = r.valid;
+  j["certificate"] = {{"inverted_tets", c.inverted_tets},
+                      {"top_self_intersections", count_or_null(c.top_self_intersections)},
+                      {"top_base_intersections", count_or_null(c.top_base_intersections)},
+                      {"wall_intersections", count_or_null(c.wall_intersections)},
+                      {"exact", ShellCertificate::exact}};
+  j["base_self_intersections"] = count_or_null(c.base_self_intersections);
+  j["thinned_vertices"] = r.thinned_vertices.size();
+  j["unextrudable_vertices"] = r.unextrudable_vertices;
+  j["guarded"] = r.guarded;
+  if (r.guarded) {
+    const GuardedShell& g = r.guard;
+    j["guard"] = {{"paper_iterations", g.paper.iterations},
+                  {"start_rounds", g.start.rounds},
+                  {"pulled_in_vertices", (g.start.scale.array() < 1).count()},
+                  {"repaired_vertices", g.repaired_vertices},
+                  {"repair_iterations", g.solve.iterations},
+                  {"unprotected_faces", g.unprotected_faces},
+                  {"min_relative_volume", g.solve.iterations > 0 ? nlohmann::json(g.solve.min_relative_volume)
+                                                                 : nlohmann::json(nullptr)}};
+  }
   if (r.curvature) {
     const CurvatureGeneration& c = *r.curvature;
     j["curvature"] = {{"s_min", c.s_min},
@@ -101,8 +127,19 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
                   c.own_stretch.volume_mean, c.own_stretch.p99, c.own_stretch.max, c.own_stretch.inverted);
     out << buf;
   }
-  out << format("time         %.3f s (factor %.3f s, solve %.3f s)\n", r.seconds.total, r.seconds.factor,
-                r.seconds.solve);
+  out << "valid        " << (r.valid ? "yes" : "no") << " (certificate: " << r.certificate.inverted_tets
+      << " inverted, top/top " << count_text(r.certificate.top_self_intersections) << ", top/base "
+      << count_text(r.certificate.top_base_intersections) << ", wall " << count_text(r.certificate.wall_intersections)
+      << "; base crossings " << count_text(r.certificate.base_self_intersections) << ")\n";
+  if (r.guarded)
+    out << "guard        " << r.thinned_vertices.size() << " thinned vertices (< " << kThinnedFraction
+        << " eta), " << r.unextrudable_vertices.size() << " unextrudable, " << (r.guard.start.scale.array() < 1).count()
+        << " pulled in, " << r.guard.repaired_vertices << " repaired in " << r.guard.solve.iterations
+        << " iterations\n";
+  char time[256];
+  std::snprintf(time, sizeof time, "time         %.3f s (factor %.3f s, solve %.3f s, guard %.3f s, certificate %.3f s)\n",
+                r.seconds.total, r.seconds.factor, r.seconds.solve, r.seconds.guard, r.seconds.certificate);
+  out << time;
   return out.str();
 }
 

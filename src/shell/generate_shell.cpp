@@ -30,10 +30,23 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
   return s;
 }
 
-void fill_thinned(GenerateResult& r) {
+// Thinned vertices and the certificate, for every method. Intersections are counted by the
+// certificate (which tests neighbouring triangles too), not twice by the metrics.
+void finish(GenerateResult& r, const GenerateOptions& options) {
+  const auto t0 = Clock::now();
   r.thinned_vertices.clear();
   for (int i = 0; i < r.metrics.vertex_thickness.size(); ++i)
     if (r.metrics.vertex_thickness[i] < kThinnedFraction) r.thinned_vertices.push_back(i);
+  CertifyOptions certify;
+  certify.test_intersections = r.guarded || options.count_intersections;
+  // The guard found the base's own crossings already (same exact test).
+  certify.base_self_intersections = !r.guarded;
+  r.certificate = certify_shell(r.shell.base, r.shell.top, r.shell.F, certify);
+  if (r.guarded) r.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
+  r.valid = r.certificate.valid() && r.certificate.base_self_intersections == 0;
+  r.metrics.top_self_intersections = r.certificate.top_self_intersections;
+  r.metrics.top_base_intersections = r.certificate.top_base_intersections;
+  r.seconds.certificate = seconds_since(t0);
 }
 
 // Generation towards `ideal`; `ideal_is_normal` lets the metrics reuse the solver's rest tets.
@@ -73,10 +86,9 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.guard.solve.seconds;
     r.shell = make_shell(V, F, r.guard.top, options.thickness);
   }
-  r.metrics = ideal_is_normal
-                  ? shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, rest)
-                  : shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
-  fill_thinned(r);
+  r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)
+                              : shell_metrics(V, F, r.shell.top, options.thickness, false);
+  finish(r, options);
   r.seconds.total = seconds_since(t0);
   return r;
 }
@@ -158,9 +170,9 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
   // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
   const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
-  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, rest);
+  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, false, rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
-  fill_thinned(r);
+  finish(r, options);
   r.solve.converged = true;
   r.seconds.total = seconds_since(t0);
   return r;

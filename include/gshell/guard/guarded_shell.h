@@ -55,7 +55,11 @@ struct GuardedShell {
   Eigen::MatrixXd top;                 ///< n x 3
   ExtrusionDirections directions;      ///< directions.unextrudable: vertices no direction serves
   std::vector<std::pair<int, int>> base_self_intersections; ///< pairs of base faces (the input's)
-  int excluded_faces = 0;              ///< faces whose prisms' boundary triangles see no contacts
+  /// Per row of shell_boundary(F, n): the triangles the guard cannot keep clean, near the base's
+  /// own crossings and around unextrudable vertices (the triangles excluded from contacts and
+  /// every triangle sharing a vertex with one). Any two other triangles do not intersect.
+  std::vector<char> unprotected_triangles;
+  int unprotected_faces = 0;           ///< faces with a triangle in unprotected_triangles
   int repaired_vertices = 0;           ///< top vertices the guarded solver moved
   SolveResult paper;                   ///< the paper's iterations that give the wanted top
   ValidStart start;                    ///< that top, pulled in where it is not valid

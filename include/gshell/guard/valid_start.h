@@ -39,12 +39,11 @@ struct ValidStart {
   double seconds = 0;
 };
 
-/// The start for the base (V, F) along extrusion vectors W (n x 3, extrusion_vectors). `boundary`
-/// = shell_boundary(F, n); `skip_tets` (one flag per tet of build_prism_tets, or empty) and
-/// `excluded_triangles` (one flag per boundary row, or empty): violations involving those are
-/// ignored (they cannot be mended by thinning).
+/// The start for the base (V, F) along extrusion vectors W (n x 3, extrusion_vectors).
+/// `skip_tets` (one flag per tet of build_prism_tets, or empty) and `excluded_triangles` (one flag
+/// per row of shell_boundary(F, n), or empty): violations involving those are ignored (they cannot
+/// be mended by thinning). The checks are the certificate's (certify_shell), without base/base pairs.
 ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& W,
-                       const ShellBoundary& boundary,
                        const std::vector<char>& skip_tets = {}, const std::vector<char>& excluded_triangles = {},
                        const ValidStartOptions& options = {});
 

@@ -12,8 +12,13 @@ namespace gshell {
 ///   input, method, thickness {eta, ratio (null if given absolutely), min, mean (per-vertex
 ///   thickness / eta)}, vertices, faces, tets, iterations, converged, energy [E_0 = offset start,
 ///   one per iteration], stretch {mean, volume_mean, max, p99} (against the normal prisms),
-///   inverted_tets, top_self_intersections, top_base_intersections (null if not counted),
-///   seconds {total, factor, solve}, gshell_version; the curvature method adds curvature {s_min,
+///   inverted_tets, top_self_intersections, top_base_intersections (the certificate's counts;
+///   null if not counted), seconds {total, factor, solve, guard, certificate}, valid,
+///   certificate {inverted_tets, top_self_intersections, top_base_intersections,
+///   wall_intersections, exact}, base_self_intersections, thinned_vertices (count of top vertices
+///   below 0.9 eta), unextrudable_vertices [ids], guarded, guard {paper_iterations, start_rounds,
+///   pulled_in_vertices, repaired_vertices, repair_iterations, unprotected_faces,
+///   min_relative_volume} (guarded runs), gshell_version; the curvature method adds curvature {s_min,
 ///   s_max, clamped_prisms, limited_prisms, own_prisms {stretch, inverted_tets} (against the
 ///   prisms it was optimised towards), seconds (of the curvature prisms)}.
 nlohmann::json generate_report(const GenerateResult& result, const std::string& input,

@@ -2,6 +2,7 @@
 // Shell generation (DESIGN.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
 // local/global solve of the top with the base fixed, started from the offset surface.
 #include <gshell/guard/guarded_shell.h>
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/shell_metrics.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/curvature_prisms.h>
@@ -34,7 +35,10 @@ struct GenerateOptions {
   SolveOptions solve = {50, 1e-5, {}};
   /// Clamp of the curvature method's in-plane scales (curvature_prisms.h explains the defaults).
   double s_min = kDefaultCurvatureSMin, s_max = kDefaultCurvatureSMax;
-  bool count_intersections = true; ///< count top/top and top/base intersections in the metrics
+  /// Test boundary triangle pairs in the certificate of an unguarded result (offset, or
+  /// allow_invalid); off, only its tets are certified (pair counts -1, valid false). A guarded
+  /// result is always certified in full: the certificate is the guard's last step.
+  bool count_intersections = true;
   /// Rigid and curvature: skip the guard and return the paper's unguarded result (bit for bit
   /// what these methods gave before the guard), valid or not. Offset is never guarded.
   bool allow_invalid = false;
@@ -55,6 +59,7 @@ struct GenerateTimings {
   double solve = 0;  ///< local/global iterations (guarded: the guarded solve)
   double guard = 0;  ///< guarded generation beyond factor and solve: directions, base
                      ///< self-intersections, valid start (0 when unguarded)
+  double certificate = 0; ///< the exact certificate of the result
 };
 
 /// What the curvature method adds to a generation (paper §4.1 "Curvature Sensitive Method").
@@ -72,6 +77,12 @@ struct GenerateResult {
   GenerateTimings seconds;
   ShellMetrics metrics; ///< stretch against the normal prisms, whatever the method
   std::optional<CurvatureGeneration> curvature; ///< set by the curvature method
+  /// The exact certificate of the result (certify_shell): counts, and the tets and triangle
+  /// pairs behind them. base_self_intersections: the input's own pairs (same exact test).
+  ShellCertificate certificate;
+  /// The certificate holds (no inverted tet, no top/top, top/base or wall pair) and the base does
+  /// not intersect itself: the layer is an embedding (docs/validity.md).
+  bool valid = false;
   bool guarded = false; ///< made by the guarded generation
   /// Top vertices thinner than kThinnedFraction of eta (metrics.vertex_thickness), ascending.
   std::vector<int> thinned_vertices;
