@@ -40,6 +40,9 @@ int main(int argc, char** argv) {
     else if (a == "--kc") guard.contact_weight = std::stod(argv[++i]);
     else if (a == "--jhat") guard.j_hat = std::stod(argv[++i]);
     else if (a == "--rings") guard.repair_rings = std::stoi(argv[++i]);
+    else if (a == "--spread") guard.start_spread = std::stod(argv[++i]);
+    else if (a == "--margin") guard.start_margin = std::stod(argv[++i]);
+    else if (a == "--thinning") guard.start_thinning = std::stod(argv[++i]);
     else files.push_back(a);
   }
   if (ratios.empty()) ratios = {0.01, 0.03, 0.05};
