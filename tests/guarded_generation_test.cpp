@@ -106,6 +106,10 @@ TEST(GuardedGeneration, TightVFoldIsValidAndThickWhereTheVOpens) {
     for (int i = 0; i < m.V.rows(); ++i)
       if (std::abs(m.V(i, 0)) > 0.25 && std::abs(m.V(i, 1)) < 0.8) EXPECT_GT(g.metrics.vertex_thickness[i], 0.8) << i;
     EXPECT_GT(g.metrics.thinned_vertices, 0); // the crease has no room
+    // The repair ran, and its guarded energy never rose.
+    const std::vector<double>& E = g.guard.solve.energy;
+    ASSERT_GT(E.size(), 1u);
+    for (std::size_t k = 1; k < E.size(); ++k) EXPECT_LE(E[k], E[k - 1]) << "iteration " << k;
   }
 }
 
