@@ -261,7 +261,11 @@ class GenerateTest(TempDirTest):
         self.assertTrue(unguarded.report["warnings"])
         path = self.path("fold.obj")
         gshell.write_mesh(path, V, F)
-        _, top, report = self.cli_shell(path, "--thickness", "0.1", "--allow-invalid")
+        out = self.path("fold_cli")
+        run_cli("generate", path, "-o", out, "--quiet", "--thickness", "0.1", "--allow-invalid")
+        top, _ = gshell.read_mesh(os.path.join(out, "top.obj"))
+        with open(os.path.join(out, "report.json")) as f:
+            report = json.load(f)
         np.testing.assert_allclose(top, unguarded.top, atol=1e-9, rtol=0)
         self.assertFalse(report["guarded"])
         self.assertFalse(report["valid"])
