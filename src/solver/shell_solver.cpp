@@ -501,6 +501,50 @@ ShellSolver::~ShellSolver() = default;
 ShellSolver::ShellSolver(ShellSolver&&) noexcept = default;
 ShellSolver& ShellSolver::operator=(ShellSolver&&) noexcept = default;
 
+const std::vector<int>& ShellSolver::free_vertices() const { return impl_->free_vertices; }
+
+void ShellSolver::apply_inverse(Eigen::MatrixXd& B) const {
+  const Impl& m = *impl_;
+  if (B.rows() != m.nf || B.cols() != 3)
+    throw InputError("ShellSolver::apply_inverse: expected " + std::to_string(m.nf) + " x 3 free rows");
+  if (m.nf == 0) return;
+  std::vector<double> rhs(B.data(), B.data() + B.size()); // column-major nf x 3, as linear_solve wants
+  m.linear_solve(rhs);
+  std::copy(rhs.begin(), rhs.end(), B.data());
+}
+
+Eigen::MatrixXd ShellSolver::multiply_free(const Eigen::MatrixXd& P) const {
+  const Impl& m = *impl_;
+  if (P.rows() != m.nf || P.cols() != 3)
+    throw InputError("ShellSolver::multiply_free: expected " + std::to_string(m.nf) + " x 3 free rows");
+  Eigen::MatrixXd out(m.nf, 3);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m.nf, 1024), [&](const tbb::blocked_range<int>& r) {
+    for (int j = r.begin(); j < r.end(); ++j) {
+      double s[3] = {0, 0, 0};
+      for (int e = m.A_start[j]; e < m.A_kept[j]; ++e) {
+        const int i = m.free_index[m.A_col[e]];
+        for (int d = 0; d < 3; ++d) s[d] += m.A_val[e] * P(i, d);
+      }
+      for (int d = 0; d < 3; ++d) out(j, d) = s[d];
+    }
+  });
+  return out;
+}
+
+Eigen::SparseMatrix<double, Eigen::RowMajor> ShellSolver::system_rows(const std::vector<int>& vertices) const {
+  const Impl& m = *impl_;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (std::size_t r = 0; r < vertices.size(); ++r) {
+    const int v = vertices[r];
+    if (v < 0 || v >= m.N || m.free_index[v] < 0) throw InputError("ShellSolver::system_rows: vertex is not free");
+    const int j = m.free_index[v];
+    for (int e = m.A_start[j]; e < m.A_kept[j]; ++e) entries.emplace_back(static_cast<int>(r), m.A_col[e], m.A_val[e]);
+  }
+  Eigen::SparseMatrix<double, Eigen::RowMajor> rows(static_cast<Eigen::Index>(vertices.size()), m.N);
+  rows.setFromTriplets(entries.begin(), entries.end());
+  return rows;
+}
+
 double ShellSolver::factor_seconds() const { return impl_->factor_seconds; }
 const RestTets& ShellSolver::rest() const { return impl_->rest; }
 int ShellSolver::num_vertices() const { return impl_->N; }

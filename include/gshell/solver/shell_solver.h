@@ -5,6 +5,7 @@
 #include <gshell/solver/rest_tets.h>
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <functional>
 #include <memory>
 #include <vector>
@@ -66,6 +67,19 @@ public:
   /// Half the gradient of E at X (`step` taken at X); rows of kept vertices are 0.
   Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const LocalStep& step,
                                 const Eigen::MatrixXd& soft_targets = {}) const;
+
+  /// The system matrix A (the energy's Hessian for fixed rotations, halved: E's quadratic part is
+  /// x^T A x), for drivers that build their own steps (the guarded solver's Newton directions).
+  /// They work on the free rows only, in the order of free_vertices() (nf x 3 arrays).
+  const std::vector<int>& free_vertices() const;
+  /// B <- A_ff^-1 B (nf x 3): one back-substitution with the factor of the constructor.
+  void apply_inverse(Eigen::MatrixXd& B) const;
+  /// A_ff P (P: nf x 3).
+  Eigen::MatrixXd multiply_free(const Eigen::MatrixXd& P) const;
+  /// Rows of A for the given free vertices over all vertices, one row per entry of `vertices`
+  /// (|vertices| x num_vertices, free columns only): a local piece of the system, e.g. for a
+  /// direct solve on a small neighbourhood.
+  Eigen::SparseMatrix<double, Eigen::RowMajor> system_rows(const std::vector<int>& vertices) const;
 
   double factor_seconds() const; ///< time spent assembling and factoring in the constructor
   const RestTets& rest() const;
