@@ -41,7 +41,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   r.method = options.method;
   std::vector<int> base_vertices(n);
   std::iota(base_vertices.begin(), base_vertices.end(), 0);
-  const ShellSolver solver(prism_rest_tets(F, n, ideal), 2 * n, base_vertices);
+  const ShellSolver solver(prism_rest_tets(F, n, ideal), 2 * n, base_vertices, {}, options.linear);
   r.seconds.factor = solver.factor_seconds();
   Eigen::MatrixXd X(2 * n, 3);
   X << V, offset_top(V, F, options.thickness);

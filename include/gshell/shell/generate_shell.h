@@ -34,6 +34,7 @@ struct GenerateOptions {
   /// Clamp of the curvature method's in-plane scales (curvature_prisms.h explains the defaults).
   double s_min = kDefaultCurvatureSMin, s_max = kDefaultCurvatureSMax;
   bool count_intersections = true; ///< count top/top and top/base intersections in the metrics
+  LinearSolverOptions linear; ///< how the global steps are solved (Auto: CG on large meshes)
 
   /// Throws InputError naming the parameter (thickness, iterations, tolerance, s_min, s_max)
   /// when one is out of range.

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace gshell {
@@ -18,8 +19,39 @@ struct SolveOptions {
   std::function<void(int, double, double)> progress;
 };
 
+/// How the global step's linear system (L_ff X_f = B, one matrix for the three coordinates) is
+/// solved; docs/scale.md has the measurements behind the defaults.
+enum class LinearSolver {
+  Auto,              ///< ConjugateGradient for large, anchored systems (see below), else Direct
+  Direct,            ///< sparse Cholesky factor (CHOLMOD), computed in the constructor
+  ConjugateGradient, ///< Jacobi-preconditioned CG warm-started from the current iterate; no factor
+};
+
+/// "auto", "direct", "cg".
+std::string to_string(LinearSolver solver);
+/// Inverse of to_string; throws InputError "unknown linear solver 'X' (expected auto, direct or cg)".
+LinearSolver parse_linear_solver(const std::string& name);
+
+struct LinearSolverOptions {
+  LinearSolver kind = LinearSolver::Auto;
+  /// Auto takes CG from this many free vertices on, if at least half of them are anchored (share
+  /// a tet with a kept vertex or carry a soft constraint), as in generation where the whole base
+  /// is kept: then the system is a Laplacian shifted by a mass-like term, whose Jacobi-scaled
+  /// condition number does not grow with the vertex count at a fixed thickness-to-edge ratio,
+  /// while a factor's cost grows like n^1.5. Below it (and for loosely anchored systems such as
+  /// a deformation held at a few handles) the factor pays.
+  int cg_min_rows = 50000;
+  /// CG stops when ||B - L_ff X_f|| <= cg_tolerance ||B|| (Frobenius norms over the 3 columns).
+  double cg_tolerance = 1e-9;
+  /// CG iterations per global step. If Auto's CG has not converged by then, the solver factors
+  /// the matrix once and solves directly from then on; a forced ConjugateGradient keeps the last
+  /// CG iterate (still an energy descent: CG from the current iterate never raises the energy).
+  int cg_max_iterations = 500;
+};
+
 struct SolveResult {
   int iterations = 0;             ///< local/global iterations done
+  int linear_iterations = 0;      ///< CG iterations summed over the global steps (0 if direct)
   std::vector<double> energy;     ///< energy[0] = start state, then one per iteration
   bool converged = false;         ///< stopped by tolerance (not by max_iterations)
   double seconds = 0;
@@ -43,8 +75,9 @@ class ShellSolver {
 public:
   /// `num_vertices` = rows of the state; `fixed` vertices keep their start positions exactly
   /// (eliminated from the system). The system matrix is assembled and factored here, once.
+  /// `linear` chooses how the global steps are solved (a factor here, or CG at every step).
   ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
-              const SoftConstraints& soft = {});
+              const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
   ~ShellSolver();
   ShellSolver(ShellSolver&&) noexcept;
   ShellSolver& operator=(ShellSolver&&) noexcept;
@@ -68,6 +101,9 @@ public:
                                 const Eigen::MatrixXd& soft_targets = {}) const;
 
   double factor_seconds() const; ///< time spent assembling and factoring in the constructor
+  /// Direct or ConjugateGradient: the path the constructor chose (Auto resolved). A CG solver
+  /// that fell back to a factor reports Direct from then on.
+  LinearSolver linear_solver() const;
   const RestTets& rest() const;
   int num_vertices() const;
 
