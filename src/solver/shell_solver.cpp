@@ -74,6 +74,8 @@ struct ShellSolver::Impl {
 
   LinearSolverOptions linear;
   mutable LinearSolver path = LinearSolver::Direct; // Direct or ConjugateGradient (Auto resolved)
+  // CG's iterate, residual, direction, product, and (Auto) the right-hand side for a fallback.
+  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_b;
 
   mutable double factor_seconds = 0;
   mutable std::mutex solve_mutex; // the factor's workspace is shared: one linear solve at a time
@@ -484,11 +486,11 @@ int ShellSolver::Impl::linear_solve(const double* X, std::vector<double>& rhs) c
     direct_solve(rhs);
     return 0;
   }
-  const std::vector<double> b = linear.kind == LinearSolver::Auto ? rhs : std::vector<double>();
+  if (linear.kind == LinearSolver::Auto) cg_b.assign(rhs.begin(), rhs.end());
   const auto [iterations, converged] = cg_solve(X, rhs);
   if (!converged && linear.kind == LinearSolver::Auto) { // CG does not pay here: factor once
     factorize();
-    rhs = b;
+    rhs.swap(cg_b);
     direct_solve(rhs);
   }
   return iterations;
@@ -497,7 +499,9 @@ int ShellSolver::Impl::linear_solve(const double* X, std::vector<double>& rhs) c
 std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<double>& rhs) const {
   const std::size_t n = nf;
   const int chunks = static_cast<int>((n + kCgChunk - 1) / kCgChunk);
-  std::vector<double> x(3 * n), r(3 * n), p(3 * n), q(3 * n);
+  // Kept between solves: fresh vectors would cost a page fault per 4 KB at every global step.
+  for (auto* v : {&cg_x, &cg_r, &cg_p, &cg_q}) v->resize(3 * n);
+  std::vector<double>&x = cg_x, &r = cg_r, &p = cg_p, &q = cg_q;
   std::vector<std::array<double, 9>> partial(chunks); // per chunk: up to three sums per column
   // sums <- the chunk-ordered totals of partial.
   auto totals = [&](double sums[9]) {
@@ -629,18 +633,18 @@ void ShellSolver::Impl::direct_solve(std::vector<double>& rhs) const {
 #endif
 }
 
-ShellSolver::ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
+ShellSolver::ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
                          const SoftConstraints& soft, const LinearSolverOptions& linear)
     : impl_(std::make_unique<Impl>()) {
   const auto t0 = Clock::now();
-  impl_->rest = rest;
+  impl_->rest = std::move(rest);
   impl_->N = num_vertices;
   impl_->soft = soft;
   impl_->linear = linear;
   if (!(linear.cg_tolerance > 0) || !std::isfinite(linear.cg_tolerance))
     throw InputError("ShellSolver: the CG tolerance must be positive and finite");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
-  if (static_cast<int>(rest.Dm_inv.size()) != rest.size() || rest.volume.size() != rest.size())
+  if (static_cast<int>(impl_->rest.Dm_inv.size()) != impl_->rest.size() || impl_->rest.volume.size() != impl_->rest.size())
     throw InputError("ShellSolver: rest tets are incomplete");
   impl_->setup(fixed);
   impl_->assemble();

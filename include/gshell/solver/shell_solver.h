@@ -76,7 +76,8 @@ public:
   /// `num_vertices` = rows of the state; `fixed` vertices keep their start positions exactly
   /// (eliminated from the system). The system matrix is assembled and factored here, once.
   /// `linear` chooses how the global steps are solved (a factor here, or CG at every step).
-  ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
+  /// `rest` is kept (pass a temporary or std::move it to avoid a copy on big meshes).
+  ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
               const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
   ~ShellSolver();
   ShellSolver(ShellSolver&&) noexcept;
