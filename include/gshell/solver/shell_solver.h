@@ -41,7 +41,7 @@ struct LinearSolverOptions {
   /// while a factor's cost grows like n^1.5. Below it (and for loosely anchored systems such as
   /// a deformation held at a few handles) the factor pays.
   int cg_min_rows = 50000;
-  /// CG stops when ||B - L_ff X_f|| <= cg_tolerance ||B|| (Frobenius norms over the 3 columns).
+  /// CG stops when ||b - L_ff x|| <= cg_tolerance ||b|| holds for each of the 3 columns.
   double cg_tolerance = 1e-9;
   /// CG iterations per global step. If Auto's CG has not converged by then, the solver factors
   /// the matrix once and solves directly from then on; a forced ConjugateGradient keeps the last
