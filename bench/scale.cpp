@@ -82,12 +82,13 @@ int run_case(const std::string& spec, LinearSolver linear, double ratio) {
   const int iterations = std::max(1, r.solve.iterations);
   std::printf("vertices=%d total=%.6g setup=%.6g solve=%.6g iterations=%d per_iteration=%.6g cg=%d "
               "deform_setup=%.6g deform_factor=%.6g cpu=%.6g peak_mb=%.6g energy=%.10g stretch_mean=%.10g "
-              "stretch_max=%.10g inverted=%d intersections=%d thickness_min=%.10g\n",
+              "stretch_max=%.10g inverted=%d intersections=%d thickness_min=%.10g certificate=%.6g\n",
               static_cast<int>(mesh.V.rows()), r.seconds.total, r.seconds.factor, r.seconds.solve, r.solve.iterations,
               r.seconds.solve / iterations, r.solve.linear_iterations, deform_setup, deform_factor, generate_cpu,
               peak_megabytes(), r.solve.energy.back(), r.metrics.stretch.mean, r.metrics.stretch.max,
-              r.metrics.stretch.inverted, r.metrics.top_self_intersections + r.metrics.top_base_intersections,
-              r.metrics.thickness_min);
+              r.metrics.certificate.inverted_tets,
+              r.metrics.certificate.top_self_intersections + r.metrics.certificate.top_base_intersections,
+              r.metrics.thickness_min, r.metrics.certificate.seconds);
   return 0;
 }
 
@@ -173,9 +174,9 @@ int main(int argc, char** argv) {
   for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
   specs.insert(specs.end(), meshes.begin(), meshes.end());
   std::vector<Row> rows;
-  std::printf("%-22s %-6s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh", "linear",
-              "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "deform_s", "cpu_s", "peak_MB",
-              "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
+  std::printf("%-22s %-6s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
+              "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "cert_s", "deform_s",
+              "cpu_s", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
   for (const std::string& linear : linears)
     for (const std::string& spec : specs) {
       Row row{spec, linear, {}};
@@ -183,10 +184,11 @@ int main(int argc, char** argv) {
       for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, row);
       if (!ok) continue;
       const std::string name = spec.rfind("builtin:", 0) == 0 ? spec.substr(8) : std::filesystem::path(spec).stem().string();
-      std::printf("%-22s %-6s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.2f %8.0f %8.2f %11.6g %11.6g %11.6g %4.0f "
+      std::printf("%-22s %-6s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.0f %8.2f %11.6g %11.6g %11.6g "
+                  "%4.0f "
                   "%4.0f\n",
                   name.c_str(), linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
-                  row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("deform_setup"), row.get("cpu"),
+                  row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("certificate"), row.get("deform_setup"), row.get("cpu"),
                   row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
                   row.get("stretch_mean"), row.get("stretch_max"), row.get("inverted"), row.get("intersections"));
       std::fflush(stdout);
