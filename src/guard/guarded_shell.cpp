@@ -66,7 +66,8 @@ void check_guard_options(const GuardOptions& o) {
 }
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
-                           const GuardOptions& options, const GuardedSolveOptions& solve) {
+                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const LinearSolverOptions& linear) {
   const auto t0 = Clock::now();
   check_guard_options(options);
   if (!(eta > 0) || !std::isfinite(eta)) throw InputError("guarded_shell: thickness must be positive and finite");
@@ -118,7 +119,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   std::vector<int> fixed(n);
   std::iota(fixed.begin(), fixed.end(), 0);
   for (int v : g.directions.unextrudable) fixed.push_back(n + v);
-  const ShellSolver paper_solver(ideal, 2 * n, fixed);
+  const ShellSolver paper_solver(ideal, 2 * n, fixed, {}, linear);
   g.factor_seconds = paper_solver.factor_seconds();
 
   // The paper's iterations from the offset surface give the top wanted everywhere; the tops of

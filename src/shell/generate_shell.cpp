@@ -54,7 +54,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   if (options.allow_invalid) {
     std::vector<int> base_vertices(n);
     std::iota(base_vertices.begin(), base_vertices.end(), 0);
-    const ShellSolver solver(rest, 2 * n, base_vertices);
+    const ShellSolver solver(rest, 2 * n, base_vertices, {}, options.linear);
     r.seconds.factor = solver.factor_seconds();
     Eigen::MatrixXd X(2 * n, 3);
     X << V, offset_top(V, F, options.thickness);
@@ -66,7 +66,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     solve.max_iterations = options.solve.max_iterations;
     solve.tolerance = options.solve.tolerance;
     solve.progress = options.solve.progress;
-    r.guard = guarded_shell(V, F, rest, options.thickness, options.guard, solve);
+    r.guard = guarded_shell(V, F, rest, options.thickness, options.guard, solve, options.linear);
     r.guarded = true;
     r.unextrudable_vertices = r.guard.directions.unextrudable;
     // The paper's iterations (the energy the guard starts from); the repair's own iterations, on

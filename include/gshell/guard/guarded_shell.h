@@ -7,6 +7,7 @@
 #include <gshell/guard/guarded_solver.h>
 #include <gshell/guard/valid_start.h>
 #include <gshell/solver/rest_tets.h>
+#include <gshell/solver/shell_solver.h>
 
 #include <Eigen/Core>
 #include <vector>
@@ -73,9 +74,12 @@ struct GuardedShell {
 /// The guarded top over base (V, F) towards the rest tets `ideal` (prism_rest_tets of the ideal
 /// prisms: normal or curvature), thickness eta (model units): the paper's local/global iterations
 /// from the offset surface (the unguarded result), a valid start made from it (valid_start), and
-/// the guarded solver from there. solve.max_iterations and tolerance apply to both solves.
+/// the guarded solver from there. solve.max_iterations and tolerance apply to both solves;
+/// `linear` chooses how the paper's iterations solve their global steps (the guarded solver, on
+/// the region it repairs, always factors).
 /// Throws InputError on bad options.
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
-                           const GuardOptions& options, const GuardedSolveOptions& solve);
+                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const LinearSolverOptions& linear = {});
 
 } // namespace gshell

@@ -43,6 +43,7 @@ struct GenerateOptions {
   /// what these methods gave before the guard), valid or not. Offset is never guarded.
   bool allow_invalid = false;
   GuardOptions guard; ///< parameters of the guarded generation (guarded_shell.h)
+  LinearSolverOptions linear; ///< how the global steps are solved (Auto: CG on large meshes)
 
   /// Throws InputError naming the parameter (thickness, iterations, tolerance, s_min, s_max, the
   /// guard's) when one is out of range.

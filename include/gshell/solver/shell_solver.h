@@ -8,6 +8,7 @@
 #include <Eigen/SparseCore>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace gshell {
@@ -19,8 +20,39 @@ struct SolveOptions {
   std::function<void(int, double, double)> progress;
 };
 
+/// How the global step's linear system (L_ff X_f = B, one matrix for the three coordinates) is
+/// solved; docs/scale.md has the measurements behind the defaults.
+enum class LinearSolver {
+  Auto,              ///< ConjugateGradient for large, anchored systems (see below), else Direct
+  Direct,            ///< sparse Cholesky factor (CHOLMOD), computed in the constructor
+  ConjugateGradient, ///< Jacobi-preconditioned CG warm-started from the current iterate; no factor
+};
+
+/// "auto", "direct", "cg".
+std::string to_string(LinearSolver solver);
+/// Inverse of to_string; throws InputError "unknown linear solver 'X' (expected auto, direct or cg)".
+LinearSolver parse_linear_solver(const std::string& name);
+
+struct LinearSolverOptions {
+  LinearSolver kind = LinearSolver::Auto;
+  /// Auto takes CG from this many free vertices on, if at least half of them are anchored (share
+  /// a tet with a kept vertex or carry a soft constraint), as in generation where the whole base
+  /// is kept: then the system is a Laplacian shifted by a mass-like term, whose Jacobi-scaled
+  /// condition number does not grow with the vertex count at a fixed thickness-to-edge ratio,
+  /// while a factor's cost grows like n^1.5. Below it (and for loosely anchored systems such as
+  /// a deformation held at a few handles) the factor pays.
+  int cg_min_rows = 50000;
+  /// CG stops when ||b - L_ff x|| <= cg_tolerance ||b|| holds for each of the 3 columns.
+  double cg_tolerance = 1e-9;
+  /// CG iterations per global step. If Auto's CG has not converged by then, the solver factors
+  /// the matrix once and solves directly from then on; a forced ConjugateGradient keeps the last
+  /// CG iterate (still an energy descent: CG from the current iterate never raises the energy).
+  int cg_max_iterations = 500;
+};
+
 struct SolveResult {
   int iterations = 0;             ///< local/global iterations done
+  int linear_iterations = 0;      ///< CG iterations summed over the global steps (0 if direct)
   std::vector<double> energy;     ///< energy[0] = start state, then one per iteration
   bool converged = false;         ///< stopped by tolerance (not by max_iterations)
   double seconds = 0;
@@ -44,8 +76,10 @@ class ShellSolver {
 public:
   /// `num_vertices` = rows of the state; `fixed` vertices keep their start positions exactly
   /// (eliminated from the system). The system matrix is assembled and factored here, once.
-  ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
-              const SoftConstraints& soft = {});
+  /// `linear` chooses how the global steps are solved (a factor here, or CG at every step).
+  /// `rest` is kept (pass a temporary or std::move it to avoid a copy on big meshes).
+  ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
+              const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
   ~ShellSolver();
   ShellSolver(ShellSolver&&) noexcept;
   ShellSolver& operator=(ShellSolver&&) noexcept;
@@ -72,7 +106,8 @@ public:
   /// x^T A x), for drivers that build their own steps (the guarded solver's Newton directions).
   /// They work on the free rows only, in the order of free_vertices() (nf x 3 arrays).
   const std::vector<int>& free_vertices() const;
-  /// B <- A_ff^-1 B (nf x 3): one back-substitution with the factor of the constructor.
+  /// B <- A_ff^-1 B (nf x 3): one back-substitution with the factor (a solver on the CG path
+  /// factors at its first call).
   void apply_inverse(Eigen::MatrixXd& B) const;
   /// A_ff P (P: nf x 3).
   Eigen::MatrixXd multiply_free(const Eigen::MatrixXd& P) const;
@@ -82,6 +117,9 @@ public:
   Eigen::SparseMatrix<double, Eigen::RowMajor> system_rows(const std::vector<int>& vertices) const;
 
   double factor_seconds() const; ///< time spent assembling and factoring in the constructor
+  /// Direct or ConjugateGradient: the path the constructor chose (Auto resolved). A CG solver
+  /// that fell back to a factor reports Direct from then on.
+  LinearSolver linear_solver() const;
   const RestTets& rest() const;
   int num_vertices() const;
 
