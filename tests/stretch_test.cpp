@@ -1,4 +1,4 @@
-// Stretch of known maps (DESIGN.md "Quality measures").
+// Stretch of known maps (docs/design.md "Quality measures").
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>

@@ -1,6 +1,7 @@
 #pragma once
 // Principal curvatures from the normal-cycle curvature tensor (Cohen-Steiner & Morvan 2003),
-// as the curvature-sensitive ideal prisms need them (paper §4.1, DESIGN.md "Shell generation").
+// as the curvature-sensitive ideal prisms need them (paper §4.1; docs/design.md "Principal
+// curvatures").
 //
 // Tensor of a region B (a set of triangles):
 //   T(B) = 1/area(B) * sum_edges beta(e) |e ∩ B| e_hat e_hat^T

@@ -1,5 +1,5 @@
 #pragma once
-// The quality report of a shell (DESIGN.md "Quality measures"), for any base/top pair.
+// The quality report of a shell (docs/design.md "Quality measures"), for any base/top pair.
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <Eigen/Core>

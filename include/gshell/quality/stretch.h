@@ -1,5 +1,6 @@
 #pragma once
-// Per-tet stretch ||F - R(F)||_F^2 = sum_i (sigma_i - 1)^2 (DESIGN.md "Quality measures").
+// Per-tet stretch ||F - R(F)||_F^2 = sum_i (sigma_i - 1)^2 (docs/design.md "The energy",
+// "Quality measures").
 #include <gshell/solver/rest_tets.h>
 #include <Eigen/Core>
 

@@ -1,6 +1,6 @@
 #pragma once
-// Per-vertex thickness of a shell (DESIGN.md "Quality measures"): how far each top vertex is from
-// the base surface. Divide by eta for the relative thickness of the report.
+// Per-vertex thickness of a shell (docs/design.md "Quality measures"): how far each top vertex is
+// from the base surface. Divide by eta for the relative thickness of the report.
 #include <Eigen/Core>
 
 namespace gshell {

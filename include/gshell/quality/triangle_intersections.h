@@ -1,6 +1,6 @@
 #pragma once
-// Counting intersecting triangle pairs (DESIGN.md "Quality measures"): self-intersections of the
-// top surface and intersections between top and base of a shell.
+// Counting intersecting triangle pairs (docs/design.md "Quality measures"): self-intersections of
+// the top surface and intersections between top and base of a shell.
 //
 // Conventions (all functions):
 // - A face is the closed point set of its triangle, so touching (at a point or along an edge)

@@ -1,6 +1,6 @@
 #pragma once
-// Curvature-sensitive ideal prisms (paper §4.1 "Curvature Sensitive Method", DESIGN.md
-// "Shell generation" step 1).
+// Curvature-sensitive ideal prisms (paper §4.1 "Curvature Sensitive Method"; docs/design.md
+// "Curvature-sensitive prisms").
 #include <gshell/geometry/curvature.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <Eigen/Core>
@@ -23,12 +23,12 @@ void check_curvature_clamp(double s_min, double s_max);
 struct CurvaturePrismStats {
   /// Prisms where 1 + eta * kappa_1 or 1 + eta * kappa_2 fell outside [s_min, s_max].
   int clamped = 0;
-  /// Prisms whose anisotropy was reduced: scaling a triangle differently along e_1 and e_2
-  /// twists its side quads, and a strong twist gives one of the prism's 3 tets (DESIGN.md cut)
-  /// a tiny or negative volume. There the factors are blended (geometrically) towards their
-  /// isotropic mean sqrt(s_1 s_2) just enough for every tet to keep at least s_min^2 times the
-  /// volume of the normal prism's tets (eta * area / 3): the bound an isotropic prism within the
-  /// clamps always meets (its tets have (1, s, s^2) times that volume).
+  /// Prisms whose anisotropy was reduced: scaling a triangle differently along e_1 and e_2 twists
+  /// its side quads, and a strong twist gives one of the prism's 3 tets (the min-index cut,
+  /// docs/design.md "Prisms and tets") a tiny or negative volume. There the factors are blended
+  /// (geometrically) towards their isotropic mean sqrt(s_1 s_2) just enough for every tet to keep
+  /// at least s_min^2 times the volume of the normal prism's tets (eta * area / 3): the bound an
+  /// isotropic prism within the clamps always meets (its tets have (1, s, s^2) times that volume).
   int limited = 0;
 };
 

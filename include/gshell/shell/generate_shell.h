@@ -1,5 +1,5 @@
 #pragma once
-// Shell generation (DESIGN.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
+// Shell generation (docs/design.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
 // local/global solve of the top with the base fixed, started from the offset surface.
 #include <gshell/quality/shell_metrics.h>
 #include <gshell/quality/stretch.h>

@@ -1,5 +1,5 @@
 #pragma once
-// Ideal (distortion-free target) prisms, one per face (DESIGN.md "Shell generation" step 1).
+// Ideal (distortion-free target) prisms, one per face (docs/design.md "Ideal prisms").
 #include <Eigen/Core>
 
 namespace gshell {

@@ -1,5 +1,5 @@
 #pragma once
-// Cutting prisms into tets by the min-index rule (DESIGN.md "Prism to tets").
+// Cutting prisms into tets by the min-index rule (docs/design.md "Prisms and tets").
 #include <gshell/solver/rest_tets.h>
 #include <Eigen/Core>
 #include <array>

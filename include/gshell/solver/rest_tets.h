@@ -1,5 +1,5 @@
 #pragma once
-// Per-tet rest shapes for the deformation energy (DESIGN.md "The energy").
+// Per-tet rest shapes for the deformation energy (docs/design.md "The energy").
 #include <Eigen/Core>
 #include <vector>
 

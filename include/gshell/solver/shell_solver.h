@@ -1,7 +1,8 @@
 #pragma once
 // The local/global solver for E(x) = sum_t vol_t ||F_t(x) - R_t||_F^2 (+ soft constraints),
-// DESIGN.md "The energy". Precompute once from rest shapes and the constrained vertex set,
-// then solve from many start states (generation, every frame of a deformation, every drag step).
+// docs/design.md "The energy" and "The solver". Precompute once from rest shapes and the
+// constrained vertex set, then solve from many start states (generation, every frame of a
+// deformation, every drag step).
 #include <gshell/solver/rest_tets.h>
 
 #include <Eigen/Core>
