@@ -43,7 +43,7 @@ unsigned char* zlib_compress_for_stb(unsigned char* data, int length, int* out_l
 namespace gshell {
 
 Image::Image(int w, int h, std::uint8_t r, std::uint8_t g, std::uint8_t b) : width(w), height(h) {
-  if (w < 0 || h < 0) throw std::invalid_argument("Image: negative size");
+  if (w < 0 || h < 0) throw InputError("Image: width and height must be >= 0 (got " + std::to_string(w) + " x " + std::to_string(h) + ")");
   rgb.resize(static_cast<size_t>(w) * h * 3);
   for (size_t i = 0; i < rgb.size(); i += 3) {
     rgb[i] = r;
@@ -75,7 +75,8 @@ void Image::fill_rect(int x, int y, int w, int h, std::uint8_t r, std::uint8_t g
 Image downsample(const Image& image, int factor) {
   if (factor <= 1) return image;
   if (image.width % factor || image.height % factor)
-    throw std::invalid_argument("downsample: size is not a multiple of the factor");
+    throw InputError("downsample: the image size " + std::to_string(image.width) + " x " +
+                     std::to_string(image.height) + " is not a multiple of factor " + std::to_string(factor));
   Image out(image.width / factor, image.height / factor);
   const int n = factor * factor;
   for (int y = 0; y < out.height; ++y)
@@ -108,7 +109,7 @@ void blit(Image& dst, const Image& src, int x, int y) {
 }
 
 std::string encode_png(const Image& image) {
-  if (image.width <= 0 || image.height <= 0) throw std::invalid_argument("encode_png: empty image");
+  if (image.width <= 0 || image.height <= 0) throw InputError("encode_png: the image is empty");
   std::string bytes;
   auto append = [](void* context, void* data, int size) {
     static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<size_t>(size));
