@@ -112,6 +112,8 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
 
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options) {
+  options.check();
+  check_shapes(V, F);
   return generate_towards(V, F, ideal, options, false);
 }
 

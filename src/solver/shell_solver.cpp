@@ -212,6 +212,10 @@ struct ShellSolver::Impl {
       throw InputError(std::string("ShellSolver::") + where + ": expected " + std::to_string(soft.vertices.size()) +
                        " x 3 soft constraint targets");
   }
+  void check_step(const LocalStep& step, const char* where) const {
+    if (step.Q.size() != 9 * static_cast<std::size_t>(K))
+      throw InputError(std::string("ShellSolver::") + where + ": the local step is for another solver");
+  }
 };
 
 void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
@@ -575,8 +579,7 @@ void ShellSolver::global_step(Eigen::MatrixXd& X, const LocalStep& step, const E
   const Impl& m = *impl_;
   m.check_positions(X, "global_step");
   m.check_soft_targets(soft_targets, "global_step");
-  if (step.Q.size() != 9 * static_cast<std::size_t>(m.K))
-    throw InputError("ShellSolver::global_step: the local step is for another solver");
+  m.check_step(step, "global_step");
   if (m.nf == 0) return;
   std::vector<double> x = to_row_major(X);
   std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf));
@@ -589,6 +592,7 @@ Eigen::MatrixXd ShellSolver::half_gradient(const Eigen::MatrixXd& X, const Local
   const Impl& m = *impl_;
   m.check_positions(X, "half_gradient");
   m.check_soft_targets(soft_targets, "half_gradient");
+  m.check_step(step, "half_gradient");
   // 1/2 dE/dx_f = A_ff x_f - (b(R) + rhs_constant): what the global step solves, as a residual.
   const std::vector<double> x = to_row_major(X);
   const std::vector<double> rhs_const = m.rhs_constant(x.data(), soft_targets);
