@@ -1,6 +1,7 @@
 // Embedded detail: (tet, barycentric) storage in a rest shell, carried by deformed shells.
 #include <gshell/deform/embedding.h>
 #include <gshell/deform/tet_locator.h>
+#include <gshell/geometry/closest_point.h>
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/shell/offset_shell.h>

@@ -57,6 +57,23 @@ void add_quad(Rows3i& faces, int a, int b, int c, int d) {
   faces.emplace_back(a, c, d);
 }
 
+// Faces of a grid of nu x rows quads whose vertex (i, j) is grid_id(i, j, nu), closed around in i
+// (and in j when `wrap_rows`; otherwise the grid has rows + 1 vertex rows), and the same quads
+// over the UV grid, which repeats the seam column (nu + 1 columns) and row.
+void set_wrapped_grid_faces(TriMesh& mesh, int nu, int rows, bool wrap_rows) {
+  Rows3i faces, uv_faces;
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < nu; ++i) {
+      const int i1 = (i + 1) % nu, j1 = wrap_rows ? (j + 1) % rows : j + 1;
+      add_quad(faces, grid_id(i, j, nu), grid_id(i1, j, nu), grid_id(i1, j1, nu), grid_id(i, j1, nu));
+      add_quad(uv_faces, grid_id(i, j, nu + 1), grid_id(i + 1, j, nu + 1), grid_id(i + 1, j + 1, nu + 1),
+               grid_id(i, j + 1, nu + 1));
+    }
+  }
+  mesh.F = to_matrix(faces);
+  mesh.FUV = to_matrix(uv_faces);
+}
+
 } // namespace
 
 TriMesh make_sphere(int level, double radius) {
@@ -118,17 +135,7 @@ TriMesh make_torus(int res, double major_radius, double minor_radius) {
     }
   }
   // d/du x d/dv points out of the tube, so (i,j) -> (i+1,j) -> (i+1,j+1) is counter-clockwise.
-  Rows3i faces, uv_faces;
-  for (int j = 0; j < nv; ++j) {
-    for (int i = 0; i < nu; ++i) {
-      const int i1 = (i + 1) % nu, j1 = (j + 1) % nv;
-      add_quad(faces, grid_id(i, j, nu), grid_id(i1, j, nu), grid_id(i1, j1, nu), grid_id(i, j1, nu));
-      add_quad(uv_faces, grid_id(i, j, nu + 1), grid_id(i + 1, j, nu + 1), grid_id(i + 1, j + 1, nu + 1),
-               grid_id(i, j + 1, nu + 1));
-    }
-  }
-  mesh.F = to_matrix(faces);
-  mesh.FUV = to_matrix(uv_faces);
+  set_wrapped_grid_faces(mesh, nu, nv, true);
   return mesh;
 }
 
@@ -171,17 +178,7 @@ TriMesh make_cylinder(int res, double radius, double height) {
     }
   }
   // d/dangle x d/dz points away from the axis.
-  Rows3i faces, uv_faces;
-  for (int j = 0; j < rows; ++j) {
-    for (int i = 0; i < res; ++i) {
-      const int i1 = (i + 1) % res;
-      add_quad(faces, grid_id(i, j, res), grid_id(i1, j, res), grid_id(i1, j + 1, res), grid_id(i, j + 1, res));
-      add_quad(uv_faces, grid_id(i, j, res + 1), grid_id(i + 1, j, res + 1), grid_id(i + 1, j + 1, res + 1),
-               grid_id(i, j + 1, res + 1));
-    }
-  }
-  mesh.F = to_matrix(faces);
-  mesh.FUV = to_matrix(uv_faces);
+  set_wrapped_grid_faces(mesh, res, rows, false);
   return mesh;
 }
 

@@ -1,6 +1,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
@@ -29,7 +30,6 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // Tets per energy chunk: chunks are summed in a fixed order so the energy does not depend on
 // how TBB happened to split the work (the monotonicity test compares energies to round-off).
