@@ -1,7 +1,6 @@
 #pragma once
-// Base-driven shell deformation (paper §4.2, first type; docs/design.md "Base-driven deformation"):
-// the base is moved by someone else, the top follows with the least stretch relative to the rest
-// shell.
+// Base-driven shell deformation (paper §4.2; docs/design.md "Base-driven deformation"): the base
+// is moved by someone else, the top follows with the least stretch relative to the rest shell.
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/shell.h>
 #include <gshell/solver/rest_tets.h>
@@ -58,11 +57,11 @@ struct FrameResult {
   double stretch_seconds = 0;  ///< the stretch measurement
 };
 
-/// Rest shapes for deforming a shell: its own 3m tets (no cracks). A generated shell may hold a few
-/// flat or inverted tets, which cannot be rest shapes (the energy divides by them): those whose
-/// volume is below kMinRestVolumeRatio of their normal-prism tet (thickness eta, docs/design.md
-/// "Base-driven deformation") take that ideal tet as their rest shape instead, so deforming pushes
-/// them back towards a proper prism rather than preserving the defect. `replaced` (if not null)
+/// Rest shapes for deforming a shell: its own 3m tets (no cracks). A generated shell may hold a
+/// few flat or inverted tets, which cannot be rest shapes (the energy divides by them): those
+/// whose volume is below kMinRestVolumeRatio of their normal-prism tet (thickness eta; see
+/// docs/design.md "Base-driven deformation") take that ideal tet as their rest shape instead, so deforming pushes them
+/// back towards a proper prism rather than preserving the defect. `replaced` (if not null)
 /// receives their count.
 constexpr double kMinRestVolumeRatio = 1e-3;
 RestTets deformation_rest_tets(const Shell& shell, int* replaced = nullptr);

@@ -23,7 +23,7 @@ const char* severity_name(MeshProblem::Severity severity);
 /// individually and then one summary entry with `count` = the rest.
 std::vector<MeshProblem> validate_mesh(const TriMesh& mesh);
 
-/// \throws InputError "NAME: <first error> (and K more problems)" if validate_mesh finds an error;
+/// Throws InputError "NAME: <first error> (and K more problems)" if validate_mesh finds an error;
 /// K counts the other errors and warnings.
 void require_valid_mesh(const TriMesh& mesh, const std::string& name);
 

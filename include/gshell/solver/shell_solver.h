@@ -42,12 +42,12 @@ struct SoftConstraints {
 
 class ShellSolver {
 public:
-  /// `num_vertices` = rows of the state; `fixed` vertices keep their start positions exactly
-  /// (eliminated from the system). The system matrix is assembled and factored here, once.
   /// \throws InputError when `rest` is incomplete (Dm_inv or volume missing), a tet, fixed or soft
   ///         vertex id is outside [0, num_vertices), or the system is singular (a connected part
   ///         of the tets has no fixed or constrained vertex). std::runtime_error when CHOLMOD
   ///         fails otherwise (out of memory).
+  /// `num_vertices` = rows of the state; `fixed` vertices keep their start positions exactly
+  /// (eliminated from the system). The system matrix is assembled and factored here, once.
   ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
               const SoftConstraints& soft = {});
   ~ShellSolver();
