@@ -132,17 +132,6 @@ TEST(Embedding, NearestTetOfAnOutsidePointIsTheClosestOne) {
   }
 }
 
-TEST(Embedding, ClosestPointOnTriangleRegions) {
-  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
-  EXPECT_TRUE(closest_point_on_triangle({0.2, 0.3, 5}, a, b, c).isApprox(Eigen::Vector3d(0.2, 0.3, 0)));
-  EXPECT_TRUE(closest_point_on_triangle({-1, -1, 1}, a, b, c).isApprox(a));
-  EXPECT_TRUE(closest_point_on_triangle({2, -1, 0}, a, b, c).isApprox(b));
-  EXPECT_TRUE(closest_point_on_triangle({0.5, -2, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0, 0)));
-  EXPECT_TRUE(closest_point_on_triangle({1, 1, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.5, 0)));
-  // Degenerate (collinear) triangle: the nearest point of its segments.
-  EXPECT_TRUE(closest_point_on_triangle({0.5, 1, 0}, a, b, Eigen::Vector3d(2, 0, 0)).isApprox(Eigen::Vector3d(0.5, 0, 0)));
-}
-
 TEST(Embedding, RejectsNonFinitePoints) {
   const Shell shell = flat_plane_shell(2, 0.1);
   Eigen::MatrixXd P(1, 3);
