@@ -26,13 +26,11 @@ struct DeformArgs {
 
 void run(const CLI::App& cmd, DeformArgs& a) {
   using namespace gshell;
-  ViewDirection view;
   cli::check_flags(cmd, [&] {
     a.options.frame.warm_start = parse_warm_start(a.warm_start);
     a.options.check();
-    view = parse_view(a.view);
   });
-  if (a.render) cli::require_renderer();
+  const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   // Everything that can be wrong with the input is found before any work or output.
   check_output_folder(a.out, holds_only_deform_output);
   const DeformInput input = load_deform_input(a.shell, a.frames, a.embed);

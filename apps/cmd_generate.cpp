@@ -30,10 +30,8 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   cli::check_flags(cmd, [&] {
     a.options.generate.method = parse_shell_method(a.method);
     a.options.check();
-    parse_view(a.view);
   });
-  const ViewDirection view = parse_view(a.view); // checked above
-  if (a.render) cli::require_renderer();
+  const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, holds_only_shell_files);
   const TriMesh mesh = load_mesh(a.input);
   cli::Progress progress("generate");

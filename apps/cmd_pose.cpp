@@ -24,13 +24,11 @@ struct PoseArgs {
 
 void run(const CLI::App& cmd, PoseArgs& a) {
   using namespace gshell;
-  ViewDirection view;
   cli::check_flags(cmd, [&] {
     a.options.solver = parse_pose_solver(a.solver);
     a.options.check();
-    view = parse_view(a.view); // a bad view fails before the solve, not after
   });
-  if (a.render) cli::require_renderer();
+  const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view); // before the solve, not after
 
   const ShellFolder rest = read_shell_folder(a.shell_dir);
   const HandleSet handles = read_handles(a.handles, rest.shell);

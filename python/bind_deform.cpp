@@ -133,30 +133,22 @@ Raises:
 
 Releases the GIL while it runs.)")
       .def("reset", [](DeformerObject& d) {
-             py::gil_scoped_release release;
-             const std::lock_guard<std::mutex> lock(d.mutex);
-             d.deformer.reset();
-             d.solved = false;
+             without_gil_locked(d.mutex, [&] {
+               d.deformer.reset();
+               d.solved = false;
+             });
            },
            "Start the next solve() from the rest shell again.")
       .def_property_readonly("vertices", [](DeformerObject& d) {
-             Eigen::MatrixXd X;
-             {
-               py::gil_scoped_release release;
-               const std::lock_guard<std::mutex> lock(d.mutex);
-               X = d.deformer.current();
-             }
+             const Eigen::MatrixXd X = without_gil_locked(d.mutex, [&] { return d.deformer.current(); });
              return read_only(from_matrix(X));
            },
            "float64 (2n, 3): all shell vertices after the last solve (base rows, then top rows); "
            "pass it to Embedding.carry().")
       .def_property_readonly("last", [](DeformerObject& d) -> py::object {
-             nlohmann::ordered_json j; // stays null before the first solve
-             {
-               py::gil_scoped_release release;
-               const std::lock_guard<std::mutex> lock(d.mutex);
-               if (d.solved) j = frame_json(d.last);
-             }
+             const nlohmann::ordered_json j = without_gil_locked(d.mutex, [&] { // null before the first solve
+               return d.solved ? frame_json(d.last) : nlohmann::ordered_json();
+             });
              return j.is_null() ? py::none() : to_python(j);
            },
            "dict about the last solve (None before the first): iterations, converged, energy (list, "

@@ -133,41 +133,30 @@ Raises:
 Releases the GIL while it runs.)")
       .def("reset",
            [](PoserObject& p) {
-             py::gil_scoped_release release;
-             const std::lock_guard<std::mutex> lock(p.mutex);
-             p.session.reset();
-             p.handles.reset();
-             p.last = nullptr;
+             without_gil_locked(p.mutex, [&] {
+               p.session.reset();
+               p.handles.reset();
+               p.last = nullptr;
+             });
            },
            "Forget the last handle set: the next solve() starts from the rest shell.")
       .def("write",
            [](PoserObject& p, const std::filesystem::path& path) {
-             py::gil_scoped_release release;
-             const std::lock_guard<std::mutex> lock(p.mutex);
-             p.session.write(path.string());
+             without_gil_locked(p.mutex, [&] { p.session.write(path.string()); });
            },
            py::arg("path"),
            "Write the posed shell folder as `gshell pose -o` does (base.obj, top.obj, shell.vtu, report.json).")
       .def_property_readonly("vertices",
                              [](PoserObject& p) -> py::object {
-                               Eigen::MatrixXd X;
-                               {
-                                 py::gil_scoped_release release;
-                                 const std::lock_guard<std::mutex> lock(p.mutex);
-                                 X = p.session.vertices();
-                               }
+                               const Eigen::MatrixXd X =
+                                   without_gil_locked(p.mutex, [&] { return p.session.vertices(); });
                                return read_only(from_matrix(X));
                              },
                              "float64 (2n, 3): all shell vertices after the last solve (the rest shell "
                              "before any); pass it to Embedding.carry().")
       .def_property_readonly("last",
                              [](PoserObject& p) -> py::object {
-                               nlohmann::ordered_json j;
-                               {
-                                 py::gil_scoped_release release;
-                                 const std::lock_guard<std::mutex> lock(p.mutex);
-                                 j = p.last;
-                               }
+                               const nlohmann::ordered_json j = without_gil_locked(p.mutex, [&] { return p.last; });
                                return j.is_null() ? py::none() : to_python(j);
                              },
                              "dict about the last solve (None before the first): the fields of `gshell pose`'s "

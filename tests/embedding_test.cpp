@@ -1,6 +1,7 @@
 // Embedded detail: (tet, barycentric) storage in a rest shell, carried by deformed shells.
 #include <gshell/deform/embedding.h>
 #include <gshell/deform/tet_locator.h>
+#include <gshell/geometry/closest_point.h>
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/shell/offset_shell.h>
@@ -129,17 +130,6 @@ TEST(Embedding, NearestTetOfAnOutsidePointIsTheClosestOne) {
     }
     EXPECT_NEAR(hit.distance, brute, 1e-12);
   }
-}
-
-TEST(Embedding, ClosestPointOnTriangleRegions) {
-  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
-  EXPECT_TRUE(closest_point_on_triangle({0.2, 0.3, 5}, a, b, c).isApprox(Eigen::Vector3d(0.2, 0.3, 0)));
-  EXPECT_TRUE(closest_point_on_triangle({-1, -1, 1}, a, b, c).isApprox(a));
-  EXPECT_TRUE(closest_point_on_triangle({2, -1, 0}, a, b, c).isApprox(b));
-  EXPECT_TRUE(closest_point_on_triangle({0.5, -2, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0, 0)));
-  EXPECT_TRUE(closest_point_on_triangle({1, 1, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.5, 0)));
-  // Degenerate (collinear) triangle: the nearest point of its segments.
-  EXPECT_TRUE(closest_point_on_triangle({0.5, 1, 0}, a, b, Eigen::Vector3d(2, 0, 0)).isApprox(Eigen::Vector3d(0.5, 0, 0)));
 }
 
 TEST(Embedding, RejectsNonFinitePoints) {

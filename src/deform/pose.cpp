@@ -1,6 +1,9 @@
 #include <gshell/deform/pose.h>
 
+#include "geometry/disjoint_sets.h"
+
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 #include <gshell/shell/prism_tets.h>
 
 #include <chrono>
@@ -13,24 +16,18 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-int find_root(std::vector<int>& parent, int v) {
-  while (parent[v] != v) v = parent[v] = parent[parent[v]];
-  return v;
-}
-
 /// Every connected part of the base mesh (its top goes with it) needs a handle vertex, or the
 /// energy does not pin it in space and the system is singular.
 void require_anchored_components(const Eigen::MatrixXi& F, int n, const std::vector<int>& constrained) {
-  std::vector<int> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
+  detail::DisjointSets parts(n);
   for (int f = 0; f < F.rows(); ++f)
-    for (int k = 1; k < 3; ++k) parent[find_root(parent, F(f, k))] = find_root(parent, F(f, 0));
+    for (int k = 1; k < 3; ++k) parts.unite(F(f, k), F(f, 0));
   std::vector<char> used(n, 0), anchored(n, 0);
   for (int f = 0; f < F.rows(); ++f)
     for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
-  for (int v : constrained) anchored[find_root(parent, v < n ? v : v - n)] = 1;
+  for (int v : constrained) anchored[parts.find(v < n ? v : v - n)] = 1;
   for (int v = 0; v < n; ++v)
-    if (used[v] && !anchored[find_root(parent, v)])
+    if (used[v] && !anchored[parts.find(v)])
       throw InputError("the handles leave a connected part of the shell free (e.g. the part with base vertex " +
                        std::to_string(v) + "): give every part at least one handle vertex");
 }
@@ -73,7 +70,7 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
     s.hierarchical = std::make_unique<HierarchicalSolver>(s.rest, s.rest_vertices, rest.F, c, hierarchy);
   else
     s.single = make_shell_solver(s.rest, 2 * n, c);
-  s.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  s.setup_seconds = seconds_since(start);
 }
 
 PoseSolver::~PoseSolver() = default;

@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 #include <gshell/geometry/curvature.h>
+#include <gshell/seconds_since.h>
 #include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
@@ -15,7 +16,6 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 void check_shapes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   if (V.cols() != 3 || F.cols() != 3 || F.rows() == 0) throw InputError("generate: need an n x 3 V and a non-empty m x 3 F");
@@ -143,6 +143,8 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
 
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options) {
+  options.check();
+  check_shapes(V, F);
   return generate_towards(V, F, ideal, options, false);
 }
 

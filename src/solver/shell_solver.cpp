@@ -1,6 +1,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
@@ -30,7 +31,6 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // Tets per energy chunk: chunks are summed in a fixed order so the energy does not depend on
 // how TBB happened to split the work (the monotonicity test compares energies to round-off).
@@ -231,6 +231,10 @@ struct ShellSolver::Impl {
         (targets.rows() != static_cast<Eigen::Index>(soft.vertices.size()) || targets.cols() != 3))
       throw InputError(std::string("ShellSolver::") + where + ": expected " + std::to_string(soft.vertices.size()) +
                        " x 3 soft constraint targets");
+  }
+  void check_step(const LocalStep& step, const char* where) const {
+    if (step.Q.size() != 9 * static_cast<std::size_t>(K))
+      throw InputError(std::string("ShellSolver::") + where + ": the local step is for another solver");
   }
 };
 
@@ -819,8 +823,7 @@ void ShellSolver::global_step(Eigen::MatrixXd& X, const LocalStep& step, const E
   const Impl& m = *impl_;
   m.check_positions(X, "global_step");
   m.check_soft_targets(soft_targets, "global_step");
-  if (step.Q.size() != 9 * static_cast<std::size_t>(m.K))
-    throw InputError("ShellSolver::global_step: the local step is for another solver");
+  m.check_step(step, "global_step");
   if (m.nf == 0) return;
   std::vector<double> x = to_row_major(X);
   std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf));
@@ -833,6 +836,7 @@ Eigen::MatrixXd ShellSolver::half_gradient(const Eigen::MatrixXd& X, const Local
   const Impl& m = *impl_;
   m.check_positions(X, "half_gradient");
   m.check_soft_targets(soft_targets, "half_gradient");
+  m.check_step(step, "half_gradient");
   // 1/2 dE/dx_f = A_ff x_f - (b(R) + rhs_constant): what the global step solves, as a residual.
   const std::vector<double> x = to_row_major(X);
   const std::vector<double> rhs_const = m.rhs_constant(x.data(), soft_targets);

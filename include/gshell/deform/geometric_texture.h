@@ -1,5 +1,6 @@
 #pragma once
-// Geometric texture through the shell map (paper §4.1 Fig. 5, DESIGN.md "Embedded detail").
+// Geometric texture through the shell map (paper §4.1 Fig. 5; docs/design.md "Embedded
+// detail and geometric textures").
 // Texture space: (u, v, h) with (u, v) the base's texture coordinates and h in [0,1] the height
 // in the shell (0 = base, 1 = top). Over each UV triangle stands the texture-space prism
 // UV triangle x [0,1], cut into 3 tets by the same min-index rule as the shell's prism, so

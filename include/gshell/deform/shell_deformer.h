@@ -1,5 +1,5 @@
 #pragma once
-// Base-driven shell deformation (paper §4.2, first type; DESIGN.md "Shell deformation"): the base
+// Base-driven shell deformation (paper §4.2; docs/design.md "Base-driven deformation"): the base
 // is moved by someone else, the top follows with the least stretch relative to the rest shell.
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/shell.h>
@@ -59,8 +59,8 @@ struct FrameResult {
 
 /// Rest shapes for deforming a shell: its own 3m tets (no cracks). A generated shell may hold a
 /// few flat or inverted tets, which cannot be rest shapes (the energy divides by them): those
-/// whose volume is below kMinRestVolumeRatio of their normal-prism tet (thickness eta, DESIGN.md
-/// "Shell generation") take that ideal tet as their rest shape instead, so deforming pushes them
+/// whose volume is below kMinRestVolumeRatio of their normal-prism tet (thickness eta; see
+/// docs/design.md "Base-driven deformation") take that ideal tet as their rest shape instead, so deforming pushes them
 /// back towards a proper prism rather than preserving the defect. `replaced` (if not null)
 /// receives their count.
 constexpr double kMinRestVolumeRatio = 1e-3;

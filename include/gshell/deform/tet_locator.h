@@ -55,8 +55,4 @@ private:
   std::unordered_map<std::uint64_t, std::vector<int>> cells_;
 };
 
-/// Closest point to p on triangle (a, b, c), also for degenerate triangles.
-Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c);
-
 } // namespace gshell

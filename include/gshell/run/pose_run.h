@@ -87,6 +87,7 @@ class DragSession;
 PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_fraction = 1.0);
 
 /// The same on a fresh session of `rest` with `handles`.
+/// \throws InputError as DragSession's constructor and set_handles, or as above.
 PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options = {});
 
 } // namespace gshell

@@ -1,5 +1,5 @@
 #pragma once
-// Shell generation (DESIGN.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
+// Shell generation (docs/design.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
 // local/global solve of the top with the base fixed, started from the offset surface.
 #include <gshell/guard/guarded_shell.h>
 #include <gshell/quality/shell_certificate.h>
@@ -24,7 +24,8 @@ enum class ShellMethod {
 
 /// "offset", "rigid", "curvature".
 std::string to_string(ShellMethod method);
-/// Inverse of to_string; throws InputError "unknown method 'X' (expected rigid, offset or curvature)".
+/// Inverse of to_string.
+/// \throws InputError "unknown method 'X' (expected rigid, offset or curvature)".
 ShellMethod parse_shell_method(const std::string& name);
 
 /// The only source of generation defaults: the CLI's help and Python's keyword defaults read
@@ -51,7 +52,8 @@ struct GenerateOptions {
 };
 
 /// Thickness for a ratio of the bounding sphere's radius (centre = bounding-box centre, radius =
-/// distance to the farthest vertex). Throws InputError unless ratio > 0 and finite.
+/// distance to the farthest vertex).
+/// \throws InputError unless ratio > 0 and finite, and when V is empty or all one point.
 double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio);
 
 struct GenerateTimings {
@@ -93,6 +95,8 @@ struct GenerateResult {
 /// Rigid-style generation towards the given ideal prisms (6m x 3, ideal_prisms.h layout): rest
 /// tets cut from them (prism_rest_tets), base fixed, top started at offset_top and solved.
 /// The energy is measured against these prisms; the metrics against the normal prisms.
+/// \throws InputError as generate_shell, and when `ideal` is not 6m x 3 or holds a prism turned
+///         inside out.
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options);
 

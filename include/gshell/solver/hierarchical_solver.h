@@ -1,5 +1,5 @@
 #pragma once
-// Hierarchical dimension-reduction solver for direct shell deformation (paper §5, DESIGN.md
+// Hierarchical dimension-reduction solver for direct shell deformation (paper §5, docs/design.md
 // "Hierarchical dimension reduction"). Minimises the same energy as ShellSolver,
 // E(x) = sum_t vol_t ||F_t(x) - R_t||_F^2 (+ soft constraint springs), over all 2n shell vertices.
 //
