@@ -1,0 +1,172 @@
+#include "frame_guard.h"
+
+#include <gshell/error.h>
+#include <gshell/guard/tet_step_bound.h>
+#include <gshell/quality/shell_certificate.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <numeric>
+
+namespace gshell {
+
+GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
+                                                  const GuardOptions& options) {
+  check_guard_options(options);
+  double length = 0, area = 0;
+  for (int f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    length += (b - a).norm() + (c - b).norm() + (a - c).norm();
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  const double edge = F.rows() > 0 ? length / (3.0 * static_cast<double>(F.rows())) : 0.0;
+  const double vertex_area = V.rows() > 0 ? area / static_cast<double>(V.rows()) : 0.0;
+  GuardedSolverParameters p;
+  p.j_hat = options.j_hat;
+  p.volume_weight = options.volume_weight;
+  p.contact_distance = options.contact_distance * std::min(eta, edge);
+  p.contact_stiffness =
+      p.contact_distance > 0 ? options.contact_weight * vertex_area / std::pow(p.contact_distance, 3) : 0.0;
+  p.keep_fraction = options.keep_fraction;
+  p.cg_iterations = options.cg_iterations;
+  p.cg_tolerance = options.cg_tolerance;
+  return p;
+}
+
+double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const Eigen::MatrixXi& F) {
+  double worst = 0;
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int i = F(f, k), j = F(f, (k + 1) % 3);
+      const Eigen::RowVector3d e0 = from.row(j) - from.row(i), e1 = to.row(j) - to.row(i);
+      const double length = e0.norm();
+      if (length > 0) worst = std::max(worst, (e1 - e0).norm() / length);
+    }
+  return worst;
+}
+
+FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options)
+    : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()),
+      boundary_(shell_boundary(rest.F, rest.num_base_vertices())) {
+  const int n = n_, m = static_cast<int>(rest.F.rows());
+  double eta = rest.thickness;
+  if (!(eta > 0) && n > 0) eta = (rest.top - rest.base).rowwise().norm().mean();
+  parameters_ = absolute_guard_parameters(rest.base, rest.F, eta, options);
+
+  // What the rest shell breaks already stays out of the guard: its inverted tets, and the faces
+  // of its intersecting triangle pairs with every face sharing a vertex with them (a base that
+  // crosses itself leaves no clean top near the crossing).
+  const ShellCertificate rest_certificate = certify_shell(rest.base, rest.top, rest.F);
+  const Eigen::MatrixXd X = rest.vertices();
+  const VolumeBarrier probe(rest_tets, options.j_hat);
+  parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
+  for (int t : rest_certificate.inverted_tet_ids) parameters_.skip_tets[t] = 1;
+  for (int t = 0; t < rest_tets.size(); ++t)
+    if (!(probe.relative_volume_of(X, t) > 0)) parameters_.skip_tets[t] = 1;
+  std::vector<char> touched(n, 0), excluded_face(m, 0);
+  for (const BoundaryIntersection& pair : rest_certificate.intersections)
+    for (int row : {pair.a, pair.b})
+      for (int k = 0; k < 3; ++k) touched[boundary_.F(row, k) % n] = 1;
+  for (int f = 0; f < m; ++f)
+    excluded_face[f] = touched[rest.F(f, 0)] || touched[rest.F(f, 1)] || touched[rest.F(f, 2)];
+  parameters_.excluded_triangles.assign(boundary_.size(), 0);
+  for (int r = 0; r < boundary_.size(); ++r) parameters_.excluded_triangles[r] = excluded_face[boundary_.face[r]];
+
+  std::vector<int> fixed(n);
+  std::iota(fixed.begin(), fixed.end(), 0);
+  if (parameters_.contact_distance > 0) {
+    contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed, boundary_, parameters_);
+    std::vector<char> movable(2 * static_cast<std::size_t>(n), 0);
+    std::fill(movable.begin() + n, movable.end(), 1);
+    ContactOptions contact;
+    contact.dhat = parameters_.contact_distance;
+    contact.keep_fraction = parameters_.keep_fraction;
+    pairs_ = std::make_unique<ContactGuard>(boundary_, 2 * n, std::move(movable), contact, parameters_.excluded_triangles);
+  }
+}
+
+FrameGuard::~FrameGuard() = default;
+
+bool FrameGuard::built_with(const GuardOptions& o) const {
+  const GuardOptions& p = options_;
+  return p.j_hat == o.j_hat && p.volume_weight == o.volume_weight && p.contact_distance == o.contact_distance &&
+         p.contact_weight == o.contact_weight && p.keep_fraction == o.keep_fraction &&
+         p.cg_iterations == o.cg_iterations && p.cg_tolerance == o.cg_tolerance;
+}
+
+GuardedSolver& FrameGuard::tets_only() {
+  if (!tets_) {
+    GuardedSolverParameters p = parameters_;
+    p.contact_distance = 0;
+    p.contact_stiffness = 0;
+    std::vector<int> fixed(n_);
+    std::iota(fixed.begin(), fixed.end(), 0);
+    tets_ = std::make_unique<GuardedSolver>(rest_tets_, 2 * n_, fixed, boundary_, p);
+  }
+  return *tets_;
+}
+
+bool FrameGuard::path_is_safe(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts) {
+  const Eigen::MatrixXd D = X1 - X0;
+  const TetStepBound tets =
+      tet_step_bound(rest_tets_.T, X0, D, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
+  if (tets.step < 1) return false;
+  if (!contacts || !pairs_) return true;
+  // Conservative CCD over every boundary pair but the base against itself (a base crossing
+  // itself is the caller's doing; the certificate reports it).
+  return pairs_->step_bound(X0, D, 1.0) >= 1;
+}
+
+FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& new_base, int substeps,
+                                     bool contacts, const GuardedSolveOptions& solve) {
+  Outcome out;
+  GuardedSolver* solver = nullptr;
+  if (contacts && contact_ && std::isfinite(contact_->energy(X))) solver = contact_.get();
+  else if (!contact_ && std::isfinite(tets_only().energy(X))) solver = &tets_only(); // contacts off
+  else if (std::isfinite(tets_only().energy(X))) {
+    solver = &tets_only();
+    out.method = FrameMethod::TetsOnly;
+  } else {
+    out.method = FrameMethod::Failed;
+    return out;
+  }
+  const int n = n_;
+  const Eigen::MatrixXd from = X.topRows(n);
+  Eigen::MatrixXd targets = X;
+  // A stalled drag is retried once (the energy iterations in between may make room), then
+  // continued with the tets alone.
+  constexpr int kRetries = 2;
+  for (int k = 1; k <= substeps; ++k) {
+    targets.topRows(n) = k == substeps ? new_base : Eigen::MatrixXd(from + (static_cast<double>(k) / substeps) * (new_base - from));
+    ++out.substeps;
+    for (int attempt = 0;; ++attempt) {
+      const GuardedSolveResult r = solver->solve(X, solve, targets);
+      out.iterations += r.iterations;
+      if (std::getenv("GSHELL_FRAME_DEBUG"))
+        std::fprintf(stderr, "substep %d attempt %d: path %.4f iterations %d clamped %d contacts %d min J %.3g %.2fs\n", k, attempt,
+                     r.path_done, r.iterations, r.clamped_steps, r.active_contacts, r.min_relative_volume, r.seconds);
+      if (r.path_done >= 1) break;
+      // The drag moves the top with the base by the model's linear response, which knows nothing
+      // of the barriers: two tops pressed against each other over a wide area can stop it for
+      // good (docs/valid-deformation.md), hence only one retry.
+      if (attempt + 1 < kRetries) continue;
+      if (solver == contact_.get()) {
+        solver = &tets_only();
+        out.method = FrameMethod::TetsOnly;
+        attempt = -1;
+        continue;
+      }
+      out.method = FrameMethod::Failed;
+      return out;
+    }
+  }
+  X.topRows(n) = new_base; // exactly (the solver ends its path on the targets)
+  return out;
+}
+
+} // namespace gshell
