@@ -51,7 +51,7 @@ double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, c
 }
 
 FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options)
-    : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()),
+    : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()), F_(rest.F),
       boundary_(shell_boundary(rest.F, rest.num_base_vertices())) {
   const int n = n_, m = static_cast<int>(rest.F.rows());
   double eta = rest.thickness;
@@ -81,12 +81,6 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   std::iota(fixed.begin(), fixed.end(), 0);
   if (parameters_.contact_distance > 0) {
     contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed, boundary_, parameters_);
-    std::vector<char> movable(2 * static_cast<std::size_t>(n), 0);
-    std::fill(movable.begin() + n, movable.end(), 1);
-    ContactOptions contact;
-    contact.dhat = parameters_.contact_distance;
-    contact.keep_fraction = parameters_.keep_fraction;
-    pairs_ = std::make_unique<ContactGuard>(boundary_, 2 * n, std::move(movable), contact, parameters_.excluded_triangles);
   }
 }
 
@@ -111,15 +105,24 @@ GuardedSolver& FrameGuard::tets_only() {
   return *tets_;
 }
 
-bool FrameGuard::path_is_safe(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts) {
-  const Eigen::MatrixXd D = X1 - X0;
+bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
+                         ShellCertificate* certificate) {
   const TetStepBound tets =
-      tet_step_bound(rest_tets_.T, X0, D, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
+      tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
   if (tets.step < 1) return false;
-  if (!contacts || !pairs_) return true;
-  // Conservative CCD over every boundary pair but the base against itself (a base crossing
-  // itself is the caller's doing; the certificate reports it).
-  return pairs_->step_bound(X0, D, 1.0) >= 1;
+  if (!contacts || !contact_) return true;
+  // The end state certified exactly (the base against itself left out: a base crossing itself is
+  // the caller's). Cheaper than continuous collision detection along the path, and what matters
+  // is the frame, not the way to it: a certified frame is a valid start for the next one.
+  CertifyOptions options;
+  options.base_self_intersections = false;
+  ShellCertificate c = certify_shell(X1.topRows(n_), X1.bottomRows(n_), F_, options);
+  bool ok = true;
+  for (int t : c.inverted_tet_ids) ok = ok && parameters_.skip_tets[t];
+  for (const BoundaryIntersection& pair : c.intersections)
+    ok = ok && (parameters_.excluded_triangles[pair.a] || parameters_.excluded_triangles[pair.b]);
+  if (certificate) *certificate = std::move(c);
+  return ok;
 }
 
 FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& new_base, int substeps,

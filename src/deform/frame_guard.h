@@ -5,9 +5,9 @@
 // parameters (two factorisations at most: with contacts, and tets only for bases that force a
 // contact).
 #include <gshell/deform/shell_deformer.h>
-#include <gshell/guard/contact_guard.h>
 #include <gshell/guard/guarded_solver.h>
 #include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/shell_certificate.h>
 
 #include <Eigen/Core>
 #include <memory>
@@ -37,10 +37,12 @@ public:
   /// Whether this guard was built with these options.
   bool built_with(const GuardOptions& options) const;
 
-  /// The straight path from X0 (a frame made by this guard) to X1 keeps every guarded tet above
-  /// keep_fraction of its volume and, with `contacts` (X0 free of contacts), every guarded
-  /// boundary pair apart: X1 is then valid as X0 is.
-  bool path_is_safe(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts);
+  /// Whether X1 can be taken as the next frame after X0 (a frame made by this guard): the
+  /// straight path from X0 to X1 keeps every guarded tet above keep_fraction of its volume and,
+  /// with `contacts` (X0 free of contacts), X1's exact certificate (without base/base pairs,
+  /// returned in `certificate`) finds no intersection the guard keeps apart. X1 is then a valid
+  /// start for the guarded solver, as X0 is.
+  bool accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, ShellCertificate* certificate);
   /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
   bool guards_contacts() const { return contact_ != nullptr; }
 
@@ -64,10 +66,10 @@ private:
   GuardOptions options_;
   RestTets rest_tets_;
   int n_ = 0;
+  Eigen::MatrixXi F_;
   ShellBoundary boundary_;
   GuardedSolverParameters parameters_;
   std::unique_ptr<GuardedSolver> contact_, tets_;
-  std::unique_ptr<ContactGuard> pairs_; ///< for path_is_safe (the solver keeps its own)
 };
 
 } // namespace gshell

@@ -5,6 +5,7 @@
 #include <gshell/error.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
+#include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/generate_shell.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -295,7 +296,12 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   result.thinned_vertices = count_thinned_vertices(X.topRows(n), X.bottomRows(n), rest_.base, rest_.top);
   if (options.certify) {
     const auto certify_start = Clock::now();
-    result.certificate = certify_shell(X.topRows(n), X.bottomRows(n), rest_.F);
+    if (result.certified) { // by the guard's acceptance, all but the base's own crossings
+      result.certificate.base_self_intersections =
+          static_cast<int>(surface_self_intersections(X.topRows(n), rest_.F).size());
+    } else {
+      result.certificate = certify_shell(X.topRows(n), X.bottomRows(n), rest_.F);
+    }
     result.certificate_seconds = seconds_since(certify_start);
     result.valid = result.certificate.valid();
   }
@@ -313,9 +319,14 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd
   if (!guard_ || !guard_->built_with(options.guard))
     guard_ = std::make_unique<FrameGuard>(rest_, solver_.rest(), options.guard);
   const bool contacts = guard_->guards_contacts() && current_clean_;
-  if (guard_->path_is_safe(previous, X, contacts)) {
+  ShellCertificate certificate;
+  if (guard_->accepts(previous, X, contacts, &certificate)) {
     result.method = FrameMethod::Bounded;
     result.valid = true;
+    if (certificate.intersections_tested()) {
+      result.certificate = std::move(certificate);
+      result.certified = true;
+    }
     return;
   }
   const int n = rest_.num_base_vertices();

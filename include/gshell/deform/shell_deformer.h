@@ -47,8 +47,9 @@ struct DeformOptions {
   /// Today's frames, unguarded: the paper's solve from the warm start, nothing more (frames may
   /// hold inverted tets and intersections). Off (the default): every frame is valid by
   /// construction (docs/valid-deformation.md): the paper's result is taken only when the straight
-  /// path from the previous frame to it keeps every tet and boundary pair apart (step bounds),
-  /// otherwise the guarded solver drags the shell there from the previous frame in sub-steps.
+  /// path from the previous frame to it keeps every tet positive (step bound) and its exact
+  /// certificate holds, otherwise the guarded solver drags the shell there from the previous
+  /// frame in sub-steps.
   bool allow_invalid = false;
   /// Barrier and step parameters of the guard (relative to the shell's scales, as in generation;
   /// only j_hat, volume_weight, contact_distance, contact_weight, keep_fraction, cg_iterations and
@@ -75,7 +76,7 @@ int count_thinned_vertices(const Eigen::MatrixXd& base, const Eigen::MatrixXd& t
 /// How a frame was made.
 enum class FrameMethod {
   Unguarded, ///< allow_invalid: the paper's solve only
-  Bounded,   ///< the paper's solve, taken because the path to it passes every step bound
+  Bounded,   ///< the paper's solve, taken: the tet step bound passes on the way and its certificate holds
   Guarded,   ///< the guarded solver from the previous frame (sub-steps), boundary contacts kept apart
   TetsOnly,  ///< guarded against inverted tets only: the base forced a contact (e.g. it crosses itself)
   Failed,    ///< not even the tets could follow the base: the paper's solve, reported invalid
@@ -97,7 +98,10 @@ struct FrameResult {
   int thinned_vertices = 0;    ///< count_thinned_vertices of the frame
   /// The exact certificate of the frame (options.certify; counts -1 = not tested otherwise).
   ShellCertificate certificate;
-  double certificate_seconds = 0;
+  double certificate_seconds = 0; ///< the certificate beyond what the guard's acceptance computed
+  /// The guard certified the frame while accepting it (counted in seconds; certificate filled
+  /// but for base_self_intersections).
+  bool certified = false;
   /// The certificate holds (options.certify), else the frame's method guarantees it (Bounded,
   /// Guarded).
   bool valid = false;
