@@ -50,8 +50,10 @@ double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, c
   return worst;
 }
 
-FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options)
-    : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()), F_(rest.F),
+FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options,
+                       std::vector<int> fixed, bool moving_base)
+    : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()), F_(rest.F), fixed_(std::move(fixed)),
+      moving_base_(moving_base),
       boundary_(shell_boundary(rest.F, rest.num_base_vertices())) {
   const int n = n_, m = static_cast<int>(rest.F.rows());
   double eta = rest.thickness;
@@ -77,11 +79,8 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   for (int r = 0; r < boundary_.size(); ++r) parameters_.excluded_triangles[r] = excluded_face[boundary_.face[r]];
 
-  std::vector<int> fixed(n);
-  std::iota(fixed.begin(), fixed.end(), 0);
-  if (parameters_.contact_distance > 0) {
-    contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed, boundary_, parameters_);
-  }
+  if (parameters_.contact_distance > 0)
+    contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed_, boundary_, parameters_);
 }
 
 FrameGuard::~FrameGuard() = default;
@@ -98,9 +97,7 @@ GuardedSolver& FrameGuard::tets_only() {
     GuardedSolverParameters p = parameters_;
     p.contact_distance = 0;
     p.contact_stiffness = 0;
-    std::vector<int> fixed(n_);
-    std::iota(fixed.begin(), fixed.end(), 0);
-    tets_ = std::make_unique<GuardedSolver>(rest_tets_, 2 * n_, fixed, boundary_, p);
+    tets_ = std::make_unique<GuardedSolver>(rest_tets_, 2 * n_, fixed_, boundary_, p);
   }
   return *tets_;
 }
@@ -111,11 +108,11 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
       tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
   if (tets.step < 1) return false;
   if (!contacts || !contact_) return true;
-  // The end state certified exactly (the base against itself left out: a base crossing itself is
-  // the caller's). Cheaper than continuous collision detection along the path, and what matters
+  // The end state certified exactly (the base against itself left out when the caller moves the
+  // base: a base crossing itself is then the caller's). Cheaper than continuous collision detection along the path, and what matters
   // is the frame, not the way to it: a certified frame is a valid start for the next one.
   CertifyOptions options;
-  options.base_self_intersections = false;
+  options.base_self_intersections = moving_base_;
   ShellCertificate c = certify_shell(X1.topRows(n_), X1.bottomRows(n_), F_, options);
   bool ok = true;
   for (int t : c.inverted_tet_ids) ok = ok && parameters_.skip_tets[t];
@@ -125,50 +122,55 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   return ok;
 }
 
-FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& new_base, int substeps,
-                                     bool contacts, const GuardedSolveOptions& solve) {
+FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts,
+                                     bool fall_back_to_tets, const GuardedSolveOptions& solve) {
   Outcome out;
   GuardedSolver* solver = nullptr;
   if (contacts && contact_ && std::isfinite(contact_->energy(X))) solver = contact_.get();
   else if (!contact_ && std::isfinite(tets_only().energy(X))) solver = &tets_only(); // contacts off
-  else if (std::isfinite(tets_only().energy(X))) {
+  else if (fall_back_to_tets && std::isfinite(tets_only().energy(X))) {
     solver = &tets_only();
     out.method = FrameMethod::TetsOnly;
   } else {
     out.method = FrameMethod::Failed;
     return out;
   }
-  const int n = n_;
-  const Eigen::MatrixXd from = X.topRows(n);
-  Eigen::MatrixXd targets = X;
+  const Eigen::MatrixXd from = X;
+  Eigen::MatrixXd step_targets = X;
   // A stalled drag is retried once (the energy iterations in between may make room), then
-  // continued with the tets alone.
+  // continued with the tets alone, or stopped there (blocked).
   constexpr int kRetries = 2;
   for (int k = 1; k <= substeps; ++k) {
-    targets.topRows(n) = k == substeps ? new_base : Eigen::MatrixXd(from + (static_cast<double>(k) / substeps) * (new_base - from));
+    const double t = static_cast<double>(k) / substeps;
+    for (int v : fixed_) step_targets.row(v) = from.row(v) + t * (targets.row(v) - from.row(v));
     ++out.substeps;
     for (int attempt = 0;; ++attempt) {
-      const GuardedSolveResult r = solver->solve(X, solve, targets);
+      const GuardedSolveResult r = solver->solve(X, solve, step_targets);
       out.iterations += r.iterations;
       if (std::getenv("GSHELL_FRAME_DEBUG"))
-        std::fprintf(stderr, "substep %d attempt %d: path %.4f iterations %d clamped %d contacts %d min J %.3g %.2fs\n", k, attempt,
-                     r.path_done, r.iterations, r.clamped_steps, r.active_contacts, r.min_relative_volume, r.seconds);
+        std::fprintf(stderr, "substep %d attempt %d: path %.4f iterations %d clamped %d contacts %d min J %.3g %.2fs\n", k,
+                     attempt, r.path_done, r.iterations, r.clamped_steps, r.active_contacts, r.min_relative_volume,
+                     r.seconds);
       if (r.path_done >= 1) break;
-      // The drag moves the top with the base by the model's linear response, which knows nothing
-      // of the barriers: two tops pressed against each other over a wide area can stop it for
-      // good (docs/valid-deformation.md), hence only one retry.
+      // The drag moves the free vertices with the fixed ones by the model's linear response,
+      // which knows nothing of the barriers: two tops pressed against each other over a wide
+      // area can stop it for good (docs/valid-deformation.md), hence only one retry.
       if (attempt + 1 < kRetries) continue;
-      if (solver == contact_.get()) {
+      if (solver == contact_.get() && fall_back_to_tets) {
         solver = &tets_only();
         out.method = FrameMethod::TetsOnly;
         attempt = -1;
         continue;
       }
+      if (solver == contact_.get()) {
+        out.blocked = true; // X: as far as the bounds let it go, valid
+        return out;
+      }
       out.method = FrameMethod::Failed;
       return out;
     }
   }
-  X.topRows(n) = new_base; // exactly (the solver ends its path on the targets)
+  for (int v : fixed_) X.row(v) = targets.row(v); // exactly (the solver ends its path on them)
   return out;
 }
 

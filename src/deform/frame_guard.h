@@ -27,11 +27,14 @@ double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, c
 
 class FrameGuard {
 public:
-  /// `rest`: the rest shell (the first frame starts from it), `rest_tets` the deformer's rest
-  /// shapes. Tets inverted at rest are left unguarded, and the boundary triangles of pairs that
-  /// intersect at rest (with their neighbours) see no contacts: what the rest shell breaks, the
-  /// guard cannot keep.
-  FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options);
+  /// `rest`: the rest shell (the first frame starts from it), `rest_tets` the solver's rest
+  /// shapes, `fixed` the vertices the caller moves (the base for a deformation, the handles for
+  /// a pose); `moving_base`: the base is free, so base/base pairs count as the shell's own. Tets
+  /// inverted at rest are left unguarded, and the boundary triangles of pairs that intersect at
+  /// rest (with their neighbours) see no contacts: what the rest shell breaks, the guard cannot
+  /// keep.
+  FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options, std::vector<int> fixed,
+             bool moving_base);
   ~FrameGuard();
 
   /// Whether this guard was built with these options.
@@ -50,13 +53,15 @@ public:
     FrameMethod method = FrameMethod::Guarded;
     int substeps = 0;
     int iterations = 0;
+    bool blocked = false; ///< stopped at contact (no fall-back to the tets): X valid, short of the targets
   };
-  /// Drags X (2n x 3, a frame made by this guard) to the new base in `substeps` straight pieces,
-  /// each solved to the tolerance by the guarded solver. Contacts are kept apart while the base
-  /// allows it; when it forces one, only the tets are guarded from there on (TetsOnly). Failed:
-  /// X is left somewhere on the way, not at the new base.
-  /// `contacts`: X is free of contacts (else only the tets can be guarded).
-  Outcome drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& new_base, int substeps, bool contacts,
+  /// Drags X (2n x 3, a frame made by this guard) until its fixed vertices reach their rows of
+  /// `targets`, in `substeps` straight pieces, each solved to the tolerance by the guarded solver.
+  /// Contacts are kept apart while the fixed vertices' motion allows it; when it forces one, only
+  /// the tets are guarded from there on (TetsOnly) with `fall_back_to_tets`, else the drag stops
+  /// where it is (blocked). Failed: X is left somewhere on the way. `contacts`: X is free of
+  /// contacts (else only the tets can be guarded).
+  Outcome drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts, bool fall_back_to_tets,
                const GuardedSolveOptions& solve);
 
 private:
@@ -67,6 +72,8 @@ private:
   RestTets rest_tets_;
   int n_ = 0;
   Eigen::MatrixXi F_;
+  std::vector<int> fixed_;
+  bool moving_base_ = false;
   ShellBoundary boundary_;
   GuardedSolverParameters parameters_;
   std::unique_ptr<GuardedSolver> contact_, tets_;

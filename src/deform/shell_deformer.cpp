@@ -317,7 +317,8 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
 void ShellDeformer::guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
                                 FrameResult& result) {
   if (!guard_ || !guard_->built_with(options.guard))
-    guard_ = std::make_unique<FrameGuard>(rest_, solver_.rest(), options.guard);
+    guard_ = std::make_unique<FrameGuard>(rest_, solver_.rest(), options.guard, base_ids(rest_.num_base_vertices()),
+                                          false);
   const bool contacts = guard_->guards_contacts() && current_clean_;
   ShellCertificate certificate;
   if (guard_->accepts(previous, X, contacts, &certificate)) {
@@ -337,7 +338,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd
   GuardedSolveOptions solve;
   solve.max_iterations = options.max_iterations;
   solve.tolerance = options.tolerance;
-  const FrameGuard::Outcome outcome = guard_->drag(Y, X.topRows(n), substeps, contacts, solve);
+  const FrameGuard::Outcome outcome = guard_->drag(Y, X, substeps, contacts, true, solve);
   result.method = outcome.method;
   result.substeps = outcome.substeps;
   result.guarded_iterations = outcome.iterations;
