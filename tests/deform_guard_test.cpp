@@ -1,8 +1,11 @@
 // Valid deformation frames (issue 14): every frame of a guarded ShellDeformer is certified valid
 // (exact certificate: no inverted tet, no top/top, top/base or wall intersection), through bends
 // to 150 degrees, a single far jump (sub-steps) and a fold that presses the top into itself; and
-// allow_invalid reproduces the unguarded frames bit for bit.
+// allow_invalid reproduces the unguarded frames bit for bit; pose steps stay valid and stop at
+// contact when the handles force a collision.
+#include <gshell/deform/handles.h>
 #include <gshell/deform/shell_deformer.h>
+#include <gshell/run/pose_run.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/shell_certificate.h>
@@ -137,6 +140,60 @@ TEST(DeformGuard, AllowInvalidReproducesTheUnguardedFramesBitForBit) {
     X = Y;
   }
   EXPECT_GT(invalid, 0); // the guard would have changed these frames
+}
+
+// A bowl squeezed shut: two handles at opposite sides of the rim driven through each other.
+PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
+  const Shell rest = offset_shell(make_bowl(8), 0.08);
+  const int n = rest.num_base_vertices();
+  HandleSet handles;
+  for (int side : {1, -1}) {
+    Handle h;
+    for (int v = 0; v < 2 * n; ++v) {
+      const Eigen::RowVector3d p = v < n ? rest.base.row(v) : rest.top.row(v - n);
+      if (side * p.x() > 0.8) h.vertices.push_back(v);
+    }
+    h.translate = Eigen::Vector3d(-side * 2.4, 0, 0);
+    handles.handles.push_back(h);
+  }
+  PoseOptions options;
+  options.solver = kind;
+  options.steps = 4;
+  options.allow_invalid = allow_invalid;
+  options.solve.max_iterations = 100;
+  options.solve.tolerance = 1e-5;
+  return run_pose(rest, handles, options);
+}
+
+void expect_squeeze_stops_at_contact(PoseSolverKind kind) {
+  const PoseResult guarded = squeeze_bowl(kind, false);
+  bool blocked = false;
+  for (const PoseStepReport& s : guarded.steps) {
+    SCOPED_TRACE("step at fraction " + std::to_string(s.fraction));
+    EXPECT_TRUE(s.guarded);
+    EXPECT_TRUE(s.valid);
+    EXPECT_EQ(s.inverted_tets, 0);
+    EXPECT_EQ(s.intersections, 0);
+    blocked = blocked || s.blocked_by_contact;
+  }
+  EXPECT_TRUE(blocked);
+  const int n = static_cast<int>(guarded.X.rows()) / 2;
+  const Eigen::MatrixXi F = offset_shell(make_bowl(8), 0.08).F;
+  const ShellCertificate c = certify_shell(guarded.X.topRows(n), guarded.X.bottomRows(n), F);
+  EXPECT_TRUE(c.valid());
+  EXPECT_EQ(c.base_self_intersections, 0);
+  // Unguarded, the same squeeze passes the shell through itself.
+  const PoseResult loose = squeeze_bowl(kind, true);
+  const ShellCertificate l = certify_shell(loose.X.topRows(n), loose.X.bottomRows(n), F);
+  EXPECT_FALSE(l.valid() && l.base_self_intersections == 0);
+}
+
+TEST(PoseGuard, SqueezingABowlShutStopsAtContactValidSingleSolver) {
+  expect_squeeze_stops_at_contact(PoseSolverKind::Single);
+}
+
+TEST(PoseGuard, SqueezingABowlShutStopsAtContactValidHierarchicalSolver) {
+  expect_squeeze_stops_at_contact(PoseSolverKind::Hierarchical);
 }
 
 } // namespace
