@@ -133,12 +133,13 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   g.paper = paper_solver.solve(X, paper);
 
   // Valid start: that top, pulled towards the base only where it is not valid.
-  const Eigen::MatrixXd W =
-      extrusion_vectors(V, F, X.bottomRows(n), g.directions, options.start_margin, eta);
   ValidStartOptions start_options;
   start_options.thinning = options.start_thinning;
+  start_options.straight_margin = options.start_margin;
+  start_options.spread = options.start_spread;
+  start_options.fallback_length = eta;
   g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
-  g.start = valid_start(V, F, W, p.skip_tets, g.unprotected_triangles, start_options);
+  g.start = valid_start(V, F, X.bottomRows(n), g.directions, p.skip_tets, g.unprotected_triangles, start_options);
   // Whatever the start could not mend (only a degenerate base leaves anything) is left unguarded
   // too, so that the solver starts valid for its barriers; the certificate reports it.
   if (!g.start.inverted_tets.empty() || !g.start.intersections.empty()) {

@@ -9,47 +9,70 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 
 namespace gshell {
 
-Eigen::MatrixXd extrusion_vectors(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                                  const ExtrusionDirections& directions, double min_margin, double fallback_length) {
+namespace {
+
+// The paths of the header: per vertex, the wanted offset's unit u and length, the direction d, and
+// whether the straight line serves.
+struct Paths {
+  Eigen::MatrixXd u, d;
+  Eigen::VectorXd length;
+  std::vector<char> straight;
+
+  Eigen::RowVector3d offset(int i, double s) const {
+    if (straight[i] || s >= 1) return s * length[i] * u.row(i);
+    const Eigen::RowVector3d w = s * u.row(i) + (1 - s) * d.row(i);
+    const double norm = w.norm();
+    return s * length[i] * (norm > 1e-12 ? Eigen::RowVector3d(w / norm) : Eigen::RowVector3d(d.row(i)));
+  }
+};
+
+Paths make_paths(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
+                 const ExtrusionDirections& directions, const ValidStartOptions& options) {
   const int n = static_cast<int>(V.rows());
-  if (top.rows() != n || directions.direction.rows() != n)
-    throw InputError("extrusion_vectors: expected one top vertex and one direction per base vertex");
-  Eigen::MatrixXd W = top - V;
-  // The smallest cosine between each wanted vector and the normals of the faces around it.
+  Paths p;
+  p.d = directions.direction;
+  p.u = P - V;
+  p.length = p.u.rowwise().norm();
+  p.straight.assign(n, 1);
+  for (int i = 0; i < n; ++i) {
+    if (p.length[i] > 0) {
+      p.u.row(i) /= p.length[i];
+    } else { // nowhere to go: leave along the extrusion direction
+      p.u.row(i) = p.d.row(i);
+      p.length[i] = options.fallback_length;
+    }
+  }
+  // The smallest cosine between each u_i and the normals of the faces around vertex i.
   Eigen::VectorXd margin = Eigen::VectorXd::Constant(n, 2.0);
   for (int f = 0; f < F.rows(); ++f) {
     const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
     const Eigen::Vector3d x = (b - a).cross(c - a);
     if (!(x.norm() > 0)) continue;
     const Eigen::Vector3d normal = x.normalized();
-    for (int k = 0; k < 3; ++k) {
-      const int v = F(f, k);
-      const double len = W.row(v).norm();
-      margin[v] = std::min(margin[v], len > 0 ? W.row(v).dot(normal) / len : -1.0);
-    }
+    for (int k = 0; k < 3; ++k) margin[F(f, k)] = std::min(margin[F(f, k)], p.u.row(F(f, k)).dot(normal));
   }
-  for (int v = 0; v < n; ++v) {
-    if (margin[v] > 1.5) { // no face: not part of the shell
-      W.row(v).setZero();
-      continue;
-    }
-    if (margin[v] >= min_margin) continue;
-    const double len = W.row(v).norm();
-    W.row(v) = (len > 0 ? len : fallback_length) * directions.direction.row(v);
-  }
-  return W;
+  for (int i = 0; i < n; ++i) p.straight[i] = margin[i] >= options.straight_margin;
+  return p;
 }
 
-ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& W,
+} // namespace
+
+ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
+                       const ExtrusionDirections& directions,
                        const std::vector<char>& skip_tets, const std::vector<char>& excluded_triangles,
                        const ValidStartOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(V.rows());
-  if (W.rows() != n || W.cols() != 3) throw InputError("valid_start: expected one extrusion vector per vertex");
+  if (P.rows() != n || P.cols() != 3 || directions.direction.rows() != n)
+    throw InputError("valid_start: expected one wanted top vertex and one direction per base vertex");
   if (!(options.thinning > 0 && options.thinning < 1)) throw InputError("valid_start: thinning must be in (0, 1)");
+  if (!(options.fallback_length > 0)) throw InputError("valid_start: fallback_length must be positive");
+  const Paths paths = make_paths(V, F, P, directions, options);
   const detail::StartChecker checker(F, n, skip_tets, excluded_triangles);
   const Eigen::MatrixXi& T = checker.tets();
   const ShellBoundary& boundary = checker.boundary();
@@ -58,7 +81,11 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
   s.scale = Eigen::VectorXd::Ones(n);
   std::vector<char> thin(n), moved(n, 0);
   for (s.rounds = 1;; ++s.rounds) {
-    s.top = V + s.scale.asDiagonal() * W;
+    if (s.rounds == 1)
+      s.top = P;
+    else
+      for (int i = 0; i < n; ++i)
+        if (moved[i]) s.top.row(i) = V.row(i) + paths.offset(i, s.scale[i]);
     // The first round checks everything, later ones what the last thinning moved.
     const detail::StartViolations found = checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
     s.inverted_tets = found.inverted_tets;
@@ -71,11 +98,26 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       for (int row : {a, b})
         for (int k = 0; k < 3; ++k)
           if (boundary.F(row, k) >= n) thin[boundary.F(row, k) - n] = 1;
+    if (std::getenv("GSHELL_GUARD_DEBUG"))
+      std::fprintf(stderr, "start round %d: %zu inverted tets, %zu pairs\n", s.rounds, s.inverted_tets.size(),
+                   s.intersections.size());
     if ((s.inverted_tets.empty() && s.intersections.empty()) || s.rounds >= options.max_rounds) break;
-    for (int i = 0; i < n; ++i) {
-      moved[i] = thin[i];
+    const Eigen::VectorXd before = s.scale;
+    for (int i = 0; i < n; ++i)
       if (thin[i]) s.scale[i] *= options.thinning;
-    }
+    // Thickness steps between neighbours shear the prisms between them into new violations: keep
+    // s_j <= spread * s_i along every edge, so a pulled-in spot slopes into its surroundings.
+    if (options.spread > 1)
+      for (bool changed = true; changed;) {
+        changed = false;
+        for (int f = 0; f < F.rows(); ++f)
+          for (int k = 0; k < 3; ++k) {
+            const int i = F(f, k), j = F(f, (k + 1) % 3);
+            if (s.scale[j] > options.spread * s.scale[i]) { s.scale[j] = options.spread * s.scale[i]; changed = true; }
+            if (s.scale[i] > options.spread * s.scale[j]) { s.scale[i] = options.spread * s.scale[j]; changed = true; }
+          }
+      }
+    for (int i = 0; i < n; ++i) moved[i] = s.scale[i] != before[i];
   }
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;

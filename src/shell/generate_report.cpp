@@ -72,6 +72,7 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
   j["thinned_vertices"] = r.thinned_vertices.size();
   j["unextrudable_vertices"] = r.unextrudable_vertices;
   j["guarded"] = r.guarded;
+  j["warnings"] = generate_warnings(r);
   if (r.guarded) {
     const GuardedShell& g = r.guard;
     j["guard"] = {{"paper_iterations", g.paper.iterations},
@@ -93,6 +94,31 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                       {"seconds", c.prism_seconds}};
   }
   return j;
+}
+
+std::vector<std::string> generate_warnings(const GenerateResult& r) {
+  std::vector<std::string> w;
+  const ShellCertificate& c = r.certificate;
+  if (c.base_self_intersections > 0)
+    w.push_back("the base intersects itself (" + std::to_string(c.base_self_intersections) +
+                " pairs of faces cross): no top can be clean near those crossings" +
+                (r.guarded ? std::string(", the shell is guarded everywhere else") : std::string()));
+  if (!r.unextrudable_vertices.empty()) {
+    std::string ids;
+    for (std::size_t i = 0; i < r.unextrudable_vertices.size() && i < 10; ++i)
+      ids += (i ? ", " : "") + std::to_string(r.unextrudable_vertices[i]);
+    if (r.unextrudable_vertices.size() > 10) ids += ", ...";
+    w.push_back(std::to_string(r.unextrudable_vertices.size()) +
+                " base vertices have faces no direction sees from their positive side (" + ids +
+                "): prisms around them may stay inverted");
+  }
+  if (c.intersections_tested() && !c.valid())
+    w.push_back(std::string("the shell is not valid: ") + std::to_string(c.inverted_tets) + " inverted tets, " +
+                std::to_string(c.top_self_intersections) + " top/top, " + std::to_string(c.top_base_intersections) +
+                " top/base, " + std::to_string(c.wall_intersections) + " wall intersections" +
+                (r.guarded ? std::string(" (near the base's crossings or unextrudable vertices)")
+                           : std::string(" (unguarded result)")));
+  return w;
 }
 
 std::string metrics_summary(const ShellMetrics& m, int vertices, int faces, double eta) {

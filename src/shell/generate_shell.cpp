@@ -34,6 +34,7 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
 // certificate (which tests neighbouring triangles too), not twice by the metrics.
 void finish(GenerateResult& r, const GenerateOptions& options) {
   const auto t0 = Clock::now();
+  if (!r.guarded) r.unextrudable_vertices = extrusion_directions(r.shell.base, r.shell.F).unextrudable;
   r.thinned_vertices.clear();
   for (int i = 0; i < r.metrics.vertex_thickness.size(); ++i)
     if (r.metrics.vertex_thickness[i] < kThinnedFraction) r.thinned_vertices.push_back(i);
@@ -77,13 +78,13 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.guard = guarded_shell(V, F, rest, options.thickness, options.guard, solve);
     r.guarded = true;
     r.unextrudable_vertices = r.guard.directions.unextrudable;
-    r.solve.iterations = r.guard.solve.iterations;
-    r.solve.energy = r.guard.solve.energy;
-    r.solve.converged = r.guard.solve.converged;
-    r.solve.seconds = r.guard.solve.seconds;
+    // The paper's iterations (the energy the guard starts from); the repair's own iterations, on
+    // E_guard of the region it moves, are in guard.solve.
+    r.solve = r.guard.paper;
+    r.solve.converged = r.guard.paper.converged && (r.guard.repaired_vertices == 0 || r.guard.solve.converged);
     r.seconds.factor = r.guard.factor_seconds;
-    r.seconds.solve = r.guard.solve.seconds;
-    r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.guard.solve.seconds;
+    r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds;
+    r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve;
     r.shell = make_shell(V, F, r.guard.top, options.thickness);
   }
   r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)

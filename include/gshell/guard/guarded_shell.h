@@ -36,9 +36,10 @@ struct GuardOptions {
   /// this cosine margin (extrusion_directions), in [-1, 1].
   double normal_margin = 0.5;
   double start_thinning = 0.5; ///< ValidStartOptions::thinning
+  double start_spread = 0;     ///< ValidStartOptions::spread
   /// The start pulls an invalid top vertex towards its base vertex along the line joining them
-  /// when that line sees every incident face with at least this cosine margin, otherwise along
-  /// the extrusion direction (extrusion_vectors), in (0, 1].
+  /// when that line sees every incident face with at least this cosine margin, otherwise along a
+  /// path that bends towards the extrusion direction (ValidStartOptions::straight_margin), (0, 1].
   double start_margin = 0.1;
   /// Top vertices of unextrudable vertices are held at this fraction of eta along their best
   /// direction (the prisms around them cannot all be valid; only those are left unguarded).

@@ -67,8 +67,8 @@ struct GuardedSolverParameters {
 struct GuardedSolveOptions {
   int max_iterations = 50;
   double tolerance = 1e-5; ///< stop when the relative decrease of E_guard is below this
-  /// The energy the tolerance is relative to, when > 0 (e.g. the whole shell's energy when only a
-  /// part of it is solved for); 0: the current E_guard.
+  /// The tolerance is relative to the larger of this and the current E_guard (e.g. the whole
+  /// shell's energy when only a part of it is solved for; 0: E_guard alone).
   double energy_scale = 0;
   /// Called after every iteration with (iteration, E_guard, seconds since the solve started).
   std::function<void(int, double, double)> progress;

@@ -31,6 +31,10 @@ public:
 
   /// Tets with 0 < J < j_hat at X (where the barrier acts), ascending.
   std::vector<int> active_tets(const Eigen::MatrixXd& X) const;
+  /// J of tet t at X and its gradient (4 corners).
+  double relative_volume_gradient(const Eigen::MatrixXd& X, int t, Eigen::Vector3d grad[4]) const {
+    return relative_volume(X, t, grad);
+  }
   /// J of tet t at X.
   double relative_volume_of(const Eigen::MatrixXd& X, int t) const { return relative_volume(X, t, nullptr); }
   /// Smallest J over the guarded tets at X (+infinity if none).

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace gshell {
 
@@ -23,6 +24,11 @@ namespace gshell {
 ///   prisms it was optimised towards), seconds (of the curvature prisms)}.
 nlohmann::json generate_report(const GenerateResult& result, const std::string& input,
                                std::optional<double> thickness_ratio = std::nullopt);
+
+/// Warnings about a generated shell, one sentence each (empty when there is nothing to say): the
+/// base intersects itself, unextrudable vertices (the first ids), the result is not valid (with
+/// the certificate's counts). The CLI prints them on stderr; the report lists them ("warnings").
+std::vector<std::string> generate_warnings(const GenerateResult& result);
 
 /// The quality part alone (`gshell metrics`): thickness, vertices, faces, tets, stretch,
 /// inverted_tets, intersections, as in generate_report.

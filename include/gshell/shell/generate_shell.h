@@ -56,7 +56,7 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio);
 struct GenerateTimings {
   double total = 0;  ///< whole generate_shell call, metrics included (seconds)
   double factor = 0; ///< assembling and factoring the system matrix
-  double solve = 0;  ///< local/global iterations (guarded: the guarded solve)
+  double solve = 0;  ///< local/global iterations (guarded: the paper's and the repair's)
   double guard = 0;  ///< guarded generation beyond factor and solve: directions, base
                      ///< self-intersections, valid start (0 when unguarded)
   double certificate = 0; ///< the exact certificate of the result
@@ -73,7 +73,9 @@ struct CurvatureGeneration {
 struct GenerateResult {
   Shell shell;
   ShellMethod method = ShellMethod::Rigid;
-  SolveResult solve; ///< energy[0] = offset start; for Offset only energy[0] (no iterations)
+  /// energy[0] = offset start; for Offset only energy[0] (no iterations). Guarded: the paper's
+  /// iterations the guard starts from (its repair iterations are in guard.solve).
+  SolveResult solve;
   GenerateTimings seconds;
   ShellMetrics metrics; ///< stretch against the normal prisms, whatever the method
   std::optional<CurvatureGeneration> curvature; ///< set by the curvature method
