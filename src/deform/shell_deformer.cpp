@@ -304,6 +304,8 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
     }
     result.certificate_seconds = seconds_since(certify_start);
     result.valid = result.certificate.valid();
+    // A certified frame is free of contacts whatever made it: the next frame may guard them again.
+    if (!options.allow_invalid && result.valid) current_clean_ = true;
   }
   result.top = X.bottomRows(n);
   if (rotated.rows() == n) last_correction_ = result.top - rotated;
