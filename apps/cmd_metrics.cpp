@@ -47,7 +47,8 @@ void add_metrics_command(CLI::App& app) {
   auto o = std::make_shared<MetricsCliOptions>();
   CLI::App* cmd = app.add_subcommand(
       "metrics", "Quality of a shell given by its base and top surfaces (same faces and vertex order): stretch "
-                 "against the normal prisms, inverted tets, intersections, thickness.");
+                 "against the normal prisms, the exact validity certificate (inverted tets, intersections), "
+                 "thickness.");
   cmd->add_option("base", o->base, "Base surface (mesh file or builtin:NAME)")->required();
   cmd->add_option("top", o->top, "Top surface with the base's faces and vertex order")->required();
   gshell::cli::add_thickness_flags(*cmd, o->thickness);

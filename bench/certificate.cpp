@@ -2,8 +2,9 @@
 // The exact shell certificate against today's two intersection counts on generated shells:
 // for every mesh (default models/bunny00.off; a builtin spec, a mesh file or a folder of .off
 // files) and method, the shell is generated at thickness ratio R (default 0.03) without metrics,
-// then certify_shell and the old counts (top self-intersections of pairs sharing no vertex, plus
-// top/base pairs) are timed, interleaved, K times each (default 5; medians, wall and CPU seconds).
+// then certify_shell (with and without the base/base pairs) and the old counts (top
+// self-intersections of pairs sharing no vertex, plus top/base pairs) are timed, interleaved, K
+// times each (default 5; medians, wall and CPU seconds).
 // One row per shell: vertices, the certificate's counts, the old counts, times. Meshes that
 // cannot carry a shell, and with --closed those with a boundary, are listed as skipped.
 // The baseline table of docs/validity.md: bench_certificate --closed --runs 3 models
@@ -99,8 +100,9 @@ int main(int argc, char** argv) {
   if (inputs.empty()) inputs.push_back("models/bunny00.off");
 
   std::printf("ratio %.3g; times: median of %d, wall s (cpu s summed over threads); old = today's counts\n", ratio, runs);
-  std::printf("%-28s %-9s %7s | %8s %7s %8s %5s %8s | %7s %8s | %15s %15s\n", "mesh", "method", "verts", "inverted",
-              "top/top", "top/base", "walls", "base/base", "old t/t", "old t/b", "certificate", "old counts");
+  std::printf("%-28s %-9s %7s | %8s %7s %8s %5s %8s | %7s %8s | %15s %15s %15s\n", "mesh", "method", "verts",
+              "inverted", "top/top", "top/base", "walls", "base/base", "old t/t", "old t/b", "certificate",
+              "w/o base/base", "old counts");
   for (const std::string& input : expand(inputs)) {
     const std::string name = std::filesystem::path(input).filename().string();
     TriMesh mesh;
@@ -131,19 +133,22 @@ int main(int argc, char** argv) {
       const Eigen::MatrixXi& F = shell.shell.F;
       ShellCertificate cert;
       int old_self = 0, old_between = 0;
-      std::vector<Time> cert_t, old_t;
+      std::vector<Time> cert_t, shell_t, old_t;
+      CertifyOptions shell_only;
+      shell_only.base_self_intersections = false;
       for (int r = 0; r < runs; ++r) {
         cert_t.push_back(timed([&] { cert = certify_shell(base, top, F); }));
+        shell_t.push_back(timed([&] { certify_shell(base, top, F, shell_only); }));
         old_t.push_back(timed([&] {
           old_self = count_self_intersections(top, F);
           old_between = count_intersections_between(top, F, base, F);
         }));
       }
-      const Time c = median(cert_t), o = median(old_t);
-      std::printf("%-28s %-9s %7d | %8d %7d %8d %5d %8d | %7d %8d | %6.3f (%6.3f) %6.3f (%6.3f)\n",
+      const Time c = median(cert_t), w = median(shell_t), o = median(old_t);
+      std::printf("%-28s %-9s %7d | %8d %7d %8d %5d %8d | %7d %8d | %6.3f (%6.3f) %6.3f (%6.3f) %6.3f (%6.3f)\n",
                   name.c_str(), method.c_str(), mesh.num_vertices(),
                   cert.inverted_tets, cert.top_self_intersections, cert.top_base_intersections, cert.wall_intersections,
-                  cert.base_self_intersections, old_self, old_between, c.wall, c.cpu, o.wall, o.cpu);
+                  cert.base_self_intersections, old_self, old_between, c.wall, c.cpu, w.wall, w.cpu, o.wall, o.cpu);
       std::fflush(stdout);
     }
   }

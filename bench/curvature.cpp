@@ -89,8 +89,8 @@ void print_row(double ratio, const char* method, double s_min, double s_max, con
               "%4d %6.2f\n",
               ratio, method, clamps, percentile(t, 0, all), percentile(t, 0.01, all), percentile(t, 0, ridge),
               percentile(t, 0.01, ridge), percentile(t, 0.5, ridge), m.stretch.volume_mean, m.stretch.p99,
-              m.stretch.max, m.stretch.mean, m.stretch.inverted, m.top_self_intersections,
-              m.top_base_intersections, run.prisms.clamped, run.prisms.limited, run.own.volume_mean,
+              m.stretch.max, m.stretch.mean, m.certificate.inverted_tets, m.certificate.top_self_intersections,
+              m.certificate.top_base_intersections, run.prisms.clamped, run.prisms.limited, run.own.volume_mean,
               run.result.solve.iterations, seconds);
 }
 

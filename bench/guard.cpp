@@ -25,8 +25,8 @@ int violations_outside(const GenerateResult& g) {
   const GuardedSolverParameters& p = g.guard.parameters;
   const std::vector<char>& u = g.guard.unprotected_triangles;
   int count = 0;
-  for (int t : g.certificate.inverted_tet_ids) count += p.skip_tets.empty() || !p.skip_tets[t];
-  for (const BoundaryIntersection& b : g.certificate.intersections) {
+  for (int t : g.metrics.certificate.inverted_tet_ids) count += p.skip_tets.empty() || !p.skip_tets[t];
+  for (const BoundaryIntersection& b : g.metrics.certificate.intersections) {
     if (b.kind == IntersectionKind::BaseBase) continue;
     count += u.empty() || (!u[b.a] && !u[b.b]);
   }
@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
     else files.push_back(a);
   }
   if (ratios.empty()) ratios = {0.01, 0.03, 0.05};
-  std::printf("%-24s %6s %5s | %4s %5s %5s %4s | %4s %4s %4s %4s %5s | %5s %4s %4s %4s %5s | %6s %6s | %6s %6s\n", "model",
+  std::printf("%-24s %6s %5s | %4s %5s %5s %4s | %4s %4s %4s %4s %5s | %5s %4s %4s %4s %5s | %6s %6s | %6s %6s %5s\n", "model",
               "n", "ratio", "inv", "tt", "tb", "wall", "ginv", "gtt", "gtb", "gwal", "out", "thin", "unex", "base", "rnd",
               "rep", "str_u", "ratio", "t_u", "t_g", "t_g/u");
   int rows = 0, valid_u = 0, clean_g = 0, valid_g = 0;
@@ -85,13 +85,13 @@ int main(int argc, char** argv) {
         tu.push_back(u.seconds.total);
         tg.push_back(g.seconds.total);
       }
-      const ShellCertificate &cu = u.certificate, &cg = g.certificate;
+      const ShellCertificate &cu = u.metrics.certificate, &cg = g.metrics.certificate;
       const int out = violations_outside(g);
       const double stretch_ratio = g.metrics.stretch.volume_mean / u.metrics.stretch.volume_mean;
       const double time_ratio = median(tg) / median(tu);
       ++rows;
-      valid_u += u.valid;
-      valid_g += g.valid;
+      valid_u += cu.valid();
+      valid_g += cg.valid();
       clean_g += out == 0;
       if (std::isfinite(stretch_ratio)) stretch_ratios.push_back(stretch_ratio);
       time_ratios.push_back(time_ratio);
@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
                   file.substr(file.rfind('/') + 1).c_str(), mesh.num_vertices(), ratio, cu.inverted_tets,
                   cu.top_self_intersections, cu.top_base_intersections, cu.wall_intersections, cg.inverted_tets,
                   cg.top_self_intersections, cg.top_base_intersections, cg.wall_intersections, out,
-                  static_cast<int>(g.thinned_vertices.size()), static_cast<int>(g.unextrudable_vertices.size()),
+                  g.metrics.thinned_vertices, static_cast<int>(g.unextrudable_vertices.size()),
                   cg.base_self_intersections, g.guard.start.rounds, g.guard.repaired_vertices,
                   u.metrics.stretch.volume_mean, stretch_ratio, median(tu), median(tg), time_ratio);
       std::fflush(stdout);

@@ -175,9 +175,10 @@ Args:
     tolerance: stop when the relative energy change is below this.
     s_min, s_max: curvature method: the clamp of the in-plane scales of the top triangles
         (0 < s_min <= 1 <= s_max).
-    count_intersections: count top/top and top/base triangle intersections for the report
-        (costly on big meshes; None in the report when False). A guarded result (rigid and
-        curvature without allow_invalid) is always certified in full.
+    count_intersections: run the certificate's exact pair tests (top/top, top/base, side
+        walls, base/base) for the report; when False their counts are None and report["valid"]
+        is None, or False if a tet is inverted (the tets are always checked). A guarded result
+        (rigid and curvature without allow_invalid) is always certified in full.
     allow_invalid: rigid and curvature: skip the guard and return the paper's unguarded result,
         which may have inverted tets and intersections (report["valid"] says).
 
@@ -200,12 +201,14 @@ Args:
     Vt: float array (n, 3), top vertices (top i over base i).
     thickness: eta in model units. Give exactly one of thickness and thickness_ratio.
     thickness_ratio: eta as a ratio of the base's bounding-sphere radius.
-    count_intersections: count top/top and top/base intersections (None in the result if False).
+    count_intersections: run the certificate's exact pair tests (their counts and "valid" are
+        None in the result if False, "valid" False if a tet is inverted).
 
 Returns:
     dict with the fields of the CLI's metrics report (thickness {eta, ratio, min, mean},
     vertices, faces, tets, stretch {mean, volume_mean, max, p99} against the normal prisms,
-    inverted_tets, top_self_intersections, top_base_intersections), plus NumPy arrays
+    valid, certificate {inverted_tets, top_self_intersections, top_base_intersections,
+    wall_intersections, exact}, base_self_intersections, thinned_vertices), plus NumPy arrays
     tet_stretch (3m,), tet_determinant (3m,) and vertex_thickness (n,) (distance to the base / eta).
 
 Raises:

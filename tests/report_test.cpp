@@ -170,6 +170,14 @@ TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {
   EXPECT_NE(html.find("energy per iteration"), std::string::npos);
   EXPECT_NE(html.find("convergence: (E_k - E_last) / E_last"), std::string::npos);
   EXPECT_NE(html.find("<svg"), std::string::npos);
+  // A thin torus shell is valid, and the page says so up front.
+  EXPECT_NE(html.find("Valid shell: yes</strong> (exact certificate: 0 inverted tets"), std::string::npos);
+  // An offset shell thicker than the torus's tube crosses itself in the hole.
+  const std::string thick = tmp.file("thick");
+  ASSERT_EQ(run_cli("generate builtin:torus:24 -o '" + thick + "' --thickness 0.6 --method offset -q").exit_code, 0);
+  const std::string thick_page = tmp.file("thick.html");
+  ASSERT_EQ(run_cli("report '" + thick + "' -o '" + thick_page + "' --no-renders -q").exit_code, 0);
+  EXPECT_NE(read_well_formed_page(thick_page).find("Valid shell: no</strong>"), std::string::npos);
   if (offscreen_rendering_available()) {
     EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
     EXPECT_EQ(html.find("No render"), std::string::npos);

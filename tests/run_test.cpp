@@ -183,7 +183,7 @@ TEST(GenerateRun, OptionsReportAndFolder) {
   const auto report = run.to_json();
   EXPECT_EQ(report["input"], "builtin:sphere:2");
   EXPECT_DOUBLE_EQ(report["thickness"]["ratio"].get<double>(), 0.05);
-  EXPECT_EQ(report["inverted_tets"], run.result.metrics.stretch.inverted);
+  EXPECT_EQ(report["certificate"]["inverted_tets"], run.result.metrics.certificate.inverted_tets);
   EXPECT_NE(run.summary().find("builtin:sphere:2"), std::string::npos);
   test::TempDir tmp;
   run.write(tmp.file("shell"));

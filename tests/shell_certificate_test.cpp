@@ -2,19 +2,25 @@
 // answers, and the adjacency-aware pair test against an independent brute force that computes
 // every intersection exactly (CGAL's exact constructions) and checks where it lies.
 #include <gshell/error.h>
+#include <gshell/quality/certificate_report.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
+#include <gshell/quality/shell_metrics.h>
 #include <gshell/quality/triangle_intersections.h>
+#include <gshell/shell/generate_report.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
 #include "core_test_meshes.h"
 
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Intersections_3/Triangle_3_Triangle_3.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <initializer_list>
 #include <random>
 #include <set>
 
@@ -57,6 +63,13 @@ std::vector<int> tets_through_vertical_edge(const Eigen::MatrixXi& F, int n, int
   return ids;
 }
 
+// The base lifted along +z: the top of a flat shell over a plane in z = 0.
+Eigen::MatrixXd lifted(const Eigen::MatrixXd& base, double eta) {
+  Eigen::MatrixXd top = base;
+  top.col(2).array() += eta;
+  return top;
+}
+
 // A vertex of the grid plane (test::plane(res)) at grid position (i, j).
 int grid_vertex(int res, int i, int j) { return i * (res + 1) + j; }
 
@@ -94,8 +107,7 @@ TEST(ShellCertificate, ZeroVolumeCountsAsInvertedExactly) {
   const SimpleMesh m = test::plane(res);
   const int n = static_cast<int>(m.V.rows()), v = grid_vertex(res, 2, 2);
   const double eta = 0.25;
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += eta;
+  Eigen::MatrixXd top = lifted(m.V, eta);
 
   top(v, 2) = 1e-300;
   expect_clean(certify_shell(m.V, top, m.F));
@@ -110,8 +122,7 @@ TEST(ShellCertificate, ZeroVolumeCountsAsInvertedExactly) {
 TEST(ShellCertificate, DegenerateTopTriangleIsReportedAsAFlatTet) {
   const int res = 4;
   const SimpleMesh m = test::plane(res);
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += 0.25;
+  Eigen::MatrixXd top = lifted(m.V, 0.25);
   const int f = 10, n = static_cast<int>(m.V.rows());
   // Corner 2 of face f's top onto the midpoint of its other two corners (exact: grid coordinates
   // are multiples of 0.5).
@@ -122,23 +133,68 @@ TEST(ShellCertificate, DegenerateTopTriangleIsReportedAsAFlatTet) {
   EXPECT_FALSE(c.valid());
 }
 
+TEST(ShellCertificate, TetSignsAreExactNearZero) {
+  // One prism whose top corners lie on (or a rounding error off) planes through base corners:
+  // the tets' orientations are zero or tiny, and must match CGAL's exact orientation.
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> coordinate(-1, 1), weight(-0.5, 1.5);
+  const Eigen::MatrixXi F = (Eigen::MatrixXi(1, 3) << 0, 1, 2).finished();
+  const auto tets = prism_corner_tets(0, 1, 2);
+  int zero = 0, inverted = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    // Odd trials: random doubles, each top corner in the base plane up to the rounding of its
+    // construction. Even trials: small dyadic numbers, so that the construction is exact and the
+    // top corners lie exactly in the base plane.
+    const bool exact = trial % 2 == 0;
+    std::uniform_int_distribution<int> small(-8, 8), quarter(-2, 6);
+    const double scale = std::pow(2.0, trial % 7 * 9 - 27);
+    Eigen::MatrixXd base(3, 3), top(3, 3);
+    for (Eigen::Index i = 0; i < base.size(); ++i) base(i) = (exact ? small(rng) : coordinate(rng)) * scale;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::RowVector3d a = base.row(k), b = base.row((k + 1) % 3), c = base.row((k + 2) % 3);
+      const double u = exact ? quarter(rng) / 4.0 : weight(rng), v = exact ? quarter(rng) / 4.0 : weight(rng);
+      top.row(k) = a + u * (b - a) + v * (c - a);
+    }
+    if (trial % 5 == 0) top(trial % 3, 2) += base(0, 2) * 1e-300;
+    const ShellCertificate c = certify_shell(base, top, F, CertifyOptions{false, false});
+    auto corner = [&](int j) {
+      const Eigen::RowVector3d p = j < 3 ? base.row(j) : top.row(j - 3);
+      return K::Point_3(p[0], p[1], p[2]);
+    };
+    std::vector<int> expected;
+    for (int t = 0; t < 3; ++t) {
+      const CGAL::Orientation o =
+          CGAL::orientation(corner(tets[t][0]), corner(tets[t][1]), corner(tets[t][2]), corner(tets[t][3]));
+      if (o != CGAL::POSITIVE) expected.push_back(t);
+      zero += o == CGAL::ZERO;
+    }
+    EXPECT_EQ(c.inverted_tet_ids, expected) << "trial " << trial;
+    inverted += static_cast<int>(expected.size());
+  }
+  EXPECT_GT(zero, 100); // exact zeros do occur (tets through a base triangle's plane)
+  EXPECT_GT(inverted, 1000);
+}
+
 // Two faces, given by their base and top corners; the base lies flat at z = 0.
 struct TwoFaces {
   Eigen::MatrixXd base, top;
   Eigen::MatrixXi F;
 };
 
-// Faces (0, 1, 2) and (1, 0, 3) share the edge 0-1: r = vertex 2 on one side, s = 3 on the other.
-TwoFaces edge_neighbours() {
+// Faces F over base corners V (rows: x y z), the top lifted by 1.
+TwoFaces lifted_faces(std::initializer_list<double> V, std::initializer_list<int> F) {
   TwoFaces t;
-  t.base.resize(4, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0.5, 1, 0, 0.5, -1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(2, 3);
-  t.F << 0, 1, 2, 1, 0, 3;
+  t.base.resize(static_cast<Eigen::Index>(V.size() / 3), 3);
+  std::copy(V.begin(), V.end(), t.base.reshaped<Eigen::RowMajor>().begin());
+  t.top = lifted(t.base, 1);
+  t.F.resize(static_cast<Eigen::Index>(F.size() / 3), 3);
+  std::copy(F.begin(), F.end(), t.F.reshaped<Eigen::RowMajor>().begin());
   return t;
 }
+
+// Faces (0, 1, 2) and (1, 0, 3) share the edge 0-1: r = vertex 2 on one side, s = 3 on the other.
+TwoFaces edge_neighbours() { return lifted_faces({0, 0, 0, 1, 0, 0, 0.5, 1, 0, 0.5, -1, 0}, {0, 1, 2, 1, 0, 3}); }
 
 TEST(ShellCertificate, EdgeNeighboursFoldedFlatOntoEachOtherAreCounted) {
   TwoFaces t = edge_neighbours();
@@ -157,14 +213,7 @@ TEST(ShellCertificate, EdgeNeighboursFoldedFlatOntoEachOtherAreCounted) {
 
 // Faces (0, 1, 2) and (0, 3, 4) share vertex 0 only.
 TwoFaces vertex_neighbours() {
-  TwoFaces t;
-  t.base.resize(5, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(2, 3);
-  t.F << 0, 1, 2, 0, 3, 4;
-  return t;
+  return lifted_faces({0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0}, {0, 1, 2, 0, 3, 4});
 }
 
 TEST(ShellCertificate, VertexNeighboursMayMeetOnlyAtTheirVertex) {
@@ -192,13 +241,7 @@ TEST(ShellCertificate, VertexNeighboursMayMeetOnlyAtTheirVertex) {
 }
 
 TEST(ShellCertificate, NonAdjacentTrianglesTouchingAtAPointAreCounted) {
-  TwoFaces t;
-  t.base.resize(6, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0, 3, 0, 0, 2, 1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(2, 3);
-  t.F << 0, 1, 2, 3, 4, 5;
+  TwoFaces t = lifted_faces({0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0, 3, 0, 0, 2, 1, 0}, {0, 1, 2, 3, 4, 5});
   EXPECT_EQ(certify_shell(t.base, t.top, t.F).top_self_intersections, 0);
   t.top.row(3) << 0.25, 0.25, 1; // a corner of the second top on the first one's interior
   const ShellCertificate c = certify_shell(t.base, t.top, t.F);
@@ -207,13 +250,7 @@ TEST(ShellCertificate, NonAdjacentTrianglesTouchingAtAPointAreCounted) {
 }
 
 TEST(ShellCertificate, TopThroughTheBaseIsATopBasePair) {
-  TwoFaces t;
-  t.base.resize(3, 3);
-  t.base << 0, 0, 0, 1, 0, 0, 0, 1, 0;
-  t.top = t.base;
-  t.top.col(2).array() += 1;
-  t.F.resize(1, 3);
-  t.F << 0, 1, 2;
+  TwoFaces t = lifted_faces({0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 1, 2});
   expect_clean(certify_shell(t.base, t.top, t.F));
   t.top.row(2) << 0.2, 0.2, -1; // one top corner through the base triangle
   const ShellCertificate c = certify_shell(t.base, t.top, t.F);
@@ -224,8 +261,7 @@ TEST(ShellCertificate, TopThroughTheBaseIsATopBasePair) {
 TEST(ShellCertificate, TopPushedAcrossASideWallIsAWallIntersection) {
   const int res = 4;
   const SimpleMesh m = test::plane(res);
-  Eigen::MatrixXd top = m.V;
-  top.col(2).array() += 0.25;
+  Eigen::MatrixXd top = lifted(m.V, 0.25);
   // The vertex next to the x = -1 border, its top pushed out beyond the wall at half height.
   const int v = grid_vertex(res, 1, 2);
   top.row(v) << -1.5, m.V(v, 1), 0.125;
@@ -249,6 +285,7 @@ TEST(ShellCertificate, BaseSelfIntersectionsAreCountedApart) {
   ASSERT_GT(base_pairs.size(), 0u);
   EXPECT_EQ(pairs_of(c, IntersectionKind::BaseBase), base_pairs); // base rows are face ids
   EXPECT_EQ(c.base_self_intersections, static_cast<int>(base_pairs.size()));
+  EXPECT_FALSE(c.valid()); // no shell over a base that crosses itself is an embedding
   // Every pair today's counter finds is among them (it skips neighbours).
   for (const auto& p : self_intersecting_pairs(m.V, m.F))
     EXPECT_TRUE(std::binary_search(base_pairs.begin(), base_pairs.end(), p)) << p.first << "," << p.second;
@@ -390,6 +427,38 @@ TEST(ShellCertificate, ShellPairsMatchExactConstructionsOnLatticeShells) {
   EXPECT_EQ(kinds.size(), 3u); // top/top, top/base and wall pairs all occur (the bases are clean)
 }
 
+TEST(ShellCertificate, NearlyFlatStarTrianglesAreJudgedExactly) {
+  // Flat fans of six triangles around a vertex, one far corner placed on the line through the
+  // centre and the previous far corner up to rounding: that triangle is a hair's breadth from
+  // degenerate, folded back over its neighbour or not. The star shortcut must only accept fans
+  // whose projected triangles are all exactly positive.
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3), stretch(0.3, 3);
+  int folded = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    Eigen::MatrixXd V(7, 3);
+    V.row(0) << jitter(rng), jitter(rng), 0;
+    for (int i = 0; i < 6; ++i) {
+      const double angle = M_PI / 3 * (i + jitter(rng));
+      V.row(1 + i) << std::cos(angle), std::sin(angle), 0;
+    }
+    const int k = 2 + trial % 5; // far corner k lands on the ray from the centre through k - 1
+    V.row(k) = V.row(0) + stretch(rng) * (V.row(k - 1) - V.row(0));
+    Eigen::MatrixXi F(6, 3);
+    for (int i = 0; i < 6; ++i) F.row(i) << 0, 1 + i, 1 + (i + 1) % 6;
+    const Pairs found = surface_self_intersections(V, F);
+    const std::set<std::pair<int, int>> found_set(found.begin(), found.end());
+    for (int f = 0; f < 6; ++f)
+      for (int g = f + 1; g < 6; ++g) {
+        if (degenerate(V, F, f) || degenerate(V, F, g)) continue;
+        const bool expected = brute_force_meets_beyond_shared(V, F, f, g);
+        EXPECT_EQ(found_set.count({f, g}) == 1, expected) << "trial " << trial << " faces " << f << ", " << g;
+        folded += expected;
+      }
+  }
+  EXPECT_GT(folded, 50);
+}
+
 TEST(ShellCertificate, AStarWindingTwiceAroundItsVertexIsFound) {
   // Six faces around vertex 0 whose far corners circle it twice (120 degrees per face), rising
   // like a screw: every face turns the same way seen from above, yet a closed fan that winds
@@ -457,6 +526,59 @@ TEST(ShellCertificate, TestsCanBeSkippedAndBadInputIsRefused) {
   Eigen::MatrixXd nan = m.V;
   nan(3, 1) = std::nan("");
   EXPECT_THROW(certify_shell(m.V, nan, m.F), InputError);
+}
+
+// ---- the certificate in the metrics and their report -------------------------------------------
+
+TEST(ShellMetricsCertificate, ReportSaysValidInvalidOrUnknown) {
+  const int res = 4;
+  const SimpleMesh m = test::plane(res);
+  const double eta = 0.25;
+  Eigen::MatrixXd top = lifted(m.V, eta);
+  const int n = static_cast<int>(m.V.rows()), faces = static_cast<int>(m.F.rows());
+
+  const ShellMetrics clean = shell_metrics(m.V, m.F, top, eta);
+  nlohmann::json j = metrics_report(clean, n, faces, eta);
+  EXPECT_EQ(j["valid"], true);
+  EXPECT_EQ(j["certificate"]["exact"], true);
+  EXPECT_EQ(j["certificate"]["wall_intersections"], 0);
+  EXPECT_EQ(j["base_self_intersections"], 0);
+  EXPECT_FALSE(j.contains("inverted_tets"));
+  EXPECT_NE(metrics_summary(clean, n, faces, eta).find("valid        yes"), std::string::npos);
+
+  // Without intersection counts the pair tests are skipped: validity unknown, counts null...
+  const ShellMetrics untested = shell_metrics(m.V, m.F, top, eta, false);
+  j = metrics_report(untested, n, faces, eta);
+  EXPECT_TRUE(j["valid"].is_null());
+  EXPECT_TRUE(j["certificate"]["top_self_intersections"].is_null());
+  EXPECT_TRUE(j["certificate"]["wall_intersections"].is_null());
+  EXPECT_TRUE(j["base_self_intersections"].is_null());
+  EXPECT_EQ(j["certificate"]["inverted_tets"], 0);
+  EXPECT_NE(metrics_summary(untested, n, faces, eta).find("valid        unknown"), std::string::npos);
+
+  // ... but an inverted tet settles it.
+  const int v = grid_vertex(res, 2, 2);
+  top(v, 2) = -0.1;
+  const ShellMetrics inverted = shell_metrics(m.V, m.F, top, eta, false);
+  j = metrics_report(inverted, n, faces, eta);
+  EXPECT_EQ(j["valid"], false);
+  EXPECT_EQ(j["certificate"]["inverted_tets"], static_cast<int>(tets_through_vertical_edge(m.F, n, v).size()));
+  EXPECT_NE(metrics_summary(inverted, n, faces, eta).find("valid        NO"), std::string::npos);
+}
+
+TEST(ShellMetricsCertificate, ThinnedVerticesAreThoseBelowNineTenthsOfEta) {
+  // Flat plane shell: every top vertex is exactly eta above the base, except the lowered ones.
+  const int res = 4;
+  const SimpleMesh m = test::plane(res);
+  const double eta = 0.25;
+  Eigen::MatrixXd top = lifted(m.V, eta);
+  EXPECT_EQ(shell_metrics(m.V, m.F, top, eta, false).thinned_vertices, 0);
+  top(grid_vertex(res, 2, 2), 2) = 0.5 * eta;
+  top(grid_vertex(res, 1, 3), 2) = 0.89 * eta;
+  top(grid_vertex(res, 3, 1), 2) = 0.91 * eta; // thinner than eta, not below 0.9 eta
+  const ShellMetrics metrics = shell_metrics(m.V, m.F, top, eta, false);
+  EXPECT_EQ(metrics.thinned_vertices, 2);
+  EXPECT_EQ(metrics_report(metrics, static_cast<int>(m.V.rows()), static_cast<int>(m.F.rows()), eta)["thinned_vertices"], 2);
 }
 
 } // namespace

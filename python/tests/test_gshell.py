@@ -247,6 +247,25 @@ class GenerateTest(TempDirTest):
             report = json.load(f)
         return out, top, report
 
+    def test_allow_invalid_agrees_with_cli_and_skips_the_guard(self):
+        # A V fold (30 degrees) whose paper shell crosses itself: the guard makes it valid.
+        V, F = gshell.builtin("plane:8")
+        half = math.radians(15)
+        V = np.column_stack([V[:, 0] * math.sin(half), V[:, 1], np.abs(V[:, 0]) * math.cos(half)])
+        guarded = gshell.generate(V, F, thickness=0.1)
+        unguarded = gshell.generate(V, F, thickness=0.1, allow_invalid=True)
+        self.assertTrue(guarded.report["guarded"])
+        self.assertTrue(guarded.report["valid"])
+        self.assertFalse(unguarded.report["guarded"])
+        self.assertFalse(unguarded.report["valid"])
+        self.assertTrue(unguarded.report["warnings"])
+        path = self.path("fold.obj")
+        gshell.write_mesh(path, V, F)
+        _, top, report = self.cli_shell(path, "--thickness", "0.1", "--allow-invalid")
+        np.testing.assert_allclose(top, unguarded.top, atol=1e-9, rtol=0)
+        self.assertFalse(report["guarded"])
+        self.assertFalse(report["valid"])
+
     def test_agrees_with_cli_sphere(self):
         _, top, report = self.cli_shell("builtin:sphere:3", "--thickness", "0.05")
         V, F = gshell.builtin("sphere:3")
@@ -329,7 +348,9 @@ class GenerateTest(TempDirTest):
             np.testing.assert_allclose(s.stretch, generated.stretch, atol=1e-9)
             np.testing.assert_array_equal(s.tets, generated.tets)
             self.assertAlmostEqual(s.thickness, 0.05)
-            self.assertIsNone(s.report["top_self_intersections"])
+            self.assertIsNone(s.report["certificate"]["top_self_intersections"])
+            self.assertIsNone(s.report["valid"])  # pair tests skipped, no tet inverted
+            self.assertEqual(s.report["certificate"]["inverted_tets"], 0)
 
     def test_bad_arguments_raise_value_error(self):
         V, F = gshell.builtin("sphere:1")
@@ -418,8 +439,8 @@ class MetricsTest(TempDirTest):
         with open(self.path("m.json")) as f:
             cli = json.load(f)
         mine = gshell.metrics(V, F, top, 0.05)
-        for key in ("vertices", "faces", "tets", "inverted_tets", "top_self_intersections",
-                    "top_base_intersections"):
+        for key in ("vertices", "faces", "tets", "valid", "certificate", "base_self_intersections",
+                    "thinned_vertices"):
             self.assertEqual(mine[key], cli[key], key)
         for group in ("stretch", "thickness"):
             for key, value in cli[group].items():
@@ -436,11 +457,17 @@ class MetricsTest(TempDirTest):
         V, F = gshell.builtin("sphere:2")
         m = gshell.metrics(V, F, V * 1.1, thickness=0.1)
         self.assertAlmostEqual(m["thickness"]["min"], 1.0, delta=1e-3)
-        self.assertEqual(m["inverted_tets"], 0)
-        self.assertEqual(m["top_self_intersections"], 0)
-        self.assertEqual(m["top_base_intersections"], 0)
+        self.assertTrue(m["valid"])
+        self.assertEqual(m["certificate"], {"inverted_tets": 0, "top_self_intersections": 0,
+                                            "top_base_intersections": 0, "wall_intersections": 0,
+                                            "exact": True})
+        self.assertEqual(m["base_self_intersections"], 0)
+        self.assertEqual(m["thinned_vertices"], 0)
+        for old_key in ("inverted_tets", "top_self_intersections", "top_base_intersections"):
+            self.assertNotIn(old_key, m)
         m = gshell.metrics(V, F, V * 1.1, thickness_ratio=0.1, count_intersections=False)
-        self.assertIsNone(m["top_self_intersections"])
+        self.assertIsNone(m["certificate"]["top_self_intersections"])
+        self.assertIsNone(m["valid"])
         self.assertAlmostEqual(m["thickness"]["ratio"], 0.1)
 
     def test_bad_arguments(self):

@@ -124,17 +124,26 @@ double pair_barrier_energy(PairKind kind, const PairPoints& x, double s, double 
   return kind == PairKind::EdgeEdge ? mollifier(parallel_sin2(x)) * b : b;
 }
 
+namespace {
+
+template <class Matrix> void project_square(Matrix& m) {
+  Eigen::SelfAdjointEigenSolver<Matrix> eig(m);
+  if (eig.eigenvalues().minCoeff() >= 0) return;
+  m.noalias() = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0).asDiagonal() * eig.eigenvectors().transpose();
+}
+
+} // namespace
+
 void project_to_psd(Matrix12d& h) {
   int used[12], n = 0;
   for (int i = 0; i < 12; ++i)
     if (h.row(i).any()) used[n++] = i;
+  if (n == 12) return project_square(h);
   if (n == 0) return;
-  Eigen::MatrixXd sub(n, n);
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 12, 12> sub(n, n); // on the stack
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) sub(i, j) = h(used[i], used[j]);
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(sub);
-  const Eigen::VectorXd lambda = eig.eigenvalues().cwiseMax(0);
-  sub.noalias() = eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+  project_square(sub);
   h.setZero();
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j) h(used[i], used[j]) = sub(i, j);

@@ -60,6 +60,7 @@ struct ContactGuard::Impl {
 
   std::vector<Vec3> x; // the last X seen, packed (a pair's point is one cache line)
   bool have_x = false;
+  std::vector<char> on_boundary; // per vertex: used by a boundary triangle
 
   // The last pass over the list, at x: pairs closer than dhat in list order.
   bool scanned = false;
@@ -84,6 +85,8 @@ struct ContactGuard::Impl {
       throw InputError("ContactGuard: keep_fraction must be in (0, 1) (got " + std::to_string(o.keep_fraction) + ")");
     if (options.slack == 0) options.slack = options.dhat;
     radius = options.dhat + options.slack;
+    on_boundary.assign(num_vertices, 0);
+    for (int v : primitives.boundary_vertices()) on_boundary[v] = 1;
   }
 
   PairPoints points(const Ids& ids) const { return {x[ids[0]], x[ids[1]], x[ids[2]], x[ids[3]]}; }
@@ -105,30 +108,37 @@ struct ContactGuard::Impl {
   void set_positions(const Eigen::MatrixXd& X) {
     check_shape(X, "X");
     const int n = primitives.num_vertices();
-    if (have_x) {
-      bool same = true;
-      for (int i = 0; i < n && same; ++i) same = x[i][0] == X(i, 0) && x[i][1] == X(i, 1) && x[i][2] == X(i, 2);
-      if (same) return;
-    }
-    x.resize(n);
-    for (int i = 0; i < n; ++i) x[i] = X.row(i).transpose();
+    if (!have_x) x.assign(n, Vec3::Zero());
+    // One pass: copy X, note whether it differs from the last X, and the drift since the build.
+    struct Change {
+      bool changed = false;
+      double drift2 = 0; // NaN sticks (a non-finite X forces the rebuild, which reports it)
+    };
+    auto larger = [](double a, double b) { return std::isnan(a) || a > b ? a : b; };
+    const bool built = builds > 0;
+    const Change change = tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, n, 4096), Change{},
+        [&](const tbb::blocked_range<int>& r, Change c) {
+          for (int i = r.begin(); i < r.end(); ++i) {
+            const Vec3 p(X(i, 0), X(i, 1), X(i, 2));
+            if (p != x[i]) {
+              c.changed = true;
+              x[i] = p;
+            }
+            if (built && on_boundary[i]) c.drift2 = larger(c.drift2, (p - built_at[i]).squaredNorm());
+          }
+          return c;
+        },
+        [&](Change a, const Change& b) {
+          a.changed = a.changed || b.changed;
+          a.drift2 = larger(a.drift2, b.drift2);
+          return a;
+        });
+    if (have_x && !change.changed) return;
     have_x = true;
     scanned = false;
-    if (builds > 0) {
-      const std::vector<int>& verts = primitives.boundary_vertices();
-      drift = tbb::parallel_reduce(
-          tbb::blocked_range<int>(0, static_cast<int>(verts.size()), 4096), 0.0,
-          [&](const tbb::blocked_range<int>& r, double m) {
-            for (int i = r.begin(); i < r.end(); ++i) {
-              const double d = (x[verts[i]] - built_at[verts[i]]).squaredNorm();
-              m = d > m || std::isnan(d) ? d : m; // NaN sticks and forces the check below
-            }
-            return m;
-          },
-          [](double a, double b) { return std::isnan(a) || a > b ? a : b; });
-      drift = std::sqrt(drift);
-      if (drift <= options.slack / 2) return;
-    }
+    drift = std::sqrt(change.drift2);
+    if (built && drift <= options.slack / 2) return;
     build();
   }
 
@@ -267,23 +277,24 @@ void ContactGuard::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::M
 void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H) {
   Impl& m = *impl_;
   m.scan(X);
-  std::vector<Matrix12d> h(m.active.size());
-  tbb::parallel_for(0, static_cast<int>(h.size()), [&](int i) {
-    h[i].setZero();
-    pair_barrier(m.active[i].kind, m.points(m.ids(m.active[i])), m.options.dhat, nullptr, &h[i]);
-    project_to_psd(h[i]);
+  const int n = static_cast<int>(m.active.size());
+  std::vector<std::vector<Eigen::Triplet<double>>> block_triplets((n + kBlock - 1) / kBlock);
+  for_blocks(n, [&](int begin, int end, int b) {
+    std::vector<Eigen::Triplet<double>>& out = block_triplets[b];
+    Matrix12d h;
+    for (int i = begin; i < end; ++i) {
+      h.setZero(); // stays zero for a touching pair
+      const Ids& ids = m.ids(m.active[i]);
+      pair_barrier(m.active[i].kind, m.points(ids), m.options.dhat, nullptr, &h);
+      project_to_psd(h);
+      for (int k = 0; k < 4; ++k)
+        for (int l = 0; l < 4; ++l)
+          for (int a = 0; a < 3; ++a)
+            for (int c = 0; c < 3; ++c)
+              if (const double v = h(3 * k + a, 3 * l + c); v != 0) out.emplace_back(3 * ids[k] + a, 3 * ids[l] + c, scale * v);
+    }
   });
-  for (std::size_t i = 0; i < h.size(); ++i) {
-    const Ids& ids = m.ids(m.active[i]);
-    for (int k = 0; k < 4; ++k)
-      for (int l = 0; l < 4; ++l) {
-        const auto block = h[i].block<3, 3>(3 * k, 3 * l);
-        if (block.isZero(0)) continue;
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            if (block(a, b) != 0) H.emplace_back(3 * ids[k] + a, 3 * ids[l] + b, scale * block(a, b));
-      }
-  }
+  for (const auto& out : block_triplets) H.insert(H.end(), out.begin(), out.end()); // list order
 }
 
 double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step) {
@@ -330,17 +341,25 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   const double listed = alpha.load();
   if (alpha_far >= listed) return listed;
 
-  // A longer step: every pair whose boxes, swept over [0, listed] in the frame moving with c and
-  // grown by half the largest floor, meet (only those can come that close) gets its own CCD.
+  // A longer step: every pair whose boxes, swept over [0, listed] and grown by half the largest
+  // floor, meet (only those can come that close) gets its own CCD. When the fixed patch's vertices
+  // do not move, its cached tree serves as it is: its boxes, grown by (dhat + slack) / 2 around
+  // positions at most slack / 2 away, hold those vertices grown by the floor. Only the movable
+  // patch is swept then (at rest); otherwise all is, in the frame moving with c.
+  const std::vector<int>& fixed_vertices = m.primitives.fixed_patch_vertices();
+  const bool fixed_still = std::all_of(fixed_vertices.begin(), fixed_vertices.end(), [&](int v) { return dx[v].isZero(0); });
+  const Vec3 frame = fixed_still ? Vec3::Zero() : c;
   std::vector<Eigen::AlignedBox3d> box(m.primitives.num_vertices());
-  const Vec3 grow = Vec3::Constant(m.options.keep_fraction * m.options.dhat / 2);
+  const Vec3 grow = Vec3::Constant(floor_max / 2);
   for (int v : verts) {
     box[v] = Eigen::AlignedBox3d(m.x[v]);
-    box[v].extend(m.x[v] + listed * (dx[v] - c));
+    box[v].extend(m.x[v] + listed * (dx[v] - frame));
     box[v].min() -= grow;
     box[v].max() += grow;
   }
-  m.primitives.for_each_pair(box, [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); });
+  auto visit = [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); };
+  if (fixed_still) m.primitives.for_each_pair(m.primitives.patch(true, box), m.fixed_patch, visit);
+  else m.primitives.for_each_pair(box, visit);
   return alpha.load();
 }
 

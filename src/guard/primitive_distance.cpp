@@ -43,45 +43,53 @@ void point_segment(const PairPoints& x, int i, int j, int k, Closest& best) {
   if (d2 < best.squared) best = {d2, false, i, j, k, beta, 0};
 }
 
+// The minimiser (u, v) of |w + u g0 + v g1|^2 over the whole plane. False when g0 and g1 are
+// parallel to kFlatSin2 (sin^2 of their angle), where the formula loses its accuracy.
+bool plane_minimiser(const Vec3& w, const Vec3& g0, const Vec3& g1, double& u, double& v) {
+  const double a00 = g0.squaredNorm(), a11 = g1.squaredNorm(), a01 = g0.dot(g1);
+  const double det = g0.cross(g1).squaredNorm(); // a00 a11 - a01^2 without cancellation
+  if (!(det > kFlatSin2 * a00 * a11)) return false;
+  const double b0 = g0.dot(w), b1 = g1.dot(w);
+  u = (a01 * b1 - a11 * b0) / det;
+  v = (a01 * b0 - a00 * b1) / det;
+  return true;
+}
+
 // Convex quadratic over a triangle or a square: when its unconstrained minimiser lies outside,
 // the constrained one lies on a side whose constraint the minimiser violates (the segment from
 // any inner point to the minimiser, along which the quadratic falls, leaves through such a side).
 Closest point_triangle_core(const PairPoints& x) {
-  const Vec3 e1 = x[2] - x[1], e2 = x[3] - x[1], w = x[0] - x[1];
-  const double a11 = e1.squaredNorm(), a22 = e2.squaredNorm(), a12 = e1.dot(e2);
-  const double det = e1.cross(e2).squaredNorm();
+  // x0 - (x1 + u (x2 - x1) + v (x3 - x1)) = w + u g0 + v g1
+  const Vec3 g0 = x[1] - x[2], g1 = x[1] - x[3], w = x[0] - x[1];
   Closest c;
-  if (!(det > kFlatSin2 * a11 * a22)) { // flat: its edges
+  double u, v;
+  if (!plane_minimiser(w, g0, g1, u, v)) { // flat: its edges
     point_segment(x, 0, 1, 2, c);
     point_segment(x, 0, 2, 3, c);
     point_segment(x, 0, 3, 1, c);
     return c;
   }
-  const double b1 = e1.dot(w), b2 = e2.dot(w);
-  const double beta1 = (a22 * b1 - a12 * b2) / det, beta2 = (a11 * b2 - a12 * b1) / det;
-  const double beta0 = 1 - beta1 - beta2;
-  if (beta0 >= 0 && beta1 >= 0 && beta2 >= 0) return {(w - beta1 * e1 - beta2 * e2).squaredNorm(), true, 0, 0, 0, beta1, beta2};
-  if (beta2 < 0) point_segment(x, 0, 1, 2, c); // side x1 x2 (barycentric of x3 = 0)
-  if (beta0 < 0) point_segment(x, 0, 2, 3, c);
-  if (beta1 < 0) point_segment(x, 0, 3, 1, c);
+  const double rest = 1 - u - v; // barycentric coordinate of x1
+  if (rest >= 0 && u >= 0 && v >= 0) return {(w + u * g0 + v * g1).squaredNorm(), true, 0, 0, 0, u, v};
+  if (v < 0) point_segment(x, 0, 1, 2, c); // side x1 x2 (barycentric of x3 = 0)
+  if (rest < 0) point_segment(x, 0, 2, 3, c);
+  if (u < 0) point_segment(x, 0, 3, 1, c);
   return c;
 }
 
 Closest edge_edge_core(const PairPoints& x) {
-  const Vec3 e0 = x[1] - x[0], e1 = x[3] - x[2], w = x[0] - x[2];
-  const double a = e0.squaredNorm(), b = e0.dot(e1), c2 = e1.squaredNorm();
-  const double det = e0.cross(e1).squaredNorm();
+  // (1 - s) x0 + s x1 - (1 - t) x2 - t x3 = w + s g0 + t g1
+  const Vec3 g0 = x[1] - x[0], g1 = x[2] - x[3], w = x[0] - x[2];
   Closest c;
-  if (!(det > kFlatSin2 * a * c2)) { // parallel: every end against the other segment
+  double s, t;
+  if (!plane_minimiser(w, g0, g1, s, t)) { // parallel: every end against the other segment
     point_segment(x, 0, 2, 3, c);
     point_segment(x, 1, 2, 3, c);
     point_segment(x, 2, 0, 1, c);
     point_segment(x, 3, 0, 1, c);
     return c;
   }
-  const double d0 = e0.dot(w), d1 = e1.dot(w);
-  const double s = (b * d1 - c2 * d0) / det, t = (a * d1 - b * d0) / det;
-  if (s >= 0 && s <= 1 && t >= 0 && t <= 1) return {(w + s * e0 - t * e1).squaredNorm(), true, 0, 0, 0, s, t};
+  if (s >= 0 && s <= 1 && t >= 0 && t <= 1) return {(w + s * g0 + t * g1).squaredNorm(), true, 0, 0, 0, s, t};
   if (s < 0) point_segment(x, 0, 2, 3, c); // side s = 0: x0 against the second segment
   if (s > 1) point_segment(x, 1, 2, 3, c);
   if (t < 0) point_segment(x, 2, 0, 1, c);

@@ -18,7 +18,9 @@ std::vector<char> embedded_stars(const Eigen::MatrixXd& V, const Eigen::MatrixXi
 /// The same for the 2n vertices of a shell's boundary surface (shell_boundary): base vertex i
 /// (id i) from its star in (base, F), top vertex i (id n + i) from its star in (top, F). Walls
 /// touch only boundary vertices, whose stars in F are not closed fans, so they are never flagged.
+/// Without `base_stars` the base vertices are left 0 (when no base/base pair is tested, no other
+/// pair shares a flaggable base vertex).
 std::vector<char> embedded_shell_stars(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
-                                       const Eigen::MatrixXi& F);
+                                       const Eigen::MatrixXi& F, bool base_stars);
 
 } // namespace gshell::detail

@@ -7,6 +7,7 @@
 #include "quality/check_mesh_input.h"
 #include "quality/embedded_stars.h"
 #include "quality/face_pair_search.h"
+#include "quality/filtered_orientation.h"
 
 #include <tbb/parallel_invoke.h>
 
@@ -16,8 +17,6 @@
 
 namespace gshell {
 namespace {
-
-using detail::ExactPoint;
 
 void check_input(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F) {
   if (base.rows() != top.rows() || (base.rows() > 0 && (base.cols() != 3 || top.cols() != 3)))
@@ -29,16 +28,27 @@ void check_input(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const 
 }
 
 // Tets (rows of build_prism_tets) whose exact orientation is not positive, ascending.
-std::vector<int> inverted_tets(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T) {
-  const int count = static_cast<int>(T.rows());
-  std::vector<char> inverted(count, 0);
-  tbb::parallel_for(tbb::blocked_range<int>(0, count, 8192), [&](const tbb::blocked_range<int>& r) {
-    auto point = [&](int v) { return ExactPoint(X(v, 0), X(v, 1), X(v, 2)); };
-    for (int t = r.begin(); t < r.end(); ++t)
-      inverted[t] = CGAL::orientation(point(T(t, 0)), point(T(t, 1)), point(T(t, 2)), point(T(t, 3))) != CGAL::POSITIVE;
+std::vector<int> inverted_tets(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F) {
+  using RowMajorPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  const RowMajorPoints B = base, T = top; // a vertex's coordinates in one cache line
+  const int m = static_cast<int>(F.rows());
+  std::vector<char> inverted(3 * static_cast<std::size_t>(m), 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int f = r.begin(); f < r.end(); ++f) {
+      const double* corner[6]; // prism corners: base in face order, then the tops
+      for (int k = 0; k < 3; ++k) {
+        corner[k] = B.row(F(f, k)).data();
+        corner[k + 3] = T.row(F(f, k)).data();
+      }
+      const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
+      for (int t = 0; t < 3; ++t) {
+        const auto& c = tets[t];
+        inverted[3 * f + t] = detail::orientation_sign(corner[c[0]], corner[c[1]], corner[c[2]], corner[c[3]]) <= 0;
+      }
+    }
   });
   std::vector<int> ids;
-  for (int t = 0; t < count; ++t)
+  for (int t = 0; t < 3 * m; ++t)
     if (inverted[t]) ids.push_back(t);
   return ids;
 }
@@ -71,15 +81,15 @@ ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixX
 
   ShellCertificate c;
   if (!options.test_intersections) {
-    c.inverted_tet_ids = inverted_tets(X, build_prism_tets(F, n));
+    c.inverted_tet_ids = inverted_tets(base, top, F);
   } else {
     // Two trees, base rows and the rest (top and walls), so that base/base pairs cost nothing
     // when they are not wanted. Rows: base faces 0..m-1, then top faces, then walls.
     const ShellBoundary boundary = shell_boundary(F, n);
     const int m = static_cast<int>(F.rows());
-    const std::vector<char> embedded = detail::embedded_shell_stars(base, top, F);
+    const std::vector<char> embedded = detail::embedded_shell_stars(base, top, F, options.base_self_intersections);
     std::optional<detail::FaceSet> base_set, upper_set;
-    tbb::parallel_invoke([&] { c.inverted_tet_ids = inverted_tets(X, build_prism_tets(F, n)); },
+    tbb::parallel_invoke([&] { c.inverted_tet_ids = inverted_tets(base, top, F); },
                          [&] { base_set.emplace(X, boundary.F.topRows(m).eval(), &embedded); },
                          [&] { upper_set.emplace(X, boundary.F.bottomRows(boundary.size() - m).eval(), &embedded); });
     detail::PairCollector found;

@@ -333,6 +333,38 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
   }
 }
 
+// A shell's validity in one line (reports with a certificate: generate, metrics).
+void validity_paragraph(std::ostringstream& html, const json& report) {
+  if (!report.contains("valid")) return;
+  const json& valid = report["valid"];
+  const char* verdict = valid.is_boolean() ? (valid.get<bool>() ? "yes" : "no") : "unknown";
+  const char* style = valid.is_boolean() ? (valid.get<bool>() ? "ok" : "note") : "";
+  html << "<p class=\"validity " << style << "\"><strong>Valid shell: " << verdict << "</strong>";
+  if (report.contains("certificate") && report["certificate"].is_object()) {
+    const json& c = report["certificate"];
+    auto count = [&](const char* key) { return c.contains(key) ? format_value(c[key]) : std::string("?"); };
+    html << " (exact certificate: " << count("inverted_tets") << " inverted tets; intersecting face pairs: top/top "
+         << count("top_self_intersections") << ", top/base " << count("top_base_intersections") << ", side walls "
+         << count("wall_intersections") << ")";
+  }
+  if (!valid.is_boolean()) html << "; the intersection tests were not run";
+  if (report.contains("base_self_intersections") && report["base_self_intersections"].is_number() &&
+      report["base_self_intersections"].get<int>() > 0)
+    html << ". The base intersects itself (" << format_value(report["base_self_intersections"])
+         << " face pairs): no shell over it is an embedding";
+  html << ".</p>\n";
+  // Generation: whether the guard made it, and what it could not mend (generate_warnings).
+  if (report.contains("guarded") && report["guarded"].is_boolean())
+    html << "<p>" << (report["guarded"].get<bool>() ? "Guarded generation (valid by construction where the base allows)"
+                                                   : "Unguarded result (no validity guard)")
+         << (report.contains("thinned_vertices") ? "; thinned top vertices (below 0.9 eta): " +
+                                                       format_value(report["thinned_vertices"])
+                                                 : std::string())
+         << ".</p>\n";
+  if (report.contains("warnings") && report["warnings"].is_array())
+    for (const json& w : report["warnings"]) html << "<p class=\"note\">Warning: " << format_value(w) << "</p>\n";
+}
+
 const char* kStyle = R"(body{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#222;padding:0 1em}
 h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
 table{border-collapse:collapse;margin:.5em 1.5em .8em 0;font-size:.92em}
@@ -342,7 +374,7 @@ caption{text-align:left;font-weight:bold;padding:.3em 0}
 table.kv{display:inline-table}
 .scroll{overflow-x:auto}.plots{display:flex;flex-wrap:wrap;gap:.5em}
 figure{margin:1em 0}img{max-width:100%;height:auto;border:1px solid #ddd}
-figcaption{color:#555;font-size:.9em}.note{color:#a33})";
+figcaption{color:#555;font-size:.9em}.note{color:#a33}.ok{color:#276b2a})";
 
 } // namespace
 
@@ -355,6 +387,7 @@ std::string html_report(const std::string& dir_text, const ReportOptions& option
        << "<title>gshell report: " << xml_escape(dir_text) << "</title>\n<style>" << kStyle << "</style>\n</head>\n<body>\n";
   html << "<h1>gshell report</h1>\n<p>Folder <code>" << xml_escape(fs::absolute(dir).lexically_normal().string())
        << "</code>, written by gshell " << GSHELL_VERSION << ".</p>\n";
+  validity_paragraph(html, report);
 
   // Settings and scalar figures: the top-level scalars, then one table per nested object.
   html << "<h2>Settings and figures</h2>\n";

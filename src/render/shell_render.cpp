@@ -163,7 +163,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
     scale->ramp = ColorScale::Ramp::BlueGreenRed;
     scale->min = 1 - half;
     scale->max = 1 + half;
-    scale->label = "thickness/eta";
+    scale->label = "thickness / \u03b7";
   }
 
   const Eigen::Vector3f base_grey(0.72f, 0.76f, 0.84f), top_grey(0.88f, 0.88f, 0.90f);
@@ -227,9 +227,9 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   FigureOptions figure = options.figure;
   figure.color_bar = scale;
   if (color_by == ColorBy::Stretch && figure.footnote.empty())
-    figure.footnote = "stretch = sum (sigma_i - 1)^2 per tet; a face shows the volume-weighted mean of its prism's 3 tets";
+    figure.footnote = "stretch = \u03a3\u1d62 (\u03c3\u1d62 \u2212 1)\u00b2 per tet; faces show their prism's volume-weighted mean";
   if (color_by == ColorBy::Thickness && figure.footnote.empty())
-    figure.footnote = "thickness = length(top_i - base_i) / eta per vertex";
+    figure.footnote = "thickness = |top\u1d62 \u2212 base\u1d62| / \u03b7 per vertex";
   return render_figure(panels, figure, layout);
 }
 

@@ -51,7 +51,8 @@ void GenerateRun::write(const std::string& dir, const BeforeCommit& before_commi
   c.surface = surface;
   c.X = result.shell.vertices();
   const ShellMetrics& m = result.metrics;
-  const Eigen::MatrixXd inverted = (m.tet_determinant.array() <= 0).cast<double>().matrix();
+  Eigen::MatrixXd inverted = Eigen::MatrixXd::Zero(m.tet_stretch.rows(), 1); // the certificate's exact ids
+  for (int t : m.certificate.inverted_tet_ids) inverted(t, 0) = 1;
   Eigen::MatrixXd prism(m.tet_stretch.rows(), 1);
   for (Eigen::Index t = 0; t < prism.rows(); ++t) prism(t, 0) = static_cast<double>(t / 3);
   c.cell_data = {{"stretch", m.tet_stretch}, {"inverted", inverted}, {"prism", prism}};

@@ -1,5 +1,6 @@
 #include <gshell/shell/generate_report.h>
 
+#include <gshell/quality/certificate_report.h>
 #include <gshell/quality/stretch_report.h>
 
 #include <cstdio>
@@ -8,10 +9,6 @@
 namespace gshell {
 
 namespace {
-
-nlohmann::json count_or_null(int count) { return count < 0 ? nlohmann::json(nullptr) : nlohmann::json(count); }
-
-std::string count_text(int count) { return count < 0 ? std::string("not counted") : std::to_string(count); }
 
 std::string format(const char* fmt, double a, double b = 0, double c = 0, double d = 0) {
   char buf[256];
@@ -22,10 +19,9 @@ std::string format(const char* fmt, double a, double b = 0, double c = 0, double
 void quality_lines(std::ostringstream& out, const ShellMetrics& m) {
   out << format("stretch      mean %.4g  volume-weighted %.4g  p99 %.4g  max %.4g\n", m.stretch.mean,
                 m.stretch.volume_mean, m.stretch.p99, m.stretch.max);
-  out << "inverted     " << m.stretch.inverted << " tets\n";
-  out << "intersect    top/top " << count_text(m.top_self_intersections) << ", top/base "
-      << count_text(m.top_base_intersections) << " face pairs\n";
-  out << format("thickness    min %.4f  mean %.4f  (x eta)\n", m.thickness_min, m.thickness_mean);
+  out << certificate_summary(m.certificate);
+  out << format("thickness    min %.4f  mean %.4f  (x eta), ", m.thickness_min, m.thickness_mean)
+      << m.thinned_vertices << format(" top vertices below %.2g eta\n", kThinnedFraction);
 }
 
 } // namespace
@@ -40,9 +36,11 @@ nlohmann::json metrics_report(const ShellMetrics& m, int vertices, int faces, do
   j["vertices"] = vertices;
   j["faces"] = faces;
   j["tets"] = 3 * faces;
-  j.update(nlohmann::json(stretch_report(m.stretch)));
-  j["top_self_intersections"] = count_or_null(m.top_self_intersections);
-  j["top_base_intersections"] = count_or_null(m.top_base_intersections);
+  // The exact inverted-tet count is the certificate's; det F <= 0 in doubles would be a second
+  // answer to the same question, so only the statistics of stretch_report are taken.
+  j["stretch"] = nlohmann::json(stretch_report(m.stretch)["stretch"]);
+  j.update(nlohmann::json(certificate_report(m.certificate)));
+  j["thinned_vertices"] = m.thinned_vertices;
   return j;
 }
 
@@ -60,16 +58,7 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                   {"factor", r.seconds.factor},
                   {"solve", r.seconds.solve},
                   {"guard", r.seconds.guard},
-                  {"certificate", r.seconds.certificate}};
-  const ShellCertificate& c = r.certificate;
-  j["valid"] = r.valid;
-  j["certificate"] = {{"inverted_tets", c.inverted_tets},
-                      {"top_self_intersections", count_or_null(c.top_self_intersections)},
-                      {"top_base_intersections", count_or_null(c.top_base_intersections)},
-                      {"wall_intersections", count_or_null(c.wall_intersections)},
-                      {"exact", ShellCertificate::exact}};
-  j["base_self_intersections"] = count_or_null(c.base_self_intersections);
-  j["thinned_vertices"] = r.thinned_vertices.size();
+                  {"certificate", r.metrics.certificate.seconds}};
   j["unextrudable_vertices"] = r.unextrudable_vertices;
   j["guarded"] = r.guarded;
   j["warnings"] = generate_warnings(r);
@@ -98,7 +87,7 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
 
 std::vector<std::string> generate_warnings(const GenerateResult& r) {
   std::vector<std::string> w;
-  const ShellCertificate& c = r.certificate;
+  const ShellCertificate& c = r.metrics.certificate;
   if (c.base_self_intersections > 0)
     w.push_back("the base intersects itself (" + std::to_string(c.base_self_intersections) +
                 " pairs of faces cross): no top can be clean near those crossings" +
@@ -153,18 +142,13 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
                   c.own_stretch.volume_mean, c.own_stretch.p99, c.own_stretch.max, c.own_stretch.inverted);
     out << buf;
   }
-  out << "valid        " << (r.valid ? "yes" : "no") << " (certificate: " << r.certificate.inverted_tets
-      << " inverted, top/top " << count_text(r.certificate.top_self_intersections) << ", top/base "
-      << count_text(r.certificate.top_base_intersections) << ", wall " << count_text(r.certificate.wall_intersections)
-      << "; base crossings " << count_text(r.certificate.base_self_intersections) << ")\n";
   if (r.guarded)
-    out << "guard        " << r.thinned_vertices.size() << " thinned vertices (< " << kThinnedFraction
-        << " eta), " << r.unextrudable_vertices.size() << " unextrudable, " << (r.guard.start.scale.array() < 1).count()
+    out << "guard        " << r.unextrudable_vertices.size() << " unextrudable vertices, " << (r.guard.start.scale.array() < 1).count()
         << " pulled in, " << r.guard.repaired_vertices << " repaired in " << r.guard.solve.iterations
         << " iterations\n";
   char time[256];
   std::snprintf(time, sizeof time, "time         %.3f s (factor %.3f s, solve %.3f s, guard %.3f s, certificate %.3f s)\n",
-                r.seconds.total, r.seconds.factor, r.seconds.solve, r.seconds.guard, r.seconds.certificate);
+                r.seconds.total, r.seconds.factor, r.seconds.solve, r.seconds.guard, r.metrics.certificate.seconds);
   out << time;
   return out.str();
 }

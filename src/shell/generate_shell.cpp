@@ -30,24 +30,15 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
   return s;
 }
 
-// Thinned vertices and the certificate, for every method. Intersections are counted by the
-// certificate (which tests neighbouring triangles too), not twice by the metrics.
-void finish(GenerateResult& r, const GenerateOptions& options) {
-  const auto t0 = Clock::now();
+// The certificate, for every method: shell_metrics checked the tets only; a guarded result is
+// tested in full, the base's crossings taken from the guard (the same exact test, not run twice).
+void certify(GenerateResult& r, const GenerateOptions& options) {
   if (!r.guarded) r.unextrudable_vertices = extrusion_directions(r.shell.base, r.shell.F).unextrudable;
-  r.thinned_vertices.clear();
-  for (int i = 0; i < r.metrics.vertex_thickness.size(); ++i)
-    if (r.metrics.vertex_thickness[i] < kThinnedFraction) r.thinned_vertices.push_back(i);
-  CertifyOptions certify;
-  certify.test_intersections = r.guarded || options.count_intersections;
-  // The guard found the base's own crossings already (same exact test).
-  certify.base_self_intersections = !r.guarded;
-  r.certificate = certify_shell(r.shell.base, r.shell.top, r.shell.F, certify);
-  if (r.guarded) r.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
-  r.valid = r.certificate.valid() && r.certificate.base_self_intersections == 0;
-  r.metrics.top_self_intersections = r.certificate.top_self_intersections;
-  r.metrics.top_base_intersections = r.certificate.top_base_intersections;
-  r.seconds.certificate = seconds_since(t0);
+  if (!r.guarded && !options.count_intersections) return;
+  CertifyOptions o;
+  o.base_self_intersections = !r.guarded;
+  r.metrics.certificate = certify_shell(r.shell.base, r.shell.top, r.shell.F, o);
+  if (r.guarded) r.metrics.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
 }
 
 // Generation towards `ideal`; `ideal_is_normal` lets the metrics reuse the solver's rest tets.
@@ -89,7 +80,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   }
   r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)
                               : shell_metrics(V, F, r.shell.top, options.thickness, false);
-  finish(r, options);
+  certify(r, options);
   r.seconds.total = seconds_since(t0);
   return r;
 }
@@ -173,7 +164,7 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
   r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, false, rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
-  finish(r, options);
+  certify(r, options);
   r.solve.converged = true;
   r.seconds.total = seconds_since(t0);
   return r;

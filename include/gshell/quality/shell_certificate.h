@@ -59,12 +59,13 @@ struct ShellCertificate {
 
   /// Whether the pair tests ran.
   bool intersections_tested() const { return top_self_intersections >= 0; }
-  /// Conditions 1-3 hold: no inverted tet, pairs tested and none of top/top, top/base or wall.
-  /// The base's own intersections do not enter (the shell cannot mend its input), but the layer
-  /// is an embedding only if base_self_intersections is 0 as well.
+  /// Conditions 1-3 hold (no inverted tet, pairs tested and none of top/top, top/base or wall)
+  /// and, if base/base pairs were tested, the base does not intersect itself: the layer is an
+  /// embedding (docs/validity.md). Without the base/base pairs this is conditions 1-3 alone, for a
+  /// caller that knows its base is embedded (the shell cannot mend its input).
   bool valid() const {
     return inverted_tets == 0 && intersections_tested() && top_self_intersections == 0 &&
-           top_base_intersections == 0 && wall_intersections == 0;
+           top_base_intersections == 0 && wall_intersections == 0 && base_self_intersections <= 0;
   }
 };
 

@@ -59,7 +59,6 @@ struct GenerateTimings {
   double solve = 0;  ///< local/global iterations (guarded: the paper's and the repair's)
   double guard = 0;  ///< guarded generation beyond factor and solve: directions, base
                      ///< self-intersections, valid start (0 when unguarded)
-  double certificate = 0; ///< the exact certificate of the result
 };
 
 /// What the curvature method adds to a generation (paper §4.1 "Curvature Sensitive Method").
@@ -77,26 +76,18 @@ struct GenerateResult {
   /// iterations the guard starts from (its repair iterations are in guard.solve).
   SolveResult solve;
   GenerateTimings seconds;
-  ShellMetrics metrics; ///< stretch against the normal prisms, whatever the method
+  /// Stretch against the normal prisms, whatever the method; metrics.certificate is the exact
+  /// certificate of the result (a guarded one always tested in full), metrics.certificate.valid()
+  /// says whether the layer is an embedding (docs/validity.md).
+  ShellMetrics metrics;
   std::optional<CurvatureGeneration> curvature; ///< set by the curvature method
-  /// The exact certificate of the result (certify_shell): counts, and the tets and triangle
-  /// pairs behind them. base_self_intersections: the input's own pairs (same exact test).
-  ShellCertificate certificate;
-  /// The certificate holds (no inverted tet, no top/top, top/base or wall pair) and the base does
-  /// not intersect itself: the layer is an embedding (docs/validity.md).
-  bool valid = false;
   bool guarded = false; ///< made by the guarded generation
-  /// Top vertices thinner than kThinnedFraction of eta (metrics.vertex_thickness), ascending.
-  std::vector<int> thinned_vertices;
   /// Base vertices where no extrusion direction sees every incident face from its positive side
   /// (extrusion_directions); only tets of prisms touching them may be inverted. Ascending.
   std::vector<int> unextrudable_vertices;
   /// The guarded generation's own account (start, solver statistics); empty when unguarded.
   GuardedShell guard;
 };
-
-/// A top vertex is reported thinned when its thickness is below this fraction of eta.
-inline constexpr double kThinnedFraction = 0.9;
 
 /// Rigid-style generation towards the given ideal prisms (6m x 3, ideal_prisms.h layout): rest
 /// tets cut from them (prism_rest_tets), base fixed, top started at offset_top and solved.
