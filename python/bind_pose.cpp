@@ -29,8 +29,10 @@ struct PoserObject {
   std::mutex mutex;            ///< solve() runs without the GIL
 };
 
-std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, int levels) {
+std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, int levels,
+                                        bool allow_invalid) {
   PoseOptions options;
+  options.allow_invalid = allow_invalid;
   options.solver = parse_pose_solver(solver);
   options.hierarchy.levels = levels;
   options.check();
@@ -95,8 +97,13 @@ Handles are a dict in the handle-file format of `gshell pose --handles` (docs/ha
          "rotate": {"axis": [0, 1, 0], "degrees": 30}}]}
 (shell vertex ids: base 0..n-1, top n..2n-1), or the path of such a file.)")
       .def(py::init(&make_poser), py::arg("shell"), py::arg("solver") = pose_solver_name(defaults.solver),
-           py::arg("levels") = defaults.hierarchy.levels,
+           py::arg("levels") = defaults.hierarchy.levels, py::kw_only(),
+           py::arg("allow_invalid") = defaults.allow_invalid,
            R"(Prepare direct deformation of `shell` (the rest shell).
+
+Every step is valid (certified exactly; its report says valid, method, blocked_by_contact when
+the handles force a collision and the step stopped at contact) unless allow_invalid=True, which
+gives the unguarded steps, as `gshell pose --allow-invalid`.
 
 Args:
     shell: the rest Shell.

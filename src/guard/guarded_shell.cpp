@@ -1,6 +1,7 @@
 #include <gshell/guard/guarded_shell.h>
 
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/offset_shell.h>
@@ -18,7 +19,6 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 void require(bool ok, const char* name, const char* range) {
   if (!ok) throw InputError(std::string("guard option ") + name + " must be " + range);

@@ -1,6 +1,7 @@
 #include <gshell/guard/guarded_solver.h>
 
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 #include <gshell/guard/tet_step_bound.h>
 
 #include <Eigen/SparseCholesky>
@@ -19,7 +20,6 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Armijo constant of the line search: the accepted step decreases E_guard by at least this

@@ -108,6 +108,21 @@ struct DragSession::Impl {
     ++builds;
   }
 
+  // The last recorded step was made by solve_valid: its guard fields.
+  PoseStepReport mark_guarded(const ValidStep& v) {
+    PoseStepReport& step = state.steps.back();
+    step.guarded = true;
+    step.valid = v.valid;
+    step.blocked_by_contact = v.blocked_by_contact;
+    step.method = v.method;
+    step.guarded_iterations = v.guarded_iterations;
+    step.inverted_tets = v.certificate.inverted_tets;
+    step.intersections = v.certificate.intersections_tested()
+                             ? static_cast<int>(v.certificate.intersections.size())
+                             : -1;
+    return step;
+  }
+
   PoseStepReport record(double fraction, const SolveResult& r, double seconds) {
     PoseStepReport step;
     step.fraction = fraction;
@@ -220,11 +235,21 @@ PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptio
     }
     next = s.solver->predict_start(s.before.X, st.X, step, P);
   }
+  const Eigen::MatrixXd from = s.options.allow_invalid ? Eigen::MatrixXd() : st.X;
   s.before = Before{true, std::move(st.X), st.targets, st.fraction, st.version_of_last};
   st.X = std::move(next);
   const double predict_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const SolveOptions limits = options.value_or(s.options.solve);
   s.last_limits = limits;
+  if (!s.options.allow_invalid) {
+    ValidStep valid;
+    const SolveResult r = s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
+    st.targets = P;
+    st.fraction = fraction;
+    st.version_of_last = st.motion_version;
+    s.record(fraction, r, std::chrono::duration<double>(Clock::now() - start).count());
+    return s.mark_guarded(valid);
+  }
   const SolveResult r = s.solver->solve(st.X, P, limits);
   st.targets = P;
   st.fraction = fraction;
@@ -253,19 +278,25 @@ std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptio
       if (progress) progress(it, energy, seconds);
       if (interrupt()) throw Interrupted{};
     };
-  // The state moves towards P either way (an interrupted solve keeps its iterate).
+  // The state moves towards P either way (an interrupted solve keeps its iterate; a guarded one
+  // goes back to the last valid state).
   if (st.motion_version != st.version_of_last) { // new motions since the last event: this solve is one
     s.before.valid = false;
     st.version_of_last = st.motion_version;
   }
   st.targets = P;
   SolveResult r;
+  ValidStep valid;
+  const Eigen::MatrixXd from = s.options.allow_invalid ? Eigen::MatrixXd() : st.X;
   try {
-    r = s.solver->solve(st.X, P, limits);
+    r = s.options.allow_invalid ? s.solver->solve(st.X, P, limits)
+                                : s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
   } catch (const Interrupted&) {
+    if (!s.options.allow_invalid) st.X = from;
     return std::nullopt;
   }
-  return s.record(st.fraction, r, r.seconds);
+  s.record(st.fraction, r, r.seconds);
+  return s.options.allow_invalid ? s.state.steps.back() : s.mark_guarded(valid);
 }
 
 const Shell& DragSession::rest() const { return impl_->rest; }

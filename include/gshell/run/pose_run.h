@@ -37,6 +37,11 @@ struct PoseOptions {
   /// Per step (a drag event solves with these too unless told otherwise): up to 500 iterations,
   /// until the relative energy change per iteration is below 1e-6.
   SolveOptions solve = {500, 1e-6, {}};
+  /// Today's unguarded steps (may invert tets or pass the shell through itself), for comparison.
+  /// Off (the default): every step is valid (PoseSolver::solve_valid), stopping at contact when
+  /// the handles force a collision.
+  bool allow_invalid = false;
+  GuardOptions guard; ///< the guard's barriers and bounds (as for generation and deformation)
   /// Called after every iteration with (step 1..steps, iteration, energy, seconds in this step);
   /// replaces solve.progress.
   std::function<void(int, int, double, double)> step_progress;
@@ -51,7 +56,14 @@ struct PoseStepReport {
   double energy = 0;     ///< at the end of the step
   double seconds = 0;    ///< wall time of the step: start prediction and solve
   bool converged = false;
-  /// {fraction, iterations, energy, seconds, converged}
+  bool guarded = false;            ///< made by solve_valid (not allow_invalid)
+  bool valid = false;              ///< guarded: the step's certificate holds
+  bool blocked_by_contact = false; ///< guarded: the handles forced a collision; the step stopped at contact
+  FrameMethod method = FrameMethod::Unguarded;
+  int guarded_iterations = 0;
+  int inverted_tets = -1, intersections = -1; ///< guarded: the certificate's counts (all pair kinds)
+  /// {fraction, iterations, energy, seconds, converged} and, guarded, {valid, method,
+  /// blocked_by_contact, guarded_iterations, certificate {inverted_tets, intersections}}
   nlohmann::ordered_json to_json() const;
 };
 
