@@ -131,6 +131,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   SolveOptions paper;
   paper.max_iterations = solve.max_iterations;
   paper.tolerance = solve.tolerance;
+  paper.progress = solve.progress; // the guarded solve reports its own iterations after these
   g.paper = paper_solver.solve(X, paper);
 
   // Valid start: that top, pulled towards the base only where it is not valid.
