@@ -5,6 +5,7 @@
 // contact when the handles force a collision.
 #include <gshell/deform/handles.h>
 #include <gshell/deform/shell_deformer.h>
+#include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/geometry/builtin_mesh.h>
@@ -142,9 +143,8 @@ TEST(DeformGuard, AllowInvalidReproducesTheUnguardedFramesBitForBit) {
   EXPECT_GT(invalid, 0); // the guard would have changed these frames
 }
 
-// A bowl squeezed shut: two handles at opposite sides of the rim driven through each other.
-PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
-  const Shell rest = offset_shell(make_bowl(8), 0.08);
+// Two handles at opposite sides of the bowl's rim driven through each other.
+HandleSet squeeze_handles(const Shell& rest) {
   const int n = rest.num_base_vertices();
   HandleSet handles;
   for (int side : {1, -1}) {
@@ -156,6 +156,13 @@ PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
     h.translate = Eigen::Vector3d(-side * 2.4, 0, 0);
     handles.handles.push_back(h);
   }
+  return handles;
+}
+
+// A bowl squeezed shut: two handles at opposite sides of the rim driven through each other.
+PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
+  const Shell rest = offset_shell(make_bowl(8), 0.08);
+  const HandleSet handles = squeeze_handles(rest);
   PoseOptions options;
   options.solver = kind;
   options.steps = 4;
@@ -163,6 +170,35 @@ PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
   options.solve.max_iterations = 100;
   options.solve.tolerance = 1e-5;
   return run_pose(rest, handles, options);
+}
+
+// The viewer's mode: drag events are unguarded previews, the settle makes the state valid again.
+TEST(PoseGuard, UnguardedDragPreviewsSettleIntoAValidState) {
+  const Shell rest = offset_shell(make_bowl(8), 0.08);
+  const int n = rest.num_base_vertices();
+  const HandleSet handles = squeeze_handles(rest);
+  PoseOptions options;
+  options.guard_drag_steps = false;
+  options.solve.max_iterations = 100;
+  options.solve.tolerance = 1e-5;
+  DragSession session(rest, options);
+  session.set_handles(handles);
+  bool preview_invalid = false;
+  for (double fraction : {0.25, 0.5, 0.75, 1.0}) {
+    const PoseStepReport step = session.drag(fraction);
+    EXPECT_FALSE(step.guarded);
+    const Eigen::MatrixXd& X = session.vertices();
+    const ShellCertificate c = certify_shell(X.topRows(n), X.bottomRows(n), rest.F);
+    preview_invalid = preview_invalid || !c.valid() || c.base_self_intersections > 0;
+  }
+  EXPECT_TRUE(preview_invalid); // the squeeze passes the previews through themselves
+  const PoseStepReport settled = session.settle();
+  EXPECT_TRUE(settled.guarded);
+  EXPECT_TRUE(settled.valid);
+  const Eigen::MatrixXd& X = session.vertices();
+  const ShellCertificate c = certify_shell(X.topRows(n), X.bottomRows(n), rest.F);
+  EXPECT_TRUE(c.valid());
+  EXPECT_EQ(c.base_self_intersections, 0);
 }
 
 void expect_squeeze_stops_at_contact(PoseSolverKind kind) {

@@ -71,6 +71,11 @@ struct DragSession::Impl {
   int builds = 0;
   SolveOptions last_limits;
   mutable std::optional<RestTets> rest_tets; ///< for result() before any solver exists
+  /// The last valid state while drag() steps are unguarded previews (guard_drag_steps off).
+  std::optional<Eigen::MatrixXd> valid_before_preview;
+
+  bool guarded() const { return !options.allow_invalid; }
+  bool guarded_drags() const { return guarded() && options.guard_drag_steps; }
 
   const RestTets& tets() const {
     if (solver) return solver->rest_tets();
@@ -235,13 +240,14 @@ PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptio
     }
     next = s.solver->predict_start(s.before.X, st.X, step, P);
   }
-  const Eigen::MatrixXd from = s.options.allow_invalid ? Eigen::MatrixXd() : st.X;
+  const Eigen::MatrixXd from = s.guarded_drags() ? st.X : Eigen::MatrixXd();
+  if (s.guarded() && !s.guarded_drags() && !s.valid_before_preview) s.valid_before_preview = st.X;
   s.before = Before{true, std::move(st.X), st.targets, st.fraction, st.version_of_last};
   st.X = std::move(next);
   const double predict_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const SolveOptions limits = options.value_or(s.options.solve);
   s.last_limits = limits;
-  if (!s.options.allow_invalid) {
+  if (s.guarded_drags()) {
     ValidStep valid;
     const SolveResult r = s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
     st.targets = P;
@@ -287,14 +293,17 @@ std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptio
   st.targets = P;
   SolveResult r;
   ValidStep valid;
-  const Eigen::MatrixXd from = s.options.allow_invalid ? Eigen::MatrixXd() : st.X;
+  // After unguarded previews the guarded solve starts from the last valid state.
+  const Eigen::MatrixXd from = !s.guarded() ? Eigen::MatrixXd() : s.valid_before_preview ? *s.valid_before_preview : st.X;
   try {
-    r = s.options.allow_invalid ? s.solver->solve(st.X, P, limits)
-                                : s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
+    r = !s.guarded() ? s.solver->solve(st.X, P, limits)
+                     : s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
   } catch (const Interrupted&) {
-    if (!s.options.allow_invalid) st.X = from;
+    if (s.guarded()) st.X = from;
+    s.valid_before_preview.reset();
     return std::nullopt;
   }
+  s.valid_before_preview.reset();
   s.record(st.fraction, r, r.seconds);
   return s.options.allow_invalid ? s.state.steps.back() : s.mark_guarded(valid);
 }
@@ -320,6 +329,7 @@ bool DragSession::undo() {
   s.state = std::move(s.undo.back());
   s.undo.pop_back();
   s.before.valid = false;
+  s.valid_before_preview.reset(); // checkpoints hold settled states
   return true;
 }
 
@@ -338,6 +348,7 @@ void DragSession::reset() {
   st.targets = s.current_rows(st.handles);
   st.steps.clear();
   s.before.valid = false;
+  s.valid_before_preview.reset();
 }
 
 int DragSession::solver_builds() const { return impl_->builds; }

@@ -41,6 +41,10 @@ struct PoseOptions {
   /// Off (the default): every step is valid (PoseSolver::solve_valid), stopping at contact when
   /// the handles force a collision.
   bool allow_invalid = false;
+  /// With the guard on: DragSession::drag() steps are guarded too. Off (the viewer's choice, where
+  /// a drag event must answer within a frame): a drag step is an unguarded preview, and settle()
+  /// solves guarded from the last valid state, so the state a drag comes to rest in is valid.
+  bool guard_drag_steps = true;
   GuardOptions guard; ///< the guard's barriers and bounds (as for generation and deformation)
   /// Called after every iteration with (step 1..steps, iteration, energy, seconds in this step);
   /// replaces solve.progress.
