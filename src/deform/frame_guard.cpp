@@ -15,29 +15,6 @@
 
 namespace gshell {
 
-GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
-                                                  const GuardOptions& options) {
-  check_guard_options(options);
-  double length = 0, area = 0;
-  for (int f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    length += (b - a).norm() + (c - b).norm() + (a - c).norm();
-    area += 0.5 * (b - a).cross(c - a).norm();
-  }
-  const double edge = F.rows() > 0 ? length / (3.0 * static_cast<double>(F.rows())) : 0.0;
-  const double vertex_area = V.rows() > 0 ? area / static_cast<double>(V.rows()) : 0.0;
-  GuardedSolverParameters p;
-  p.j_hat = options.j_hat;
-  p.volume_weight = options.volume_weight;
-  p.contact_distance = options.contact_distance * std::min(eta, edge);
-  p.contact_stiffness =
-      p.contact_distance > 0 ? options.contact_weight * vertex_area / std::pow(p.contact_distance, 3) : 0.0;
-  p.keep_fraction = options.keep_fraction;
-  p.cg_iterations = options.cg_iterations;
-  p.cg_tolerance = options.cg_tolerance;
-  return p;
-}
-
 double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const Eigen::MatrixXi& F) {
   double worst = 0;
   for (int f = 0; f < F.rows(); ++f)

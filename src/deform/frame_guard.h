@@ -15,12 +15,6 @@
 
 namespace gshell {
 
-/// The guarded solver's absolute parameters for a shell of thickness eta over base (V, F), from
-/// the relative GuardOptions (the same scales as guarded generation: contact distance relative
-/// to min(eta, mean edge), contact stiffness to the base area per vertex).
-GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
-                                                  const GuardOptions& options);
-
 /// Largest relative change of a base edge vector from `from` to `to`: max over edges (i, j) of
 /// |(to_j - to_i) - (from_j - from_i)| / |from_j - from_i|.
 double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const Eigen::MatrixXi& F);

@@ -32,7 +32,8 @@ std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, co
     length += (b - a).norm() + (c - b).norm() + (a - c).norm();
     area += 0.5 * (b - a).cross(c - a).norm();
   }
-  return {length / (3.0 * static_cast<double>(F.rows())), area / static_cast<double>(V.rows())};
+  return {F.rows() > 0 ? length / (3.0 * static_cast<double>(F.rows())) : 0.0,
+          V.rows() > 0 ? area / static_cast<double>(V.rows()) : 0.0};
 }
 
 // Boundary rows the contact guard cannot protect: the excluded rows and every row sharing a vertex
@@ -63,6 +64,22 @@ void check_guard_options(const GuardOptions& o) {
   require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
   require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
   require(o.repair_rings >= 0, "repair_rings", ">= 0");
+}
+
+GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
+                                                  const GuardOptions& options) {
+  check_guard_options(options);
+  const auto [edge, vertex_area] = mean_edge_and_vertex_area(V, F);
+  GuardedSolverParameters p;
+  p.j_hat = options.j_hat;
+  p.volume_weight = options.volume_weight;
+  p.contact_distance = options.contact_distance * std::min(eta, edge);
+  p.contact_stiffness =
+      p.contact_distance > 0 ? options.contact_weight * vertex_area / std::pow(p.contact_distance, 3) : 0.0;
+  p.keep_fraction = options.keep_fraction;
+  p.cg_iterations = options.cg_iterations;
+  p.cg_tolerance = options.cg_tolerance;
+  return p;
 }
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
@@ -100,22 +117,13 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
       for (int k = 0; k < 3; ++k)
         for (int s = start[F(f, k)]; s < start[F(f, k) + 1]; ++s) excluded_face[star[s]] = 1;
   GuardedSolverParameters& p = g.parameters;
+  p = absolute_guard_parameters(V, F, eta, options);
   p.skip_tets.assign(3 * static_cast<std::size_t>(m), 0);
   for (int f = 0; f < m; ++f)
     if (unguarded_face[f]) p.skip_tets[3 * f] = p.skip_tets[3 * f + 1] = p.skip_tets[3 * f + 2] = 1;
   p.excluded_triangles.assign(boundary.size(), 0);
   for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
 
-  // The barrier parameters, in model units.
-  const auto [edge, vertex_area] = mean_edge_and_vertex_area(V, F);
-  p.j_hat = options.j_hat;
-  p.volume_weight = options.volume_weight;
-  p.contact_distance = options.contact_distance * std::min(eta, edge);
-  p.contact_stiffness =
-      p.contact_distance > 0 ? options.contact_weight * vertex_area / std::pow(p.contact_distance, 3) : 0.0;
-  p.keep_fraction = options.keep_fraction;
-  p.cg_iterations = options.cg_iterations;
-  p.cg_tolerance = options.cg_tolerance;
   std::vector<int> fixed(n);
   std::iota(fixed.begin(), fixed.end(), 0);
   for (int v : g.directions.unextrudable) fixed.push_back(n + v);

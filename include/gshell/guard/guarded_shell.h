@@ -71,6 +71,12 @@ struct GuardedShell {
   double seconds = 0;                  ///< everything, factor and solve included
 };
 
+/// The guarded solver's absolute parameters for a shell of thickness eta over base (V, F), from
+/// the relative GuardOptions (the same scales as guarded generation: contact distance relative
+/// to min(eta, mean edge), contact stiffness to the base area per vertex).
+GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
+                                                  const GuardOptions& options);
+
 /// The guarded top over base (V, F) towards the rest tets `ideal` (prism_rest_tets of the ideal
 /// prisms: normal or curvature), thickness eta (model units): the paper's local/global iterations
 /// from the offset surface (the unguarded result), a valid start made from it (valid_start), and
