@@ -2,12 +2,13 @@
 
 #include "hierarchy_levels.h"
 
+#include <gshell/error.h>
+
 #include <Eigen/Cholesky>
 
 #include <chrono>
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 #include <string>
 
 namespace gshell {
@@ -31,7 +32,7 @@ void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
     Eigen::Matrix3d D;
     for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest.T(t, k + 1)) - X.row(rest.T(t, 0))).transpose();
     if (((D * rest.Dm_inv[t]) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6)
-      throw std::invalid_argument("HierarchicalSolver: rest shapes do not match rest_vertices at tet " +
+      throw InputError("HierarchicalSolver: rest shapes do not match rest_vertices at tet " +
                                   std::to_string(t));
   }
 }
@@ -308,10 +309,10 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   s.constraints = constraints;
   s.options = options;
   s.rest_vertices_rows = static_cast<int>(rest_vertices.rows());
-  if (options.levels < 1) throw std::invalid_argument("HierarchicalSolver: levels must be >= 1");
-  if (rest_vertices.rows() % 2 != 0) throw std::invalid_argument("HierarchicalSolver: rest_vertices must have 2n rows");
+  if (options.levels < 1) throw InputError("HierarchicalSolver: levels must be >= 1");
+  if (rest_vertices.rows() % 2 != 0) throw InputError("HierarchicalSolver: rest_vertices must have 2n rows");
   if (!constraints.hard && !(constraints.weight > 0))
-    throw std::invalid_argument("HierarchicalSolver: soft constraints need a positive weight");
+    throw InputError("HierarchicalSolver: soft constraints need a positive weight");
   require_matching_rest(s.rest, rest_vertices);
 
   s.full = make_shell_solver(s.rest, s.num_vertices(), constraints);
@@ -351,9 +352,9 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   Impl& s = *impl_;
   const auto start = Clock::now();
   if (X.rows() != s.num_vertices() || X.cols() != 3)
-    throw std::invalid_argument("HierarchicalSolver::solve: X must be 2n x 3");
+    throw InputError("HierarchicalSolver::solve: X must be 2n x 3");
   if (targets.rows() != static_cast<Eigen::Index>(s.constraints.vertices.size()) || targets.cols() != 3)
-    throw std::invalid_argument("HierarchicalSolver::solve: one target row per constrained vertex");
+    throw InputError("HierarchicalSolver::solve: one target row per constrained vertex");
 
   s.set_hard_rows(X, targets);
   FullState state{X, {}, {}, {}, {}, {}};
