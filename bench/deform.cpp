@@ -9,6 +9,7 @@
 // stretch against the rest shell compared with offset re-extrusion.
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/deform/synthetic_motion.h>
+#include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/generate_shell.h>
@@ -17,6 +18,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -117,15 +119,44 @@ int main(int argc, char** argv) {
   int runs = 5, frame_count = 30;
   double degrees = 60, ratio = 0.01;
   bool validity_only = false;
+  const char* usage = "usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60] "
+                      "[--ratio R=0.01] [--validity-only]\n";
+  // A bad option is one line and exit 1, not a load_mesh exception for a "mesh" named --help.
+  const auto bad = [&](const char* what, const char* arg) {
+    std::fprintf(stderr, "bench_deform: %s '%s' (see --help)\n", what, arg);
+    std::exit(1);
+  };
+  const auto number = [&](int& i) {
+    if (i + 1 >= argc) bad("missing value for", argv[i]);
+    char* end = nullptr;
+    const double v = std::strtod(argv[++i], &end);
+    if (end == argv[i] || *end || !std::isfinite(v)) bad("not a number:", argv[i]);
+    return v;
+  };
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc) frame_count = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--bend") && i + 1 < argc) degrees = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--ratio") && i + 1 < argc) ratio = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--validity-only")) validity_only = true;
-    else path = argv[i];
+    const char* a = argv[i];
+    if (!std::strcmp(a, "--help") || !std::strcmp(a, "-h")) {
+      std::fputs(usage, stdout);
+      return 0;
+    }
+    if (!std::strcmp(a, "--runs")) runs = static_cast<int>(number(i));
+    else if (!std::strcmp(a, "--frames")) frame_count = static_cast<int>(number(i));
+    else if (!std::strcmp(a, "--bend")) degrees = number(i);
+    else if (!std::strcmp(a, "--ratio")) ratio = number(i);
+    else if (!std::strcmp(a, "--validity-only")) validity_only = true;
+    else if (a[0] == '-') bad("unknown option", a);
+    else path = a;
   }
-  const TriMesh mesh = load_mesh(path);
+  if (runs < 1) bad("--runs must be >= 1, got", std::to_string(runs).c_str());
+  if (frame_count < 1) bad("--frames must be >= 1, got", std::to_string(frame_count).c_str());
+  if (!(ratio > 0)) bad("--ratio must be > 0, got", std::to_string(ratio).c_str());
+  TriMesh mesh;
+  try {
+    mesh = load_mesh(path);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "bench_deform: %s\n", e.what());
+    return 1;
+  }
   // The rest shell as `gshell generate --method rigid --thickness-ratio RATIO` makes it.
   GenerateOptions generate;
   generate.method = ShellMethod::Rigid;

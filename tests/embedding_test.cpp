@@ -139,5 +139,19 @@ TEST(Embedding, RejectsNonFinitePoints) {
   EXPECT_THROW(embed_points(shell.vertices(), build_prism_tets(shell.F, 9), P), InputError);
 }
 
+// Tet ids index the caller's X: a T from a bigger mesh, or an X from a smaller one, must be
+// refused rather than read out of bounds.
+TEST(Embedding, TetIdsOutsideTheVerticesAreInputErrors) {
+  const Shell shell = flat_plane_shell(2, 0.1);
+  const Eigen::MatrixXd X = shell.vertices();
+  const Eigen::MatrixXi T = build_prism_tets(shell.F, 9);
+  EXPECT_THROW(TetLocator(X.topRows(X.rows() - 1), T), InputError);
+  EXPECT_THROW(TetLocator(X.leftCols(2), T), InputError);
+  EXPECT_THROW(TetLocator(X, T.leftCols(3)), InputError);
+  const Embedding e = embed_points(X, T, X.topRows(3));
+  EXPECT_THROW(carry(e, X.topRows(1)), InputError);
+  EXPECT_NEAR((carry(e, X) - X.topRows(3)).norm(), 0, 1e-12);
+}
+
 } // namespace
 } // namespace gshell

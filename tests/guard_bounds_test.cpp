@@ -1,5 +1,6 @@
 // The guard's building blocks on analytic cases: the per-tet step bound (the largest step keeping
 // every tet positive), the volume barrier's gradient, extrusion directions.
+#include <gshell/error.h>
 #include <gshell/guard/extrusion_directions.h>
 #include <gshell/guard/tet_step_bound.h>
 #include <gshell/guard/volume_barrier.h>
@@ -105,6 +106,23 @@ TEST(TetStepBound, SkippedAndTranslatedTetsDoNotLimit) {
 }
 
 RestTets unit_rest() { return rest_tets_from_positions(unit_tet(), one_tet()); }
+
+// tet_step_bound reads X and D through T's ids: a motion for fewer vertices, or a tet list of
+// another mesh, must be refused rather than read out of bounds.
+TEST(TetStepBound, MismatchedShapesAndIdsAreInputErrors) {
+  Eigen::MatrixXd X(4, 3);
+  X << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  Eigen::MatrixXi T(1, 4);
+  T << 0, 1, 2, 3;
+  const Eigen::MatrixXd D = Eigen::MatrixXd::Zero(4, 3);
+  EXPECT_THROW(tet_step_bound(T, X, D.topRows(3), 0.5, 1), InputError);
+  Eigen::MatrixXi T_far = T;
+  T_far(0, 3) = 4;
+  EXPECT_THROW(tet_step_bound(T_far, X, D, 0.5, 1), InputError);
+  const std::vector<char> two_flags(2, 0);
+  EXPECT_THROW(tet_step_bound(T, X, D, 0.5, 1, &two_flags), InputError);
+  EXPECT_EQ(tet_step_bound(T, X, D, 0.5, 1).step, 1);
+}
 
 TEST(VolumeBarrier, ZeroAboveTheThresholdInfiniteWhenFlat) {
   const VolumeBarrier barrier(unit_rest(), 0.2);

@@ -1,5 +1,6 @@
 #include <gshell/deform/tet_locator.h>
 
+#include <gshell/error.h>
 #include <gshell/geometry/closest_point.h>
 
 #include <Eigen/Geometry>
@@ -11,6 +12,10 @@
 namespace gshell {
 
 TetLocator::TetLocator(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T) : X_(X), T_(T) {
+  if (X.cols() != 3 || (T.size() > 0 && T.cols() != 4))
+    throw InputError("TetLocator: X must be N x 3 and T K x 4");
+  if (T.size() > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= X.rows()))
+    throw InputError("TetLocator: T has a vertex id outside 0.." + std::to_string(X.rows() - 1));
   const int K = static_cast<int>(T.rows());
   inverse_edges_.assign(K, Eigen::Matrix3d::Zero());
   std::vector<Eigen::Vector3d> bmin(K), bmax(K);

@@ -1,5 +1,8 @@
 #include <gshell/guard/tet_step_bound.h>
 
+#include <gshell/error.h>
+
+
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <tbb/blocked_range.h>
@@ -77,6 +80,12 @@ double cubic_step_bound(const std::array<double, 4>& a, double keep, double max_
 TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                             double keep_fraction, double max_step, const std::vector<char>* skip) {
   const int K = static_cast<int>(T.rows());
+  // One pass over T is cheap next to the cubic roots per tet, and a bad id would read past X or D.
+  if (X.cols() != 3 || D.rows() != X.rows() || D.cols() != 3)
+    throw InputError("tet_step_bound: X and D must both be N x 3");
+  if (K > 0 && (T.cols() != 4 || T.minCoeff() < 0 || T.maxCoeff() >= X.rows()))
+    throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
+  if (skip && static_cast<int>(skip->size()) != K) throw InputError("tet_step_bound: skip needs one flag per tet");
   TetStepBound init;
   init.step = max_step;
   return tbb::parallel_reduce(

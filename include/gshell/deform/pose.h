@@ -54,6 +54,7 @@ public:
   /// the previous call. \throws InputError when X or targets have the wrong shape.
   SolveResult solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const SolveOptions& options = {});
   /// The same for the handles at `fraction` of their motion: solve(X, targets(fraction), options).
+  /// \throws InputError as solve().
   SolveResult solve(Eigen::MatrixXd& X, double fraction, const SolveOptions& options = {});
 
   /// solve() from the start X, kept valid (docs/valid-deformation.md): from `from` (a valid
@@ -65,6 +66,7 @@ public:
   /// handles there from X, stopping at contact when they force a collision
   /// (step->blocked_by_contact); with soft handles, the straight path is halved until its end is
   /// valid (blocked_by_contact if it had to be). Never leaves X invalid when it started valid.
+  /// \throws InputError when `from`, X or targets have the wrong shape, or as GuardedSolver.
   SolveResult solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd& X, const Eigen::MatrixXd& targets,
                           const SolveOptions& options, const GuardOptions& guard, ValidStep* step);
 

@@ -35,7 +35,7 @@ enum class WarmStart {
                  ///< per frame on the bunny bend, against 2 rotated, 5 translated, 11 previous).
 };
 const char* warm_start_name(WarmStart w);
-/// "previous", "translated", "rotated", "extrapolated"; throws InputError otherwise.
+/// "previous", "translated", "rotated", "extrapolated". \throws InputError on any other name.
 WarmStart parse_warm_start(const std::string& name);
 
 /// The only source of the per-frame defaults (the CLI's help and Python's keywords read DeformOptions{}).
@@ -122,6 +122,8 @@ class FrameGuard; // src/deform/frame_guard.h
 /// matrix factored once; every frame only back-substitutes.
 class ShellDeformer {
 public:
+  /// \throws std::runtime_error when CHOLMOD fails (out of memory). `rest` is taken as a
+  ///         consistent shell (read_shell_folder and generate_shell check theirs).
   explicit ShellDeformer(const Shell& rest);
 
   /// Solves the top for a new base (n x 3, the rest base's vertex order), warm-started from the

@@ -25,6 +25,7 @@ struct ExtrusionDirections {
 /// taken as it is, so that smooth regions extrude exactly as the offset surface; elsewhere the
 /// direction of largest margin (an exact max-min over the face normals, computed by enumerating its
 /// possible active sets). Faces of zero area have no normal and are ignored.
+/// \throws InputError when V or F does not have 3 columns or F has a vertex id outside 0..n-1.
 ExtrusionDirections extrusion_directions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                          double normal_margin = 0.5);
 

@@ -50,7 +50,7 @@ struct GuardOptions {
   int repair_rings = 3;
 };
 
-/// Throws InputError naming the parameter unless every field is in range.
+/// \throws InputError naming the parameter unless every field is in range.
 void check_guard_options(const GuardOptions& options);
 
 struct GuardedShell {
@@ -74,6 +74,7 @@ struct GuardedShell {
 /// The guarded solver's absolute parameters for a shell of thickness eta over base (V, F), from
 /// the relative GuardOptions (the same scales as guarded generation: contact distance relative
 /// to min(eta, mean edge), contact stiffness to the base area per vertex).
+/// \throws InputError as check_guard_options.
 GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
                                                   const GuardOptions& options);
 
@@ -83,7 +84,8 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
 /// the guarded solver from there. solve.max_iterations and tolerance apply to both solves;
 /// `linear` chooses how the paper's iterations solve their global steps (the guarded solver, on
 /// the region it repairs, always factors).
-/// Throws InputError on bad options.
+/// \throws InputError on bad options, thickness eta not positive and finite, or `ideal` not
+///         3 tets per face, or as extrusion_directions (V, F shapes and ids).
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
                            const GuardOptions& options, const GuardedSolveOptions& solve,
                            const LinearSolverOptions& linear = {});

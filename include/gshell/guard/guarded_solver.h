@@ -94,8 +94,10 @@ struct GuardedSolveResult {
 class GuardedSolver {
 public:
   /// `rest` over `num_vertices` (2n: base i is i, top i is n + i); `fixed` as in ShellSolver;
-  /// `boundary` the layer's boundary surface (shell_boundary(F, n)). Throws InputError on bad
-  /// sizes or parameters.
+  /// `boundary` the layer's boundary surface (shell_boundary(F, n)).
+  /// \throws InputError on bad parameters (keep_fraction, volume_weight, contact_distance, CG,
+  ///         contact_stiffness), or as the ShellSolver, VolumeBarrier and ContactGuard built here
+  ///         (bad ids or sizes, a free part); std::runtime_error when CHOLMOD fails.
   GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed, const ShellBoundary& boundary,
                 GuardedSolverParameters parameters);
   ~GuardedSolver();
@@ -103,14 +105,18 @@ public:
   GuardedSolver& operator=(GuardedSolver&&) noexcept;
 
   /// Minimises E_guard from X (num_vertices x 3, valid: every guarded tet positive, no guarded
-  /// boundary pair touching; throws InputError otherwise). X is overwritten with the result, which
+  /// boundary pair touching). X is overwritten with the result, which
   /// is valid too. With `fixed_targets` (num_vertices x 3, only rows of fixed vertices read), the
   /// fixed vertices move from their rows in X towards them along straight lines as described
   /// above.
+  /// \throws InputError when X or fixed_targets is not num_vertices x 3, options are out of range
+  ///         (max_iterations < 0, tolerance < 0) or X is not valid. std::runtime_error if a drag step
+  ///         leaves the valid set (a bug: the step bounds forbid it).
   GuardedSolveResult solve(Eigen::MatrixXd& X, const GuardedSolveOptions& options = {},
                            const Eigen::MatrixXd& fixed_targets = {});
 
   /// E_guard at X (+infinity when X is not valid for the barriers).
+  /// \throws InputError when X is not num_vertices x 3.
   double energy(const Eigen::MatrixXd& X);
 
   const ShellSolver& shell_solver() const;

@@ -27,6 +27,8 @@ struct TetStepBound {
 /// of X; positively oriented at X) keeps more than keep_fraction of its volume at X. Tets with
 /// skip[t] != 0 (if skip is given, one flag per tet) and tets whose volume at X is not positive are
 /// ignored. X, D: N x 3. Runs in parallel.
+/// \throws InputError when X or D is not N x 3, T is not K x 4 with ids in 0..N-1, or skip has
+///         other than K flags.
 TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                             double keep_fraction, double max_step, const std::vector<char>* skip = nullptr);
 

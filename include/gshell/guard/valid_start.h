@@ -47,6 +47,8 @@ struct ValidStart {
 /// `directions` (extrusion_directions(V, F)). `skip_tets` (one flag per tet of build_prism_tets, or empty) and `excluded_triangles` (one flag
 /// per row of shell_boundary(F, n), or empty): violations involving those are ignored (they cannot
 /// be mended by thinning). The checks are the certificate's (certify_shell), without base/base pairs.
+/// \throws InputError when P or directions has not one row per base vertex, options.thinning is
+///         outside (0, 1) or options.fallback_length <= 0.
 ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
                        const ExtrusionDirections& directions,
                        const std::vector<char>& skip_tets = {}, const std::vector<char>& excluded_triangles = {},

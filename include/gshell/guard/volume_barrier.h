@@ -17,6 +17,9 @@ public:
   /// `rest`: the tets and their rest shapes (rest volumes weight the terms, so B has the units of
   /// the shell energy). j_hat in (0, 1]: the relative volume below which a tet is pushed back.
   /// `skip` (empty or one flag per tet): tets left out (e.g. prisms around unextrudable vertices).
+  /// \throws InputError when j_hat is outside (0, 1] or skip has neither 0 nor one flag per tet.
+  /// The evaluations below do not check X (they run in every solver iteration): it must hold every
+  /// row the tets use.
   VolumeBarrier(const RestTets& rest, double j_hat, std::vector<char> skip = {});
 
   /// B at X (2n x 3 shell positions); +infinity if a guarded tet is flat or inverted. With

@@ -112,6 +112,7 @@ public:
   /// Runs the solver on to convergence with the session's tolerance, asking `interrupt` after
   /// every iteration; sends positions every `stream_seconds` while it runs, and the positions,
   /// colors and statistics at the end. Returns true when converged, false when interrupted.
+  /// \throws InputError as solve_drag().
   bool settle(const ViewSink& send, const std::function<bool()>& interrupt, double stream_seconds = 0.25);
 
   /// The validity figures (inverted tets, intersections, valid) of a snapshot of the shell,
