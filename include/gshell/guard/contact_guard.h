@@ -65,13 +65,13 @@ public:
   ContactGuard& operator=(ContactGuard&&) noexcept;
 
   // Calls at the same X (exactly equal) share one pass over the candidate list.
-  /// \throws InputError (energy, add_gradient, add_hessian, step_bound, min_distance) when X, D or
-  ///         G is not num_vertices x 3 or has a non-finite coordinate at a boundary vertex.
 
   /// Barrier B(X) = sum over pairs of b(d^2), b(s) = -(s - dhat^2)^2 log(s / dhat^2) for
   /// s < dhat^2 and 0 beyond (d: the distance of the pair); edge-edge pairs of nearly parallel
   /// edges are mollified (contact_barrier.h). +infinity if a pair touches. Deterministic: the
   /// same X gives the same bits whatever the thread count.
+  /// \throws InputError when X (D, G) is not num_vertices x 3 or X has a non-finite coordinate at a
+  ///         boundary vertex (this, add_gradient, add_hessian, step_bound and min_distance).
   double energy(const Eigen::MatrixXd& X);
   /// G (num_vertices x 3) += scale * dB/dX (rows of fixed vertices included).
   void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G);
