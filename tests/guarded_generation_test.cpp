@@ -153,7 +153,9 @@ TEST(GuardedGeneration, SphereAtHalfItsRadiusIsValid) {
     expect_valid(g);
     // Nothing collides on a convex surface: the guard keeps the paper's result.
     const GenerateResult u = generate_shell(m.V, m.F, options_for(method, eta, true));
-    EXPECT_TRUE(g.shell.top == u.shell.top);
+    // (Not bit for bit: under load the two runs have differed in the last bits; a guard that
+    // acted would move tops by a fraction of eta.)
+    EXPECT_LT((g.shell.top - u.shell.top).cwiseAbs().maxCoeff(), 1e-9 * eta);
   }
 }
 
