@@ -7,6 +7,8 @@
 // then (unless --validity-only) for each warm start the unguarded per-frame time and iterations
 // (medians over frames, then median over runs) to a relative energy tolerance of 1e-4, and the
 // stretch against the rest shell compared with offset re-extrusion.
+#include "bench_common.h"
+
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/error.h>
@@ -28,14 +30,9 @@
 #include <vector>
 
 using namespace gshell;
+using gshell::bench::median;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t h = v.size() / 2;
-  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
 
 struct RunStats {
   std::vector<double> ms, warm_ms, iterations, stretch, offset_stretch, max_stretch, offset_max;

@@ -6,6 +6,8 @@
 // base crossings, start rounds, repaired vertices, the unguarded volume-weighted stretch against the
 // normal prisms and guarded / unguarded, the median seconds of N runs of each (interleaved) and
 // their ratio. A summary line closes the table.
+#include "bench_common.h"
+
 #include <gshell/io/load_mesh.h>
 #include <gshell/shell/generate_shell.h>
 
@@ -16,6 +18,7 @@
 #include <vector>
 
 using namespace gshell;
+using gshell::bench::median;
 
 namespace {
 
@@ -31,12 +34,6 @@ int violations_outside(const GenerateResult& g) {
     count += u.empty() || (!u[b.a] && !u[b.b]);
   }
   return count;
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t k = v.size() / 2;
-  return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
 }
 
 } // namespace

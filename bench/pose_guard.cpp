@@ -7,6 +7,8 @@
 //
 // Prints the shell's size, then per mode: median step time over the drag (median over runs), the
 // slowest step (the snap-through), valid steps, steps blocked by contact, guarded steps.
+#include "bench_common.h"
+
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
@@ -20,35 +22,9 @@
 #include <vector>
 
 using namespace gshell;
+using gshell::bench::median;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t h = v.size() / 2;
-  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
-
-HandleSet bowl_handles(const Shell& shell) {
-  const Eigen::MatrixXd X = shell.vertices();
-  const Eigen::RowVector3d lo = X.colwise().minCoeff(), hi = X.colwise().maxCoeff();
-  const double R = 0.5 * (hi - lo).maxCoeff();
-  Handle hold, pull;
-  for (int v = 0; v < X.rows(); ++v) {
-    const Eigen::RowVector3d p = X.row(v);
-    if (p.z() > -0.15 * R && p.x() < -0.5 * R) hold.vertices.push_back(v);
-    if (p.z() > -0.15 * R && p.x() > 0.7 * R) pull.vertices.push_back(v);
-  }
-  pull.translate = Eigen::Vector3d(0.8 * R, 0.2 * R, 0.5 * R);
-  HandleSet set;
-  set.handles = {hold, pull};
-  for (auto& h : set.handles) {
-    h.center = Eigen::Vector3d::Zero();
-    for (int v : h.vertices) h.center += X.row(v).transpose();
-    h.center /= static_cast<double>(h.vertices.size());
-  }
-  return set;
-}
 
 struct Stats {
   std::vector<double> step_ms;
@@ -85,7 +61,7 @@ int main(int argc, char** argv) {
   generate.thickness = thickness_from_ratio(mesh.V, 0.02);
   generate.count_intersections = false;
   const Shell shell = generate_shell(mesh.V, mesh.F, generate).shell;
-  const HandleSet handles = bowl_handles(shell);
+  const HandleSet handles = bench::pull_handles(shell, true);
   PoseOptions options;
   options.solver = parse_pose_solver(solver);
   options.steps = steps;
