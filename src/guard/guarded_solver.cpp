@@ -10,8 +10,6 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <string>
 
@@ -42,8 +40,6 @@ struct GuardedSolver::Impl {
   // Free (solved-for) vertices in the order of the ShellSolver's arrays, and vertex -> that order.
   std::vector<int> free;
   std::vector<int> free_index;
-  bool debug = std::getenv("GSHELL_GUARD_DEBUG") != nullptr;
-  std::vector<int> last_active;
 
   Impl(const RestTets& rest, int num_vertices, const std::vector<int>& fixed_vertices, const ShellBoundary& boundary,
        GuardedSolverParameters parameters)
@@ -206,7 +202,6 @@ struct GuardedSolver::Impl {
     Eigen::MatrixXd d = -g;
     arap.apply_inverse(d);
     if (p.cg_iterations == 0 && p.local_rings < 0) return d;
-    last_active = state.active_tets;
     const LocalHessian Hl = half_barrier_hessian(X, state);
     if (Hl.empty()) return d;
     auto apply = [&](const Eigen::MatrixXd& v) {
@@ -219,8 +214,6 @@ struct GuardedSolver::Impl {
     Eigen::MatrixXd r = -g - apply(d);
     if (p.local_rings >= 0) {
       const Eigen::MatrixXd delta = local_correction(Hl, r);
-      if (debug)
-        std::fprintf(stderr, "  |p0| max %.3g, |delta| max %.3g\n", d.rowwise().norm().maxCoeff(), delta.rowwise().norm().maxCoeff());
       d += delta;
       r = -g - apply(d);
     }
@@ -251,16 +244,6 @@ struct GuardedSolver::Impl {
     const TetStepBound tb = tet_step_bound(T, X, D, p.keep_fraction, 1.0, &volume.skip());
     double a = tb.step;
     if (contact && a > 0) a = std::min(a, contact->step_bound(X, D, a));
-    if (debug && a < 1 && tb.tet >= 0) {
-      Eigen::Vector3d gJ[4];
-      const double J = volume.relative_volume_gradient(X, tb.tet, gJ);
-      double dJ = 0;
-      for (int j = 0; j < 4; ++j) dJ += gJ[j].dot(D.row(T(tb.tet, j)).transpose());
-      std::fprintf(stderr, "  step bound %.3g (tets %.3g by tet %d, J %.3g, dJ/da %.3g, active %d, free corners %d%d%d%d)\n", a,
-                   tb.step, tb.tet, J, dJ, (int)std::binary_search(last_active.begin(), last_active.end(), tb.tet),
-                   free_index[T(tb.tet, 0)] >= 0, free_index[T(tb.tet, 1)] >= 0, free_index[T(tb.tet, 2)] >= 0,
-                   free_index[T(tb.tet, 3)] >= 0);
-    }
     return a;
   }
 };
@@ -363,10 +346,6 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     }
     result.iterations = it;
     result.energy.push_back(E_new);
-    if (m.debug)
-      std::fprintf(stderr, "it %d E %.8g (shell %.8g vol %.3g contact %.3g) moved %d clamped %d cg %d bt %d active %d contacts %d\n", it,
-                   E_new, state.shell, state.volume, state.contact, moved, clamped, result.cg_iterations,
-                   result.backtracks, static_cast<int>(state.active_tets.size()), m.contact ? m.contact->active_pairs() : 0);
     if (options.progress) options.progress(it, E_new, seconds_since(t0));
     // Converged when the decrease is small and no bound held the step back (a clamped step with a
     // large predicted decrease is progress still to be made).

@@ -9,8 +9,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 
 namespace gshell {
 
@@ -98,9 +96,6 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       for (int row : {a, b})
         for (int k = 0; k < 3; ++k)
           if (boundary.F(row, k) >= n) thin[boundary.F(row, k) - n] = 1;
-    if (std::getenv("GSHELL_GUARD_DEBUG"))
-      std::fprintf(stderr, "start round %d: %zu inverted tets, %zu pairs\n", s.rounds, s.inverted_tets.size(),
-                   s.intersections.size());
     if ((s.inverted_tets.empty() && s.intersections.empty()) || s.rounds >= options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
     for (int i = 0; i < n; ++i)
