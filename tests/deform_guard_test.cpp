@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 #include "shell_fixtures.h"
 
+#include <cmath>
 #include <cstdio>
 #include <numeric>
 #include <string>
@@ -109,6 +110,52 @@ TEST(DeformGuard, FoldingAPlaneNearlyShutThinsTheTopAndKeepsItClean) {
   }
   EXPECT_GT(unguarded_invalid, 0);
 }
+
+// Folds a plane shut (180 degrees) in a band whose arc radius R = 0.6 / pi = 0.19 is below the
+// thickness 0.2: the bases of the two halves stay 2R = 0.38 apart (the base never touches itself),
+// but their tops, 0.2 above each base on the inner side, would overlap by 0.02: the top must thin
+// along the whole fold, pressed against itself. Either in `frames` frames or in one jump.
+void fold_shut(int frames) {
+  const double eta = 0.2;
+  const Shell rest = flat_plane_shell(16, eta);
+  const MotionFrame frame = motion_frame(rest.base);
+  ShellDeformer deformer(rest), unguarded(rest);
+  DeformOptions loose;
+  loose.allow_invalid = true;
+  int unguarded_invalid = 0;
+  for (int k = 1; k <= frames; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const Eigen::MatrixXd base = bend(rest.base, frame, 180.0 * ramp(k, frames), 0.3);
+    const FrameResult r = deformer.solve(base);
+    expect_valid_frame(deformer, r, base);
+    EXPECT_NE(r.method, FrameMethod::TetsOnly);
+    EXPECT_EQ(r.certificate.base_self_intersections, 0);
+    unguarded_invalid += unguarded.solve(base, loose).certificate.valid() ? 0 : 1;
+    if (k < frames) continue;
+    // Shut: the halves' straight parts (beyond the band) lie in the planes x = -R and x = R,
+    // tops inside; every top vertex there must be closer to its base across the gap than R, and
+    // the arc (radius R < eta) cannot hold a full-thickness top anywhere.
+    const int n = rest.num_base_vertices();
+    const double R = 0.6 / M_PI;
+    int straight = 0;
+    double widest = 0;
+    for (int i = 0; i < n; ++i) {
+      if (std::abs(rest.base(i, 0)) < 0.35) continue;
+      ++straight;
+      EXPECT_NEAR(std::abs(base(i, 0)), R, 1e-9);
+      widest = std::max(widest, -std::copysign(1.0, base(i, 0)) * (r.top(i, 0) - base(i, 0)));
+    }
+    EXPECT_GT(straight, 0);
+    EXPECT_LT(widest, R);
+    EXPECT_GT(widest, 0.5 * R); // thinned where it must, not flattened
+    EXPECT_GT(r.thinned_vertices, 0);
+  }
+  EXPECT_GT(unguarded_invalid, 0);
+}
+
+TEST(DeformGuard, FoldingAPlaneShutThinsTheTopAndKeepsItClean) { fold_shut(8); }
+
+TEST(DeformGuard, AJumpFromRestToAShutFoldIsValid) { fold_shut(1); }
 
 TEST(DeformGuard, AllowInvalidReproducesTheUnguardedFramesBitForBit) {
   // The unguarded frame rebuilt by hand: the rotated-offset warm start, then the paper's solve.

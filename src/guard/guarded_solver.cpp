@@ -24,6 +24,10 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // fraction of what the slope at the start promises.
 constexpr double kArmijo = 1e-4;
 constexpr int kMaxBacktracks = 30;
+// A drag is stalled when the last kStallIterations iterations moved the fixed vertices by less
+// than kStallProgress of their path.
+constexpr int kStallIterations = 20;
+constexpr double kStallProgress = 1e-3;
 
 double dot(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a.array() * b.array()).sum(); }
 
@@ -122,10 +126,30 @@ struct GuardedSolver::Impl {
     }
   };
 
-  LocalHessian half_barrier_hessian(const Eigen::MatrixXd& X, const State& s) {
+  // Half the barriers' Hessian at X over all vertices (3 * vertex + axis), as triplets.
+  std::vector<Eigen::Triplet<double>> half_barrier_triplets(const Eigen::MatrixXd& X, const State& s) {
     std::vector<Eigen::Triplet<double>> H;
     volume.add_hessian(X, 0.5 * p.volume_weight, H, s.active_tets);
     if (contact) contact->add_hessian(X, 0.5 * p.contact_stiffness, H);
+    return H;
+  }
+
+  // The free/fixed block of half the barriers' Hessian times a motion of the fixed vertices
+  // (N x 3, zero on free rows): free rows (nf x 3).
+  Eigen::MatrixXd barrier_coupling(const std::vector<Eigen::Triplet<double>>& H, const Eigen::MatrixXd& motion) const {
+    Eigen::MatrixXd out = Eigen::MatrixXd::Zero(nf(), 3);
+    for (const auto& t : H) {
+      const int a = t.row() / 3, b = t.col() / 3;
+      if (free_index[a] >= 0 && free_index[b] < 0) out(free_index[a], t.row() % 3) += t.value() * motion(b, t.col() % 3);
+    }
+    return out;
+  }
+
+  LocalHessian half_barrier_hessian(const Eigen::MatrixXd& X, const State& s) {
+    return local_hessian(half_barrier_triplets(X, s));
+  }
+
+  LocalHessian local_hessian(const std::vector<Eigen::Triplet<double>>& H) const {
     LocalHessian out;
     std::vector<int> local(N, -1);
     std::vector<Eigen::Triplet<double>> kept;
@@ -199,10 +223,17 @@ struct GuardedSolver::Impl {
   // -A^-1 g, corrected on the neighbourhood of the barriers, then CG preconditioned with A^-1.
   Eigen::MatrixXd direction(const Eigen::MatrixXd& X, const State& state, const Eigen::MatrixXd& g,
                             int& cg_iterations) {
+    if (p.cg_iterations == 0 && p.local_rings < 0) {
+      Eigen::MatrixXd d = -g;
+      arap.apply_inverse(d);
+      return d;
+    }
+    return direction(half_barrier_hessian(X, state), g, cg_iterations);
+  }
+
+  Eigen::MatrixXd direction(const LocalHessian& Hl, const Eigen::MatrixXd& g, int& cg_iterations) {
     Eigen::MatrixXd d = -g;
     arap.apply_inverse(d);
-    if (p.cg_iterations == 0 && p.local_rings < 0) return d;
-    const LocalHessian Hl = half_barrier_hessian(X, state);
     if (Hl.empty()) return d;
     auto apply = [&](const Eigen::MatrixXd& v) {
       Eigen::MatrixXd y = arap.multiply_free(v);
@@ -292,15 +323,26 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     tau = path.isZero(0) ? 1 : 0;
   }
 
+  std::vector<double> tau_history{tau}; // tau_history[k]: path done after iteration k
   for (int it = 1; it <= options.max_iterations && (m.nf() > 0 || tau < 1); ++it) {
     if (tau < 1) {
       // Drag: the rest of the path, the free vertices following by the linear response of the
       // model, -A_ff^-1 A_fc dX_c (A_fc dX_c is the change of the gradient the motion causes).
       Eigen::MatrixXd D = (1 - tau) * path;
       if (m.nf() > 0) {
-        Eigen::MatrixXd response = m.gather(m.arap.half_gradient(X + D, state.local) - m.arap.half_gradient(X, state.local));
-        m.arap.apply_inverse(response);
-        D -= m.scatter(response);
+        // The barriers' Hessian takes part (the response of E_guard's quadratic model, not of E
+        // alone): free vertices near contact or near a flat tet are held back by it instead of
+        // being carried into the bound, so a base pressing two parts of the top together thins
+        // the top there and the drag goes on (a plane folded shut).
+        Eigen::MatrixXd coupling = m.gather(m.arap.half_gradient(X + D, state.local) - m.arap.half_gradient(X, state.local));
+        const auto H = m.half_barrier_triplets(X, state);
+        if (H.empty() || (m.p.cg_iterations == 0 && m.p.local_rings < 0)) {
+          m.arap.apply_inverse(coupling);
+          D -= m.scatter(coupling);
+        } else {
+          coupling += m.barrier_coupling(H, D);
+          D += m.scatter(m.direction(m.local_hessian(H), coupling, result.cg_iterations));
+        }
       }
       const double a = m.step_bound(X, D);
       if (a > 0) {
@@ -352,6 +394,10 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     const double scale = std::max(options.energy_scale, E);
     const bool small = E <= 0 || ((E - E_new) < options.tolerance * scale &&
                                   (!clamped || predicted < options.tolerance * scale));
+    // A drag the bounds hold still (the fixed vertices' motion forces a contact) is given up
+    // early: its iterations would only shuffle the free vertices against the barriers.
+    tau_history.push_back(tau);
+    if (tau < 1 && it > kStallIterations && tau - tau_history[it - kStallIterations] < kStallProgress) break;
     if (tau >= 1 && (small || !moved)) {
       result.converged = small;
       break;
