@@ -747,5 +747,140 @@ class PoseTest(TempDirTest):
             gshell.Poser(self.shell, levels=0)
 
 
+def smoothstep(k, count):
+    t = k / count
+    return t * t * (3 - 2 * t)
+
+
+def bend_plane(V, degrees, band):
+    """The z = 0 plane over [-1, 1]^2 folded about the y axis as gshell's synthetic bend does: the
+    middle `band` of x becomes an arc (radius band * 2 / angle) curling towards +z, the rest
+    continues along its end tangents (an isometry of the plane)."""
+    angle = math.radians(degrees)
+    half_band, R = band, 2 * band / angle
+    along, across = V[:, 0], V[:, 2]
+    clamped = np.clip(along, -half_band, half_band)
+    beyond, phi = along - clamped, clamped / R
+    out = V.copy()
+    out[:, 0] = (R - across) * np.sin(phi) + beyond * np.cos(phi)
+    out[:, 2] = R - (R - across) * np.cos(phi) + beyond * np.sin(phi)
+    return out
+
+
+FRAME_FIELDS = {"valid", "method", "substeps", "guarded_iterations", "thinned_vertices", "certificate",
+                "base_self_intersections"}
+
+
+class DeformGuardTest(TempDirTest):
+    """Deformer(allow_invalid=) and deform(allow_invalid=): valid frames by default, the unguarded
+    ones with allow_invalid=True. A plane shell of thickness 0.3 bent to 150 degrees in a band of
+    radius 0.15: the paper's frames invert tets there."""
+
+    @classmethod
+    def setUpClass(cls):
+        V, F = gshell.builtin("plane:16")
+        cls.eta = 0.3
+        cls.shell = gshell.generate(V, F, thickness=cls.eta, count_intersections=False)
+        cls.frames = [bend_plane(V, 150 * smoothstep(k, 6), 0.2) for k in range(1, 7)]
+
+    def certify(self, base, top):
+        """The frame certified independently of the deformer's report."""
+        return gshell.metrics(base, self.shell.faces, top, thickness=self.eta)
+
+    def test_frames_are_valid_by_default(self):
+        d = gshell.Deformer(self.shell)
+        methods = []
+        for k, frame in enumerate(self.frames):
+            top = d.solve(frame)
+            last = d.last
+            self.assertLessEqual(FRAME_FIELDS, set(last), f"frame {k + 1}")
+            self.assertTrue(last["valid"], f"frame {k + 1}")
+            self.assertEqual(last["certificate"]["inverted_tets"], 0)
+            methods.append(last["method"])
+            m = self.certify(frame, top)
+            self.assertTrue(m["valid"], f"frame {k + 1}")
+            self.assertEqual(m["certificate"]["inverted_tets"], 0)
+            self.assertEqual(m["base_self_intersections"], 0)
+        self.assertLessEqual(set(methods), {"bounded", "guarded"})
+        self.assertIn("guarded", methods)  # the guard had to act
+
+    def test_allow_invalid_reproduces_the_unguarded_frames(self):
+        guarded, loose = gshell.Deformer(self.shell), gshell.Deformer(self.shell, allow_invalid=True)
+        invalid, same_so_far = 0, True
+        for k, frame in enumerate(self.frames):
+            top_g, top_u = guarded.solve(frame), loose.solve(frame)
+            self.assertEqual(loose.last["method"], "unguarded")
+            self.assertEqual(loose.last["substeps"], 0)
+            self.assertLessEqual(FRAME_FIELDS, set(loose.last))
+            # A frame the guard took as solved ("bounded") is the paper's frame, bit for bit, as
+            # long as the frames before it were too.
+            same_so_far = same_so_far and guarded.last["method"] == "bounded"
+            if same_so_far:
+                np.testing.assert_array_equal(top_g, top_u, f"frame {k + 1}")
+            m = self.certify(frame, top_u)
+            self.assertEqual(loose.last["valid"], m["valid"], f"frame {k + 1}")
+            invalid += 0 if m["valid"] else 1
+        self.assertGreater(invalid, 0)  # the paper's frames break validity here
+        self.assertFalse(same_so_far)   # and the guarded ones differ from some frame on
+
+    def test_deform_reports_per_frame_and_summary(self):
+        report = gshell.deform(self.shell, self.frames)
+        loose = gshell.deform(self.shell, self.frames, allow_invalid=True)
+        for r in (report, loose):
+            for key in ("valid_frames", "invalid_frames", "certificate_inverted_tets", "guarded_frames",
+                        "max_substeps"):
+                self.assertIn(key, r["summary"])
+            for f in r["frames"]:
+                self.assertLessEqual(FRAME_FIELDS, set(f))
+        self.assertEqual(report["summary"]["valid_frames"], len(self.frames))
+        self.assertEqual(report["summary"]["certificate_inverted_tets"], 0)
+        self.assertGreater(report["summary"]["guarded_frames"], 0)
+        self.assertGreater(loose["summary"]["invalid_frames"], 0)
+        self.assertGreater(loose["summary"]["certificate_inverted_tets"], 0)
+        self.assertEqual(loose["summary"]["guarded_frames"], 0)
+        # deform(allow_invalid=True) is the unguarded Deformer frame by frame.
+        d = gshell.Deformer(self.shell, allow_invalid=True)
+        for frame, record in zip(self.frames, loose["frames"]):
+            d.solve(frame)
+            self.assertEqual(d.last["energy"], record["energy"])
+            self.assertEqual(d.last["valid"], record["valid"])
+
+
+class PoseGuardTest(TempDirTest):
+    """Poser(allow_invalid=): two handles at opposite sides of a bowl's rim driven through each
+    other. Guarded (default) every step is valid and the drag stops at contact; unguarded the shell
+    passes through itself."""
+
+    SQUEEZE = {"handles": [
+        {"select": {"box": [0.8, -9, -9, 9, 9, 9]}, "translate": [-2.4, 0, 0]},
+        {"select": {"box": [-9, -9, -9, -0.8, 9, 9]}, "translate": [2.4, 0, 0]}]}
+
+    @classmethod
+    def setUpClass(cls):
+        V, F = gshell.builtin("bowl:8")
+        cls.shell = gshell.generate(V, F, thickness=0.08, count_intersections=False)
+
+    def squeeze(self, solver, allow_invalid):
+        poser = gshell.Poser(self.shell, solver=solver, allow_invalid=allow_invalid)
+        base, top = poser.solve(self.SQUEEZE, steps=4, iterations=100, tolerance=1e-5)
+        return poser.last, gshell.metrics(base, self.shell.faces, top, thickness=0.08)
+
+    def test_squeeze_stops_at_contact_valid_and_allow_invalid_passes_through(self):
+        for solver in ("single", "hierarchical"):
+            with self.subTest(solver=solver):
+                last, m = self.squeeze(solver, False)
+                for step in last["steps"]:
+                    for key in ("valid", "method", "blocked_by_contact", "guarded_iterations", "certificate"):
+                        self.assertIn(key, step)
+                    self.assertTrue(step["valid"], step)
+                    self.assertEqual(step["certificate"], {"inverted_tets": 0, "intersections": 0})
+                self.assertTrue(any(step["blocked_by_contact"] for step in last["steps"]))
+                self.assertTrue(m["valid"])
+                self.assertEqual(m["base_self_intersections"], 0)
+                last, m = self.squeeze(solver, True)
+                self.assertNotIn("valid", last["steps"][-1])  # unguarded steps are not certified
+                self.assertFalse(m["valid"] and m["base_self_intersections"] == 0)
+
+
 if __name__ == "__main__":
     unittest.main()
