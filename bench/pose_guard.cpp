@@ -3,18 +3,29 @@
 // at x > 0.7 R by R * (0.8, 0.2, 0.5)) in K steps, guarded (the default: every step certified
 // valid, stopping at contact) against unguarded (--allow-invalid), runs interleaved.
 //
-//   bench_pose_guard [--steps K=20] [--runs R=3] [--solver hierarchical|single]
+//   bench_pose_guard [--steps K=20] [--runs R=3] [--solver hierarchical|single] [--goal]
 //
 // Prints the shell's size, then per mode: median step time over the drag (median over runs), the
-// slowest step (the snap-through), valid steps, steps blocked by contact, guarded steps.
+// slowest step (the snap-through), valid steps, steps blocked by contact, guarded steps. Each step
+// is solved to the pose tolerance (1e-6), as `gshell pose` does.
+//
+// --goal: bench_pose's drag protocol and stopping rule instead, so that the figures compare with
+// its 10 ms goal: reference minima E*_k of every step (single level + Anderson, relative change <
+// 1e-10); step k starts from the reference states of steps k-1 and k-2 continued
+// (predict_start) and runs until E <= 1.001 E*_k. The unguarded step is timed so (as bench_pose
+// does); the guarded step is PoseSolver::solve_valid from the reference state of step k-1 with
+// the same number of iterations (tolerance 0), i.e. the same solve plus the guard (tet step bound
+// and certificate, or the guarded drag when those refuse the solve). Both solvers, --runs runs.
 #include "bench_common.h"
 
+#include <gshell/deform/pose.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
 #include <gshell/shell/generate_shell.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -45,15 +56,120 @@ Stats run(const Shell& shell, const HandleSet& handles, PoseOptions options, boo
   return s;
 }
 
+/// Thrown from the progress callback at the first iteration that reaches the goal.
+struct GoalReached {
+  int iteration;
+};
+
+/// Iterations until E <= goal from X0 (cap if not reached).
+int iterations_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, const Eigen::MatrixXd& P, double goal, int cap) {
+  Eigen::MatrixXd X = X0;
+  SolveOptions options;
+  options.max_iterations = cap;
+  options.tolerance = 0;
+  options.progress = [&](int it, double e, double) {
+    if (e <= goal) throw GoalReached{it};
+  };
+  try {
+    return solver.solve(X, P, options).iterations;
+  } catch (const GoalReached& g) {
+    return g.iteration;
+  }
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// bench_pose's drag, unguarded and guarded (see --goal above), for one solver kind.
+void goal_drag(const Shell& shell, const HandleSet& handles, PoseSolverKind kind, int steps, int runs,
+               const std::vector<Eigen::MatrixXd>& Xref, const std::vector<double>& Eref) {
+  constexpr int kCap = 600;
+  std::vector<double> plain_median, guarded_median, guarded_max;
+  std::vector<double> plain_ms, guarded_ms, iterations;
+  int valid = 0, bounded = 0, missed = 0;
+  for (int r = 0; r < runs; ++r) {
+    PoseSolver counter(shell, handles, kind), plain(shell, handles, kind), guarded(shell, handles, kind);
+    plain_ms.clear();
+    guarded_ms.clear();
+    iterations.clear();
+    valid = bounded = missed = 0;
+    for (int k = 1; k <= steps; ++k) {
+      const double f = static_cast<double>(k) / steps;
+      const Eigen::MatrixXd P = counter.targets(f);
+      const Eigen::MatrixXd X0 =
+          k >= 2 ? counter.predict_start(Xref[k - 2], (k - 2.0) / steps, Xref[k - 1], (k - 1.0) / steps, f) : Xref[k - 1];
+      const int count = iterations_to_goal(counter, X0, P, 1.001 * Eref[k], kCap);
+      missed += count >= kCap ? 1 : 0;
+      iterations.push_back(count);
+      SolveOptions options;
+      options.max_iterations = count;
+      options.tolerance = 0;
+      auto t0 = std::chrono::steady_clock::now();
+      Eigen::MatrixXd X = k >= 2 ? plain.predict_start(Xref[k - 2], (k - 2.0) / steps, Xref[k - 1], (k - 1.0) / steps, f)
+                                 : Xref[k - 1];
+      plain.solve(X, P, options);
+      plain_ms.push_back(1e3 * seconds_since(t0));
+      t0 = std::chrono::steady_clock::now();
+      Eigen::MatrixXd Y = k >= 2 ? guarded.predict_start(Xref[k - 2], (k - 2.0) / steps, Xref[k - 1], (k - 1.0) / steps, f)
+                                 : Xref[k - 1];
+      ValidStep step;
+      guarded.solve_valid(Xref[k - 1], Y, P, options, GuardOptions{}, &step);
+      guarded_ms.push_back(1e3 * seconds_since(t0));
+      valid += step.valid ? 1 : 0;
+      bounded += step.method == FrameMethod::Bounded ? 1 : 0;
+    }
+    plain_median.push_back(median(plain_ms));
+    guarded_median.push_back(median(guarded_ms));
+    guarded_max.push_back(*std::max_element(guarded_ms.begin(), guarded_ms.end()));
+  }
+  const auto slowest = std::max_element(guarded_ms.begin(), guarded_ms.end()) - guarded_ms.begin();
+  std::printf("[%s] to E <= 1.001 E*_k (bench_pose's rule), %d steps, medians of %d runs:\n"
+              "  unguarded: median step %.2f ms\n"
+              "  guarded:   median step %.2f ms, slowest step %.2f ms (step %d, the snap-through: %.2f ms unguarded, %.0f iterations); "
+              "%d/%d steps valid, %d taken as solved (bounded), %d not reaching the goal in %d iterations\n",
+              kind == PoseSolverKind::Single ? "single" : "hierarchical", steps, runs, median(plain_median),
+              median(guarded_median), median(guarded_max), static_cast<int>(slowest) + 1, plain_ms[slowest],
+              iterations[slowest], valid, steps, bounded, missed, kCap);
+  std::printf("  iterations per step:");
+  for (double i : iterations) std::printf(" %.0f", i);
+  std::printf("\n  guarded step ms:");
+  for (double ms : guarded_ms) std::printf(" %.1f", ms);
+  std::printf("\n  unguarded step ms:");
+  for (double ms : plain_ms) std::printf(" %.1f", ms);
+  std::printf("\n");
+}
+
+/// Reference minima of every drag step: single level + Anderson(5) to relative change < 1e-10.
+void references(const Shell& shell, const HandleSet& handles, int steps, std::vector<Eigen::MatrixXd>& Xref,
+                std::vector<double>& Eref) {
+  HierarchyOptions o;
+  o.levels = 1;
+  o.anderson_history = 5;
+  o.path_extrapolation = false;
+  PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, o);
+  SolveOptions options;
+  options.max_iterations = 3000;
+  options.tolerance = 1e-10;
+  Xref.assign(steps + 1, reference.rest_vertices());
+  Eref.assign(steps + 1, 0.0);
+  for (int k = 1; k <= steps; ++k) {
+    Xref[k] = Xref[k - 1];
+    Eref[k] = reference.solve(Xref[k], static_cast<double>(k) / steps, options).energy.back();
+  }
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
   int steps = 20, runs = 3;
   std::string solver = "hierarchical";
+  bool goal = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) steps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--solver") && i + 1 < argc) solver = argv[++i];
+    else if (!std::strcmp(argv[i], "--goal")) goal = true;
   }
   const TriMesh mesh = make_bowl();
   GenerateOptions generate;
@@ -68,6 +184,14 @@ int main(int argc, char** argv) {
   std::printf("bowl: %d shell vertices, %d tets, eta %.4g; handle vertices %zu + %zu; %d-step drag, %s solver\n",
               2 * shell.num_base_vertices(), 3 * static_cast<int>(shell.F.rows()), shell.thickness,
               handles.handles[0].vertices.size(), handles.handles[1].vertices.size(), steps, solver.c_str());
+  if (goal) {
+    std::vector<Eigen::MatrixXd> Xref;
+    std::vector<double> Eref;
+    references(shell, handles, steps, Xref, Eref);
+    for (PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical})
+      goal_drag(shell, handles, kind, steps, runs, Xref, Eref);
+    return 0;
+  }
   std::vector<double> guarded_median, unguarded_median, guarded_max, unguarded_max;
   Stats g, u;
   for (int r = 0; r < runs; ++r) {
