@@ -55,7 +55,7 @@ def cache_directory(base, directory):
 class Bake:
     """One bake: the rest shell and embeddings prepared once, then step() solves one frame."""
 
-    def __init__(self, gshell, context, base, frame_start, frame_end, directory):
+    def __init__(self, gshell, context, base, frame_start, frame_end, directory, allow_invalid=False):
         if frame_end < frame_start:
             raise shell_store.ShellError(f"frame_end ({frame_end}) is before frame_start ({frame_start})")
         self.scene = context.scene
@@ -65,7 +65,10 @@ class Bake:
         self.frame_before = self.scene.frame_current
         shell = shell_store.rest_shell(gshell, base)
         self.n = len(shell.base)
-        self.deformer = gshell.Deformer(shell)  # assembles and factors the system once
+        # Assembles and factors the system once. Every frame is valid (certified) unless
+        # allow_invalid: the paper's unguarded frames, as `gshell deform --allow-invalid`.
+        self.allow_invalid = allow_invalid
+        self.deformer = gshell.Deformer(shell, allow_invalid=True) if allow_invalid else gshell.Deformer(shell)
         self.details = [d for d in shell_store.details_of(base, self.scene) if len(d.data.vertices)]
         self.embeddings = [gshell.embed(shell, shell_store.detail_rest_points(d)) for d in self.details]
         self.folder, self.warning = cache_directory(base, directory)
@@ -111,6 +114,7 @@ class Bake:
         self.frame_stats.append({
             "frame": frame, "iterations": last["iterations"], "converged": last["converged"],
             "stretch_max": last["stretch"]["max"], "inverted_tets": last["inverted_tets"],
+            "valid": last.get("valid"), "method": last.get("method"),
             "seconds": {"total": clock[-1] - clock[0], "evaluate": evaluate, "solve": solve, "carry": carry,
                         "write": write}})
         self.done += 1
@@ -127,14 +131,17 @@ class Bake:
         per_frame = seconds[len(seconds) // 2]
         worst = max(s["stretch_max"] for s in self.frame_stats)
         inverted = max(s["inverted_tets"] for s in self.frame_stats)
+        invalid = sum(1 for s in self.frame_stats if s["valid"] is False)
         self.top[shell_store.BAKE_REPORT_KEY] = json.dumps({
             "frame_start": self.frames[0], "frame_end": self.frames[-1], "vertices": self.n,
             "details": [d.name for d in self.details], "directory": self.folder,
             "factor_seconds": self.deformer.factor_seconds, "median_seconds_per_frame": per_frame,
+            "allow_invalid": self.allow_invalid, "invalid_frames": invalid,
             "frames": self.frame_stats}, indent=1)
         return (f"gshell: baked frames {self.frames[0]}-{self.frames[-1]} of '{self.base.name}' (top and "
                 f"{len(self.details)} detail object(s)): {per_frame:.3g} s per frame, max stretch {worst:.3g}, "
-                f"{'no' if inverted == 0 else 'up to ' + str(inverted)} inverted tets; caches in {self.folder}")
+                f"{'no' if inverted == 0 else 'up to ' + str(inverted)} inverted tets, "
+                f"{invalid} invalid frame(s){' (allow invalid)' if self.allow_invalid else ''}; caches in {self.folder}")
 
     def cancel(self):
         for writer in self.writers:
@@ -155,6 +162,10 @@ class OBJECT_OT_gshell_bake(bpy.types.Operator):
     directory: bpy.props.StringProperty(
         name="Cache folder", default=DEFAULT_DIRECTORY, subtype="DIR_PATH",
         description="Where the point caches go (one sub-folder per base); '//' is the .blend file's folder")
+    allow_invalid: bpy.props.BoolProperty(
+        name="Allow invalid", default=False,
+        description="Skip the guard and bake the unguarded frames (tets may invert, the shell may pass through "
+                    "itself), as gshell deform --allow-invalid; by default every frame is valid")
 
     @classmethod
     def poll(cls, context):
@@ -166,7 +177,8 @@ class OBJECT_OT_gshell_bake(bpy.types.Operator):
                 setattr(self, name, getattr(context.scene, name))
         base = shell_store.base_of(context.active_object)
         try:
-            self._bake = Bake(gshell_module.get(), context, base, self.frame_start, self.frame_end, self.directory)
+            self._bake = Bake(gshell_module.get(), context, base, self.frame_start, self.frame_end, self.directory,
+                              self.allow_invalid)
         except (gshell_module.ModuleUnavailable, shell_store.ShellError, ValueError) as e:
             self.report({"ERROR"}, f"gshell: {e}")
             return False

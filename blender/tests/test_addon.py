@@ -209,6 +209,30 @@ class AddonTest(unittest.TestCase):
         self.assertNotIn("gshell bake", details[0].modifiers)
         self.assertIn("gshell bake", details[1].modifiers)
 
+    def test_bake_allow_invalid_gives_the_unguarded_frames(self):
+        gshell = the_module()
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        top = sphere.gshell.top
+        addon_session.animate_bend(sphere, 90, 1, 4)
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=4), {"FINISHED"})
+        report = json.loads(top["gshell_bake"])
+        self.assertFalse(report["allow_invalid"])
+        self.assertTrue(all(f["valid"] and f["method"] in ("bounded", "guarded") for f in report["frames"]))
+        self.assertEqual(report["invalid_frames"], 0)
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=4, allow_invalid=True), {"FINISHED"})
+        report = json.loads(top["gshell_bake"])
+        self.assertTrue(report["allow_invalid"])
+        self.assertEqual({f["method"] for f in report["frames"]}, {"unguarded"})
+        # The frames of the module's unguarded Deformer fed the same bases.
+        shell = gshell.Shell(positions(sphere.data), np.asarray(top["gshell_faces"]).reshape(-1, 3),
+                             positions(top.data), top.gshell.thickness)
+        deformer = gshell.Deformer(shell, allow_invalid=True)
+        for frame in range(1, 5):
+            bpy.context.scene.frame_set(frame)
+            expected = deformer.solve(evaluated_positions(sphere))
+            np.testing.assert_allclose(evaluated_positions(top), expected, atol=1e-5, err_msg=f"frame {frame}")
+
     def test_bake_of_a_saved_file_is_kept_next_to_it(self):
         import gshell_blender
         sphere = uv_sphere(segments=12, rings=6)
