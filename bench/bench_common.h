@@ -1,6 +1,7 @@
 #pragma once
 // Helpers the benchmarks share (header-only: each bench/*.cpp is its own executable).
 #include <gshell/deform/handles.h>
+#include <gshell/deform/pose.h>
 #include <gshell/shell/shell.h>
 
 #include <Eigen/Core>
@@ -48,6 +49,16 @@ inline HandleSet pull_handles(const Shell& shell, bool bowl) {
     h.center /= static_cast<double>(h.vertices.size());
   }
   return set;
+}
+
+/// The pose benchmarks' reference solver: the single level with Anderson(5) acceleration (the
+/// same minimum as plain local/global, reached much sooner), no path extrapolation.
+inline PoseSolver reference_pose_solver(const Shell& shell, const HandleSet& handles) {
+  HierarchyOptions o;
+  o.levels = 1;
+  o.anderson_history = 5;
+  o.path_extrapolation = false;
+  return PoseSolver(shell, handles, PoseSolverKind::Hierarchical, o);
 }
 
 } // namespace gshell::bench

@@ -143,11 +143,7 @@ void goal_drag(const Shell& shell, const HandleSet& handles, PoseSolverKind kind
 /// Reference minima of every drag step: single level + Anderson(5) to relative change < 1e-10.
 void references(const Shell& shell, const HandleSet& handles, int steps, std::vector<Eigen::MatrixXd>& Xref,
                 std::vector<double>& Eref) {
-  HierarchyOptions o;
-  o.levels = 1;
-  o.anderson_history = 5;
-  o.path_extrapolation = false;
-  PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, o);
+  PoseSolver reference = bench::reference_pose_solver(shell, handles);
   SolveOptions options;
   options.max_iterations = 3000;
   options.tolerance = 1e-10;
