@@ -25,14 +25,14 @@
 // the constructor, for a rest shape and a set of fixed vertices; solve() runs from any valid
 // state. Fixed vertices may be moved along a straight path during a solve (a deformed base
 // dragging its shell): each iteration first advances them along the path as far as the bounds
-// allow, the free vertices following by the linear response of the quadratic model of E_guard,
+// allow, the free vertices following by the linear response of the model, then takes an energy
+// step with them held. With contacts guarded the response is that of E_guard's quadratic model,
 // -(A + H/2)_ff^-1 (A + H/2)_fc dX_c with H the barriers' Hessian (solved like the direction of
-// step 1), then takes an energy step with them held. With the barriers in the response, free
-// vertices near a contact are held apart while the fixed ones move (a plane folded shut: its top
-// thins where the two halves press together) instead of being carried into the step bound; with
-// the model's response alone the drag stalls there. A drag that the bounds hold still (less than
-// 0.1% of the path in 20 iterations: the fixed vertices force a contact) ends early with
-// path_done < 1.
+// step 1): free vertices near a contact are held apart while the fixed ones move (a plane folded
+// shut: its top thins where the two halves press together) instead of being carried into the
+// step bound, where the model's response alone (-A_ff^-1 A_fc dX_c, kept when only the tets are
+// guarded) stalls. A contact-guarded drag that the bounds hold still (less than 0.1% of the path
+// in 20 iterations: the fixed vertices force a contact) ends early with path_done < 1.
 #include <gshell/guard/contact_guard.h>
 #include <gshell/guard/volume_barrier.h>
 #include <gshell/quality/shell_boundary.h>
