@@ -1,7 +1,5 @@
 #include "quality/exact_faces.h"
 
-#include "quality/filtered_orientation.h"
-
 #include <CGAL/Intersections_3/Point_3_Point_3.h>
 #include <CGAL/Intersections_3/Point_3_Segment_3.h>
 #include <CGAL/Intersections_3/Point_3_Triangle_3.h>
@@ -15,31 +13,6 @@ namespace {
 using Point = ExactPoint;
 using Segment = ExactKernel::Segment_3;
 using Triangle = ExactKernel::Triangle_3;
-
-// CGAL::orientation(p, q, r, s), by the faster static filter of filtered_orientation.h.
-int orientation(const Point& p, const Point& q, const Point& r, const Point& s) {
-  const double a[3] = {p.x(), p.y(), p.z()}, b[3] = {q.x(), q.y(), q.z()}, c[3] = {r.x(), r.y(), r.z()},
-               d[3] = {s.x(), s.y(), s.z()};
-  return orientation_sign(a, b, c, d);
-}
-
-// CGAL::collinear(p, q, r): points are collinear iff their projections onto the three coordinate
-// planes are (projections are exact), and a non-zero 2D orientation settles it at once.
-bool collinear(const Point& p, const Point& q, const Point& r) {
-  for (int a = 0; a < 3; ++a) {
-    const int b = (a + 1) % 3;
-    if (orientation_sign(p[a], p[b], q[a], q[b], r[a], r[b]) != 0) return false;
-  }
-  return true;
-}
-
-// Whether all three corners of `t` lie strictly on one side of the plane of (p, q, r): then the
-// triangle t cannot meet anything in that plane. Decides most disjoint pairs of nearby triangles
-// before CGAL's general test.
-bool strictly_on_one_side(const Point& p, const Point& q, const Point& r, const std::array<Point, 3>& t) {
-  const int s0 = orientation(p, q, r, t[0]);
-  return s0 != 0 && orientation(p, q, r, t[1]) == s0 && orientation(p, q, r, t[2]) == s0;
-}
 
 // The convex hull of up to three points as the simplest CGAL object covering it: CGAL's
 // triangle and segment tests require non-degenerate arguments.
@@ -63,7 +36,7 @@ std::array<std::uint8_t, 2> collinear_ends(const std::array<Point, 3>& p) {
 }
 
 Hull hull(const Point& a, const Point& b, const Point& c) {
-  if (!collinear(a, b, c)) return {2, {a, b, c}};
+  if (!CGAL::collinear(a, b, c)) return {2, {a, b, c}};
   const std::array<Point, 3> p{a, b, c};
   const auto [lo, hi] = collinear_ends(p);
   return hull(p[lo], p[hi]);
@@ -77,10 +50,7 @@ Hull hull(const ExactFace& f) {
 bool meet(const Hull& a, const Hull& b) {
   if (a.dim < b.dim) return meet(b, a);
   switch (a.dim * 3 + b.dim) {
-  case 8:
-    if (strictly_on_one_side(a.q[0], a.q[1], a.q[2], b.q) || strictly_on_one_side(b.q[0], b.q[1], b.q[2], a.q))
-      return false;
-    return CGAL::do_intersect(Triangle(a.q[0], a.q[1], a.q[2]), Triangle(b.q[0], b.q[1], b.q[2]));
+  case 8: return CGAL::do_intersect(Triangle(a.q[0], a.q[1], a.q[2]), Triangle(b.q[0], b.q[1], b.q[2]));
   case 7: return CGAL::do_intersect(Triangle(a.q[0], a.q[1], a.q[2]), Segment(b.q[0], b.q[1]));
   case 6: return CGAL::do_intersect(Triangle(a.q[0], a.q[1], a.q[2]), b.q[0]);
   case 4: return CGAL::do_intersect(Segment(a.q[0], a.q[1]), Segment(b.q[0], b.q[1]));
@@ -121,10 +91,10 @@ bool meet_beyond_vertex(const Point& p, const Point& a1, const Point& a2, const 
   if (A.dim == 2 && B.dim == 2) {
     // B minus p lies strictly on one side of A's plane when b1 and b2 do (and vice versa): on a
     // surface curved one way, most neighbours around a vertex are settled by these four signs.
-    const int o1 = orientation(p, a1, a2, b1), o2 = orientation(p, a1, a2, b2);
-    if (o1 == o2 && o1 != 0) return false;
-    const int o3 = orientation(p, b1, b2, a1), o4 = orientation(p, b1, b2, a2);
-    if (o3 == o4 && o3 != 0) return false;
+    const CGAL::Orientation o1 = CGAL::orientation(p, a1, a2, b1), o2 = CGAL::orientation(p, a1, a2, b2);
+    if (o1 == o2 && o1 != CGAL::COPLANAR) return false;
+    const CGAL::Orientation o3 = CGAL::orientation(p, b1, b2, a1), o4 = CGAL::orientation(p, b1, b2, a2);
+    if (o3 == o4 && o3 != CGAL::COPLANAR) return false;
     // Non-degenerate: p is on neither opposite edge.
     return CGAL::do_intersect(Segment(a1, a2), Triangle(p, b1, b2)) ||
            CGAL::do_intersect(Segment(b1, b2), Triangle(p, a1, a2));
@@ -135,11 +105,11 @@ bool meet_beyond_vertex(const Point& p, const Point& a1, const Point& a2, const 
 // A = conv(p, q, a) and B = conv(p, q, b) share the edge pq: do they meet off the segment pq?
 bool meet_beyond_edge(const Point& p, const Point& q, const Point& a, const Point& b) {
   if (p == q) return meet_beyond_vertex(p, q, a, q, b); // the shared "edge" is the point p
-  const bool a_flat = collinear(p, q, a), b_flat = collinear(p, q, b);
+  const bool a_flat = CGAL::collinear(p, q, a), b_flat = CGAL::collinear(p, q, b);
   if (!a_flat && !b_flat) {
     // In different planes they meet on the line pq only, where both are the segment pq. In one
     // plane they overlap iff a and b are on the same side of pq.
-    return orientation(p, q, a, b) == 0 && CGAL::coplanar_orientation(p, q, a, b) == CGAL::POSITIVE;
+    return CGAL::orientation(p, q, a, b) == CGAL::COPLANAR && CGAL::coplanar_orientation(p, q, a, b) == CGAL::POSITIVE;
   }
   // A flat face lies on the line pq, which meets a non-flat face in the segment pq only.
   if (a_flat != b_flat) return false;
@@ -158,7 +128,7 @@ ExactFace exact_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f) 
     face.id[k] = F(f, k);
     face.p[k] = Point(V(F(f, k), 0), V(F(f, k), 1), V(F(f, k), 2));
   }
-  if (collinear(face.p[0], face.p[1], face.p[2])) {
+  if (CGAL::collinear(face.p[0], face.p[1], face.p[2])) {
     face.end = collinear_ends(face.p);
     face.dim = face.p[face.end[0]] == face.p[face.end[1]] ? 0 : 1;
   }
