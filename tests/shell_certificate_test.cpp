@@ -2,6 +2,7 @@
 // answers, and the adjacency-aware pair test against an independent brute force that computes
 // every intersection exactly (CGAL's exact constructions) and checks where it lies.
 #include <gshell/error.h>
+#include <gshell/deform/synthetic_motion.h>
 #include <gshell/quality/certificate_report.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
@@ -504,6 +505,77 @@ TEST(ShellCertificate, DegenerateFacesAreTestedAsTheSegmentsTheyCover) {
   EXPECT_EQ(count({{0, 1, 2}, {8, 0, 9}}), 0u); // flat across vertex 0, touching the triangle there only
   EXPECT_EQ(count({{0, 10, 3}, {0, 11, 12}}), 0u); // segments leaving vertex 0 in opposite directions
   EXPECT_EQ(count({{0, 10, 3}, {0, 11, 4}}), 1u); // ... in the same direction
+}
+
+// ---- one certifier over the frames of a motion (its trees refit, not rebuilt) ------------------
+
+void expect_same(const ShellCertificate& a, const ShellCertificate& b, const std::string& where) {
+  EXPECT_EQ(a.inverted_tet_ids, b.inverted_tet_ids) << where;
+  EXPECT_EQ(a.intersections, b.intersections) << where;
+  EXPECT_EQ(a.inverted_tets, b.inverted_tets) << where;
+  EXPECT_EQ(a.top_self_intersections, b.top_self_intersections) << where;
+  EXPECT_EQ(a.top_base_intersections, b.top_base_intersections) << where;
+  EXPECT_EQ(a.wall_intersections, b.wall_intersections) << where;
+  EXPECT_EQ(a.base_self_intersections, b.base_self_intersections) << where;
+}
+
+TEST(ShellCertifier, FramesOfAFoldEqualFreshCertificatesAndExactConstructions) {
+  // A thick plane shell folded shut and on through itself (real top/top, top/base, wall and
+  // base/base crossings), its top carried rigidly with the base and shaken in some frames
+  // (inverted tets). One certifier follows the frames, refitting the trees it built at rest; every
+  // frame must get exactly the fresh certify_shell's answer, and every reported pair (and no
+  // other) must meet by exact constructions.
+  const SimpleMesh m = test::plane(6);
+  const int n = static_cast<int>(m.V.rows());
+  const Eigen::MatrixXd rest_top = offset_top(m.V, m.F, 0.2);
+  Eigen::MatrixXd rest(2 * n, 3);
+  rest << m.V, rest_top;
+  const MotionFrame frame = motion_frame(m.V);
+  const ShellBoundary boundary = shell_boundary(m.F, n);
+  ShellCertifier certifier(m.F, n);
+  CertifyOptions without_base;
+  without_base.base_self_intersections = false;
+  CertifyOptions tets_only;
+  tets_only.test_intersections = false;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> shake(-0.15, 0.15);
+  std::set<IntersectionKind> kinds;
+  int clean_frames = 0, inverted = 0;
+  for (double degrees : {0.0, 60.0, 120.0, 170.0, 185.0, 200.0, 230.0, 260.0, -200.0, 90.0}) {
+    const Eigen::MatrixXd X = bend(rest, frame, degrees, 0.5);
+    const Eigen::MatrixXd base = X.topRows(n);
+    Eigen::MatrixXd top = X.bottomRows(n);
+    if (degrees == 90.0)
+      for (Eigen::Index i = 0; i < top.size(); ++i) top(i) += shake(rng);
+    const std::string where = "bend " + std::to_string(degrees);
+    const ShellCertificate c = certifier.certify(base, top);
+    expect_same(c, certify_shell(base, top, m.F), where);
+    expect_same(certifier.certify(base, top, without_base), certify_shell(base, top, m.F, without_base), where);
+    expect_same(certifier.certify(base, top, tets_only), certify_shell(base, top, m.F, tets_only), where);
+    clean_frames += c.valid();
+    inverted += c.inverted_tets;
+
+    std::set<std::pair<int, int>> found;
+    for (const BoundaryIntersection& p : c.intersections) {
+      found.insert({p.a, p.b});
+      kinds.insert(p.kind);
+    }
+    Eigen::MatrixXd Y(2 * n, 3);
+    Y << base, top;
+    auto box = [&](int row) {
+      Eigen::AlignedBox3d b;
+      for (int k = 0; k < 3; ++k) b.extend(Y.row(boundary.F(row, k)).transpose().eval());
+      return b;
+    };
+    for (int f = 0; f < boundary.size(); ++f)
+      for (int g = f + 1; g < boundary.size(); ++g) {
+        const bool expected = box(f).intersects(box(g)) && brute_force_meets_beyond_shared(Y, boundary.F, f, g);
+        EXPECT_EQ(found.count({f, g}) == 1, expected) << where << " rows " << f << ", " << g;
+      }
+  }
+  EXPECT_GE(clean_frames, 3); // rest, 60 and 120 degrees at least
+  EXPECT_GT(inverted, 0);     // the shaken frame
+  EXPECT_EQ(kinds.size(), 4u); // top/top, top/base, wall and base/base crossings all occur
 }
 
 TEST(ShellCertificate, TestsCanBeSkippedAndBadInputIsRefused) {

@@ -31,7 +31,7 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
                        std::vector<int> fixed, bool moving_base)
     : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()), F_(rest.F), fixed_(std::move(fixed)),
       moving_base_(moving_base),
-      boundary_(shell_boundary(rest.F, rest.num_base_vertices())) {
+      boundary_(shell_boundary(rest.F, rest.num_base_vertices())), certifier_(rest.F, rest.num_base_vertices()) {
   const int n = n_, m = static_cast<int>(rest.F.rows());
   double eta = rest.thickness;
   if (!(eta > 0) && n > 0) eta = (rest.top - rest.base).rowwise().norm().mean();
@@ -40,7 +40,7 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // What the rest shell breaks already stays out of the guard: its inverted tets, and the faces
   // of its intersecting triangle pairs with every face sharing a vertex with them (a base that
   // crosses itself leaves no clean top near the crossing).
-  const ShellCertificate rest_certificate = certify_shell(rest.base, rest.top, rest.F);
+  const ShellCertificate rest_certificate = certifier_.certify(rest.base, rest.top);
   const Eigen::MatrixXd X = rest.vertices();
   const VolumeBarrier probe(rest_tets, options.j_hat);
   parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
@@ -90,7 +90,7 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   // is the frame, not the way to it: a certified frame is a valid start for the next one.
   CertifyOptions options;
   options.base_self_intersections = moving_base_;
-  ShellCertificate c = certify_shell(X1.topRows(n_), X1.bottomRows(n_), F_, options);
+  ShellCertificate c = certifier_.certify(X1.topRows(n_), X1.bottomRows(n_), options);
   bool ok = true;
   for (int t : c.inverted_tet_ids) ok = ok && parameters_.skip_tets[t];
   for (const BoundaryIntersection& pair : c.intersections)

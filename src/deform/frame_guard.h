@@ -69,6 +69,7 @@ private:
   std::vector<int> fixed_;
   bool moving_base_ = false;
   ShellBoundary boundary_;
+  ShellCertifier certifier_; // the rest shell's, then every frame's (its trees refit, not rebuilt)
   GuardedSolverParameters parameters_;
   std::unique_ptr<GuardedSolver> contact_, tets_;
 };

@@ -74,15 +74,25 @@ bool projects_one_to_one(const RowMajorPoints& V, const VertexStars& stars, int 
   return winding == 1;
 }
 
-// Flags of the n vertices of `stars` at the positions of each matrix in `positions`, one block
-// of n entries per matrix; a null matrix leaves its block 0.
-std::vector<char> flag_stars(const VertexStars& stars, int n, std::initializer_list<const Eigen::MatrixXd*> positions) {
+// Per vertex of `stars`: single_closed_fan.
+std::vector<char> closed_fans(const VertexStars& stars, int n) {
+  std::vector<char> closed(n, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 2048), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v) closed[v] = single_closed_fan(stars, v);
+  });
+  return closed;
+}
+
+// Flags of the n vertices of `stars` (`closed`: their closed_fans) at the positions of each matrix
+// in `positions`, one block of n entries per matrix; a null matrix leaves its block 0.
+std::vector<char> flag_stars(const VertexStars& stars, const std::vector<char>& closed, int n,
+                             std::initializer_list<const Eigen::MatrixXd*> positions) {
   std::vector<char> embedded(n * positions.size(), 0);
   std::vector<RowMajorPoints> points; // a vertex's coordinates in one cache line
   for (const Eigen::MatrixXd* V : positions) points.emplace_back(V ? RowMajorPoints(*V) : RowMajorPoints());
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 2048), [&](const tbb::blocked_range<int>& r) {
     for (int v = r.begin(); v < r.end(); ++v) {
-      if (!single_closed_fan(stars, v)) continue;
+      if (!closed[v]) continue;
       for (std::size_t block = 0; block < points.size(); ++block)
         if (points[block].rows() > 0) embedded[n * block + v] = projects_one_to_one(points[block], stars, v);
     }
@@ -94,13 +104,32 @@ std::vector<char> flag_stars(const VertexStars& stars, int n, std::initializer_l
 
 std::vector<char> embedded_stars(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   const int n = static_cast<int>(V.rows());
-  return flag_stars(VertexStars(RowMajorFaces(F), n), n, {&V});
+  const VertexStars stars(RowMajorFaces(F), n);
+  return flag_stars(stars, closed_fans(stars, n), n, {&V});
+}
+
+struct ShellStars::Topology {
+  int n;
+  VertexStars stars;
+  std::vector<char> closed;
+};
+
+ShellStars::ShellStars(const Eigen::MatrixXi& F, int n) {
+  VertexStars stars(RowMajorFaces(F), n);
+  std::vector<char> closed = closed_fans(stars, n);
+  topology_ = std::make_unique<Topology>(Topology{n, std::move(stars), std::move(closed)});
+}
+
+ShellStars::~ShellStars() = default;
+
+std::vector<char> ShellStars::embedded(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, bool base_stars) const {
+  const Topology& t = *topology_;
+  return flag_stars(t.stars, t.closed, t.n, {base_stars ? &base : nullptr, &top});
 }
 
 std::vector<char> embedded_shell_stars(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                                        const Eigen::MatrixXi& F, bool base_stars) {
-  const int n = static_cast<int>(base.rows());
-  return flag_stars(VertexStars(RowMajorFaces(F), n), n, {base_stars ? &base : nullptr, &top});
+  return ShellStars(F, static_cast<int>(base.rows())).embedded(base, top, base_stars);
 }
 
 } // namespace gshell::detail

@@ -2,6 +2,7 @@
 // A shortcut for the adjacency-aware pair tests: on a smooth closed surface most neighbouring
 // triangles are settled at once by showing that the whole star of a vertex is embedded.
 #include <Eigen/Core>
+#include <memory>
 #include <vector>
 
 namespace gshell::detail {
@@ -14,6 +15,20 @@ namespace gshell::detail {
 /// folded or twisted stars, faces with repeated or out-of-range ids (the pair tests decide those).
 /// A coordinate projection is exact (it only drops a coordinate), hence no rounding enters.
 std::vector<char> embedded_stars(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
+/// The topological part of embedded_shell_stars done once for faces F over n vertices (the vertex
+/// stars and which of them are single closed fans), for many shells over the same faces.
+class ShellStars {
+public:
+  ShellStars(const Eigen::MatrixXi& F, int n);
+  ~ShellStars();
+  /// embedded_shell_stars(base, top, F, base_stars) for the F given at construction.
+  std::vector<char> embedded(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, bool base_stars) const;
+
+private:
+  struct Topology;
+  std::unique_ptr<Topology> topology_;
+};
 
 /// The same for the 2n vertices of a shell's boundary surface (shell_boundary): base vertex i
 /// (id i) from its star in (base, F), top vertex i (id n + i) from its star in (top, F). Walls

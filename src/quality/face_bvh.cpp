@@ -93,10 +93,9 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
     for (int s = r.begin(); s < r.end(); ++s) {
       const int f = keyed[s].second;
       slot_face_[s] = f;
-      const Eigen::Vector3d a = corner(f, 0), b = corner(f, 1), c = corner(f, 2);
-      slot_box_[s] = Eigen::AlignedBox3d(a);
-      slot_box_[s].extend(b).extend(c);
+      slot_box_[s] = face_box(V, F, f);
       if (!distances) continue;
+      const Eigen::Vector3d a = corner(f, 0), b = corner(f, 1), c = corner(f, 2);
       slot_triangle_[s] = {a, b, c, triangle_is_flat(a, b, c)};
     }
   });
@@ -118,6 +117,42 @@ FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {
   build_nodes(keyed, std::max(leaf_size, 1));
 }
 
+Eigen::AlignedBox3d FaceBvh::face_box(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f) {
+  Eigen::AlignedBox3d box(V.row(F(f, 0)).transpose());
+  box.extend(V.row(F(f, 1)).transpose()).extend(V.row(F(f, 2)).transpose());
+  return box;
+}
+
+void FaceBvh::set_leaf_box(Node& node) const {
+  Eigen::AlignedBox3d box;
+  for (int s = node.begin; s < node.end; ++s) box.extend(slot_box_[s]);
+  for (int d = 0; d < 3; ++d) {
+    node.lo[d] = round_down(box.min()[d]);
+    node.hi[d] = round_up(box.max()[d]);
+  }
+}
+
+void FaceBvh::refit(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  assert(slot_triangle_.empty() && "FaceBvh::refit needs Use::pairs");
+  const int m = num_faces();
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int s = r.begin(); s < r.end(); ++s) slot_box_[s] = face_box(V, F, slot_face_[s]);
+  });
+  // Children come after their parent (depth-first), so a backward pass sees them first.
+  for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
+    Node& n = nodes_[i];
+    if (n.leaf()) {
+      set_leaf_box(n);
+      continue;
+    }
+    const Node &l = nodes_[i + 1], &r = nodes_[n.right];
+    for (int d = 0; d < 3; ++d) {
+      n.lo[d] = std::min(l.lo[d], r.lo[d]);
+      n.hi[d] = std::max(l.hi[d], r.hi[d]);
+    }
+  }
+}
+
 // Splits a slot range where its Morton codes first differ (an octree-like spatial split, so
 // every node covers one compact region); equal codes are split in the middle.
 int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size) {
@@ -126,12 +161,7 @@ int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end, 
   nodes_[node].begin = begin;
   nodes_[node].end = end;
   if (end - begin <= leaf_size) {
-    Eigen::AlignedBox3d box;
-    for (int s = begin; s < end; ++s) box.extend(slot_box_[s]);
-    for (int d = 0; d < 3; ++d) {
-      nodes_[node].lo[d] = round_down(box.min()[d]);
-      nodes_[node].hi[d] = round_up(box.max()[d]);
-    }
+    set_leaf_box(nodes_[node]);
     return node;
   }
   int mid = begin + (end - begin) / 2;

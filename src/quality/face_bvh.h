@@ -30,6 +30,13 @@ public:
 
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
+  /// Moves the faces to new positions V (the F this tree was built from, Use::pairs): face and
+  /// node boxes are recomputed exactly as a build computes them, the tree's shape and leaf order
+  /// are kept. Every query stays exact (a node's box still holds its faces' boxes); only its speed
+  /// depends on how compact the nodes stay, which they do when V is a motion of the built
+  /// positions that keeps neighbouring faces near each other (frames of a deformation).
+  void refit(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
   /// Face ids in the tree's leaf order: consecutive faces are close in space, so work done in
   /// this order stays cache-friendly.
   const std::vector<int>& faces_in_leaf_order() const { return slot_face_; }
@@ -80,6 +87,9 @@ private:
   int build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
   static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
   static bool nodes_meet(const Node& a, const Node& b);
+  static Eigen::AlignedBox3d face_box(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f);
+  // Node boxes from the slot boxes below them, rounded outwards to floats.
+  void set_leaf_box(Node& node) const;
   static double node_squared_distance(const Node& n, const Eigen::Vector3d& q);
 
   // Simultaneous descent of two trees (or one with itself); leaves(na, nb, self) at every pair of

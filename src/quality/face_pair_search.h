@@ -49,12 +49,15 @@ private:
 class FaceSet {
 public:
   FaceSet(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star = nullptr)
-      : bvh_(V, F, FaceBvh::Use::pairs), faces_(exact_faces_in_slot_order(V, F, bvh_)), ids_(faces_.size()),
-        star_(embedded_star ? embedded_star->data() : nullptr) {
-    for (std::size_t s = 0; s < faces_.size(); ++s) {
-      const std::array<int, 3>& id = faces_[s].id;
-      ids_[s] = {id, star_ && star_[id[0]] && star_[id[1]] && star_[id[2]]};
-    }
+      : bvh_(V, F, FaceBvh::Use::pairs) {
+    take_positions(V, F, embedded_star);
+  }
+
+  /// The same faces (F as constructed) at new positions V, with new star flags: the tree is refit
+  /// (FaceBvh::refit), not rebuilt, so a sequence of frames of one motion costs less per frame.
+  void move_to(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star = nullptr) {
+    bvh_.refit(V, F);
+    take_positions(V, F, embedded_star);
   }
 
   /// Calls found(f, g), f < g faces of this set, concurrently for every pair that meets beyond
@@ -87,6 +90,16 @@ private:
     return faces_intersect_beyond_shared(a.faces_[s], b.faces_[t], shared);
   }
 
+  void take_positions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star) {
+    faces_ = exact_faces_in_slot_order(V, F, bvh_);
+    ids_.resize(faces_.size());
+    star_ = embedded_star ? embedded_star->data() : nullptr;
+    for (std::size_t s = 0; s < faces_.size(); ++s) {
+      const std::array<int, 3>& id = faces_[s].id;
+      ids_[s] = {id, star_ && star_[id[0]] && star_[id[1]] && star_[id[2]]};
+    }
+  }
+
   static bool share_id(const std::array<int, 3>& a, const std::array<int, 3>& b) {
     return a[0] == b[0] || a[0] == b[1] || a[0] == b[2] || a[1] == b[0] || a[1] == b[1] || a[1] == b[2] ||
            a[2] == b[0] || a[2] == b[1] || a[2] == b[2];
@@ -99,7 +112,7 @@ private:
   FaceBvh bvh_;
   std::vector<ExactFace> faces_; // in slot order
   std::vector<Ids> ids_;         // in slot order
-  const char* star_;
+  const char* star_ = nullptr;
 };
 
 } // namespace gshell::detail

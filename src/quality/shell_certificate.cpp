@@ -13,6 +13,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <chrono>
+#include <initializer_list>
 #include <optional>
 #include <string>
 
@@ -72,39 +73,80 @@ const char* to_string(IntersectionKind kind) {
   return "unknown";
 }
 
-ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F,
-                               const CertifyOptions& options) {
+struct ShellCertifier::State {
+  // What the pair tests need, set up at the first shell whose pairs are tested (the tets alone
+  // need none of it).
+  struct Pairs {
+    ShellBoundary boundary;
+    Eigen::MatrixXi base_rows, upper_rows; // rows of boundary.F: base faces, then top faces and walls
+    detail::ShellStars stars;
+    Eigen::MatrixXd X;          // 2n x 3: base, then top
+    std::vector<char> embedded; // embedded_shell_stars of the shell being certified
+    // Two trees, base rows and the rest (top and walls), so that base/base pairs cost nothing
+    // when they are not wanted. Built for the first shell, refit for the next.
+    std::optional<detail::FaceSet> base_set, upper_set;
+
+    Pairs(const Eigen::MatrixXi& F, int n)
+        : boundary(shell_boundary(F, n)), base_rows(boundary.F.topRows(F.rows())),
+          upper_rows(boundary.F.bottomRows(boundary.size() - F.rows())), stars(F, n) {}
+  };
+
+  Eigen::MatrixXi F;
+  int n = 0;
+  std::unique_ptr<Pairs> pairs;
+};
+
+ShellCertifier::ShellCertifier(const Eigen::MatrixXi& F, int n) {
+  detail::check_face_indices(F, n, "ShellCertifier");
+  detail::check_distinct_corners(F, "ShellCertifier");
+  state_ = std::make_unique<State>();
+  state_->F = F;
+  state_->n = n;
+}
+
+ShellCertifier::~ShellCertifier() = default;
+ShellCertifier::ShellCertifier(ShellCertifier&&) noexcept = default;
+ShellCertifier& ShellCertifier::operator=(ShellCertifier&&) noexcept = default;
+
+ShellCertificate ShellCertifier::certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                                         const CertifyOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  check_input(base, top, F);
-  const int n = static_cast<int>(base.rows());
-  Eigen::MatrixXd X(2 * n, 3);
-  X << base, top;
+  State& s = *state_;
+  const int n = s.n, m = static_cast<int>(s.F.rows());
+  for (const Eigen::MatrixXd* V : {&base, &top})
+    if (V->rows() != n || V->cols() != 3 || !V->allFinite())
+      throw InputError("ShellCertifier: base and top must be " + std::to_string(n) +
+                       " x 3 with finite coordinates (got " + std::to_string(V->rows()) + " x " +
+                       std::to_string(V->cols()) + (V->allFinite() ? ")" : ", not finite)"));
 
   ShellCertificate c;
   if (!options.test_intersections) {
-    c.inverted_tet_ids = inverted_tets(base, top, F);
+    c.inverted_tet_ids = inverted_tets(base, top, s.F);
   } else {
-    // Two trees, base rows and the rest (top and walls), so that base/base pairs cost nothing
-    // when they are not wanted. Rows: base faces 0..m-1, then top faces, then walls.
-    const ShellBoundary boundary = shell_boundary(F, n);
-    const int m = static_cast<int>(F.rows());
-    const std::vector<char> embedded = detail::embedded_shell_stars(base, top, F, options.base_self_intersections);
-    std::optional<detail::FaceSet> base_set, upper_set;
-    tbb::parallel_invoke([&] { c.inverted_tet_ids = inverted_tets(base, top, F); },
-                         [&] { base_set.emplace(X, boundary.F.topRows(m).eval(), &embedded); },
-                         [&] { upper_set.emplace(X, boundary.F.bottomRows(boundary.size() - m).eval(), &embedded); });
+    if (!s.pairs) s.pairs = std::make_unique<State::Pairs>(s.F, n);
+    State::Pairs& p = *s.pairs;
+    // Rows: base faces 0..m-1, then top faces, then walls.
+    p.X.resize(2 * n, 3);
+    p.X << base, top;
+    p.embedded = p.stars.embedded(base, top, options.base_self_intersections);
+    auto place = [&](std::optional<detail::FaceSet>& set, const Eigen::MatrixXi& rows) {
+      if (set) set->move_to(p.X, rows, &p.embedded);
+      else set.emplace(p.X, rows, &p.embedded);
+    };
+    tbb::parallel_invoke([&] { c.inverted_tet_ids = inverted_tets(base, top, s.F); },
+                         [&] { place(p.base_set, p.base_rows); }, [&] { place(p.upper_set, p.upper_rows); });
     detail::PairCollector found;
-    upper_set->for_each_pair_meeting_beyond_shared([&](int f, int g) { found.add(m + f, m + g); });
-    upper_set->for_each_pair_meeting_beyond_shared(*base_set, [&](int f, int g) { found.add(g, m + f); });
+    p.upper_set->for_each_pair_meeting_beyond_shared([&](int f, int g) { found.add(m + f, m + g); });
+    p.upper_set->for_each_pair_meeting_beyond_shared(*p.base_set, [&](int f, int g) { found.add(g, m + f); });
     if (options.base_self_intersections)
-      base_set->for_each_pair_meeting_beyond_shared([&](int f, int g) { found.add(f, g); });
+      p.base_set->for_each_pair_meeting_beyond_shared([&](int f, int g) { found.add(f, g); });
 
     c.top_self_intersections = c.top_base_intersections = c.wall_intersections = 0;
     c.base_self_intersections = options.base_self_intersections ? 0 : -1;
     const detail::FacePairs pairs = found.sorted();
     c.intersections.reserve(pairs.size());
     for (const auto& [a, b] : pairs) {
-      const IntersectionKind kind = kind_of(boundary.part[a], boundary.part[b]);
+      const IntersectionKind kind = kind_of(p.boundary.part[a], p.boundary.part[b]);
       c.intersections.push_back({a, b, kind});
       switch (kind) {
       case IntersectionKind::TopTop: ++c.top_self_intersections; break;
@@ -115,6 +157,15 @@ ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixX
     }
   }
   c.inverted_tets = static_cast<int>(c.inverted_tet_ids.size());
+  c.seconds = seconds_since(t0);
+  return c;
+}
+
+ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F,
+                               const CertifyOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_input(base, top, F);
+  ShellCertificate c = ShellCertifier(F, static_cast<int>(base.rows())).certify(base, top, options);
   c.seconds = seconds_since(t0);
   return c;
 }

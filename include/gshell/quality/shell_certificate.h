@@ -12,6 +12,7 @@
 // input doubles), never from a tolerance; neighbouring triangles are tested too.
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace gshell {
@@ -77,5 +78,29 @@ struct ShellCertificate {
 ///         or F is not m x 3 with three distinct ids in [0, n) per face.
 ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F,
                                const CertifyOptions& options = {});
+
+/// Precompute once, certify many: the certificate of many shells over the same faces, e.g. the
+/// frames of a deformation. The topology (boundary surface, vertex stars, checked ids) is set up
+/// once; the search trees are built for the first shell certified and refit to every later one
+/// (kept in shape, boxes recomputed), which stays exact whatever the shells are and is fastest
+/// when they are frames of one motion (docs/valid-deformation.md). certify() returns exactly what
+/// certify_shell returns for the same shell. Not for concurrent calls on one object.
+class ShellCertifier {
+public:
+  /// Faces F (m x 3, three distinct ids in [0, n) each) over n base vertices.
+  /// \throws InputError when F is not m x 3 with three distinct ids in [0, n) per face.
+  ShellCertifier(const Eigen::MatrixXi& F, int n);
+  ~ShellCertifier();
+  ShellCertifier(ShellCertifier&&) noexcept;
+  ShellCertifier& operator=(ShellCertifier&&) noexcept;
+
+  /// certify_shell(base, top, F, options) for the F given at construction.
+  /// \throws InputError when base or top is not n x 3 or a coordinate is not finite.
+  ShellCertificate certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const CertifyOptions& options = {});
+
+private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 } // namespace gshell
