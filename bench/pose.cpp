@@ -149,15 +149,213 @@ Config parse_config(const std::string& spec) {
     else if (key == "laa") o.level_anderson_history = static_cast<int>(value);
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else if (key == "path") o.path_extrapolation = value != 0;
+    else if (key == "blend") o.blend_width = value;
+    else if (key == "scale") o.coarse_scale = value;
+    else if (key == "defer") o.smooth_before_accept = value != 0;
+    else if (key == "lpath") o.level_path = value != 0;
+    else if (key == "seam") o.seam_softening = value;
+    else if (key == "caa") o.composite_anderson = value != 0;
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
   return c;
+}
+
+
+// ---- --table: time to 1.001 E* on several pulls, thicknesses and models, one table -------------
+
+struct TableCase {
+  std::string name;     ///< pull name (a handle file in --examples, or "pull" = the built-in pull)
+  std::string model;    ///< "bowl" or a mesh path
+  double ratio;         ///< thickness / bounding radius
+};
+
+/// E* of a case: single level + Anderson(5) to relative change < 1e-10 (or `iterations`), kept in
+/// `cache_dir` (when given) under a name holding the case and the shell's size.
+double table_reference(const Shell& shell, const HandleSet& handles, const std::string& key, const std::string& cache_dir,
+                       int iterations) {
+  const std::string path = cache_dir.empty() ? "" : cache_dir + "/" + key + ".ref";
+  if (!path.empty()) {
+    std::ifstream in(path);
+    double e = 0;
+    if (in >> e && e > 0) return e;
+  }
+  HierarchyOptions o;
+  o.levels = 1;
+  o.anderson_history = 5;
+  o.path_extrapolation = false;
+  PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, o);
+  Eigen::MatrixXd X = reference.rest_vertices();
+  SolveOptions so;
+  so.max_iterations = iterations;
+  so.tolerance = 1e-10;
+  const SolveResult r = reference.solve(X, 1.0, so);
+  std::fprintf(stderr, "bench_pose: %s: E* = %.10g after %d reference iterations (%s)\n", key.c_str(), r.energy.back(),
+               r.iterations, r.converged ? "converged" : "iteration cap");
+  if (!path.empty()) {
+    std::ofstream out(path);
+    out.precision(17);
+    out << r.energy.back() << "\n";
+  }
+  return r.energy.back();
+}
+
+struct TableCell {
+  Reach reach;             ///< of the first run (iterations do not vary between runs)
+  double seconds = 0;      ///< median over the runs
+  double setup = 0;        ///< PoseSolver construction, median
+  HierarchyCounters counters; ///< hierarchical only: first run
+};
+
+int run_table(const std::vector<std::string>& args) {
+  int runs = 3, cap = 3000, reference_iterations = 6000;
+  std::string examples = "examples", bunny = "models/bunny00.off", cache_dir;
+  std::vector<std::string> only_cases;
+  std::vector<Config> extra;
+  bool only_extra = false; // development: only the --config columns, no speed-ups
+  bool bowl_cases = true;
+  std::vector<std::string> models; // more meshes with the generic pull, ratio 0.01
+  for (size_t i = 0; i < args.size(); ++i) {
+    auto next = [&] { return i + 1 < args.size() ? args[++i] : std::string(); };
+    if (args[i] == "--runs") runs = std::max(1, std::atoi(next().c_str()));
+    else if (args[i] == "--cap") cap = std::atoi(next().c_str());
+    else if (args[i] == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
+    else if (args[i] == "--examples") examples = next();
+    else if (args[i] == "--bunny") bunny = next();
+    else if (args[i] == "--cache-dir") cache_dir = next();
+    else if (args[i] == "--case") only_cases.push_back(next());
+    else if (args[i] == "--config") extra.push_back(parse_config(next()));
+    else if (args[i] == "--only-extra") only_extra = true;
+    else if (args[i] == "--model") models.push_back(next());
+    else if (args[i] == "--no-bowl") bowl_cases = false;
+    else {
+      std::fprintf(stderr, "bench_pose --table: unknown argument %s\n", args[i].c_str());
+      return 1;
+    }
+  }
+  std::vector<TableCase> cases;
+  for (double ratio : {0.02, 0.05})
+    for (const char* pull : {"bowl_pull", "bowl_twist", "bowl_half_pull", "bowl_squeeze_soft"})
+      if (bowl_cases) cases.push_back({pull, "bowl", ratio});
+  for (const std::string& m : models) cases.push_back({"pull", m, 0.01});
+  if (std::ifstream(bunny)) cases.push_back({"pull", bunny, 0.01});
+  else std::printf("(%s not found: bunny case skipped; scripts/fetch-models)\n", bunny.c_str());
+
+  std::vector<Config> configs;
+  if (!only_extra) {
+    configs.push_back({"single", PoseSolverKind::Single, {}});
+    HierarchyOptions o;
+    o.levels = 1;
+    o.path_extrapolation = false;
+    configs.push_back({"single+AA", PoseSolverKind::Hierarchical, o});
+    o.path_extrapolation = true;
+    configs.push_back({"single+AA+path", PoseSolverKind::Hierarchical, o});
+    configs.push_back({"hierarchical", PoseSolverKind::Hierarchical, HierarchyOptions{}});
+  }
+  for (Config c : extra) configs.push_back(c);
+  const size_t first_ratio = only_extra ? configs.size() : 3; // configurations compared with the first three
+
+  std::printf("bench_pose --table: time to E <= 1.001 E* from rest (one big move), median of %d runs; "
+              "E* = single level + Anderson(5) to relative change < 1e-10; cap %d iterations\n", runs, cap);
+  std::printf("threads: TBB default; load at start: ");
+  if (std::ifstream load("/proc/loadavg"); load) {
+    std::string l1, l5, l15;
+    load >> l1 >> l5 >> l15;
+    std::printf("%s %s %s (1/5/15 min)\n", l1.c_str(), l5.c_str(), l15.c_str());
+  } else {
+    std::printf("unknown\n");
+  }
+
+  struct Row {
+    std::string label;
+    int vertices = 0;
+    double Estar = 0;
+    std::vector<TableCell> cells;
+  };
+  std::vector<Row> rows;
+  for (const TableCase& tc : cases) {
+    const bool bowl = tc.model == "bowl";
+    char ratio_text[32];
+    std::snprintf(ratio_text, sizeof ratio_text, "%.2f", tc.ratio);
+    std::string stem = tc.model;
+    stem = stem.substr(stem.find_last_of('/') + 1);
+    stem = stem.substr(0, stem.find_last_of('.'));
+    const std::string label = stem + " " + std::string(ratio_text) + " " + tc.name;
+    if (!only_cases.empty() && std::find(only_cases.begin(), only_cases.end(), label) == only_cases.end()) continue;
+    const TriMesh mesh = bowl ? make_bowl() : load_mesh(tc.model);
+    const Shell shell = make_shell(mesh, tc.ratio);
+    const HandleSet handles = bowl ? read_handles(examples + "/" + tc.name + ".json", shell) : make_handles(shell, false);
+    std::string key = label;
+    std::replace(key.begin(), key.end(), ' ', '_');
+    key += "_" + std::to_string(2 * shell.num_base_vertices());
+    const double Estar = table_reference(shell, handles, key, cache_dir, reference_iterations);
+    Row row{label, 2 * shell.num_base_vertices(), Estar, {}};
+    for (const Config& c : configs) {
+      TableCell cell;
+      std::vector<double> seconds, setups;
+      for (int r = 0; r < runs; ++r) {
+        PoseSolver solver(shell, handles, c.kind, c.options);
+        setups.push_back(solver.setup_seconds());
+        const Reach reach = time_to_goal(solver, solver.rest_vertices(), 1.0, 1.001 * Estar, cap);
+        if (r == 0) {
+          cell.reach = reach;
+          if (solver.hierarchical()) cell.counters = solver.hierarchical()->counters();
+        }
+        if (!reach.reached) break;
+        seconds.push_back(reach.seconds);
+      }
+      cell.seconds = median(seconds);
+      cell.setup = median(setups);
+      std::fprintf(stderr, "bench_pose: %s, %s: %d iterations%s, %.3f s\n", label.c_str(), c.name.c_str(),
+                   cell.reach.iterations, cell.reach.reached ? "" : " (cap)", cell.seconds);
+      row.cells.push_back(cell);
+    }
+    rows.push_back(row);
+  }
+
+  // One table: per case and configuration, iterations / median seconds; speed-ups of the last
+  // configurations over plain single and over single+AA+path.
+  std::printf("\n| case | shell vertices |");
+  for (const Config& c : configs) std::printf(" %s: it. / s |", c.name.c_str());
+  for (size_t k = first_ratio; k < configs.size(); ++k)
+    std::printf(" %s vs single / vs +AA+path |", configs[k].name.c_str());
+  std::printf(" coarse passes kept |");
+  std::printf("\n|---|---|");
+  for (size_t k = 0; k < configs.size(); ++k) std::printf("---|");
+  for (size_t k = first_ratio; k < configs.size(); ++k) std::printf("---|");
+  std::printf("---|\n");
+  for (const Row& row : rows) {
+    std::printf("| %s | %d |", row.label.c_str(), row.vertices);
+    for (const TableCell& cell : row.cells) {
+      if (cell.reach.reached) std::printf(" %d / %.3f |", cell.reach.iterations, cell.seconds);
+      else std::printf(" >%d (E = %.4f E*) |", cell.reach.iterations, cell.reach.energy / row.Estar);
+    }
+    for (size_t k = first_ratio; k < row.cells.size(); ++k) {
+      const TableCell& h = row.cells[k];
+      auto ratio = [&](const TableCell& base) {
+        return base.reach.reached && h.reach.reached ? base.seconds / h.seconds : std::numeric_limits<double>::quiet_NaN();
+      };
+      std::printf(" %.1fx / %.1fx |", ratio(row.cells[0]), ratio(row.cells[2]));
+    }
+    std::printf(" ");
+    for (const TableCell& cell : row.cells)
+      if (cell.counters.coarse_passes > 0)
+        std::printf("%d/%d (%.0f/%.0f/%.0f ms) ", cell.counters.coarse_accepted, cell.counters.coarse_passes,
+                    1e3 * cell.counters.coarse_seconds / cell.counters.coarse_passes,
+                    1e3 * cell.counters.full_seconds / std::max(1, cell.counters.full_iterations),
+                    1e3 * cell.counters.path_seconds / std::max(1, cell.counters.outer_iterations));
+    std::printf("|\n");
+  }
+  std::printf("\nsetup (s, median) of the hierarchical solver (tree, assembly, factorisations):");
+  for (const Row& row : rows) std::printf(" %s %.3f;", row.label.c_str(), row.cells.back().setup);
+  std::printf("\n");
+  return 0;
 }
 
 } // namespace
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  if (argc > 1 && std::string(argv[1]) == "--table") return run_table(std::vector<std::string>(argv + 2, argv + argc));
   std::string model = "bowl";
   int steps = 30, runs = 3, drag_runs = 1, reference_iterations = 3000, cap = 2000, drag_cap = 600, drag_every = 3;
   double ratio = 0.02;

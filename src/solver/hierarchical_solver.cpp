@@ -5,6 +5,8 @@
 #include <Eigen/Cholesky>
 
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -131,6 +133,12 @@ struct HierarchicalSolver::Impl {
   std::vector<LocalCache> reduced_cache;
   std::vector<Eigen::MatrixXd> tau;  // per reduced level: fine residual coupling of this outer iteration
   double factor_seconds = 0;
+  HierarchyCounters counters; // since construction
+  double prof[5] = {0, 0, 0, 0, 0};
+  int prof_count = 0;
+  Eigen::MatrixXd saved_X;
+  LocalStep saved_step;
+  int last_pass_kept_at = -1;
 
   int num_vertices() const { return static_cast<int>(rest_vertices_rows); }
   int rest_vertices_rows = 0;
@@ -158,6 +166,7 @@ struct HierarchicalSolver::Impl {
     double objective = options.level_tolerance > 0 ? reduced_objective(l, targets, cache) : 0;
     AndersonHistory anderson(options.level_anderson_history);
     Eigen::MatrixXd before, accelerated;
+    const Eigen::MatrixXd start = level.parameters();
     for (int k = 0; k < options.level_iterations; ++k) {
       Eigen::MatrixXd rhs = level.rhs(targets, cache);
       if (tau[l].size() > 0) rhs += tau[l];
@@ -165,7 +174,7 @@ struct HierarchicalSolver::Impl {
       level.solve(rhs);
       if (anderson.extrapolate(before, level.parameters(), accelerated)) level.parameters().swap(accelerated);
       // Only the last iteration's energy is read (unless the tolerance needs every one).
-      level.local(cache, options.level_tolerance > 0 || k + 1 == options.level_iterations);
+      level.local(cache, options.level_tolerance > 0 || k + 1 == options.level_iterations || options.level_path);
       if (options.level_tolerance > 0) {
         const double next = reduced_objective(l, targets, cache);
         // The objective (energy minus a linear term) can be negative: compare against the energy.
@@ -174,18 +183,40 @@ struct HierarchicalSolver::Impl {
         if (stalled) break;
       }
     }
+    if (options.level_path) {
+      const Eigen::MatrixXd d = level.parameters() - start;
+      double current = reduced_objective(l, targets, cache);
+      Eigen::MatrixXd kept;
+      LocalCache trial;
+      double scale = 1;
+      for (int k = 0; k < kPathDoublings; ++k, scale *= 2) {
+        kept = level.parameters();
+        level.parameters() += scale * d;
+        level.local(trial);
+        const double e = reduced_objective(l, targets, trial);
+        if (std::getenv("GSHELL_TRACE_LP")) std::fprintf(stderr, "lp level %d k %d: %.9g -> %.9g\n", l, k, current, e);
+        if (!(e < current)) {
+          level.parameters() = kept;
+          break;
+        }
+        current = e;
+        std::swap(trial, cache);
+      }
+    }
   }
 
   /// One coarse-to-fine pass over the reduced levels, ending in a candidate change of the full
   /// state, which is kept only if it lowers the full energy. Returns whether it was kept.
-  bool coarse_correction(FullState& state, const Eigen::MatrixXd& targets, HierarchicalSolveResult& result) {
+  bool coarse_correction(FullState& state, const Eigen::MatrixXd& targets) {
     const int L = static_cast<int>(reduced.size());
     const bool residual = options.residual_correction;
     std::vector<Eigen::MatrixXd> before(L);
+    auto t0 = Clock::now();
     if (residual) {
       // Full approximation scheme: every level starts from the affine fit of the full state and
       // sees the full gradient through tau, so its fixed point is the full one's.
       const Eigen::MatrixXd gradient = full->half_gradient(state.X, state.step, soft_targets(targets));
+      prof[0] += seconds_since(t0); t0 = Clock::now();
       for (int l = 0; l < L; ++l) {
         reduced[l].fit(state.X);
         reduced[l].local(reduced_cache[l]);
@@ -198,13 +229,14 @@ struct HierarchicalSolver::Impl {
         if (!reduced_cache[l].energy_valid) reduced[l].local(reduced_cache[l]);
       }
     }
+    prof[1] += seconds_since(t0); t0 = Clock::now();
     for (int l = 0; l < L; ++l) {
       if (l > 0) {
         // The parent's change since the start of this pass goes to its children first.
         ReducedLevel& level = reduced[l];
         const double objective = reduced_objective(l, targets, reduced_cache[l]);
         const Eigen::MatrixXd kept = level.parameters();
-        if (residual) level.apply_affine(reduced[l - 1], before[l - 1], parent_of(l));
+        if (residual) level.apply_change(reduced[l - 1], before[l - 1]);
         else level.apply(reduced[l - 1].changes_since(before[l - 1]), parent_of(l));
         LocalCache candidate;
         level.local(candidate);
@@ -212,17 +244,18 @@ struct HierarchicalSolver::Impl {
           std::swap(candidate, reduced_cache[l]);
         } else {
           level.parameters() = kept;
-          ++result.rejected_propagations;
+          ++counters.rejected_propagations;
         }
       }
       reduced_iterations(l, targets);
     }
 
+    prof[2] += seconds_since(t0); t0 = Clock::now();
     // The finest reduced level's change goes into the full state.
     const ReducedLevel& finest = reduced.back();
     Eigen::MatrixXd trial;
     if (residual) {
-      trial = state.X + finest.positions(finest.parameters() - before.back()); // B is linear in z
+      trial = state.X + options.coarse_scale * finest.positions(finest.parameters() - before.back()); // B is linear in z
     } else {
       const std::vector<RigidChange> change = finest.changes_since(before.back());
       trial.resize(state.X.rows(), 3);
@@ -230,9 +263,17 @@ struct HierarchicalSolver::Impl {
         trial.row(v) = change[finest.cluster_of_vertex(v)].apply(state.X.row(v).transpose()).transpose();
     }
     set_hard_rows(trial, targets);
+    prof[3] += seconds_since(t0); t0 = Clock::now();
     full->local_step(trial, state.candidate, soft_targets(targets));
+    prof[4] += seconds_since(t0); t0 = Clock::now();
+    if (std::getenv("GSHELL_PROF") && ++prof_count % 20 == 0) std::fprintf(stderr, "prof ms per pass: gradient %.2f fit %.2f levels %.2f positions %.2f local %.2f\n", 1e3*prof[0]/prof_count, 1e3*prof[1]/prof_count, 1e3*prof[2]/prof_count, 1e3*prof[3]/prof_count, 1e3*prof[4]/prof_count);
+    if (options.smooth_before_accept) { // judged after the full iterations
+      state.X.swap(trial);
+      std::swap(state.step, state.candidate);
+      return true;
+    }
     if (!(state.candidate.energy < state.step.energy)) {
-      ++result.rejected_propagations;
+      ++counters.rejected_propagations;
       return false;
     }
     state.X.swap(trial);
@@ -334,8 +375,13 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   for (int l = 0; l < reduced_levels; ++l) {
     const int d = first + l * split;
     s.depth_of_level.push_back(d);
-    s.reduced.emplace_back(s.rest, rest_vertices, s.tree.cluster_of[d], s.tree.num_clusters(d),
-                           L, constraints.vertices, weight, options.cluster_rotations);
+    const ClusterWeights weights =
+        options.blend_width > 0
+            ? blended_cluster_weights(rest_vertices.topRows(n_base), F, s.tree.cluster_of[d], s.tree.num_clusters(d),
+                                      options.blend_width)
+            : piecewise_cluster_weights(s.tree.cluster_of[d], s.tree.num_clusters(d));
+    s.reduced.emplace_back(s.rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
+                           options.cluster_rotations, options.seam_softening);
   }
   s.reduced_cache.resize(reduced_levels);
   s.tau.resize(reduced_levels);
@@ -360,29 +406,83 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   s.full->local_step(X, state.step, s.soft_targets(targets));
 
   HierarchicalSolveResult result;
+  const HierarchyCounters counted_before = s.counters;
   result.energy.push_back(state.step.energy);
   AndersonHistory anderson(s.options.anderson_history);
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
+  AndersonHistory no_anderson(0);
+  Eigen::MatrixXd composite_start;
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.step.energy;
     const int period = std::max(1, s.options.coarse_period);
+    if (s.options.composite_anderson) composite_start = state.X;
     if (!s.reduced.empty() && it % period == 0 && skip-- <= 0) {
-      if (s.coarse_correction(state, targets, result)) {
+      const double before = state.step.energy;
+      const auto coarse_start = Clock::now();
+      ++s.counters.coarse_passes;
+      if (s.options.smooth_before_accept) {
+        s.saved_X = state.X;
+        s.saved_step = state.step;
+      }
+      bool kept = s.coarse_correction(state, targets);
+      if (kept && s.options.smooth_before_accept) {
+        anderson.restart();
+        for (int k = 0; k < s.options.full_iterations; ++k) {
+          ++s.counters.full_iterations;
+          if (!s.full_iteration(state, targets, anderson)) break;
+        }
+        if (!(state.step.energy < before)) {
+          state.X = s.saved_X;
+          state.step = s.saved_step;
+          kept = false;
+          ++s.counters.rejected_propagations;
+        }
+      }
+      s.counters.coarse_seconds += seconds_since(coarse_start);
+      if (kept) {
+        ++s.counters.coarse_accepted;
+        s.last_pass_kept_at = s.counters.coarse_passes;
+        s.counters.coarse_decrease += before - state.step.energy;
         backoff = 1;
         // The secant pairs recorded so far still describe the full level's fixed-point map; only
         // a pair spanning the coarse jump would not (measured: fewer outer iterations than clearing).
-        anderson.restart();
+        if (!s.options.composite_anderson) anderson.restart();
       } else {
         skip = backoff;
         backoff = std::min(2 * backoff, 16);
       }
     }
-    for (int k = 0; k < s.options.full_iterations; ++k) {
-      ++result.full_iterations;
-      if (!s.full_iteration(state, targets, anderson)) break;
+    const double before_full = state.step.energy;
+    const auto full_start = Clock::now();
+    const bool smoothed = s.options.smooth_before_accept && s.counters.coarse_passes > 0 && it % period == 0 &&
+                          s.last_pass_kept_at == s.counters.coarse_passes;
+    for (int k = 0; k < s.options.full_iterations && !smoothed; ++k) {
+      ++s.counters.full_iterations;
+      if (!s.full_iteration(state, targets, s.options.composite_anderson ? no_anderson : anderson)) break;
     }
+    if (s.options.composite_anderson && anderson.extrapolate(composite_start, state.X, state.accelerated)) {
+      s.set_hard_rows(state.accelerated, targets);
+      s.full->local_step(state.accelerated, state.candidate, s.soft_targets(targets));
+      if (state.candidate.energy < state.step.energy) {
+        state.X.swap(state.accelerated);
+        std::swap(state.step, state.candidate);
+      } else {
+        anderson.clear();
+      }
+    }
+    s.counters.full_seconds += seconds_since(full_start);
+    s.counters.full_decrease += before_full - state.step.energy;
     // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
-    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets)) anderson.restart();
+    const double before_path = state.step.energy;
+    const auto path_start = Clock::now();
+    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets) && !s.options.composite_anderson)
+      anderson.restart();
+    s.counters.path_seconds += seconds_since(path_start);
+    s.counters.path_decrease += before_path - state.step.energy;
+    ++s.counters.outer_iterations;
+    if (std::getenv("GSHELL_TRACE"))
+      std::fprintf(stderr, "trace it %d: start %.9g full_start %.9g path_start %.9g end %.9g\n", it, previous, before_full,
+                   before_path, state.step.energy);
     result.iterations = it;
     result.energy.push_back(state.step.energy);
     result.seconds = seconds_since(start);
@@ -393,6 +493,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     }
   }
   result.seconds = seconds_since(start);
+  result.counters = s.counters.since(counted_before);
   return result;
 }
 
@@ -410,6 +511,7 @@ const ClusterTree& HierarchicalSolver::tree() const { return impl_->tree; }
 int HierarchicalSolver::tree_depth(int level) const { return impl_->depth_of_level.at(level); }
 int HierarchicalSolver::num_clusters(int level) const { return impl_->reduced.at(level).num_clusters(); }
 Eigen::MatrixXd HierarchicalSolver::level_positions(int level) const { return impl_->reduced.at(level).positions(); }
+const ClusterWeights& HierarchicalSolver::level_weights(int level) const { return impl_->reduced.at(level).weights(); }
 const Eigen::MatrixXd& HierarchicalSolver::level_parameters(int level) const {
   return impl_->reduced.at(level).parameters();
 }
@@ -419,5 +521,22 @@ double HierarchicalSolver::level_energy(int level, const Eigen::MatrixXd& target
   return cache.elastic + impl_->reduced.at(level).springs(targets);
 }
 double HierarchicalSolver::factor_seconds() const { return impl_->factor_seconds; }
+const HierarchyCounters& HierarchicalSolver::counters() const { return impl_->counters; }
+
+HierarchyCounters HierarchyCounters::since(const HierarchyCounters& earlier) const {
+  HierarchyCounters d = *this;
+  d.outer_iterations -= earlier.outer_iterations;
+  d.full_iterations -= earlier.full_iterations;
+  d.coarse_passes -= earlier.coarse_passes;
+  d.coarse_accepted -= earlier.coarse_accepted;
+  d.rejected_propagations -= earlier.rejected_propagations;
+  d.coarse_decrease -= earlier.coarse_decrease;
+  d.full_decrease -= earlier.full_decrease;
+  d.path_decrease -= earlier.path_decrease;
+  d.coarse_seconds -= earlier.coarse_seconds;
+  d.full_seconds -= earlier.full_seconds;
+  d.path_seconds -= earlier.path_seconds;
+  return d;
+}
 
 } // namespace gshell

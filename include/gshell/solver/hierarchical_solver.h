@@ -33,6 +33,7 @@
 // objective, and the full state's only if it lowers the full energy, so the energy never
 // increases across outer iterations. After a rejected pass the reduced levels pause for 1, 2, 4, ... outer iterations.
 #include <gshell/solver/cluster_tree.h>
+#include <gshell/solver/cluster_weights.h>
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
@@ -80,6 +81,15 @@ struct HierarchyOptions {
   /// price of an approximate reduced energy (the residual coupling still makes the fixed points
   /// agree). Off: tets across cluster borders get their own rotation (the exact subspace energy).
   bool cluster_rotations = true;
+  /// How the clusters' affine maps meet: 0 = piecewise (each vertex moves with its own cluster's
+  /// map, the paper's subspace); w > 0 = blended across a band of w times a cluster's RMS radius
+  /// around it (blended_cluster_weights), so the reduced levels can bend smoothly.
+  double blend_width = 0;
+  double coarse_scale = 1; // EXPERIMENT
+  bool smooth_before_accept = false; // EXPERIMENT
+  bool level_path = false; // EXPERIMENT
+  double seam_softening = 0; // EXPERIMENT
+  bool composite_anderson = false; // EXPERIMENT
   /// Anderson acceleration of every reduced level's iterations within one coarse pass (history
   /// length; 0 = off). Not safeguarded per iteration: the full level keeps a pass's result only
   /// if it lowers the full energy.
@@ -96,9 +106,24 @@ struct HierarchyOptions {
   int anderson_history = 5;
 };
 
+/// What the solver's parts did (counted per solve, and in all since construction).
+struct HierarchyCounters {
+  int outer_iterations = 0;
+  int full_iterations = 0;       ///< local/global iterations done on the full level
+  int coarse_passes = 0;         ///< coarse-to-fine passes run
+  int coarse_accepted = 0;       ///< of which the full state kept the result
+  int rejected_propagations = 0; ///< changes not kept because they would have raised an objective
+  /// Where the energy went down: accepted coarse corrections, full-level iterations, path search
+  /// (together energy.front() - energy.back() of a solve).
+  double coarse_decrease = 0, full_decrease = 0, path_decrease = 0;
+  /// Wall time of the same three parts, seconds.
+  double coarse_seconds = 0, full_seconds = 0, path_seconds = 0;
+  /// The counts since `earlier` (a copy taken before).
+  HierarchyCounters since(const HierarchyCounters& earlier) const;
+};
+
 struct HierarchicalSolveResult : SolveResult {
-  int full_iterations = 0;         ///< local/global iterations done on the full level
-  int rejected_propagations = 0;   ///< updates not kept because they would have raised the energy
+  HierarchyCounters counters;
 };
 
 class HierarchicalSolver {
@@ -130,11 +155,16 @@ public:
   int num_clusters(int level) const;     ///< clusters of a reduced level
   /// Positions B_l z_l of reduced level l (0 <= l < num_levels()-1), 2n x 3.
   Eigen::MatrixXd level_positions(int level) const;
+  /// How the affine maps of reduced level l act on the base vertices (piecewise or blended).
+  const ClusterWeights& level_weights(int level) const;
   /// Affine maps of reduced level l: 4 rows per cluster, [M_j^T; t_j^T] (x^T = [(u-c_j)^T 1] Z_j).
   const Eigen::MatrixXd& level_parameters(int level) const;
   /// Energy of reduced level l at its current parameters (springs included).
   double level_energy(int level, const Eigen::MatrixXd& targets) const;
   double factor_seconds() const;        ///< tree + assembly + factorisations in the constructor
+  /// Counters summed over every solve since construction, including solves that a progress
+  /// callback ended by throwing.
+  const HierarchyCounters& counters() const;
 
 private:
   struct Impl;
