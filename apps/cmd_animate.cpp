@@ -1,18 +1,18 @@
 // gshell animate: synthetic base frames (a smooth bend or twist) to drive `gshell deform`.
 #include "command_registry.h"
+#include "progress.h"
 
-#include <gshell/deform/staged_folder.h>
+#include <gshell/run/frames.h>
+#include <gshell/run/staged_folder.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
-#include <iostream>
 #include <memory>
-#include <regex>
+#include <sstream>
 
 namespace {
 
@@ -26,16 +26,9 @@ struct AnimateArgs {
   std::string out;
 };
 
-std::string frame_name(int k) {
-  char name[32];
-  std::snprintf(name, sizeof name, "frame_%04d.obj", k);
-  return name;
-}
-
 bool holds_only_frames(const fs::path& dir) {
-  static const std::regex frame_file(R"(frame_\d{4,}\.obj)");
   for (const auto& entry : fs::directory_iterator(dir))
-    if (!std::regex_match(entry.path().filename().string(), frame_file)) return false;
+    if (!gshell::frame_number(entry.path().filename().string(), ".obj")) return false;
   return true;
 }
 
@@ -50,18 +43,18 @@ void run_animate(const AnimateArgs& args) {
   const Eigen::MatrixXd rest = mesh.V;
 
   gshell::StagedFolder staged(args.out);
-  const bool quiet = gshell::cli::global_options().quiet;
+  gshell::cli::Progress progress("animate");
   for (int k = 1; k <= args.frames; ++k) {
     const double angle = degrees * gshell::ramp(k, args.frames);
     mesh.V = bending ? gshell::bend(rest, frame, angle, args.band) : gshell::twist(rest, frame, angle);
-    gshell::write_mesh((staged.path() / frame_name(k)).string(), mesh);
-    if (!quiet) std::cerr << "\ranimate: frame " << k << "/" << args.frames << std::flush;
+    gshell::write_mesh((staged.path() / gshell::frame_name(k, ".obj")).string(), mesh);
+    progress.update("frame " + std::to_string(k) + "/" + std::to_string(args.frames));
   }
-  if (!quiet) std::cerr << "\n";
   staged.commit(holds_only_frames);
-  if (!quiet)
-    std::cerr << "animate: wrote " << args.frames << " frames of a " << (bending ? "bend" : "twist") << " to "
-              << degrees << " degrees to " << args.out << "\n";
+  std::ostringstream done;
+  done << "wrote " << args.frames << " frames of a " << (bending ? "bend" : "twist") << " to " << degrees
+       << " degrees to " << args.out;
+  progress.line(done.str());
 }
 
 void add_animate_command(CLI::App& parent) {

@@ -1,6 +1,7 @@
 // `gshell convert IN OUT`: any readable surface (or builtin:...) to OBJ, OFF or PLY, keeping
 // the vertex order and, for OBJ to OBJ, the texture coordinates.
 #include "command_registry.h"
+#include "progress.h"
 
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
@@ -26,9 +27,8 @@ void add_convert_command(CLI::App& app) {
   cmd->callback([opt] {
     const gshell::TriMesh mesh = gshell::load_mesh(opt->input);
     gshell::write_mesh(opt->output, mesh, {}, opt->ascii);
-    if (!gshell::cli::global_options().quiet)
-      std::cerr << "gshell convert: wrote " << opt->output << " (" << mesh.num_vertices() << " vertices, "
-                << mesh.num_faces() << " faces)\n";
+    gshell::cli::Progress("convert").line("wrote " + opt->output + " (" + std::to_string(mesh.num_vertices()) +
+                                         " vertices, " + std::to_string(mesh.num_faces()) + " faces)");
   });
 }
 

@@ -1,5 +1,6 @@
 // `gshell curvature MESH -o OUT.ply`: normal-cycle principal curvatures as PLY properties.
 #include "command_registry.h"
+#include "progress.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/curvature.h>
@@ -49,14 +50,14 @@ void run_curvature(const CurvatureArgs& args) {
   if (ext != ".ply")
     throw InputError(with_file(args.output, "curvature output must be a .ply file (it carries the curvature "
                                             "as PLY properties)"));
-  const bool quiet = global_options().quiet;
   const TriMesh mesh = load_mesh(args.input);
   const auto start = std::chrono::steady_clock::now();
   const FaceCurvature faces = face_curvature(mesh.V, mesh.F, args.options);
   const VertexCurvature vertices = vertex_curvature(mesh.V, mesh.F, args.options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (!quiet) std::fprintf(stderr, "curvature: %d faces, %d vertices in %.3f s\n", mesh.num_faces(),
-                           mesh.num_vertices(), seconds);
+  char line[128];
+  std::snprintf(line, sizeof line, "%d faces, %d vertices in %.3f s", mesh.num_faces(), mesh.num_vertices(), seconds);
+  Progress("curvature").line(line);
 
   MeshAttributes attributes;
   add_curvature_scalars(attributes.face_scalars, faces);

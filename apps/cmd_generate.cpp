@@ -1,87 +1,81 @@
 // `gshell generate INPUT -o DIR`: builds the shell of a surface and writes top.obj, base.obj,
-// shell.vtu and report.json into DIR (paper §4.1; DESIGN.md "Shell generation").
+// shell.vtu and report.json into DIR (paper §4.1; the run layer's generate job).
 #include "command_registry.h"
-#include "thickness_option.h"
-#include "shell_output.h"
+#include "parameter_flags.h"
+#include "preview_option.h"
+#include "progress.h"
+#include "thickness_flags.h"
 
-#include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
-#include <gshell/shell/curvature_shell.h>
-#include <gshell/render/shell_render.h>
-#include <gshell/shell/generate_report.h>
-#include <gshell/shell/generate_shell.h>
+#include <gshell/run/generate_run.h>
+#include <gshell/run/staged_folder.h>
 
-#include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <memory>
-#include <optional>
 
 namespace {
 
-struct GenerateCliOptions {
-  std::string input, output, method = "rigid";
-  gshell::cli::ThicknessOption thickness;
-  int iterations = 50;
-  double tolerance = 1e-5;
-  double s_min = gshell::kDefaultCurvatureSMin, s_max = gshell::kDefaultCurvatureSMax;
+struct GenerateArgs {
+  std::string input, output, method = gshell::to_string(gshell::GenerateOptions{}.method);
+  gshell::GenerateRunOptions options;
   bool render = false;
+  std::string view = "iso";
 };
 
-void run_generate(const GenerateCliOptions& o) {
+void run(const CLI::App& cmd, GenerateArgs& a) {
   using namespace gshell;
   // Every parameter is checked before anything is read or written.
-  o.thickness.check();
-  if (o.iterations < 0) throw InputError("--iterations must not be negative");
-  if (!(o.tolerance >= 0) || !std::isfinite(o.tolerance)) throw InputError("--tolerance must be a non-negative number");
-  check_curvature_clamp(o.s_min, o.s_max);
-  GenerateOptions options;
-  options.method = parse_shell_method(o.method);
-  options.s_min = o.s_min;
-  options.s_max = o.s_max;
-  cli::check_output_dir(o.output);
-
-  const TriMesh mesh = load_mesh(o.input);
-  options.thickness = o.thickness.eta(mesh.V);
-  options.solve.max_iterations = o.iterations;
-  options.solve.tolerance = o.tolerance;
-  const bool quiet = cli::global_options().quiet;
-  if (!quiet) {
-    std::cerr << "gshell generate: " << o.input << " (" << mesh.num_vertices() << " vertices, " << mesh.num_faces()
-              << " faces), method " << o.method << ", eta " << options.thickness << "\n";
-    options.solve.progress = [](int it, double energy, double seconds) {
-      std::cerr << "  iteration " << it << "  energy " << energy << "  " << seconds << " s\n";
+  cli::check_flags(cmd, [&] {
+    a.options.generate.method = parse_shell_method(a.method);
+    a.options.check();
+    parse_view(a.view);
+  });
+  const ViewDirection view = parse_view(a.view); // checked above
+  if (a.render) cli::require_renderer();
+  check_output_folder(a.output, holds_only_shell_files);
+  const TriMesh mesh = load_mesh(a.input);
+  cli::Progress progress("generate");
+  char eta[32];
+  std::snprintf(eta, sizeof eta, "%g", a.options.thickness.eta(mesh.V));
+  progress.line(a.input + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +
+                std::to_string(mesh.num_faces()) + " faces), method " + a.method + ", eta " + eta);
+  if (progress.enabled())
+    a.options.generate.solve.progress = [&progress](int it, double energy, double seconds) {
+      char text[128];
+      std::snprintf(text, sizeof text, "iteration %d  energy %.6g  %.3f s", it, energy, seconds);
+      progress.update(text);
     };
-  }
-  // The curvature method reports its clamps and its stretch against its own prisms too.
-  std::optional<CurvatureShellResult> curvature;
-  if (options.method == ShellMethod::Curvature) curvature = generate_curvature_shell(mesh.V, mesh.F, options);
-  const GenerateResult result = curvature ? curvature->result : generate_shell(mesh.V, mesh.F, options);
-  nlohmann::json report = generate_report(result, o.input, o.thickness.ratio);
-  if (curvature) add_curvature_report(report, *curvature);
-  cli::write_shell_dir(o.output, mesh, result.shell, result.metrics, report);
-  std::cout << generate_summary(result, o.input) << (curvature ? curvature_summary(*curvature) : "")
-            << "wrote        " << o.output
-            << "/{top.obj, base.obj, shell.vtu, report.json}\n";
-  if (o.render) std::cout << "wrote        " << render_shell_preview(o.output) << "\n";
+  const GenerateRun result = run_generate(mesh, a.input, a.options);
+  progress.finish_status();
+  result.write(a.output, cli::preview_writer(a.render, a.output, view));
+  std::cout << result.summary() << "wrote        " << a.output << "/{top.obj, base.obj, shell.vtu, report.json"
+            << (a.render ? ", preview.png" : "") << "}\n";
 }
 
 void add_generate_command(CLI::App& app) {
-  auto o = std::make_shared<GenerateCliOptions>();
+  auto a = std::make_shared<GenerateArgs>();
   CLI::App* cmd = app.add_subcommand(
       "generate", "Generate the shell of a surface: optimise the top surface so that every prism is as close "
                   "to its ideal (normal) prism as possible. Writes DIR/top.obj, base.obj, shell.vtu, report.json.");
-  cmd->add_option("input", o->input, "Base surface: mesh file (.obj .off .ply .stl) or builtin:NAME[:RES]")
+  cmd->add_option("input", a->input, "Base surface: mesh file (.obj .off .ply .stl) or builtin:NAME[:RES]")
       ->required();
-  cmd->add_option("-o,--output", o->output, "Output folder (created; existing files of the same names are replaced)")
+  cmd->add_option("-o,--output", a->output,
+                  "Output folder (an earlier shell folder there is replaced; a folder of other files is an error)")
       ->required();
-  o->thickness.add_to(*cmd);
-  cmd->add_option("--method", o->method, "rigid (optimised, default), offset (vertex-normal offset) or curvature");
-  cmd->add_option("--iterations", o->iterations, "Maximum local/global iterations (default 50)");
-  cmd->add_option("--tolerance", o->tolerance, "Stop when the relative energy change is below this (default 1e-5)");
-  cmd->add_option("--s-min", o->s_min, "Curvature method: smallest in-plane scale of a top triangle (default 0.5)");
-  cmd->add_option("--s-max", o->s_max, "Curvature method: largest in-plane scale of a top triangle (default 2)");
-  cmd->add_flag("--render", o->render, "Also write DIR/preview.png: a headless render colored by stretch");
-  cmd->callback([o] { run_generate(*o); });
+  gshell::cli::add_thickness_flags(*cmd, a->options.thickness);
+  cmd->add_option("--method", a->method, "rigid (optimised), offset (vertex-normal offset) or curvature")
+      ->capture_default_str();
+  cmd->add_option("--iterations", a->options.generate.solve.max_iterations, "Maximum local/global iterations")
+      ->capture_default_str();
+  cmd->add_option("--tolerance", a->options.generate.solve.tolerance, "Stop when the relative energy change is below this")
+      ->capture_default_str();
+  cmd->add_option("--s-min", a->options.generate.s_min, "Curvature method: smallest in-plane scale of a top triangle")
+      ->capture_default_str();
+  cmd->add_option("--s-max", a->options.generate.s_max, "Curvature method: largest in-plane scale of a top triangle")
+      ->capture_default_str();
+  gshell::cli::add_preview_flags(*cmd, a->render, a->view, "a headless render colored by stretch");
+  cmd->callback([a, cmd] { run(*cmd, *a); });
 }
 
 const gshell::cli::CommandRegistrar reg{30, add_generate_command};

@@ -1,10 +1,10 @@
 // `gshell metrics BASE TOP`: the quality report of any base/top pair (DESIGN.md "Quality measures").
 #include "command_registry.h"
-#include "thickness_option.h"
+#include "parameter_flags.h"
+#include "thickness_flags.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
-#include <gshell/io/atomic_file.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/shell/generate_report.h>
@@ -19,12 +19,12 @@ namespace {
 
 struct MetricsCliOptions {
   std::string base, top, output;
-  gshell::cli::ThicknessOption thickness;
+  gshell::ThicknessChoice thickness;
 };
 
-void run_metrics(const MetricsCliOptions& o) {
+void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
   using namespace gshell;
-  o.thickness.check();
+  cli::check_flags(cmd, [&] { o.thickness.check(); });
 
   const TriMesh base = load_mesh(o.base);
   // The top is not validated as a surface: a bad shell may well have degenerate top faces.
@@ -35,10 +35,10 @@ void run_metrics(const MetricsCliOptions& o) {
   const double eta = o.thickness.eta(base.V);
   const ShellMetrics m = shell_metrics(base.V, base.F, top.V, eta, true);
   if (!o.output.empty()) {
-    nlohmann::json report = metrics_report(m, base.num_vertices(), base.num_faces(), eta, o.thickness.ratio);
+    nlohmann::json report = metrics_report(m, base.num_vertices(), base.num_faces(), eta, o.thickness.thickness_ratio);
     report["base"] = o.base;
     report["top"] = o.top;
-    write_file_atomically(o.output, [&](std::ostream& out) { out << report.dump(2) << "\n"; });
+    write_report(o.output, nlohmann::ordered_json(report));
   }
   std::cout << metrics_summary(m, base.num_vertices(), base.num_faces(), eta);
 }
@@ -47,12 +47,13 @@ void add_metrics_command(CLI::App& app) {
   auto o = std::make_shared<MetricsCliOptions>();
   CLI::App* cmd = app.add_subcommand(
       "metrics", "Quality of a shell given by its base and top surfaces (same faces and vertex order): stretch "
-                 "against the normal prisms, inverted tets, intersections, thickness.");
+                 "against the normal prisms, the exact validity certificate (inverted tets, intersections), "
+                 "thickness.");
   cmd->add_option("base", o->base, "Base surface (mesh file or builtin:NAME)")->required();
   cmd->add_option("top", o->top, "Top surface with the base's faces and vertex order")->required();
-  o->thickness.add_to(*cmd);
+  gshell::cli::add_thickness_flags(*cmd, o->thickness);
   cmd->add_option("-o,--output", o->output, "Write the report as JSON to this file");
-  cmd->callback([o] { run_metrics(*o); });
+  cmd->callback([o, cmd] { run_metrics(*cmd, *o); });
 }
 
 const gshell::cli::CommandRegistrar reg{40, add_metrics_command};

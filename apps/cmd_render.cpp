@@ -1,5 +1,7 @@
 // `gshell render`: headless PNG renders of shells and surfaces, side by side.
 #include "command_registry.h"
+#include "parameter_flags.h"
+#include "progress.h"
 
 #include <gshell/error.h>
 #include <gshell/render/image.h>
@@ -38,10 +40,10 @@ void parse_size(const std::string& text, int& width, int& height) {
     throw InputError("--size " + text + ": width and height must be in [32, 8192]");
 }
 
-void run_render(const RenderArgs& args) {
+void run_render(const CLI::App& cmd, const RenderArgs& args) {
   ShellRenderOptions options;
   parse_size(args.size, options.figure.width, options.figure.height);
-  options.figure.view = parse_view(args.view);
+  check_flags(cmd, [&] { options.figure.view = parse_view(args.view); });
   options.figure.projection = args.ortho ? Projection::Orthographic : Projection::Perspective;
   options.figure.supersample = args.supersample;
   options.figure.shared_camera = !args.frame_each;
@@ -70,7 +72,8 @@ void run_render(const RenderArgs& args) {
   for (const auto& input : args.inputs) subjects.push_back(load_render_subject(input));
   const Image image = render_subjects(subjects, args.captions, options);
   write_png(args.output, image);
-  if (!global_options().quiet) std::cerr << "render: wrote " << args.output << " (" << image.width << "x" << image.height << ")\n";
+  Progress("render").line("wrote " + args.output + " (" + std::to_string(image.width) + "x" +
+                          std::to_string(image.height) + ")");
 }
 
 void add_render_command(CLI::App& parent) {
@@ -104,7 +107,7 @@ void add_render_command(CLI::App& parent) {
   cmd->add_option("--supersample", args->supersample, "Anti-aliasing: render K times larger and filter down")
       ->check(CLI::Range(1, 4))
       ->capture_default_str();
-  cmd->callback([args] { run_render(*args); });
+  cmd->callback([args, cmd] { run_render(*cmd, *args); });
 }
 
 const CommandRegistrar reg{80, add_render_command};

@@ -1,14 +1,15 @@
 // gshell texture: geometric texture through the shell map (paper Fig. 5).
 #include "command_registry.h"
+#include "progress.h"
 
 #include <gshell/deform/geometric_texture.h>
 #include <gshell/error.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/write_mesh.h>
-#include <gshell/shell/shell_dir.h>
+#include <gshell/run/shell_folder.h>
 
-#include <iostream>
 #include <memory>
+#include <sstream>
 #include <vector>
 
 namespace {
@@ -21,11 +22,11 @@ struct TextureArgs {
 };
 
 void run_texture(const TextureArgs& args) {
-  const bool quiet = gshell::cli::global_options().quiet;
   if (args.repeat.size() != 2 || args.repeat[0] < 1 || args.repeat[1] < 1)
     throw gshell::InputError("--repeat needs two counts >= 1");
-  gshell::TriMesh uv_source;
-  const gshell::Shell shell = gshell::load_shell_dir(args.shell, &uv_source);
+  const gshell::ShellFolder folder = gshell::read_shell_folder(args.shell);
+  const gshell::Shell& shell = folder.shell;
+  const gshell::TriMesh& uv_source = folder.surface;
   if (!uv_source.has_uv())
     throw gshell::InputError(gshell::with_file(args.shell, "base.obj has no texture coordinates (vt)"));
   const gshell::TriMesh tile =
@@ -36,14 +37,17 @@ void run_texture(const TextureArgs& args) {
   const gshell::GeometricTexture texture =
       gshell::map_geometric_texture(shell, uv_source, tile, args.repeat[0], args.repeat[1]);
   gshell::write_mesh(args.out, texture.mesh);
-  if (!quiet) {
-    std::cerr << "texture: " << args.repeat[0] << " x " << args.repeat[1] << " tiles, " << texture.points
+  gshell::cli::Progress progress("texture");
+  if (progress.enabled()) {
+    std::ostringstream line;
+    line << args.repeat[0] << " x " << args.repeat[1] << " tiles, " << texture.points
               << " vertices, " << texture.mesh.num_faces() << " faces over UV [" << texture.uv_min.x() << ", "
               << texture.uv_max.x() << "] x [" << texture.uv_min.y() << ", " << texture.uv_max.y() << "]";
     if (texture.outside > 0)
-      std::cerr << "; " << texture.outside << " vertices outside the UV prisms (extrapolated, up to "
+      line << "; " << texture.outside << " vertices outside the UV prisms (extrapolated, up to "
                 << texture.max_outside_distance << " in texture space)";
-    std::cerr << "; wrote " << args.out << "\n";
+    line << "; wrote " << args.out;
+    progress.line(line.str());
   }
 }
 

@@ -6,7 +6,6 @@
 // inverted tets, intersections, clamp counts and generation time; then a sweep of the clamps.
 #include <gshell/geometry/curvature.h>
 #include <gshell/io/read_mesh.h>
-#include <gshell/shell/curvature_shell.h>
 #include <gshell/shell/generate_shell.h>
 
 #include <algorithm>
@@ -67,15 +66,9 @@ Run generate(const TriMesh& mesh, ShellMethod method, double eta, double s_min, 
   options.count_intersections = intersections;
   Run run;
   run.seconds = seconds_of([&] {
-    if (method == ShellMethod::Curvature) {
-      CurvatureShellResult c = generate_curvature_shell(mesh.V, mesh.F, options);
-      run.result = std::move(c.result);
-      run.prisms = c.prisms;
-      run.own = c.own_stretch;
-    } else {
-      run.result = generate_shell(mesh.V, mesh.F, options);
-      run.own = run.result.metrics.stretch;
-    }
+    run.result = generate_shell(mesh.V, mesh.F, options);
+    run.own = run.result.curvature ? run.result.curvature->own_stretch : run.result.metrics.stretch;
+    if (run.result.curvature) run.prisms = run.result.curvature->prisms;
   });
   return run;
 }
@@ -96,8 +89,8 @@ void print_row(double ratio, const char* method, double s_min, double s_max, con
               "%4d %6.2f\n",
               ratio, method, clamps, percentile(t, 0, all), percentile(t, 0.01, all), percentile(t, 0, ridge),
               percentile(t, 0.01, ridge), percentile(t, 0.5, ridge), m.stretch.volume_mean, m.stretch.p99,
-              m.stretch.max, m.stretch.mean, m.stretch.inverted, m.top_self_intersections,
-              m.top_base_intersections, run.prisms.clamped, run.prisms.limited, run.own.volume_mean,
+              m.stretch.max, m.stretch.mean, m.certificate.inverted_tets, m.certificate.top_self_intersections,
+              m.certificate.top_base_intersections, run.prisms.clamped, run.prisms.limited, run.own.volume_mean,
               run.result.solve.iterations, seconds);
 }
 

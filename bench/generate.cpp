@@ -9,6 +9,7 @@
 #include <gshell/shell/prism_tets.h>
 #include <gshell/solver/polar_decomposition.h>
 #include <gshell/solver/shell_solver.h>
+#include <gshell/solver/simd_level.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -95,6 +96,8 @@ int main(int argc, char** argv) {
   const int n = mesh.num_vertices(), m = mesh.num_faces();
   std::printf("mesh %s: %d vertices, %d faces, %d tets; %d threads\n", path.c_str(), n, m, 3 * m,
               tbb::this_task_arena::max_concurrency());
+  std::printf("SIMD kernels: %s (this CPU supports up to %s; GSHELL_SIMD=generic|avx2|avx512 caps it)\n",
+              to_string(simd_level()).c_str(), to_string(simd_level_supported()).c_str());
   if (FILE* f = std::fopen("/proc/loadavg", "r")) { // the machine may be shared: say how busy it was
     char line[128] = {0};
     if (std::fgets(line, sizeof line, f)) std::printf("load average at start: %s", line);

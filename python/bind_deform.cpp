@@ -1,15 +1,18 @@
-// Deformer (base-driven deformation), Embedding and embed (detail carried by a shell).
+// Deformer and deform (base-driven deformation), Embedding and embed (detail carried by a shell).
 #include "bindings.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"
+#include "gil_probe.h"
 
 #include <gshell/deform/embedding.h>
 #include <gshell/deform/shell_deformer.h>
+#include <gshell/run/deform_run.h>
 
 #include <pybind11/stl.h>
 
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <mutex>
 
 namespace gshell::python {
@@ -31,16 +34,6 @@ struct EmbeddingObject {
   int shell_vertices = 0; ///< 2n of the shell it was made in: carry() needs that many rows
 };
 
-nlohmann::json frame_json(const FrameResult& r) {
-  return {{"iterations", r.iterations},
-          {"converged", r.converged},
-          {"energy", r.energy},
-          {"stretch",
-           {{"mean", r.stretch.mean}, {"volume_mean", r.stretch.volume_mean}, {"max", r.stretch.max}, {"p99", r.stretch.p99}}},
-          {"inverted_tets", r.stretch.inverted},
-          {"seconds", r.seconds}};
-}
-
 std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell) {
   py::gil_scoped_release release;
   return std::make_unique<DeformerObject>(shell.shell);
@@ -50,22 +43,50 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
                          const std::string& warm_start) {
   const int n = d.deformer.rest_shell().num_base_vertices();
   const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
-  if (iterations < 0) value_error("iterations must not be negative (got " + std::to_string(iterations) + ")");
-  if (!(tolerance >= 0) || !std::isfinite(tolerance))
-    value_error("tolerance must be a non-negative number (got " + std::to_string(tolerance) + ")");
   DeformOptions options;
   options.max_iterations = iterations;
   options.tolerance = tolerance;
   options.warm_start = parse_warm_start(warm_start);
+  options.check();
   Eigen::MatrixXd top;
   {
     py::gil_scoped_release release;
     const std::lock_guard<std::mutex> lock(d.mutex); // released before the GIL is taken back
     d.last = d.deformer.solve(base, options);
+    pass_gil_probe();
     d.solved = true;
     top = d.last.top;
   }
   return from_matrix(top);
+}
+
+py::object deform_py(const ShellObject& shell, const py::sequence& frames, const std::optional<std::string>& output,
+                     int iterations, double tolerance, const std::string& warm_start, bool compare_offset) {
+  DeformRunOptions options;
+  options.frame.max_iterations = iterations;
+  options.frame.tolerance = tolerance;
+  options.frame.warm_start = parse_warm_start(warm_start);
+  options.compare_offset = compare_offset;
+  options.check();
+  DeformInput input;
+  input.shell_name = "<gshell.Shell>";
+  input.shell = shell.shell;
+  input.surface.V = shell.shell.base;
+  input.surface.F = shell.shell.F;
+  const int n = shell.shell.num_base_vertices();
+  if (py::len(frames) == 0) value_error("frames is empty: give at least one new base");
+  for (std::size_t k = 0; k < py::len(frames); ++k) {
+    const std::string name = "frames[" + std::to_string(k) + "]";
+    input.frames.push_back(to_matrix(frames[k], name.c_str(), 3, n));
+    input.frame_names.push_back(name);
+  }
+  nlohmann::ordered_json report;
+  {
+    py::gil_scoped_release release;
+    report = run_deform(input, options, output.value_or("")).to_json();
+    pass_gil_probe();
+  }
+  return to_python(report);
 }
 
 Eigen::MatrixXd shell_vertices_of(const py::handle& object, int rows) {
@@ -81,6 +102,7 @@ Eigen::MatrixXd shell_vertices_of(const py::handle& object, int rows) {
 } // namespace
 
 void bind_deform(py::module_& m) {
+  const DeformOptions defaults; // the only source of the defaults, as for the CLI
   py::class_<DeformerObject>(m, "Deformer", R"(Base-driven shell deformation (paper section 4.2): someone
 else moves the base (same connectivity), the top follows with the least stretch relative to the
 rest shell. Built once per rest shell (the system matrix is factored once); each solve() only
@@ -90,16 +112,18 @@ back-substitutes and is warm-started from the previous frame, as `gshell deform`
 
 Raises:
     ValueError: the shell has a tet of non-positive volume.)")
-      .def("solve", &deformer_solve, py::arg("new_base"), py::kw_only(), py::arg("iterations") = 50,
-           py::arg("tolerance") = 1e-4, py::arg("warm_start") = "rotated",
+      .def("solve", &deformer_solve, py::arg("new_base"), py::kw_only(), py::arg("iterations") = defaults.max_iterations,
+           py::arg("tolerance") = defaults.tolerance, py::arg("warm_start") = warm_start_name(defaults.warm_start),
            R"(Solve the top for a new base.
 
 Args:
     new_base: float array (n, 3), the rest base's vertex order.
     iterations: maximum local/global iterations (>= 0).
     tolerance: stop when the relative energy change is below this.
-    warm_start: "rotated" (previous offsets rotated with the base's 1-rings, default),
-        "translated" (previous top moved with the base) or "previous" (previous top as is).
+    warm_start: "extrapolated" (default: "rotated" plus the previous frame's correction,
+        continued), "rotated" (previous offsets rotated with the base's 1-rings), "translated"
+        (previous top moved with the base) or "previous" (previous top as is), as
+        `gshell deform --warm-start`.
 
 Returns:
     float64 array (n, 3): the deformed top. Statistics are in .last.
@@ -127,7 +151,7 @@ Releases the GIL while it runs.)")
            "float64 (2n, 3): all shell vertices after the last solve (base rows, then top rows); "
            "pass it to Embedding.carry().")
       .def_property_readonly("last", [](DeformerObject& d) -> py::object {
-             nlohmann::json j; // stays null before the first solve
+             nlohmann::ordered_json j; // stays null before the first solve
              {
                py::gil_scoped_release release;
                const std::lock_guard<std::mutex> lock(d.mutex);
@@ -139,7 +163,30 @@ Releases the GIL while it runs.)")
            "energy[0] at the warm start), stretch {mean, volume_mean, max, p99} against the rest shell, "
            "inverted_tets, seconds. The fields of a frame in `gshell deform`'s report.json.")
       .def_property_readonly("factor_seconds", [](const DeformerObject& d) { return d.deformer.factor_seconds(); },
-                             "Seconds spent assembling and factoring the system matrix.");
+                             "Seconds spent assembling and factoring the system matrix.")
+;
+
+  m.def("deform", &deform_py, py::arg("shell"), py::arg("frames"), py::kw_only(), py::arg("output") = py::none(),
+        py::arg("iterations") = defaults.max_iterations, py::arg("tolerance") = defaults.tolerance,
+        py::arg("warm_start") = warm_start_name(defaults.warm_start), py::arg("compare_offset") = false,
+        R"(Deform `shell` by a sequence of new bases, as `gshell deform` does: one factorisation, each
+frame warm-started from the previous one.
+
+Args:
+    shell: the rest Shell.
+    frames: a sequence of float arrays (n, 3), the new bases in the rest base's vertex order.
+    output: a folder to write as `gshell deform -o` does (frame_NNNN/top.obj and shell.vtu,
+        report.json), or None.
+    iterations, tolerance, warm_start: per frame, as Deformer.solve().
+    compare_offset: also measure re-extruding each frame by the vertex-normal offset.
+
+Returns:
+    dict: the CLI's report.json (summary and one record per frame).
+
+Raises:
+    ValueError: bad arrays or options, or an output folder that holds other files.
+
+Releases the GIL while it runs.)");
 
   py::class_<EmbeddingObject>(m, "Embedding", R"(Points embedded in a rest shell as (tet, barycentric
 coordinates), carried along by every deformation of that shell (paper Fig. 5, 8). Made by embed().)")

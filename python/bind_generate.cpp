@@ -2,13 +2,14 @@
 #include "bindings.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"
+#include "gil_probe.h"
 
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/quality/shell_metrics.h>
+#include <gshell/run/generate_run.h>
+#include <gshell/run/shell_folder.h>
 #include <gshell/shell/generate_report.h>
-#include <gshell/shell/generate_shell.h>
 #include <gshell/shell/prism_tets.h>
-#include <gshell/shell/shell_dir.h>
 
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
@@ -29,19 +30,6 @@ TriMesh checked_mesh(const py::handle& V, const py::handle& F, const char* v_nam
   mesh.V = to_matrix(V, v_name, 3);
   mesh.F = to_indices(F, f_name, 3, static_cast<int>(mesh.V.rows()));
   return mesh;
-}
-
-/// Exactly one of the two, positive and finite; the absolute thickness in model units.
-double resolve_thickness(const Eigen::MatrixXd& V, std::optional<double> thickness, std::optional<double> ratio) {
-  if (thickness.has_value() == ratio.has_value()) value_error("give exactly one of thickness and thickness_ratio");
-  if (thickness) {
-    if (!(*thickness > 0) || !std::isfinite(*thickness))
-      value_error("thickness must be positive and finite (got " + std::to_string(*thickness) + ")");
-    return *thickness;
-  }
-  if (!(*ratio > 0) || !std::isfinite(*ratio))
-    value_error("thickness_ratio must be positive and finite (got " + std::to_string(*ratio) + ")");
-  return thickness_from_ratio(V, *ratio);
 }
 
 /// Shell object for a base/top pair that was not generated here: stretch and report measured
@@ -72,31 +60,32 @@ ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayA
 
 ShellObject load_shell_py(const std::filesystem::path& dir) {
   py::gil_scoped_release release;
-  return measured_shell(load_shell_dir(dir.string()));
+  return measured_shell(read_shell_folder(dir.string()).shell);
 }
 
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
                         std::optional<double> thickness_ratio, const std::string& method, int iterations,
-                        double tolerance, bool count_intersections) {
-  const TriMesh mesh = checked_mesh(V, F);
-  GenerateOptions options;
-  options.method = parse_shell_method(method);
-  if (iterations < 0) value_error("iterations must not be negative (got " + std::to_string(iterations) + ")");
-  if (!(tolerance >= 0) || !std::isfinite(tolerance))
-    value_error("tolerance must be a non-negative number (got " + std::to_string(tolerance) + ")");
-  options.solve.max_iterations = iterations;
-  options.solve.tolerance = tolerance;
-  options.count_intersections = count_intersections;
+                        double tolerance, double s_min, double s_max, bool count_intersections) {
+  TriMesh mesh = checked_mesh(V, F);
+  GenerateRunOptions options;
+  options.thickness = {thickness, thickness_ratio};
+  options.generate.method = parse_shell_method(method);
+  options.generate.solve.max_iterations = iterations;
+  options.generate.solve.tolerance = tolerance;
+  options.generate.s_min = s_min;
+  options.generate.s_max = s_max;
+  options.generate.count_intersections = count_intersections;
+  options.check();
   py::gil_scoped_release release;
   // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
   require_valid_mesh(mesh, "mesh (V, F)");
-  options.thickness = resolve_thickness(mesh.V, thickness, thickness_ratio);
-  GenerateResult result = generate_shell(mesh.V, mesh.F, options);
+  GenerateRun run = run_generate(std::move(mesh), kArrayInput, options);
+  pass_gil_probe();
   ShellObject s;
-  s.tets = build_prism_tets(mesh.F, mesh.num_vertices());
-  s.stretch = result.metrics.tet_stretch;
-  s.report = generate_report(result, kArrayInput, thickness_ratio);
-  s.shell = std::move(result.shell);
+  s.tets = build_prism_tets(run.surface.F, run.surface.num_vertices());
+  s.stretch = run.result.metrics.tet_stretch;
+  s.report = run.to_json();
+  s.shell = std::move(run.result.shell);
   return s;
 }
 
@@ -104,12 +93,14 @@ py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, s
                     std::optional<double> thickness_ratio, bool count_intersections) {
   const TriMesh base = checked_mesh(Vb, F, "Vb", "F");
   const Eigen::MatrixXd top = to_matrix(Vt, "Vt", 3, base.num_vertices());
+  const ThicknessChoice choice{thickness, thickness_ratio};
+  choice.check();
   ShellMetrics m;
   double eta = 0;
   {
     py::gil_scoped_release release;
     require_valid_mesh(base, "base (Vb, F)");
-    eta = resolve_thickness(base.V, thickness, thickness_ratio);
+    eta = choice.eta(base.V);
     m = shell_metrics(base.V, base.F, top, eta, count_intersections);
   }
   py::dict d = to_python(metrics_report(m, base.num_vertices(), base.num_faces(), eta, thickness_ratio));
@@ -161,9 +152,12 @@ stretch and report are measured as by metrics() without intersection counts.)")
                std::to_string(s.shell.F.rows()) + " faces, thickness " + std::to_string(s.shell.thickness) + ">";
       }, "Sizes and thickness.");
 
+  const GenerateOptions defaults; // the only source of the defaults, as for the CLI
   m.def("generate", &generate_py, py::arg("V"), py::arg("F"), py::arg("thickness") = py::none(), py::kw_only(),
-        py::arg("thickness_ratio") = py::none(), py::arg("method") = "rigid", py::arg("iterations") = 50,
-        py::arg("tolerance") = 1e-5, py::arg("count_intersections") = true,
+        py::arg("thickness_ratio") = py::none(), py::arg("method") = to_string(defaults.method),
+        py::arg("iterations") = defaults.solve.max_iterations, py::arg("tolerance") = defaults.solve.tolerance,
+        py::arg("s_min") = defaults.s_min, py::arg("s_max") = defaults.s_max,
+        py::arg("count_intersections") = defaults.count_intersections,
         R"(Generate the shell of a triangle surface (paper section 4.1), as `gshell generate` does.
 
 Args:
@@ -173,14 +167,18 @@ Args:
     thickness: eta in model units. Give exactly one of thickness and thickness_ratio.
     thickness_ratio: eta as a ratio of the bounding sphere's radius (e.g. 0.01).
     method: "rigid" (optimised towards the normal prisms), "offset" (vertex-normal offset, no
-        optimisation) or "curvature" (when the library provides it).
+        optimisation) or "curvature" (optimised towards prisms scaled by the surface's curvature).
     iterations: maximum local/global iterations (>= 0).
     tolerance: stop when the relative energy change is below this.
-    count_intersections: count top/top and top/base triangle intersections for the report
-        (costly on big meshes; None in the report when False).
+    s_min, s_max: curvature method: the clamp of the in-plane scales of the top triangles
+        (0 < s_min <= 1 <= s_max).
+    count_intersections: run the certificate's exact pair tests (top/top, top/base, side
+        walls, base/base) for the report; when False their counts are None and report["valid"]
+        is None, or False if a tet is inverted (the tets are always checked).
 
 Returns:
-    Shell with top, tets, per-tet stretch and report (dict, as the CLI's report.json).
+    Shell with top, tets, per-tet stretch and report (dict: the CLI's report.json, with the
+    `curvature` section for the curvature method).
 
 Raises:
     ValueError: bad arrays, invalid mesh, both or neither thickness, unknown method, bad numbers.
@@ -197,12 +195,14 @@ Args:
     Vt: float array (n, 3), top vertices (top i over base i).
     thickness: eta in model units. Give exactly one of thickness and thickness_ratio.
     thickness_ratio: eta as a ratio of the base's bounding-sphere radius.
-    count_intersections: count top/top and top/base intersections (None in the result if False).
+    count_intersections: run the certificate's exact pair tests (their counts and "valid" are
+        None in the result if False, "valid" False if a tet is inverted).
 
 Returns:
     dict with the fields of the CLI's metrics report (thickness {eta, ratio, min, mean},
     vertices, faces, tets, stretch {mean, volume_mean, max, p99} against the normal prisms,
-    inverted_tets, top_self_intersections, top_base_intersections), plus NumPy arrays
+    valid, certificate {inverted_tets, top_self_intersections, top_base_intersections,
+    wall_intersections, exact}, base_self_intersections, thinned_vertices), plus NumPy arrays
     tet_stretch (3m,), tet_determinant (3m,) and vertex_thickness (n,) (distance to the base / eta).
 
 Raises:

@@ -1,11 +1,13 @@
-// Poser: direct shell deformation with handles (paper §4.2 second type, §5 hierarchy).
+// Poser: direct shell deformation with handles (paper §4.2 second type, §5 hierarchy), a thin
+// layer over the library's DragSession.
 #include "bindings.h"
+#include "gil_probe.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"
 
 #include <gshell/deform/handles.h>
-#include <gshell/deform/pose.h>
-#include <gshell/quality/stretch.h>
+#include <gshell/run/drag_session.h>
+#include <gshell/run/pose_run.h>
 
 #include <pybind11/stl/filesystem.h>
 
@@ -13,134 +15,74 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
-#include <sstream>
 
 namespace gshell::python {
 
 namespace {
 
-/// Everything a PoseSolver depends on, as text: two handle specs that resolve to the same key
-/// (same vertices, motions, mode, weight) can share one solver and its factorisations.
-std::string handle_key(const HandleSet& set) {
-  std::ostringstream s;
-  s.precision(17);
-  s << (set.mode == ConstraintMode::Hard ? "hard" : "soft") << ' ' << set.weight << '\n';
-  for (const Handle& h : set.handles) {
-    for (int v : h.vertices) s << v << ' ';
-    s << "| " << h.translate.transpose() << " | " << h.axis.transpose() << " | " << h.degrees << " | "
-      << h.center.transpose() << '\n';
-  }
-  return s.str();
-}
-
-nlohmann::json stretch_json(const StretchStats& s) {
-  return {{"mean", s.mean}, {"volume_mean", s.volume_mean}, {"max", s.max}, {"p99", s.p99}, {"inverted", s.inverted}};
-}
-
 struct PoserObject {
-  Shell rest;
-  PoseSolverKind kind = PoseSolverKind::Hierarchical;
-  HierarchyOptions hierarchy;
-
-  // The solver of the last handle set, its state and how far along the handles' motion it is:
-  // calling solve() again with the same handles continues from there (a drag) without
-  // rebuilding the hierarchy or refactoring.
-  std::unique_ptr<PoseSolver> solver;
-  std::string key;
-  Eigen::MatrixXd X;
-  double fraction = 0;
-  Eigen::MatrixXd X_before; ///< the state before X (empty after a rebuild), to extrapolate a drag
-  double fraction_before = 0;
-  nlohmann::json last; ///< null before the first solve
-  std::mutex mutex;    ///< solve() runs without the GIL
+  explicit PoserObject(DragSession s) : session(std::move(s)) {}
+  DragSession session;
+  /// The handle set of the last solve (with its motions): the same set again continues the drag.
+  std::optional<HandleSet> handles;
+  nlohmann::ordered_json last; ///< null before the first solve
+  std::mutex mutex;            ///< solve() runs without the GIL
 };
 
 std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, int levels) {
-  auto p = std::make_unique<PoserObject>();
-  if (solver == "hierarchical")
-    p->kind = PoseSolverKind::Hierarchical;
-  else if (solver == "single")
-    p->kind = PoseSolverKind::Single;
-  else
-    value_error("unknown solver '" + solver + "' (expected hierarchical or single)");
-  if (levels < 1) value_error("levels must be >= 1 (got " + std::to_string(levels) + ")");
-  p->hierarchy.levels = levels;
-  p->rest = shell.shell;
+  PoseOptions options;
+  options.solver = parse_pose_solver(solver);
+  options.hierarchy.levels = levels;
+  options.check();
+  auto p = std::make_unique<PoserObject>(DragSession(shell.shell, options));
+  p->session.set_undo_depth(0); // Poser has no undo: keep no copies of the shell
   return p;
 }
 
 HandleSet handles_from(const PoserObject& p, const py::object& handles) {
+  const Shell& rest = p.session.rest();
   if (py::isinstance<py::str>(handles) || py::hasattr(handles, "__fspath__")) {
     const auto path = handles.cast<std::filesystem::path>();
     py::gil_scoped_release release;
-    return read_handles(path.string(), p.rest);
+    return read_handles(path.string(), rest);
   }
   if (!py::isinstance<py::dict>(handles))
     value_error("handles must be a dict in the handle-file format or the path of a handle file");
   const std::string text = from_python(handles, "handles").dump();
   py::gil_scoped_release release;
-  return parse_handles(text, "handles", p.rest);
+  return parse_handles(text, "handles", rest);
 }
 
 py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction, int steps, int iterations,
                       double tolerance) {
   if (!(fraction >= 0 && fraction <= 1)) value_error("fraction must be in [0, 1] (got " + std::to_string(fraction) + ")");
-  if (steps < 1) value_error("steps must be >= 1 (got " + std::to_string(steps) + ")");
-  if (iterations < 1) value_error("iterations must be >= 1 (got " + std::to_string(iterations) + ")");
-  if (!(tolerance >= 0) || !std::isfinite(tolerance))
-    value_error("tolerance must be a non-negative number (got " + std::to_string(tolerance) + ")");
+  PoseOptions options;
+  options.steps = steps;
+  options.solve.max_iterations = iterations;
+  options.solve.tolerance = tolerance;
+  options.check();
   const HandleSet set = handles_from(p, handles);
-  SolveOptions options;
-  options.max_iterations = iterations;
-  options.tolerance = tolerance;
-  const int n = p.rest.num_base_vertices();
   Eigen::MatrixXd X;
   {
     py::gil_scoped_release release;
     const std::lock_guard<std::mutex> lock(p.mutex);
-    const std::string key = handle_key(set);
-    if (!p.solver || key != p.key) {
-      p.solver.reset(); // free the old factorisations before building new ones
-      p.solver = std::make_unique<PoseSolver>(p.rest, set, p.kind, p.hierarchy);
-      p.key = key;
-      p.X = p.solver->rest_vertices();
-      p.fraction = 0;
-      p.X_before.resize(0, 0);
+    if (!p.handles || !(*p.handles == set)) { // other handles: from the rest shell again
+      p.session.reset();
+      p.session.set_handles(set);
+      p.handles = set;
     }
-    // Steps as in `gshell pose --steps K`: equal parts of the way from the current fraction.
-    const double from = p.fraction;
-    nlohmann::json step_reports = nlohmann::json::array();
-    for (int k = 1; k <= steps; ++k) {
-      const double f = from + (fraction - from) * (static_cast<double>(k) / steps);
-      // Like run_pose: continue the previous step's motion for the start state.
-      Eigen::MatrixXd start =
-          p.X_before.size() > 0 ? p.solver->predict_start(p.X_before, p.fraction_before, p.X, p.fraction, f) : p.X;
-      p.X_before = std::move(p.X);
-      p.fraction_before = p.fraction;
-      p.X = std::move(start);
-      const SolveResult r = p.solver->solve(p.X, f, options);
-      p.fraction = f;
-      step_reports.push_back({{"fraction", f},
-                              {"iterations", r.iterations},
-                              {"energy", r.energy.empty() ? 0.0 : r.energy.back()},
-                              {"seconds", r.seconds},
-                              {"converged", r.converged}});
-    }
-    p.last = {{"solver", p.kind == PoseSolverKind::Hierarchical ? "hierarchical" : "single"},
-              {"levels", p.kind == PoseSolverKind::Hierarchical ? p.hierarchy.levels : 1},
-              {"mode", set.mode == ConstraintMode::Hard ? "hard" : "soft"},
-              {"handle_vertices", set.constrained_vertices().size()},
-              {"setup_seconds", p.solver->setup_seconds()},
-              {"steps", step_reports},
-              {"stretch", stretch_json(stretch_stats(p.solver->rest_tets(), p.X))}};
-    X = p.X;
+    p.last = run_pose(p.session, options, fraction).to_json();
+    X = p.session.vertices();
+    pass_gil_probe();
   }
+  const int n = p.session.rest().num_base_vertices();
   return py::make_tuple(from_matrix(X.topRows(n)), from_matrix(X.bottomRows(n)));
 }
 
 } // namespace
 
 void bind_pose(py::module_& m) {
+  const PoseOptions defaults; // the only source of the defaults, as for the CLI
   py::class_<PoserObject>(m, "Poser", R"(Direct shell deformation with handles (paper section 4.2, second
 type): handles move vertices of either surface, both surfaces follow with the least stretch
 relative to the rest shell; solved by the hierarchical solver (paper section 5) or the
@@ -152,7 +94,8 @@ Handles are a dict in the handle-file format of `gshell pose --handles` (docs/ha
         {"vertices": [0, 5, 17], "translate": [0, 0, 0.3],
          "rotate": {"axis": [0, 1, 0], "degrees": 30}}]}
 (shell vertex ids: base 0..n-1, top n..2n-1), or the path of such a file.)")
-      .def(py::init(&make_poser), py::arg("shell"), py::arg("solver") = "hierarchical", py::arg("levels") = 5,
+      .def(py::init(&make_poser), py::arg("shell"), py::arg("solver") = pose_solver_name(defaults.solver),
+           py::arg("levels") = defaults.hierarchy.levels,
            R"(Prepare direct deformation of `shell` (the rest shell).
 
 Args:
@@ -163,7 +106,8 @@ Args:
 Raises:
     ValueError: unknown solver, levels < 1.)")
       .def("solve", &poser_solve, py::arg("handles"), py::kw_only(), py::arg("fraction") = 1.0,
-           py::arg("steps") = 1, py::arg("iterations") = 500, py::arg("tolerance") = 1e-6,
+           py::arg("steps") = defaults.steps, py::arg("iterations") = defaults.solve.max_iterations,
+           py::arg("tolerance") = defaults.solve.tolerance,
            R"(Move the handles and solve for the deformed shell.
 
 Args:
@@ -175,7 +119,9 @@ Args:
 
 The first solve for a handle set builds the solver (cluster tree, factorisations) and starts from
 the rest shell; later solves with the same handles reuse it and continue from the last state
-(e.g. fraction=0.5, then fraction=1.0). Different handles start from the rest shell again.
+(e.g. fraction=0.5, then fraction=1.0), each step started from the drag's motion continued.
+Different handles start from the rest shell again (the solver is rebuilt only if their vertex
+sets differ).
 
 Returns:
     (base, top): float64 arrays (n, 3), the deformed surfaces. Statistics are in .last.
@@ -189,19 +135,26 @@ Releases the GIL while it runs.)")
            [](PoserObject& p) {
              py::gil_scoped_release release;
              const std::lock_guard<std::mutex> lock(p.mutex);
-             p.solver.reset();
-             p.key.clear();
-             p.fraction = 0;
+             p.session.reset();
+             p.handles.reset();
              p.last = nullptr;
            },
            "Forget the last handle set: the next solve() starts from the rest shell.")
+      .def("write",
+           [](PoserObject& p, const std::filesystem::path& path) {
+             py::gil_scoped_release release;
+             const std::lock_guard<std::mutex> lock(p.mutex);
+             p.session.write(path.string());
+           },
+           py::arg("path"),
+           "Write the posed shell folder as `gshell pose -o` does (base.obj, top.obj, shell.vtu, report.json).")
       .def_property_readonly("vertices",
                              [](PoserObject& p) -> py::object {
                                Eigen::MatrixXd X;
                                {
                                  py::gil_scoped_release release;
                                  const std::lock_guard<std::mutex> lock(p.mutex);
-                                 X = p.solver ? p.X : p.rest.vertices();
+                                 X = p.session.vertices();
                                }
                                return read_only(from_matrix(X));
                              },
@@ -209,7 +162,7 @@ Releases the GIL while it runs.)")
                              "before any); pass it to Embedding.carry().")
       .def_property_readonly("last",
                              [](PoserObject& p) -> py::object {
-                               nlohmann::json j;
+                               nlohmann::ordered_json j;
                                {
                                  py::gil_scoped_release release;
                                  const std::lock_guard<std::mutex> lock(p.mutex);
@@ -217,10 +170,10 @@ Releases the GIL while it runs.)")
                                }
                                return j.is_null() ? py::none() : to_python(j);
                              },
-                             "dict about the last solve (None before the first): solver, levels, mode, "
-                             "handle_vertices, setup_seconds, steps (list of {fraction, iterations, energy, "
-                             "seconds, converged}) and stretch {mean, volume_mean, max, p99, inverted} against "
-                             "the rest shell, as in `gshell pose`'s report.json.");
+                             "dict about the last solve (None before the first): the fields of `gshell pose`'s "
+                             "report.json (solver, levels, mode, handle_vertices, setup_seconds, tolerance, "
+                             "max_iterations, steps [{fraction, iterations, energy, seconds, converged}] of this "
+                             "solve, stretch {mean, volume_mean, max, p99} against the rest shell, inverted_tets, ...).");
 }
 
 } // namespace gshell::python

@@ -1,5 +1,6 @@
 // The `gshell` Python module: NumPy arrays in and out of the library (see python/README section).
 #include "bindings.h"
+#include "gil_probe.h"
 
 #include <gshell/error.h>
 
@@ -30,4 +31,5 @@ release the GIL.)";
   gshell::python::bind_generate(m);
   gshell::python::bind_deform(m);
   gshell::python::bind_pose(m);
+  gshell::python::bind_gil_probe(m);
 }

@@ -53,6 +53,16 @@ TEST(AnimateCli, WritesKFramesOfABendOrTwist) {
   EXPECT_TRUE(fs::exists(tmp.file("twist") + "/frame_0002.obj"));
 }
 
+TEST(AnimateCli, ProgressInALogIsOneLinePerFrame) {
+  // stderr is a file here, not a terminal: no carriage returns, one line per update.
+  TempDir tmp;
+  const auto r = run_cli("animate builtin:plane:4 --twist 30 --frames 3 -o '" + tmp.file("twist") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
+  EXPECT_EQ(r.err, "gshell animate: frame 1/3\ngshell animate: frame 2/3\ngshell animate: frame 3/3\n"
+                   "gshell animate: wrote 3 frames of a twist to 30 degrees to " + tmp.file("twist") + "\n");
+}
+
 TEST(AnimateCli, RejectsBadArguments) {
   TempDir tmp;
   const std::string out = tmp.file("out");

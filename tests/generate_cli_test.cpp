@@ -3,7 +3,7 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
-#include <gshell/shell/shell_dir.h>
+#include <gshell/run/shell_folder.h>
 
 #include "test_support.h"
 
@@ -53,7 +53,7 @@ TEST(GenerateCli, WritesAShellFolderThatParsesBack) {
   EXPECT_EQ(report["vertices"], n);
   EXPECT_EQ(report["tets"], 3 * m);
   EXPECT_LE(report["iterations"].get<int>(), 10);
-  EXPECT_EQ(report["top_self_intersections"], 0);
+  EXPECT_EQ(report["certificate"]["top_self_intersections"], 0);
 
   const TetMesh shell = read_tet_mesh(out + "/shell.vtu");
   EXPECT_EQ(shell.X.rows(), 2 * n);
@@ -66,7 +66,7 @@ TEST(GenerateCli, WritesAShellFolderThatParsesBack) {
   EXPECT_EQ((*find_array(shell.cell_data, "prism"))(3 * 7 + 2, 0), 7.0);
   EXPECT_LT((shell.X.bottomRows(n) - top.V).cwiseAbs().maxCoeff(), 1e-9);
 
-  const Shell loaded = load_shell_dir(out);
+  const Shell loaded = read_shell_folder(out).shell;
   EXPECT_EQ(loaded.num_base_vertices(), n);
   EXPECT_DOUBLE_EQ(loaded.thickness, eta);
   EXPECT_TRUE(loaded.F == input.F);
@@ -77,24 +77,37 @@ TEST(GenerateCli, WritesAShellFolderThatParsesBack) {
                                std::to_string(eta) + " -o '" + json + "'");
   ASSERT_EQ(mr.exit_code, 0) << mr.err;
   const nlohmann::json metrics = nlohmann::json::parse(read_text(json));
-  EXPECT_EQ(metrics["inverted_tets"], report["inverted_tets"]);
+  for (const char* key : {"valid", "certificate", "base_self_intersections", "thinned_vertices"})
+    EXPECT_EQ(metrics[key], report[key]) << key;
   EXPECT_NEAR(metrics["stretch"]["volume_mean"].get<double>(), report["stretch"]["volume_mean"].get<double>(),
               1e-6 * report["stretch"]["volume_mean"].get<double>() + 1e-12);
-  EXPECT_EQ(metrics["top_self_intersections"], 0);
+  EXPECT_NE(mr.out.find("valid        "), std::string::npos) << mr.out;
 }
 
 TEST(GenerateCli, OffsetMethodAndExistingFolder) {
+  // The shell folder rule of every command that writes one: an earlier output is replaced, a folder
+  // of other files is refused and left as it was.
   TempDir tmp;
   const std::string out = tmp.file("shell");
   std::filesystem::create_directory(out);
   write_text(out + "/notes.txt", "keep me");
-  const CliResult r = run_cli("generate builtin:sphere -o '" + out + "' --thickness 0.05 --method offset");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const CliResult refused = run_cli("generate builtin:sphere -o '" + out + "' --thickness 0.05 --method offset");
+  EXPECT_EQ(refused.exit_code, 1) << refused.err;
+  EXPECT_NE(refused.err.find("not an earlier output"), std::string::npos) << refused.err;
   EXPECT_EQ(read_text(out + "/notes.txt"), "keep me");
+  EXPECT_EQ(count_entries(out), 1);
+  std::filesystem::remove(out + "/notes.txt");
+
+  for (const char* method : {"rigid", "offset"}) {
+    const CliResult r = run_cli("generate builtin:sphere -o '" + out + "' --thickness 0.05 --method " + method);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json report = nlohmann::json::parse(read_text(out + "/report.json"));
+    EXPECT_EQ(report["method"], method);
+  }
   const nlohmann::json report = nlohmann::json::parse(read_text(out + "/report.json"));
-  EXPECT_EQ(report["method"], "offset");
   EXPECT_EQ(report["iterations"], 0);
-  EXPECT_EQ(count_entries(tmp.path()), 1); // no staging folder left beside it
+  EXPECT_EQ(count_entries(out), 4);          // base.obj, top.obj, shell.vtu, report.json
+  EXPECT_EQ(count_entries(tmp.path()), 1);   // no staging folder left beside it
 }
 
 TEST(GenerateCli, BadParametersExitOneWithoutOutput) {

@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 using namespace gshell;
 using gshell::test::generate_options;
 
@@ -97,9 +99,12 @@ TEST(Generate, ReportHasEveryField) {
   o.count_intersections = true;
   const GenerateResult r = generate_shell(mesh.V, mesh.F, o);
   const nlohmann::json j = generate_report(r, "builtin:torus:24", 0.02);
-  for (const char* key : {"method", "thickness", "vertices", "faces", "tets", "iterations", "energy", "stretch",
-                          "inverted_tets", "top_self_intersections", "top_base_intersections", "seconds"})
+  for (const char* key : {"method", "thickness", "vertices", "faces", "tets", "iterations", "energy", "stretch", "valid",
+                          "certificate", "base_self_intersections", "thinned_vertices", "seconds"})
     EXPECT_TRUE(j.contains(key)) << key;
+  // One key for one thing: the certificate holds the exact counts.
+  for (const char* key : {"inverted_tets", "top_self_intersections", "top_base_intersections"})
+    EXPECT_FALSE(j.contains(key)) << key;
   EXPECT_EQ(j["method"], "rigid");
   EXPECT_EQ(j["vertices"], mesh.V.rows());
   EXPECT_EQ(j["faces"], mesh.F.rows());
@@ -107,11 +112,31 @@ TEST(Generate, ReportHasEveryField) {
   EXPECT_EQ(j["energy"].size(), static_cast<std::size_t>(r.solve.iterations + 1));
   for (const char* key : {"mean", "volume_mean", "max", "p99"}) EXPECT_TRUE(j["stretch"].contains(key)) << key;
   for (const char* key : {"eta", "ratio", "min", "mean"}) EXPECT_TRUE(j["thickness"].contains(key)) << key;
-  for (const char* key : {"total", "factor", "solve"}) EXPECT_TRUE(j["seconds"].contains(key)) << key;
+  for (const char* key : {"total", "factor", "solve", "certificate"}) EXPECT_TRUE(j["seconds"].contains(key)) << key;
   EXPECT_DOUBLE_EQ(j["thickness"]["eta"].get<double>(), 0.05);
-  EXPECT_EQ(j["top_self_intersections"], 0); // a thin shell of a smooth torus is clean
-  EXPECT_EQ(j["top_base_intersections"], 0);
-  EXPECT_FALSE(generate_summary(r, "builtin:torus:24").empty());
+  // A thin shell of a smooth torus is valid.
+  EXPECT_EQ(j["valid"], true);
+  EXPECT_EQ(j["certificate"], nlohmann::json({{"inverted_tets", 0},
+                                               {"top_self_intersections", 0},
+                                               {"top_base_intersections", 0},
+                                               {"wall_intersections", 0},
+                                               {"exact", true}}));
+  EXPECT_EQ(j["base_self_intersections"], 0);
+  EXPECT_EQ(j["thinned_vertices"], (r.metrics.vertex_thickness.array() < 0.9).count());
+  // The terminal summary says the same as the report.
+  const std::string summary = generate_summary(r, "builtin:torus:24");
+  const std::string faces = std::to_string(mesh.F.rows());
+  for (const std::string& part :
+       {std::string("input        builtin:torus:24"),
+        "shell        " + std::to_string(mesh.V.rows()) + " vertices, " + faces + " faces, " +
+            std::to_string(3 * mesh.F.rows()) + " tets, eta 0.05, method rigid",
+        "after " + std::to_string(r.solve.iterations) + " iterations",
+        std::string("valid        yes (exact: 0 inverted tets; top/top 0, top/base 0, wall 0 intersecting face pairs)"),
+        "(x eta), " + j["thinned_vertices"].dump() + " top vertices below 0.9 eta"})
+    EXPECT_NE(summary.find(part), std::string::npos) << part << "\n" << summary;
+  char stretch[64];
+  std::snprintf(stretch, sizeof stretch, "volume-weighted %.4g", r.metrics.stretch.volume_mean);
+  EXPECT_NE(summary.find(stretch), std::string::npos) << stretch << "\n" << summary;
 }
 
 TEST(Generate, CurvatureRejectsBadClamps) {

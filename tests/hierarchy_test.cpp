@@ -2,6 +2,7 @@
 // membership, monotone energy, agreement with the single-level solver.
 #include <gshell/deform/handles.h>
 #include <gshell/deform/pose.h>
+#include <gshell/run/pose_run.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/stretch.h>
 #include "shell_fixtures.h"

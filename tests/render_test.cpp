@@ -300,20 +300,29 @@ TEST(Figure, PanelColorMatchesTheColorBarAtItsValue) {
 }
 
 TEST(Annotate, TextStaysInItsBox) {
-  Image image(200, 60);
-  const std::string text = "stretch 0.1";
-  draw_text(image, 10, 10, text, 2, Rgb8{0, 0, 0});
-  const int w = text_width(text, 2), h = text_height(2);
-  int inside = 0, outside = 0;
-  for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width; ++x) {
-      const bool dark = image.at(x, y)[0] == 0;
-      const bool in_box = x >= 10 && x < 10 + w && y >= 10 && y < 10 + h;
-      (in_box ? inside : outside) += dark;
-    }
-  EXPECT_GT(inside, 50);
-  EXPECT_EQ(outside, 0);
-  EXPECT_LE(text_width(fit_text("a long caption that does not fit", 2, 100), 2), 100);
+  // Anti-aliased text: every pixel it touches (any coverage) lies in the box text_width x
+  // text_height, including descenders, a glyph reaching left of its origin ('j') and non-ASCII.
+  for (const std::string text : {"stretch 0.1", "jig qy", "\u03c3 \u2265 0.5 \u00c5"}) {
+    Image image(260, 60);
+    const int size = 20;
+    draw_text(image, 10, 10, text, size, Rgb8{0, 0, 0});
+    const int w = text_width(text, size), h = text_height(size);
+    int inside = 0, outside = 0, solid = 0;
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x) {
+        const int v = image.at(x, y)[0];
+        const bool in_box = x >= 10 && x < 10 + w && y >= 10 && y < 10 + h;
+        (in_box ? inside : outside) += v < 255;
+        solid += v == 0;
+      }
+    EXPECT_GT(inside, 100) << text;
+    EXPECT_GT(solid, 20) << text; // stems are fully covered, not only grey
+    EXPECT_EQ(outside, 0) << text;
+    EXPECT_GT(w, static_cast<int>(text.size()) * size / 5) << text;
+  }
+  EXPECT_LE(text_width(fit_text("a long caption that does not fit", 20, 100), 20), 100);
+  EXPECT_EQ(fit_text("short", 20, 100), "short");
+  EXPECT_GT(text_width("WWWW", 20), text_width("iiii", 20)); // proportional, not monospaced
 }
 
 TEST(Image, DownsampleAveragesAndPngHasItsSignature) {
@@ -555,14 +564,41 @@ TEST(RenderCli, GenerateWithRenderWritesAPreview) {
 
 TEST(ShellRender, PreviewOfADeformOutputShowsFirstMiddleAndLastFrame) {
   REQUIRE_RENDERER();
+  // Five frames, frame k the plane shell scaled by s_k = 1 + 0.035 k: stretch 3 (s_k - 1)^2, a
+  // different color for every frame (all below the default red end of 0.1). The preview must
+  // show frames 1, 3 and 5, left to right, each in the ramp color of its own stretch.
   test::TempDir dir("render-preview-frames");
-  for (int k = 1; k <= 4; ++k) {
+  constexpr int kFrames = 5;
+  auto scale = [](int k) { return 1.0 + 0.035 * k; };
+  for (int k = 1; k <= kFrames; ++k) {
     const std::string frame = dir.file("frame_000" + std::to_string(k));
     std::filesystem::create_directories(frame);
-    write_shell_folder(frame, scaled_plane_shell(1.0 + 0.05 * k), false);
+    write_shell_folder(frame, scaled_plane_shell(scale(k)), false);
   }
-  const std::string png = render_shell_preview(dir.path().string());
+  // Seen head-on (the plane's normal is +z), a face shows exactly its color.
+  const std::string png = render_shell_preview(dir.path().string(), {}, parse_view("front"));
   EXPECT_EQ(png, dir.file("preview.png"));
   const Image preview = read_png(png);
-  EXPECT_EQ(preview.width, 1280);
+  ASSERT_EQ(preview.width, 1280);
+  ASSERT_EQ(preview.height, 720);
+  ColorScale colors;
+  colors.max = kDefaultStretchMax;
+  const int shown[3] = {1, 3, 5};
+  const int panel_w = preview.width / 3;
+  for (int i = 0; i < 3; ++i) {
+    const int k = shown[i];
+    const double stretch = 3 * (scale(k) - 1) * (scale(k) - 1);
+    // The panels share one camera, so every plane is centred in its panel; the centre of the
+    // image's height lies inside the panel area (between caption and color bar).
+    expect_color(preview, i * panel_w + panel_w / 2, preview.height / 2, colors.color(stretch), 3,
+                 "panel " + std::to_string(i) + " (frame " + std::to_string(k) + ")");
+    // Neighbouring frames look different enough for a wrong frame to show.
+    const double other = 3 * (scale(k == 1 ? 2 : k - 1) - 1) * (scale(k == 1 ? 2 : k - 1) - 1);
+    EXPECT_GT((colors.color(stretch) - colors.color(other)).cwiseAbs().maxCoeff() * 255, 12) << "frame " << k;
+    // Each panel has a caption (dark text in the band above its render).
+    int dark = 0;
+    for (int y = 0; y < preview.height / 12; ++y)
+      for (int x = i * panel_w; x < (i + 1) * panel_w; ++x) dark += pixel(preview, x, y)[0] < 100;
+    EXPECT_GT(dark, 20) << "caption of panel " << i;
+  }
 }

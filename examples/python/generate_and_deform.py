@@ -41,8 +41,9 @@ def main():
     r = shell.report
     print(f"generated: {len(V)} vertices, {len(shell.tets)} tets, eta {shell.thickness:.4g}, "
           f"{r['iterations']} iterations, stretch mean {r['stretch']['volume_mean']:.3g} "
-          f"max {r['stretch']['max']:.3g}, {r['inverted_tets']} inverted, "
-          f"{r['top_self_intersections']} top self-intersections")
+          f"max {r['stretch']['max']:.3g}, valid {r['valid']} "
+          f"({r['certificate']['inverted_tets']} inverted tets, "
+          f"{r['certificate']['top_self_intersections']} top self-intersections)")
     gshell.write_mesh(os.path.join(args.output, "base.obj"), shell.base, shell.faces)
     gshell.write_mesh(os.path.join(args.output, "top.obj"), shell.top, shell.faces)
 

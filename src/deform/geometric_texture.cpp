@@ -56,7 +56,7 @@ TriMesh tile_texture_space(const TriMesh& tile, int repeat_u, int repeat_v, cons
 
 GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_source, const TriMesh& tile,
                                        int repeat_u, int repeat_v) {
-  if (repeat_u < 1 || repeat_v < 1) throw InputError("--repeat needs two counts >= 1");
+  if (repeat_u < 1 || repeat_v < 1) throw InputError("repeat needs two counts >= 1");
   if (!uv_source.has_uv()) throw InputError("the shell's base has no texture coordinates (OBJ vt)");
   if (uv_source.F.rows() != shell.F.rows() || uv_source.F != shell.F)
     throw InputError("the UV mesh's faces differ from the shell's");

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -127,6 +128,10 @@ Handle parse_handle(const json& h, int index, const Shell& rest, const Reporter&
   const bool has_ids = h.contains("vertices"), has_select = h.contains("select");
   if (has_ids == has_select) r.fail(where, "give exactly one of \"vertices\" and \"select\"");
   Handle out;
+  if (h.contains("name")) {
+    if (!h["name"].is_string()) r.fail(where, "\"name\" must be a string");
+    out.name = h["name"].get<std::string>();
+  }
   out.vertices = has_ids ? explicit_vertices(h["vertices"], num_vertices, where, r)
                          : selected_vertices(h["select"], rest, where, r);
   std::sort(out.vertices.begin(), out.vertices.end());
@@ -193,6 +198,49 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
                        std::to_string(k) + " (handles must not overlap)");
     }
   return set;
+}
+
+void check_handles(const HandleSet& set, int shell_vertices) {
+  if (set.mode == ConstraintMode::Soft && !(set.weight > 0 && std::isfinite(set.weight)))
+    throw InputError("handles: weight must be > 0 and finite");
+  std::vector<int> owner(std::max(shell_vertices, 0), -1);
+  for (size_t k = 0; k < set.handles.size(); ++k) {
+    const Handle& h = set.handles[k];
+    const std::string where = "handle " + std::to_string(k) + ": ";
+    if (h.vertices.empty()) throw InputError(where + "no vertices");
+    for (int v : h.vertices) {
+      if (v < 0 || v >= shell_vertices)
+        throw InputError(where + "unknown vertex id " + std::to_string(v) + " (the shell has vertices 0.." +
+                         std::to_string(shell_vertices - 1) + ")");
+      if (owner[v] >= 0)
+        throw InputError(where + "vertex " + std::to_string(v) + " is in handle " + std::to_string(owner[v]) +
+                         " too (handles must not overlap)");
+      owner[v] = static_cast<int>(k);
+    }
+    if (!h.translate.allFinite() || !h.center.allFinite() || !h.axis.allFinite() || !std::isfinite(h.degrees))
+      throw InputError(where + "a motion number is not finite");
+    if (!(h.axis.norm() > 0)) throw InputError(where + "the rotation axis is zero");
+  }
+}
+
+nlohmann::ordered_json handles_to_json(const HandleSet& set) {
+  using ojson = nlohmann::ordered_json;
+  auto vec = [](const Eigen::Vector3d& v) { return ojson::array({v.x(), v.y(), v.z()}); };
+  ojson doc;
+  doc["mode"] = set.mode == ConstraintMode::Hard ? "hard" : "soft";
+  if (set.mode == ConstraintMode::Soft) doc["weight"] = set.weight;
+  ojson list = ojson::array();
+  for (const Handle& h : set.handles) {
+    ojson j;
+    if (!h.name.empty()) j["name"] = h.name;
+    j["vertices"] = h.vertices;
+    if (!h.translate.isZero(0)) j["translate"] = vec(h.translate);
+    // The center is kept even without a rotation: it is part of the handle (a later rotation turns about it).
+    j["rotate"] = ojson{{"axis", vec(h.axis)}, {"degrees", h.degrees}, {"center", vec(h.center)}};
+    list.push_back(std::move(j));
+  }
+  doc["handles"] = std::move(list);
+  return doc;
 }
 
 HandleSet read_handles(const std::string& path, const Shell& rest) {

@@ -84,9 +84,27 @@ Eigen::MatrixXd PoseSolver::targets(double fraction) const {
   return impl_->handles.targets(impl_->rest_vertices, fraction);
 }
 
-SolveResult PoseSolver::solve(Eigen::MatrixXd& X, double fraction, const SolveOptions& options) {
+namespace {
+
+void check_state(const Eigen::MatrixXd& X, const Eigen::MatrixXd& rest_vertices) {
+  if (X.rows() != rest_vertices.rows() || X.cols() != 3)
+    throw InputError("pose: the state must be " + std::to_string(rest_vertices.rows()) + " x 3 (got " +
+                     std::to_string(X.rows()) + " x " + std::to_string(X.cols()) + ")");
+}
+
+void check_targets(const Eigen::MatrixXd& P, const std::vector<int>& constrained) {
+  if (P.rows() != static_cast<Eigen::Index>(constrained.size()) || P.cols() != 3)
+    throw InputError("pose: targets must be " + std::to_string(constrained.size()) + " x 3, one row per handle vertex (got " +
+                     std::to_string(P.rows()) + " x " + std::to_string(P.cols()) + ")");
+  if (!P.allFinite()) throw InputError("pose: a handle target is not finite");
+}
+
+} // namespace
+
+SolveResult PoseSolver::solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& P, const SolveOptions& options) {
   Impl& s = *impl_;
-  const Eigen::MatrixXd P = targets(fraction);
+  check_state(X, s.rest_vertices);
+  check_targets(P, s.constrained);
   if (s.hierarchical) return s.hierarchical->solve(X, P, options);
   if (s.handles.mode == ConstraintMode::Hard) {
     for (size_t r = 0; r < s.constrained.size(); ++r) X.row(s.constrained[r]) = P.row(r);
@@ -95,25 +113,39 @@ SolveResult PoseSolver::solve(Eigen::MatrixXd& X, double fraction, const SolveOp
   return s.single->solve(X, options, P);
 }
 
-Eigen::MatrixXd PoseSolver::predict_start(const Eigen::MatrixXd& X_before, double f_before, const Eigen::MatrixXd& X_prev,
-                                          double f_prev, double fraction) const {
-  if (X_before.rows() != X_prev.rows() || X_before.cols() != X_prev.cols() || f_prev == f_before) return X_prev;
-  const double s = (fraction - f_prev) / (f_prev - f_before);
+SolveResult PoseSolver::solve(Eigen::MatrixXd& X, double fraction, const SolveOptions& options) {
+  return solve(X, targets(fraction), options);
+}
+
+Eigen::MatrixXd PoseSolver::predict_start(const Eigen::MatrixXd& X_before, const Eigen::MatrixXd& X_prev, double s,
+                                          const Eigen::MatrixXd& P) const {
+  if (X_before.rows() != X_prev.rows() || X_before.cols() != X_prev.cols()) return X_prev;
   // Far beyond the last step the straight continuation is no longer a good guess.
   if (!(s > 0 && s <= 2)) return X_prev;
+  check_targets(P, impl_->constrained);
   Eigen::MatrixXd X = X_prev + s * (X_prev - X_before);
-  const Eigen::MatrixXd P = targets(fraction);
   if (impl_->handles.mode == ConstraintMode::Hard)
     for (size_t r = 0; r < impl_->constrained.size(); ++r) X.row(impl_->constrained[r]) = P.row(r);
   return X;
 }
 
-double PoseSolver::energy(const Eigen::MatrixXd& X, double fraction) const {
+Eigen::MatrixXd PoseSolver::predict_start(const Eigen::MatrixXd& X_before, double f_before, const Eigen::MatrixXd& X_prev,
+                                          double f_prev, double fraction) const {
+  if (f_prev == f_before) return X_prev;
+  const double s = (fraction - f_prev) / (f_prev - f_before);
+  if (!(s > 0 && s <= 2)) return X_prev;
+  return predict_start(X_before, X_prev, s, targets(fraction));
+}
+
+double PoseSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& P) const {
   const Impl& s = *impl_;
-  const Eigen::MatrixXd P = targets(fraction);
+  check_state(X, s.rest_vertices);
+  check_targets(P, s.constrained);
   if (s.hierarchical) return s.hierarchical->energy(X, P);
   return s.handles.mode == ConstraintMode::Hard ? s.single->energy(X) : s.single->energy(X, P);
 }
+
+double PoseSolver::energy(const Eigen::MatrixXd& X, double fraction) const { return energy(X, targets(fraction)); }
 
 const std::vector<int>& PoseSolver::constrained_vertices() const { return impl_->constrained; }
 const Eigen::MatrixXd& PoseSolver::rest_vertices() const { return impl_->rest_vertices; }
@@ -121,40 +153,5 @@ const RestTets& PoseSolver::rest_tets() const { return impl_->rest; }
 PoseSolverKind PoseSolver::kind() const { return impl_->kind; }
 double PoseSolver::setup_seconds() const { return impl_->setup_seconds; }
 const HierarchicalSolver* PoseSolver::hierarchical() const { return impl_->hierarchical.get(); }
-
-PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options) {
-  if (options.steps < 1) throw InputError("--steps must be >= 1");
-  PoseSolver solver(rest, handles, options.solver, options.hierarchy);
-  PoseResult result;
-  result.setup_seconds = solver.setup_seconds();
-  result.X = solver.rest_vertices();
-  Eigen::MatrixXd before = result.X; // the state one step earlier, for extrapolation
-  for (int step = 1; step <= options.steps; ++step) {
-    PoseStepReport report;
-    report.fraction = static_cast<double>(step) / options.steps;
-    SolveOptions so = options.solve;
-    so.progress = nullptr;
-    if (options.step_progress)
-      so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
-    const auto start = Clock::now();
-    if (options.extrapolate && step >= 2) {
-      const double f_prev = static_cast<double>(step - 1) / options.steps;
-      const double f_before = static_cast<double>(step - 2) / options.steps;
-      Eigen::MatrixXd next = solver.predict_start(before, f_before, result.X, f_prev, report.fraction);
-      before = result.X;
-      result.X = std::move(next);
-    } else {
-      before = result.X;
-    }
-    const double predict_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    const SolveResult r = solver.solve(result.X, report.fraction, so);
-    report.iterations = r.iterations;
-    report.energy = r.energy.empty() ? 0 : r.energy.back();
-    report.seconds = r.seconds + predict_seconds;
-    report.converged = r.converged;
-    result.steps.push_back(report);
-  }
-  return result;
-}
 
 } // namespace gshell

@@ -13,6 +13,7 @@
 #include <Eigen/LU>
 
 #include <chrono>
+#include <cmath>
 #include <numeric>
 
 namespace gshell {
@@ -77,7 +78,12 @@ WarmStart parse_warm_start(const std::string& name) {
   if (name == "translated") return WarmStart::Translated;
   if (name == "rotated") return WarmStart::RotatedOffset;
   if (name == "extrapolated") return WarmStart::Extrapolated;
-  throw InputError("unknown warm start '" + name + "' (previous, translated, rotated, extrapolated)");
+  throw InputError("unknown warm_start '" + name + "' (expected extrapolated, rotated, translated or previous)");
+}
+
+void DeformOptions::check() const {
+  if (!(tolerance >= 0) || !std::isfinite(tolerance)) throw InputError("tolerance must be >= 0");
+  if (max_iterations < 0) throw InputError("iterations must be >= 0");
 }
 
 VertexRings vertex_rings(const Eigen::MatrixXi& F, int n) {
@@ -211,6 +217,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
     throw InputError("the new base has " + std::to_string(new_base.rows()) + " vertices, the shell's base has " +
                      std::to_string(n));
   if (!new_base.allFinite()) throw InputError("the new base has a non-finite coordinate");
+  options.check();
 
   const auto start = Clock::now();
   const Eigen::MatrixXd old_base = current_.topRows(n), old_top = current_.bottomRows(n);

@@ -72,6 +72,12 @@ public:
   int degree(int v) const { return start_[v + 1] - start_[v]; }
   bool usable(int f) const { return usable_[f] != 0; }
 
+  /// The i-th face at v (0 <= i < degree(v)) as (face, next, prev): the face runs v, next, prev.
+  struct Corner {
+    int face, next, prev;
+  };
+  const Corner& corner(int v, int i) const { return corners_[start_[v] + i]; }
+
   /// The two edges of every face at v, sorted by neighbour vertex (then face): the faces of edge
   /// (v, w) are one run of equal `vertex`.
   void neighbours(int v, std::vector<Neighbour>& out) const {
@@ -85,9 +91,6 @@ public:
   }
 
 private:
-  struct Corner {
-    int face, next, prev;
-  };
   std::vector<int> start_;
   std::vector<Corner> corners_;
   std::vector<char> usable_;

@@ -23,4 +23,12 @@ void check_triangle_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, con
                          " vertices");
 }
 
+void check_distinct_corners(const Eigen::MatrixXi& F, const char* what) {
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (F(f, k) == F(f, (k + 1) % 3))
+        throw InputError(std::string(what) + ": face " + std::to_string(f) + " repeats vertex " +
+                         std::to_string(F(f, k)));
+}
+
 } // namespace gshell::detail

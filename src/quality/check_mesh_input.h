@@ -8,4 +8,7 @@ namespace gshell::detail {
 /// ids in [0, n).
 void check_triangle_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const char* what);
 
+/// Throws InputError("<what>: face f repeats vertex v") unless every face has three distinct ids.
+void check_distinct_corners(const Eigen::MatrixXi& F, const char* what);
+
 } // namespace gshell::detail

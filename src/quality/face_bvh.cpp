@@ -54,15 +54,10 @@ double edges_squared_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b
 
 } // namespace
 
-FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
-  const int m = static_cast<int>(F.rows());
-  if (m == 0) return;
-  auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
-
+std::vector<std::pair<std::uint64_t, int>> FaceBvh::morton_order(const std::vector<Eigen::Vector3d>& centroids) {
   // Sort faces along a Morton (Z-order) curve of their centroids: spatial neighbours become
   // slot neighbours, and the code bits give spatial split planes.
-  std::vector<Eigen::Vector3d> centroids(m);
-  for (int f = 0; f < m; ++f) centroids[f] = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
+  const int m = static_cast<int>(centroids.size());
   Eigen::AlignedBox3d extent;
   for (const Eigen::Vector3d& c : centroids) extent.extend(c);
   const Eigen::Vector3d origin = extent.min();
@@ -83,6 +78,24 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
     }
   });
   tbb::parallel_sort(keyed.begin(), keyed.end());
+  return keyed;
+}
+
+void FaceBvh::build_nodes(const std::vector<std::pair<std::uint64_t, int>>& keyed, int leaf_size) {
+  const int m = static_cast<int>(keyed.size());
+  std::vector<std::uint64_t> codes(m);
+  for (int s = 0; s < m; ++s) codes[s] = keyed[s].first;
+  nodes_.reserve(2 * static_cast<std::size_t>(m)); // at most 2m - 1 (one face per leaf)
+  build(codes, 0, m, leaf_size);
+}
+
+FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
+  const int m = static_cast<int>(F.rows());
+  if (m == 0) return;
+  auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
+  std::vector<Eigen::Vector3d> centroids(m);
+  for (int f = 0; f < m; ++f) centroids[f] = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
+  const std::vector<std::pair<std::uint64_t, int>> keyed = morton_order(centroids);
 
   slot_face_.resize(m);
   slot_box_.resize(m);
@@ -102,10 +115,22 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
       slot_triangle_[s] = {a, b, c, ab.cross(ac).squaredNorm() <= 1e-24 * ab.squaredNorm() * ac.squaredNorm()};
     }
   });
-  std::vector<std::uint64_t> codes(m);
-  for (int s = 0; s < m; ++s) codes[s] = keyed[s].first;
-  nodes_.reserve(2 * static_cast<std::size_t>(m)); // at most 2m - 1 (one face per leaf)
-  build(codes, 0, m, distances ? kDistanceLeafSize : kPairLeafSize);
+  build_nodes(keyed, distances ? kDistanceLeafSize : kPairLeafSize);
+}
+
+FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {
+  const int m = static_cast<int>(boxes.size());
+  if (m == 0) return;
+  std::vector<Eigen::Vector3d> centroids(m);
+  for (int f = 0; f < m; ++f) centroids[f] = boxes[f].center();
+  const std::vector<std::pair<std::uint64_t, int>> keyed = morton_order(centroids);
+  slot_face_.resize(m);
+  slot_box_.resize(m);
+  for (int s = 0; s < m; ++s) {
+    slot_face_[s] = keyed[s].second;
+    slot_box_[s] = boxes[keyed[s].second];
+  }
+  build_nodes(keyed, std::max(leaf_size, 1));
 }
 
 // Splits a slot range where its Morton codes first differ (an octree-like spatial split, so

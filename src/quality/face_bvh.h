@@ -23,6 +23,11 @@ public:
   /// F must index rows of V (checked by the caller).
   FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use);
 
+  /// A tree for pair searches (Use::pairs) over given boxes, one per face: faces swept along a
+  /// motion, or grown by a search radius (contact candidates). Slot boxes are these boxes. Leaves
+  /// hold at most leaf_size faces.
+  explicit FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size = 4);
+
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
   /// Face ids in the tree's leaf order: consecutive faces are close in space, so work done in
@@ -39,6 +44,17 @@ public:
   /// meet. visit runs concurrently from several threads.
   template <class Visit>
   void for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const;
+
+  /// Calls visit(b0, e0, b1, e1) for every unordered pair of leaves whose boxes meet, each leaf
+  /// with itself included (then b0 == b1): the slot ranges [b0, e0), [b1, e1) of their faces.
+  /// A leaf's box holds its faces' boxes (rounded outwards), so every pair of faces whose boxes
+  /// meet lies in one visited pair of leaves; the caller tests what it needs within them.
+  /// visit runs concurrently from several threads.
+  template <class Visit> void for_each_overlapping_leaf_pair(Visit&& visit) const;
+
+  /// Calls visit(b0, e0, b1, e1) for every leaf [b0, e0) of this tree and [b1, e1) of `other`
+  /// whose boxes meet. visit runs concurrently from several threads.
+  template <class Visit> void for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const;
 
   /// Squared distance from q to the surface (model units squared), or bound2 if that is smaller.
   /// Needs Use::distances.
@@ -58,13 +74,18 @@ private:
     bool flat = false; // collinear corners (up to ~1e-12 relative): measured by its edges
   };
 
+  /// (Morton code, face) of every face by its centroid, sorted along the curve.
+  static std::vector<std::pair<std::uint64_t, int>> morton_order(const std::vector<Eigen::Vector3d>& centroids);
+  void build_nodes(const std::vector<std::pair<std::uint64_t, int>>& keyed, int leaf_size);
   int build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
   static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
   static bool nodes_meet(const Node& a, const Node& b);
   static double node_squared_distance(const Node& n, const Eigen::Vector3d& q);
 
-  template <class Visit>
-  void join(int a, const FaceBvh& other, int b, bool same_tree, Visit& visit) const;
+  // Simultaneous descent of two trees (or one with itself); leaves(na, nb, self) at every pair of
+  // leaves whose boxes meet, self when both are the same leaf of one tree.
+  template <class Leaves>
+  void join(int a, const FaceBvh& other, int b, bool same_tree, Leaves& leaves) const;
 
   // Per slot (leaf order): face id, exact box, triangle.
   std::vector<int> slot_face_;
@@ -84,8 +105,8 @@ inline bool exact_boxes_meet(const Eigen::AlignedBox3d& a, const Eigen::AlignedB
   return (a.min().array() <= b.max().array()).all() && (b.min().array() <= a.max().array()).all();
 }
 
-template <class Visit>
-void FaceBvh::join(int a, const FaceBvh& other, int b, bool same_tree, Visit& visit) const {
+template <class Leaves>
+void FaceBvh::join(int a, const FaceBvh& other, int b, bool same_tree, Leaves& leaves) const {
   // Node pairs over fewer faces are joined by one thread: a task costs about a microsecond.
   constexpr int kParallelFaces = 2048;
   const Node& na = nodes_[a];
@@ -97,41 +118,59 @@ void FaceBvh::join(int a, const FaceBvh& other, int b, bool same_tree, Visit& vi
   };
   if (same_tree && a == b) { // pairs within one subtree
     if (na.leaf()) {
-      for (int i = na.begin; i < na.end; ++i)
-        for (int j = i + 1; j < na.end; ++j)
-          if (exact_boxes_meet(slot_box_[i], slot_box_[j])) visit(i, j);
+      leaves(na, na, true);
       return;
     }
     const int l = a + 1, r = na.right;
-    run([&] { join(l, other, l, true, visit); },
-        [&] { join(r, other, r, true, visit); },
-        [&] { join(l, other, r, true, visit); });
+    run([&] { join(l, other, l, true, leaves); },
+        [&] { join(r, other, r, true, leaves); },
+        [&] { join(l, other, r, true, leaves); });
     return;
   }
   if (na.leaf() && nb.leaf()) {
-    for (int i = na.begin; i < na.end; ++i)
-      for (int j = nb.begin; j < nb.end; ++j)
-        if (exact_boxes_meet(slot_box_[i], other.slot_box_[j])) visit(i, j);
+    leaves(na, nb, false);
     return;
   }
   // Descend the node with more faces (a leaf cannot be split).
   if (nb.leaf() || (!na.leaf() && na.end - na.begin >= nb.end - nb.begin)) {
-    run([&] { join(a + 1, other, b, same_tree, visit); },
-        [&] { join(na.right, other, b, same_tree, visit); });
+    run([&] { join(a + 1, other, b, same_tree, leaves); },
+        [&] { join(na.right, other, b, same_tree, leaves); });
   } else {
-    run([&] { join(a, other, b + 1, same_tree, visit); },
-        [&] { join(a, other, nb.right, same_tree, visit); });
+    run([&] { join(a, other, b + 1, same_tree, leaves); },
+        [&] { join(a, other, nb.right, same_tree, leaves); });
   }
 }
 
 template <class Visit>
 void FaceBvh::for_each_overlapping_pair(Visit&& visit) const {
-  if (!nodes_.empty()) join(0, *this, 0, true, visit);
+  auto leaves = [&](const Node& na, const Node& nb, bool self) {
+    for (int i = na.begin; i < na.end; ++i)
+      for (int j = self ? i + 1 : nb.begin; j < nb.end; ++j)
+        if (exact_boxes_meet(slot_box_[i], slot_box_[j])) visit(i, j);
+  };
+  if (!nodes_.empty()) join(0, *this, 0, true, leaves);
 }
 
 template <class Visit>
 void FaceBvh::for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const {
-  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, visit);
+  auto leaves = [&](const Node& na, const Node& nb, bool) {
+    for (int i = na.begin; i < na.end; ++i)
+      for (int j = nb.begin; j < nb.end; ++j)
+        if (exact_boxes_meet(slot_box_[i], other.slot_box_[j])) visit(i, j);
+  };
+  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
+}
+
+template <class Visit>
+void FaceBvh::for_each_overlapping_leaf_pair(Visit&& visit) const {
+  auto leaves = [&](const Node& na, const Node& nb, bool) { visit(na.begin, na.end, nb.begin, nb.end); };
+  if (!nodes_.empty()) join(0, *this, 0, true, leaves);
+}
+
+template <class Visit>
+void FaceBvh::for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const {
+  auto leaves = [&](const Node& na, const Node& nb, bool) { visit(na.begin, na.end, nb.begin, nb.end); };
+  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 
 } // namespace gshell::detail

@@ -1,8 +1,10 @@
 #include <gshell/quality/shell_boundary.h>
 
 #include <gshell/error.h>
-#include <gshell/geometry/mesh_topology.h>
 
+#include "geometry/vertex_stars.h"
+
+#include <algorithm>
 #include <string>
 
 namespace gshell {
@@ -19,18 +21,25 @@ ShellBoundary shell_boundary(const Eigen::MatrixXi& F, int n) {
       throw InputError("shell_boundary: face " + std::to_string(f) + " repeats a vertex");
   }
 
-  // Boundary half-edges (i -> j in the one face that has the edge), in order of appearance.
-  const EdgeIncidence incidence = edge_incidence(F, n);
+  // Boundary half-edges (i -> j in the one face that has the edge): an edge is on the boundary
+  // when a single face of i's star has j as a neighbour. Stars are visited in vertex order (the
+  // cheap order), then the sides are put in order of appearance in F.
+  const detail::VertexStars stars(detail::RowMajorFaces(F), n);
   struct Side {
-    int i, j, face;
+    int i, j, face, halfedge; // halfedge = 3 * face + corner of i
   };
   std::vector<Side> sides;
-  for (int e = 0; e < incidence.num_edges(); ++e) {
-    if (incidence.valence(e) != 1) continue;
-    const int h = incidence.halfedges[incidence.offsets[e]];
-    const int f = h / 3, k = h % 3;
-    sides.push_back({F(f, k), F(f, (k + 1) % 3), f});
-  }
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < stars.degree(i); ++c) {
+      const int j = stars.corner(i, c).next;
+      int faces = 0;
+      for (int d = 0; d < stars.degree(i); ++d) faces += stars.corner(i, d).next == j || stars.corner(i, d).prev == j;
+      if (faces != 1) continue;
+      const int f = stars.corner(i, c).face;
+      const int k = F(f, 0) == i ? 0 : F(f, 1) == i ? 1 : 2;
+      sides.push_back({i, j, f, 3 * f + k});
+    }
+  std::sort(sides.begin(), sides.end(), [](const Side& a, const Side& b) { return a.halfedge < b.halfedge; });
 
   ShellBoundary b;
   const int rows = 2 * m + 2 * static_cast<int>(sides.size());

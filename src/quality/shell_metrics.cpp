@@ -2,7 +2,6 @@
 
 #include <gshell/error.h>
 #include <gshell/quality/thickness.h>
-#include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -38,14 +37,14 @@ ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F
   m.tet_stretch = tet_stretch(rest, X);
   m.tet_determinant = tet_deformation_determinants(rest, X);
   m.stretch = stretch_stats(m.tet_stretch, m.tet_determinant, rest.volume);
-  if (count_intersections) {
-    m.top_self_intersections = count_self_intersections(top, F);
-    m.top_base_intersections = count_intersections_between(top, F, base, F);
-  }
+  CertifyOptions certify;
+  certify.test_intersections = count_intersections;
+  m.certificate = certify_shell(base, top, F, certify);
   m.vertex_thickness = vertex_thickness(base, F, top) / eta;
   if (n > 0) {
     m.thickness_min = m.vertex_thickness.minCoeff();
     m.thickness_mean = m.vertex_thickness.mean();
+    m.thinned_vertices = static_cast<int>((m.vertex_thickness.array() < kThinnedFraction).count());
   }
   return m;
 }

@@ -1,6 +1,7 @@
 #include <gshell/quality/stretch.h>
 
 #include "solver/polar_3x3.h"
+#include "solver/simd_dispatch.h"
 
 #include <tbb/parallel_for.h>
 
@@ -20,30 +21,38 @@ Eigen::Matrix3d deformation_gradient(const RestTets& rest, const Eigen::MatrixXd
   return D * rest.Dm_inv[t];
 }
 
+// Stretch of tets [t_begin, t_end), kPolarLanes at a time through the batched polar decomposition.
+GSHELL_SIMD_KERNEL void tet_stretch_body(const RestTets& rest, const Eigen::MatrixXd& X, int t_begin, int t_end,
+                                         double* s) {
+  constexpr int W = detail::kPolarLanes;
+  alignas(64) double Fs[9 * W], Rs[9 * W];
+  for (int t0 = t_begin; t0 < t_end; t0 += W) {
+    const int lanes = std::min(W, t_end - t0);
+    for (int l = 0; l < W; ++l) {
+      const Eigen::Matrix3d F = l < lanes ? deformation_gradient(rest, X, t0 + l) : Eigen::Matrix3d::Identity();
+      for (int k = 0; k < 9; ++k) Fs[k * W + l] = F(k / 3, k % 3);
+    }
+    detail::closest_rotations_lanes(Fs, Rs);
+    for (int l = 0; l < lanes; ++l) {
+      double d2 = 0;
+      for (int k = 0; k < 9; ++k) d2 += (Fs[k * W + l] - Rs[k * W + l]) * (Fs[k * W + l] - Rs[k * W + l]);
+      s[t0 + l] = d2;
+    }
+  }
+}
+
+GSHELL_SIMD_DISPATCH(void, tet_stretch_block, tet_stretch_body,
+                     (const RestTets& rest, const Eigen::MatrixXd& X, int t_begin, int t_end, double* s),
+                     (rest, X, t_begin, t_end, s))
+
 } // namespace
 
 Eigen::VectorXd tet_stretch(const RestTets& rest, const Eigen::MatrixXd& X) {
-  // Blocks of tets through the batched (SIMD) polar decomposition.
-  constexpr int W = detail::kPolarLanes, kBlock = 64 * W;
+  constexpr int kBlock = 64 * detail::kPolarLanes;
   const int K = rest.size();
   Eigen::VectorXd s(K);
-  tbb::parallel_for(0, (K + kBlock - 1) / kBlock, [&](int b) {
-    alignas(64) double Fs[9 * W], Rs[9 * W];
-    const int t_end = std::min(K, (b + 1) * kBlock);
-    for (int t0 = b * kBlock; t0 < t_end; t0 += W) {
-      const int lanes = std::min(W, t_end - t0);
-      for (int l = 0; l < W; ++l) {
-        const Eigen::Matrix3d F = l < lanes ? deformation_gradient(rest, X, t0 + l) : Eigen::Matrix3d::Identity();
-        for (int k = 0; k < 9; ++k) Fs[k * W + l] = F(k / 3, k % 3);
-      }
-      detail::closest_rotations_lanes(Fs, Rs);
-      for (int l = 0; l < lanes; ++l) {
-        double d2 = 0;
-        for (int k = 0; k < 9; ++k) d2 += (Fs[k * W + l] - Rs[k * W + l]) * (Fs[k * W + l] - Rs[k * W + l]);
-        s[t0 + l] = d2;
-      }
-    }
-  });
+  tbb::parallel_for(0, (K + kBlock - 1) / kBlock,
+                    [&](int b) { tet_stretch_block(rest, X, b * kBlock, std::min(K, (b + 1) * kBlock), s.data()); });
   return s;
 }
 

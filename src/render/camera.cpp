@@ -29,7 +29,7 @@ ViewDirection parse_view(const std::string& text) {
   if (in >> az >> comma >> el && comma == ',' && (in >> std::ws).eof() && std::isfinite(az) && std::isfinite(el) &&
       el >= -90 && el <= 90)
     return {az, el};
-  throw InputError("--view " + text +
+  throw InputError("view " + text +
                    ": expected front|back|left|right|top|bottom|iso or AZIMUTH,ELEVATION in degrees (elevation in [-90,90])");
 }
 

@@ -18,14 +18,14 @@ int FigureLayout::color_bar_column(double value) const {
 Image render_figure(const std::vector<Panel>& panels, const FigureOptions& options, FigureLayout* layout) {
   if (panels.empty()) throw InputError("render: nothing to render");
   const int n = static_cast<int>(panels.size());
-  // Text grows in whole font pixels: 1 up to 360 px high, 2 up to 720, ...
-  const int text_scale = std::clamp((options.height + 359) / 360, 1, 6);
-  const int small = std::max(1, text_scale - 1); // footnote
-  const int pad = 4 * text_scale;
+  // Text grows with the image, more slowly than it: 18 px line boxes at 400 px high, 26 at 720.
+  const int text_size = std::clamp(static_cast<int>(std::lround(8 + options.height / 40.0)), 12, 64);
+  const int small = std::max(10, text_size * 3 / 4); // footnote
+  const int pad = std::max(2, text_size * 2 / 5);
   const bool any_caption = std::any_of(panels.begin(), panels.end(), [](const Panel& p) { return !p.caption.empty(); });
-  const int caption_h = any_caption ? text_height(text_scale) + 2 * pad : 0;
-  const int bar_h = 5 * text_scale;
-  const int bar_block = bar_h + std::max(2, bar_h / 3) + text_scale + text_height(text_scale); // as draw_color_bar
+  const int caption_h = any_caption ? text_height(text_size) + 2 * pad : 0;
+  const int bar_h = std::max(4, text_size / 2);
+  const int bar_block = color_bar_height(bar_h, text_size);
   const int foot_block = options.footnote.empty() ? 0 : text_height(small) + pad / 2;
   const int bottom_h = (options.color_bar ? pad + bar_block : 0) + foot_block + (options.color_bar || foot_block ? pad / 2 : 0);
   const int panel_h = options.height - caption_h - bottom_h;
@@ -65,19 +65,19 @@ Image render_figure(const std::vector<Panel>& panels, const FigureOptions& optio
       blit(figure, render_scene(panel.scene, camera, ro), i * panel_w, caption_h);
     }
     if (!panel.caption.empty()) {
-      const std::string text = fit_text(panel.caption, text_scale, panel_w - 2 * pad);
-      draw_text(figure, i * panel_w + (panel_w - text_width(text, text_scale)) / 2, pad, text, text_scale, ink);
+      const std::string text = fit_text(panel.caption, text_size, panel_w - 2 * pad);
+      draw_text(figure, i * panel_w + (panel_w - text_width(text, text_size)) / 2, pad, text, text_size, ink);
     }
     if (i > 0) figure.fill_rect(i * panel_w, caption_h, 1, panel_h, 200, 200, 200); // thin divider
   }
   const int bottom_y = caption_h + panel_h + pad;
   if (options.color_bar) {
-    const int label_w = text_width(options.color_bar->label, text_scale) + 6 * text_scale;
+    const int label_w = text_width(options.color_bar->label, text_size) + text_size / 2 + pad;
     const int bar_w = std::max(options.width / 3, 40);
     const int bar_x = std::max((options.width - bar_w) / 2, label_w + pad);
     placed.color_scale = options.color_bar;
     placed.color_bar = {bar_x, bottom_y, std::min(bar_w, options.width - bar_x - 4 * pad), bar_h};
-    draw_color_bar(figure, bar_x, bottom_y, placed.color_bar.w, bar_h, *options.color_bar, text_scale);
+    draw_color_bar(figure, bar_x, bottom_y, placed.color_bar.w, bar_h, *options.color_bar, text_size);
   }
   if (!options.footnote.empty()) {
     const int y = options.height - text_height(small) - pad / 2;

@@ -6,6 +6,7 @@
 #include <gshell/render/image.h>
 #include <gshell/render/shell_render.h>
 #include <gshell/render/svg_plot.h>
+#include <gshell/run/shell_folder.h>
 
 #include <nlohmann/json.hpp>
 
@@ -302,28 +303,16 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
     ShellRenderOptions ro;
     ro.figure.width = options.render_width;
     ro.figure.height = options.render_height;
-    std::vector<fs::path> frames;
-    if (!fs::exists(dir / "shell.vtu") && !fs::exists(dir / "top.obj"))
-      for (const auto& entry : fs::directory_iterator(dir))
-        if (entry.is_directory() && entry.path().filename().string().rfind("frame_", 0) == 0) frames.push_back(entry.path());
-    std::sort(frames.begin(), frames.end());
-    if (!frames.empty()) {
-      std::vector<size_t> picks{0, frames.size() / 2, frames.size() - 1};
-      picks.erase(std::unique(picks.begin(), picks.end()), picks.end());
-      std::vector<RenderSubject> subjects;
-      std::vector<std::string> captions;
-      for (size_t k : picks) {
-        subjects.push_back(load_render_subject(frames[k].string()));
-        captions.push_back(frames[k].filename().string());
-      }
+    // The panels of the folder's preview: first, middle and last frame of a deformation, the rest
+    // shell beside a pose, or the shell alone.
+    PreviewPanels preview = preview_panels(dir.string());
+    if (!is_shell_folder(dir)) {
       ro.figure.width = options.render_width * 3 / 2;
       std::string names;
-      for (const auto& c : captions) names += (names.empty() ? "" : ", ") + c;
-      image_figure(html, render_subjects(subjects, captions, ro),
+      for (const auto& c : preview.captions) names += (names.empty() ? "" : ", ") + c;
+      image_figure(html, render_subjects(preview.subjects, preview.captions, ro),
                    names + " (first, middle and last frame), colored by stretch against the rest shell (iso view)");
     } else {
-      // A pose output is shown beside its rest shell, as its preview is.
-      PreviewPanels preview = preview_panels(dir.string());
       if (preview.subjects.size() > 1) {
         ro.figure.width = options.render_width * 3 / 2;
         image_figure(html, render_subjects(preview.subjects, preview.captions, ro),
@@ -344,6 +333,28 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
   }
 }
 
+// A shell's validity in one line (reports with a certificate: generate, metrics).
+void validity_paragraph(std::ostringstream& html, const json& report) {
+  if (!report.contains("valid")) return;
+  const json& valid = report["valid"];
+  const char* verdict = valid.is_boolean() ? (valid.get<bool>() ? "yes" : "no") : "unknown";
+  const char* style = valid.is_boolean() ? (valid.get<bool>() ? "ok" : "note") : "";
+  html << "<p class=\"validity " << style << "\"><strong>Valid shell: " << verdict << "</strong>";
+  if (report.contains("certificate") && report["certificate"].is_object()) {
+    const json& c = report["certificate"];
+    auto count = [&](const char* key) { return c.contains(key) ? format_value(c[key]) : std::string("?"); };
+    html << " (exact certificate: " << count("inverted_tets") << " inverted tets; intersecting face pairs: top/top "
+         << count("top_self_intersections") << ", top/base " << count("top_base_intersections") << ", side walls "
+         << count("wall_intersections") << ")";
+  }
+  if (!valid.is_boolean()) html << "; the intersection tests were not run";
+  if (report.contains("base_self_intersections") && report["base_self_intersections"].is_number() &&
+      report["base_self_intersections"].get<int>() > 0)
+    html << ". The base intersects itself (" << format_value(report["base_self_intersections"])
+         << " face pairs): no shell over it is an embedding";
+  html << ".</p>\n";
+}
+
 const char* kStyle = R"(body{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#222;padding:0 1em}
 h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
 table{border-collapse:collapse;margin:.5em 1.5em .8em 0;font-size:.92em}
@@ -353,23 +364,20 @@ caption{text-align:left;font-weight:bold;padding:.3em 0}
 table.kv{display:inline-table}
 .scroll{overflow-x:auto}.plots{display:flex;flex-wrap:wrap;gap:.5em}
 figure{margin:1em 0}img{max-width:100%;height:auto;border:1px solid #ddd}
-figcaption{color:#555;font-size:.9em}.note{color:#a33})";
+figcaption{color:#555;font-size:.9em}.note{color:#a33}.ok{color:#276b2a})";
 
 } // namespace
 
 std::string html_report(const std::string& dir_text, const ReportOptions& options) {
   const fs::path dir(dir_text);
-  const fs::path report_path = dir / "report.json";
-  std::ifstream in(report_path);
-  if (!in) throw InputError(with_file(report_path.string(), "cannot open (is " + dir_text + " a gshell output folder?)"));
-  json report = json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (report.is_discarded() || !report.is_object()) throw InputError(with_file(report_path.string(), "not a JSON object"));
+  const json report = read_report(dir);
 
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html xmlns=\"http://www.w3.org/1999/xhtml\" lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n"
        << "<title>gshell report: " << xml_escape(dir_text) << "</title>\n<style>" << kStyle << "</style>\n</head>\n<body>\n";
   html << "<h1>gshell report</h1>\n<p>Folder <code>" << xml_escape(fs::absolute(dir).lexically_normal().string())
        << "</code>, written by gshell " << GSHELL_VERSION << ".</p>\n";
+  validity_paragraph(html, report);
 
   // Settings and scalar figures: the top-level scalars, then one table per nested object.
   html << "<h2>Settings and figures</h2>\n";

@@ -6,9 +6,10 @@
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/render/color_map.h>
+#include <gshell/run/frames.h>
+#include <gshell/run/shell_folder.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>
-#include <gshell/shell/shell_dir.h>
 #include <gshell/solver/rest_tets.h>
 
 #include <nlohmann/json.hpp>
@@ -25,70 +26,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::optional<nlohmann::json> read_json(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) return std::nullopt;
-  nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) return std::nullopt;
-  return j;
-}
-
-// What made the folder: generate's `method`, else the `command` (deform, pose).
-std::string json_method(const std::optional<nlohmann::json>& report) {
-  for (const char* key : {"method", "command"})
-    if (report && report->is_object() && report->contains(key) && (*report)[key].is_string())
-      return (*report)[key].get<std::string>();
-  return {};
-}
-
-// eta as recorded by the writer of report.json: `thickness` as a number, or inside an object.
-double json_thickness(const std::optional<nlohmann::json>& report) {
-  if (!report || !report->is_object()) return 0;
-  for (const char* key : {"thickness", "eta"}) {
-    if (!report->contains(key)) continue;
-    const auto& v = (*report)[key];
-    if (v.is_number()) return v.get<double>();
-    if (v.is_object())
-      for (const char* inner : {"eta", "absolute", "value"})
-        if (v.contains(inner) && v[inner].is_number()) return v[inner].get<double>();
-  }
-  return 0;
-}
-
-// Base faces of a prism shell recovered from its tets (3 per face): the three base ids of the
-// prism, oriented so that the top lies on the side of the face normal.
-Eigen::MatrixXi faces_from_prism_tets(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, int n,
-                                      const std::string& name) {
-  const Eigen::Index m = T.rows() / 3;
-  Eigen::MatrixXi F(m, 3);
-  for (Eigen::Index f = 0; f < m; ++f) {
-    std::array<int, 3> base{};
-    int count = 0;
-    Eigen::Vector3d top_centre = Eigen::Vector3d::Zero();
-    int top_count = 0;
-    for (int t = 0; t < 3; ++t)
-      for (int k = 0; k < 4; ++k) {
-        const int id = T(3 * f + t, k);
-        if (id < n) {
-          if (std::find(base.begin(), base.begin() + count, id) == base.begin() + count) {
-            if (count == 3) throw InputError(name + ": tets " + std::to_string(3 * f) + ".." + std::to_string(3 * f + 2) +
-                                             " do not form a prism");
-            base[count++] = id;
-          }
-        } else {
-          top_centre += X.row(id).transpose();
-          ++top_count;
-        }
-      }
-    if (count != 3 || top_count == 0)
-      throw InputError(name + ": tets " + std::to_string(3 * f) + ".." + std::to_string(3 * f + 2) + " do not form a prism");
-    const Eigen::Vector3d a = X.row(base[0]), b = X.row(base[1]), c = X.row(base[2]);
-    if ((b - a).cross(c - a).dot(top_centre / top_count - (a + b + c) / 3) < 0) std::swap(base[1], base[2]);
-    F.row(f) << base[0], base[1], base[2];
-  }
-  return F;
-}
-
 double median_distance(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) {
   const Eigen::VectorXd d = (top - base).rowwise().norm();
   return quantile(std::vector<double>(d.data(), d.data() + d.size()), 0.5);
@@ -102,56 +39,21 @@ Eigen::VectorXd stretch_against_normal_prisms(const Shell& shell) {
   return face_stretch_from_tets(X, rest.T, tet_stretch(rest, X));
 }
 
-std::vector<fs::path> frame_dirs(const fs::path& dir) {
-  std::vector<fs::path> frames;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(dir, ec))
-    if (entry.is_directory() && entry.path().filename().string().rfind("frame_", 0) == 0) frames.push_back(entry.path());
-  std::sort(frames.begin(), frames.end());
-  return frames;
-}
-
-fs::path last_frame_dir(const fs::path& dir) {
-  const std::vector<fs::path> frames = frame_dirs(dir);
-  return frames.empty() ? fs::path() : frames.back();
-}
-
 RenderSubject load_shell_folder(const fs::path& dir, const std::string& name) {
+  ShellFolderReadOptions read;
+  read.require_thickness = false; // a render can do without: eta falls back to the median distance
+  read.read_tets = true;
+  ShellFolder folder = read_shell_folder(dir.string(), read);
   RenderSubject subject;
   subject.name = name;
-  auto report = read_json(dir / "report.json");
-  if (!report) report = read_json(dir.parent_path() / "report.json"); // a deform frame: the run's report
-  subject.method = json_method(report);
-  const bool has_surfaces = fs::exists(dir / "base.obj") && fs::exists(dir / "top.obj");
-  const bool has_vtu = fs::exists(dir / "shell.vtu");
-  if (!has_surfaces && !has_vtu) throw InputError(name + ": not a shell folder (no shell.vtu, no base.obj + top.obj)");
-
-  std::optional<TetMesh> tets;
-  if (has_vtu) tets = read_tet_mesh((dir / "shell.vtu").string());
-  if (has_surfaces && fs::exists(dir / "report.json")) {
-    subject.shell = load_shell_dir(dir.string());
-  } else if (tets) {
-    if (tets->X.rows() % 2 || tets->T.rows() % 3)
-      throw InputError(name + ": shell.vtu is not a prism shell (2n points, 3m tets expected)");
-    const int n = static_cast<int>(tets->X.rows() / 2);
-    subject.shell.base = tets->X.topRows(n);
-    subject.shell.top = tets->X.bottomRows(n);
-    subject.shell.F = faces_from_prism_tets(tets->T, tets->X, n, name);
-    subject.shell.thickness = json_thickness(report);
-  } else {
-    subject.shell = load_shell_dir(dir.string());
-  }
+  subject.method = folder.made_by;
+  subject.shell = std::move(folder.shell);
   if (!(subject.shell.thickness > 0)) subject.shell.thickness = median_distance(subject.shell.base, subject.shell.top);
-
-  const Eigen::Index m = subject.shell.F.rows();
-  if (tets) {
-    for (const auto& [array_name, values] : tets->cell_data)
-      if (array_name == "stretch" && values.rows() == 3 * m && values.cols() == 1 && tets->X.rows() == 2 * subject.shell.base.rows())
-        subject.face_stretch = face_stretch_from_tets(tets->X, tets->T, values.col(0));
-  }
-  if (subject.face_stretch.size() == 0 && subject.shell.thickness > 0)
+  if (folder.tet_stretch.size() > 0)
+    subject.face_stretch = face_stretch_from_tets(subject.shell.vertices(), folder.tets, folder.tet_stretch);
+  else if (subject.shell.thickness > 0)
     subject.face_stretch = stretch_against_normal_prisms(subject.shell);
-  if (fs::exists(dir / "detail.obj")) subject.detail = read_mesh((dir / "detail.obj").string());
+  subject.detail = std::move(folder.detail);
   return subject;
 }
 
@@ -188,14 +90,11 @@ RenderSubject load_render_subject(const std::string& input) {
   const fs::path path(input);
   std::error_code ec;
   if (fs::is_directory(path, ec)) {
-    const bool shell_here = fs::exists(path / "shell.vtu") || fs::exists(path / "top.obj");
-    if (!shell_here) {
-      const fs::path frame = last_frame_dir(path);
-      if (!frame.empty()) {
-        RenderSubject subject = load_shell_folder(frame, input);
-        subject.name = input + "/" + frame.filename().string();
-        return subject;
-      }
+    const std::vector<fs::path> frames = is_shell_folder(path) ? std::vector<fs::path>{} : list_frames(path);
+    if (!frames.empty()) {
+      RenderSubject subject = load_shell_folder(frames.back(), input);
+      subject.name = input + "/" + frames.back().filename().string();
+      return subject;
     }
     return load_shell_folder(path, input);
   }
@@ -212,7 +111,7 @@ std::string default_caption(const RenderSubject& subject) {
   fs::path path = fs::path(subject.name).lexically_normal();
   if (path.filename().empty()) path = path.parent_path();
   std::string name = path.filename().string();
-  if (name.rfind("frame_", 0) == 0 && !path.parent_path().filename().empty())
+  if (frame_number(name) && !path.parent_path().filename().empty())
     name = path.parent_path().filename().string() + "/" + name; // which run the frame belongs to
   if (name.empty()) name = subject.name;
   return subject.method.empty() ? name : name + " (" + subject.method + ")";
@@ -229,8 +128,8 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   const bool any_stretch = std::any_of(subjects.begin(), subjects.end(), [](const RenderSubject& s) { return s.face_stretch.size() > 0; });
   const bool any_shell = std::any_of(subjects.begin(), subjects.end(), [](const RenderSubject& s) { return s.is_shell(); });
   if (color_by == ColorBy::Auto) color_by = any_stretch ? ColorBy::Stretch : ColorBy::None;
-  if (color_by == ColorBy::Stretch && !any_stretch) throw InputError("render: --color stretch needs a shell folder input");
-  if (color_by == ColorBy::Thickness && !any_shell) throw InputError("render: --color thickness needs a shell folder input");
+  if (color_by == ColorBy::Stretch && !any_stretch) throw InputError("render: color by stretch needs a shell folder input");
+  if (color_by == ColorBy::Thickness && !any_shell) throw InputError("render: color by thickness needs a shell folder input");
 
   // Values per subject (faces for stretch, vertices for thickness) and one shared scale.
   std::vector<Eigen::VectorXd> values(subjects.size());
@@ -264,7 +163,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
     scale->ramp = ColorScale::Ramp::BlueGreenRed;
     scale->min = 1 - half;
     scale->max = 1 + half;
-    scale->label = "thickness/eta";
+    scale->label = "thickness / \u03b7";
   }
 
   const Eigen::Vector3f base_grey(0.72f, 0.76f, 0.84f), top_grey(0.88f, 0.88f, 0.90f);
@@ -328,9 +227,9 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   FigureOptions figure = options.figure;
   figure.color_bar = scale;
   if (color_by == ColorBy::Stretch && figure.footnote.empty())
-    figure.footnote = "stretch = sum (sigma_i - 1)^2 per tet; a face shows the volume-weighted mean of its prism's 3 tets";
+    figure.footnote = "stretch = \u03a3\u1d62 (\u03c3\u1d62 \u2212 1)\u00b2 per tet; faces show their prism's volume-weighted mean";
   if (color_by == ColorBy::Thickness && figure.footnote.empty())
-    figure.footnote = "thickness = length(top_i - base_i) / eta per vertex";
+    figure.footnote = "thickness = |top\u1d62 \u2212 base\u1d62| / \u03b7 per vertex";
   return render_figure(panels, figure, layout);
 }
 
@@ -343,8 +242,7 @@ PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
   PreviewPanels panels;
   std::vector<RenderSubject>& subjects = panels.subjects;
   std::vector<std::string>& captions = panels.captions;
-  const bool shell_here = fs::exists(folder / "shell.vtu") || fs::exists(folder / "top.obj");
-  const std::vector<fs::path> frames = shell_here ? std::vector<fs::path>{} : frame_dirs(folder);
+  const std::vector<fs::path> frames = is_shell_folder(folder) ? std::vector<fs::path>{} : list_frames(folder);
   if (!frames.empty()) {
     std::vector<size_t> picks{0, frames.size() / 2, frames.size() - 1};
     picks.erase(std::unique(picks.begin(), picks.end()), picks.end());
@@ -356,16 +254,15 @@ PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
     RenderSubject subject = load_render_subject(dir);
     // A pose output: the rest shell first, so the pose reads as a change. Its stretch against
     // itself is 0 by definition (the posed panel's colors are measured against it).
-    const auto report = read_json(folder / "report.json");
-    if (subject.method == "pose" && report && report->contains("shell") && (*report)["shell"].is_string()) {
+    if (subject.method == "pose") {
       try {
-        RenderSubject rest = load_shell_folder((*report)["shell"].get<std::string>(), "rest");
+        RenderSubject rest = load_shell_folder(read_report(folder).at("shell").get<std::string>(), "rest");
         rest.face_stretch = Eigen::VectorXd::Zero(rest.shell.F.rows());
         rest.detail = TriMesh{};
         subjects.push_back(std::move(rest));
         captions.push_back("rest");
-      } catch (const InputError&) {
-        // the rest shell moved or is gone: the posed shell alone
+      } catch (const std::exception&) {
+        // the rest shell moved or is gone (or the report names none): the posed shell alone
       }
     }
     subject.name = folder_name;

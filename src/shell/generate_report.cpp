@@ -1,15 +1,14 @@
 #include <gshell/shell/generate_report.h>
 
+#include <gshell/quality/certificate_report.h>
+#include <gshell/quality/stretch_report.h>
+
 #include <cstdio>
 #include <sstream>
 
 namespace gshell {
 
 namespace {
-
-nlohmann::json count_or_null(int count) { return count < 0 ? nlohmann::json(nullptr) : nlohmann::json(count); }
-
-std::string count_text(int count) { return count < 0 ? std::string("not counted") : std::to_string(count); }
 
 std::string format(const char* fmt, double a, double b = 0, double c = 0, double d = 0) {
   char buf[256];
@@ -20,10 +19,9 @@ std::string format(const char* fmt, double a, double b = 0, double c = 0, double
 void quality_lines(std::ostringstream& out, const ShellMetrics& m) {
   out << format("stretch      mean %.4g  volume-weighted %.4g  p99 %.4g  max %.4g\n", m.stretch.mean,
                 m.stretch.volume_mean, m.stretch.p99, m.stretch.max);
-  out << "inverted     " << m.stretch.inverted << " tets\n";
-  out << "intersect    top/top " << count_text(m.top_self_intersections) << ", top/base "
-      << count_text(m.top_base_intersections) << " face pairs\n";
-  out << format("thickness    min %.4f  mean %.4f  (x eta)\n", m.thickness_min, m.thickness_mean);
+  out << certificate_summary(m.certificate);
+  out << format("thickness    min %.4f  mean %.4f  (x eta), ", m.thickness_min, m.thickness_mean)
+      << m.thinned_vertices << format(" top vertices below %.2g eta\n", kThinnedFraction);
 }
 
 } // namespace
@@ -38,11 +36,11 @@ nlohmann::json metrics_report(const ShellMetrics& m, int vertices, int faces, do
   j["vertices"] = vertices;
   j["faces"] = faces;
   j["tets"] = 3 * faces;
-  j["stretch"] = {{"mean", m.stretch.mean}, {"volume_mean", m.stretch.volume_mean}, {"max", m.stretch.max},
-                  {"p99", m.stretch.p99}};
-  j["inverted_tets"] = m.stretch.inverted;
-  j["top_self_intersections"] = count_or_null(m.top_self_intersections);
-  j["top_base_intersections"] = count_or_null(m.top_base_intersections);
+  // The exact inverted-tet count is the certificate's; det F <= 0 in doubles would be a second
+  // answer to the same question, so only the statistics of stretch_report are taken.
+  j["stretch"] = nlohmann::json(stretch_report(m.stretch)["stretch"]);
+  j.update(nlohmann::json(certificate_report(m.certificate)));
+  j["thinned_vertices"] = m.thinned_vertices;
   return j;
 }
 
@@ -56,7 +54,19 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
   j["iterations"] = r.solve.iterations;
   j["converged"] = r.solve.converged;
   j["energy"] = r.solve.energy;
-  j["seconds"] = {{"total", r.seconds.total}, {"factor", r.seconds.factor}, {"solve", r.seconds.solve}};
+  j["seconds"] = {{"total", r.seconds.total},
+                  {"factor", r.seconds.factor},
+                  {"solve", r.seconds.solve},
+                  {"certificate", r.metrics.certificate.seconds}};
+  if (r.curvature) {
+    const CurvatureGeneration& c = *r.curvature;
+    j["curvature"] = {{"s_min", c.s_min},
+                      {"s_max", c.s_max},
+                      {"clamped_prisms", c.prisms.clamped},
+                      {"limited_prisms", c.prisms.limited},
+                      {"own_prisms", nlohmann::json(stretch_report(c.own_stretch))},
+                      {"seconds", c.prism_seconds}};
+  }
   return j;
 }
 
@@ -82,6 +92,16 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
     out << "\n";
   }
   quality_lines(out, r.metrics);
+  if (r.curvature) {
+    const CurvatureGeneration& c = *r.curvature;
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "curvature    %d of %d prisms clamped to s in [%g, %g], %d anisotropy-limited (%.3f s)\n"
+                  "own prisms   stretch mean %.4g  volume-weighted %.4g  p99 %.4g  max %.4g, %d inverted\n",
+                  c.prisms.clamped, m, c.s_min, c.s_max, c.prisms.limited, c.prism_seconds, c.own_stretch.mean,
+                  c.own_stretch.volume_mean, c.own_stretch.p99, c.own_stretch.max, c.own_stretch.inverted);
+    out << buf;
+  }
   out << format("time         %.3f s (factor %.3f s, solve %.3f s)\n", r.seconds.total, r.seconds.factor,
                 r.seconds.solve);
   return out.str();

@@ -1,6 +1,7 @@
 #include <gshell/shell/generate_shell.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/curvature.h>
 #include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
@@ -16,11 +17,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-void check_options(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
-  if (!(options.thickness > 0) || !std::isfinite(options.thickness))
-    throw InputError("thickness must be positive and finite (got " + std::to_string(options.thickness) + ")");
-  if (options.solve.max_iterations < 0) throw InputError("iterations must not be negative");
-  if (!(options.solve.tolerance >= 0)) throw InputError("tolerance must not be negative");
+void check_shapes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   if (V.cols() != 3 || F.cols() != 3 || F.rows() == 0) throw InputError("generate: need an n x 3 V and a non-empty m x 3 F");
 }
 
@@ -33,24 +30,12 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
   return s;
 }
 
-// The ideal prisms of the optimising methods. The curvature method plugs in here.
-PrismCorners ideal_prisms_for(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
-  switch (options.method) {
-  case ShellMethod::Rigid:
-    return normal_prisms(V, F, options.thickness);
-  case ShellMethod::Curvature:
-    return curvature_prisms(V, F, options.thickness, options.s_min, options.s_max);
-  case ShellMethod::Offset:
-    break;
-  }
-  throw InputError("generate: the offset method has no ideal prisms");
-}
-
 // Generation towards `ideal`; `ideal_is_normal` lets the metrics reuse the solver's rest tets.
 GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const PrismCorners& ideal,
                                 const GenerateOptions& options, bool ideal_is_normal) {
   const auto t0 = Clock::now();
-  check_options(V, F, options);
+  options.check();
+  check_shapes(V, F);
   const int n = static_cast<int>(V.rows());
   GenerateResult r;
   r.method = options.method;
@@ -67,6 +52,26 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
                   ? shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, solver.rest())
                   : shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
   r.seconds.total = seconds_since(t0);
+  return r;
+}
+
+// The curvature method: curvature prisms (timed apart, they are its own cost), then generation
+// towards them.
+GenerateResult generate_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
+  const auto t0 = Clock::now();
+  CurvaturePrismStats prisms;
+  const PrismCorners ideal =
+      curvature_prisms(V, F, face_curvature(V, F), options.thickness, options.s_min, options.s_max, &prisms);
+  const double prism_seconds = seconds_since(t0);
+  GenerateResult r = generate_towards(V, F, ideal, options, false);
+  r.seconds.total += prism_seconds;
+  CurvatureGeneration& c = r.curvature.emplace();
+  c.s_min = options.s_min;
+  c.s_max = options.s_max;
+  c.prisms = prisms;
+  c.prism_seconds = prism_seconds;
+  // Against the prisms it was optimised towards.
+  c.own_stretch = stretch_stats(prism_rest_tets(F, static_cast<int>(V.rows()), ideal), r.shell.vertices());
   return r;
 }
 
@@ -87,6 +92,14 @@ ShellMethod parse_shell_method(const std::string& name) {
   throw InputError("unknown method '" + name + "' (expected rigid, offset or curvature)");
 }
 
+void GenerateOptions::check() const {
+  if (!(thickness > 0) || !std::isfinite(thickness))
+    throw InputError("thickness must be positive and finite (got " + std::to_string(thickness) + ")");
+  if (solve.max_iterations < 0) throw InputError("iterations must not be negative");
+  if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a non-negative number");
+  check_curvature_clamp(s_min, s_max);
+}
+
 double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
   if (!(ratio > 0) || !std::isfinite(ratio))
     throw InputError("thickness ratio must be positive and finite (got " + std::to_string(ratio) + ")");
@@ -103,11 +116,12 @@ GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen:
 }
 
 GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
-  check_options(V, F, options);
-  if (options.method != ShellMethod::Offset) {
+  options.check();
+  check_shapes(V, F);
+  if (options.method == ShellMethod::Curvature) return generate_curvature(V, F, options);
+  if (options.method == ShellMethod::Rigid) {
     const auto t0 = Clock::now();
-    GenerateResult r = generate_towards(V, F, ideal_prisms_for(V, F, options), options,
-                                        options.method == ShellMethod::Rigid);
+    GenerateResult r = generate_towards(V, F, normal_prisms(V, F, options.thickness), options, true);
     r.seconds.total = seconds_since(t0);
     return r;
   }

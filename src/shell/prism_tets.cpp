@@ -8,10 +8,6 @@
 
 namespace gshell {
 
-namespace {
-
-// The three tets of one prism as corner numbers 0..5 (0..2 base corners in face order, 3..5
-// the tops above them), following the min-index rule on the face's global ids.
 std::array<std::array<int, 4>, 3> prism_corner_tets(int v0, int v1, int v2) {
   const std::array<int, 3> ids{v0, v1, v2};
   std::array<int, 3> order{0, 1, 2}; // face corners sorted by global id: a < b < c
@@ -26,8 +22,6 @@ std::array<std::array<int, 4>, 3> prism_corner_tets(int v0, int v1, int v2) {
     for (auto& t : tets) std::swap(t[2], t[3]);
   return tets;
 }
-
-} // namespace
 
 Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F) {
   Eigen::MatrixXi C(3 * F.rows(), 4);

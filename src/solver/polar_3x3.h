@@ -3,6 +3,8 @@
 // Fast path: Higham's scaled Newton iteration X <- (g X + X^-T / g) / 2 for the orthogonal polar
 // factor, which converges quadratically and is exact to round-off; it is a rotation when det F > 0.
 // Inverted, nearly singular or rank-deficient F take a one-sided Jacobi SVD instead (rare in a shell).
+#include "solver/simd_dispatch.h"
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -115,31 +117,35 @@ inline Eigen::Matrix3d closest_rotation_inline(const Eigen::Matrix3d& F) {
 /// independent lanes those latencies overlap, which doubles the throughput of 8 lanes.
 constexpr int kPolarLanes = 32;
 
+/// Cofactors C of the kPolarLanes matrices X (lane layout of closest_rotations_lanes) and their
+/// determinants.
+GSHELL_SIMD_KERNEL void cofactor_lanes(const double (*X)[kPolarLanes], double (*C)[kPolarLanes], double* det) {
+  for (int l = 0; l < kPolarLanes; ++l) {
+    C[0][l] = X[4][l] * X[8][l] - X[5][l] * X[7][l];
+    C[1][l] = X[5][l] * X[6][l] - X[3][l] * X[8][l];
+    C[2][l] = X[3][l] * X[7][l] - X[4][l] * X[6][l];
+    C[3][l] = X[2][l] * X[7][l] - X[1][l] * X[8][l];
+    C[4][l] = X[0][l] * X[8][l] - X[2][l] * X[6][l];
+    C[5][l] = X[1][l] * X[6][l] - X[0][l] * X[7][l];
+    C[6][l] = X[1][l] * X[5][l] - X[2][l] * X[4][l];
+    C[7][l] = X[2][l] * X[3][l] - X[0][l] * X[5][l];
+    C[8][l] = X[0][l] * X[4][l] - X[1][l] * X[3][l];
+    det[l] = X[0][l] * C[0][l] + X[1][l] * C[1][l] + X[2][l] * C[2][l];
+  }
+}
+
 /// Closest rotations of kPolarLanes matrices at once, in struct-of-arrays layout: entry (r, c)
 /// of lane l at [(3 r + c) * kPolarLanes + l]. The Newton iteration runs on all lanes together
 /// (the branch-free loops over lanes vectorise) until every lane has converged; lanes that are
 /// inverted, too ill-conditioned or unconverged are redone by the SVD.
-inline void closest_rotations_lanes(const double* F, double* R) {
+/// A SIMD kernel body (solver/simd_dispatch.h): inlined into each instruction-set variant of its
+/// caller, so it is plain loops (no Eigen in the hot path; rare lanes go to rotation_by_svd).
+GSHELL_SIMD_KERNEL void closest_rotations_lanes(const double* F, double* R) {
   constexpr int W = kPolarLanes;
   alignas(64) double X[9][W], C[9][W], det[W], g[W], delta2[W], valid[W];
   for (int k = 0; k < 9; ++k)
     for (int l = 0; l < W; ++l) X[k][l] = F[k * W + l];
-  auto cofactors = [&] {
-    for (int l = 0; l < W; ++l) {
-      C[0][l] = X[4][l] * X[8][l] - X[5][l] * X[7][l];
-      C[1][l] = X[5][l] * X[6][l] - X[3][l] * X[8][l];
-      C[2][l] = X[3][l] * X[7][l] - X[4][l] * X[6][l];
-      C[3][l] = X[2][l] * X[7][l] - X[1][l] * X[8][l];
-      C[4][l] = X[0][l] * X[8][l] - X[2][l] * X[6][l];
-      C[5][l] = X[1][l] * X[6][l] - X[0][l] * X[7][l];
-      C[6][l] = X[1][l] * X[5][l] - X[2][l] * X[4][l];
-      C[7][l] = X[2][l] * X[3][l] - X[0][l] * X[5][l];
-      C[8][l] = X[0][l] * X[4][l] - X[1][l] * X[3][l];
-      det[l] = X[0][l] * C[0][l] + X[1][l] * C[1][l] + X[2][l] * C[2][l];
-    }
-  };
-  cofactors();
-  alignas(64) double x2[W], c2[W];
+  cofactor_lanes(X, C, det);
   for (int l = 0; l < W; ++l) {
     double a = 0, b = 0;
 #pragma GCC unroll 9
@@ -147,17 +153,14 @@ inline void closest_rotations_lanes(const double* F, double* R) {
       a += X[k][l] * X[k][l];
       b += C[k][l] * C[k][l];
     }
-    x2[l] = a;
-    c2[l] = b;
     // Same acceptance as rotation_by_newton (det > 1e-6 |F|^3), squared to avoid a root.
     valid[l] = (det[l] > 0 && det[l] * det[l] > 1e-12 * a * a * a) ? 1.0 : 0.0;
+    // Frobenius scaling g = sqrt(|X^-1| / |X|) for the first step (later steps are near 1); a
+    // rejected lane's value is replaced below. (std::sqrt vectorises where errno is not kept:
+    // the kernel files are compiled with -fno-math-errno.)
+    const double ratio = b / (a * det[l] * det[l]);
+    g[l] = std::sqrt(std::sqrt(ratio > 0 ? ratio : 1.0));
   }
-  // Frobenius scaling g = sqrt(|X^-1| / |X|) for the first step (later steps are near 1).
-  // Eigen's array sqrt vectorises where std::sqrt would not (errno).
-  using Lanes = Eigen::Array<double, W, 1>;
-  const Lanes dets = Eigen::Map<const Lanes>(det);
-  Eigen::Map<Lanes> scale(g);
-  scale = (Eigen::Map<const Lanes>(c2) / (Eigen::Map<const Lanes>(x2) * dets * dets)).sqrt().sqrt();
   // Rejected lanes iterate on the identity (finite, so they cannot disturb the vector loop) and
   // are redone by the SVD at the end.
   for (int l = 0; l < W; ++l) {
@@ -192,7 +195,7 @@ inline void closest_rotations_lanes(const double* F, double* R) {
     for (int l = 0; l < W; ++l) worst = worst > delta2[l] ? worst : delta2[l];
     converged = worst < 1e-16;
     if (!converged) {
-      cofactors();
+      cofactor_lanes(X, C, det);
       for (int l = 0; l < W; ++l) { // a lane that lost its sign is left to the SVD
         const double keep = det[l] > 0 ? 1.0 : 0.0;
         valid[l] *= keep;

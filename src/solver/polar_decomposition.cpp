@@ -1,14 +1,15 @@
 #include <gshell/solver/polar_decomposition.h>
 
 #include "solver/polar_3x3.h"
+#include "solver/simd_dispatch.h"
 
 #include <algorithm>
 
 namespace gshell {
 
-Eigen::Matrix3d closest_rotation(const Eigen::Matrix3d& F) { return detail::closest_rotation_inline(F); }
+namespace {
 
-void closest_rotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, std::size_t count) {
+GSHELL_SIMD_KERNEL void closest_rotations_body(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, std::size_t count) {
   constexpr int W = detail::kPolarLanes;
   alignas(64) double Fs[9 * W], Rs[9 * W];
   for (std::size_t i0 = 0; i0 < count; i0 += W) {
@@ -23,6 +24,17 @@ void closest_rotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, std::size_t
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) R[i0 + l].data()[r + 3 * c] = Rs[(3 * r + c) * W + l];
   }
+}
+
+GSHELL_SIMD_DISPATCH(void, closest_rotations_simd, closest_rotations_body,
+                     (const Eigen::Matrix3d* F, Eigen::Matrix3d* R, std::size_t count), (F, R, count))
+
+} // namespace
+
+Eigen::Matrix3d closest_rotation(const Eigen::Matrix3d& F) { return detail::closest_rotation_inline(F); }
+
+void closest_rotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, std::size_t count) {
+  closest_rotations_simd(F, R, count);
 }
 
 } // namespace gshell

@@ -3,6 +3,7 @@
 #include <gshell/error.h>
 
 #include "solver/polar_3x3.h"
+#include "solver/simd_dispatch.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -37,6 +38,79 @@ constexpr int kChunk = 2048;
 // Free vertices from which the x column and the y, z columns are back-substituted concurrently:
 // CHOLMOD's triangular solves are single-threaded, and one column costs about 60% of three.
 constexpr int kParallelSolveRows = 4096;
+
+// What the local step reads per tet: vertex ids, Dm_inv (row-major) and the rest volume.
+struct LocalStepTets {
+  const std::array<int, 4>* tet;
+  const double* Dinv;
+  const double* vol;
+};
+
+// The local step over tets [t_begin, t_end): their energy, and with Q (9 per tet) every tet's
+// vol Dm_inv R^T (row-major) for the right-hand side. X: row-major positions.
+GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const double* X, double* Q, int t_begin,
+                                          int t_end) {
+  constexpr int W = detail::kPolarLanes;
+  double e = 0;
+  // W tets at a time in struct-of-arrays layout (entry k of lane l at [k * W + l]) so that the
+  // polar decomposition and everything after it run across lanes in SIMD registers.
+  alignas(64) double Fs[9 * W], Rs[9 * W], Ds[9 * W], Ps[9 * W], vols[W];
+  for (int t0 = t_begin; t0 < t_end; t0 += W) {
+    const int lanes = std::min(W, t_end - t0);
+    for (int l = 0; l < W; ++l) {
+      if (l >= lanes) { // padding: identity F, zero volume, so it adds nothing
+        for (int k = 0; k < 9; ++k) {
+          Fs[k * W + l] = (k % 4 == 0) ? 1.0 : 0.0;
+          Ds[k * W + l] = 0.0;
+        }
+        vols[l] = 0.0;
+        continue;
+      }
+      // F_t = D_t Dm_inv_t with D = the current edge vectors x_{j+1} - x_0 as columns.
+      const int t = t0 + l;
+      const auto& v = tets.tet[t];
+      const double* di = &tets.Dinv[9 * static_cast<std::size_t>(t)];
+      const double* x0 = X + 3 * static_cast<std::size_t>(v[0]);
+      double D[3][3];
+      for (int j = 0; j < 3; ++j) {
+        const double* xj = X + 3 * static_cast<std::size_t>(v[j + 1]);
+        for (int r = 0; r < 3; ++r) D[r][j] = xj[r] - x0[r];
+      }
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          Fs[(3 * r + c) * W + l] = D[r][0] * di[c] + D[r][1] * di[3 + c] + D[r][2] * di[6 + c];
+      if (Q)
+        for (int k = 0; k < 9; ++k) Ds[k * W + l] = di[k];
+      vols[l] = tets.vol[t];
+    }
+    detail::closest_rotations_lanes(Fs, Rs);
+    alignas(64) double d2[W] = {};
+    for (int k = 0; k < 9; ++k)
+      for (int l = 0; l < W; ++l) {
+        const double d = Fs[k * W + l] - Rs[k * W + l];
+        d2[l] += d * d;
+      }
+    for (int l = 0; l < W; ++l) e += vols[l] * d2[l];
+    if (!Q) continue;
+    // vol Dm_inv R^T: rows 1..3 of this tet's share vol G_t R^T of the right-hand side (row 0
+    // is minus their sum, G_t = [-1 -1 -1; I] Dm_inv).
+    for (int k = 0; k < 3; ++k)
+      for (int r = 0; r < 3; ++r)
+        for (int l = 0; l < W; ++l)
+          Ps[(3 * k + r) * W + l] =
+              vols[l] * (Ds[(3 * k) * W + l] * Rs[(3 * r) * W + l] + Ds[(3 * k + 1) * W + l] * Rs[(3 * r + 1) * W + l] +
+                         Ds[(3 * k + 2) * W + l] * Rs[(3 * r + 2) * W + l]);
+    // Stored per tet, contiguously, so the writes stream; the gather picks the rows it needs.
+    double* q = Q + 9 * static_cast<std::size_t>(t0);
+    for (int l = 0; l < lanes; ++l)
+      for (int k = 0; k < 9; ++k) q[9 * l + k] = Ps[k * W + l];
+  }
+  return e;
+}
+
+GSHELL_SIMD_DISPATCH(double, local_step_chunk, local_step_body,
+                     (const LocalStepTets& tets, const double* X, double* Q, int t_begin, int t_end),
+                     (tets, X, Q, t_begin, t_end))
 
 } // namespace
 
@@ -313,67 +387,12 @@ void ShellSolver::Impl::assemble_and_factor() {
 }
 
 double ShellSolver::Impl::local_step(const double* X, double* Q) const {
-  constexpr int W = detail::kPolarLanes;
-  static_assert(kChunk % W == 0);
+  static_assert(kChunk % detail::kPolarLanes == 0);
   const int chunks = (K + kChunk - 1) / kChunk;
   std::vector<double> chunk_energy(chunks, 0.0);
+  const LocalStepTets tets{tet.data(), Dinv.data(), vol.data()};
   tbb::parallel_for(0, chunks, [&](int ci) {
-    const int t_end = std::min(K, (ci + 1) * kChunk);
-    double e = 0;
-    // W tets at a time in struct-of-arrays layout (entry k of lane l at [k * W + l]) so that the
-    // polar decomposition and everything after it run across lanes in SIMD registers.
-    alignas(64) double Fs[9 * W], Rs[9 * W], Ds[9 * W], Ps[9 * W], vols[W];
-    for (int t0 = ci * kChunk; t0 < t_end; t0 += W) {
-      const int lanes = std::min(W, t_end - t0);
-      for (int l = 0; l < W; ++l) {
-        if (l >= lanes) { // padding: identity F, zero volume, so it adds nothing
-          for (int k = 0; k < 9; ++k) {
-            Fs[k * W + l] = (k % 4 == 0) ? 1.0 : 0.0;
-            Ds[k * W + l] = 0.0;
-          }
-          vols[l] = 0.0;
-          continue;
-        }
-        // F_t = D_t Dm_inv_t with D = the current edge vectors x_{j+1} - x_0 as columns.
-        const int t = t0 + l;
-        const auto& v = tet[t];
-        const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
-        const double* x0 = X + 3 * static_cast<std::size_t>(v[0]);
-        double D[3][3];
-        for (int j = 0; j < 3; ++j) {
-          const double* xj = X + 3 * static_cast<std::size_t>(v[j + 1]);
-          for (int r = 0; r < 3; ++r) D[r][j] = xj[r] - x0[r];
-        }
-        for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c)
-            Fs[(3 * r + c) * W + l] = D[r][0] * di[c] + D[r][1] * di[3 + c] + D[r][2] * di[6 + c];
-        if (Q)
-          for (int k = 0; k < 9; ++k) Ds[k * W + l] = di[k];
-        vols[l] = vol[t];
-      }
-      detail::closest_rotations_lanes(Fs, Rs);
-      alignas(64) double d2[W] = {};
-      for (int k = 0; k < 9; ++k)
-        for (int l = 0; l < W; ++l) {
-          const double d = Fs[k * W + l] - Rs[k * W + l];
-          d2[l] += d * d;
-        }
-      for (int l = 0; l < W; ++l) e += vols[l] * d2[l];
-      if (!Q) continue;
-      // vol Dm_inv R^T: rows 1..3 of this tet's share vol G_t R^T of the right-hand side (row 0
-      // is minus their sum, G_t = [-1 -1 -1; I] Dm_inv).
-      for (int k = 0; k < 3; ++k)
-        for (int r = 0; r < 3; ++r)
-          for (int l = 0; l < W; ++l)
-            Ps[(3 * k + r) * W + l] =
-                vols[l] * (Ds[(3 * k) * W + l] * Rs[(3 * r) * W + l] + Ds[(3 * k + 1) * W + l] * Rs[(3 * r + 1) * W + l] +
-                           Ds[(3 * k + 2) * W + l] * Rs[(3 * r + 2) * W + l]);
-      // Stored per tet, contiguously, so the writes stream; the gather picks the rows it needs.
-      double* q = Q + 9 * static_cast<std::size_t>(t0);
-      for (int l = 0; l < lanes; ++l)
-        for (int k = 0; k < 9; ++k) q[9 * l + k] = Ps[k * W + l];
-    }
-    chunk_energy[ci] = e;
+    chunk_energy[ci] = local_step_chunk(tets, X, Q, ci * kChunk, std::min(K, (ci + 1) * kChunk));
   });
   double E = 0;
   for (double e : chunk_energy) E += e;

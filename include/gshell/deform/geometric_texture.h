@@ -35,7 +35,7 @@ struct GeometricTexture {
 };
 
 /// Tiles `tile` repeat_u x repeat_v times over the bounding rectangle of the base's UVs
-/// (`uv_source` has the shell's faces and vertex count, with UV/FUV; see load_shell_dir) and maps
+/// (`uv_source` has the shell's faces and vertex count, with UV/FUV; see read_shell_folder) and maps
 /// every tiled vertex tet by tet into the shell. Throws InputError when the base has no UVs, its
 /// faces differ from the shell's, every UV triangle is degenerate, the tile is empty or
 /// non-finite, or a repeat count is < 1.

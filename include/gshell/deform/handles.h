@@ -4,6 +4,8 @@
 #include <gshell/shell/shell.h>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
 #include <string>
 #include <vector>
 
@@ -13,11 +15,14 @@ namespace gshell {
 /// fraction t in [0,1] of the motion rotates by t*degrees and translates by t*translate.
 /// No translate and no rotate = the vertices are held at their rest positions.
 struct Handle {
+  std::string name;                                         ///< a label (handle files: "name")
   std::vector<int> vertices;                                ///< shell vertex ids (base 0..n-1, top n..2n-1), sorted
   Eigen::Vector3d translate = Eigen::Vector3d::Zero();      ///< model units
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();          ///< unit rotation axis
   double degrees = 0;                                       ///< right-handed about `axis`
   Eigen::Vector3d center = Eigen::Vector3d::Zero();         ///< default: centroid of the handle's rest vertices
+
+  friend bool operator==(const Handle&, const Handle&) = default;
 };
 
 enum class ConstraintMode {
@@ -38,7 +43,19 @@ struct HandleSet {
   /// Target positions (|constrained_vertices()| x 3) for the fraction t of the motion, from the
   /// rest positions of all 2n shell vertices.
   Eigen::MatrixXd targets(const Eigen::MatrixXd& rest_vertices, double fraction) const;
+
+  friend bool operator==(const HandleSet&, const HandleSet&) = default;
 };
+
+/// Checks a handle set built in code for a shell of `shell_vertices` (2n) vertices, as
+/// parse_handles checks a file. \throws InputError on an empty handle, a vertex id out of range
+/// or in two handles, a zero rotation axis, non-finite numbers, or a weight <= 0.
+void check_handles(const HandleSet& handles, int shell_vertices);
+
+/// The handle file (docs/handles.md) of a handle set: mode, weight (soft mode), and per handle
+/// name (if any), explicit vertex ids, translate and rotate {axis, degrees, center}. parse_handles
+/// reads it back to the same set.
+nlohmann::ordered_json handles_to_json(const HandleSet& handles);
 
 /// Parses a handle file (JSON) against the rest shell: `select` boxes are resolved into vertex ids
 /// here. Throws InputError "PATH: problem" on unreadable or malformed files, unknown keys, wrong

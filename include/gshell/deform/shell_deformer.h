@@ -35,11 +35,15 @@ const char* warm_start_name(WarmStart w);
 /// "previous", "translated", "rotated", "extrapolated"; throws InputError otherwise.
 WarmStart parse_warm_start(const std::string& name);
 
+/// The only source of the per-frame defaults (the CLI's help and Python's keywords read DeformOptions{}).
 struct DeformOptions {
   int max_iterations = 50;
   double tolerance = 1e-4; ///< relative energy change |E_k - E_{k-1}| / E_{k-1} that stops a frame
   WarmStart warm_start = WarmStart::Extrapolated;
   bool measure_stretch = true; ///< fill FrameResult::stretch (one more pass over the tets)
+
+  /// \throws InputError naming the parameter (iterations, tolerance) when it is out of range.
+  void check() const;
 };
 
 struct FrameResult {
@@ -69,8 +73,9 @@ public:
   explicit ShellDeformer(const Shell& rest);
 
   /// Solves the top for a new base (n x 3, the rest base's vertex order), warm-started from the
-  /// previous frame (the rest shell before the first frame or after reset()). Throws InputError
-  /// on a wrong row count or a non-finite coordinate.
+  /// previous frame (the rest shell before the first frame or after reset()).
+  /// \throws InputError on a wrong shape, a non-finite coordinate or bad options (the state is
+  ///         left as it was).
   FrameResult solve(const Eigen::MatrixXd& new_base, const DeformOptions& options = {});
 
   /// The next frame starts from the rest shell again.

@@ -14,13 +14,16 @@
 // intersect, neighbours sharing a vertex or an edge included.
 //
 // Candidate pairs are kept in a list of all pairs closer than dhat + slack (a Verlet list); it is
-// rebuilt, with a bounding-volume hierarchy as broad phase, only when some movable vertex has
-// moved more than slack / 2 since the last build, so iterations that move little cost only the
-// pairs near contact.
+// rebuilt, with a bounding-volume hierarchy as broad phase, only when some vertex has moved more
+// than slack / 2 since the last build, so iterations that move little cost only the pairs near
+// contact. Distances, barrier and CCD of single pairs: primitive_distance.h, contact_barrier.h,
+// pair_ccd.h; the reasoning behind them: docs/contact.md.
+#include <gshell/guard/primitive_distance.h>
 #include <gshell/quality/shell_boundary.h>
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -30,8 +33,17 @@ struct ContactOptions {
   double dhat = 0;  ///< barrier support (model units, > 0): pairs closer than this repel
   double slack = 0; ///< candidate-list slack (model units, >= 0; 0 = dhat)
   /// step_bound keeps every pair at least this fraction of its distance at the start of the
-  /// step (in (0, 1)): a step never ends in contact, and the barrier stays finite.
+  /// step, or of dhat if that is smaller (in (0, 1)): a step never ends in contact, and the
+  /// barrier stays finite.
   double keep_fraction = 0.1;
+};
+
+/// A pair of the candidate list: kind and the four vertex ids in PairPoints order (vertex, then
+/// the triangle's corners; or the two edges, the one with the smaller edge id first).
+struct ContactPair {
+  PairKind kind = PairKind::PointTriangle;
+  std::array<int, 4> vertices{};
+  friend bool operator==(const ContactPair&, const ContactPair&) = default;
 };
 
 class ContactGuard {
@@ -50,25 +62,40 @@ public:
   ContactGuard(ContactGuard&&) noexcept;
   ContactGuard& operator=(ContactGuard&&) noexcept;
 
+  // Every X and D below is num_vertices x 3 with finite rows at the boundary's vertices (else
+  // InputError). Calls at the same X (exactly equal) share one pass over the candidate list.
+
   /// Barrier B(X) = sum over pairs of b(d^2), b(s) = -(s - dhat^2)^2 log(s / dhat^2) for
-  /// s < dhat^2 and 0 beyond (d: the distance of the pair). +infinity if a pair touches.
+  /// s < dhat^2 and 0 beyond (d: the distance of the pair); edge-edge pairs of nearly parallel
+  /// edges are mollified (contact_barrier.h). +infinity if a pair touches. Deterministic: the
+  /// same X gives the same bits whatever the thread count.
   double energy(const Eigen::MatrixXd& X);
-  /// G (num_vertices x 3) += scale * dB/dX.
+  /// G (num_vertices x 3) += scale * dB/dX (rows of fixed vertices included).
   void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G);
   /// Appends scale * H, H a positive semi-definite approximation of d^2B/dX^2 (each pair's block
-  /// projected onto its positive eigenvalues), as triplets indexed 3 * vertex + axis.
+  /// projected onto its positive eigenvalues), as triplets indexed 3 * vertex + axis (fixed
+  /// vertices included: a solver drops the rows it does not solve for).
   void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H);
 
   /// The largest alpha in [0, max_step] such that along X + s D, 0 <= s <= alpha, no pair comes
-  /// closer than keep_fraction times its distance at X (conservative: the true bound may be
-  /// larger, never smaller). D has the shape of X; it may move fixed vertices too (a prescribed
-  /// motion of the base, as when a deformed base drags its shell along).
+  /// closer than keep_fraction * min(d0, dhat), d0 its distance at X (conservative: the true
+  /// bound may be larger, never smaller). Every pair counts, also those beyond the candidate
+  /// list (a long step sweeps the primitives' boxes along it). A pair touching at X bounds the
+  /// step to 0 if it moves relative to itself. D has the shape of X; it may move fixed vertices
+  /// too (a prescribed motion of the base, as when a deformed base drags its shell along), but
+  /// pairs among fixed vertices only stay out (the caller answers for the base's own motion).
   double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step = 1);
 
   /// Pairs closer than dhat at the last energy, gradient or Hessian evaluation.
   int active_pairs() const;
-  /// Smallest pair distance at X over the candidate list (dhat + slack if no pair is that close).
+  /// Smallest pair distance at X over the candidate list, dhat + slack if no pair there is that
+  /// close (always exact when below dhat: pairs off the list are at least dhat apart).
   double min_distance(const Eigen::MatrixXd& X);
+
+  /// The candidate list as last built (diagnostics), sorted by kind, then vertex ids.
+  std::vector<ContactPair> candidate_pairs() const;
+  /// How often the candidate list was built so far.
+  int candidate_builds() const;
 
 private:
   struct Impl;

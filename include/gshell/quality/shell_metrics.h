@@ -1,23 +1,32 @@
 #pragma once
 // The quality report of a shell (DESIGN.md "Quality measures"), for any base/top pair.
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <Eigen/Core>
 
 namespace gshell {
 
+/// A top vertex is "thinned" when its thickness (distance to the base surface) is below this
+/// fraction of the target eta.
+constexpr double kThinnedFraction = 0.9;
+
 struct ShellMetrics {
-  StretchStats stretch;            ///< per-tet stretch against the ideal normal prisms of thickness eta
+  /// Per-tet stretch against the ideal normal prisms of thickness eta. Its `inverted` counts
+  /// det F <= 0 in doubles; the exact count, the one the reports give, is the certificate's.
+  StretchStats stretch;
   Eigen::VectorXd tet_stretch;     ///< 3m values, tets in build_prism_tets order
   Eigen::VectorXd tet_determinant; ///< det F per tet against the normal prisms (<= 0: inverted)
-  int top_self_intersections = -1; ///< pairs of top faces sharing no vertex that intersect; -1 = not counted
-  int top_base_intersections = -1; ///< pairs (top face, base face) that intersect; -1 = not counted
+  /// Exact validity (quality/shell_certificate.h), base/base pairs included. Without
+  /// intersection counts only its tets are checked (pair counts -1).
+  ShellCertificate certificate;
   Eigen::VectorXd vertex_thickness; ///< distance of each top vertex to the base surface / eta
   double thickness_min = 0, thickness_mean = 0; ///< of vertex_thickness (relative to eta)
+  int thinned_vertices = 0; ///< top vertices with vertex_thickness < kThinnedFraction
 };
 
 /// Measures the shell between `base` and `top` (same faces F, top vertex i over base vertex i)
-/// for thickness eta (model units, > 0). Intersections are counted only if asked (they dominate
-/// the cost on big meshes). Throws InputError on mismatched sizes or eta <= 0.
+/// for thickness eta (model units, > 0). Intersections (the certificate's pair tests) are counted
+/// only if asked. Throws InputError on mismatched sizes, eta <= 0 or bad faces.
 ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
                            double eta, bool count_intersections = true);
 

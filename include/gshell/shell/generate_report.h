@@ -12,17 +12,23 @@ namespace gshell {
 ///   input, method, thickness {eta, ratio (null if given absolutely), min, mean (per-vertex
 ///   thickness / eta)}, vertices, faces, tets, iterations, converged, energy [E_0 = offset start,
 ///   one per iteration], stretch {mean, volume_mean, max, p99} (against the normal prisms),
-///   inverted_tets, top_self_intersections, top_base_intersections (null if not counted),
-///   seconds {total, factor, solve}, gshell_version.
+///   valid, certificate {inverted_tets, top_self_intersections, top_base_intersections,
+///   wall_intersections, exact}, base_self_intersections (certificate_report; pair counts null
+///   and valid null or false when intersections were not counted), thinned_vertices,
+///   seconds {total, factor, solve, certificate}, gshell_version; the curvature method adds curvature {s_min,
+///   s_max, clamped_prisms, limited_prisms, own_prisms {stretch, inverted_tets} (against the
+///   prisms it was optimised towards), seconds (of the curvature prisms)}.
 nlohmann::json generate_report(const GenerateResult& result, const std::string& input,
                                std::optional<double> thickness_ratio = std::nullopt);
 
-/// The quality part alone (`gshell metrics`): thickness, vertices, faces, tets, stretch,
-/// inverted_tets, intersections, as in generate_report.
+/// The quality part alone (`gshell metrics`): thickness, vertices, faces, tets, stretch, valid,
+/// certificate, base_self_intersections, thinned_vertices, as in generate_report.
 nlohmann::json metrics_report(const ShellMetrics& metrics, int vertices, int faces, double eta,
                               std::optional<double> thickness_ratio = std::nullopt);
 
-/// A few lines for a terminal: sizes, method, energy, stretch, inversions, intersections, times.
+/// A few lines for a terminal: sizes, method, energy, stretch, validity (certificate_summary),
+/// thickness, times
+/// (and the curvature method's clamp counts).
 std::string generate_summary(const GenerateResult& result, const std::string& input);
 
 /// The same for `gshell metrics`.

@@ -2,11 +2,14 @@
 // Shell generation (DESIGN.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
 // local/global solve of the top with the base fixed, started from the offset surface.
 #include <gshell/quality/shell_metrics.h>
+#include <gshell/quality/stretch.h>
+#include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/shell.h>
 #include <gshell/solver/shell_solver.h>
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 
 namespace gshell {
@@ -22,12 +25,19 @@ std::string to_string(ShellMethod method);
 /// Inverse of to_string; throws InputError "unknown method 'X' (expected rigid, offset or curvature)".
 ShellMethod parse_shell_method(const std::string& name);
 
+/// The only source of generation defaults: the CLI's help and Python's keyword defaults read
+/// GenerateOptions{}.
 struct GenerateOptions {
   ShellMethod method = ShellMethod::Rigid;
   double thickness = 0; ///< eta, model units (> 0)
   SolveOptions solve = {50, 1e-5, {}};
-  double s_min = 0.5, s_max = 2.0; ///< clamp of the curvature method's in-plane scales
+  /// Clamp of the curvature method's in-plane scales (curvature_prisms.h explains the defaults).
+  double s_min = kDefaultCurvatureSMin, s_max = kDefaultCurvatureSMax;
   bool count_intersections = true; ///< count top/top and top/base intersections in the metrics
+
+  /// Throws InputError naming the parameter (thickness, iterations, tolerance, s_min, s_max)
+  /// when one is out of range.
+  void check() const;
 };
 
 /// Thickness for a ratio of the bounding sphere's radius (centre = bounding-box centre, radius =
@@ -40,12 +50,21 @@ struct GenerateTimings {
   double solve = 0;  ///< local/global iterations
 };
 
+/// What the curvature method adds to a generation (paper §4.1 "Curvature Sensitive Method").
+struct CurvatureGeneration {
+  double s_min = 0, s_max = 0;  ///< clamps used
+  CurvaturePrismStats prisms;   ///< prisms that hit the clamps / had their anisotropy limited
+  StretchStats own_stretch;     ///< stretch against the curvature prisms it was optimised towards
+  double prism_seconds = 0;     ///< curvature + ideal prisms (included in seconds.total)
+};
+
 struct GenerateResult {
   Shell shell;
   ShellMethod method = ShellMethod::Rigid;
   SolveResult solve; ///< energy[0] = offset start; for Offset only energy[0] (no iterations)
   GenerateTimings seconds;
   ShellMetrics metrics; ///< stretch against the normal prisms, whatever the method
+  std::optional<CurvatureGeneration> curvature; ///< set by the curvature method
 };
 
 /// Rigid-style generation towards the given ideal prisms (6m x 3, ideal_prisms.h layout): rest
@@ -54,7 +73,9 @@ struct GenerateResult {
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options);
 
-/// Generates the shell of (V, F) by options.method. Throws InputError on bad options.
+/// Generates the shell of (V, F) by options.method (the curvature method fills
+/// GenerateResult::curvature).
+/// \throws InputError on bad options (GenerateOptions::check) or an n x 3 / m x 3 shape mismatch.
 GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options);
 
 } // namespace gshell

@@ -2,6 +2,7 @@
 // Cutting prisms into tets by the min-index rule (DESIGN.md "Prism to tets").
 #include <gshell/solver/rest_tets.h>
 #include <Eigen/Core>
+#include <array>
 
 namespace gshell {
 
@@ -10,6 +11,11 @@ namespace gshell {
 /// top lies on the side of the face normal (counter-clockwise faces). Every side quad with base
 /// ids i < j is cut along base(i)-top(j), so neighbouring prisms agree on the diagonal.
 Eigen::MatrixXi build_prism_tets(const Eigen::MatrixXi& F, int n);
+
+/// The three tets of the prism over a face with vertex ids (v0, v1, v2), as prism corners 0..5
+/// (0..2 the base corners in this order, 3..5 the tops above them), by the min-index rule on the
+/// ids: rows 3f..3f+2 of prism_tet_corners for F.row(f) = (v0, v1, v2).
+std::array<std::array<int, 4>, 3> prism_corner_tets(int v0, int v1, int v2);
 
 /// Same tets, each vertex given as a prism corner 0..5 of its face: 0..2 base corners in the
 /// face's own order (F(f,0..2)), 3..5 the top corners above them. Row t matches build_prism_tets.

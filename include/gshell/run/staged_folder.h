@@ -7,6 +7,13 @@
 
 namespace gshell {
 
+/// The checks a StagedFolder for `destination` makes, without creating anything, so a command can
+/// fail on a bad output path before its long part: the parent must be a folder, `destination` must
+/// not be a file, and (when `is_previous_output` is given) an existing non-empty `destination`
+/// must satisfy it. \throws InputError naming `destination`.
+void check_output_folder(const std::filesystem::path& destination,
+                         const std::function<bool(const std::filesystem::path&)>& is_previous_output = {});
+
 class StagedFolder {
 public:
   /// Creates the temporary folder ".NAME.tmp-*" beside `destination` (the parent must exist).

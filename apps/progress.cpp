@@ -1,0 +1,43 @@
+#include "progress.h"
+
+#include "command_registry.h"
+
+#include <cstdio>
+#include <iostream>
+#include <unistd.h>
+
+namespace gshell::cli {
+
+Progress::Progress(const std::string& command, double min_interval)
+    : prefix_("gshell " + command + ": "), enabled_(!global_options().quiet), terminal_(::isatty(STDERR_FILENO) == 1),
+      min_interval_(min_interval) {}
+
+Progress::~Progress() { finish_status(); }
+
+void Progress::update(const std::string& text) {
+  if (!enabled_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (min_interval_ > 0 && last_ != std::chrono::steady_clock::time_point{} &&
+      std::chrono::duration<double>(now - last_).count() < min_interval_)
+    return;
+  last_ = now;
+  if (terminal_) {
+    std::cerr << "\r\033[K" << prefix_ << text << std::flush; // \033[K clears the rest of the old line
+    status_open_ = true;
+  } else {
+    std::cerr << prefix_ << text << "\n";
+  }
+}
+
+void Progress::line(const std::string& text) {
+  if (!enabled_) return;
+  finish_status();
+  std::cerr << prefix_ << text << "\n";
+}
+
+void Progress::finish_status() {
+  if (status_open_) std::cerr << "\r\033[K" << std::flush; // the status line gives way
+  status_open_ = false;
+}
+
+} // namespace gshell::cli

@@ -1,0 +1,35 @@
+#pragma once
+// Progress of long runs on stderr, the same for every command: on a terminal one status line
+// rewritten in place; anywhere else (a log, a pipe) one line per update, so logs read cleanly.
+// Nothing at all with --quiet.
+#include <chrono>
+#include <string>
+
+namespace gshell::cli {
+
+class Progress {
+public:
+  /// Lines start with "gshell COMMAND: ". Status updates closer than `min_interval` seconds to the
+  /// last shown one are dropped (permanent lines never are).
+  explicit Progress(const std::string& command, double min_interval = 0);
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  bool enabled() const { return enabled_; }
+  /// A status line that the next update replaces (on a terminal).
+  void update(const std::string& text);
+  /// A line that stays.
+  void line(const std::string& text);
+  /// Clears an open status line (on a terminal), e.g. before printing to stdout.
+  void finish_status();
+
+private:
+
+  std::string prefix_;
+  bool enabled_ = false, terminal_ = false, status_open_ = false;
+  double min_interval_ = 0;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+} // namespace gshell::cli

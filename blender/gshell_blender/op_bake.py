@@ -1,0 +1,248 @@
+"""object.gshell_bake: carry a shell and its bound detail through the base's animation.
+
+For each frame the base is evaluated with its modifiers and animation (armature, shape keys,
+simple deform, ...), the top follows through gshell.Deformer (factored once per bake, each frame
+warm-started from the previous one, so frames are solved in order), and the detail through its
+embedding in the shell. The results go to PC2 point caches played by Mesh Cache modifiers (see
+point_cache.py, and README "Blender add-on" for why a cache rather than shape keys).
+"""
+import json
+import os
+import sys
+import time
+
+import bpy
+
+from . import gshell_module, mesh_arrays, point_cache, shell_store
+
+DEFAULT_DIRECTORY = "//gshell_cache/"
+
+# Modifiers that only move vertices (keep their number and order).
+_DEFORM_ONLY = {"ARMATURE", "CAST", "CURVE", "DISPLACE", "HOOK", "LAPLACIANDEFORM", "LATTICE", "MESH_DEFORM",
+                "SHRINKWRAP", "SIMPLE_DEFORM", "SMOOTH", "CORRECTIVE_SMOOTH", "LAPLACIANSMOOTH", "SURFACE_DEFORM",
+                "WARP", "WAVE", "MESH_CACHE", "MESH_SEQUENCE_CACHE", "CLOTH", "SOFT_BODY", "WEIGHTED_NORMAL",
+                "NORMAL_EDIT", "UV_PROJECT", "UV_WARP", "VERTEX_WEIGHT_EDIT", "VERTEX_WEIGHT_MIX",
+                "VERTEX_WEIGHT_PROXIMITY", "DATA_TRANSFER", "TRIANGULATE"}
+
+
+def evaluated_base_positions(base, depsgraph, num_vertices):
+    """The base's vertices at the current frame, after its modifiers, in its local space."""
+    evaluated = base.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        if len(mesh.vertices) != num_vertices:
+            changing = [m.name for m in base.modifiers if m.show_viewport and m.type not in _DEFORM_ONLY]
+            raise shell_store.ShellError(
+                f"'{base.name}' has {len(mesh.vertices)} vertices after its modifiers at frame "
+                f"{depsgraph.scene.frame_current}, its shell {num_vertices}: the bake needs the same vertices in the "
+                f"same order (hide the modifiers that change them in the viewport while baking: "
+                f"{', '.join(changing) or 'none found'})")
+        return mesh_arrays.vertex_positions(mesh)
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def cache_directory(base, directory):
+    """(absolute folder for this base's caches, warning or None)."""
+    warning = None
+    if directory.startswith("//") and not bpy.data.filepath:
+        warning = ("the .blend file is not saved: the caches are in Blender's temporary folder, deleted when "
+                   "Blender quits (save the file and bake again to keep them)")
+        directory = bpy.app.tempdir
+    return os.path.join(bpy.path.abspath(directory), bpy.path.clean_name(base.name)), warning
+
+
+class Bake:
+    """One bake: the rest shell and embeddings prepared once, then step() solves one frame."""
+
+    def __init__(self, gshell, context, base, frame_start, frame_end, directory):
+        if frame_end < frame_start:
+            raise shell_store.ShellError(f"frame_end ({frame_end}) is before frame_start ({frame_start})")
+        self.scene = context.scene
+        self.base = base
+        self.top = shell_store.top_of(base)
+        self.frames = list(range(frame_start, frame_end + 1))
+        self.frame_before = self.scene.frame_current
+        shell = shell_store.rest_shell(gshell, base)
+        self.n = len(shell.base)
+        self.deformer = gshell.Deformer(shell)  # assembles and factors the system once
+        self.details = [d for d in shell_store.details_of(base, self.scene) if len(d.data.vertices)]
+        self.embeddings = [gshell.embed(shell, shell_store.detail_rest_points(d)) for d in self.details]
+        self.folder, self.warning = cache_directory(base, directory)
+        self.writers = []
+        try:
+            for obj in [self.top] + self.details:
+                path = os.path.join(self.folder, bpy.path.clean_name(obj.name) + ".pc2")
+                self.writers.append(point_cache.PointCacheWriter(path, len(obj.data.vertices), frame_start,
+                                                                 len(self.frames)))
+        except OSError as e:
+            self.cancel()
+            raise shell_store.ShellError(f"cannot write the cache: {e}") from e
+        # Earlier caches of these objects would be evaluated at every frame for nothing.
+        self.muted = [m for m in (o.modifiers.get(point_cache.MODIFIER_NAME) for o in [self.top] + self.details)
+                      if m is not None and m.show_viewport]
+        for modifier in self.muted:
+            modifier.show_viewport = False
+        self.done = 0
+        self.frame_stats = []
+
+    def step(self):
+        """Bakes the next frame; True when every frame is done."""
+        clock = [time.perf_counter()]
+
+        def lap():
+            clock.append(time.perf_counter())
+            return clock[-1] - clock[-2]
+
+        frame = self.frames[self.done]
+        self.scene.frame_set(frame)
+        V = evaluated_base_positions(self.base, bpy.context.evaluated_depsgraph_get(), self.n)
+        evaluate = lap()
+        top = self.deformer.solve(V)
+        X = self.deformer.vertices
+        solve = lap()
+        carried = [e.carry(X) for e in self.embeddings]
+        carry = lap()
+        self.writers[0].write(top)
+        for detail, P, writer in zip(self.details, carried, self.writers[1:]):
+            writer.write(shell_store.detail_local_points(detail, P))
+        write = lap()
+        last = self.deformer.last
+        self.frame_stats.append({
+            "frame": frame, "iterations": last["iterations"], "converged": last["converged"],
+            "stretch_max": last["stretch"]["max"], "inverted_tets": last["inverted_tets"],
+            "seconds": {"total": clock[-1] - clock[0], "evaluate": evaluate, "solve": solve, "carry": carry,
+                        "write": write}})
+        self.done += 1
+        return self.done == len(self.frames)
+
+    def finish(self):
+        """Puts the caches in place and attaches them; returns the status line."""
+        for writer in self.writers:
+            writer.commit()
+        for obj, writer in zip([self.top] + self.details, self.writers):
+            point_cache.attach(obj, writer.path, self.frames[0]).show_viewport = True
+        self.scene.frame_set(self.frame_before)
+        seconds = sorted(s["seconds"]["total"] for s in self.frame_stats)
+        per_frame = seconds[len(seconds) // 2]
+        worst = max(s["stretch_max"] for s in self.frame_stats)
+        inverted = max(s["inverted_tets"] for s in self.frame_stats)
+        self.top[shell_store.BAKE_REPORT_KEY] = json.dumps({
+            "frame_start": self.frames[0], "frame_end": self.frames[-1], "vertices": self.n,
+            "details": [d.name for d in self.details], "directory": self.folder,
+            "factor_seconds": self.deformer.factor_seconds, "median_seconds_per_frame": per_frame,
+            "frames": self.frame_stats}, indent=1)
+        return (f"gshell: baked frames {self.frames[0]}-{self.frames[-1]} of '{self.base.name}' (top and "
+                f"{len(self.details)} detail object(s)): {per_frame:.3g} s per frame, max stretch {worst:.3g}, "
+                f"{'no' if inverted == 0 else 'up to ' + str(inverted)} inverted tets; caches in {self.folder}")
+
+    def cancel(self):
+        for writer in self.writers:
+            writer.discard()
+        for modifier in getattr(self, "muted", []):
+            modifier.show_viewport = True
+        self.scene.frame_set(self.frame_before)
+
+
+class OBJECT_OT_gshell_bake(bpy.types.Operator):
+    """Bake the active object's shell and its bound detail over a frame range (Esc cancels)"""
+    bl_idname = "object.gshell_bake"
+    bl_label = "Bake Shell"
+    bl_options = {"REGISTER", "UNDO"}
+
+    frame_start: bpy.props.IntProperty(name="Start", description="First frame to bake (default: the scene's)")
+    frame_end: bpy.props.IntProperty(name="End", description="Last frame to bake (default: the scene's)")
+    directory: bpy.props.StringProperty(
+        name="Cache folder", default=DEFAULT_DIRECTORY, subtype="DIR_PATH",
+        description="Where the point caches go (one sub-folder per base); '//' is the .blend file's folder")
+
+    @classmethod
+    def poll(cls, context):
+        return shell_store.base_of(context.active_object) is not None
+
+    def _start(self, context):
+        for name in ("frame_start", "frame_end"):
+            if not self.properties.is_property_set(name):
+                setattr(self, name, getattr(context.scene, name))
+        base = shell_store.base_of(context.active_object)
+        try:
+            self._bake = Bake(gshell_module.get(), context, base, self.frame_start, self.frame_end, self.directory)
+        except (gshell_module.ModuleUnavailable, shell_store.ShellError, ValueError) as e:
+            self.report({"ERROR"}, f"gshell: {e}")
+            return False
+        if self._bake.warning:
+            self.report({"WARNING"}, f"gshell: {self._bake.warning}")
+        return True
+
+    def _step(self):
+        """One frame; on an error the bake is dropped and reported. Returns 'more', 'done' or 'failed'."""
+        try:
+            return "done" if self._bake.step() else "more"
+        except (shell_store.ShellError, ValueError, OSError) as e:
+            self._bake.cancel()
+            self.report({"ERROR"}, f"gshell: {e}; nothing was baked")
+            return "failed"
+
+    def _finish(self):
+        try:
+            self.report({"INFO"}, self._bake.finish())
+        except (OSError, RuntimeError) as e:
+            self._bake.cancel()
+            self.report({"ERROR"}, f"gshell: {e}; nothing was baked")
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+    def execute(self, context):
+        """Bakes every frame before returning (scripts, background mode)."""
+        if not self._start(context):
+            return {"CANCELLED"}
+        count = len(self._bake.frames)
+        wm = context.window_manager
+        wm.progress_begin(0, count)
+        printed = time.perf_counter()
+        try:
+            while True:
+                state = self._step()
+                wm.progress_update(self._bake.done)
+                if bpy.app.background and (state == "done" or time.perf_counter() - printed > 1.0):
+                    printed = time.perf_counter()  # no window to show progress: a line a second
+                    print(f"gshell bake: '{self._bake.base.name}' frame {self._bake.done}/{count}", file=sys.stderr)
+                if state == "failed":
+                    return {"CANCELLED"}
+                if state == "done":
+                    return self._finish()
+        finally:
+            wm.progress_end()
+
+    def invoke(self, context, event):
+        """Bakes one frame per timer tick, so the interface shows progress and Esc cancels."""
+        if not self._start(context):
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, len(self._bake.frames))
+        self._timer = wm.event_timer_add(0.001, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._bake.cancel()
+            self._end(context)
+            self.report({"WARNING"}, "gshell: bake cancelled; nothing was written")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"RUNNING_MODAL"}  # the scene must not change under the bake
+        state = self._step()
+        context.window_manager.progress_update(self._bake.done)
+        context.workspace.status_text_set(
+            f"gshell: baking '{self._bake.base.name}', frame {self._bake.done}/{len(self._bake.frames)}; Esc cancels")
+        if state == "more":
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return self._finish() if state == "done" else {"CANCELLED"}
+
+    def _end(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)

@@ -1,0 +1,83 @@
+"""object.gshell_bind: the selected objects become detail carried by the active object's shell."""
+import bpy
+
+from . import gshell_module, point_cache, shell_store
+
+
+class OBJECT_OT_gshell_bind(bpy.types.Operator):
+    """Bind the selected mesh objects to the active object's shell: baking the shell carries them along"""
+    bl_idname = "object.gshell_bind"
+    bl_label = "Bind to Shell"
+    bl_options = {"REGISTER", "UNDO"}
+
+    parent: bpy.props.BoolProperty(
+        name="Parent to base", default=True,
+        description="Parent the detail to the base (keeping where it is), so that moving the base as an object "
+                    "moves the detail too; the bake carries the deformation")
+
+    @classmethod
+    def poll(cls, context):
+        return shell_store.base_of(context.active_object) is not None
+
+    def execute(self, context):
+        base = shell_store.base_of(context.active_object)
+        try:
+            gshell = gshell_module.get()
+            shell = shell_store.rest_shell(gshell, base)
+        except (gshell_module.ModuleUnavailable, shell_store.ShellError) as e:
+            self.report({"ERROR"}, f"gshell: {e}")
+            return {"CANCELLED"}
+        top = base.gshell.top
+        details = [o for o in context.selected_objects if o not in (base, top, context.active_object)]
+        if not details:
+            self.report({"ERROR"}, f"gshell: select the detail objects, then the shell of '{base.name}' last (active)")
+            return {"CANCELLED"}
+        problems = [f"'{o.name}' is not a mesh" for o in details if o.type != "MESH"]
+        problems += [f"'{o.name}' is part of a shell ({o.gshell.role.lower()})" for o in details
+                     if o.gshell.role in ("BASE", "TOP")]
+        if problems:
+            self.report({"ERROR"}, "gshell: cannot bind: " + "; ".join(problems))
+            return {"CANCELLED"}
+
+        points = outside = 0
+        farthest = 0.0
+        to_base = base.matrix_world.inverted()
+        for detail in details:
+            detail.gshell.role = "DETAIL"
+            detail.gshell.base = base
+            detail.gshell.bind_matrix = to_base @ detail.matrix_world
+            embedding = gshell.embed(shell, shell_store.detail_rest_points(detail))
+            points += len(embedding)
+            outside += len(embedding.outside)
+            farthest = max(farthest, embedding.max_outside_distance)
+            if self.parent and detail.parent != base:
+                world = detail.matrix_world.copy()
+                detail.parent = base
+                detail.matrix_parent_inverse = base.matrix_world.inverted()
+                detail.matrix_world = world
+        message = f"gshell: bound {len(details)} object(s), {points} vertices, to the shell of '{base.name}'"
+        if outside:
+            message += (f"; {outside} vertices lie outside the shell (up to {farthest:.3g} away, local units) "
+                        f"and follow the nearest tet")
+        self.report({"WARNING"} if outside else {"INFO"}, message)
+        return {"FINISHED"}
+
+
+class OBJECT_OT_gshell_unbind(bpy.types.Operator):
+    """Release the selected detail objects from their shells (their baked motion is removed too)"""
+    bl_idname = "object.gshell_unbind"
+    bl_label = "Unbind from Shell"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return any(o.gshell.role == "DETAIL" for o in context.selected_objects)
+
+    def execute(self, context):
+        details = [o for o in context.selected_objects if o.gshell.role == "DETAIL"]
+        for detail in details:
+            detail.gshell.role = "NONE"
+            detail.gshell.base = None
+            point_cache.detach(detail)
+        self.report({"INFO"}, f"gshell: unbound {len(details)} object(s)")
+        return {"FINISHED"}

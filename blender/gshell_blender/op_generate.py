@@ -1,0 +1,174 @@
+"""object.gshell_generate: the shell of the active mesh object, as a new object "<name>.top"."""
+import json
+import re
+
+import bpy
+from mathutils import Matrix
+
+from . import gshell_module, mesh_arrays, point_cache, shell_store
+
+METHODS = [
+    ("rigid", "Rigid", "Optimised towards the normal prisms (the paper's method)"),
+    ("curvature", "Curvature", "As rigid, with the ideal prisms scaled by the surface's curvature "
+                               "(no groove along sharp ridges)"),
+    ("offset", "Offset", "Vertex-normal offset, no optimisation (the baseline)"),
+]
+THICKNESS_MODES = [
+    ("RATIO", "Ratio", "Thickness relative to the radius of the mesh's bounding sphere"),
+    ("ABSOLUTE", "Absolute", "Thickness in the object's local units"),
+]
+
+
+def generate_properties(cls):
+    """The generate options, shared by the operator and the sidebar's scene settings."""
+    if "__annotations__" not in cls.__dict__:
+        cls.__annotations__ = {}
+    cls.__annotations__.update({
+        "thickness_mode": bpy.props.EnumProperty(name="Thickness", items=THICKNESS_MODES, default="RATIO"),
+        "thickness_ratio": bpy.props.FloatProperty(
+            name="Thickness ratio", default=0.03, min=1e-6, soft_max=0.5, precision=4, step=0.1,
+            description="Shell thickness as a ratio of the bounding sphere's radius (centre = bounding-box "
+                        "centre, radius = farthest vertex)"),
+        "thickness": bpy.props.FloatProperty(
+            name="Thickness", default=0.05, min=1e-9, soft_max=10.0, precision=4, unit="LENGTH",
+            description="Shell thickness in the object's local units"),
+        "method": bpy.props.EnumProperty(name="Method", items=METHODS, default="rigid"),
+        "iterations": bpy.props.IntProperty(name="Iterations", default=50, min=0, soft_max=500,
+                                            description="Maximum local/global iterations of the optimising methods"),
+        "allow_invalid": bpy.props.BoolProperty(
+            name="Allow invalid", default=False,
+            description="Keep a shell that fails the validity guard (inverted tets or intersections) instead "
+                        "of reporting an error"),
+    })
+    return cls
+
+
+def in_polygons(message, polygon):
+    """The module numbers the triangles it was given; name the Blender polygons they came from."""
+    def triangle(match):
+        t = int(match.group(1))
+        if not 0 <= t < len(polygon):
+            return match.group(0)
+        return f"triangle {t}{match.group(2) or ''} of polygon {polygon[t]}"
+
+    def triangles(match):
+        ts = [int(t) for t in match.group(1).split(",")]
+        if not all(0 <= t < len(polygon) for t in ts):
+            return match.group(0)
+        return f"triangles ({match.group(1)}) of polygons ({', '.join(str(polygon[t]) for t in ts)})"
+
+    message = re.sub(r"\bface (\d+)( \([\d, ]+\))?", triangle, message)
+    return re.sub(r"\bfaces \(([\d, ]+)\)", triangles, message)
+
+
+def validity(report):
+    """One phrase about the shell's validity from its report."""
+    if isinstance(report.get("valid"), bool):
+        return "valid" if report["valid"] else "NOT valid"
+    inverted = report.get("inverted_tets", 0)
+    crossings = [report.get(k) for k in ("top_self_intersections", "top_base_intersections")]
+    if inverted or any(crossings):
+        return "NOT valid"
+    if any(c is None for c in crossings):
+        return "no inverted tets (intersections not counted)"
+    return "valid (no inverted tets, no intersections)"
+
+
+def summary(report):
+    s = report["stretch"]
+    return (f"stretch mean {s['mean']:.3g}, max {s['max']:.3g}; {report['inverted_tets']} inverted tets; "
+            f"{validity(report)}")
+
+
+def _top_object(base, name, mesh, context):
+    """Reuses the base's top object when it has one (regenerate), else makes and links a new one."""
+    top = base.gshell.top
+    if base.gshell.role == "BASE" and top is not None and top.gshell.base == base and top.type == "MESH":
+        old = top.data
+        top.data = mesh
+        if old.users == 0:
+            bpy.data.meshes.remove(old)
+        point_cache.detach(top)  # a bake of the previous shell
+        return top
+    top = bpy.data.objects.new(name, mesh)
+    for collection in base.users_collection or [context.collection]:
+        collection.objects.link(top)
+    top.parent = base  # the same transform as the base, always
+    top.matrix_parent_inverse = Matrix.Identity(4)
+    top.matrix_basis = Matrix.Identity(4)
+    top.display_type = "WIRE"  # the base and the detail inside stay visible
+    return top
+
+
+@generate_properties
+class OBJECT_OT_gshell_generate(bpy.types.Operator):
+    """Generate the shell of the active mesh object: a new object "<name>.top" over the same vertices"""
+    bl_idname = "object.gshell_generate"
+    bl_label = "Generate Shell"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.active_object is not None and context.active_object.type == "MESH"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.prop(self, "thickness_mode", expand=True)
+        layout.prop(self, "thickness_ratio" if self.thickness_mode == "RATIO" else "thickness")
+        layout.prop(self, "method")
+        layout.prop(self, "iterations")
+        try:
+            if gshell_module.supports(gshell_module.get().generate, "allow_invalid"):
+                layout.prop(self, "allow_invalid")
+        except gshell_module.ModuleUnavailable:
+            pass
+
+    def execute(self, context):
+        base = context.active_object
+        try:
+            gshell = gshell_module.get()
+            shell, faces = self._generate(gshell, base)
+        except (gshell_module.ModuleUnavailable, shell_store.ShellError) as e:
+            self.report({"ERROR"}, f"gshell: {e}")
+            return {"CANCELLED"}
+
+        mesh = mesh_arrays.mesh_like(base.data, f"{base.name}.top", shell.top)
+        top = _top_object(base, f"{base.name}.top", mesh, context)
+        top[shell_store.FACES_KEY] = faces.ravel()
+        top[shell_store.REPORT_KEY] = json.dumps(shell.report, indent=1)
+        top.gshell.role = "TOP"
+        top.gshell.base = base
+        top.gshell.thickness = shell.thickness
+        base.gshell.role = "BASE"
+        base.gshell.top = top
+
+        self.report({"INFO"}, f"gshell: '{top.name}': {summary(shell.report)}")
+        scale = base.matrix_world.to_scale()
+        if max(scale) > 1.0001 * min(scale):
+            self.report({"WARNING"}, f"gshell: '{base.name}' is scaled unevenly {tuple(round(s, 3) for s in scale)}: "
+                                     f"the shell is even in local units, not in the scene (apply the scale first)")
+        return {"FINISHED"}
+
+    def _generate(self, gshell, base):
+        if base.gshell.role in ("TOP", "DETAIL"):
+            owner = base.gshell.base.name if base.gshell.base else "?"
+            kind = "the top of" if base.gshell.role == "TOP" else "bound as detail to"
+            raise shell_store.ShellError(f"'{base.name}' is {kind} the shell of '{owner}'")
+        if base.mode == "EDIT":
+            base.update_from_editmode()
+        V = mesh_arrays.vertex_positions(base.data)
+        F, polygon = mesh_arrays.triangles(base.data)
+        if len(F) == 0:
+            raise shell_store.ShellError(f"'{base.name}' has no faces")
+        kwargs = {"method": self.method, "iterations": self.iterations}
+        if self.thickness_mode == "RATIO":
+            kwargs["thickness_ratio"] = self.thickness_ratio
+        else:
+            kwargs["thickness"] = self.thickness
+        if gshell_module.supports(gshell.generate, "allow_invalid"):
+            kwargs["allow_invalid"] = self.allow_invalid
+        try:
+            return gshell.generate(V, F, **kwargs), F
+        except ValueError as e:
+            message = str(e).removeprefix("mesh (V, F): ")  # the module's name for its arguments
+            raise shell_store.ShellError(f"'{base.name}': {in_polygons(message, polygon)}") from e

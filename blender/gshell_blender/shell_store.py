@@ -1,0 +1,104 @@
+"""Where a shell lives in a .blend file, and how to get it back as a gshell.Shell.
+
+A shell joins three kinds of objects, marked by `Object.gshell.role`:
+  BASE    the artist's mesh; `gshell.top` points to its top object. Its mesh data (without
+          modifiers) is the rest base.
+  TOP     "<base>.top", made by Generate: same vertices in the same order as the base, parented to
+          the base with an identity transform (it always has the base's transform). Its mesh data
+          is the rest top; it keeps the shell's triangles (ID property "gshell_faces", int32 3m: the
+          base's polygons as cut by Generate), the thickness and the generate report ("gshell_report",
+          JSON text).
+  DETAIL  an object bound with Bind: `gshell.base` points to the base; `gshell.bind_matrix` maps its
+          local coordinates into the base's local space as they were at binding time.
+Everything the shell solver sees is in the base's local space (object transforms are not part of
+the shell), so a moved, rotated or scaled base carries its shell along.
+"""
+import numpy as np
+
+import bpy
+
+from . import mesh_arrays
+
+FACES_KEY = "gshell_faces"
+REPORT_KEY = "gshell_report"
+BAKE_REPORT_KEY = "gshell_bake"
+
+
+class ShellError(Exception):
+    """A problem the user can fix (reported as a Blender error, nothing is changed)."""
+
+
+class GShellObjectSettings(bpy.types.PropertyGroup):
+    role: bpy.props.EnumProperty(
+        name="gshell role",
+        items=[("NONE", "None", "Not part of a shell"),
+               ("BASE", "Base", "The surface a shell was generated on"),
+               ("TOP", "Top", "The top surface of a shell"),
+               ("DETAIL", "Detail", "Geometry bound inside a shell, carried when the shell is baked")],
+        default="NONE")
+    top: bpy.props.PointerProperty(type=bpy.types.Object, name="Top",
+                                   description="The top object of this base's shell")
+    base: bpy.props.PointerProperty(type=bpy.types.Object, name="Base",
+                                    description="The base object of the shell this top or detail belongs to")
+    thickness: bpy.props.FloatProperty(name="Thickness", min=0.0,
+                                       description="The shell's thickness eta, in the base's local units")
+    bind_matrix: bpy.props.FloatVectorProperty(
+        name="Bind matrix", size=(4, 4), subtype="MATRIX",
+        description="Detail local space to base local space at binding time")
+
+
+def base_of(obj):
+    """The base of the shell `obj` belongs to (obj itself for a base), or None."""
+    if obj is None:
+        return None
+    role = obj.gshell.role
+    if role == "BASE":
+        return obj
+    if role in ("TOP", "DETAIL"):
+        return obj.gshell.base
+    return None
+
+
+def top_of(base):
+    top = base.gshell.top
+    if base.gshell.role != "BASE" or top is None or top.gshell.base != base or FACES_KEY not in top:
+        raise ShellError(f"'{base.name}' has no shell: run Generate Shell on it first")
+    return top
+
+
+def shell_faces(top):
+    return np.asarray(top[FACES_KEY], dtype=np.int64).reshape(-1, 3)
+
+
+def rest_shell(gshell, base):
+    """gshell.Shell of `base` at rest (base and top mesh data, stored faces and thickness)."""
+    top = top_of(base)
+    V = mesh_arrays.vertex_positions(base.data)
+    T = mesh_arrays.vertex_positions(top.data)
+    F = shell_faces(top)
+    if len(V) != len(T) or (len(F) and F.max() >= len(V)):
+        raise ShellError(f"'{base.name}' has {len(V)} vertices but its shell '{top.name}' {len(T)}: the meshes were "
+                         f"edited since the shell was made; run Generate Shell again")
+    try:
+        return gshell.Shell(V, F, T, top.gshell.thickness)
+    except ValueError as e:
+        raise ShellError(f"the shell of '{base.name}' cannot be used ({e}); run Generate Shell again") from e
+
+
+def details_of(base, scene):
+    return [o for o in scene.objects if o.gshell.role == "DETAIL" and o.gshell.base == base and o.type == "MESH"]
+
+
+def _apply(matrix, P):
+    A = np.array(matrix, dtype=np.float64)
+    return P @ A[:3, :3].T + A[:3, 3]
+
+
+def detail_rest_points(detail):
+    """float64 (k, 3): the detail's vertices in its base's local space, as bound."""
+    return _apply(detail.gshell.bind_matrix, mesh_arrays.vertex_positions(detail.data))
+
+
+def detail_local_points(detail, P):
+    """Points in the base's local space -> the detail's local space (inverse of the binding)."""
+    return _apply(detail.gshell.bind_matrix.inverted(), P)

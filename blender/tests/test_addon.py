@@ -1,0 +1,285 @@
+"""Tests of the gshell Blender add-on, run inside Blender in the background with a fresh user profile:
+
+    blender/headless/run blender/tests/test_addon.py build/gshell_blender.zip     (CTest: blender_addon)
+
+The zip is installed and enabled the way a user does it (Preferences > Add-ons > Install...), then:
+the top of a quad UV sphere equals the Python module's shell of the same mesh cut into triangles;
+a baked bend carries the top (about the thickness above the base, equal to gshell.Deformer fed the
+same base positions) and the bound detail (equal to embed().carry in world space); meshes the
+module rejects (non-manifold, degenerate) and topology-changing modifiers give an error and change
+nothing.
+"""
+import os
+import sys
+import tempfile
+import unittest
+
+import numpy as np
+
+import bpy
+from mathutils import Euler, Vector
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "headless"))
+import addon_session  # noqa: E402 (blender/headless/addon_session.py)
+
+THICKNESS_RATIO = 0.05
+
+
+def the_module():
+    """The gshell module as the add-on loads it (the copy carried in the zip)."""
+    import gshell_blender
+    return gshell_blender.gshell_module.get()
+
+
+def positions(mesh):
+    return np.array([v.co[:] for v in mesh.vertices], dtype=np.float64)
+
+
+def evaluated_positions(obj):
+    """Local vertex positions after modifiers (the Mesh Cache playback included) at the current frame."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = evaluated.to_mesh()
+    try:
+        return positions(mesh)
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def to_world(obj_matrix, P):
+    A = np.array(obj_matrix)
+    return P @ A[:3, :3].T + A[:3, 3]
+
+
+def fan_triangles(mesh):
+    """Each polygon cut into a fan from its first corner, winding kept (for quads: 0-1-2, 0-2-3)."""
+    F = []
+    for polygon in mesh.polygons:
+        v = list(polygon.vertices)
+        F += [(v[0], v[i], v[i + 1]) for i in range(1, len(v) - 1)]
+    return np.array(F, dtype=np.int64)
+
+
+def uv_sphere(name="Sphere", segments=24, rings=12):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=1.0)
+    obj = bpy.context.active_object
+    obj.name = name
+    return obj
+
+
+def bounding_radius(V):
+    centre = 0.5 * (V.min(axis=0) + V.max(axis=0))
+    return np.linalg.norm(V - centre, axis=1).max()
+
+
+class AddonTest(unittest.TestCase):
+    def setUp(self):
+        for obj in list(bpy.data.objects):
+            bpy.data.objects.remove(obj)
+        for mesh in list(bpy.data.meshes):
+            bpy.data.meshes.remove(mesh)
+        bpy.context.scene.frame_set(1)
+
+    def test_installed_from_the_zip(self):
+        gshell = the_module()
+        import gshell_blender
+        profile = os.environ["BLENDER_USER_SCRIPTS"]
+        self.assertTrue(gshell_blender.__file__.startswith(profile), gshell_blender.__file__)
+        self.assertTrue(gshell.__file__.startswith(os.path.join(profile, "addons", "gshell_blender", "lib")),
+                        gshell.__file__)
+
+    def test_sidebar_tab_offers_the_operators(self):
+        from unittest import mock
+        panel = bpy.types.VIEW3D_PT_gshell
+        self.assertEqual((panel.bl_space_type, panel.bl_region_type, panel.bl_category), ("VIEW_3D", "UI", "gshell"))
+        uv_sphere(segments=8, rings=4)
+        bpy.ops.object.gshell_generate()
+        fake = mock.MagicMock()  # records the layout calls
+        panel.draw(fake, bpy.context)
+        drawn = str(fake.layout.mock_calls)
+        for operator in ("object.gshell_generate", "object.gshell_bind", "object.gshell_unbind", "object.gshell_bake"):
+            self.assertIn(operator, drawn)
+
+    def test_top_of_quad_sphere_equals_module_shell(self):
+        gshell = the_module()
+        sphere = uv_sphere()
+        sphere.location = (0.5, -1.0, 2.0)
+        sphere.rotation_euler = Euler((0.3, 0.2, 1.0))
+        sphere.scale = (2.0, 2.0, 2.0)
+        bpy.context.view_layer.update()
+        self.assertGreater(sum(len(p.vertices) == 4 for p in sphere.data.polygons), 200)
+
+        result = bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO, method="rigid")
+        self.assertEqual(result, {"FINISHED"})
+        top = bpy.data.objects["Sphere.top"]
+        bpy.context.view_layer.update()
+
+        V = positions(sphere.data)
+        F = fan_triangles(sphere.data)
+        expected = gshell.generate(V, F, thickness_ratio=THICKNESS_RATIO, method="rigid")
+        T = positions(top.data)
+        self.assertEqual(T.shape, V.shape)
+        np.testing.assert_allclose(T, expected.top, atol=1e-6)  # float32 storage of coordinates ~1
+        np.testing.assert_array_equal(np.asarray(top["gshell_faces"]).reshape(-1, 3), F)
+        self.assertAlmostEqual(top.gshell.thickness, expected.thickness, places=6)
+        self.assertIn('"inverted_tets": 0', top["gshell_report"])
+        # the top is the same surface over the same vertices, with the same transform
+        self.assertEqual([tuple(p.vertices) for p in top.data.polygons],
+                         [tuple(p.vertices) for p in sphere.data.polygons])
+        np.testing.assert_allclose(np.array(top.matrix_world), np.array(sphere.matrix_world), atol=1e-6)
+        # about eta outside the base (unit sphere: the offset is radial)
+        eta = THICKNESS_RATIO * bounding_radius(V)
+        offset = np.einsum("ij,ij->i", T - V, V / np.linalg.norm(V, axis=1)[:, None])
+        self.assertGreater(offset.min(), 0.9 * eta)
+        self.assertLess(offset.max(), 1.1 * eta)
+
+    def test_bake_carries_top_and_bound_detail(self):
+        gshell = the_module()
+        sphere = uv_sphere()
+        sphere.location = (0.0, 0.0, 1.0)
+        bpy.context.view_layer.update()
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        top = sphere.gshell.top
+        eta = top.gshell.thickness
+        rest_top = positions(top.data)
+
+        # Two small details inside the layer, one with its own rotation and scale.
+        details = []
+        for direction, rotation, scale in (((1, 0, 0.3), (0, 0, 0), 1.0), ((-0.2, 0.6, -0.7), (0.5, 1.0, 0.2), 0.5)):
+            d = Vector(direction).normalized()
+            bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.015 / scale,
+                                                  location=Vector(sphere.location) + d * (1 + 0.5 * eta))
+            obj = bpy.context.active_object
+            obj.rotation_euler = Euler(rotation)
+            obj.scale = (scale, scale, scale)
+            details.append(obj)
+        bpy.context.view_layer.update()
+        rest_world = [to_world(d.matrix_world, positions(d.data)) for d in details]
+        addon_session.select(details + [sphere], sphere)
+        self.assertEqual(bpy.ops.object.gshell_bind(), {"FINISHED"})
+        self.assertTrue(all(d.gshell.role == "DETAIL" and d.parent == sphere for d in details))
+
+        addon_session.animate_bend(sphere, 90, 1, 8)
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=8), {"FINISHED"})
+        self.assertEqual(bpy.context.scene.frame_current, 1)
+        np.testing.assert_array_equal(positions(top.data), rest_top)  # the rest top is kept
+
+        # The same frames through the module directly, in the same order (each frame starts from the last).
+        V_rest = positions(sphere.data)
+        shell = gshell.Shell(V_rest, np.asarray(top["gshell_faces"]).reshape(-1, 3), rest_top, eta)
+        deformer = gshell.Deformer(shell)
+        to_base = np.array(sphere.matrix_world.inverted())
+        embeddings = [gshell.embed(shell, to_world(to_base, P)) for P in rest_world]
+        moved = {}
+        for frame in range(1, 9):
+            bpy.context.scene.frame_set(frame)
+            base = evaluated_positions(sphere)
+            new_top = deformer.solve(base)
+            carried = [to_world(sphere.matrix_world, e.carry(deformer.vertices)) for e in embeddings]
+            if frame not in (2, 5, 8):
+                continue
+            baked_top = evaluated_positions(top)
+            np.testing.assert_allclose(baked_top, new_top, atol=1e-5, err_msg=f"top at frame {frame}")
+            # The top stays about eta above the bent base, on the outside.
+            normals = np.array([v.normal[:] for v in sphere.evaluated_get(
+                bpy.context.evaluated_depsgraph_get()).data.vertices])
+            height = np.einsum("ij,ij->i", baked_top - base, normals)
+            self.assertGreater(height.min(), 0.7 * eta, f"frame {frame}")
+            self.assertLess(height.max(), 1.3 * eta, f"frame {frame}")
+            self.assertAlmostEqual(float(np.median(height)), eta, delta=0.1 * eta)
+            for d, expected in zip(details, carried):
+                baked = to_world(d.matrix_world, evaluated_positions(d))
+                np.testing.assert_allclose(baked, expected, atol=1e-5, err_msg=f"{d.name} at frame {frame}")
+            moved[frame] = (baked_top, [to_world(d.matrix_world, evaluated_positions(d)) for d in details])
+        # The bend really moved the shell and the detail.
+        self.assertGreater(np.abs(moved[8][0] - moved[2][0]).max(), 0.3)
+        for a, b in zip(moved[8][1], moved[2][1]):
+            self.assertGreater(np.linalg.norm(a - b, axis=1).min(), 0.02)
+
+        # Baking again (the first bake's caches are playing meanwhile) gives the same motion.
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=8), {"FINISHED"})
+        self.assertTrue(top.modifiers["gshell bake"].show_viewport)
+        bpy.context.scene.frame_set(8)
+        np.testing.assert_array_equal(evaluated_positions(top), moved[8][0])
+
+        # Unbinding releases a detail and removes its baked motion.
+        addon_session.select(details[:1], details[0])
+        self.assertEqual(bpy.ops.object.gshell_unbind(), {"FINISHED"})
+        self.assertEqual(details[0].gshell.role, "NONE")
+        self.assertNotIn("gshell bake", details[0].modifiers)
+        self.assertIn("gshell bake", details[1].modifiers)
+
+    def test_bake_of_a_saved_file_is_kept_next_to_it(self):
+        import gshell_blender
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        addon_session.animate_bend(sphere, 60, 1, 4)
+        with tempfile.TemporaryDirectory() as folder:
+            blend = os.path.join(folder, "scene.blend")
+            bpy.ops.wm.save_as_mainfile(filepath=blend)
+            self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=4), {"FINISHED"})
+            top = sphere.gshell.top
+            modifier = top.modifiers["gshell bake"]
+            self.assertEqual(modifier.filepath, "//gshell_cache/Sphere/Sphere_top.pc2")
+            self.assertEqual(os.listdir(os.path.join(folder, "gshell_cache", "Sphere")), ["Sphere_top.pc2"])
+            start, samples = gshell_blender.point_cache.read(bpy.path.abspath(modifier.filepath))
+            self.assertEqual((start, samples.shape), (1.0, (4, len(sphere.data.vertices), 3)))
+            bpy.context.scene.frame_set(3)
+            played = evaluated_positions(top)
+            np.testing.assert_allclose(played, samples[2], atol=1e-6)
+            bpy.ops.wm.save_mainfile()
+
+            bpy.ops.wm.open_mainfile(filepath=blend)
+            top = bpy.data.objects["Sphere.top"]
+            self.assertEqual(top.gshell.base, bpy.data.objects["Sphere"])
+            bpy.context.scene.frame_set(3)
+            np.testing.assert_allclose(evaluated_positions(top), played, atol=1e-6)
+
+    def test_topology_changing_modifier_is_an_error(self):
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_mode="ABSOLUTE", thickness=0.07)
+        top = sphere.gshell.top
+        self.assertAlmostEqual(top.gshell.thickness, 0.07, places=6)
+        subdivision = sphere.modifiers.new("Subdivision", "SUBSURF")
+        with self.assertRaises(RuntimeError) as error:
+            bpy.ops.object.gshell_bake(frame_start=1, frame_end=3)
+        self.assertIn("Subdivision", str(error.exception))
+        self.assertIn("vertices", str(error.exception))
+        self.assertEqual(len(top.modifiers), 0)
+        # The bake evaluates the viewport's stack: hidden there, the modifier is no obstacle.
+        subdivision.show_viewport = False
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=3), {"FINISHED"})
+        self.assertIn("gshell bake", top.modifiers)
+
+    def check_rejected(self, name, V, F, words):
+        mesh = bpy.data.meshes.new(name)
+        mesh.from_pydata(V, [], F)
+        obj = bpy.data.objects.new(name, mesh)
+        bpy.context.collection.objects.link(obj)
+        addon_session.select([obj], obj)
+        objects, meshes = set(bpy.data.objects), set(bpy.data.meshes)
+        with self.assertRaises(RuntimeError) as error:
+            bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        for word in [name] + words:
+            self.assertIn(word, str(error.exception))
+        self.assertEqual(set(bpy.data.objects), objects)
+        self.assertEqual(set(bpy.data.meshes), meshes)
+        self.assertEqual(obj.gshell.role, "NONE")
+
+    def test_non_manifold_mesh_is_an_error_and_creates_nothing(self):
+        # three quads share the edge 0-1
+        V = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (1, 0, 1), (0, 0, 1), (1, -1, 0), (0, -1, 0)]
+        F = [(0, 1, 2, 3), (0, 1, 4, 5), (1, 0, 7, 6)]
+        self.check_rejected("Fin", V, F, ["non-manifold", "edge (0, 1)"])
+
+    def test_degenerate_face_is_an_error_and_creates_nothing(self):
+        V = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0)]
+        F = [(0, 1, 2), (0, 2, 3)]
+        self.check_rejected("Sliver", V, F, ["zero area", "polygon 0"])
+
+
+if __name__ == "__main__":
+    addon_session.install_addon(addon_session.script_args()[0])
+    suite = unittest.defaultTestLoader.loadTestsFromTestCase(AddonTest)
+    result = unittest.TextTestRunner(stream=sys.stderr, verbosity=2).run(suite)
+    if not result.wasSuccessful():
+        raise SystemExit(1)

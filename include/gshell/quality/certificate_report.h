@@ -1,0 +1,27 @@
+#pragma once
+// The one JSON and text form of a ShellCertificate, for every report that certifies a shell.
+#include <gshell/quality/shell_certificate.h>
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+namespace gshell {
+
+/// Whether the shell is valid (ShellCertificate::valid: conditions 1-3, and the base does not
+/// intersect itself): true or false when the certificate decides it, empty when the pair tests
+/// were skipped and no tet is inverted (validity unknown).
+std::optional<bool> certified_validity(const ShellCertificate& certificate);
+
+/// {"valid": true | false | null (certified_validity), "certificate": {"inverted_tets",
+/// "top_self_intersections", "top_base_intersections", "wall_intersections", "exact": true},
+/// "base_self_intersections"}, pair counts null when not tested: the keys go into the report of
+/// the shell (`report.update(certificate_report(c))`).
+nlohmann::ordered_json certificate_report(const ShellCertificate& certificate);
+
+/// One line for a terminal summary, e.g. "valid        yes (exact: 0 inverted tets; top/top 0,
+/// top/base 0, wall 0 intersecting face pairs)", and a second line for the base when it
+/// intersects itself.
+std::string certificate_summary(const ShellCertificate& certificate);
+
+} // namespace gshell

@@ -1,0 +1,98 @@
+#pragma once
+// The deform job (`gshell deform`, Python `gshell.deform`): a generated shell driven by a sequence
+// of deformed bases (paper §4.2, first type), the whole frame loop with its per-frame outputs,
+// summary and report.
+//
+// Output folder: report.json (below), frame_NNNN/ per frame (top.obj with the base's faces and
+// UVs, shell.vtu with cell data stretch and det_F against the rest shell, detail.obj with --embed),
+// optionally preview.png.
+#include <gshell/deform/embedding.h>
+#include <gshell/deform/shell_deformer.h>
+#include <gshell/mesh.h>
+#include <gshell/run/shell_folder.h>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gshell {
+
+struct DeformRunOptions {
+  DeformOptions frame;         ///< per frame: iterations, tolerance, warm start (the defaults are DeformOptions{}'s)
+  bool compare_offset = false; ///< also measure re-extruding each frame by the vertex-normal offset
+
+  /// \throws InputError naming the parameter (iterations, tolerance) when it is out of range.
+  void check() const;
+};
+
+/// Everything a deformation reads, loaded and checked before any work is done.
+struct DeformInput {
+  std::string shell_name;                 ///< as the report names the rest shell
+  Shell shell;                            ///< the rest shell (thickness > 0)
+  TriMesh surface;                        ///< its base's faces and UVs (top.obj of each frame gets them)
+  std::vector<std::string> frame_names;   ///< as the report names the frames
+  std::vector<Eigen::MatrixXd> frames;    ///< n x 3 each
+  std::string detail_name;                ///< the embedded detail mesh, or empty
+  TriMesh detail;
+};
+
+/// Reads the rest shell folder, every base frame (load_base_frames) and the detail mesh (if any).
+/// \throws InputError naming the first folder or file that cannot be used.
+DeformInput load_deform_input(const std::string& shell_dir, const std::vector<std::string>& frames,
+                              const std::string& embed = {});
+
+/// One frame's figures, as `gshell deform` reports it and Python's Deformer.last shows it:
+/// {iterations, converged, energy [start, then per iteration], stretch {mean, volume_mean, max,
+/// p99} against the rest shell, inverted_tets, seconds}.
+nlohmann::ordered_json frame_json(const FrameResult& frame);
+
+struct DeformFrameRecord {
+  int frame = 0;                      ///< 1-based
+  std::string base;                   ///< the frame's name
+  FrameResult result;                 ///< without the top (written to the folder instead)
+  std::optional<StretchStats> offset; ///< compare_offset: stretch of the re-extruded offset shell
+  /// {frame, base, frame_json..., offset {stretch, inverted_tets}}
+  nlohmann::ordered_json to_json() const;
+};
+
+struct DeformRun {
+  std::string shell;                 ///< the rest shell's name
+  int base_vertices = 0, tets = 0;
+  double thickness = 0;
+  DeformRunOptions options;
+  int replaced_rest_tets = 0;        ///< see deformation_rest_tets
+  double factor_seconds = 0, setup_seconds = 0;
+  struct Embed {
+    std::string detail;
+    int points = 0, outside = 0;
+    double max_outside_distance = 0;
+  };
+  std::optional<Embed> embed;
+  std::vector<DeformFrameRecord> frames;
+
+  /// report.json: command, shell, base_vertices, tets, thickness, tolerance, max_iterations,
+  /// warm_start, replaced_rest_tets, factor_seconds, setup_seconds, embed {detail, points,
+  /// outside, max_outside_distance}, summary {frames, median_seconds, total_seconds,
+  /// median_iterations, max_iterations, unconverged_frames, mean_volume_stretch, max_stretch,
+  /// inverted_tets, offset {...}}, frames [DeformFrameRecord::to_json].
+  nlohmann::ordered_json to_json() const;
+};
+
+/// Called once after the setup (frames empty) and after every frame.
+using DeformProgress = std::function<void(const DeformRun& run, int frame_count)>;
+
+/// Runs the frame loop (ShellDeformer, one factorisation), carrying the detail along. With a
+/// non-empty `out`, writes the output folder through a StagedFolder (complete or not at all; an
+/// earlier deform output there is replaced, a folder of other files is an error).
+/// \throws InputError on bad options or output path.
+DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, const std::string& out = {},
+                     const DeformProgress& progress = {}, const BeforeCommit& before_commit = {});
+
+/// A folder holds nothing but a deform output (report.json, preview.png, frame_NNNN/).
+bool holds_only_deform_output(const std::filesystem::path& dir);
+
+} // namespace gshell

@@ -1,0 +1,22 @@
+#pragma once
+// Numbered frames, the one naming rule for sequences: `gshell animate` writes frame_0001.obj ..,
+// `gshell deform` writes frame_0001/ .. (a shell folder each). Numbers have at least four digits.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gshell {
+
+/// "frame_0007" + extension (e.g. ".obj", or "" for a folder). k >= 0.
+std::string frame_name(int k, const std::string& extension = {});
+
+/// The number of a name made by frame_name with this extension ("frame_0012.obj" -> 12), or
+/// nothing when the name is not a frame name.
+std::optional<int> frame_number(const std::string& name, const std::string& extension = {});
+
+/// The frames in `dir`, ordered by number (frame_9999 before frame_10000): folders when
+/// `extension` is empty, files with that extension otherwise. Empty when `dir` is not a folder.
+std::vector<std::filesystem::path> list_frames(const std::filesystem::path& dir, const std::string& extension = {});
+
+} // namespace gshell

@@ -1,0 +1,92 @@
+#pragma once
+// The pose job (`gshell pose`, Python `gshell.Poser`): direct shell deformation with handles
+// (paper §4.2, second type), solved in K steps along the handles' motion. Its options hold the
+// only defaults; a DragSession (run/drag_session.h) does the solving.
+//
+// Output folder: a shell folder (run/shell_folder.h) of the posed shell, shell.vtu with cell data
+// stretch and det_F against the rest shell, and report.json (PoseResult::to_json).
+#include <gshell/deform/handles.h>
+#include <gshell/deform/pose.h>
+#include <gshell/quality/stretch.h>
+#include <gshell/shell/shell.h>
+#include <gshell/solver/hierarchical_solver.h>
+#include <gshell/solver/shell_solver.h>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace gshell {
+
+/// "hierarchical" / "single".
+const char* pose_solver_name(PoseSolverKind kind);
+/// Inverse of pose_solver_name. \throws InputError "unknown solver ..." otherwise.
+PoseSolverKind parse_pose_solver(const std::string& name);
+
+/// The only source of pose defaults: the CLI's help and Python's keyword defaults read PoseOptions{}.
+struct PoseOptions {
+  PoseSolverKind solver = PoseSolverKind::Hierarchical;
+  HierarchyOptions hierarchy; ///< `levels` is the one a user sets
+  int steps = 1;              ///< handles move from rest to target in this many equal steps
+  /// Start every step after the first from the previous steps' motion continued
+  /// (PoseSolver::predict_start) instead of from the previous result.
+  bool extrapolate = true;
+  /// Per step (a drag event solves with these too unless told otherwise): up to 500 iterations,
+  /// until the relative energy change per iteration is below 1e-6.
+  SolveOptions solve = {500, 1e-6, {}};
+  /// Called after every iteration with (step 1..steps, iteration, energy, seconds in this step);
+  /// replaces solve.progress.
+  std::function<void(int, int, double, double)> step_progress;
+
+  /// \throws InputError naming the parameter (steps, levels, iterations, tolerance) out of range.
+  void check() const;
+};
+
+struct PoseStepReport {
+  double fraction = 0;   ///< of the handles' motion
+  int iterations = 0;
+  double energy = 0;     ///< at the end of the step
+  double seconds = 0;    ///< wall time of the step: start prediction and solve
+  bool converged = false;
+  /// {fraction, iterations, energy, seconds, converged}
+  nlohmann::ordered_json to_json() const;
+};
+
+/// A posed shell and what its report says.
+struct PoseResult {
+  Eigen::MatrixXd X;                 ///< 2n shell vertices, base rows then top rows
+  std::vector<PoseStepReport> steps;
+  double setup_seconds = 0;          ///< rest tets, tree, factorisations (the last build)
+  StretchStats stretch;              ///< per-tet stretch against the rest shell
+  std::string shell, handles;        ///< how the report names the rest shell and the handle source
+  PoseSolverKind solver = PoseSolverKind::Hierarchical;
+  int levels = 1;                    ///< of the hierarchical solver (1 for the single-level one)
+  ConstraintMode mode = ConstraintMode::Hard;
+  double weight = 0;                 ///< soft mode's weight
+  double thickness = 0;              ///< the rest shell's eta: the output is a shell folder too
+  int tets = 0, handle_vertices = 0;
+  double tolerance = 0;
+  int max_iterations = 0;
+
+  /// report.json: command, shell, handles, solver, levels, mode, weight (soft only), thickness,
+  /// vertices, tets, handle_vertices, setup_seconds, tolerance, max_iterations, steps [...],
+  /// stretch {mean, volume_mean, max, p99}, inverted_tets.
+  nlohmann::ordered_json to_json() const;
+};
+
+class DragSession;
+
+/// Moves the session's handles from the fraction of their motion where they are to `to_fraction`
+/// in options.steps equal steps, solving after each (options.solve, with options.step_progress),
+/// and returns the result with these steps. The solver kind, hierarchy and extrapolation are the
+/// session's (fixed when it was made).
+/// \throws InputError on bad options or handles that leave a part of the shell free.
+PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_fraction = 1.0);
+
+/// The same on a fresh session of `rest` with `handles`.
+PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options = {});
+
+} // namespace gshell

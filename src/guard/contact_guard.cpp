@@ -1,0 +1,382 @@
+#include <gshell/guard/contact_guard.h>
+
+#include <gshell/error.h>
+#include <gshell/guard/contact_barrier.h>
+#include <gshell/guard/pair_ccd.h>
+
+#include "guard/contact_pairs.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace gshell {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+using Ids = std::array<int, 4>;
+
+// Pairs per parallel block of a pass over the candidate list. Blocks are fixed, not chosen by
+// the scheduler, so per-block results concatenate to the same list whatever the thread count.
+constexpr int kBlock = 1024;
+
+void lower_to(std::atomic<double>& bound, double value) {
+  double current = bound.load(std::memory_order_relaxed);
+  while (value < current && !bound.compare_exchange_weak(current, value, std::memory_order_relaxed)) {
+  }
+}
+
+// Runs body(begin, end, block) over fixed blocks of [0, n).
+template <class Body> void for_blocks(int n, Body&& body) {
+  const int blocks = (n + kBlock - 1) / kBlock;
+  tbb::parallel_for(0, blocks, [&](int b) { body(b * kBlock, std::min(n, (b + 1) * kBlock), b); });
+}
+
+} // namespace
+
+struct ContactGuard::Impl {
+  detail::ContactPrimitives primitives;
+  ContactOptions options;
+  double radius; // the candidate list holds the pairs closer than this when it was built
+
+  // The candidate list per PairKind, sorted by primitive ids: vertex ids, and the distance at the
+  // build rounded down to a float. A pair at d_b then is at least d_b - 2 drift apart at x.
+  std::vector<Ids> pairs[2];
+  std::vector<float> built_distance[2];
+  std::vector<Vec3> built_at; // positions at the last build
+  int builds = 0;
+  // The fixed patch of the broad phase, kept while its vertices stay where they were.
+  detail::ContactPatch fixed_patch;
+  std::vector<Vec3> fixed_patch_at; // positions of fixed_patch_vertices() when it was made
+  double drift = 0; // largest displacement of a boundary vertex from built_at, at x
+
+  std::vector<Vec3> x; // the last X seen, packed (a pair's point is one cache line)
+  bool have_x = false;
+  std::vector<char> on_boundary; // per vertex: used by a boundary triangle
+
+  // The last pass over the list, at x: pairs closer than dhat in list order.
+  bool scanned = false;
+  struct Active {
+    PairKind kind;
+    int index;
+    double energy; // its barrier
+  };
+  std::vector<Active> active;
+  int last_active = 0; // active.size() at the last pass (kept when x moves on)
+  double min_squared = std::numeric_limits<double>::infinity();
+  bool touching = false;
+
+  Impl(const ShellBoundary& boundary, int num_vertices, const std::vector<char>& movable, const ContactOptions& o,
+       const std::vector<char>& excluded)
+      : primitives(boundary, num_vertices, movable, excluded), options(o) {
+    if (!(o.dhat > 0) || !std::isfinite(o.dhat))
+      throw InputError("ContactGuard: dhat must be positive and finite (got " + std::to_string(o.dhat) + ")");
+    if (!(o.slack >= 0) || !std::isfinite(o.slack))
+      throw InputError("ContactGuard: slack must be >= 0 and finite (got " + std::to_string(o.slack) + ")");
+    if (!(o.keep_fraction > 0 && o.keep_fraction < 1))
+      throw InputError("ContactGuard: keep_fraction must be in (0, 1) (got " + std::to_string(o.keep_fraction) + ")");
+    if (options.slack == 0) options.slack = options.dhat;
+    radius = options.dhat + options.slack;
+    on_boundary.assign(num_vertices, 0);
+    for (int v : primitives.boundary_vertices()) on_boundary[v] = 1;
+  }
+
+  PairPoints points(const Ids& ids) const { return {x[ids[0]], x[ids[1]], x[ids[2]], x[ids[3]]}; }
+
+  void check_shape(const Eigen::MatrixXd& M, const char* name) const {
+    if (M.rows() != primitives.num_vertices() || M.cols() != 3)
+      throw InputError(std::string("ContactGuard: ") + name + " is " + std::to_string(M.rows()) + " x " +
+                       std::to_string(M.cols()) + ", expected " + std::to_string(primitives.num_vertices()) + " x 3");
+  }
+
+  void check_finite(const std::vector<Vec3>& v, const char* name) const {
+    for (int i : primitives.boundary_vertices())
+      if (!v[i].allFinite())
+        throw InputError(std::string("ContactGuard: ") + name + " has a non-finite coordinate at vertex " +
+                         std::to_string(i));
+  }
+
+  // Makes X the current positions and the candidate list valid for it.
+  void set_positions(const Eigen::MatrixXd& X) {
+    check_shape(X, "X");
+    const int n = primitives.num_vertices();
+    if (!have_x) x.assign(n, Vec3::Zero());
+    // One pass: copy X, note whether it differs from the last X, and the drift since the build.
+    struct Change {
+      bool changed = false;
+      double drift2 = 0; // NaN sticks (a non-finite X forces the rebuild, which reports it)
+    };
+    auto larger = [](double a, double b) { return std::isnan(a) || a > b ? a : b; };
+    const bool built = builds > 0;
+    const Change change = tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, n, 4096), Change{},
+        [&](const tbb::blocked_range<int>& r, Change c) {
+          for (int i = r.begin(); i < r.end(); ++i) {
+            const Vec3 p(X(i, 0), X(i, 1), X(i, 2));
+            if (p != x[i]) {
+              c.changed = true;
+              x[i] = p;
+            }
+            if (built && on_boundary[i]) c.drift2 = larger(c.drift2, (p - built_at[i]).squaredNorm());
+          }
+          return c;
+        },
+        [&](Change a, const Change& b) {
+          a.changed = a.changed || b.changed;
+          a.drift2 = larger(a.drift2, b.drift2);
+          return a;
+        });
+    if (have_x && !change.changed) return;
+    have_x = true;
+    scanned = false;
+    drift = std::sqrt(change.drift2);
+    if (built && drift <= options.slack / 2) return;
+    build();
+  }
+
+  void build() {
+    check_finite(x, "X");
+    const int n = primitives.num_vertices();
+    const Vec3 grow = Vec3::Constant(radius / 2);
+    std::vector<Eigen::AlignedBox3d> box(n);
+    for (int v : primitives.boundary_vertices()) box[v] = Eigen::AlignedBox3d(x[v] - grow, x[v] + grow);
+    struct Found {
+      std::uint64_t key; // primitive ids a, b
+      Ids ids;
+      float distance;
+    };
+    const std::vector<int>& fixed_vertices = primitives.fixed_patch_vertices();
+    bool fixed_moved = fixed_patch_at.size() != fixed_vertices.size();
+    for (std::size_t i = 0; i < fixed_vertices.size() && !fixed_moved; ++i)
+      fixed_moved = x[fixed_vertices[i]] != fixed_patch_at[i];
+    if (fixed_moved) {
+      fixed_patch = primitives.patch(false, box);
+      fixed_patch_at.resize(fixed_vertices.size());
+      for (std::size_t i = 0; i < fixed_vertices.size(); ++i) fixed_patch_at[i] = x[fixed_vertices[i]];
+    }
+    tbb::enumerable_thread_specific<std::array<std::vector<Found>, 2>> found;
+    const double radius2 = radius * radius;
+    primitives.for_each_pair(primitives.patch(true, box), fixed_patch, [&](PairKind kind, int a, int b, const Ids& ids) {
+      const double d2 = pair_squared_distance(kind, points(ids));
+      if (!(d2 < radius2)) return;
+      const float d = std::nextafter(static_cast<float>(std::sqrt(d2)), 0.0f); // <= the distance
+      found.local()[static_cast<int>(kind)].push_back(
+          {static_cast<std::uint64_t>(a) << 32 | static_cast<std::uint32_t>(b), ids, std::max(d, 0.0f)});
+    });
+    for (int k = 0; k < 2; ++k) {
+      std::vector<Found> all;
+      for (const auto& local : found) all.insert(all.end(), local[k].begin(), local[k].end());
+      tbb::parallel_sort(all.begin(), all.end(), [](const Found& p, const Found& q) { return p.key < q.key; });
+      pairs[k].resize(all.size());
+      built_distance[k].resize(all.size());
+      for (std::size_t i = 0; i < all.size(); ++i) {
+        pairs[k][i] = all[i].ids;
+        built_distance[k][i] = all[i].distance;
+      }
+    }
+    built_at = x;
+    drift = 0;
+    ++builds;
+    scanned = false;
+  }
+
+  // Distances of every candidate at x: the active pairs, the smallest distance.
+  void scan(const Eigen::MatrixXd& X) {
+    set_positions(X);
+    if (scanned) return;
+    const double s_hat = options.dhat * options.dhat;
+    active.clear();
+    min_squared = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 2; ++k) {
+      const PairKind kind = static_cast<PairKind>(k);
+      const std::vector<Ids>& list = pairs[k];
+      const int blocks = (static_cast<int>(list.size()) + kBlock - 1) / kBlock;
+      std::vector<std::vector<Active>> block_active(blocks);
+      std::vector<double> block_min(blocks, std::numeric_limits<double>::infinity());
+      const std::vector<float>& built = built_distance[k];
+      const double cut = options.dhat + 2 * drift; // pairs beyond it at the build are inactive now
+      for_blocks(static_cast<int>(list.size()), [&](int begin, int end, int b) {
+        double m = std::numeric_limits<double>::infinity();
+        for (int i = begin; i < end; ++i) {
+          if (built[i] >= cut) continue;
+          const double d2 = pair_squared_distance(kind, points(list[i]));
+          m = std::min(m, d2);
+          if (d2 < s_hat)
+            block_active[b].push_back({kind, i, pair_barrier_energy(kind, points(list[i]), d2, options.dhat)});
+        }
+        block_min[b] = m;
+      });
+      for (int b = 0; b < blocks; ++b) {
+        active.insert(active.end(), block_active[b].begin(), block_active[b].end());
+        min_squared = std::min(min_squared, block_min[b]);
+      }
+    }
+    touching = !(min_squared > 0);
+    last_active = static_cast<int>(active.size());
+    scanned = true;
+  }
+
+  // Smallest squared distance over the whole list at x.
+  double list_min_squared() const {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 2; ++k)
+      best = std::min(best, tbb::parallel_reduce(
+                                tbb::blocked_range<int>(0, static_cast<int>(pairs[k].size()), kBlock),
+                                std::numeric_limits<double>::infinity(),
+                                [&](const tbb::blocked_range<int>& r, double m) {
+                                  for (int i = r.begin(); i < r.end(); ++i)
+                                    m = std::min(m, pair_squared_distance(static_cast<PairKind>(k), points(pairs[k][i])));
+                                  return m;
+                                },
+                                [](double a, double b) { return std::min(a, b); }));
+    return best;
+  }
+
+  const Ids& ids(const Active& a) const { return pairs[static_cast<int>(a.kind)][a.index]; }
+};
+
+ContactGuard::ContactGuard(const ShellBoundary& boundary, int num_vertices, std::vector<char> movable,
+                           const ContactOptions& options, std::vector<char> excluded_triangles)
+    : impl_(std::make_unique<Impl>(boundary, num_vertices, movable, options, excluded_triangles)) {}
+ContactGuard::~ContactGuard() = default;
+ContactGuard::ContactGuard(ContactGuard&&) noexcept = default;
+ContactGuard& ContactGuard::operator=(ContactGuard&&) noexcept = default;
+
+double ContactGuard::energy(const Eigen::MatrixXd& X) {
+  Impl& m = *impl_;
+  m.scan(X);
+  if (m.touching) return std::numeric_limits<double>::infinity();
+  double sum = 0;
+  for (const Impl::Active& a : m.active) sum += a.energy; // list order: the same bits for the same X
+  return sum;
+}
+
+void ContactGuard::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G) {
+  Impl& m = *impl_;
+  m.scan(X);
+  m.check_shape(G, "G");
+  std::vector<Vector12d> g(m.active.size());
+  tbb::parallel_for(0, static_cast<int>(g.size()), [&](int i) {
+    g[i].setZero(); // stays zero for a touching pair (no gradient there)
+    pair_barrier(m.active[i].kind, m.points(m.ids(m.active[i])), m.options.dhat, &g[i]);
+  });
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    const Ids& ids = m.ids(m.active[i]);
+    for (int k = 0; k < 4; ++k) G.row(ids[k]) += scale * g[i].segment<3>(3 * k).transpose();
+  }
+}
+
+void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H) {
+  Impl& m = *impl_;
+  m.scan(X);
+  const int n = static_cast<int>(m.active.size());
+  std::vector<std::vector<Eigen::Triplet<double>>> block_triplets((n + kBlock - 1) / kBlock);
+  for_blocks(n, [&](int begin, int end, int b) {
+    std::vector<Eigen::Triplet<double>>& out = block_triplets[b];
+    Matrix12d h;
+    for (int i = begin; i < end; ++i) {
+      h.setZero(); // stays zero for a touching pair
+      const Ids& ids = m.ids(m.active[i]);
+      pair_barrier(m.active[i].kind, m.points(ids), m.options.dhat, nullptr, &h);
+      project_to_psd(h);
+      for (int k = 0; k < 4; ++k)
+        for (int l = 0; l < 4; ++l)
+          for (int a = 0; a < 3; ++a)
+            for (int c = 0; c < 3; ++c)
+              if (const double v = h(3 * k + a, 3 * l + c); v != 0) out.emplace_back(3 * ids[k] + a, 3 * ids[l] + c, scale * v);
+    }
+  });
+  for (const auto& out : block_triplets) H.insert(H.end(), out.begin(), out.end()); // list order
+}
+
+double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step) {
+  Impl& m = *impl_;
+  m.set_positions(X);
+  m.check_shape(D, "D");
+  if (!(max_step > 0)) return 0;
+  const std::vector<int>& verts = m.primitives.boundary_vertices();
+  std::vector<Vec3> dx(m.primitives.num_vertices(), Vec3::Zero());
+  for (int v : verts) dx[v] = D.row(v).transpose();
+  m.check_finite(dx, "D");
+
+  // Distances are invariant under a common translation: measure displacements from the centre c
+  // of their bounding box, at most rho from it. A pair's distance then falls at most at 2 rho.
+  Eigen::AlignedBox3d range;
+  for (int v : verts) range.extend(dx[v]);
+  if (verts.empty()) return max_step;
+  const Vec3 c = range.center();
+  double rho = 0;
+  for (int v : verts) rho = std::max(rho, (dx[v] - c).norm());
+  if (rho == 0) return max_step;
+
+  const PairCcdOptions ccd{m.options.keep_fraction, m.options.dhat};
+  std::atomic<double> alpha(max_step);
+  auto bound_pair = [&](PairKind kind, const Ids& ids) {
+    const PairPoints p = m.points(ids), d = {dx[ids[0]], dx[ids[1]], dx[ids[2]], dx[ids[3]]};
+    lower_to(alpha, pair_step_bound(kind, p, d, alpha.load(std::memory_order_relaxed), ccd));
+  };
+  // A listed pair at d_b at the build is at least d_b - 2 drift - 2 rho alpha apart along the
+  // step, never below its floor while that exceeds keep_fraction * dhat: no CCD needed.
+  const double floor_max = m.options.keep_fraction * m.options.dhat;
+  for (int k = 0; k < 2; ++k) {
+    const std::vector<float>& built = m.built_distance[k];
+    for_blocks(static_cast<int>(m.pairs[k].size()), [&](int begin, int end, int) {
+      for (int i = begin; i < end; ++i)
+        if (built[i] - 2 * m.drift < 2 * rho * alpha.load(std::memory_order_relaxed) + floor_max)
+          bound_pair(static_cast<PairKind>(k), m.pairs[k][i]);
+    });
+  }
+
+  // Pairs off the list are at least radius - 2 drift apart: they cannot reach floor_max before
+  // alpha_far.
+  const double alpha_far = (m.radius - 2 * m.drift - floor_max) / (2 * rho);
+  const double listed = alpha.load();
+  if (alpha_far >= listed) return listed;
+
+  // A longer step: every pair whose boxes, swept over [0, listed] and grown by half the largest
+  // floor, meet (only those can come that close) gets its own CCD. When the fixed patch's vertices
+  // do not move, its cached tree serves as it is: its boxes, grown by (dhat + slack) / 2 around
+  // positions at most slack / 2 away, hold those vertices grown by the floor. Only the movable
+  // patch is swept then (at rest); otherwise all is, in the frame moving with c.
+  const std::vector<int>& fixed_vertices = m.primitives.fixed_patch_vertices();
+  const bool fixed_still = std::all_of(fixed_vertices.begin(), fixed_vertices.end(), [&](int v) { return dx[v].isZero(0); });
+  const Vec3 frame = fixed_still ? Vec3::Zero() : c;
+  std::vector<Eigen::AlignedBox3d> box(m.primitives.num_vertices());
+  const Vec3 grow = Vec3::Constant(floor_max / 2);
+  for (int v : verts) {
+    box[v] = Eigen::AlignedBox3d(m.x[v]);
+    box[v].extend(m.x[v] + listed * (dx[v] - frame));
+    box[v].min() -= grow;
+    box[v].max() += grow;
+  }
+  auto visit = [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); };
+  if (fixed_still) m.primitives.for_each_pair(m.primitives.patch(true, box), m.fixed_patch, visit);
+  else m.primitives.for_each_pair(box, visit);
+  return alpha.load();
+}
+
+int ContactGuard::active_pairs() const { return impl_->last_active; }
+
+double ContactGuard::min_distance(const Eigen::MatrixXd& X) {
+  impl_->set_positions(X);
+  return std::min(std::sqrt(impl_->list_min_squared()), impl_->radius);
+}
+
+std::vector<ContactPair> ContactGuard::candidate_pairs() const {
+  std::vector<ContactPair> out;
+  for (int k = 0; k < 2; ++k)
+    for (const Ids& ids : impl_->pairs[k]) out.push_back({static_cast<PairKind>(k), ids});
+  return out;
+}
+
+int ContactGuard::candidate_builds() const { return impl_->builds; }
+
+} // namespace gshell

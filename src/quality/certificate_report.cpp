@@ -1,0 +1,47 @@
+#include <gshell/quality/certificate_report.h>
+
+namespace gshell {
+namespace {
+
+nlohmann::ordered_json count_or_null(int count) {
+  return count < 0 ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(count);
+}
+
+} // namespace
+
+std::optional<bool> certified_validity(const ShellCertificate& c) {
+  if (c.intersections_tested()) return c.valid();
+  if (c.inverted_tets > 0) return false;
+  return std::nullopt;
+}
+
+nlohmann::ordered_json certificate_report(const ShellCertificate& c) {
+  const std::optional<bool> valid = certified_validity(c);
+  return {{"valid", valid ? nlohmann::ordered_json(*valid) : nlohmann::ordered_json(nullptr)},
+          {"certificate",
+           {{"inverted_tets", c.inverted_tets},
+            {"top_self_intersections", count_or_null(c.top_self_intersections)},
+            {"top_base_intersections", count_or_null(c.top_base_intersections)},
+            {"wall_intersections", count_or_null(c.wall_intersections)},
+            {"exact", c.exact}}},
+          {"base_self_intersections", count_or_null(c.base_self_intersections)}};
+}
+
+std::string certificate_summary(const ShellCertificate& c) {
+  const std::optional<bool> valid = certified_validity(c);
+  std::string line = "valid        ";
+  line += !valid ? "unknown" : *valid ? "yes" : "NO";
+  line += " (exact: " + std::to_string(c.inverted_tets) + " inverted tets; ";
+  if (c.intersections_tested())
+    line += "top/top " + std::to_string(c.top_self_intersections) + ", top/base " +
+            std::to_string(c.top_base_intersections) + ", wall " + std::to_string(c.wall_intersections) +
+            " intersecting face pairs)\n";
+  else
+    line += "intersections not tested)\n";
+  if (c.base_self_intersections > 0)
+    line += "base         intersects itself: " + std::to_string(c.base_self_intersections) +
+            " face pairs (the input's own; no shell over it is one-to-one)\n";
+  return line;
+}
+
+} // namespace gshell

@@ -1,0 +1,209 @@
+#include <gshell/run/deform_run.h>
+
+#include <gshell/deform/base_frames.h>
+#include <gshell/error.h>
+#include <gshell/io/read_mesh.h>
+#include <gshell/io/tet_mesh_io.h>
+#include <gshell/io/write_mesh.h>
+#include <gshell/quality/stretch_report.h>
+#include <gshell/run/frames.h>
+#include <gshell/run/staged_folder.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <numeric>
+
+namespace gshell {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t h = v.size() / 2;
+  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
+}
+
+void write_frame(const fs::path& dir, const DeformInput& input, const ShellDeformer& deformer,
+                 const Eigen::MatrixXi& tets, const Embedding& embedding) {
+  fs::create_directory(dir);
+  const int n = input.shell.num_base_vertices();
+  TriMesh top = input.surface; // faces and UVs of the base
+  top.V = deformer.current().bottomRows(n);
+  write_mesh((dir / "top.obj").string(), top);
+  TetMesh tet_mesh;
+  tet_mesh.X = deformer.current();
+  tet_mesh.T = tets;
+  tet_mesh.cell_data.emplace_back("stretch", tet_stretch(deformer.rest_tets(), tet_mesh.X));
+  tet_mesh.cell_data.emplace_back("det_F", tet_deformation_determinants(deformer.rest_tets(), tet_mesh.X));
+  write_tet_mesh((dir / "shell.vtu").string(), tet_mesh);
+  if (!input.detail_name.empty()) {
+    TriMesh carried = input.detail;
+    carried.V = carry(embedding, deformer.current());
+    write_mesh((dir / "detail.obj").string(), carried);
+  }
+}
+
+} // namespace
+
+void DeformRunOptions::check() const { frame.check(); }
+
+DeformInput load_deform_input(const std::string& shell_dir, const std::vector<std::string>& frames,
+                              const std::string& embed) {
+  DeformInput input;
+  ShellFolder folder = read_shell_folder(shell_dir);
+  input.shell_name = shell_dir;
+  input.shell = std::move(folder.shell);
+  input.surface = std::move(folder.surface);
+  input.frame_names = frames;
+  input.frames = load_base_frames(frames, input.shell.F, input.shell.num_base_vertices());
+  if (!embed.empty()) {
+    input.detail = read_mesh(embed);
+    if (!input.detail.V.allFinite()) throw InputError(with_file(embed, "has a non-finite coordinate"));
+    input.detail_name = embed;
+  }
+  return input;
+}
+
+nlohmann::ordered_json frame_json(const FrameResult& r) {
+  nlohmann::ordered_json j{{"iterations", r.iterations}, {"converged", r.converged}, {"energy", r.energy}};
+  j.update(stretch_report(r.stretch));
+  j["seconds"] = r.seconds;
+  return j;
+}
+
+nlohmann::ordered_json DeformFrameRecord::to_json() const {
+  nlohmann::ordered_json j{{"frame", frame}, {"base", base}};
+  j.update(frame_json(result));
+  if (offset) j["offset"] = stretch_report(*offset);
+  return j;
+}
+
+nlohmann::ordered_json DeformRun::to_json() const {
+  using json = nlohmann::ordered_json;
+  std::vector<double> seconds, iterations;
+  double volume_mean_sum = 0, max_stretch = 0, offset_volume_mean_sum = 0, offset_max = 0;
+  int inverted = 0, offset_inverted = 0, unconverged = 0;
+  for (const DeformFrameRecord& f : frames) {
+    seconds.push_back(f.result.seconds);
+    iterations.push_back(f.result.iterations);
+    max_stretch = std::max(max_stretch, f.result.stretch.max);
+    volume_mean_sum += f.result.stretch.volume_mean;
+    inverted += f.result.stretch.inverted;
+    unconverged += f.result.converged ? 0 : 1;
+    if (f.offset) {
+      offset_volume_mean_sum += f.offset->volume_mean;
+      offset_max = std::max(offset_max, f.offset->max);
+      offset_inverted += f.offset->inverted;
+    }
+  }
+  const double count = std::max<double>(1, static_cast<double>(frames.size()));
+  json summary{{"frames", frames.size()},
+               {"median_seconds", median(seconds)},
+               {"total_seconds", std::accumulate(seconds.begin(), seconds.end(), 0.0)},
+               {"median_iterations", median(iterations)},
+               {"max_iterations", iterations.empty() ? 0.0 : *std::max_element(iterations.begin(), iterations.end())},
+               {"unconverged_frames", unconverged},
+               {"mean_volume_stretch", volume_mean_sum / count},
+               {"max_stretch", max_stretch},
+               {"inverted_tets", inverted}};
+  if (options.compare_offset)
+    summary["offset"] = json{{"mean_volume_stretch", offset_volume_mean_sum / count},
+                             {"max_stretch", offset_max},
+                             {"inverted_tets", offset_inverted}};
+  json report{{"command", "deform"},
+              {"shell", shell},
+              {"base_vertices", base_vertices},
+              {"tets", tets},
+              {"thickness", thickness},
+              {"tolerance", options.frame.tolerance},
+              {"max_iterations", options.frame.max_iterations},
+              {"warm_start", warm_start_name(options.frame.warm_start)},
+              {"replaced_rest_tets", replaced_rest_tets},
+              {"factor_seconds", factor_seconds},
+              {"setup_seconds", setup_seconds}};
+  if (embed)
+    report["embed"] = json{{"detail", embed->detail},
+                           {"points", embed->points},
+                           {"outside", embed->outside},
+                           {"max_outside_distance", embed->max_outside_distance}};
+  report["summary"] = summary;
+  json list = json::array();
+  for (const DeformFrameRecord& f : frames) list.push_back(f.to_json());
+  report["frames"] = list;
+  return report;
+}
+
+bool holds_only_deform_output(const fs::path& dir) {
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name != "report.json" && name != "preview.png" && !(entry.is_directory() && frame_number(name)))
+      return false;
+  }
+  return true;
+}
+
+DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, const std::string& out,
+                     const DeformProgress& progress, const BeforeCommit& before_commit) {
+  using Clock = std::chrono::steady_clock;
+  options.check();
+  if (input.frames.size() != input.frame_names.size()) throw InputError("one name per base frame is needed");
+  if (!(input.shell.thickness > 0)) throw InputError("the rest shell needs a positive thickness");
+  std::unique_ptr<StagedFolder> staged; // fails on a bad output path before the long part
+  if (!out.empty()) {
+    check_output_folder(out, holds_only_deform_output);
+    staged = std::make_unique<StagedFolder>(out);
+  }
+  const auto start = Clock::now();
+  const Shell& shell = input.shell;
+  const int n = shell.num_base_vertices();
+  ShellDeformer deformer(shell);
+  const Eigen::MatrixXi tets = build_prism_tets(shell.F, n);
+  Embedding embedding;
+  DeformRun run;
+  if (!input.detail_name.empty()) {
+    embedding = embed_points(shell.vertices(), tets, input.detail.V);
+    run.embed = DeformRun::Embed{input.detail_name, embedding.size(), static_cast<int>(embedding.outside.size()),
+                                 embedding.max_outside_distance};
+  }
+  run.shell = input.shell_name;
+  run.base_vertices = n;
+  run.tets = static_cast<int>(tets.rows());
+  run.thickness = shell.thickness;
+  run.options = options;
+  run.replaced_rest_tets = deformer.replaced_rest_tets();
+  run.factor_seconds = deformer.factor_seconds();
+  run.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  const int count = static_cast<int>(input.frames.size());
+  if (progress) progress(run, count);
+
+  for (int k = 0; k < count; ++k) {
+    DeformFrameRecord record;
+    record.frame = k + 1;
+    record.base = input.frame_names[k];
+    record.result = deformer.solve(input.frames[k], options.frame);
+    record.result.top.resize(0, 3); // in the folder, not in memory
+    if (options.compare_offset) {
+      Eigen::MatrixXd X(2 * n, 3);
+      X << input.frames[k], offset_top(input.frames[k], shell.F, shell.thickness);
+      record.offset = stretch_stats(deformer.rest_tets(), X);
+    }
+    if (staged) write_frame(staged->path() / frame_name(k + 1), input, deformer, tets, embedding);
+    run.frames.push_back(std::move(record));
+    if (progress) progress(run, count);
+  }
+  if (staged) {
+    write_report(staged->path() / "report.json", run.to_json());
+    if (before_commit) before_commit(staged->path());
+    staged->commit(holds_only_deform_output);
+  }
+  return run;
+}
+
+} // namespace gshell

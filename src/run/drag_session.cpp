@@ -1,0 +1,327 @@
+#include <gshell/run/drag_session.h>
+
+#include <gshell/error.h>
+#include <gshell/quality/stretch.h>
+#include <gshell/run/staged_folder.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/solver/rest_tets.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// What decides the solver: a new one is built only when this changes.
+struct SolverKey {
+  std::vector<int> vertices;
+  ConstraintMode mode = ConstraintMode::Hard;
+  double weight = 0;
+  bool operator==(const SolverKey&) const = default;
+};
+
+SolverKey key_of(const HandleSet& h) {
+  return {h.constrained_vertices(), h.mode, h.mode == ConstraintMode::Soft ? h.weight : 0.0};
+}
+
+Eigen::Vector3d rest_centroid(const Eigen::MatrixXd& rest_vertices, const std::vector<int>& vertices) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int v : vertices) c += rest_vertices.row(v).transpose();
+  return vertices.empty() ? c : Eigen::Vector3d(c / static_cast<double>(vertices.size()));
+}
+
+// Everything an undo restores.
+struct State {
+  Eigen::MatrixXd X;
+  HandleSet handles;
+  double fraction = 0;         ///< of the last event
+  Eigen::MatrixXd targets;     ///< of the last event; rows of handles.constrained_vertices()
+  int motion_version = 0;      ///< bumped whenever a motion changes
+  int version_of_last = 0;     ///< motion_version at the last event
+  std::vector<PoseStepReport> steps;
+};
+
+// The event before the last one, to continue the drag's motion (not kept by undo points).
+struct Before {
+  bool valid = false;
+  Eigen::MatrixXd X, targets;
+  double fraction = 0;
+  int version = 0;
+};
+
+} // namespace
+
+struct DragSession::Impl {
+  Shell rest;
+  Eigen::MatrixXd rest_vertices;
+  TriMesh surface;
+  PoseOptions options;
+  std::string shell_name, handles_name;
+  State state;
+  Before before;
+  std::deque<State> undo;
+  int undo_depth = kUndoDepth;
+  std::unique_ptr<PoseSolver> solver;
+  SolverKey solver_key;
+  int builds = 0;
+  SolveOptions last_limits;
+  mutable std::optional<RestTets> rest_tets; ///< for result() before any solver exists
+
+  const RestTets& tets() const {
+    if (solver) return solver->rest_tets();
+    if (!rest_tets)
+      rest_tets = rest_tets_from_positions(rest_vertices, build_prism_tets(rest.F, rest.num_base_vertices()));
+    return *rest_tets;
+  }
+
+  // Where the constrained vertices are now: the targets the next event moves away from.
+  Eigen::MatrixXd current_rows(const HandleSet& h) const {
+    const std::vector<int> ids = h.constrained_vertices();
+    Eigen::MatrixXd P(static_cast<Eigen::Index>(ids.size()), 3);
+    for (size_t r = 0; r < ids.size(); ++r) P.row(static_cast<Eigen::Index>(r)) = state.X.row(ids[r]);
+    return P;
+  }
+
+  void replace_handles(HandleSet h) {
+    check_handles(h, static_cast<int>(rest_vertices.rows()));
+    const bool same_vertices = key_of(h) == key_of(state.handles);
+    state.handles = std::move(h);
+    ++state.motion_version;
+    if (!same_vertices) { // the last targets describe other vertices: no continuation across this
+      before.valid = false;
+      state.targets = current_rows(state.handles);
+      state.version_of_last = state.motion_version;
+    }
+  }
+
+  void ensure_solver() {
+    const SolverKey key = key_of(state.handles);
+    if (solver && key == solver_key) return;
+    solver.reset(); // free the old factorisations before building new ones
+    solver = std::make_unique<PoseSolver>(rest, state.handles, options.solver, options.hierarchy);
+    solver_key = key;
+    ++builds;
+  }
+
+  PoseStepReport record(double fraction, const SolveResult& r, double seconds) {
+    PoseStepReport step;
+    step.fraction = fraction;
+    step.iterations = r.iterations;
+    step.energy = r.energy.empty() ? 0 : r.energy.back();
+    step.seconds = seconds;
+    step.converged = r.converged;
+    state.steps.push_back(step);
+    return step;
+  }
+};
+
+DragSession::DragSession(Shell rest, const PoseOptions& options, TriMesh surface) : impl_(std::make_unique<Impl>()) {
+  options.check();
+  if (rest.F.rows() == 0 || rest.base.rows() != rest.top.rows()) throw InputError("drag session: the rest shell has no faces");
+  if (!(rest.thickness > 0)) throw InputError("drag session: the rest shell needs a positive thickness");
+  Impl& s = *impl_;
+  s.rest_vertices = rest.vertices();
+  if (surface.F.rows() == 0) surface.F = rest.F;
+  surface.V = rest.base;
+  s.surface = std::move(surface);
+  s.rest = std::move(rest);
+  s.options = options;
+  s.last_limits = options.solve;
+  s.state.X = s.rest_vertices;
+}
+
+DragSession::~DragSession() = default;
+DragSession::DragSession(DragSession&&) noexcept = default;
+DragSession& DragSession::operator=(DragSession&&) noexcept = default;
+
+void DragSession::set_names(std::string shell, std::string handles) {
+  impl_->shell_name = std::move(shell);
+  impl_->handles_name = std::move(handles);
+}
+
+const HandleSet& DragSession::handles() const { return impl_->state.handles; }
+
+void DragSession::set_handles(HandleSet handles) {
+  checkpoint();
+  impl_->replace_handles(std::move(handles));
+}
+
+int DragSession::add_handle(Handle handle, bool center_from_rest) {
+  std::sort(handle.vertices.begin(), handle.vertices.end());
+  handle.vertices.erase(std::unique(handle.vertices.begin(), handle.vertices.end()), handle.vertices.end());
+  HandleSet h = impl_->state.handles;
+  if (center_from_rest) {
+    check_handles(HandleSet{{handle}}, static_cast<int>(impl_->rest_vertices.rows())); // ids first
+    handle.center = rest_centroid(impl_->rest_vertices, handle.vertices);
+  }
+  h.handles.push_back(std::move(handle));
+  set_handles(std::move(h));
+  return static_cast<int>(impl_->state.handles.handles.size()) - 1;
+}
+
+void DragSession::remove_handle(int k) {
+  HandleSet h = impl_->state.handles;
+  if (k < 0 || k >= static_cast<int>(h.handles.size())) throw InputError("no handle " + std::to_string(k));
+  h.handles.erase(h.handles.begin() + k);
+  set_handles(std::move(h));
+}
+
+void DragSession::set_handle_vertices(int k, std::vector<int> vertices) {
+  HandleSet h = impl_->state.handles;
+  if (k < 0 || k >= static_cast<int>(h.handles.size())) throw InputError("no handle " + std::to_string(k));
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  Handle& handle = h.handles[k];
+  handle.vertices = std::move(vertices);
+  check_handles(h, static_cast<int>(impl_->rest_vertices.rows()));
+  handle.center = rest_centroid(impl_->rest_vertices, handle.vertices);
+  set_handles(std::move(h));
+}
+
+void DragSession::set_motion(int k, const Eigen::Vector3d& translate, const Eigen::Vector3d& axis, double degrees) {
+  State& st = impl_->state;
+  if (k < 0 || k >= static_cast<int>(st.handles.handles.size())) throw InputError("no handle " + std::to_string(k));
+  if (!translate.allFinite() || !axis.allFinite() || !std::isfinite(degrees))
+    throw InputError("handle " + std::to_string(k) + ": a motion number is not finite");
+  if (!(axis.norm() > 0)) throw InputError("handle " + std::to_string(k) + ": the rotation axis is zero");
+  Handle& h = st.handles.handles[k];
+  h.translate = translate;
+  h.axis = axis.normalized();
+  h.degrees = degrees;
+  ++st.motion_version;
+}
+
+PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptions>& options) {
+  Impl& s = *impl_;
+  if (!std::isfinite(fraction)) throw InputError("fraction must be finite");
+  s.ensure_solver();
+  const auto start = Clock::now();
+  State& st = s.state;
+  const Eigen::MatrixXd P = st.handles.targets(s.rest_vertices, fraction);
+  Eigen::MatrixXd next = st.X;
+  if (s.options.extrapolate && s.before.valid) {
+    double step = 0; // how far the new targets lie along the last change of targets
+    if (s.before.version == st.version_of_last && st.version_of_last == st.motion_version) {
+      // Along the handles' own motion: exact for the equal steps of `pose --steps`.
+      if (st.fraction != s.before.fraction) step = (fraction - st.fraction) / (st.fraction - s.before.fraction);
+    } else {
+      const Eigen::MatrixXd last = st.targets - s.before.targets;
+      const double length = last.squaredNorm();
+      if (length > 0) step = (P - st.targets).cwiseProduct(last).sum() / length;
+    }
+    next = s.solver->predict_start(s.before.X, st.X, step, P);
+  }
+  s.before = Before{true, std::move(st.X), st.targets, st.fraction, st.version_of_last};
+  st.X = std::move(next);
+  const double predict_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  const SolveOptions limits = options.value_or(s.options.solve);
+  s.last_limits = limits;
+  const SolveResult r = s.solver->solve(st.X, P, limits);
+  st.targets = P;
+  st.fraction = fraction;
+  st.version_of_last = st.motion_version;
+  return s.record(fraction, r, r.seconds + predict_seconds);
+}
+
+PoseStepReport DragSession::settle(const std::optional<SolveOptions>& options) {
+  Impl& s = *impl_;
+  s.ensure_solver();
+  State& st = s.state;
+  const Eigen::MatrixXd P = st.handles.targets(s.rest_vertices, st.fraction);
+  const SolveOptions limits = options.value_or(s.options.solve);
+  s.last_limits = limits;
+  const SolveResult r = s.solver->solve(st.X, P, limits);
+  if (st.motion_version != st.version_of_last) { // new motions since the last event: this solve is one
+    s.before.valid = false;
+    st.version_of_last = st.motion_version;
+  }
+  st.targets = P;
+  return s.record(st.fraction, r, r.seconds);
+}
+
+const Shell& DragSession::rest() const { return impl_->rest; }
+const Eigen::MatrixXd& DragSession::vertices() const { return impl_->state.X; }
+double DragSession::fraction() const { return impl_->state.fraction; }
+
+void DragSession::checkpoint() {
+  if (impl_->undo_depth <= 0) return;
+  impl_->undo.push_back(impl_->state);
+  while (impl_->undo.size() > static_cast<size_t>(impl_->undo_depth)) impl_->undo.pop_front();
+}
+
+void DragSession::set_undo_depth(int depth) {
+  impl_->undo_depth = std::max(depth, 0);
+  while (impl_->undo.size() > static_cast<size_t>(impl_->undo_depth)) impl_->undo.pop_front();
+}
+
+bool DragSession::undo() {
+  Impl& s = *impl_;
+  if (s.undo.empty()) return false;
+  s.state = std::move(s.undo.back());
+  s.undo.pop_back();
+  s.before.valid = false;
+  return true;
+}
+
+void DragSession::reset() {
+  checkpoint();
+  Impl& s = *impl_;
+  State& st = s.state;
+  for (Handle& h : st.handles.handles) {
+    h.translate.setZero();
+    h.degrees = 0;
+  }
+  st.X = s.rest_vertices;
+  st.fraction = 0;
+  ++st.motion_version;
+  st.version_of_last = st.motion_version;
+  st.targets = s.current_rows(st.handles);
+  st.steps.clear();
+  s.before.valid = false;
+}
+
+int DragSession::solver_builds() const { return impl_->builds; }
+
+std::size_t DragSession::result_step_count() const { return impl_->state.steps.size(); }
+
+PoseResult DragSession::result(std::size_t first_step) const {
+  const Impl& s = *impl_;
+  const State& st = s.state;
+  PoseResult r;
+  r.X = st.X;
+  if (first_step < st.steps.size()) r.steps.assign(st.steps.begin() + static_cast<std::ptrdiff_t>(first_step), st.steps.end());
+  r.setup_seconds = s.solver ? s.solver->setup_seconds() : 0;
+  r.stretch = stretch_stats(s.tets(), st.X);
+  r.shell = s.shell_name;
+  r.handles = s.handles_name;
+  r.solver = s.options.solver;
+  r.levels = s.options.solver == PoseSolverKind::Hierarchical ? s.options.hierarchy.levels : 1;
+  r.mode = st.handles.mode;
+  r.weight = st.handles.weight;
+  r.thickness = s.rest.thickness;
+  r.tets = s.tets().size();
+  r.handle_vertices = static_cast<int>(st.handles.constrained_vertices().size());
+  r.tolerance = s.last_limits.tolerance;
+  r.max_iterations = s.last_limits.max_iterations;
+  return r;
+}
+
+nlohmann::ordered_json DragSession::handles_json() const { return handles_to_json(impl_->state.handles); }
+
+void DragSession::write(const std::string& dir, std::size_t first_step, const BeforeCommit& before_commit) const {
+  const Impl& s = *impl_;
+  check_output_folder(dir, holds_only_shell_files);
+  ShellFolderContents c;
+  c.surface = s.surface;
+  c.X = s.state.X;
+  c.cell_data.emplace_back("stretch", tet_stretch(s.tets(), c.X));
+  c.cell_data.emplace_back("det_F", tet_deformation_determinants(s.tets(), c.X));
+  c.report = result(first_step).to_json();
+  write_shell_folder(dir, c, before_commit);
+}
+
+} // namespace gshell

@@ -1,0 +1,76 @@
+#include <gshell/run/pose_run.h>
+
+#include <gshell/error.h>
+#include <gshell/quality/stretch_report.h>
+#include <gshell/run/drag_session.h>
+
+#include <cmath>
+
+namespace gshell {
+
+const char* pose_solver_name(PoseSolverKind kind) {
+  return kind == PoseSolverKind::Hierarchical ? "hierarchical" : "single";
+}
+
+PoseSolverKind parse_pose_solver(const std::string& name) {
+  for (PoseSolverKind k : {PoseSolverKind::Hierarchical, PoseSolverKind::Single})
+    if (name == pose_solver_name(k)) return k;
+  throw InputError("unknown solver '" + name + "' (expected hierarchical or single)");
+}
+
+void PoseOptions::check() const {
+  if (steps < 1) throw InputError("steps must be >= 1 (got " + std::to_string(steps) + ")");
+  if (hierarchy.levels < 1) throw InputError("levels must be >= 1 (got " + std::to_string(hierarchy.levels) + ")");
+  if (solve.max_iterations < 1) throw InputError("iterations must be >= 1 (got " + std::to_string(solve.max_iterations) + ")");
+  if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a number >= 0");
+}
+
+nlohmann::ordered_json PoseStepReport::to_json() const {
+  return {{"fraction", fraction}, {"iterations", iterations}, {"energy", energy}, {"seconds", seconds},
+          {"converged", converged}};
+}
+
+nlohmann::ordered_json PoseResult::to_json() const {
+  nlohmann::ordered_json j;
+  j["command"] = "pose";
+  j["shell"] = shell;
+  j["handles"] = handles;
+  j["solver"] = pose_solver_name(solver);
+  j["levels"] = levels;
+  j["mode"] = mode == ConstraintMode::Hard ? "hard" : "soft";
+  if (mode == ConstraintMode::Soft) j["weight"] = weight;
+  j["thickness"] = thickness; // the output is a shell folder too
+  j["vertices"] = X.rows();
+  j["tets"] = tets;
+  j["handle_vertices"] = handle_vertices;
+  j["setup_seconds"] = setup_seconds;
+  j["tolerance"] = tolerance;
+  j["max_iterations"] = max_iterations;
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (const PoseStepReport& s : steps) list.push_back(s.to_json());
+  j["steps"] = list;
+  j.update(stretch_report(stretch));
+  return j;
+}
+
+PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_fraction) {
+  options.check();
+  const double from = session.fraction();
+  const std::size_t first = session.result_step_count();
+  for (int step = 1; step <= options.steps; ++step) {
+    SolveOptions so = options.solve;
+    so.progress = nullptr;
+    if (options.step_progress)
+      so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
+    session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
+  }
+  return session.result(first);
+}
+
+PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options) {
+  DragSession session(rest, options);
+  session.set_handles(handles);
+  return run_pose(session, options);
+}
+
+} // namespace gshell

@@ -1,0 +1,204 @@
+#include <gshell/run/shell_folder.h>
+
+#include <gshell/error.h>
+#include <gshell/io/atomic_file.h>
+#include <gshell/io/read_mesh.h>
+#include <gshell/io/tet_mesh_io.h>
+#include <gshell/io/write_mesh.h>
+#include <gshell/run/frames.h>
+#include <gshell/run/staged_folder.h>
+#include <gshell/shell/prism_tets.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <optional>
+
+namespace gshell {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::array<const char*, 5> kShellFiles = {"base.obj", "top.obj", "shell.vtu", "report.json", "preview.png"};
+
+// Base faces of a prism shell recovered from its tets (3 per face): the three base ids of the
+// prism, oriented so that the top lies on the side of the face normal.
+Eigen::MatrixXi faces_from_prism_tets(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, int n,
+                                      const std::string& name) {
+  const Eigen::Index m = T.rows() / 3;
+  Eigen::MatrixXi F(m, 3);
+  auto not_a_prism = [&](Eigen::Index f) {
+    return InputError(with_file(name, "tets " + std::to_string(3 * f) + ".." + std::to_string(3 * f + 2) +
+                                          " of shell.vtu do not form a prism"));
+  };
+  for (Eigen::Index f = 0; f < m; ++f) {
+    std::array<int, 3> base{};
+    int count = 0;
+    Eigen::Vector3d top_centre = Eigen::Vector3d::Zero();
+    int top_count = 0;
+    for (int t = 0; t < 3; ++t)
+      for (int k = 0; k < 4; ++k) {
+        const int id = T(3 * f + t, k);
+        if (id < n) {
+          if (std::find(base.begin(), base.begin() + count, id) == base.begin() + count) {
+            if (count == 3) throw not_a_prism(f);
+            base[count++] = id;
+          }
+        } else {
+          top_centre += X.row(id).transpose();
+          ++top_count;
+        }
+      }
+    if (count != 3 || top_count == 0) throw not_a_prism(f);
+    const Eigen::Vector3d a = X.row(base[0]), b = X.row(base[1]), c = X.row(base[2]);
+    if ((b - a).cross(c - a).dot(top_centre / top_count - (a + b + c) / 3) < 0) std::swap(base[1], base[2]);
+    F.row(f) << base[0], base[1], base[2];
+  }
+  return F;
+}
+
+// eta as the report records it: `thickness` as a number (deform, pose) or {"eta": ...} (generate).
+std::optional<double> report_thickness(const nlohmann::ordered_json& report) {
+  if (!report.is_object() || !report.contains("thickness")) return std::nullopt;
+  const auto& t = report["thickness"];
+  if (t.is_number()) return t.get<double>();
+  if (t.is_object() && t.contains("eta") && t["eta"].is_number()) return t["eta"].get<double>();
+  return std::nullopt;
+}
+
+std::string report_made_by(const nlohmann::ordered_json& report) {
+  for (const char* key : {"method", "command"})
+    if (report.is_object() && report.contains(key) && report[key].is_string()) return report[key].get<std::string>();
+  return {};
+}
+
+// The report that describes DIR: its own, or for a deform frame its run's.
+fs::path report_folder(const fs::path& dir) {
+  if (fs::exists(dir / "report.json")) return dir;
+  fs::path normal = dir.lexically_normal();
+  if (normal.filename().empty()) normal = normal.parent_path();
+  if (frame_number(normal.filename().string()) && fs::exists(normal.parent_path() / "report.json"))
+    return normal.parent_path();
+  return {};
+}
+
+} // namespace
+
+nlohmann::ordered_json read_report(const fs::path& dir) {
+  const fs::path path = dir / "report.json";
+  std::ifstream in(path);
+  if (!in) throw InputError(with_file(path.string(), "cannot open (is " + dir.string() + " a gshell output folder?)"));
+  nlohmann::ordered_json report = nlohmann::ordered_json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (report.is_discarded() || !report.is_object()) throw InputError(with_file(path.string(), "not a JSON object"));
+  return report;
+}
+
+void write_report(const fs::path& path, const nlohmann::ordered_json& report) {
+  write_file_atomically(path.string(), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
+}
+
+bool is_shell_folder(const fs::path& dir) {
+  std::error_code ec;
+  return fs::exists(dir / "top.obj", ec) || fs::exists(dir / "shell.vtu", ec);
+}
+
+ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderReadOptions& options) {
+  const fs::path dir(dir_text);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError(with_file(dir_text, "not a shell folder (no such directory)"));
+  ShellFolder out;
+  const fs::path report_dir = report_folder(dir);
+  if (!report_dir.empty()) out.report = read_report(report_dir);
+  out.made_by = report_made_by(out.report);
+
+  const bool has_surfaces = fs::exists(dir / "base.obj") && fs::exists(dir / "top.obj");
+  const bool has_vtu = fs::exists(dir / "shell.vtu");
+  if (!has_surfaces && !has_vtu)
+    throw InputError(with_file(dir_text, "not a shell folder (no base.obj + top.obj, no shell.vtu)"));
+  std::optional<TetMesh> vtu;
+  if (has_vtu && (options.read_tets || !has_surfaces)) {
+    vtu = read_tet_mesh((dir / "shell.vtu").string());
+    if (vtu->X.rows() % 2 || vtu->T.rows() % 3)
+      throw InputError(with_file((dir / "shell.vtu").string(), "not a prism shell (2n points and 3m tets expected)"));
+  }
+  if (has_surfaces) {
+    out.surface = read_mesh((dir / "base.obj").string());
+    const TriMesh top = read_mesh((dir / "top.obj").string());
+    if (out.surface.V.rows() != top.V.rows() || out.surface.F.rows() != top.F.rows() || out.surface.F != top.F)
+      throw InputError(with_file(dir_text, "base.obj and top.obj differ in vertex count or faces"));
+    out.shell.base = out.surface.V;
+    out.shell.top = top.V;
+  } else {
+    const int n = static_cast<int>(vtu->X.rows() / 2);
+    out.shell.base = vtu->X.topRows(n);
+    out.shell.top = vtu->X.bottomRows(n);
+    if (fs::exists(dir / "top.obj")) {
+      out.surface = read_mesh((dir / "top.obj").string()); // a deform frame: same faces and UVs as the base
+      if (out.surface.V.rows() != n || out.surface.F.rows() != vtu->T.rows() / 3)
+        throw InputError(with_file(dir_text, "top.obj and shell.vtu differ in vertex or face count"));
+    } else {
+      out.surface.F = faces_from_prism_tets(vtu->T, vtu->X, n, dir_text);
+    }
+    out.surface.V = out.shell.base;
+  }
+  out.shell.F = out.surface.F;
+
+  const std::optional<double> eta = report_thickness(out.report);
+  if (eta && !(*eta > 0 && std::isfinite(*eta)))
+    throw InputError(with_file((report_dir / "report.json").string(), "thickness must be positive and finite"));
+  if (!eta && options.require_thickness)
+    throw InputError(with_file(dir_text, report_dir.empty() ? "not a shell folder (report.json missing)"
+                                                            : "report.json gives no thickness"));
+  out.shell.thickness = eta.value_or(0);
+
+  if (vtu && options.read_tets) {
+    const Eigen::Index m = out.shell.F.rows();
+    if (vtu->T.rows() == 3 * m && vtu->X.rows() == 2 * out.shell.base.rows()) {
+      out.tets = vtu->T;
+      for (const auto& [name, values] : vtu->cell_data)
+        if (name == "stretch" && values.rows() == 3 * m && values.cols() == 1) out.tet_stretch = values.col(0);
+    }
+  }
+  if (fs::exists(dir / "detail.obj")) out.detail = read_mesh((dir / "detail.obj").string());
+  return out;
+}
+
+void write_shell_files(const fs::path& dir, const ShellFolderContents& c) {
+  const int n = c.surface.num_vertices() > 0 ? c.surface.num_vertices() : static_cast<int>(c.X.rows() / 2);
+  if (c.X.rows() != 2 * n || c.X.cols() != 3)
+    throw InputError("shell folder: X must have 2n rows for a base of " + std::to_string(n) + " vertices");
+  TriMesh base = c.surface, top = c.surface; // same faces, order and UVs
+  base.V = c.X.topRows(n);
+  top.V = c.X.bottomRows(n);
+  write_mesh((dir / "base.obj").string(), base);
+  write_mesh((dir / "top.obj").string(), top);
+  TetMesh tets;
+  tets.X = c.X;
+  tets.T = build_prism_tets(c.surface.F, n);
+  tets.cell_data = c.cell_data;
+  write_tet_mesh((dir / "shell.vtu").string(), tets);
+  write_report(dir / "report.json", c.report);
+}
+
+bool holds_only_shell_files(const fs::path& dir) {
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (std::find_if(kShellFiles.begin(), kShellFiles.end(), [&](const char* f) { return name == f; }) ==
+        kShellFiles.end())
+      return false;
+  }
+  return true;
+}
+
+void write_shell_folder(const std::string& dir, const ShellFolderContents& contents, const BeforeCommit& before_commit) {
+  StagedFolder staged(dir);
+  write_shell_files(staged.path(), contents);
+  if (before_commit) before_commit(staged.path());
+  staged.commit(holds_only_shell_files);
+}
+
+} // namespace gshell

@@ -1,0 +1,86 @@
+#include <gshell/run/staged_folder.h>
+
+#include <gshell/error.h>
+
+#include <random>
+#include <system_error>
+
+namespace gshell {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path sibling(const fs::path& destination, const std::string& tag) {
+  std::random_device rd;
+  const fs::path parent = destination.parent_path().empty() ? fs::path(".") : destination.parent_path();
+  std::string name = ".";
+  name += destination.filename().string();
+  name += "." + tag + "-" + std::to_string(rd());
+  return parent / name;
+}
+
+fs::path folder_name(const fs::path& destination) {
+  fs::path d = destination;
+  if (d.filename().empty()) d = d.parent_path(); // "OUT/" -> "OUT"
+  if (d.empty()) throw InputError("empty output folder name");
+  return d;
+}
+
+bool replaceable(const fs::path& destination, const std::function<bool(const fs::path&)>& is_previous_output) {
+  std::error_code ec;
+  if (!fs::exists(destination, ec)) return true;
+  const bool empty = fs::is_directory(destination, ec) && fs::is_empty(destination, ec);
+  return empty || (is_previous_output && is_previous_output(destination));
+}
+
+InputError not_replaceable(const fs::path& destination) {
+  return InputError(with_file(destination.string(), "exists and is not an earlier output of this command; "
+                                                    "remove it or choose another -o"));
+}
+
+} // namespace
+
+void check_output_folder(const fs::path& destination, const std::function<bool(const fs::path&)>& is_previous_output) {
+  const fs::path d = folder_name(destination);
+  const fs::path parent = d.parent_path().empty() ? fs::path(".") : d.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(parent, ec)) throw InputError(with_file(d.string(), "parent folder does not exist"));
+  if (fs::exists(d, ec) && !fs::is_directory(d, ec)) throw InputError(with_file(d.string(), "exists and is not a folder"));
+  if (is_previous_output && !replaceable(d, is_previous_output)) throw not_replaceable(d);
+}
+
+StagedFolder::StagedFolder(const fs::path& destination) : destination_(folder_name(destination)) {
+  check_output_folder(destination_);
+  std::error_code ec;
+  staging_ = sibling(destination_, "tmp");
+  if (!fs::create_directory(staging_, ec) || ec)
+    throw InputError(with_file(destination_.string(), "cannot create a folder beside it: " + ec.message()));
+}
+
+StagedFolder::~StagedFolder() {
+  if (committed_) return;
+  std::error_code ec;
+  fs::remove_all(staging_, ec);
+}
+
+void StagedFolder::commit(const std::function<bool(const fs::path&)>& is_previous_output) {
+  std::error_code ec;
+  fs::path old;
+  if (fs::exists(destination_, ec)) {
+    if (!replaceable(destination_, is_previous_output)) throw not_replaceable(destination_);
+    old = sibling(destination_, "old");
+    fs::rename(destination_, old, ec);
+    if (ec) throw InputError(with_file(destination_.string(), "cannot replace it: " + ec.message()));
+  }
+  fs::rename(staging_, destination_, ec);
+  if (ec) {
+    std::error_code ignored;
+    if (!old.empty()) fs::rename(old, destination_, ignored);
+    throw InputError(with_file(destination_.string(), "cannot move the output into place: " + ec.message()));
+  }
+  committed_ = true;
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
+} // namespace gshell

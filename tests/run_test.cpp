@@ -1,0 +1,245 @@
+// The run layer's folders (run/shell_folder.h, run/frames.h, run/staged_folder.h) and the jobs
+// on them (run/generate_run.h, run/deform_run.h).
+#include "shell_fixtures.h"
+#include "test_support.h"
+
+#include <gshell/error.h>
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/io/write_mesh.h>
+#include <gshell/run/deform_run.h>
+#include <gshell/run/frames.h>
+#include <gshell/run/generate_run.h>
+#include <gshell/run/shell_folder.h>
+#include <gshell/run/staged_folder.h>
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <filesystem>
+
+using namespace gshell;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// What a folder holds, hidden entries (staging leftovers) included.
+std::vector<std::string> entries(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+ShellFolderContents cylinder_contents(double eta) {
+  ShellFolderContents c;
+  c.surface = make_cylinder(12); // has UVs
+  const Shell shell = test::offset_shell(c.surface, eta);
+  c.X = shell.vertices();
+  Eigen::MatrixXd stretch(3 * c.surface.num_faces(), 1);
+  for (Eigen::Index t = 0; t < stretch.rows(); ++t) stretch(t, 0) = 0.001 * static_cast<double>(t);
+  c.cell_data = {{"stretch", stretch}};
+  c.report = {{"method", "offset"}, {"thickness", {{"eta", eta}, {"ratio", nullptr}}}};
+  return c;
+}
+
+} // namespace
+
+TEST(Frames, NamesNumbersAndScanOrder) {
+  EXPECT_EQ(frame_name(7), "frame_0007");
+  EXPECT_EQ(frame_name(12345, ".obj"), "frame_12345.obj");
+  EXPECT_EQ(frame_number("frame_0012.obj", ".obj"), 12);
+  EXPECT_EQ(frame_number("frame_10000"), 10000);
+  EXPECT_FALSE(frame_number("frame_012"));      // fewer than four digits
+  EXPECT_FALSE(frame_number("frame_0012.obj")); // a file name where a folder name is asked for
+  EXPECT_FALSE(frame_number("frame_00x2"));
+  EXPECT_FALSE(frame_number("frames_0001"));
+
+  test::TempDir tmp;
+  for (const char* dir : {"frame_0010", "frame_10000", "frame_0002", "frame_9999", "frame_12", "other"})
+    fs::create_directory(tmp.path() / dir);
+  for (const char* file : {"frame_0003.obj", "frame_0001.obj", "frame_0005", "frame_0004.off"})
+    test::write_text(tmp.file(file), "");
+  std::vector<std::string> folders;
+  for (const fs::path& p : list_frames(tmp.path())) folders.push_back(p.filename().string());
+  // By number, not by name: frame_10000 sorts after frame_9999.
+  EXPECT_EQ(folders, (std::vector<std::string>{"frame_0002", "frame_0010", "frame_9999", "frame_10000"}));
+  std::vector<std::string> files;
+  for (const fs::path& p : list_frames(tmp.path(), ".obj")) files.push_back(p.filename().string());
+  EXPECT_EQ(files, (std::vector<std::string>{"frame_0001.obj", "frame_0003.obj"}));
+  EXPECT_TRUE(list_frames(tmp.path() / "missing").empty());
+}
+
+TEST(ShellFolder, WriteReadRoundTrip) {
+  test::TempDir tmp;
+  const ShellFolderContents c = cylinder_contents(0.1);
+  const std::string dir = tmp.file("shell");
+  write_shell_folder(dir, c);
+  EXPECT_EQ(entries(dir), (std::vector<std::string>{"base.obj", "report.json", "shell.vtu", "top.obj"}));
+  ShellFolderReadOptions all;
+  all.read_tets = true;
+  const ShellFolder f = read_shell_folder(dir, all);
+  const int n = c.surface.num_vertices();
+  EXPECT_EQ(f.shell.base, c.X.topRows(n)); // full precision both ways
+  EXPECT_EQ(f.shell.top, c.X.bottomRows(n));
+  EXPECT_EQ(f.shell.F, c.surface.F);
+  EXPECT_EQ(f.surface.UV, c.surface.UV);
+  EXPECT_EQ(f.surface.FUV, c.surface.FUV);
+  EXPECT_DOUBLE_EQ(f.shell.thickness, 0.1);
+  EXPECT_EQ(f.made_by, "offset");
+  EXPECT_EQ(f.tet_stretch, c.cell_data[0].second.col(0));
+  EXPECT_EQ(f.tets.rows(), 3 * c.surface.num_faces());
+  EXPECT_EQ(f.report, c.report);
+  EXPECT_TRUE(is_shell_folder(dir));
+  EXPECT_TRUE(holds_only_shell_files(dir));
+
+  // Without base.obj the shell comes from shell.vtu, the faces from top.obj.
+  fs::remove(fs::path(dir) / "base.obj");
+  const ShellFolder g = read_shell_folder(dir);
+  EXPECT_EQ(g.shell.vertices(), c.X);
+  EXPECT_EQ(g.shell.F, c.surface.F);
+  // Without top.obj too, the faces are recovered from the prism tets (same vertices, top side up).
+  fs::remove(fs::path(dir) / "top.obj");
+  const ShellFolder h = read_shell_folder(dir);
+  ASSERT_EQ(h.shell.F.rows(), c.surface.F.rows());
+  for (Eigen::Index f = 0; f < h.shell.F.rows(); ++f) {
+    std::array<int, 3> a{h.shell.F(f, 0), h.shell.F(f, 1), h.shell.F(f, 2)}, b{c.surface.F(f, 0), c.surface.F(f, 1), c.surface.F(f, 2)};
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    EXPECT_EQ(a, b) << "face " << f;
+  }
+}
+
+TEST(ShellFolder, ThicknessFromTheReportAsNumberOrEta) {
+  test::TempDir tmp;
+  ShellFolderContents c = cylinder_contents(0.2);
+  c.report = {{"command", "pose"}, {"thickness", 0.25}};
+  write_shell_folder(tmp.file("a"), c);
+  const ShellFolder a = read_shell_folder(tmp.file("a"));
+  EXPECT_DOUBLE_EQ(a.shell.thickness, 0.25);
+  EXPECT_EQ(a.made_by, "pose");
+  c.report = {{"command", "pose"}};
+  write_shell_folder(tmp.file("b"), c);
+  EXPECT_THROW(read_shell_folder(tmp.file("b")), InputError); // deform and pose need eta
+  ShellFolderReadOptions lenient;
+  lenient.require_thickness = false;
+  EXPECT_EQ(read_shell_folder(tmp.file("b"), lenient).shell.thickness, 0);
+  c.report = {{"thickness", -1}};
+  write_shell_folder(tmp.file("c"), c);
+  EXPECT_THROW(read_shell_folder(tmp.file("c"), lenient), InputError);
+  EXPECT_THROW(read_shell_folder(tmp.file("missing")), InputError);
+  fs::create_directory(tmp.path() / "empty");
+  EXPECT_THROW(read_shell_folder(tmp.file("empty")), InputError);
+  test::write_text(tmp.file("a/report.json"), "{not json");
+  EXPECT_THROW(read_shell_folder(tmp.file("a")), InputError);
+}
+
+TEST(StagedFolder, AFailureLeavesNothingBehind) {
+  test::TempDir tmp;
+  const ShellFolderContents c = cylinder_contents(0.1);
+  const std::string dir = tmp.file("shell");
+  // A failure after everything is written (here: while rendering a preview) leaves no folder and
+  // no staging folder.
+  EXPECT_THROW(write_shell_folder(dir, c, [](const fs::path&) { throw InputError("no preview"); }), InputError);
+  EXPECT_TRUE(entries(tmp.path()).empty());
+  // A failure while writing (a report that is not valid UTF-8 cannot be dumped) too.
+  ShellFolderContents bad = c;
+  bad.report["name"] = std::string("\xff\xfe");
+  EXPECT_ANY_THROW(write_shell_folder(dir, bad));
+  EXPECT_TRUE(entries(tmp.path()).empty());
+  // An earlier output survives a failed replacement, unchanged.
+  write_shell_folder(dir, c);
+  const auto before = test::read_text(dir + "/report.json");
+  EXPECT_THROW(write_shell_folder(dir, c, [](const fs::path&) { throw InputError("no preview"); }), InputError);
+  EXPECT_EQ(test::read_text(dir + "/report.json"), before);
+  EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"shell"});
+  // A folder of other files is never replaced, and nothing is left beside it.
+  fs::create_directory(tmp.path() / "mine");
+  test::write_text(tmp.file("mine/notes.txt"), "keep me");
+  EXPECT_THROW(write_shell_folder(tmp.file("mine"), c), InputError);
+  EXPECT_THROW(check_output_folder(tmp.file("mine"), holds_only_shell_files), InputError);
+  EXPECT_NO_THROW(check_output_folder(tmp.file("mine"))); // without a rule only the path is checked
+  EXPECT_EQ(entries(tmp.path() / "mine"), std::vector<std::string>{"notes.txt"});
+  EXPECT_EQ(entries(tmp.path()), (std::vector<std::string>{"mine", "shell"}));
+  EXPECT_THROW(check_output_folder(tmp.file("no/such/parent/out")), InputError);
+  EXPECT_THROW(check_output_folder(tmp.file("mine/notes.txt")), InputError);
+}
+
+TEST(GenerateRun, OptionsReportAndFolder) {
+  GenerateRunOptions o;
+  EXPECT_THROW(o.check(), InputError); // no thickness
+  o.thickness.thickness = 0.05;
+  o.thickness.thickness_ratio = 0.05;
+  EXPECT_THROW(o.check(), InputError); // both
+  o.thickness.thickness.reset();
+  o.generate.s_min = 1.5;
+  EXPECT_THROW(o.check(), InputError);
+  o.generate.s_min = GenerateOptions{}.s_min;
+  o.generate.solve.max_iterations = 10;
+  EXPECT_NO_THROW(o.check());
+
+  const TriMesh sphere = make_sphere(2);
+  const GenerateRun run = run_generate(sphere, "builtin:sphere:2", o);
+  EXPECT_DOUBLE_EQ(run.result.shell.thickness, thickness_from_ratio(sphere.V, 0.05));
+  const auto report = run.to_json();
+  EXPECT_EQ(report["input"], "builtin:sphere:2");
+  EXPECT_DOUBLE_EQ(report["thickness"]["ratio"].get<double>(), 0.05);
+  EXPECT_EQ(report["certificate"]["inverted_tets"], run.result.metrics.certificate.inverted_tets);
+  EXPECT_NE(run.summary().find("builtin:sphere:2"), std::string::npos);
+  test::TempDir tmp;
+  run.write(tmp.file("shell"));
+  const ShellFolder back = read_shell_folder(tmp.file("shell"));
+  EXPECT_EQ(back.shell.top, run.result.shell.top);
+  EXPECT_DOUBLE_EQ(back.shell.thickness, run.result.shell.thickness);
+  EXPECT_EQ(back.report, report);
+}
+
+TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
+  test::TempDir tmp;
+  const TriMesh cylinder = make_cylinder(16);
+  const Shell rest = test::offset_shell(cylinder, 0.1);
+  DeformInput input;
+  input.shell_name = "rest";
+  input.shell = rest;
+  input.surface = cylinder;
+  const int frames = 3;
+  for (int k = 1; k <= frames; ++k) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.2 * k, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+    input.frames.push_back((rest.base * R.transpose()).rowwise() + Eigen::RowVector3d(0.1 * k, 0, 0));
+    input.frame_names.push_back("turn " + std::to_string(k));
+  }
+  DeformRunOptions options;
+  options.frame.tolerance = 1e-10;
+  options.compare_offset = true;
+  int calls = 0;
+  const std::string out = tmp.file("run");
+  const DeformRun run = run_deform(input, options, out, [&](const DeformRun& so_far, int count) {
+    EXPECT_EQ(count, frames);
+    EXPECT_EQ(static_cast<int>(so_far.frames.size()), calls++);
+  });
+  EXPECT_EQ(calls, frames + 1); // after the setup and after every frame
+  ASSERT_EQ(static_cast<int>(run.frames.size()), frames);
+  for (const DeformFrameRecord& f : run.frames) {
+    EXPECT_LT(f.result.stretch.max, 1e-12) << f.frame;
+    ASSERT_TRUE(f.offset.has_value());
+  }
+  const auto report = run.to_json();
+  EXPECT_EQ(report["command"], "deform");
+  EXPECT_EQ(report["warm_start"], "extrapolated");
+  EXPECT_EQ(report["summary"]["frames"], frames);
+  EXPECT_EQ(report["summary"]["inverted_tets"], 0);
+  EXPECT_TRUE(report["summary"].contains("offset"));
+  EXPECT_EQ(report["frames"][1]["base"], "turn 2");
+  EXPECT_EQ(read_report(out), report);
+  EXPECT_EQ(entries(out), (std::vector<std::string>{"frame_0001", "frame_0002", "frame_0003", "report.json"}));
+  EXPECT_TRUE(holds_only_deform_output(out));
+  // A frame folder reads as a shell: the run's thickness, the base's faces and UVs.
+  const ShellFolder last = read_shell_folder(out + "/frame_0003");
+  EXPECT_DOUBLE_EQ(last.shell.thickness, 0.1);
+  EXPECT_EQ(last.shell.F, cylinder.F);
+  EXPECT_TRUE(last.surface.has_uv());
+  EXPECT_LT((last.shell.base - input.frames.back()).cwiseAbs().maxCoeff(), 1e-12);
+
+  options.frame.max_iterations = -1;
+  EXPECT_THROW(run_deform(input, options), InputError);
+  EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"run"});
+}
