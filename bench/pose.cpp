@@ -150,11 +150,6 @@ Config parse_config(const std::string& spec) {
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else if (key == "path") o.path_extrapolation = value != 0;
     else if (key == "blend") o.blend_width = value;
-    else if (key == "scale") o.coarse_scale = value;
-    else if (key == "defer") o.smooth_before_accept = value != 0;
-    else if (key == "lpath") o.level_path = value != 0;
-    else if (key == "seam") o.seam_softening = value;
-    else if (key == "caa") o.composite_anderson = value != 0;
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
   return c;

@@ -2,14 +2,13 @@
 
 #include "hierarchy_levels.h"
 
+#include <gshell/error.h>
+
 #include <Eigen/Cholesky>
 
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 #include <string>
 
 namespace gshell {
@@ -33,7 +32,7 @@ void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
     Eigen::Matrix3d D;
     for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest.T(t, k + 1)) - X.row(rest.T(t, 0))).transpose();
     if (((D * rest.Dm_inv[t]) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6)
-      throw std::invalid_argument("HierarchicalSolver: rest shapes do not match rest_vertices at tet " +
+      throw InputError("HierarchicalSolver: rest (the rest shapes) do not match rest_vertices at tet " +
                                   std::to_string(t));
   }
 }
@@ -134,11 +133,6 @@ struct HierarchicalSolver::Impl {
   std::vector<Eigen::MatrixXd> tau;  // per reduced level: fine residual coupling of this outer iteration
   double factor_seconds = 0;
   HierarchyCounters counters; // since construction
-  double prof[5] = {0, 0, 0, 0, 0};
-  int prof_count = 0;
-  Eigen::MatrixXd saved_X;
-  LocalStep saved_step;
-  int last_pass_kept_at = -1;
 
   int num_vertices() const { return static_cast<int>(rest_vertices_rows); }
   int rest_vertices_rows = 0;
@@ -166,7 +160,6 @@ struct HierarchicalSolver::Impl {
     double objective = options.level_tolerance > 0 ? reduced_objective(l, targets, cache) : 0;
     AndersonHistory anderson(options.level_anderson_history);
     Eigen::MatrixXd before, accelerated;
-    const Eigen::MatrixXd start = level.parameters();
     for (int k = 0; k < options.level_iterations; ++k) {
       Eigen::MatrixXd rhs = level.rhs(targets, cache);
       if (tau[l].size() > 0) rhs += tau[l];
@@ -174,7 +167,7 @@ struct HierarchicalSolver::Impl {
       level.solve(rhs);
       if (anderson.extrapolate(before, level.parameters(), accelerated)) level.parameters().swap(accelerated);
       // Only the last iteration's energy is read (unless the tolerance needs every one).
-      level.local(cache, options.level_tolerance > 0 || k + 1 == options.level_iterations || options.level_path);
+      level.local(cache, options.level_tolerance > 0 || k + 1 == options.level_iterations);
       if (options.level_tolerance > 0) {
         const double next = reduced_objective(l, targets, cache);
         // The objective (energy minus a linear term) can be negative: compare against the energy.
@@ -183,26 +176,17 @@ struct HierarchicalSolver::Impl {
         if (stalled) break;
       }
     }
-    if (options.level_path) {
-      const Eigen::MatrixXd d = level.parameters() - start;
-      double current = reduced_objective(l, targets, cache);
-      Eigen::MatrixXd kept;
-      LocalCache trial;
-      double scale = 1;
-      for (int k = 0; k < kPathDoublings; ++k, scale *= 2) {
-        kept = level.parameters();
-        level.parameters() += scale * d;
-        level.local(trial);
-        const double e = reduced_objective(l, targets, trial);
-        if (std::getenv("GSHELL_TRACE_LP")) std::fprintf(stderr, "lp level %d k %d: %.9g -> %.9g\n", l, k, current, e);
-        if (!(e < current)) {
-          level.parameters() = kept;
-          break;
-        }
-        current = e;
-        std::swap(trial, cache);
-      }
-    }
+  }
+
+  /// The one point where a coarse correction enters the full state: `trial` (hard rows set) is
+  /// kept only if it lowers the full energy, so the energy never rises across an accepted coarse
+  /// correction. Returns whether it was kept (then state holds trial and its local step).
+  bool accept_coarse_correction(FullState& state, Eigen::MatrixXd& trial, const Eigen::MatrixXd& targets) {
+    full->local_step(trial, state.candidate, soft_targets(targets));
+    if (!(state.candidate.energy < state.step.energy)) return false;
+    state.X.swap(trial);
+    std::swap(state.step, state.candidate);
+    return true;
   }
 
   /// One coarse-to-fine pass over the reduced levels, ending in a candidate change of the full
@@ -211,12 +195,10 @@ struct HierarchicalSolver::Impl {
     const int L = static_cast<int>(reduced.size());
     const bool residual = options.residual_correction;
     std::vector<Eigen::MatrixXd> before(L);
-    auto t0 = Clock::now();
     if (residual) {
       // Full approximation scheme: every level starts from the affine fit of the full state and
       // sees the full gradient through tau, so its fixed point is the full one's.
       const Eigen::MatrixXd gradient = full->half_gradient(state.X, state.step, soft_targets(targets));
-      prof[0] += seconds_since(t0); t0 = Clock::now();
       for (int l = 0; l < L; ++l) {
         reduced[l].fit(state.X);
         reduced[l].local(reduced_cache[l]);
@@ -229,7 +211,6 @@ struct HierarchicalSolver::Impl {
         if (!reduced_cache[l].energy_valid) reduced[l].local(reduced_cache[l]);
       }
     }
-    prof[1] += seconds_since(t0); t0 = Clock::now();
     for (int l = 0; l < L; ++l) {
       if (l > 0) {
         // The parent's change since the start of this pass goes to its children first.
@@ -250,12 +231,11 @@ struct HierarchicalSolver::Impl {
       reduced_iterations(l, targets);
     }
 
-    prof[2] += seconds_since(t0); t0 = Clock::now();
     // The finest reduced level's change goes into the full state.
     const ReducedLevel& finest = reduced.back();
     Eigen::MatrixXd trial;
     if (residual) {
-      trial = state.X + options.coarse_scale * finest.positions(finest.parameters() - before.back()); // B is linear in z
+      trial = state.X + finest.positions(finest.parameters() - before.back()); // B is linear in z
     } else {
       const std::vector<RigidChange> change = finest.changes_since(before.back());
       trial.resize(state.X.rows(), 3);
@@ -263,22 +243,7 @@ struct HierarchicalSolver::Impl {
         trial.row(v) = change[finest.cluster_of_vertex(v)].apply(state.X.row(v).transpose()).transpose();
     }
     set_hard_rows(trial, targets);
-    prof[3] += seconds_since(t0); t0 = Clock::now();
-    full->local_step(trial, state.candidate, soft_targets(targets));
-    prof[4] += seconds_since(t0); t0 = Clock::now();
-    if (std::getenv("GSHELL_PROF") && ++prof_count % 20 == 0) std::fprintf(stderr, "prof ms per pass: gradient %.2f fit %.2f levels %.2f positions %.2f local %.2f\n", 1e3*prof[0]/prof_count, 1e3*prof[1]/prof_count, 1e3*prof[2]/prof_count, 1e3*prof[3]/prof_count, 1e3*prof[4]/prof_count);
-    if (options.smooth_before_accept) { // judged after the full iterations
-      state.X.swap(trial);
-      std::swap(state.step, state.candidate);
-      return true;
-    }
-    if (!(state.candidate.energy < state.step.energy)) {
-      ++counters.rejected_propagations;
-      return false;
-    }
-    state.X.swap(trial);
-    std::swap(state.step, state.candidate);
-    return true;
+    return accept_coarse_correction(state, trial, targets);
   }
 
   /// One local/global iteration of the full level (Anderson-accelerated when enabled). Returns
@@ -349,10 +314,12 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   s.constraints = constraints;
   s.options = options;
   s.rest_vertices_rows = static_cast<int>(rest_vertices.rows());
-  if (options.levels < 1) throw std::invalid_argument("HierarchicalSolver: levels must be >= 1");
-  if (rest_vertices.rows() % 2 != 0) throw std::invalid_argument("HierarchicalSolver: rest_vertices must have 2n rows");
+  if (options.levels < 1) throw InputError("HierarchicalSolver: options.levels must be >= 1 (got " + std::to_string(options.levels) + ")");
+  if (rest_vertices.rows() % 2 != 0) throw InputError("HierarchicalSolver: rest_vertices must have 2n rows (base then top), got " +
+                     std::to_string(rest_vertices.rows()));
   if (!constraints.hard && !(constraints.weight > 0))
-    throw std::invalid_argument("HierarchicalSolver: soft constraints need a positive weight");
+    throw InputError("HierarchicalSolver: constraints.weight must be > 0 for soft constraints (got " +
+                     std::to_string(constraints.weight) + ")");
   require_matching_rest(s.rest, rest_vertices);
 
   s.full = make_shell_solver(s.rest, s.num_vertices(), constraints);
@@ -381,7 +348,7 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
                                       options.blend_width)
             : piecewise_cluster_weights(s.tree.cluster_of[d], s.tree.num_clusters(d));
     s.reduced.emplace_back(s.rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
-                           options.cluster_rotations, options.seam_softening);
+                           options.cluster_rotations);
   }
   s.reduced_cache.resize(reduced_levels);
   s.tau.resize(reduced_levels);
@@ -397,9 +364,12 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   Impl& s = *impl_;
   const auto start = Clock::now();
   if (X.rows() != s.num_vertices() || X.cols() != 3)
-    throw std::invalid_argument("HierarchicalSolver::solve: X must be 2n x 3");
+    throw InputError("HierarchicalSolver::solve: X must be " + std::to_string(s.num_vertices()) + " x 3, got " +
+                     std::to_string(X.rows()) + " x " + std::to_string(X.cols()));
   if (targets.rows() != static_cast<Eigen::Index>(s.constraints.vertices.size()) || targets.cols() != 3)
-    throw std::invalid_argument("HierarchicalSolver::solve: one target row per constrained vertex");
+    throw InputError("HierarchicalSolver::solve: targets must be " + std::to_string(s.constraints.vertices.size()) +
+                     " x 3 (one row per constrained vertex), got " + std::to_string(targets.rows()) + " x " +
+                     std::to_string(targets.cols()));
 
   s.set_hard_rows(X, targets);
   FullState state{X, {}, {}, {}, {}, {}};
@@ -410,43 +380,21 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   result.energy.push_back(state.step.energy);
   AndersonHistory anderson(s.options.anderson_history);
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
-  AndersonHistory no_anderson(0);
-  Eigen::MatrixXd composite_start;
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.step.energy;
     const int period = std::max(1, s.options.coarse_period);
-    if (s.options.composite_anderson) composite_start = state.X;
     if (!s.reduced.empty() && it % period == 0 && skip-- <= 0) {
-      const double before = state.step.energy;
       const auto coarse_start = Clock::now();
       ++s.counters.coarse_passes;
-      if (s.options.smooth_before_accept) {
-        s.saved_X = state.X;
-        s.saved_step = state.step;
-      }
-      bool kept = s.coarse_correction(state, targets);
-      if (kept && s.options.smooth_before_accept) {
-        anderson.restart();
-        for (int k = 0; k < s.options.full_iterations; ++k) {
-          ++s.counters.full_iterations;
-          if (!s.full_iteration(state, targets, anderson)) break;
-        }
-        if (!(state.step.energy < before)) {
-          state.X = s.saved_X;
-          state.step = s.saved_step;
-          kept = false;
-          ++s.counters.rejected_propagations;
-        }
-      }
+      const bool kept = s.coarse_correction(state, targets);
       s.counters.coarse_seconds += seconds_since(coarse_start);
       if (kept) {
         ++s.counters.coarse_accepted;
-        s.last_pass_kept_at = s.counters.coarse_passes;
-        s.counters.coarse_decrease += before - state.step.energy;
+        s.counters.coarse_decrease += previous - state.step.energy;
         backoff = 1;
         // The secant pairs recorded so far still describe the full level's fixed-point map; only
         // a pair spanning the coarse jump would not (measured: fewer outer iterations than clearing).
-        if (!s.options.composite_anderson) anderson.restart();
+        anderson.restart();
       } else {
         skip = backoff;
         backoff = std::min(2 * backoff, 16);
@@ -454,35 +402,19 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     }
     const double before_full = state.step.energy;
     const auto full_start = Clock::now();
-    const bool smoothed = s.options.smooth_before_accept && s.counters.coarse_passes > 0 && it % period == 0 &&
-                          s.last_pass_kept_at == s.counters.coarse_passes;
-    for (int k = 0; k < s.options.full_iterations && !smoothed; ++k) {
+    for (int k = 0; k < s.options.full_iterations; ++k) {
       ++s.counters.full_iterations;
-      if (!s.full_iteration(state, targets, s.options.composite_anderson ? no_anderson : anderson)) break;
-    }
-    if (s.options.composite_anderson && anderson.extrapolate(composite_start, state.X, state.accelerated)) {
-      s.set_hard_rows(state.accelerated, targets);
-      s.full->local_step(state.accelerated, state.candidate, s.soft_targets(targets));
-      if (state.candidate.energy < state.step.energy) {
-        state.X.swap(state.accelerated);
-        std::swap(state.step, state.candidate);
-      } else {
-        anderson.clear();
-      }
+      if (!s.full_iteration(state, targets, anderson)) break;
     }
     s.counters.full_seconds += seconds_since(full_start);
     s.counters.full_decrease += before_full - state.step.energy;
     // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
     const double before_path = state.step.energy;
     const auto path_start = Clock::now();
-    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets) && !s.options.composite_anderson)
-      anderson.restart();
+    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets)) anderson.restart();
     s.counters.path_seconds += seconds_since(path_start);
     s.counters.path_decrease += before_path - state.step.energy;
     ++s.counters.outer_iterations;
-    if (std::getenv("GSHELL_TRACE"))
-      std::fprintf(stderr, "trace it %d: start %.9g full_start %.9g path_start %.9g end %.9g\n", it, previous, before_full,
-                   before_path, state.step.energy);
     result.iterations = it;
     result.energy.push_back(state.step.energy);
     result.seconds = seconds_since(start);

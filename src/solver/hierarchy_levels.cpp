@@ -34,12 +34,12 @@ Eigen::RowVector3d corner_rhs(const Eigen::Matrix3d& Q, int k) {
 
 } // namespace
 
-Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices, const Eigen::VectorXd& scale) {
+Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices) {
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(16 * static_cast<size_t>(rest.size()));
   for (int t = 0; t < rest.size(); ++t) {
     const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest.Dm_inv[t]);
-    const Eigen::Matrix4d K = (scale.size() ? scale(t) : 1.0) * rest.volume(t) * G * G.transpose();
+    const Eigen::Matrix4d K = rest.volume(t) * G * G.transpose();
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) entries.emplace_back(rest.T(t, a), rest.T(t, b), K(a, b));
   }
@@ -52,7 +52,7 @@ Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_verti
 
 ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const ClusterWeights& weights,
                            const std::vector<int>& home, const Eigen::SparseMatrix<double>& L,
-                           const std::vector<int>& constrained, double weight, bool cluster_rotations, double seam_softening)
+                           const std::vector<int>& constrained, double weight, bool cluster_rotations)
     : rest_(rest), N_(static_cast<int>(rest_vertices.rows())), n_(N_ / 2), m_(weights.num_clusters),
       weights_(weights), constrained_(constrained), weight_(weight), cluster_rotations_(cluster_rotations) {
   if (weights_.num_vertices() != n_ || static_cast<int>(home.size()) != n_)
@@ -61,14 +61,7 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
   for (int v = 0; v < N_; ++v) home_[v] = home[base_of(v)];
 
   // Centroids weighted like the maps act (any point would do: [u - c, 1] spans the same space).
-  centroid_ = Eigen::MatrixXd::Zero(m_, 3);
-  Eigen::VectorXd mass = Eigen::VectorXd::Zero(m_);
-  for (int v = 0; v < N_; ++v)
-    for (int e = weights_.start[base_of(v)]; e < weights_.start[base_of(v) + 1]; ++e) {
-      centroid_.row(weights_.cluster[e]) += weights_.weight[e] * rest_vertices.row(v);
-      mass(weights_.cluster[e]) += weights_.weight[e];
-    }
-  for (int j = 0; j < m_; ++j) centroid_.row(j) /= std::max(1e-300, mass(j));
+  centroid_ = cluster_centroids(weights_, rest_vertices);
   const int entries = static_cast<int>(weights_.cluster.size());
   coords_.resize(2 * entries, 3);
   for (int i = 0; i < n_; ++i)
@@ -91,16 +84,8 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
     else border_.push_back(t);
   }
 
-  // B: x_v^T = sum_e w_e [u_v - c_j, 1] Z_j, so the reduced matrix is B^T (L + springs) B.
-  std::vector<Eigen::Triplet<double>> bt;
-  bt.reserve(4 * 2 * static_cast<size_t>(entries));
-  for (int v = 0; v < N_; ++v)
-    for (int e = weights_.start[base_of(v)]; e < weights_.start[base_of(v) + 1]; ++e) {
-      const Eigen::Vector4d u = lifted(e, v);
-      for (int k = 0; k < 4; ++k) bt.emplace_back(v, 4 * weights_.cluster[e] + k, weights_.weight[e] * u(k));
-    }
-  Eigen::SparseMatrix<double> B(N_, 4 * m_);
-  B.setFromTriplets(bt.begin(), bt.end());
+  // x = B z, so the reduced matrix is B^T (L + springs) B.
+  const Eigen::SparseMatrix<double> B = prolongation_matrix(weights_, rest_vertices, centroid_);
   B_ = B;
   Bt_ = B.transpose();
   Eigen::SparseMatrix<double> springs_diag(N_, N_);
@@ -108,32 +93,11 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
   for (int v : constrained_) sd.emplace_back(v, v, weight_);
   springs_diag.setFromTriplets(sd.begin(), sd.end());
   const Eigen::SparseMatrix<double> Bt = B.transpose();
-  // EXPERIMENT: seam softening
-  Eigen::SparseMatrix<double> Ls;
-  tet_scale_ = Eigen::VectorXd::Ones(rest.size());
-  if (seam_softening > 0) {
-    double edge = 0;
-    for (int t = 0; t < rest.size(); ++t) edge += (rest_vertices.row(rest.T(t, 1)) - rest_vertices.row(rest.T(t, 0))).norm();
-    edge /= std::max(1, rest.size());
-    Eigen::VectorXd r2 = Eigen::VectorXd::Zero(m_), cnt = Eigen::VectorXd::Zero(m_);
-    Eigen::MatrixXd cen = Eigen::MatrixXd::Zero(m_, 3);
-    for (int i = 0; i < n_; ++i) { cen.row(home[i]) += rest_vertices.row(i); cnt(home[i]) += 1; }
-    for (int j = 0; j < m_; ++j) cen.row(j) /= std::max(1.0, cnt(j));
-    for (int i = 0; i < n_; ++i) r2(home[i]) += (rest_vertices.row(i) - cen.row(home[i])).squaredNorm();
-    for (int t = 0; t < rest.size(); ++t) {
-      const int j = home_[rest.T(t, 0)];
-      bool seam = false;
-      for (int k = 1; k < 4; ++k) seam = seam || home_[rest.T(t, k)] != j;
-      if (seam) tet_scale_(t) = std::min(1.0, seam_softening * edge / (2 * std::sqrt(r2(j) / std::max(1.0, cnt(j)))));
-    }
-    Ls = stiffness_matrix(rest, N_, tet_scale_);
-  }
-  const Eigen::SparseMatrix<double>& Luse = seam_softening > 0 ? Ls : L;
-  A_ = Bt * ((Luse + springs_diag) * B);
+  A_ = Bt * ((L + springs_diag) * B);
   solver_.factor(A_);
   fit_solver_.factor(Bt * B);
   if (cluster_rotations_) {
-    A_elastic_ = Bt * (Luse * B);
+    A_elastic_ = Bt * (L * B);
     build_pairs();
   }
 
@@ -171,7 +135,7 @@ void ReducedLevel::build_pairs() {
   for (int t = 0; t < rest_.size(); ++t) {
     const int j = home_[rest_.T(t, 0)];
     const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest_.Dm_inv[t]);
-    const double vol = rest_.volume(t) * tet_scale_(t);
+    const double vol = rest_.volume(t);
     total_volume_ += vol;
     for (int k = 0; k < 4; ++k) {
       const int v = rest_.T(t, k);

@@ -25,8 +25,7 @@ struct LocalCache {
 };
 
 /// Stiffness matrix L = sum_t vol_t G_t^T G_t over `num_vertices` (one coordinate; same for x, y, z).
-Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices,
-                                             const Eigen::VectorXd& scale = Eigen::VectorXd());
+Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices);
 
 /// Rigid change of one cluster between two affine maps: y -> dR (y - from) + to, where dR is the
 /// rotation change and from/to the cluster centroid's positions before and after.
@@ -49,7 +48,7 @@ public:
   /// own rotation (the exact subspace energy).
   ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const ClusterWeights& weights,
                const std::vector<int>& home, const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained,
-               double weight, bool cluster_rotations, double seam_softening = 0);
+               double weight, bool cluster_rotations);
 
   int num_clusters() const { return m_; }
   void reset();                                   ///< identity maps (the rest shape)
@@ -103,7 +102,6 @@ private:
   SpdSolver solver_;
   SpdSolver fit_solver_;                     // B^T B
   Eigen::MatrixXd Z_, Z_rest_;
-  Eigen::VectorXd tet_scale_;
 
   // Cluster rotations: sum over the tets owned by cluster j of vol F_t = sum_i Z_i^T W_ji, with
   // W_ji = sum over those tets' corners k and the weights w_ki of cluster i there of

@@ -85,11 +85,6 @@ struct HierarchyOptions {
   /// map, the paper's subspace); w > 0 = blended across a band of w times a cluster's RMS radius
   /// around it (blended_cluster_weights), so the reduced levels can bend smoothly.
   double blend_width = 0;
-  double coarse_scale = 1; // EXPERIMENT
-  bool smooth_before_accept = false; // EXPERIMENT
-  bool level_path = false; // EXPERIMENT
-  double seam_softening = 0; // EXPERIMENT
-  bool composite_anderson = false; // EXPERIMENT
   /// Anderson acceleration of every reduced level's iterations within one coarse pass (history
   /// length; 0 = off). Not safeguarded per iteration: the full level keeps a pass's result only
   /// if it lowers the full energy.
@@ -111,8 +106,9 @@ struct HierarchyCounters {
   int outer_iterations = 0;
   int full_iterations = 0;       ///< local/global iterations done on the full level
   int coarse_passes = 0;         ///< coarse-to-fine passes run
-  int coarse_accepted = 0;       ///< of which the full state kept the result
-  int rejected_propagations = 0; ///< changes not kept because they would have raised an objective
+  int coarse_accepted = 0;       ///< of which the full state kept the result (the rest were rejected)
+  /// Parent-to-child handovers within passes not kept because they would have raised the child's objective.
+  int rejected_propagations = 0;
   /// Where the energy went down: accepted coarse corrections, full-level iterations, path search
   /// (together energy.front() - energy.back() of a solve).
   double coarse_decrease = 0, full_decrease = 0, path_decrease = 0;
