@@ -380,6 +380,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   result.energy.push_back(state.step.energy);
   AndersonHistory anderson(s.options.anderson_history);
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
+  double full_gain = 0;      // what the full iterations of the previous outer iteration lowered the energy by
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.step.energy;
     const int period = std::max(1, s.options.coarse_period);
@@ -388,13 +389,18 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
       ++s.counters.coarse_passes;
       const bool kept = s.coarse_correction(state, targets);
       s.counters.coarse_seconds += seconds_since(coarse_start);
+      // A pass that lowers the energy less than one outer iteration's full iterations did costs
+      // more than it gives (it also restarts Anderson): the levels pause as after a rejection.
+      const bool paid = kept && previous - state.step.energy >= full_gain;
       if (kept) {
         ++s.counters.coarse_accepted;
         s.counters.coarse_decrease += previous - state.step.energy;
-        backoff = 1;
         // The secant pairs recorded so far still describe the full level's fixed-point map; only
         // a pair spanning the coarse jump would not (measured: fewer outer iterations than clearing).
         anderson.restart();
+      }
+      if (paid) {
+        backoff = 1;
       } else {
         skip = backoff;
         backoff = std::min(2 * backoff, 16);
@@ -408,6 +414,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     }
     s.counters.full_seconds += seconds_since(full_start);
     s.counters.full_decrease += before_full - state.step.energy;
+    full_gain = before_full - state.step.energy;
     // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
     const double before_path = state.step.energy;
     const auto path_start = Clock::now();
