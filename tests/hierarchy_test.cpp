@@ -74,6 +74,28 @@ HierarchicalSolver after_coarse_passes(const Problem& p, HierarchyOptions o, int
   return solver;
 }
 
+/// `iterations` outer iterations from rest, without an early stop; X gets the result.
+HierarchicalSolveResult run_from_rest(HierarchicalSolver& solver, const Problem& p, Eigen::MatrixXd& X, int iterations) {
+  X = p.X;
+  SolveOptions so;
+  so.max_iterations = iterations;
+  so.tolerance = 0;
+  return solver.solve(X, p.targets, so);
+}
+
+/// Energy of the minimum a pose solver converges to from rest (relative change < 1e-12).
+double converged_energy(const Shell& shell, const HandleSet& handles, PoseSolverKind kind,
+                        const HierarchyOptions& options = {}) {
+  PoseSolver solver(shell, handles, kind, options);
+  Eigen::MatrixXd X = solver.rest_vertices();
+  SolveOptions so;
+  so.max_iterations = 20000;
+  so.tolerance = 1e-12;
+  const SolveResult r = solver.solve(X, 1.0, so);
+  EXPECT_TRUE(r.converged);
+  return solver.energy(X, 1.0);
+}
+
 void expect_partition(const ClusterTree& tree, int n) {
   for (int d = 0; d < tree.num_depths(); ++d) {
     ASSERT_EQ(static_cast<int>(tree.cluster_of[d].size()), n);
@@ -204,11 +226,8 @@ TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
     o.coarse_period = variant == 2 ? HierarchyOptions{}.coarse_period : 1; // else a coarse pass every time
     o.cluster_rotations = variant != 3;
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
-    Eigen::MatrixXd X = p.X;
-    SolveOptions so;
-    so.max_iterations = 60;
-    so.tolerance = 0;
-    const auto r = solver.solve(X, p.targets, so);
+    Eigen::MatrixXd X;
+    const auto r = run_from_rest(solver, p, X, 60);
     ASSERT_GE(r.energy.size(), 2u);
     for (size_t k = 1; k < r.energy.size(); ++k)
       EXPECT_LE(r.energy[k], r.energy[k - 1]) << "variant " << variant << ", outer iteration " << k;
@@ -270,11 +289,8 @@ TEST(HierarchicalSolver, EnergyNeverRisesAcrossAcceptedCoarseCorrections) {
     o.full_iterations = 0;
     o.path_extrapolation = false;
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
-    Eigen::MatrixXd X = p.X;
-    SolveOptions so;
-    so.max_iterations = 30;
-    so.tolerance = 0;
-    const auto r = solver.solve(X, p.targets, so);
+    Eigen::MatrixXd X;
+    const auto r = run_from_rest(solver, p, X, 30);
     EXPECT_GT(r.counters.coarse_accepted, 3) << "width " << width;
     int lowered = 0;
     for (size_t k = 1; k < r.energy.size(); ++k) {
@@ -289,23 +305,14 @@ TEST(HierarchicalSolver, EnergyNeverRisesAcrossAcceptedCoarseCorrections) {
 TEST(HierarchicalSolver, BlendedAndPiecewiseLevelsReachTheSingleLevelMinimum) {
   const Shell shell = offset_shell(make_bowl(8), 0.08);
   const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
-  SolveOptions so;
-  so.max_iterations = 20000;
-  so.tolerance = 1e-12;
-  double energies[3];
-  for (int variant = 0; variant < 3; ++variant) {
+  const double single = converged_energy(shell, handles, PoseSolverKind::Single);
+  EXPECT_GT(single, 0);
+  for (double width : {0.0, 1.0}) {
     HierarchyOptions o;
-    o.levels = variant == 0 ? 1 : 5;
-    o.blend_width = variant == 2 ? 1.0 : 0.0;
-    PoseSolver solver(shell, handles, PoseSolverKind::Hierarchical, o);
-    Eigen::MatrixXd X = solver.rest_vertices();
-    const SolveResult r = solver.solve(X, 1.0, so);
-    EXPECT_TRUE(r.converged) << "variant " << variant;
-    energies[variant] = solver.energy(X, 1.0);
+    o.blend_width = width;
+    EXPECT_NEAR(converged_energy(shell, handles, PoseSolverKind::Hierarchical, o), single, 1e-4 * single)
+        << "blend width " << width;
   }
-  EXPECT_GT(energies[0], 0);
-  EXPECT_NEAR(energies[1], energies[0], 1e-4 * energies[0]) << "piecewise";
-  EXPECT_NEAR(energies[2], energies[0], 1e-4 * energies[0]) << "blended";
 }
 
 TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {
@@ -374,18 +381,8 @@ TEST(HierarchicalSolver, StateCarriesOverBetweenSolves) {
 TEST(PoseSolvers, BothReachTheSameMinimumOnASmallCase) {
   const Shell shell = offset_shell(make_bowl(8), 0.08);
   const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
-  SolveOptions so;
-  so.max_iterations = 20000;
-  so.tolerance = 1e-12;
-  double energies[2];
-  int k = 0;
-  for (PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical}) {
-    PoseSolver solver(shell, handles, kind);
-    Eigen::MatrixXd X = solver.rest_vertices();
-    const SolveResult r = solver.solve(X, 1.0, so);
-    EXPECT_TRUE(r.converged);
-    energies[k++] = solver.energy(X, 1.0);
-  }
+  const double energies[2] = {converged_energy(shell, handles, PoseSolverKind::Single),
+                              converged_energy(shell, handles, PoseSolverKind::Hierarchical)};
   EXPECT_GT(energies[0], 0);
   EXPECT_NEAR(energies[1], energies[0], 1e-3 * energies[0]);
 }
