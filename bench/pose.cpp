@@ -8,6 +8,15 @@
 //
 // --config runs an extra hierarchical configuration given as key=value pairs (see parse_config).
 //
+//   bench_pose --table [--runs R] [--cap N] [--cache-dir DIR] [--case LABEL]... [--config SPEC]...
+//                      [--only-extra] [--model PATH]... [--bunny PATH] [--examples DIR]
+//
+// --table: one table of time to 1.001 E* from rest for single, single+Anderson, single+Anderson+
+// path search and hierarchical (and any --config) on the bowl at thickness ratios 0.02 and 0.05
+// under the pulls examples/bowl_{pull,twist,half_pull,squeeze_soft}.json, and on bunny00 (and any
+// --model) with the generic pull; prints shell sizes, iterations / median seconds, speed-ups and
+// the coarse passes kept of those run (ms per pass / per full iteration / per path search).
+//
 // The reference is the single-level fixed point computed with Anderson acceleration (the same
 // minimum as plain local/global, reached much sooner), to relative change < 1e-10 or N
 // iterations; --reference-cache keeps it in a file between runs. --drag-every N times only every

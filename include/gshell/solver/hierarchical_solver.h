@@ -31,7 +31,11 @@
 // Every coarse_period-th outer iteration ends with a line search along the path of the iterates
 // (path_extrapolation). Every change handed down is kept only if it does not raise that level's
 // objective, and the full state's only if it lowers the full energy, so the energy never
-// increases across outer iterations. After a rejected pass the reduced levels pause for 1, 2, 4, ... outer iterations.
+// increases across outer iterations. After a rejected pass, or one that lowered the energy less than
+// the previous outer iteration's full iterations did (it costs several of them and restarts
+// Anderson), the reduced levels pause for 1, 2, 4, ... outer iterations.
+// The clusters' maps meet piecewise by default (the paper's subspace); blend_width > 0 blends them
+// with a smooth partition of unity (cluster_weights.h).
 #include <gshell/solver/cluster_tree.h>
 #include <gshell/solver/cluster_weights.h>
 #include <gshell/solver/rest_tets.h>
@@ -83,7 +87,10 @@ struct HierarchyOptions {
   bool cluster_rotations = true;
   /// How the clusters' affine maps meet: 0 = piecewise (each vertex moves with its own cluster's
   /// map, the paper's subspace); w > 0 = blended across a band of w times a cluster's RMS radius
-  /// around it (blended_cluster_weights), so the reduced levels can bend smoothly.
+  /// around it (blended_cluster_weights), so the reduced levels can bend smoothly. Not the default:
+  /// with the residual coupling piecewise passes are already accepted, and blended ones cost 2-3x
+  /// as much (denser reduced matrices) for at most a third fewer outer iterations (bench_pose
+  /// --table, docs/design.md); with the paper coupling blending does lower the rejections.
   double blend_width = 0;
   /// Anderson acceleration of every reduced level's iterations within one coarse pass (history
   /// length; 0 = off). Not safeguarded per iteration: the full level keeps a pass's result only
