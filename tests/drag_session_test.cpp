@@ -343,3 +343,52 @@ TEST(DragSession, EventsStartFromTheDragsMotionContinued) {
   }
   EXPECT_LT(energy[1], 0.8 * energy[0]) << "plain " << energy[0] << ", extrapolated " << energy[1];
 }
+
+TEST(DragSession, AnInterruptedSettleKeepsAStateAndTheNextOneFinishesTheJob) {
+  // The viewer's rest: settle until the next event comes. Interrupted after a few iterations,
+  // nothing is recorded, the state is no worse than before, and a later settle reaches the
+  // same minimum as one uninterrupted settle.
+  const Plate plate;
+  for (PoseSolverKind kind : {PoseSolverKind::Hierarchical, PoseSolverKind::Single}) {
+    PoseOptions o = tight(kind);
+    o.solve.tolerance = 1e-10;
+    DragSession whole(plate.shell, o), parts(plate.shell, o);
+    for (DragSession* s : {&whole, &parts}) {
+      s->set_handles(plate.handles);
+      s->drag(1.0, SolveOptions{1, 1e-10, {}});
+    }
+    ASSERT_EQ(whole.vertices(), parts.vertices());
+    const PoseStepReport full = whole.settle();
+    ASSERT_TRUE(full.converged);
+
+    const std::size_t steps = parts.result_step_count();
+    const double before = whole.result(0).steps.front().energy;
+    int asked = 0;
+    const std::optional<PoseStepReport> cut = parts.settle(std::nullopt, [&asked] { return ++asked == 3; });
+    EXPECT_FALSE(cut.has_value());
+    EXPECT_EQ(asked, 3); // asked after every iteration, stopped at the first yes
+    EXPECT_EQ(parts.result_step_count(), steps);
+    PoseSolver check(plate.shell, parts.handles(), kind, o.hierarchy);
+    EXPECT_LE(check.energy(parts.vertices(), 1.0), before * (1 + 1e-12)) << pose_solver_name(kind);
+
+    const std::optional<PoseStepReport> rest = parts.settle(std::nullopt, [] { return false; });
+    ASSERT_TRUE(rest.has_value());
+    EXPECT_TRUE(rest->converged);
+    EXPECT_LT(max_distance(parts.vertices(), whole.vertices()), 1e-5) << pose_solver_name(kind);
+  }
+}
+
+TEST(DragSession, PrepareBuildsTheSolverAheadOfTheFirstEvent) {
+  const Plate plate;
+  DragSession session(plate.shell, tight(PoseSolverKind::Hierarchical));
+  session.set_handles(plate.handles);
+  EXPECT_EQ(session.solver_builds(), 0);
+  session.prepare();
+  EXPECT_EQ(session.solver_builds(), 1);
+  session.prepare(); // nothing changed: nothing to build
+  session.drag(0.5);
+  EXPECT_EQ(session.solver_builds(), 1);
+  // The rest tets are the solver's: one per prism tet, positive rest volumes.
+  EXPECT_EQ(session.rest_tets().size(), 3 * plate.shell.F.rows());
+  EXPECT_GT(session.rest_tets().volume.minCoeff(), 0);
+}

@@ -61,12 +61,17 @@ def in_polygons(message, polygon):
     return re.sub(r"\bfaces \(([\d, ]+)\)", triangles, message)
 
 
+def inverted_tets(report):
+    """The shell's inverted tets: the exact certificate's count (older reports: the top-level key)."""
+    return report.get("certificate", {}).get("inverted_tets", report.get("inverted_tets", 0))
+
+
 def validity(report):
     """One phrase about the shell's validity from its report."""
     if isinstance(report.get("valid"), bool):
         return "valid" if report["valid"] else "NOT valid"
-    inverted = report.get("inverted_tets", 0)
-    crossings = [report.get(k) for k in ("top_self_intersections", "top_base_intersections")]
+    inverted = inverted_tets(report)
+    crossings = [report.get("certificate", report).get(k) for k in ("top_self_intersections", "top_base_intersections")]
     if inverted or any(crossings):
         return "NOT valid"
     if any(c is None for c in crossings):
@@ -76,7 +81,7 @@ def validity(report):
 
 def summary(report):
     s = report["stretch"]
-    return (f"stretch mean {s['mean']:.3g}, max {s['max']:.3g}; {report['inverted_tets']} inverted tets; "
+    return (f"stretch mean {s['mean']:.3g}, max {s['max']:.3g}; {inverted_tets(report)} inverted tets; "
             f"{validity(report)}")
 
 

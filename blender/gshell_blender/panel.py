@@ -46,7 +46,7 @@ class VIEW3D_PT_gshell(bpy.types.Panel):
             report = json.loads(top.get(shell_store.REPORT_KEY, "{}") or "{}")
             if report:
                 box.label(text=f"'{top.name}': {op_generate.validity(report)}")
-                box.label(text=f"stretch max {report['stretch']['max']:.3g}, {report['inverted_tets']} inverted")
+                box.label(text=f"stretch max {report['stretch']['max']:.3g}, {op_generate.inverted_tets(report)} inverted")
             box = layout.box()
             box.label(text="Detail and bake", icon="RENDER_ANIMATION")
             row = box.row(align=True)

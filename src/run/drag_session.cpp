@@ -228,18 +228,38 @@ PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptio
 }
 
 PoseStepReport DragSession::settle(const std::optional<SolveOptions>& options) {
+  return *settle(options, {});
+}
+
+namespace {
+struct Interrupted {}; // thrown from the solver's progress callback to end a settle early
+} // namespace
+
+std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptions>& options,
+                                                  const std::function<bool()>& interrupt) {
   Impl& s = *impl_;
   s.ensure_solver();
   State& st = s.state;
   const Eigen::MatrixXd P = st.handles.targets(s.rest_vertices, st.fraction);
-  const SolveOptions limits = options.value_or(s.options.solve);
+  SolveOptions limits = options.value_or(s.options.solve);
   s.last_limits = limits;
-  const SolveResult r = s.solver->solve(st.X, P, limits);
+  if (interrupt)
+    limits.progress = [&interrupt, progress = std::move(limits.progress)](int it, double energy, double seconds) {
+      if (progress) progress(it, energy, seconds);
+      if (interrupt()) throw Interrupted{};
+    };
+  // The state moves towards P either way (an interrupted solve keeps its iterate).
   if (st.motion_version != st.version_of_last) { // new motions since the last event: this solve is one
     s.before.valid = false;
     st.version_of_last = st.motion_version;
   }
   st.targets = P;
+  SolveResult r;
+  try {
+    r = s.solver->solve(st.X, P, limits);
+  } catch (const Interrupted&) {
+    return std::nullopt;
+  }
   return s.record(st.fraction, r, r.seconds);
 }
 
@@ -285,6 +305,10 @@ void DragSession::reset() {
 }
 
 int DragSession::solver_builds() const { return impl_->builds; }
+
+const RestTets& DragSession::rest_tets() const { return impl_->tets(); }
+
+void DragSession::prepare() { impl_->ensure_solver(); }
 
 std::size_t DragSession::result_step_count() const { return impl_->state.steps.size(); }
 

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -72,6 +73,17 @@ public:
   /// Runs on from the current state for the same targets (the mouse rests), with the session's
   /// options by default. Records a step. \throws InputError as drag().
   PoseStepReport settle(const std::optional<SolveOptions>& options = std::nullopt);
+  /// The same, asking `interrupt` after every iteration (a viewer: "has the next event come?").
+  /// When it answers true the solve ends there and nothing is returned or recorded; the shell
+  /// keeps the iterate the solver reached if it updates the state in place (the hierarchical
+  /// solver does), else its start. Either way the next drag() or settle() goes on from a state
+  /// that is no worse than the start. \throws InputError as drag().
+  std::optional<PoseStepReport> settle(const std::optional<SolveOptions>& options,
+                                       const std::function<bool()>& interrupt);
+  /// Builds the solver for the current handle sets now, if they changed since the last build (a
+  /// viewer calls it while the user is idle, so the first drag does not pay for it).
+  /// \throws InputError as drag().
+  void prepare();
 
   // ---- state -----------------------------------------------------------------------------
   const Shell& rest() const;
@@ -93,6 +105,8 @@ public:
 
   /// Times the solver was built (rest tets, tree, factorisations): tells a cheap event from a rebuild.
   int solver_builds() const;
+  /// The rest shapes of the shell's prism tets (build_prism_tets order), for per-tet measures.
+  const RestTets& rest_tets() const;
   /// The posed shell with its steps since the last reset (from `first_step` on) and its stretch.
   PoseResult result(std::size_t first_step = 0) const;
   /// Steps recorded since the last reset (result()'s full count).

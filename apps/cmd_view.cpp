@@ -1,0 +1,172 @@
+// `gshell view INPUT...`: an interactive viewer in the browser, served by gshell itself: look around
+// a shell, play a deform sequence, or pick handles and drag them while the pose solver follows
+// (the library's ViewSession and ViewServer, view/; protocol in docs/viewer.md).
+#include "command_registry.h"
+#include "parameter_flags.h"
+#include "progress.h"
+#include "thickness_flags.h"
+
+#include <gshell/error.h>
+#include <gshell/run/pose_run.h>
+#include <gshell/view/view_input.h>
+#include <gshell/view/view_server.h>
+#include <gshell/view/view_session.h>
+
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <thread>
+#include <unistd.h>
+
+namespace {
+
+struct ViewArgs {
+  std::vector<std::string> inputs;
+  std::string handles, solver = gshell::pose_solver_name(gshell::PoseOptions{}.solver);
+  gshell::ViewInputOptions input;
+  gshell::ViewSessionOptions session;
+  gshell::ViewServerOptions server;
+};
+
+// Ctrl-C and SIGTERM: the handler only writes the signal's number into a pipe (async-signal-safe,
+// whichever thread it interrupts: libraries start threads of their own); a waiting thread reads it
+// and stops the server (or, while the input is still loading, ends the process: nothing has been
+// written yet).
+int g_signal_pipe[2] = {-1, -1};
+std::mutex g_server_mutex;
+gshell::ViewServer* g_server = nullptr;
+
+extern "C" void on_signal(int signal) {
+  const unsigned char byte = static_cast<unsigned char>(signal);
+  [[maybe_unused]] const ssize_t written = ::write(g_signal_pipe[1], &byte, 1);
+}
+
+void handle_signals() {
+  unsigned char signal = 0;
+  while (::read(g_signal_pipe[0], &signal, 1) != 1) {
+  }
+  std::lock_guard lock(g_server_mutex);
+  if (g_server) {
+    g_server->stop();
+  } else {
+    std::cerr << "gshell view: interrupted\n";
+    std::_Exit(128 + signal);
+  }
+}
+
+void catch_signals() {
+  if (::pipe(g_signal_pipe) != 0) throw std::runtime_error("view: cannot create a pipe for signals");
+  struct sigaction action {};
+  action.sa_handler = on_signal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  std::thread(handle_signals).detach();
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw gshell::InputError(gshell::with_file(path, "cannot open handle file"));
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void run(const CLI::App& cmd, ViewArgs& a) {
+  using namespace gshell;
+  cli::check_flags(cmd, [&] {
+    a.session.pose.solver = parse_pose_solver(a.solver);
+    a.session.check();
+    a.server.check();
+    if (a.input.generate.thickness.thickness || a.input.generate.thickness.thickness_ratio)
+      a.input.generate.thickness.check();
+  });
+
+  catch_signals();
+
+  cli::Progress progress("view", 0.2);
+  if (progress.enabled()) {
+    a.input.generate.generate.solve.progress = [&progress](int it, double energy, double seconds) {
+      char text[128];
+      std::snprintf(text, sizeof text, "generating the shell: iteration %d  energy %.6g  %.3f s", it, energy, seconds);
+      progress.update(text);
+    };
+    a.input.frame_progress = [&progress](int done, int total) {
+      progress.update("read frame " + std::to_string(done) + "/" + std::to_string(total));
+    };
+  }
+  ViewInput input = load_view_input(a.inputs, a.input);
+  progress.finish_status();
+  const int n = input.shell.num_base_vertices();
+  const std::string what = std::to_string(2 * n) + " shell vertices, " + std::to_string(3 * input.shell.F.rows()) +
+                           " tets" +
+                           (input.posable() ? "" : ", " + std::to_string(input.frames.size()) + " frames");
+  ViewSession session(std::move(input), a.session);
+  if (!a.handles.empty()) session.load_handles(read_file(a.handles), a.handles, [](ViewOutgoing) {});
+
+  a.server.log = [&progress](const std::string& line) { progress.line(line); };
+  ViewServer server(std::move(session), a.server);
+  std::cout << server.url() << std::endl; // the first line on stdout, for scripts
+  progress.line("serving " + a.inputs.front() + (a.inputs.size() > 1 ? " ..." : "") + " (" + what + ") at " +
+                server.url() + "; Ctrl-C stops");
+  {
+    std::lock_guard lock(g_server_mutex);
+    g_server = &server;
+  }
+  server.run();
+  {
+    std::lock_guard lock(g_server_mutex);
+    g_server = nullptr;
+  }
+  // A solver build or a validity check cannot be interrupted; do not keep the user waiting for it.
+  if (!server.wait_finished(std::chrono::milliseconds(500))) {
+    progress.line("stopped");
+    std::cout.flush();
+    std::_Exit(0);
+  }
+  progress.line("stopped");
+}
+
+void add_view_command(CLI::App& app) {
+  auto a = std::make_shared<ViewArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "view", "Interactive viewer in the browser: look around a shell (colored by stretch or thickness, cut away), "
+              "play a deform sequence, or select handles and drag them while the shell follows (pose solver). "
+              "Prints the page's URL as the first line on stdout; Ctrl-C stops.");
+  cmd->add_option("inputs", a->inputs,
+                  "A shell folder (generate, pose), a deform output folder, several shell folders (played as frames), "
+                  "or a surface file / builtin:NAME[:RES] (a shell is generated first)")
+      ->required();
+  cmd->add_option("--port", a->server.port, "Port to serve on (0: any free port)")->capture_default_str();
+  cmd->add_option("--host", a->server.host,
+                  "Address to bind; the page accepts only requests naming this address or localhost")
+      ->capture_default_str();
+  cmd->add_option("--handles", a->handles, "Handle file (docs/handles.md) to start with; its motions are solved");
+  cmd->add_option("--output-dir", a->session.output_dir,
+                  "Folder where the page's \"save shell\" writes (only new folders, named on the page)")
+      ->capture_default_str();
+  gshell::cli::add_thickness_flags(*cmd, a->input.generate.thickness);
+  cmd->add_option("--solver", a->solver, "Pose solver: hierarchical or single")
+      ->check(CLI::IsMember({"hierarchical", "single"}))
+      ->capture_default_str();
+  cmd->add_option("--levels", a->session.pose.hierarchy.levels, "Levels of the hierarchical solver including the full one")
+      ->capture_default_str();
+  cmd->add_option("--tolerance", a->session.pose.solve.tolerance,
+                  "Settle until the relative energy change per iteration is below this")
+      ->capture_default_str();
+  cmd->add_option("--iterations", a->session.pose.solve.max_iterations, "Maximum iterations of a settle")
+      ->capture_default_str();
+  cmd->add_option("--event-iterations", a->session.event_iterations,
+                  "Solver iterations per drag event before the page gets the shell (the settle finishes the job)")
+      ->capture_default_str();
+  cmd->callback([a, cmd] { run(*cmd, *a); });
+}
+
+const gshell::cli::CommandRegistrar reg{85, add_view_command};
+
+} // namespace

@@ -1,0 +1,58 @@
+#pragma once
+// What `gshell view` shows, loaded: one posable shell, or a sequence of shells played as frames.
+//
+//   a shell folder (generate or pose)         -> one shell, posable
+//   a surface file or builtin: spec           -> a shell generated first (the generate job), posable
+//   a deform folder (frame_NNNN/ folders)     -> its frames, a sequence
+//   several shell folders (e.g. frame folders)-> a sequence, in the order given
+//
+// Colors: every shell carries the stretch `gshell render` shows for it (the folder's shell.vtu
+// `stretch`, or for a generated shell its stretch against the normal prisms), so the viewer and
+// the renders agree.
+#include <gshell/mesh.h>
+#include <gshell/run/generate_run.h>
+#include <gshell/shell/shell.h>
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace gshell {
+
+/// A shell thickness for surface inputs when neither thickness nor ratio is given: 2% of the
+/// bounding sphere's radius (the README's bowl; a visible layer that poses without collapsing).
+constexpr double kViewDefaultThicknessRatio = 0.02;
+
+struct ViewInputOptions {
+  /// For a surface input: the generate job's options (its defaults are GenerateOptions{}'s); an
+  /// unset thickness becomes the ratio kViewDefaultThicknessRatio.
+  GenerateRunOptions generate;
+  /// Called after each frame of a sequence is read (frames read, frames in all).
+  std::function<void(int, int)> frame_progress;
+};
+
+struct ViewFrame {
+  std::string name;             ///< the folder as given / frame_NNNN
+  Eigen::MatrixXd X;            ///< 2n x 3 shell vertices (base rows, then top rows)
+  Eigen::VectorXd face_stretch; ///< per face, as gshell render colors it (m)
+};
+
+struct ViewInput {
+  std::string name;         ///< the input as given (the first one for a list)
+  std::string made_by;      ///< report.json `method` or `command` ("rigid", "pose", "deform", ...); may be empty
+  Shell shell;              ///< the (first) shell: base, top, faces, thickness eta > 0
+  TriMesh surface;          ///< its base's faces and UVs (for a saved pose folder)
+  std::vector<ViewFrame> frames; ///< one for a posable shell; 2 or more for a sequence
+
+  bool posable() const { return frames.size() == 1; }
+};
+
+/// Loads what `gshell view INPUT...` shows (see the table above). A surface is generated with
+/// `options.generate` (progress through its solve.progress callback).
+/// \throws InputError naming the input when it cannot be read, when frames of a sequence differ in
+///         vertex count or faces, or when a thickness is missing or bad.
+ViewInput load_view_input(const std::vector<std::string>& inputs, const ViewInputOptions& options = {});
+
+} // namespace gshell

@@ -1,0 +1,112 @@
+// End to end in a real browser (Debian's chromium, driven by npm puppeteer-core; WebGL by
+// SwiftShader, no GPU): `gshell view` on a plate it generates itself; the page loads and shows the
+// mesh; two handle groups are selected with the box tool and made with the page's button; one is
+// dragged with the mouse; after the rest the page's geometry has moved and equals the server's state
+// (the folder its "save shell" button makes); a screenshot of the dragged shell goes to OUT.
+//
+//   node tests/view_browser_test.mjs --gshell build/bin/gshell --out build/test-output
+//
+// Run by ctest (CMakeLists.txt). Exit code 0 = pass.
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { launchBrowser, readObj, startViewer } from './support/view_browser.mjs';
+
+const args = Object.fromEntries(process.argv.slice(2).reduce((pairs, a, i, all) => (a.startsWith('--') ? [...pairs, [a.slice(2), all[i + 1]]] : pairs), []));
+const gshell = args.gshell || path.join(path.dirname(fileURLToPath(import.meta.url)), '../build/bin/gshell');
+const outDir = args.out || path.join(os.tmpdir(), 'gshell-view-test-output');
+fs.mkdirSync(outDir, { recursive: true });
+
+let failures = 0;
+function check(ok, what) {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) ++failures;
+}
+
+const work = fs.mkdtempSync(path.join(os.tmpdir(), 'gshell-view-test-'));
+const viewer = await startViewer(gshell, ['builtin:plane:12', '--thickness', '0.1', '--output-dir', work]);
+const browser = await launchBrowser();
+try {
+  const page = await browser.newPage();
+  await page.setViewport({ width: 1200, height: 800 });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(viewer.url);
+  await page.waitForFunction(() => window.gshellView && window.gshellView.loadMs !== null, { timeout: 60000 });
+  const hello = await page.evaluate(() => window.gshellView.hello);
+  check(hello.posable && hello.vertices === 169 && hello.faces === 288, `page got the 13 x 13 plate shell (${hello.vertices} base vertices, ${hello.faces} faces)`);
+  const rest = await page.evaluate(() => window.gshellView.positions());
+  check(rest.length === 6 * 169 && rest.every(Number.isFinite), 'the mesh is drawn from the server\'s positions');
+
+  // Box-select each end of the plate (both surfaces) and make a group of it.
+  const n = hello.vertices;
+  const endOf = (sign) => [...Array(2 * n).keys()].filter((v) => sign * rest[3 * v] > 0.8);
+  await page.click('input[name=mode][value=box]');
+  async function boxAround(ids) {
+    const points = await page.evaluate((ids) => ids.map((v) => window.gshellView.screenOf(v)), ids);
+    const xs = points.map((p) => p.x), ys = points.map((p) => p.y);
+    const pad = 4;
+    await page.mouse.move(Math.min(...xs) - pad, Math.min(...ys) - pad);
+    await page.mouse.down();
+    await page.mouse.move((Math.min(...xs) + Math.max(...xs)) / 2, (Math.min(...ys) + Math.max(...ys)) / 2, { steps: 3 });
+    await page.mouse.move(Math.max(...xs) + pad, Math.max(...ys) + pad, { steps: 3 });
+    await page.mouse.up();
+  }
+  for (const [name, sign] of [['hold', -1], ['pull', 1]]) {
+    await boxAround(endOf(sign));
+    const selected = await page.evaluate(() => window.gshellView.selected);
+    check(selected >= endOf(sign).length, `box selected the ${name} end (${selected} vertices)`);
+    await page.type('#group-name', name);
+    await page.click('#make-group');
+    await page.waitForFunction((count) => window.gshellView.groups.length === count, { timeout: 10000 }, name === 'hold' ? 1 : 2);
+  }
+  const groups = await page.evaluate(() => window.gshellView.groups);
+  check(groups.length === 2 && groups[0].name === 'hold' && groups[1].name === 'pull', `the server made the groups ${JSON.stringify(groups)}`);
+
+  // Drag the pull group up the screen with the mouse, in many small moves, then let go.
+  await page.click('input[name=mode][value=drag]');
+  const pullVertex = endOf(1).find((v) => v >= n && Math.abs(rest[3 * v + 1]) < 0.1); // a top vertex mid-edge
+  const grip = await page.evaluate((v) => window.gshellView.screenOf(v), pullVertex);
+  await page.mouse.move(grip.x, grip.y);
+  await page.mouse.down();
+  await page.mouse.move(grip.x - 20, grip.y - 160, { steps: 30 });
+  await page.mouse.up();
+  const settled = await page.evaluate(() => window.gshellView.waitFor('settled', 120000));
+  check(settled.phase === 'settled', `the shell settled after the release (${settled.step && settled.step.iterations} iterations)`);
+
+  const moved = await page.evaluate(() => window.gshellView.positions());
+  let lift = 0;
+  for (let v = 0; v < 2 * n; ++v) lift = Math.max(lift, Math.hypot(moved[3 * v] - rest[3 * v], moved[3 * v + 1] - rest[3 * v + 1], moved[3 * v + 2] - rest[3 * v + 2]));
+  check(lift > 0.3, `the page's geometry moved (largest displacement ${lift.toFixed(3)} on a 2 x 2 plate)`);
+
+  // The server's state: the folder its "save shell" button writes.
+  await page.type('#shell-name', 'dragged');
+  await page.click('#save-shell');
+  const folder = path.join(work, 'dragged');
+  for (let t = 0; t < 200 && !fs.existsSync(path.join(folder, 'top.obj')); ++t) await new Promise((r) => setTimeout(r, 50));
+  const base = readObj(path.join(folder, 'base.obj')), top = readObj(path.join(folder, 'top.obj'));
+  const server = [...base, ...top];
+  let difference = 0;
+  for (let i = 0; i < server.length; ++i) difference = Math.max(difference, Math.abs(server[i] - moved[i]));
+  check(server.length === moved.length && difference < 1e-5, `the page's geometry equals the server's state (largest difference ${difference.toExponential(2)}, float32 rounding)`);
+
+  const stats = await page.evaluate(() => window.gshellView.stats);
+  check(stats.handles === 2 && stats.stretch && stats.stretch.against === 'rest shell', 'the stats panel shows the posed shell');
+  // The exact certificate runs off the interactive path once the shell rests; the panel shows it.
+  await page.waitForFunction(() => window.gshellView.stats.validity, { timeout: 60000 });
+  const validity = await page.evaluate(() => window.gshellView.stats.validity);
+  const panel = await page.$eval('#stats-body', (el) => el.textContent);
+  check(validity.certificate && validity.certificate.exact === true && validity.valid === true && validity.certificate.inverted_tets === 0 &&
+        /valid \(exact\)yes/.test(panel), `the panel shows the certificate of the dragged shell (${JSON.stringify(validity.certificate)})`);
+  const shot = path.join(outDir, 'view_browser_dragged.png');
+  await page.screenshot({ path: shot });
+  check(fs.statSync(shot).size > 10000, `screenshot of the dragged shell: ${shot}`);
+  check(errors.length === 0, `no errors in the page${errors.length ? ': ' + errors.join('; ') : ''}`);
+} finally {
+  await browser.close();
+  await viewer.stop();
+  fs.rmSync(work, { recursive: true, force: true });
+}
+console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+process.exit(failures ? 1 : 0);

@@ -1,0 +1,411 @@
+// The viewer's session logic without a browser (view/view_session.h): a drag scripted as page
+// messages ends where `gshell pose` ends with the same handle targets; bad messages get one error
+// each and change nothing; drags coalesce; undo, reset, saving and sequences do what the page
+// promises.
+#include "test_support.h"
+
+#include <gshell/deform/handles.h>
+#include <gshell/error.h>
+#include <gshell/run/shell_folder.h>
+#include <gshell/view/view_input.h>
+#include <gshell/view/view_session.h>
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+using namespace gshell;
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+/// What the session sent, in order.
+struct Outbox {
+  std::vector<ViewOutgoing> sent;
+  ViewSink sink() {
+    return [this](ViewOutgoing m) { sent.push_back(std::move(m)); };
+  }
+  std::vector<json> messages(const std::string& type) const {
+    std::vector<json> out;
+    for (const ViewOutgoing& m : sent)
+      if (!m.binary) {
+        json j = json::parse(m.bytes);
+        if (j["type"] == type) out.push_back(j);
+      }
+    return out;
+  }
+  std::vector<std::string> frames(ViewFrameKind kind) const {
+    std::vector<std::string> out;
+    for (const ViewOutgoing& m : sent) {
+      std::uint32_t k = 0;
+      if (m.binary && m.bytes.size() >= kViewFrameHeaderBytes) std::memcpy(&k, m.bytes.data(), 4);
+      if (m.binary && k == static_cast<std::uint32_t>(kind)) out.push_back(m.bytes);
+    }
+    return out;
+  }
+  void clear() { sent.clear(); }
+};
+
+std::uint32_t frame_seq(const std::string& frame) {
+  std::uint32_t seq;
+  std::memcpy(&seq, frame.data() + 4, 4);
+  return seq;
+}
+
+/// The float32 positions of a Positions or Frame frame, as a 2n x 3 matrix.
+Eigen::MatrixXd frame_positions(const std::string& frame) {
+  const std::size_t count = (frame.size() - kViewFrameHeaderBytes) / 4;
+  Eigen::MatrixXd X(count / 3, 3);
+  for (std::size_t i = 0; i < count; ++i) {
+    float f;
+    std::memcpy(&f, frame.data() + kViewFrameHeaderBytes + 4 * i, 4);
+    X(i / 3, i % 3) = f;
+  }
+  return X;
+}
+
+double max_distance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a - b).rowwise().norm().maxCoeff(); }
+
+/// A generated flat plate shell (builtin:plane:10, 2 x 2, thickness 0.1) in a folder.
+struct PlateFolder {
+  test::TempDir tmp{"gshell-view"};
+  std::string dir = tmp.file("plate");
+  PlateFolder() {
+    const test::CliResult r = test::run_cli("generate builtin:plane:10 --thickness 0.1 -q -o '" + dir + "'");
+    if (r.exit_code != 0) throw std::runtime_error("generate failed: " + r.err);
+  }
+};
+
+/// Shell vertex ids (both surfaces) whose rest x lies beyond `x` on the side `sign` points to.
+std::string ends(const Shell& shell, double x, double sign) {
+  const Eigen::MatrixXd X = shell.vertices();
+  json ids = json::array();
+  for (int v = 0; v < X.rows(); ++v)
+    if (sign * (X(v, 0) - x) > 0) ids.push_back(v);
+  return ids.dump();
+}
+
+ViewSessionOptions tight_options(const std::string& output_dir) {
+  ViewSessionOptions o;
+  o.pose.hierarchy.levels = 3;
+  o.pose.solve.tolerance = 1e-10;
+  o.pose.solve.max_iterations = 20000;
+  o.output_dir = output_dir;
+  return o;
+}
+
+std::string drag_message(int seq, int handle, const Eigen::Vector3d& t, double degrees) {
+  return json{{"type", "drag"}, {"seq", seq}, {"handle", handle}, {"translate", {t.x(), t.y(), t.z()}},
+              {"axis", {0, 1, 0}}, {"degrees", degrees}}
+      .dump();
+}
+
+/// hold (-x end) and pull (+x end) groups made by page messages.
+void add_plate_groups(ViewSession& session, const Shell& shell, Outbox& out) {
+  session.receive(R"({"type":"add_handle","name":"hold","vertices":)" + ends(shell, -0.75, -1) + "}", out.sink());
+  session.receive(R"({"type":"add_handle","name":"pull","vertices":)" + ends(shell, 0.75, 1) + "}", out.sink());
+  ASSERT_TRUE(out.messages("error").empty()) << out.messages("error")[0].dump();
+}
+
+bool never() { return false; }
+
+} // namespace
+
+TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  const Shell& rest = session.input().shell;
+  Outbox out;
+  session.welcome(out.sink());
+  ASSERT_EQ(out.messages("hello").size(), 1u);
+  EXPECT_EQ(out.messages("hello")[0]["kind"], "shell");
+  ASSERT_EQ(out.frames(ViewFrameKind::Faces).size(), 1u);
+  ASSERT_EQ(out.frames(ViewFrameKind::Positions).size(), 1u);
+  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Positions)[0]), rest.vertices()), 1e-6);
+  add_plate_groups(session, rest, out);
+
+  // A mouse drag: grab, 12 moves (each answered after one iteration), release, rest.
+  const Eigen::Vector3d lift(0, 0, 0.6);
+  const int events = 12;
+  session.receive(R"({"type":"grab","handle":1})", out.sink());
+  for (int e = 1; e <= events; ++e) {
+    out.clear();
+    const double t = static_cast<double>(e) / events;
+    session.receive(drag_message(100 + e, 1, t * lift, -30 * t), out.sink());
+    EXPECT_TRUE(session.drag_pending());
+    session.solve_drag(out.sink());
+    const std::vector<std::string> answers = out.frames(ViewFrameKind::Positions);
+    ASSERT_EQ(answers.size(), 1u);
+    EXPECT_EQ(frame_seq(answers[0]), static_cast<std::uint32_t>(100 + e));
+    EXPECT_LE(out.messages("stats")[0]["step"]["iterations"].get<int>(), 1);
+  }
+  session.receive(R"({"type":"release"})", out.sink());
+  EXPECT_TRUE(session.settle_requested());
+  out.clear();
+  ASSERT_TRUE(session.settle(out.sink(), never));
+  EXPECT_EQ(out.messages("stats").back()["phase"], "settled");
+  const Eigen::MatrixXd settled = session.drag_session()->vertices();
+  // The page's copy is the server's state (to float32 rounding).
+  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Positions).back()), settled), 1e-6);
+
+  // Save the handles and the posed shell as the page's buttons do.
+  out.clear();
+  session.receive(R"({"type":"save_handles"})", out.sink());
+  ASSERT_EQ(out.messages("handles_file").size(), 1u);
+  const std::string handles = plate.tmp.file("handles.json");
+  test::write_text(handles, out.messages("handles_file")[0]["handles"].dump(2));
+  session.receive(R"({"type":"save_shell","folder":"posed"})", out.sink());
+  ASSERT_EQ(out.messages("saved").size(), 1u) << (out.messages("error").empty() ? "" : out.messages("error")[0].dump());
+
+  // gshell pose with these handle targets, in as many steps.
+  const std::string posed = plate.tmp.file("pose-cli");
+  const test::CliResult r = test::run_cli("pose -q --shell '" + plate.dir + "' --handles '" + handles +
+                                          "' --levels 3 --tolerance 1e-10 --iterations 20000 --steps 12 -o '" + posed + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const ShellFolder cli = read_shell_folder(posed);
+  const ShellFolder mine = read_shell_folder(plate.tmp.file("posed"));
+  // The plate is 2 wide and 0.1 thick; both ran to a relative energy change of 1e-10.
+  EXPECT_LT(max_distance(cli.shell.vertices(), settled), 1e-5);
+  EXPECT_LT(max_distance(mine.shell.vertices(), settled), 1e-9); // the folder holds the session's state
+  EXPECT_GT(max_distance(settled, rest.vertices()), 0.3);         // and the drag did move the plate
+  EXPECT_EQ(mine.report["command"], "pose");
+  EXPECT_NEAR(mine.report["stretch"]["volume_mean"].get<double>(), cli.report["stretch"]["volume_mean"].get<double>(),
+              1e-6 * cli.report["stretch"]["volume_mean"].get<double>());
+}
+
+TEST(ViewSession, BadMessagesGetAnErrorAndChangeNothing) {
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  const Shell& rest = session.input().shell;
+  const int count = 2 * rest.num_base_vertices();
+  Outbox out;
+  add_plate_groups(session, rest, out);
+  session.receive(drag_message(1, 1, Eigen::Vector3d(0, 0, 0.3), 0), out.sink());
+  session.solve_drag(out.sink());
+  ASSERT_TRUE(session.settle(out.sink(), never));
+  const Eigen::MatrixXd state = session.drag_session()->vertices();
+  const HandleSet handles = session.drag_session()->handles();
+  fs::create_directory(plate.tmp.path() / "taken");
+
+  const std::vector<std::string> bad = {
+      "",
+      "{\"type\":\"drag\"",                                                      // cut off
+      std::string("\x89PNG\r\n\x1a\n\0\0", 10),                                   // binary
+      R"({"type":"drag","seq":2,"handle":1,"translate":[NaN,0,0]})",              // NaN
+      R"({"type":"drag","seq":2,"handle":1,"translate":[1e400,0,0]})",            // overflow
+      R"({"type":"drag","seq":2,"handle":7,"translate":[0,0,1]})",                // no such group
+      R"({"type":"drag","seq":2,"handle":1,"translate":[1e9,0,0]})",              // absurdly far
+      R"({"type":"add_handle","vertices":[)" + std::to_string(count) + "]}",     // id out of range
+      R"({"type":"add_handle","vertices":[0,1,2]})",                              // already in "hold"
+      R"({"type":"remove_handle","handle":5})",
+      R"({"type":"frame","index":0})",                                            // not a sequence
+      R"({"type":"save_shell","folder":"../escape"})",                            // a path
+      R"({"type":"save_shell","folder":"taken"})",                                // exists
+      R"({"type":"load_handles","name":"x.json","text":"{\"handles\":[]}"})",     // no handle
+      R"({"type":"load_handles","text":"not json"})",
+      R"({"type":"teleport"})",
+      std::string(session.limits().max_bytes + 1, ' '),                           // oversized
+      std::string(50000, '[') + std::string(50000, ']'),                          // deep
+  };
+  for (const std::string& message : bad) {
+    out.clear();
+    session.receive(message, out.sink());
+    ASSERT_EQ(out.sent.size(), 1u) << message.substr(0, 80);
+    const std::vector<json> errors = out.messages("error");
+    ASSERT_EQ(errors.size(), 1u) << message.substr(0, 80);
+    EXPECT_TRUE(out.sent[0].to_sender);
+    EXPECT_FALSE(errors[0]["message"].get<std::string>().empty());
+    EXPECT_EQ(errors[0]["message"].get<std::string>().find('\n'), std::string::npos); // one line
+    EXPECT_FALSE(session.drag_pending()) << message.substr(0, 80);
+  }
+  EXPECT_EQ(session.drag_session()->vertices(), state);
+  EXPECT_EQ(session.drag_session()->handles(), handles);
+  EXPECT_FALSE(fs::exists(plate.tmp.path() / "escape"));
+  EXPECT_EQ(test::count_entries(plate.tmp.path() / "taken"), 0);
+
+  // And it keeps working.
+  out.clear();
+  session.receive(drag_message(3, 1, Eigen::Vector3d(0, 0, 0.5), 0), out.sink());
+  session.solve_drag(out.sink());
+  ASSERT_TRUE(session.settle(out.sink(), never));
+  EXPECT_TRUE(out.messages("error").empty());
+  EXPECT_GT(max_distance(session.drag_session()->vertices(), state), 0.1);
+}
+
+TEST(ViewSession, DragsArrivingDuringASolveCoalesceIntoTheLatest) {
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  add_plate_groups(session, session.input().shell, out);
+  out.clear();
+  for (int e = 1; e <= 5; ++e) session.receive(drag_message(e, 1, Eigen::Vector3d(0, 0, 0.1 * e), 0), out.sink());
+  EXPECT_TRUE(out.sent.empty()); // drags are answered by the solve, not one by one
+  session.solve_drag(out.sink());
+  ASSERT_EQ(out.frames(ViewFrameKind::Positions).size(), 1u);
+  EXPECT_EQ(frame_seq(out.frames(ViewFrameKind::Positions)[0]), 5u);
+  EXPECT_EQ(session.drag_session()->handles().handles[1].translate, Eigen::Vector3d(0, 0, 0.5));
+  EXPECT_FALSE(session.drag_pending());
+  out.clear();
+  session.solve_drag(out.sink()); // nothing pending: nothing sent
+  EXPECT_TRUE(out.sent.empty());
+}
+
+TEST(ViewSession, UndoResetAndGroupsOnAPosedShell) {
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  const Shell& rest = session.input().shell;
+  Outbox out;
+  add_plate_groups(session, rest, out);
+  session.receive(R"({"type":"grab","handle":1})", out.sink());
+  session.receive(drag_message(1, 1, Eigen::Vector3d(0, 0, 0.4), 0), out.sink());
+  session.solve_drag(out.sink());
+  ASSERT_TRUE(session.settle(out.sink(), never));
+  const Eigen::MatrixXd posed = session.drag_session()->vertices();
+
+  // A group added on the posed shell holds its vertices where they are now: settling moves little.
+  const Eigen::MatrixXd X = rest.vertices();
+  json middle = json::array();
+  for (int v = 0; v < X.rows(); ++v)
+    if (std::abs(X(v, 0)) < 0.1) middle.push_back(v);
+  out.clear();
+  session.receive(R"({"type":"add_handle","name":"middle","vertices":)" + middle.dump() + "}", out.sink());
+  ASSERT_TRUE(out.messages("error").empty()) << out.messages("error")[0].dump();
+  ASSERT_EQ(out.messages("handles").size(), 1u);
+  EXPECT_EQ(out.messages("handles")[0]["handles"]["handles"].size(), 3u);
+  ASSERT_TRUE(session.settle(out.sink(), never));
+  EXPECT_LT(max_distance(session.drag_session()->vertices(), posed), 0.02);
+
+  // Undo the new group, then the drag.
+  out.clear();
+  session.receive(R"({"type":"undo"})", out.sink());
+  EXPECT_EQ(session.drag_session()->handles().handles.size(), 2u);
+  EXPECT_EQ(session.drag_session()->vertices(), posed);
+  EXPECT_EQ(out.frames(ViewFrameKind::Positions).size(), 1u); // the pages see it at once
+  session.receive(R"({"type":"undo"})", out.sink());
+  EXPECT_EQ(session.drag_session()->vertices(), rest.vertices()); // before the grab
+  // Reset: at rest, groups kept, motions cleared; the colors are the input's stored stretch again.
+  session.receive(drag_message(2, 1, Eigen::Vector3d(0.2, 0, 0.2), 10), out.sink());
+  session.solve_drag(out.sink());
+  out.clear();
+  session.receive(R"({"type":"reset"})", out.sink());
+  EXPECT_EQ(session.drag_session()->vertices(), rest.vertices());
+  EXPECT_TRUE(session.drag_session()->handles().handles[1].translate.isZero(0));
+  EXPECT_EQ(out.messages("stats").back()["stretch"]["against"], "input");
+  // Nothing left to undo before the first group? Undo until the session says so.
+  int undos = 0;
+  for (; undos < 50; ++undos) {
+    out.clear();
+    session.receive(R"({"type":"undo"})", out.sink());
+    if (!out.messages("error").empty()) break;
+  }
+  EXPECT_LT(undos, 50);
+  EXPECT_TRUE(session.drag_session()->handles().handles.empty());
+}
+
+TEST(ViewSession, ValidityAndColorsFollowTheShell) {
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  session.welcome(out.sink());
+  const json hello = out.messages("hello")[0];
+  EXPECT_EQ(hello["scales"]["stretch"]["max"], 0.1); // gshell render's scale
+  EXPECT_EQ(hello["scales"]["stretch"]["ramp"].size(), 65u * 3);
+  ASSERT_EQ(out.frames(ViewFrameKind::Values).size(), 1u);
+  const std::string values = out.frames(ViewFrameKind::Values)[0];
+  const std::size_t m = session.input().shell.F.rows(), n = session.input().shell.num_base_vertices();
+  EXPECT_EQ(values.size(), kViewFrameHeaderBytes + 4 * (m + n));
+  // A flat plate generated by the rigid method is its own ideal: stretch ~0, thickness 1.
+  float first_thickness;
+  std::memcpy(&first_thickness, values.data() + kViewFrameHeaderBytes + 4 * m, 4);
+  EXPECT_NEAR(first_thickness, 1.0f, 1e-5f);
+
+  ASSERT_TRUE(session.certify_task().has_value());
+  out.clear();
+  session.certify(out.sink());
+  json stats = out.messages("stats").back();
+  // The shell certificate's report (certificate_report): exact counts, base pairs tested.
+  EXPECT_EQ(stats["validity"]["valid"], true);
+  EXPECT_EQ(stats["validity"]["certificate"]["inverted_tets"], 0);
+  EXPECT_EQ(stats["validity"]["certificate"]["top_base_intersections"], 0);
+  EXPECT_EQ(stats["validity"]["base_self_intersections"], 0);
+  EXPECT_FALSE(session.certify_task().has_value());
+
+  // Fold the plate onto itself: +x end carried over to the -x end, upside down.
+  add_plate_groups(session, session.input().shell, out);
+  out.clear();
+  const std::optional<ViewSession::CertifyTask> stale = [&] {
+    session.receive(drag_message(1, 1, Eigen::Vector3d(-1.75, 0, 0.05), 180), out.sink());
+    session.solve_drag(out.sink());
+    return session.certify_task();
+  }();
+  ASSERT_TRUE(stale.has_value());
+  session.receive(drag_message(2, 1, Eigen::Vector3d(-1.75, 0, 0.02), 180), out.sink());
+  session.solve_drag(out.sink());
+  // A result for an older state is dropped: the shell moved meanwhile.
+  EXPECT_FALSE(session.certified(stale->version, ViewSession::run_certify_task(*stale), out.sink()));
+  out.clear();
+  session.certify(out.sink());
+  stats = out.messages("stats").back();
+  // Folded onto itself the layer crosses itself: the certificate says so.
+  EXPECT_EQ(stats["validity"]["valid"], false);
+  EXPECT_GT(stats["validity"]["certificate"]["top_base_intersections"].get<int>() +
+                stats["validity"]["certificate"]["wall_intersections"].get<int>(),
+            0);
+  EXPECT_EQ(stats["stretch"]["against"], "rest shell");
+  EXPECT_GT(stats["stretch"]["max"].get<double>(), 0.01);
+}
+
+TEST(ViewSession, SequencesShowFramesAndCannotBePosed) {
+  const PlateFolder plate;
+  // Two frames: the plate, and the plate posed (a pose folder is a shell folder too).
+  const std::string handles = plate.tmp.file("lift.json");
+  test::write_text(handles, R"({"handles":[{"select":{"box":[-2,-2,-1,-0.75,2,1]}},
+                              {"select":{"box":[0.75,-2,-1,2,2,1]},"translate":[0,0,0.5]}]})");
+  const std::string posed = plate.tmp.file("lifted");
+  ASSERT_EQ(test::run_cli("pose -q --shell '" + plate.dir + "' --handles '" + handles + "' -o '" + posed + "'").exit_code, 0);
+  ViewSession session(load_view_input({plate.dir, posed}), tight_options(plate.tmp.path().string()));
+  EXPECT_EQ(session.drag_session(), nullptr);
+  Outbox out;
+  session.welcome(out.sink());
+  EXPECT_EQ(out.messages("hello")[0]["kind"], "sequence");
+  EXPECT_EQ(out.messages("hello")[0]["frames"].size(), 2u);
+  ASSERT_EQ(out.frames(ViewFrameKind::Frame).size(), 1u);
+  out.clear();
+  session.receive(R"({"type":"frame","index":1})", out.sink());
+  ASSERT_EQ(out.frames(ViewFrameKind::Frame).size(), 1u);
+  EXPECT_EQ(frame_seq(out.frames(ViewFrameKind::Frame)[0]), 1u);
+  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Frame)[0]), read_shell_folder(posed).shell.vertices()),
+            1e-6);
+  for (const char* m : {R"({"type":"add_handle","vertices":[0]})", R"({"type":"undo"})", R"({"type":"frame","index":2})"}) {
+    out.clear();
+    session.receive(m, out.sink());
+    EXPECT_EQ(out.messages("error").size(), 1u) << m;
+  }
+  // Frames of different shells do not make a sequence.
+  const std::string other = plate.tmp.file("other");
+  ASSERT_EQ(test::run_cli("generate builtin:plane:8 --thickness 0.1 -q -o '" + other + "'").exit_code, 0);
+  EXPECT_THROW(load_view_input({plate.dir, other}), InputError);
+  EXPECT_THROW(load_view_input({plate.tmp.file("missing")}), InputError);
+}
+
+TEST(ViewSession, LoadedHandlesAreSolvedLikeADrag) {
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  const std::string text = R"({"handles":[{"name":"hold","select":{"box":[-2,-2,-1,-0.75,2,1]}},
+                              {"name":"pull","select":{"box":[0.75,-2,-1,2,2,1]},"translate":[0,0,0.5]}]})";
+  session.load_handles(text, "lift.json", out.sink());
+  EXPECT_TRUE(session.drag_pending());
+  EXPECT_EQ(out.messages("handles")[0]["handles"]["handles"][1]["name"], "pull");
+  session.solve_drag(out.sink());
+  ASSERT_TRUE(session.settle(out.sink(), never));
+  // The pulled end sits on its target.
+  const DragSession& d = *session.drag_session();
+  const std::vector<int> ids = d.handles().handles[1].vertices;
+  const Eigen::MatrixXd X = session.input().shell.vertices();
+  for (int v : ids) EXPECT_NEAR(d.vertices()(v, 2) - X(v, 2), 0.5, 1e-12);
+  EXPECT_THROW(session.load_handles("{", "broken.json", out.sink()), InputError);
+}
