@@ -5,6 +5,7 @@
 
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/shell/generate_report.h>
@@ -31,7 +32,7 @@ void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
   const TriMesh top = is_builtin_spec(o.top) ? make_builtin(o.top) : read_mesh(o.top);
   if (top.V.rows() != base.V.rows() || top.F.rows() != base.F.rows() || top.F != base.F)
     throw InputError(with_file(o.top, "must have the same vertex count and faces as " + o.base));
-  if (!top.V.allFinite()) throw InputError(with_file(o.top, "non-finite vertex coordinates"));
+  require_usable_coordinates(top.V, o.top);
   const double eta = o.thickness.eta(base.V);
   const ShellMetrics m = shell_metrics(base.V, base.F, top.V, eta, true);
   if (!o.output.empty()) {

@@ -4,6 +4,7 @@
 
 #include <gshell/deform/geometric_texture.h>
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/run/shell_folder.h>
@@ -33,7 +34,7 @@ void run_texture(const TextureArgs& args) {
       gshell::is_builtin_tile(args.tile) ? gshell::make_builtin_tile(args.tile) : gshell::read_mesh(args.tile);
   if (tile.num_vertices() == 0 || tile.num_faces() == 0)
     throw gshell::InputError(gshell::with_file(args.tile, "the tile has no faces"));
-  if (!tile.V.allFinite()) throw gshell::InputError(gshell::with_file(args.tile, "has a non-finite coordinate"));
+  gshell::require_usable_coordinates(tile.V, args.tile);
   const gshell::GeometricTexture texture =
       gshell::map_geometric_texture(shell, uv_source, tile, args.repeat[0], args.repeat[1]);
   gshell::write_mesh(args.out, texture.mesh);

@@ -758,6 +758,49 @@ TEST(IoTetMesh, MalformedTetFilesAreErrors) {
   }
 }
 
+TEST(IoTetMesh, FuzzFindingsInTetReadersAreErrors) {
+  // Found by scripts/fuzz; each read used to be undefined behaviour or a mesh whose tets refer to
+  // points that do not exist.
+  TempDir dir;
+  const std::string vtu = [&] {
+    write_tet_mesh(dir.file("ok.vtu"), small_tet_mesh());
+    return read_text(dir.file("ok.vtu"));
+  }();
+  // Where the first connectivity id of a file like write_tet_mesh's is (native byte order, after
+  // the block's 8-byte header).
+  auto first_id = [](const std::string& file) {
+    const std::size_t data_start = file.find("encoding=\"raw\">") + std::string("encoding=\"raw\">\n   _").size();
+    const std::size_t offset_at = file.find("offset=\"", file.find("Name=\"connectivity\"")) + 8;
+    return data_start + std::stoul(file.substr(offset_at)) + 8;
+  };
+  auto expect_error = [&](const std::string& name, const std::string& content, const std::string& fragment) {
+    write_text(dir.file(name), content);
+    try {
+      read_tet_mesh(dir.file(name));
+      ADD_FAILURE() << "no error for " << name;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  // vtu: an id beyond long long (converted from double for the message: UB).
+  std::string huge_id = vtu;
+  const std::int64_t big = 0x7ffffffffffffff6;
+  std::memcpy(huge_id.data() + first_id(huge_id), &big, 8);
+  expect_error("huge.vtu", huge_id, "cell 0 refers to point 9.2233720368547758e+18, not a point id (the file has 5 points)");
+  // vtu: connectivity stored as floating point with a fraction (was truncated to point 1).
+  std::string fraction = vtu;
+  const std::size_t type_at = fraction.rfind("Int64", fraction.find("Name=\"connectivity\""));
+  fraction.replace(type_at, 5, "Float64");
+  const double one_and_a_half = 1.5;
+  std::memcpy(fraction.data() + first_id(fraction), &one_and_a_half, 8);
+  expect_error("fraction.vtu", fraction, "cell 0 refers to point 1.5, not a point id");
+  // medit: a second Vertices section after the tets replaced the points they refer to.
+  const std::string head = "MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+                           "Tetrahedra\n1\n1 2 3 4 1\n";
+  expect_error("twice.mesh", head + "Vertices\n1\n0 0 0 0\nEnd\n", "a second Vertices section (only one is supported) (line 12)");
+  expect_error("tets_twice.mesh", head + "Tetrahedra\n1\n4 3 2 1 1\nEnd\n", "a second Tetrahedra section");
+}
+
 // ---------------------------------------------------------------------------------------------
 // Atomic writes
 

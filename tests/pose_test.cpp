@@ -139,6 +139,42 @@ TEST(Handles, BadFilesAreClearErrors) {
   expect_error("[1, 2", "not valid JSON");
 }
 
+TEST(Handles, ExtremeButAcceptedNumbersGiveFiniteTargets) {
+  // An axis whose squared length overflows ([1e200, 0, 0]) or underflows ([1e-200, 0, 0]) is
+  // still an axis; a turn of 1e308 degrees still a rotation (degrees * pi overflowed to inf, so
+  // targets were NaN); found by scripts/fuzz (handles).
+  const Shell s = small_bowl();
+  const Eigen::MatrixXd X = s.vertices();
+  for (const std::string axis : {"[1e200, 0, 0]", "[0, 1e-200, 0]", "[1e308, 1e308, 1e308]"}) {
+    const HandleSet h = parse_handles(R"({"handles": [{"vertices": [0, 1], "rotate": {"axis": )" + axis +
+                                          R"(, "degrees": 90}}]})", "H", s);
+    EXPECT_NEAR(h.handles[0].axis.norm(), 1, 1e-15) << axis;
+    EXPECT_TRUE(h.targets(X, 1).allFinite()) << axis;
+  }
+  const HandleSet turn = parse_handles(R"({"handles": [{"vertices": [0, 1], "rotate": {"axis": [0, 0, 1], "degrees": 1e308}}]})", "H", s);
+  for (const double t : {0.25, 1.0}) {
+    const Eigen::MatrixXd P = turn.targets(X, t);
+    ASSERT_TRUE(P.allFinite()) << t;
+    // A rotation about z through the handle's centroid keeps z and the distance to the centroid.
+    for (int r = 0; r < 2; ++r) {
+      const Eigen::Vector3d u = X.row(r).transpose(), c = turn.handles[0].center;
+      EXPECT_NEAR(P(r, 2), u.z(), 1e-12);
+      EXPECT_NEAR((P.row(r).transpose() - c).head<2>().norm(), (u - c).head<2>().norm(), 1e-12);
+    }
+  }
+  // 720 + 90 degrees is 90 degrees: whole turns are taken out exactly.
+  const HandleSet a = parse_handles(R"({"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 1], "degrees": 810}}]})", "H", s);
+  const HandleSet b = parse_handles(R"({"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 1], "degrees": 90}}]})", "H", s);
+  EXPECT_NEAR((a.targets(X, 1) - b.targets(X, 1)).norm(), 0, 1e-12);
+}
+
+TEST(Handles, TranslationsAndCentersBeyondTheCoordinateLimitAreErrors) {
+  expect_error(R"({"handles": [{"vertices": [0], "translate": [0, 1e60, 0]}]})",
+               "handle 0: translate: a coordinate of magnitude 1e+60; gshell needs |x| < 1e+50");
+  expect_error(R"({"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 1], "degrees": 5, "center": [-1e300, 0, 0]}}]})",
+               "rotate.center: a coordinate of magnitude 1e+300;");
+}
+
 TEST(Handles, MissingFileNamesIt) {
   try {
     read_handles("/nonexistent/h.json", small_bowl());

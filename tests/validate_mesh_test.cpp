@@ -101,6 +101,67 @@ TEST(ValidateMesh, NonFiniteCoordinates) {
   EXPECT_TRUE(contains(only_error(m), "vertex 3 "));
 }
 
+TEST(ValidateMesh, TooLargeCoordinatesAreOneClearError) {
+  // |x| ~ 1e150 used to pass validation and fail later as "rest tet 0 has non-positive volume
+  // (inf)", and 1e200 as "face 0 has zero area" (squared lengths overflow).
+  for (const double big : {1e50, 1e150, 1e200, 1.7e308}) {
+    TriMesh m = tetrahedron();
+    m.V(3, 2) = big;
+    const std::string error = only_error(m);
+    EXPECT_TRUE(contains(error, "vertex 3 has a coordinate of magnitude ")) << error;
+    EXPECT_TRUE(contains(error, "gshell needs |x| < 1e+50")) << error;
+    EXPECT_FALSE(contains(error, "zero area")) << error;
+  }
+  TriMesh m = tetrahedron();
+  m.V(1, 0) = -1e200;
+  EXPECT_TRUE(contains(only_error(m), "vertex 1 has a coordinate of magnitude 1e+200;")) << only_error(m);
+  // Just below the limit is fine, also for the whole mesh.
+  m = tetrahedron();
+  m.V *= 0.99 * max_coordinate_magnitude;
+  EXPECT_TRUE(validate_mesh(m).empty());
+  // A mesh entirely beyond the limit: one entry per vertex, no zero-area noise.
+  m = tetrahedron();
+  m.V.array() += 1e120;
+  const auto errors = of_severity(validate_mesh(m), Severity::Error);
+  ASSERT_EQ(errors.size(), 4u);
+  for (const auto& e : errors) EXPECT_TRUE(contains(e.message, "magnitude 1e+120")) << e.message;
+}
+
+TEST(ValidateMesh, TooSmallMeshIsOneClearError) {
+  // At 1e-150 the areas underflow and every face read as "zero area".
+  for (const double tiny : {1e-41, 1e-150, 1e-300}) {
+    TriMesh m = tetrahedron();
+    m.V *= tiny;
+    const std::string error = only_error(m);
+    EXPECT_TRUE(contains(error, "the mesh is too small: its bounding box diagonal is ")) << error;
+    EXPECT_TRUE(contains(error, "gshell needs at least 1e-40")) << error;
+  }
+  TriMesh m = tetrahedron();
+  m.V *= 1e-40; // diagonal 1.4e-40
+  EXPECT_TRUE(validate_mesh(m).empty());
+  // All vertices at one point is not "too small" but degenerate.
+  m = tetrahedron();
+  m.V.setConstant(3);
+  const auto errors = of_severity(validate_mesh(m), Severity::Error);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_TRUE(contains(errors[0].message, "zero area")) << errors[0].message;
+}
+
+TEST(ValidateMesh, RequireUsableCoordinatesNamesTheInputAndVertex) {
+  Eigen::MatrixXd V = tetrahedron().V;
+  EXPECT_NO_THROW(require_usable_coordinates(V, "top.obj"));
+  V(2, 0) = 2e51;
+  try {
+    require_usable_coordinates(V, "top.obj");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "top.obj: vertex 2 has a coordinate of magnitude 2e+51; gshell needs |x| < 1e+50 "
+                                     "(volumes and products of lengths would overflow)");
+  }
+  V(1, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(require_usable_coordinates(V, "top.obj"), InputError);
+}
+
 TEST(ValidateMesh, OutOfRangeIndices) {
   TriMesh m = tetrahedron();
   m.F(1, 2) = 4;

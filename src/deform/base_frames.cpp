@@ -1,6 +1,7 @@
 #include <gshell/deform/base_frames.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/read_mesh.h>
 
 namespace gshell {
@@ -20,9 +21,7 @@ std::vector<Eigen::MatrixXd> load_base_frames(const std::vector<std::string>& pa
     for (Eigen::Index f = 0; f < F.rows(); ++f)
       if (mesh.F.row(f) != F.row(f))
         throw InputError(with_file(path, "face " + std::to_string(f) + " differs from the shell's base"));
-    for (int v = 0; v < n; ++v)
-      if (!mesh.V.row(v).allFinite())
-        throw InputError(with_file(path, "vertex " + std::to_string(v) + " has a non-finite coordinate"));
+    require_usable_coordinates(mesh.V, path);
     frames.push_back(std::move(mesh.V));
   }
   return frames;

@@ -1,6 +1,7 @@
 #include <gshell/deform/handles.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -26,7 +27,9 @@ Eigen::MatrixXd HandleSet::targets(const Eigen::MatrixXd& rest_vertices, double 
   Eigen::MatrixXd P(static_cast<Eigen::Index>(constrained_vertices().size()), 3);
   Eigen::Index row = 0;
   for (const auto& h : handles) {
-    const double radians = fraction * h.degrees * M_PI / 180.0;
+    // Whole turns first: degrees * pi would overflow for |degrees| > 5e307 (any finite number is
+    // accepted), and cos/sin are only accurate on moderate arguments anyway.
+    const double radians = std::fmod(fraction * h.degrees, 360.0) * M_PI / 180.0;
     const Eigen::Matrix3d R = Eigen::AngleAxisd(radians, h.axis).toRotationMatrix();
     const Eigen::Vector3d shift = fraction * h.translate;
     for (int v : h.vertices) {
@@ -69,6 +72,14 @@ Eigen::Vector3d vector3(const json& value, const std::string& where, const Repor
   if (!value.is_array() || value.size() != 3) r.fail(where, "expected [x, y, z], got " + value.dump());
   Eigen::Vector3d v;
   for (int k = 0; k < 3; ++k) v(k) = finite_number(value[k], where, r);
+  return v;
+}
+
+/// A translation or a point: within the coordinates gshell accepts (validate_mesh.h), so that
+/// targets (rest position + rotation + translation) stay finite.
+Eigen::Vector3d position3(const json& value, const std::string& where, const Reporter& r) {
+  const Eigen::Vector3d v = vector3(value, where, r);
+  if (const std::string problem = too_large_coordinate(v); !problem.empty()) r.fail(where, problem);
   return v;
 }
 
@@ -142,16 +153,19 @@ Handle parse_handle(const json& h, int index, const Shell& rest, const Reporter&
   for (int v : out.vertices) out.center += X.row(v).transpose();
   out.center /= static_cast<double>(out.vertices.size());
 
-  if (h.contains("translate")) out.translate = vector3(h["translate"], where + ": translate", r);
+  if (h.contains("translate")) out.translate = position3(h["translate"], where + ": translate", r);
   if (h.contains("rotate")) {
     const json& rot = h["rotate"];
     check_keys(rot, {"axis", "degrees", "center"}, where + ": rotate", r);
     if (!rot.contains("axis") || !rot.contains("degrees")) r.fail(where, "rotate needs \"axis\" and \"degrees\"");
     const Eigen::Vector3d axis = vector3(rot["axis"], where + ": rotate.axis", r);
-    if (!(axis.norm() > 0)) r.fail(where, "rotate.axis is zero");
-    out.axis = axis.normalized();
+    // stableNorm: norm() squares first, which overflows for [1e200, 0, 0] (and made the axis 0)
+    // and underflows for [1e-200, 0, 0].
+    const double length = axis.stableNorm();
+    if (!(length > 0)) r.fail(where, "rotate.axis is zero");
+    out.axis = axis / length;
     out.degrees = finite_number(rot["degrees"], where + ": rotate.degrees", r);
-    if (rot.contains("center")) out.center = vector3(rot["center"], where + ": rotate.center", r);
+    if (rot.contains("center")) out.center = position3(rot["center"], where + ": rotate.center", r);
   }
   return out;
 }

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <string>
 
@@ -58,7 +59,28 @@ std::string face_text(const Faces& F, int f) {
          std::to_string(F(f, 2)) + ")";
 }
 
+/// 3 significant digits, C's %g: "1e+200", "1.73e-150".
+std::string short_number(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", x);
+  return text;
+}
+
+/// Why vertex v cannot be used (its row of V given), or "" when it can.
+std::string coordinate_problem(const Eigen::Vector3d& p, int v) {
+  if (!p.allFinite()) return "vertex " + std::to_string(v) + " has a non-finite coordinate (NaN or infinity)";
+  if (std::string problem = too_large_coordinate(p); !problem.empty()) return "vertex " + std::to_string(v) + " has " + problem;
+  return {};
+}
+
 } // namespace
+
+std::string too_large_coordinate(const Eigen::Vector3d& p) {
+  const double magnitude = p.cwiseAbs().maxCoeff();
+  if (!(magnitude >= max_coordinate_magnitude)) return {};
+  return "a coordinate of magnitude " + short_number(magnitude) + "; gshell needs |x| < " +
+         short_number(max_coordinate_magnitude) + " (volumes and products of lengths would overflow)";
+}
 
 const char* severity_name(MeshProblem::Severity severity) {
   switch (severity) {
@@ -87,20 +109,30 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   const detail::RowMajorFaces T = F;
   const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P = V;
 
-  std::vector<char> finite(n, 1);
+  // usable[v]: finite and within max_coordinate_magnitude. Faces at other vertices are not
+  // measured: their areas would be NaN or overflow, and the vertex is already reported.
+  std::vector<char> usable(n, 1);
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
   for (int v = 0; v < n; ++v) {
     const Eigen::Vector3d p = P.row(v).transpose();
-    if (!p.allFinite()) {
-      finite[v] = 0;
-      list.add(Severity::Error, "vertices with non-finite coordinates",
-               "vertex " + std::to_string(v) + " has a non-finite coordinate (NaN or infinity)");
+    if (std::string problem = coordinate_problem(p, v); !problem.empty()) {
+      usable[v] = 0;
+      list.add(Severity::Error, p.allFinite() ? "vertices with too large coordinates" : "vertices with non-finite coordinates",
+               std::move(problem));
       continue;
     }
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
-  const double diagonal = (hi - lo).allFinite() ? (hi - lo).norm() : 0.0;
+  // stableNorm: norm() squares first, and the square of a diagonal of 1e-200 underflows to 0.
+  const double diagonal = (hi - lo).allFinite() ? (hi - lo).stableNorm() : 0.0;
+  // A mesh this small cannot be measured: areas and volumes underflow, and every face would be
+  // reported as having zero area. (All vertices at one point is a different problem: zero area.)
+  const bool too_small = diagonal > 0 && diagonal < min_mesh_size;
+  if (too_small)
+    list.add(Severity::Error, "too small mesh",
+             "the mesh is too small: its bounding box diagonal is " + short_number(diagonal) + "; gshell needs at least " +
+                 short_number(min_mesh_size) + " (areas and volumes would underflow; scale the mesh up)");
   // Collinear points give a cross product of rounding size (~1e-16 diag^2); anything below this
   // is too small to carry a normal or a prism.
   const double min_double_area = 1e-12 * diagonal * diagonal;
@@ -121,7 +153,7 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
       list.add(Severity::Error, "faces with a repeated index", face_text(T, f) + " repeats a vertex index");
       continue;
     }
-    if (!finite[T(f, 0)] || !finite[T(f, 1)] || !finite[T(f, 2)]) continue;
+    if (too_small || !usable[T(f, 0)] || !usable[T(f, 1)] || !usable[T(f, 2)]) continue;
     const Eigen::Vector3d a = P.row(T(f, 0)), b = P.row(T(f, 1)), c = P.row(T(f, 2));
     if ((b - a).cross(c - a).norm() <= min_double_area)
       list.add(Severity::Error, "zero-area faces",
@@ -217,6 +249,13 @@ void require_valid_mesh(const TriMesh& mesh, const std::string& name) {
   std::string message = first->message;
   if (more > 0) message += " (and " + std::to_string(more) + " more problem" + (more == 1 ? "" : "s") + ")";
   throw InputError(with_file(name, message));
+}
+
+void require_usable_coordinates(const Eigen::MatrixXd& V, const std::string& name) {
+  if (V.cols() != 3) throw InputError(with_file(name, "positions must have 3 coordinates per vertex"));
+  for (Eigen::Index v = 0; v < V.rows(); ++v)
+    if (const std::string problem = coordinate_problem(V.row(v).transpose(), static_cast<int>(v)); !problem.empty())
+      throw InputError(with_file(name, problem));
 }
 
 } // namespace gshell

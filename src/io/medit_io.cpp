@@ -51,7 +51,7 @@ TetMesh read_medit(const std::string& path, std::string_view bytes) {
   TetMesh mesh;
   mesh.X.resize(0, 3);
   mesh.T.resize(0, 4);
-  bool have_vertices = false, have_version = false;
+  bool have_vertices = false, have_tets = false, have_version = false;
   auto read_count = [&](const std::string& section, int values) {
     const long long n = s.next_integer("a section count");
     if (n < 0) s.fail("negative " + section + " count");
@@ -80,6 +80,8 @@ TetMesh read_medit(const std::string& path, std::string_view bytes) {
       const long long d = s.next_integer("the dimension");
       if (d != 3) s.fail("dimension " + std::to_string(d) + ", only 3D meshes are supported");
     } else if (key == "vertices") {
+      // A second section would replace the points the tets already refer to.
+      if (have_vertices) s.fail("a second Vertices section (only one is supported)");
       const long long n = read_count("Vertices", 4);
       mesh.X.resize(n, 3);
       for (long long i = 0; i < n; ++i) {
@@ -89,6 +91,8 @@ TetMesh read_medit(const std::string& path, std::string_view bytes) {
       have_vertices = true;
     } else if (key == "tetrahedra") {
       if (!have_vertices) s.fail("Tetrahedra before Vertices");
+      if (have_tets) s.fail("a second Tetrahedra section (only one is supported)");
+      have_tets = true;
       const long long n = read_count("Tetrahedra", 5);
       mesh.T.resize(n, 4);
       for (long long t = 0; t < n; ++t) {

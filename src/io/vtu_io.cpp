@@ -9,6 +9,8 @@
 #include <gshell/error.h>
 
 #include <bit>
+#include <cmath>
+#include <cstdio>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -353,9 +355,14 @@ TetMesh read_vtu(const std::string& path, std::string_view bytes) {
   for (long long c = 0; c < num_cells; ++c)
     for (int k = 0; k < 4; ++k) {
       const double id = ids(4 * c + k, 0);
-      if (!(id >= 0 && id < static_cast<double>(num_points)))
-        p.fail("cell " + std::to_string(c) + " refers to point " + std::to_string(static_cast<long long>(id)) +
-               " out of range");
+      // Ids arrive as doubles (any array type is decoded to double): a whole number in range,
+      // tested before the conversion to int (converting 1e19 or NaN is undefined behaviour).
+      if (!(id >= 0 && id < static_cast<double>(num_points) && id == std::floor(id))) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.17g", id);
+        p.fail("cell " + std::to_string(c) + " refers to point " + text + ", not a point id (the file has " +
+               std::to_string(num_points) + " points)");
+      }
       mesh.T(c, k) = static_cast<int>(id);
     }
   for (const ArrayInfo& a : arrays) {

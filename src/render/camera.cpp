@@ -88,7 +88,9 @@ Camera frame_camera(const Eigen::MatrixXd& points, const ViewDirection& view, do
   const Eigen::MatrixXd local = points * basis.transpose();
   const Eigen::Vector3d lo = local.colwise().minCoeff(), hi = local.colwise().maxCoeff();
   const Eigen::Vector3d mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
-  const double extent = std::max({half.x(), half.y(), half.z(), 1e-12});
+  // Points that all coincide still get a camera; otherwise the extent sets the scale, whatever the
+  // units (no absolute floor: a mesh of size 1e-40 is framed like one of size 1).
+  const double extent = half.maxCoeff() > 0 ? half.maxCoeff() : 1.0;
 
   Camera cam;
   cam.projection = projection;

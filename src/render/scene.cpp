@@ -60,8 +60,17 @@ struct Soup {
   std::vector<float> position, normal, color;
 };
 
-Soup make_soup(const SurfaceLayer& layer) {
-  const auto& V = layer.V;
+/// OpenGL works in float (largest 3.4e38, smallest normal 1.2e-38): positions and normals are
+/// handed over in a frame centred on the camera's target and scaled by its distance, where the
+/// scene's coordinates are of order 1 whatever the model's units (gshell accepts up to 1e75).
+struct UnitFrame {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  double scale = 1;
+  Eigen::Vector3d operator()(const Eigen::Vector3d& world) const { return (world - origin) * scale; }
+};
+
+Soup make_soup(const SurfaceLayer& layer, const UnitFrame& frame) {
+  const Eigen::MatrixXd V = (layer.V.rowwise() - frame.origin.transpose()) * frame.scale;
   const auto& F = layer.F;
   const Eigen::Index m = F.rows();
   Eigen::MatrixX3f face_normal(m, 3);
@@ -149,8 +158,19 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LEQUAL);
 
+  UnitFrame frame;
+  Camera unit_camera = camera; // the same view of the scene in `frame`
+  if (const double distance = (camera.eye - camera.target).norm(); distance > 0 && std::isfinite(distance)) {
+    frame = {camera.target, 1 / distance};
+    unit_camera.eye = frame(camera.eye);
+    unit_camera.target = Eigen::Vector3d::Zero();
+    unit_camera.half_height *= frame.scale;
+    unit_camera.near_plane *= frame.scale;
+    unit_camera.far_plane *= frame.scale;
+  }
+
   glMatrixMode(GL_PROJECTION);
-  const Eigen::Matrix4d projection = camera.projection_matrix(static_cast<double>(w) / h);
+  const Eigen::Matrix4d projection = unit_camera.projection_matrix(static_cast<double>(w) / h);
   glLoadMatrixd(projection.data());
   glMatrixMode(GL_MODELVIEW);
   glLoadIdentity();
@@ -174,11 +194,12 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   glColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
   glShadeModel(GL_SMOOTH);
 
-  const Eigen::Matrix4d view = camera.view_matrix();
+  const Eigen::Matrix4d view = unit_camera.view_matrix();
   glLoadMatrixd(view.data());
   if (scene.clip_plane) {
-    const GLdouble plane[4] = {(*scene.clip_plane)[0], (*scene.clip_plane)[1], (*scene.clip_plane)[2],
-                               (*scene.clip_plane)[3]};
+    // n.x + d = 0 with x = origin + x' / scale  <=>  n.x' + scale (n.origin + d) = 0
+    const Eigen::Vector4d& c = *scene.clip_plane;
+    const GLdouble plane[4] = {c[0], c[1], c[2], frame.scale * (c.head<3>().dot(frame.origin) + c[3])};
     glClipPlane(GL_CLIP_PLANE0, plane); // taken in world coordinates: the view matrix is current
     glEnable(GL_CLIP_PLANE0);
   }
@@ -188,8 +209,8 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   glEnableClientState(GL_COLOR_ARRAY);
   std::vector<std::pair<Soup, std::optional<Eigen::Vector3f>>> translucent;
   for (const auto& layer : scene.layers) {
-    if (layer.opacity >= 1.0f) draw_soup(make_soup(layer), layer.back_color);
-    else if (layer.opacity > 0.0f) translucent.emplace_back(make_soup(layer), layer.back_color);
+    if (layer.opacity >= 1.0f) draw_soup(make_soup(layer, frame), layer.back_color);
+    else if (layer.opacity > 0.0f) translucent.emplace_back(make_soup(layer, frame), layer.back_color);
   }
   if (!translucent.empty()) {
     // Blended after every opaque surface, without writing depth; back faces before front faces

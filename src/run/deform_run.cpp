@@ -2,6 +2,7 @@
 
 #include <gshell/deform/base_frames.h>
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
@@ -65,7 +66,7 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   input.frames = load_base_frames(frames, input.shell.F, input.shell.num_base_vertices());
   if (!embed.empty()) {
     input.detail = read_mesh(embed);
-    if (!input.detail.V.allFinite()) throw InputError(with_file(embed, "has a non-finite coordinate"));
+    require_usable_coordinates(input.detail.V, embed);
     input.detail_name = embed;
   }
   return input;

@@ -1,6 +1,7 @@
 #include <gshell/run/drag_session.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/run/staged_folder.h>
 #include <gshell/shell/prism_tets.h>
@@ -187,10 +188,14 @@ void DragSession::set_motion(int k, const Eigen::Vector3d& translate, const Eige
   if (k < 0 || k >= static_cast<int>(st.handles.handles.size())) throw InputError("no handle " + std::to_string(k));
   if (!translate.allFinite() || !axis.allFinite() || !std::isfinite(degrees))
     throw InputError("handle " + std::to_string(k) + ": a motion number is not finite");
-  if (!(axis.norm() > 0)) throw InputError("handle " + std::to_string(k) + ": the rotation axis is zero");
+  if (const std::string problem = too_large_coordinate(translate); !problem.empty())
+    throw InputError("handle " + std::to_string(k) + ": translate: " + problem);
+  // stableNorm, as parse_handles: norm() squares first, which over- or underflows for extreme axes.
+  const double length = axis.stableNorm();
+  if (!(length > 0)) throw InputError("handle " + std::to_string(k) + ": the rotation axis is zero");
   Handle& h = st.handles.handles[k];
   h.translate = translate;
-  h.axis = axis.normalized();
+  h.axis = axis / length;
   h.degrees = degrees;
   ++st.motion_version;
 }

@@ -1,6 +1,7 @@
 #include <gshell/run/shell_folder.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/atomic_file.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
@@ -130,9 +131,14 @@ ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderRead
     const TriMesh top = read_mesh((dir / "top.obj").string());
     if (out.surface.V.rows() != top.V.rows() || out.surface.F.rows() != top.F.rows() || out.surface.F != top.F)
       throw InputError(with_file(dir_text, "base.obj and top.obj differ in vertex count or faces"));
+    // Positions from a folder are not validated as a surface (a top may well be degenerate), but
+    // they must be coordinates gshell can compute with.
+    require_usable_coordinates(out.surface.V, (dir / "base.obj").string());
+    require_usable_coordinates(top.V, (dir / "top.obj").string());
     out.shell.base = out.surface.V;
     out.shell.top = top.V;
   } else {
+    require_usable_coordinates(vtu->X, (dir / "shell.vtu").string());
     const int n = static_cast<int>(vtu->X.rows() / 2);
     out.shell.base = vtu->X.topRows(n);
     out.shell.top = vtu->X.bottomRows(n);

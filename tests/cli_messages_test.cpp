@@ -1,0 +1,227 @@
+// Messages a user meets on common mistakes: a mistyped command or option gets a "did you mean",
+// coordinates out of gshell's range get one line saying so (never a confusing later failure), all
+// with exit code 1, one line on stderr and nothing written.
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <sstream>
+#include <string>
+
+using gshell::test::count_entries;
+using gshell::test::run_cli;
+using gshell::test::TempDir;
+using gshell::test::write_text;
+
+namespace {
+
+std::string quoted(const std::string& s) { return "'" + s + "'"; }
+
+/// Expects exit code 1 and exactly the line `gshell: error: <message>` on stderr, nothing on stdout.
+void expect_error_line(const std::string& args, const std::string& message) {
+  const auto r = run_cli(args);
+  EXPECT_EQ(r.exit_code, 1) << args;
+  EXPECT_EQ(r.err, "gshell: error: " + message + "\n") << args;
+  EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
+}
+
+/// Expects exit code 1 and one error line on stderr containing `fragment`.
+void expect_error_containing(const std::string& args, const std::string& fragment) {
+  const auto r = run_cli(args);
+  EXPECT_EQ(r.exit_code, 1) << args;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_EQ(r.err.rfind("gshell: error: ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(fragment), std::string::npos) << "'" << r.err << "' lacks '" << fragment << "'";
+}
+
+/// A closed tetrahedron scaled by `scale`, as OFF text.
+std::string tetrahedron_off(double scale) {
+  char text[400];
+  std::snprintf(text, sizeof text, "OFF\n4 4 0\n0 0 0\n%.17g 0 0\n0 %.17g 0\n0 0 %.17g\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+                scale, scale, scale);
+  return text;
+}
+
+/// OBJ text with every vertex position multiplied by `factor` (other lines kept).
+std::string scaled_obj(const std::string& obj, double factor) {
+  std::istringstream in(obj);
+  std::ostringstream out;
+  out.precision(17);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("v ", 0) == 0) {
+      std::istringstream v(line.substr(2));
+      double x, y, z;
+      v >> x >> y >> z;
+      out << "v " << x * factor << " " << y * factor << " " << z * factor << "\n";
+    } else {
+      out << line << "\n";
+    }
+  }
+  return out.str();
+}
+
+/// Expects stderr written as a log: lines (each ended) that all start with "gshell COMMAND: ",
+/// no carriage return or terminal escape, and at least `min_lines` of them.
+void expect_log_lines(const std::string& err, const std::string& command, int min_lines) {
+  EXPECT_EQ(err.find('\r'), std::string::npos) << err;
+  EXPECT_EQ(err.find('\x1b'), std::string::npos) << err;
+  ASSERT_FALSE(err.empty());
+  EXPECT_EQ(err.back(), '\n') << err;
+  std::istringstream in(err);
+  int lines = 0;
+  for (std::string line; std::getline(in, line); ++lines)
+    EXPECT_EQ(line.rfind("gshell " + command + ": ", 0), 0u) << "'" << line << "' in\n" << err;
+  EXPECT_GE(lines, min_lines) << err;
+}
+
+} // namespace
+
+TEST(CliMessages, MistypedCommandSuggestsTheClosestOne) {
+  TempDir dir;
+  expect_error_line("generat builtin:sphere:1 -o " + quoted(dir.file("out")) + " --thickness 0.1",
+                    "unknown command 'generat' (did you mean 'generate'?)");
+  expect_error_line("convret a.obj b.ply", "unknown command 'convret' (did you mean 'convert'?)");
+  expect_error_line("-q infp builtin:sphere", "unknown command 'infp' (did you mean 'info'?)");
+  expect_error_line("gen builtin:sphere", "unknown command 'gen' (did you mean 'generate'?)"); // unique prefix
+  expect_error_line("frobnicate x", "unknown command 'frobnicate' (see gshell --help for the commands)");
+  EXPECT_EQ(count_entries(dir.path()), 0);
+}
+
+TEST(CliMessages, MistypedOptionSuggestsTheClosestOne) {
+  TempDir dir;
+  const std::string out = " -o " + quoted(dir.file("out"));
+  expect_error_line("generate builtin:sphere:1" + out + " --thicknes 0.1",
+                    "unknown option '--thicknes' for 'generate' (did you mean '--thickness'?)");
+  expect_error_line("generate builtin:sphere:1" + out + " --thickness-ratoi=0.1",
+                    "unknown option '--thickness-ratoi' for 'generate' (did you mean '--thickness-ratio'?)");
+  // One word of a longer option, misspelt or not; an ambiguous word suggests nothing.
+  expect_error_line("generate builtin:sphere:1" + out + " --ratoi 0.1",
+                    "unknown option '--ratoi' for 'generate' (did you mean '--thickness-ratio'?)");
+  expect_error_line("deform --start previous", "unknown option '--start' for 'deform' (did you mean '--warm-start'?)");
+  expect_error_line("generate builtin:sphere:1" + out + " --thick 0.1",
+                    "unknown option '--thick' for 'generate' (see gshell generate --help)");
+  expect_error_line("info --jsn builtin:sphere", "unknown option '--jsn' for 'info' (did you mean '--json'?)");
+  expect_error_line("--quite info builtin:sphere", "unknown option '--quite' (did you mean '--quiet'?)");
+  expect_error_line("generate builtin:sphere:1" + out + " --zzzzzz", "unknown option '--zzzzzz' for 'generate' (see gshell generate --help)");
+  EXPECT_EQ(count_entries(dir.path()), 0);
+}
+
+TEST(CliMessages, OtherArgumentErrorsKeepTheirMessage) {
+  // Not a typo: the command and options exist, an operand is missing.
+  expect_error_line("info", "MESH is required (see gshell info --help)");
+  expect_error_line("pose --handles h.json -o out", "--shell is required (see gshell pose --help)");
+  expect_error_line("", "A subcommand is required (see gshell --help)");
+  // Correct spellings still work after the check.
+  EXPECT_EQ(run_cli("--quiet info builtin:sphere:1 --json").exit_code, 0);
+}
+
+TEST(CliMessages, HugeCoordinatesSayTheyAreTooLarge) {
+  TempDir dir;
+  for (const double big : {1e150, 1e200}) {
+    const std::string mesh = dir.file("big.off");
+    write_text(mesh, tetrahedron_off(big));
+    char expected[200];
+    std::snprintf(expected, sizeof expected,
+                  ": vertex 1 has a coordinate of magnitude %g; gshell needs |x| < 1e+50 (volumes and products of "
+                  "lengths would overflow) (and 2 more problems)",
+                  big);
+    expect_error_line("generate " + quoted(mesh) + " -o " + quoted(dir.file("out")) + " --thickness-ratio 0.05",
+                      mesh + expected);
+    expect_error_line("convert " + quoted(mesh) + " " + quoted(dir.file("c.obj")), mesh + expected);
+    const auto info = run_cli("info " + quoted(mesh));
+    EXPECT_EQ(info.exit_code, 1);
+    EXPECT_NE(info.out.find("error: vertex 3 has a coordinate of magnitude"), std::string::npos) << info.out;
+    EXPECT_EQ(info.out.find("zero area"), std::string::npos) << info.out;
+  }
+  EXPECT_EQ(count_entries(dir.path()), 1); // only the input
+}
+
+TEST(CliMessages, TinyMeshesSayTheyAreTooSmall) {
+  TempDir dir;
+  const std::string mesh = dir.file("tiny.off");
+  write_text(mesh, tetrahedron_off(1e-150));
+  expect_error_line("generate " + quoted(mesh) + " -o " + quoted(dir.file("out")) + " --thickness-ratio 0.05",
+                    mesh + ": the mesh is too small: its bounding box diagonal is 1.73e-150; gshell needs at least "
+                           "1e-40 (areas and volumes would underflow; scale the mesh up)");
+  EXPECT_EQ(count_entries(dir.path()), 1);
+}
+
+TEST(CliMessages, LargeButAcceptedCoordinatesMakeAShell) {
+  TempDir dir;
+  const std::string mesh = dir.file("large.off");
+  write_text(mesh, tetrahedron_off(9e49));
+  const auto r = run_cli("generate " + quoted(mesh) + " -o " + quoted(dir.file("out")) + " --thickness-ratio 0.05 -q");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("valid        yes (exact: 0 inverted tets;"), std::string::npos) << r.out;
+}
+
+TEST(CliMessages, DeformedFramesBeyondTheLimitNameTheFrame) {
+  TempDir dir;
+  const std::string shell = dir.file("shell"), frame = dir.file("frame.off");
+  ASSERT_EQ(run_cli("generate builtin:sphere:1 -o " + quoted(shell) + " --thickness-ratio 0.05 -q").exit_code, 0);
+  ASSERT_EQ(run_cli("convert builtin:sphere:1 " + quoted(frame) + " -q").exit_code, 0);
+  std::string text = gshell::test::read_text(frame);
+  const auto line = text.find("\n", text.find("\n") + 1) + 1; // first vertex line
+  text.replace(line, text.find(' ', line) - line, "3e60");
+  write_text(frame, text);
+  expect_error_containing("deform --shell " + quoted(shell) + " --base " + quoted(frame) + " -o " +
+                              quoted(dir.file("out")),
+                          frame + ": vertex 0 has a coordinate of magnitude 3e+60; gshell needs |x| < 1e+50");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out")));
+}
+
+TEST(CliMessages, HugeCoordinatesInShellFoldersAndHandlesSayTheyAreTooLarge) {
+  // The positions of metrics' top, a shell folder's surfaces and a handle's translation are not
+  // validated as a surface, but 1e150 must still be "too large", not an overflow further on.
+  TempDir dir;
+  const std::string shell = dir.file("shell"), huge = dir.file("huge");
+  ASSERT_EQ(run_cli("generate builtin:sphere:1 -o " + quoted(shell) + " --thickness-ratio 0.05 -q").exit_code, 0);
+  std::filesystem::copy(shell, huge);
+  for (const std::string name : {"/base.obj", "/top.obj"})
+    write_text(huge + name, scaled_obj(gshell::test::read_text(shell + name), 1e150));
+  const std::string too_large = "; gshell needs |x| < 1e+50 (volumes and products of lengths would overflow)";
+  const std::string out = " -o " + quoted(dir.file("out"));
+
+  expect_error_containing("metrics " + quoted(shell + "/base.obj") + " " + quoted(huge + "/top.obj") +
+                              " --thickness-ratio 0.05",
+                          huge + "/top.obj: vertex 0 has a coordinate of magnitude "); // 1e150 x (1 + eta)
+  // Vertex 0 of the icosphere: (-1, phi, 0) / |(1, phi)|, phi the golden ratio.
+  expect_error_containing("metrics " + quoted(huge + "/base.obj") + " " + quoted(huge + "/top.obj") +
+                              " --thickness-ratio 0.05",
+                          huge + "/base.obj: vertex 0 has a coordinate of magnitude 8.51e+149" + too_large);
+  expect_error_line("deform --shell " + quoted(huge) + " --base " + quoted(shell + "/base.obj") + out,
+                    huge + "/base.obj: vertex 0 has a coordinate of magnitude 8.51e+149" + too_large);
+  const std::string handles = dir.file("handles.json");
+  write_text(handles, R"({"handles": [{"vertices": [0], "translate": [0, 0, 0.01]}, {"vertices": [5]}]})");
+  expect_error_line("pose --shell " + quoted(huge) + " --handles " + quoted(handles) + out,
+                    huge + "/base.obj: vertex 0 has a coordinate of magnitude 8.51e+149" + too_large);
+  write_text(handles, R"({"handles": [{"vertices": [0], "translate": [0, 0, 1e150]}, {"vertices": [5]}]})");
+  expect_error_line("pose --shell " + quoted(shell) + " --handles " + quoted(handles) + out,
+                    handles + ": handle 0: translate: a coordinate of magnitude 1e+150" + too_large);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out")));
+}
+
+TEST(CliMessages, ProgressInALogIsOneLinePerUpdate) {
+  // run_cli's stderr is a file, not a terminal: the status line of a terminal becomes one line per
+  // update (animate: deform_cli_test).
+  TempDir dir;
+  const std::string shell = dir.file("shell"), frames = dir.file("frames");
+  const auto generate = run_cli("generate builtin:sphere:2 -o " + quoted(shell) +
+                                " --thickness-ratio 0.05 --tolerance 0 --iterations 3");
+  ASSERT_EQ(generate.exit_code, 0) << generate.err;
+  expect_log_lines(generate.err, "generate", 4); // the input line and 3 iterations
+  ASSERT_EQ(run_cli("animate " + quoted(shell + "/base.obj") + " --bend 30 --frames 3 -o " + quoted(frames) + " -q").exit_code, 0);
+  const auto deform = run_cli("deform --shell " + quoted(shell) + " --base " + quoted(frames + "/frame_0001.obj") + " " +
+                              quoted(frames + "/frame_0002.obj") + " " + quoted(frames + "/frame_0003.obj") + " -o " +
+                              quoted(dir.file("deformed")));
+  ASSERT_EQ(deform.exit_code, 0) << deform.err;
+  expect_log_lines(deform.err, "deform", 4); // the setup line and 3 frames
+  const std::string handles = dir.file("handles.json");
+  write_text(handles, R"({"handles": [{"vertices": [0], "translate": [0, 0, 0.05]}, {"vertices": [5]}]})");
+  const auto pose = run_cli("pose --shell " + quoted(shell) + " --handles " + quoted(handles) + " --steps 2 -o " +
+                            quoted(dir.file("posed")));
+  ASSERT_EQ(pose.exit_code, 0) << pose.err;
+  expect_log_lines(pose.err, "pose", 3); // the setup line and 2 steps
+}
