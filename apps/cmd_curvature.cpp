@@ -6,6 +6,7 @@
 #include <gshell/geometry/curvature.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
+#include <gshell/seconds_since.h>
 
 #include <algorithm>
 #include <chrono>
@@ -54,7 +55,7 @@ void run_curvature(const CurvatureArgs& args) {
   const auto start = std::chrono::steady_clock::now();
   const FaceCurvature faces = face_curvature(mesh.V, mesh.F, args.options);
   const VertexCurvature vertices = vertex_curvature(mesh.V, mesh.F, args.options);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = seconds_since(start);
   char line[128];
   std::snprintf(line, sizeof line, "%d faces, %d vertices in %.3f s", mesh.num_faces(), mesh.num_vertices(), seconds);
   Progress("curvature").line(line);

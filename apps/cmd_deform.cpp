@@ -26,13 +26,11 @@ struct DeformArgs {
 
 void run(const CLI::App& cmd, DeformArgs& a) {
   using namespace gshell;
-  ViewDirection view;
   cli::check_flags(cmd, [&] {
     a.options.frame.warm_start = parse_warm_start(a.warm_start);
     a.options.check();
-    view = parse_view(a.view);
   });
-  if (a.render) cli::require_renderer();
+  const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   // Everything that can be wrong with the input is found before any work or output.
   check_output_folder(a.out, holds_only_deform_output);
   const DeformInput input = load_deform_input(a.shell, a.frames, a.embed);
@@ -53,9 +51,13 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     }
     const DeformFrameRecord& f = run.frames.back();
     char text[200];
-    std::snprintf(text, sizeof text, "frame %d/%d: %d iterations, %.1f ms, stretch %.3g, %d inverted", f.frame, count,
-                  f.result.iterations, 1e3 * f.result.seconds, f.result.stretch.volume_mean, f.result.stretch.inverted);
+    std::snprintf(text, sizeof text, "frame %d/%d: %d iterations, %.1f ms, stretch %.3g, %s (%s", f.frame, count,
+                  f.result.iterations, 1e3 * f.result.seconds, f.result.stretch.volume_mean,
+                  f.result.valid ? "valid" : "INVALID", frame_method_name(f.result.method));
     std::string line = text;
+    if (f.result.substeps > 1) line += ", " + std::to_string(f.result.substeps) + " sub-steps";
+    line += ")";
+    if (f.result.certificate.inverted_tets > 0) line += ", " + std::to_string(f.result.certificate.inverted_tets) + " inverted";
     if (f.offset) {
       std::snprintf(text, sizeof text, " | offset %.3g, %d inverted", f.offset->volume_mean, f.offset->inverted);
       line += text;
@@ -65,8 +67,9 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   const DeformRun run = run_deform(input, a.options, a.out, report, cli::preview_writer(a.render, a.out, view));
   const auto summary = run.to_json()["summary"];
   char text[200];
-  std::snprintf(text, sizeof text, "%zu frames, median %.3g ms and %g iterations per frame; wrote %s", run.frames.size(),
-                1e3 * summary["median_seconds"].get<double>(), summary["median_iterations"].get<double>(), a.out.c_str());
+  std::snprintf(text, sizeof text, "%zu frames (%d valid), median %.3g ms and %g iterations per frame; wrote %s",
+                run.frames.size(), summary["valid_frames"].get<int>(), 1e3 * summary["median_seconds"].get<double>(),
+                summary["median_iterations"].get<double>(), a.out.c_str());
   progress.line(text);
   if (a.render) progress.line("wrote " + a.out + "/preview.png");
 }
@@ -88,6 +91,9 @@ void add_deform_command(CLI::App& parent) {
       ->capture_default_str();
   cmd->add_option("--warm-start", a->warm_start, "Start of each frame: extrapolated, rotated, translated or previous")
       ->capture_default_str();
+  cmd->add_flag("--allow-invalid", a->options.frame.allow_invalid,
+                "Today's unguarded frames (may hold inverted tets and intersections), for comparison; by default "
+                "every frame is valid by construction (step bounds, guarded sub-steps)");
   cmd->add_flag("--compare-offset", a->options.compare_offset,
                 "Also report the stretch of re-extruding each frame by the plain vertex-normal offset");
   cmd->add_option("--embed", a->embed, "Detail mesh in the rest shell's space, carried along: frame_NNNN/detail.obj");

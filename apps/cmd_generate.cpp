@@ -8,6 +8,7 @@
 
 #include <gshell/io/load_mesh.h>
 #include <gshell/run/generate_run.h>
+#include <gshell/shell/generate_report.h>
 #include <gshell/run/staged_folder.h>
 
 #include <cstdio>
@@ -29,10 +30,8 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   cli::check_flags(cmd, [&] {
     a.options.generate.method = parse_shell_method(a.method);
     a.options.check();
-    parse_view(a.view);
   });
-  const ViewDirection view = parse_view(a.view); // checked above
-  if (a.render) cli::require_renderer();
+  const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, holds_only_shell_files);
   const TriMesh mesh = load_mesh(a.input);
   cli::Progress progress("generate");
@@ -48,6 +47,7 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
     };
   const GenerateRun result = run_generate(mesh, a.input, a.options);
   progress.finish_status();
+  for (const std::string& warning : generate_warnings(result.result)) std::cerr << "gshell generate: warning: " << warning << "\n";
   result.write(a.output, cli::preview_writer(a.render, a.output, view));
   std::cout << result.summary() << "wrote        " << a.output << "/{top.obj, base.obj, shell.vtu, report.json"
             << (a.render ? ", preview.png" : "") << "}\n";
@@ -70,6 +70,9 @@ void add_generate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--tolerance", a->options.generate.solve.tolerance, "Stop when the relative energy change is below this")
       ->capture_default_str();
+  cmd->add_flag("--allow-invalid", a->options.generate.allow_invalid,
+                "Rigid and curvature: skip the guard and keep the paper's unguarded result, which may have inverted "
+                "tets and intersections (the report certifies it either way)");
   cmd->add_option("--s-min", a->options.generate.s_min, "Curvature method: smallest in-plane scale of a top triangle")
       ->capture_default_str();
   cmd->add_option("--s-max", a->options.generate.s_max, "Curvature method: largest in-plane scale of a top triangle")

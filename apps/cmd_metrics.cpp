@@ -1,4 +1,5 @@
-// `gshell metrics BASE TOP`: the quality report of any base/top pair (DESIGN.md "Quality measures").
+// `gshell metrics BASE TOP`: the quality report of any base/top pair (docs/design.md "Quality
+// measures").
 #include "command_registry.h"
 #include "parameter_flags.h"
 #include "thickness_flags.h"

@@ -24,13 +24,11 @@ struct PoseArgs {
 
 void run(const CLI::App& cmd, PoseArgs& a) {
   using namespace gshell;
-  ViewDirection view;
   cli::check_flags(cmd, [&] {
     a.options.solver = parse_pose_solver(a.solver);
     a.options.check();
-    view = parse_view(a.view); // a bad view fails before the solve, not after
   });
-  if (a.render) cli::require_renderer();
+  const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view); // before the solve, not after
 
   const ShellFolder rest = read_shell_folder(a.shell_dir);
   const HandleSet handles = read_handles(a.handles, rest.shell);
@@ -53,9 +51,13 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   for (size_t k = 0; k < result.steps.size(); ++k) {
     const PoseStepReport& s = result.steps[k];
     char text[160];
-    std::snprintf(text, sizeof text, "step %zu/%zu: %d iterations, energy %g, %.3f s%s", k + 1, result.steps.size(),
-                  s.iterations, s.energy, s.seconds, s.converged ? "" : " (not converged)");
+    std::snprintf(text, sizeof text, "step %zu/%zu: %d iterations, energy %g, %.3f s%s%s", k + 1, result.steps.size(),
+                  s.iterations, s.energy, s.seconds, s.converged ? "" : " (not converged)",
+                  !s.guarded ? "" : s.valid ? ", valid" : ", INVALID");
     progress.line(text);
+    if (s.blocked_by_contact) // a warning even with --quiet: the pose is not where the handles asked
+      std::fprintf(stderr, "warning: step %zu: the handles force the shell into itself; stopped at contact "
+                           "(blocked_by_contact in report.json)\n", k + 1);
   }
   session.write(a.output, 0, cli::preview_writer(a.render, a.output, view));
   progress.line("wrote " + a.output + " (top.obj, base.obj, shell.vtu, report.json" + (a.render ? ", preview.png" : "") +
@@ -82,6 +84,9 @@ void add_pose_command(CLI::App& app) {
                   "Stop a step when the relative energy change per iteration is below this")
       ->capture_default_str();
   cmd->add_option("--iterations", a->options.solve.max_iterations, "Maximum iterations per step")->capture_default_str();
+  cmd->add_flag("--allow-invalid", a->options.allow_invalid,
+                "Today's unguarded steps (may invert tets or pass the shell through itself), for comparison; by "
+                "default every step is valid and stops at contact when the handles force a collision");
   cmd->add_option("-o,--output", a->output,
                   "Output folder (an earlier pose output there is replaced; a folder of other files is an error)")
       ->required();

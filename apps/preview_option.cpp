@@ -1,5 +1,7 @@
 #include "preview_option.h"
 
+#include "parameter_flags.h"
+
 #include <gshell/error.h>
 #include <gshell/render/scene.h>
 #include <gshell/render/shell_render.h>
@@ -15,6 +17,13 @@ void add_preview_flags(CLI::App& cmd, bool& render, std::string& view, const std
   cmd.add_option("--view", view, "Preview direction: front|back|left|right|top|bottom|iso or AZIMUTH,ELEVATION (y up)")
       ->needs(flag)
       ->capture_default_str();
+}
+
+ViewDirection check_preview_flags(const CLI::App& cmd, bool render, const std::string& view) {
+  ViewDirection direction;
+  check_flags(cmd, [&] { direction = parse_view(view); });
+  if (render) require_renderer();
+  return direction;
 }
 
 BeforeCommit preview_writer(bool render, const std::string& output, const ViewDirection& view) {

@@ -1,10 +1,17 @@
-// bench_deform: base-driven deformation of the bunny shell through a 30-frame bend (issue 5).
+// bench_deform: base-driven deformation of the bunny shell through a 30-frame bend (issues 5, 14).
 // Usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60]
-// Prints the rest shell's size, the one-off factorization time, then for each warm start the
-// per-frame time and iterations (medians over frames, then median over runs) to a relative energy
-// tolerance of 1e-4, and the stretch against the rest shell compared with offset re-extrusion.
+//                     [--ratio R=0.01] [--validity-only]
+// Prints the rest shell's size, the one-off factorization time, then guarded (valid by
+// construction, the default) against unguarded (--allow-invalid) frames, runs interleaved: median
+// time per frame, valid frames and inverted tets per frame by the exact certificate (not timed);
+// then (unless --validity-only) for each warm start the unguarded per-frame time and iterations
+// (medians over frames, then median over runs) to a relative energy tolerance of 1e-4, and the
+// stretch against the rest shell compared with offset re-extrusion.
+#include "bench_common.h"
+
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/deform/synthetic_motion.h>
+#include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/generate_shell.h>
@@ -13,22 +20,19 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <numeric>
 #include <string>
 #include <vector>
 
 using namespace gshell;
+using gshell::bench::median;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t h = v.size() / 2;
-  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
 
 struct RunStats {
   std::vector<double> ms, warm_ms, iterations, stretch, offset_stretch, max_stretch, offset_max;
@@ -43,6 +47,8 @@ RunStats run_sequence(ShellDeformer& deformer, const std::vector<Eigen::MatrixXd
   options.warm_start = warm;
   options.tolerance = 1e-4;
   options.measure_stretch = compare_offset;
+  options.allow_invalid = true; // the warm starts compared on the paper's solve alone
+  options.certify = false;
   const Shell& rest = deformer.rest_shell();
   for (const Eigen::MatrixXd& base : frames) {
     const FrameResult r = deformer.solve(base, options);
@@ -64,23 +70,94 @@ RunStats run_sequence(ShellDeformer& deformer, const std::vector<Eigen::MatrixXd
   return s;
 }
 
+struct ValidityStats {
+  std::vector<double> ms, cpu_ms; // wall, and CPU summed over threads (steadier on a loaded machine)
+  std::vector<int> inverted, substeps, intersections;
+  std::vector<std::string> methods;
+  int valid = 0;
+};
+
+ValidityStats run_validity(ShellDeformer& deformer, const std::vector<Eigen::MatrixXd>& frames, bool allow_invalid,
+                           bool certify) {
+  ValidityStats s;
+  deformer.reset();
+  DeformOptions options;
+  options.allow_invalid = allow_invalid;
+  options.measure_stretch = false;
+  options.certify = certify;
+  for (const Eigen::MatrixXd& base : frames) {
+    const std::clock_t cpu0 = std::clock();
+    const FrameResult r = deformer.solve(base, options);
+    const std::clock_t cpu1 = std::clock();
+    // CPU of the frame without the (untimed) certificate and its share of the run's wall time.
+    s.cpu_ms.push_back(1e3 * static_cast<double>(cpu1 - cpu0) / CLOCKS_PER_SEC *
+                       (r.seconds / std::max(1e-12, r.seconds + r.certificate_seconds)));
+    s.ms.push_back(1e3 * r.seconds);
+    s.valid += r.valid ? 1 : 0;
+    s.inverted.push_back(r.certificate.inverted_tets);
+    s.intersections.push_back(r.certificate.top_self_intersections + r.certificate.top_base_intersections +
+                              r.certificate.wall_intersections);
+    s.substeps.push_back(r.substeps);
+    s.methods.push_back(frame_method_name(r.method));
+  }
+  return s;
+}
+
+void print_list(const char* name, const std::vector<int>& v) {
+  std::printf("    %s:", name);
+  for (int x : v) std::printf(" %d", x);
+  std::printf("\n");
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
   std::string path = "models/bunny00.off";
   int runs = 5, frame_count = 30;
-  double degrees = 60;
+  double degrees = 60, ratio = 0.01;
+  bool validity_only = false;
+  const char* usage = "usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60] "
+                      "[--ratio R=0.01] [--validity-only]\n";
+  // A bad option is one line and exit 1, not a load_mesh exception for a "mesh" named --help.
+  const auto bad = [&](const char* what, const char* arg) {
+    std::fprintf(stderr, "bench_deform: %s '%s' (see --help)\n", what, arg);
+    std::exit(1);
+  };
+  const auto number = [&](int& i) {
+    if (i + 1 >= argc) bad("missing value for", argv[i]);
+    char* end = nullptr;
+    const double v = std::strtod(argv[++i], &end);
+    if (end == argv[i] || *end || !std::isfinite(v)) bad("not a number:", argv[i]);
+    return v;
+  };
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc) frame_count = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--bend") && i + 1 < argc) degrees = std::atof(argv[++i]);
-    else path = argv[i];
+    const char* a = argv[i];
+    if (!std::strcmp(a, "--help") || !std::strcmp(a, "-h")) {
+      std::fputs(usage, stdout);
+      return 0;
+    }
+    if (!std::strcmp(a, "--runs")) runs = static_cast<int>(number(i));
+    else if (!std::strcmp(a, "--frames")) frame_count = static_cast<int>(number(i));
+    else if (!std::strcmp(a, "--bend")) degrees = number(i);
+    else if (!std::strcmp(a, "--ratio")) ratio = number(i);
+    else if (!std::strcmp(a, "--validity-only")) validity_only = true;
+    else if (a[0] == '-') bad("unknown option", a);
+    else path = a;
   }
-  const TriMesh mesh = load_mesh(path);
-  // The rest shell as `gshell generate --method rigid --thickness-ratio 0.01` makes it.
+  if (runs < 1) bad("--runs must be >= 1, got", std::to_string(runs).c_str());
+  if (frame_count < 1) bad("--frames must be >= 1, got", std::to_string(frame_count).c_str());
+  if (!(ratio > 0)) bad("--ratio must be > 0, got", std::to_string(ratio).c_str());
+  TriMesh mesh;
+  try {
+    mesh = load_mesh(path);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "bench_deform: %s\n", e.what());
+    return 1;
+  }
+  // The rest shell as `gshell generate --method rigid --thickness-ratio RATIO` makes it.
   GenerateOptions generate;
   generate.method = ShellMethod::Rigid;
-  generate.thickness = thickness_from_ratio(mesh.V, 0.01);
+  generate.thickness = thickness_from_ratio(mesh.V, ratio);
   generate.count_intersections = false;
   const GenerateResult generated = generate_shell(mesh.V, mesh.F, generate);
   const Shell& rest = generated.shell;
@@ -99,7 +176,43 @@ int main(int argc, char** argv) {
   const MotionFrame frame = motion_frame(rest.base);
   std::vector<Eigen::MatrixXd> frames;
   for (int k = 1; k <= frame_count; ++k) frames.push_back(bend(rest.base, frame, degrees * ramp(k, frame_count)));
-  std::printf("%d frames: smooth bend to %.0f degrees about the bounding box's middle axis\n", frame_count, degrees);
+  std::printf("%d frames: smooth bend to %.0f degrees about the bounding box's middle axis (thickness ratio %g)\n",
+              frame_count, degrees, ratio);
+
+  {
+    // Certified once per mode (not timed), then timed runs interleaved guarded / unguarded.
+    const ValidityStats guarded = run_validity(deformer, frames, false, true);
+    const ValidityStats unguarded = run_validity(deformer, frames, true, true);
+    std::vector<double> guarded_ms{median(guarded.ms)}, unguarded_ms{median(unguarded.ms)};
+    std::vector<double> guarded_cpu{median(guarded.cpu_ms)}, unguarded_cpu{median(unguarded.cpu_ms)};
+    for (int r = 1; r < runs; ++r) {
+      const ValidityStats u = run_validity(deformer, frames, true, false);
+      const ValidityStats g = run_validity(deformer, frames, false, false);
+      unguarded_ms.push_back(median(u.ms));
+      unguarded_cpu.push_back(median(u.cpu_ms));
+      guarded_ms.push_back(median(g.ms));
+      guarded_cpu.push_back(median(g.cpu_ms));
+    }
+    std::printf("CPU per frame (summed over threads), median: guarded %.1f ms, unguarded %.1f ms (ratio %.2f)\n",
+                median(guarded_cpu), median(unguarded_cpu), median(guarded_cpu) / median(unguarded_cpu));
+    const auto total = [](const std::vector<int>& v) { return std::accumulate(v.begin(), v.end(), 0); };
+    std::printf("guarded (default):     median %.1f ms/frame over %d runs (max frame %.1f ms); %d/%d frames valid; "
+                "inverted tets summed over frames %d, intersecting pairs %d\n",
+                median(guarded_ms), runs, *std::max_element(guarded.ms.begin(), guarded.ms.end()), guarded.valid,
+                frame_count, total(guarded.inverted), total(guarded.intersections));
+    std::printf("unguarded (--allow-invalid): median %.1f ms/frame over %d runs; %d/%d frames valid; inverted tets "
+                "summed over frames %d, intersecting pairs %d\n",
+                median(unguarded_ms), runs, unguarded.valid, frame_count, total(unguarded.inverted),
+                total(unguarded.intersections));
+    print_list("inverted tets per frame, guarded", guarded.inverted);
+    print_list("inverted tets per frame, unguarded", unguarded.inverted);
+    print_list("intersecting boundary pairs per frame, unguarded", unguarded.intersections);
+    print_list("sub-steps per frame, guarded", guarded.substeps);
+    std::printf("    guarded frame methods:");
+    for (const std::string& m : guarded.methods) std::printf(" %s", m.c_str());
+    std::printf("\n");
+  }
+  if (validity_only) return 0;
 
   for (WarmStart warm : {WarmStart::Extrapolated, WarmStart::RotatedOffset, WarmStart::Translated, WarmStart::PreviousTop}) {
     std::vector<double> run_ms, run_iterations, run_max_ms, last_iterations;

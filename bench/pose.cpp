@@ -30,6 +30,8 @@
 // Drag protocol: step k starts every solver from the reference states of steps k-1 and k-2 (their
 // motion continued, PoseSolver::predict_start, timed; --no-extrapolate: from step k-1's state),
 // so all solvers are timed on the same problems; the hierarchical solver's levels carry over.
+#include "bench_common.h"
+
 #include <gshell/deform/handles.h>
 #include <gshell/deform/pose.h>
 #include <gshell/geometry/builtin_mesh.h>
@@ -47,15 +49,9 @@
 #include <vector>
 
 using namespace gshell;
+using gshell::bench::median;
 
 namespace {
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(v.begin(), v.end());
-  const size_t h = v.size() / 2;
-  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
 
 Shell make_shell(const TriMesh& mesh, double ratio) {
   GenerateOptions options;
@@ -63,33 +59,6 @@ Shell make_shell(const TriMesh& mesh, double ratio) {
   options.thickness = thickness_from_ratio(mesh.V, ratio);
   options.count_intersections = false;
   return generate_shell(mesh.V, mesh.F, options).shell;
-}
-
-HandleSet make_handles(const Shell& shell, bool bowl) {
-  const Eigen::MatrixXd X = shell.vertices();
-  const Eigen::RowVector3d lo = X.colwise().minCoeff(), hi = X.colwise().maxCoeff();
-  const double R = 0.5 * (hi - lo).maxCoeff();
-  Handle hold, pull;
-  for (int v = 0; v < X.rows(); ++v) {
-    const Eigen::RowVector3d p = X.row(v);
-    if (bowl) {
-      if (p.z() > -0.15 * R && p.x() < -0.5 * R) hold.vertices.push_back(v);
-      if (p.z() > -0.15 * R && p.x() > 0.7 * R) pull.vertices.push_back(v);
-    } else {
-      const double y = (p.y() - lo.y()) / (hi.y() - lo.y());
-      if (y < 0.08) hold.vertices.push_back(v);
-      if (y > 0.92) pull.vertices.push_back(v);
-    }
-  }
-  pull.translate = bowl ? Eigen::Vector3d(0.8 * R, 0.2 * R, 0.5 * R) : Eigen::Vector3d(0.5 * R, 0.1 * R, 0.3 * R);
-  HandleSet set;
-  set.handles = {hold, pull};
-  for (auto& h : set.handles) {
-    h.center = Eigen::Vector3d::Zero();
-    for (int v : h.vertices) h.center += X.row(v).transpose();
-    h.center /= static_cast<double>(h.vertices.size());
-  }
-  return set;
 }
 
 struct Config {
@@ -392,7 +361,7 @@ int main(int argc, char** argv) {
               runs, drag_runs, reference_iterations);
   const TriMesh mesh = bowl ? make_bowl() : load_mesh(model);
   const Shell shell = make_shell(mesh, ratio);
-  const HandleSet handles = make_handles(shell, bowl);
+  const HandleSet handles = bench::pull_handles(shell, bowl);
   const int n = shell.num_base_vertices();
   std::printf("model %s: %d shell vertices, %d tets, thickness %.4g (ratio %.3g), handle vertices %zu + %zu\n",
               model.c_str(), 2 * n, 3 * static_cast<int>(shell.F.rows()), shell.thickness, ratio,

@@ -20,8 +20,9 @@ namespace gshell::python {
 namespace {
 
 struct DeformerObject {
-  explicit DeformerObject(const Shell& rest) : deformer(rest) {}
+  DeformerObject(const Shell& rest, bool allow_invalid) : deformer(rest), allow_invalid(allow_invalid) {}
   ShellDeformer deformer;
+  bool allow_invalid = false;
   FrameResult last;
   bool solved = false;
   /// solve() runs without the GIL and changes the deformer's state: two Python threads calling
@@ -34,9 +35,9 @@ struct EmbeddingObject {
   int shell_vertices = 0; ///< 2n of the shell it was made in: carry() needs that many rows
 };
 
-std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell) {
+std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell, bool allow_invalid) {
   py::gil_scoped_release release;
-  return std::make_unique<DeformerObject>(shell.shell);
+  return std::make_unique<DeformerObject>(shell.shell, allow_invalid);
 }
 
 py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterations, double tolerance,
@@ -47,6 +48,7 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
   options.max_iterations = iterations;
   options.tolerance = tolerance;
   options.warm_start = parse_warm_start(warm_start);
+  options.allow_invalid = d.allow_invalid;
   options.check();
   Eigen::MatrixXd top;
   {
@@ -61,8 +63,10 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
 }
 
 py::object deform_py(const ShellObject& shell, const py::sequence& frames, const std::optional<std::string>& output,
-                     int iterations, double tolerance, const std::string& warm_start, bool compare_offset) {
+                     int iterations, double tolerance, const std::string& warm_start, bool compare_offset,
+                     bool allow_invalid) {
   DeformRunOptions options;
+  options.frame.allow_invalid = allow_invalid;
   options.frame.max_iterations = iterations;
   options.frame.tolerance = tolerance;
   options.frame.warm_start = parse_warm_start(warm_start);
@@ -107,8 +111,12 @@ void bind_deform(py::module_& m) {
 else moves the base (same connectivity), the top follows with the least stretch relative to the
 rest shell. Built once per rest shell (the system matrix is factored once); each solve() only
 back-substitutes and is warm-started from the previous frame, as `gshell deform` does.)")
-      .def(py::init(&make_deformer), py::arg("shell"),
+      .def(py::init(&make_deformer), py::arg("shell"), py::kw_only(), py::arg("allow_invalid") = defaults.allow_invalid,
            R"(Prepare the deformation of `shell` (a Shell, e.g. from generate()).
+
+Every frame is valid by construction (no inverted tet, no intersection of the layer's boundary,
+certified exactly in .last) unless allow_invalid=True, which gives the unguarded frames, as
+`gshell deform --allow-invalid`.
 
 Raises:
     ValueError: the shell has a tet of non-positive volume.)")
@@ -133,35 +141,28 @@ Raises:
 
 Releases the GIL while it runs.)")
       .def("reset", [](DeformerObject& d) {
-             py::gil_scoped_release release;
-             const std::lock_guard<std::mutex> lock(d.mutex);
-             d.deformer.reset();
-             d.solved = false;
+             without_gil_locked(d.mutex, [&] {
+               d.deformer.reset();
+               d.solved = false;
+             });
            },
            "Start the next solve() from the rest shell again.")
       .def_property_readonly("vertices", [](DeformerObject& d) {
-             Eigen::MatrixXd X;
-             {
-               py::gil_scoped_release release;
-               const std::lock_guard<std::mutex> lock(d.mutex);
-               X = d.deformer.current();
-             }
+             const Eigen::MatrixXd X = without_gil_locked(d.mutex, [&] { return d.deformer.current(); });
              return read_only(from_matrix(X));
            },
            "float64 (2n, 3): all shell vertices after the last solve (base rows, then top rows); "
            "pass it to Embedding.carry().")
       .def_property_readonly("last", [](DeformerObject& d) -> py::object {
-             nlohmann::ordered_json j; // stays null before the first solve
-             {
-               py::gil_scoped_release release;
-               const std::lock_guard<std::mutex> lock(d.mutex);
-               if (d.solved) j = frame_json(d.last);
-             }
+             const nlohmann::ordered_json j = without_gil_locked(d.mutex, [&] { // null before the first solve
+               return d.solved ? frame_json(d.last) : nlohmann::ordered_json();
+             });
              return j.is_null() ? py::none() : to_python(j);
            },
            "dict about the last solve (None before the first): iterations, converged, energy (list, "
            "energy[0] at the warm start), stretch {mean, volume_mean, max, p99} against the rest shell, "
-           "inverted_tets, seconds. The fields of a frame in `gshell deform`'s report.json.")
+           "inverted_tets, seconds, valid, method, substeps, guarded_iterations, thinned_vertices, "
+           "certificate {...}, base_self_intersections. The fields of a frame in `gshell deform`'s report.json.")
       .def_property_readonly("factor_seconds", [](const DeformerObject& d) { return d.deformer.factor_seconds(); },
                              "Seconds spent assembling and factoring the system matrix.")
 ;
@@ -169,6 +170,7 @@ Releases the GIL while it runs.)")
   m.def("deform", &deform_py, py::arg("shell"), py::arg("frames"), py::kw_only(), py::arg("output") = py::none(),
         py::arg("iterations") = defaults.max_iterations, py::arg("tolerance") = defaults.tolerance,
         py::arg("warm_start") = warm_start_name(defaults.warm_start), py::arg("compare_offset") = false,
+        py::arg("allow_invalid") = defaults.allow_invalid,
         R"(Deform `shell` by a sequence of new bases, as `gshell deform` does: one factorisation, each
 frame warm-started from the previous one.
 
@@ -179,6 +181,8 @@ Args:
         report.json), or None.
     iterations, tolerance, warm_start: per frame, as Deformer.solve().
     compare_offset: also measure re-extruding each frame by the vertex-normal offset.
+    allow_invalid: the unguarded frames, as `gshell deform --allow-invalid` (default: every
+        frame valid by construction).
 
 Returns:
     dict: the CLI's report.json (summary and one record per frame).

@@ -65,7 +65,8 @@ ShellObject load_shell_py(const std::filesystem::path& dir) {
 
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
                         std::optional<double> thickness_ratio, const std::string& method, int iterations,
-                        double tolerance, double s_min, double s_max, bool count_intersections) {
+                        double tolerance, double s_min, double s_max, bool count_intersections,
+                        bool allow_invalid) {
   TriMesh mesh = checked_mesh(V, F);
   GenerateRunOptions options;
   options.thickness = {thickness, thickness_ratio};
@@ -75,6 +76,7 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   options.generate.s_min = s_min;
   options.generate.s_max = s_max;
   options.generate.count_intersections = count_intersections;
+  options.generate.allow_invalid = allow_invalid;
   options.check();
   py::gil_scoped_release release;
   // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
@@ -158,6 +160,7 @@ stretch and report are measured as by metrics() without intersection counts.)")
         py::arg("iterations") = defaults.solve.max_iterations, py::arg("tolerance") = defaults.solve.tolerance,
         py::arg("s_min") = defaults.s_min, py::arg("s_max") = defaults.s_max,
         py::arg("count_intersections") = defaults.count_intersections,
+        py::arg("allow_invalid") = defaults.allow_invalid,
         R"(Generate the shell of a triangle surface (paper section 4.1), as `gshell generate` does.
 
 Args:
@@ -174,7 +177,10 @@ Args:
         (0 < s_min <= 1 <= s_max).
     count_intersections: run the certificate's exact pair tests (top/top, top/base, side
         walls, base/base) for the report; when False their counts are None and report["valid"]
-        is None, or False if a tet is inverted (the tets are always checked).
+        is None, or False if a tet is inverted (the tets are always checked). A guarded result
+        (rigid and curvature without allow_invalid) is always certified in full.
+    allow_invalid: rigid and curvature: skip the guard and return the paper's unguarded result,
+        which may have inverted tets and intersections (report["valid"] says).
 
 Returns:
     Shell with top, tets, per-tet stretch and report (dict: the CLI's report.json, with the

@@ -29,8 +29,10 @@ struct PoserObject {
   std::mutex mutex;            ///< solve() runs without the GIL
 };
 
-std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, int levels) {
+std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, int levels,
+                                        bool allow_invalid) {
   PoseOptions options;
+  options.allow_invalid = allow_invalid;
   options.solver = parse_pose_solver(solver);
   options.hierarchy.levels = levels;
   options.check();
@@ -95,8 +97,13 @@ Handles are a dict in the handle-file format of `gshell pose --handles` (docs/ha
          "rotate": {"axis": [0, 1, 0], "degrees": 30}}]}
 (shell vertex ids: base 0..n-1, top n..2n-1), or the path of such a file.)")
       .def(py::init(&make_poser), py::arg("shell"), py::arg("solver") = pose_solver_name(defaults.solver),
-           py::arg("levels") = defaults.hierarchy.levels,
+           py::arg("levels") = defaults.hierarchy.levels, py::kw_only(),
+           py::arg("allow_invalid") = defaults.allow_invalid,
            R"(Prepare direct deformation of `shell` (the rest shell).
+
+Every step is valid (certified exactly; its report says valid, method, blocked_by_contact when
+the handles force a collision and the step stopped at contact) unless allow_invalid=True, which
+gives the unguarded steps, as `gshell pose --allow-invalid`.
 
 Args:
     shell: the rest Shell.
@@ -133,41 +140,30 @@ Raises:
 Releases the GIL while it runs.)")
       .def("reset",
            [](PoserObject& p) {
-             py::gil_scoped_release release;
-             const std::lock_guard<std::mutex> lock(p.mutex);
-             p.session.reset();
-             p.handles.reset();
-             p.last = nullptr;
+             without_gil_locked(p.mutex, [&] {
+               p.session.reset();
+               p.handles.reset();
+               p.last = nullptr;
+             });
            },
            "Forget the last handle set: the next solve() starts from the rest shell.")
       .def("write",
            [](PoserObject& p, const std::filesystem::path& path) {
-             py::gil_scoped_release release;
-             const std::lock_guard<std::mutex> lock(p.mutex);
-             p.session.write(path.string());
+             without_gil_locked(p.mutex, [&] { p.session.write(path.string()); });
            },
            py::arg("path"),
            "Write the posed shell folder as `gshell pose -o` does (base.obj, top.obj, shell.vtu, report.json).")
       .def_property_readonly("vertices",
                              [](PoserObject& p) -> py::object {
-                               Eigen::MatrixXd X;
-                               {
-                                 py::gil_scoped_release release;
-                                 const std::lock_guard<std::mutex> lock(p.mutex);
-                                 X = p.session.vertices();
-                               }
+                               const Eigen::MatrixXd X =
+                                   without_gil_locked(p.mutex, [&] { return p.session.vertices(); });
                                return read_only(from_matrix(X));
                              },
                              "float64 (2n, 3): all shell vertices after the last solve (the rest shell "
                              "before any); pass it to Embedding.carry().")
       .def_property_readonly("last",
                              [](PoserObject& p) -> py::object {
-                               nlohmann::ordered_json j;
-                               {
-                                 py::gil_scoped_release release;
-                                 const std::lock_guard<std::mutex> lock(p.mutex);
-                                 j = p.last;
-                               }
+                               const nlohmann::ordered_json j = without_gil_locked(p.mutex, [&] { return p.last; });
                                return j.is_null() ? py::none() : to_python(j);
                              },
                              "dict about the last solve (None before the first): the fields of `gshell pose`'s "

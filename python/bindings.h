@@ -4,6 +4,7 @@
 #include <pybind11/pybind11.h>
 
 #include <nlohmann/json.hpp>
+#include <mutex>
 #include <string>
 
 namespace gshell::python {
@@ -23,5 +24,13 @@ py::object to_python(const nlohmann::ordered_json& value);
 /// A Python object (dict, list, ...) as JSON, by way of json.dumps. Raises ValueError when it
 /// cannot be written as JSON.
 nlohmann::json from_python(const py::handle& object, const char* name);
+
+/// Runs `work` with the GIL released (other Python threads run meanwhile) and `mutex` (the
+/// object's) held, and returns what it returns; the lock is let go before the GIL is taken back.
+template <class Work> auto without_gil_locked(std::mutex& mutex, Work&& work) {
+  py::gil_scoped_release release;
+  const std::lock_guard<std::mutex> lock(mutex);
+  return work();
+}
 
 } // namespace gshell::python

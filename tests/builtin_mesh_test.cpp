@@ -211,6 +211,27 @@ TEST(BuiltinMesh, SpecsMatchDirectCalls) {
   EXPECT_TRUE(make_builtin("builtin:bowl:9").V.isApprox(make_bowl(9).V));
 }
 
+TEST(BuiltinMesh, GeneratorsRejectBadParametersNamingThem) {
+  const auto message = [](const auto& make) -> std::string {
+    try {
+      make();
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "(no InputError)";
+  };
+  EXPECT_NE(message([] { make_sphere(-1); }).find("level -1 is out of range [0, 9]"), std::string::npos);
+  EXPECT_NE(message([] { make_sphere(2, 0.0); }).find("radius must be a positive finite number"), std::string::npos);
+  EXPECT_NE(message([] { make_torus(4); }).find("res 4 is out of range"), std::string::npos);
+  EXPECT_NE(message([] { make_torus(12, 1.0, std::nan("")); }).find("minor_radius"), std::string::npos);
+  EXPECT_NE(message([] { make_plane(0); }).find("res 0"), std::string::npos);
+  EXPECT_NE(message([] { make_cylinder(8, 1.0, -2.0); }).find("height"), std::string::npos);
+  EXPECT_NE(message([] { make_bowl(1); }).find("res 1"), std::string::npos);
+  // The ends of every range are accepted.
+  EXPECT_EQ(make_sphere(0).V.rows(), 12);
+  EXPECT_EQ(make_plane(1).V.rows(), 4);
+}
+
 TEST(BuiltinMesh, BadSpecsThrowInputErrorNamingTheSpec) {
   for (const std::string spec :
        {"builtin:", "builtin:cube", "builtin:sphere:", "builtin:sphere:x", "builtin:sphere:3.5", "builtin:sphere:-1",

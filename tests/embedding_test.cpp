@@ -1,6 +1,7 @@
 // Embedded detail: (tet, barycentric) storage in a rest shell, carried by deformed shells.
 #include <gshell/deform/embedding.h>
 #include <gshell/deform/tet_locator.h>
+#include <gshell/geometry/closest_point.h>
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/shell/offset_shell.h>
@@ -131,22 +132,25 @@ TEST(Embedding, NearestTetOfAnOutsidePointIsTheClosestOne) {
   }
 }
 
-TEST(Embedding, ClosestPointOnTriangleRegions) {
-  const Eigen::Vector3d a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
-  EXPECT_TRUE(closest_point_on_triangle({0.2, 0.3, 5}, a, b, c).isApprox(Eigen::Vector3d(0.2, 0.3, 0)));
-  EXPECT_TRUE(closest_point_on_triangle({-1, -1, 1}, a, b, c).isApprox(a));
-  EXPECT_TRUE(closest_point_on_triangle({2, -1, 0}, a, b, c).isApprox(b));
-  EXPECT_TRUE(closest_point_on_triangle({0.5, -2, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0, 0)));
-  EXPECT_TRUE(closest_point_on_triangle({1, 1, 0}, a, b, c).isApprox(Eigen::Vector3d(0.5, 0.5, 0)));
-  // Degenerate (collinear) triangle: the nearest point of its segments.
-  EXPECT_TRUE(closest_point_on_triangle({0.5, 1, 0}, a, b, Eigen::Vector3d(2, 0, 0)).isApprox(Eigen::Vector3d(0.5, 0, 0)));
-}
-
 TEST(Embedding, RejectsNonFinitePoints) {
   const Shell shell = flat_plane_shell(2, 0.1);
   Eigen::MatrixXd P(1, 3);
   P << 0, std::nan(""), 0;
   EXPECT_THROW(embed_points(shell.vertices(), build_prism_tets(shell.F, 9), P), InputError);
+}
+
+// Tet ids index the caller's X: a T from a bigger mesh, or an X from a smaller one, must be
+// refused rather than read out of bounds.
+TEST(Embedding, TetIdsOutsideTheVerticesAreInputErrors) {
+  const Shell shell = flat_plane_shell(2, 0.1);
+  const Eigen::MatrixXd X = shell.vertices();
+  const Eigen::MatrixXi T = build_prism_tets(shell.F, 9);
+  EXPECT_THROW(TetLocator(X.topRows(X.rows() - 1), T), InputError);
+  EXPECT_THROW(TetLocator(X.leftCols(2), T), InputError);
+  EXPECT_THROW(TetLocator(X, T.leftCols(3)), InputError);
+  const Embedding e = embed_points(X, T, X.topRows(3));
+  EXPECT_THROW(carry(e, X.topRows(1)), InputError);
+  EXPECT_NEAR((carry(e, X) - X.topRows(3)).norm(), 0, 1e-12);
 }
 
 } // namespace

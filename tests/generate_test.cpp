@@ -145,3 +145,27 @@ TEST(Generate, CurvatureRejectsBadClamps) {
   options.s_min = 0;
   EXPECT_THROW(generate_shell(mesh.V, mesh.F, options), InputError);
 }
+
+TEST(Generate, ConjugateGradientPathGivesTheDirectReport) {
+  // Forced through GenerateOptions::linear: the same shell and report figures as the factor, to
+  // within the solver's tolerance, on a sphere and a torus at two thicknesses.
+  for (const char* spec : {"builtin:sphere:3", "builtin:torus:48"}) {
+    const TriMesh mesh = make_builtin(spec);
+    for (double ratio : {0.01, 0.05}) {
+      SCOPED_TRACE(std::string(spec) + " ratio " + std::to_string(ratio));
+      GenerateOptions options = generate_options(ShellMethod::Rigid, thickness_from_ratio(mesh.V, ratio));
+      options.linear.kind = LinearSolver::Direct;
+      const GenerateResult direct = generate_shell(mesh.V, mesh.F, options);
+      options.linear.kind = LinearSolver::ConjugateGradient;
+      const GenerateResult cg = generate_shell(mesh.V, mesh.F, options);
+      EXPECT_GT(cg.solve.linear_iterations, 0);
+      EXPECT_EQ(cg.solve.iterations, direct.solve.iterations);
+      EXPECT_NEAR(cg.solve.energy.back(), direct.solve.energy.back(), 1e-7 * direct.solve.energy.front());
+      EXPECT_NEAR(cg.metrics.stretch.mean, direct.metrics.stretch.mean, 1e-6 * direct.metrics.stretch.mean);
+      EXPECT_NEAR(cg.metrics.stretch.max, direct.metrics.stretch.max, 1e-6 * direct.metrics.stretch.max);
+      EXPECT_NEAR(cg.metrics.thickness_min, direct.metrics.thickness_min, 1e-7);
+      EXPECT_EQ(cg.metrics.stretch.inverted, direct.metrics.stretch.inverted);
+      EXPECT_LT((cg.shell.top - direct.shell.top).cwiseAbs().maxCoeff(), 1e-6 * options.thickness);
+    }
+  }
+}

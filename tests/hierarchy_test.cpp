@@ -1,6 +1,7 @@
 // The cluster tree and the hierarchical solver (paper §5): partition invariants, subspace
 // membership, monotone energy, agreement with the single-level solver.
 #include <gshell/deform/handles.h>
+#include <gshell/error.h>
 #include <gshell/deform/pose.h>
 #include <gshell/run/pose_run.h>
 #include <gshell/geometry/builtin_mesh.h>
@@ -480,4 +481,18 @@ TEST(PoseSolvers, ExtrapolatedDragReachesTheSameMinimum) {
   }
   EXPECT_GT(energies[0], 0);
   EXPECT_NEAR(energies[1], energies[0], 1e-3 * energies[0]);
+}
+
+// The rest check and the cluster tree read rest_vertices through the tets' and faces' ids, so a
+// too-short or too-narrow matrix must be refused before either runs.
+TEST(HierarchicalSolver, RestVerticesThatTheTetsOrFacesOverrunAreInputErrors) {
+  const Problem p = bowl_problem(6, {0.2, 0, 0});
+  const Eigen::MatrixXd too_few = p.X.topRows(p.X.rows() - 2);
+  EXPECT_THROW(HierarchicalSolver(p.rest, too_few, p.shell.F, p.constraints), InputError);
+  const Eigen::MatrixXd two_columns = p.X.leftCols(2);
+  EXPECT_THROW(HierarchicalSolver(p.rest, two_columns, p.shell.F, p.constraints), InputError);
+  Eigen::MatrixXi F = p.shell.F;
+  F(0, 0) = p.shell.num_base_vertices();
+  EXPECT_THROW(HierarchicalSolver(p.rest, p.X, F, p.constraints), InputError);
+  EXPECT_NO_THROW(HierarchicalSolver(p.rest, p.X, p.shell.F, p.constraints));
 }

@@ -212,15 +212,25 @@ TEST(IoRoundTrip, PlyWritesColorsAndScalarsAsNamedProperties) {
   expect_same_geometry(m, read_mesh(dir.file("c.off")));
 }
 
-TEST(IoRoundTrip, PlyRejectsBadScalarNamesAndSizesAsProgrammingErrors) {
+TEST(IoRoundTrip, WritersRejectInconsistentArgumentsAsInputErrorsAndWriteNothing) {
   TempDir dir;
   const TriMesh m = make_sphere(0);
   MeshAttributes bad_name;
   bad_name.vertex_scalars.emplace_back("two words", Eigen::VectorXd::Zero(m.V.rows()));
-  EXPECT_THROW(write_mesh(dir.file("x.ply"), m, bad_name), std::invalid_argument);
+  EXPECT_THROW(write_mesh(dir.file("x.ply"), m, bad_name), InputError);
   MeshAttributes bad_size;
   bad_size.face_scalars.emplace_back("s", Eigen::VectorXd::Zero(3));
-  EXPECT_THROW(write_mesh(dir.file("x.ply"), m, bad_size), std::invalid_argument);
+  EXPECT_THROW(write_mesh(dir.file("x.ply"), m, bad_size), InputError);
+  TriMesh bad_index = m;
+  bad_index.F(0, 1) = static_cast<int>(m.V.rows());
+  EXPECT_THROW(write_mesh(dir.file("x.obj"), bad_index), InputError);
+  TetMesh tets;
+  tets.X = Eigen::MatrixXd::Zero(4, 3);
+  tets.T = (Eigen::MatrixXi(1, 4) << 0, 1, 2, 4).finished(); // vertex 4 of 4
+  EXPECT_THROW(write_tet_mesh(dir.file("x.vtu"), tets), InputError);
+  tets.T(0, 3) = 3;
+  tets.cell_data.emplace_back("stretch", Eigen::MatrixXd::Zero(2, 1)); // one tet, two values
+  EXPECT_THROW(write_tet_mesh(dir.file("x.vtu"), tets), InputError);
   EXPECT_EQ(gshell::test::count_entries(dir.path()), 0);
 }
 

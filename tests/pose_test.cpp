@@ -59,6 +59,17 @@ const char* kPull = R"({"handles": [
 
 } // namespace
 
+// A handle set is checked against a shell, but targets() reads whatever matrix it is given: one
+// without rows for the handle's top vertices (the base alone) must not be read past its end.
+TEST(Handles, TargetsFromTooFewRestVerticesAreAnInputError) {
+  const Shell s = small_bowl();
+  const int n = s.num_base_vertices();
+  const HandleSet h = parse_handles(R"({"handles": [{"vertices": [0, )" + std::to_string(n + 1) + "]}]}", "H.json", s);
+  EXPECT_THROW(h.targets(s.base, 1.0), InputError);
+  EXPECT_THROW(h.targets(s.vertices().leftCols(2), 1.0), InputError);
+  EXPECT_EQ(h.targets(s.vertices(), 1.0).rows(), 2);
+}
+
 TEST(Handles, ExplicitVerticesAndTargets) {
   const Shell s = small_bowl();
   const int n = s.num_base_vertices();

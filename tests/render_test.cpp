@@ -202,6 +202,11 @@ TEST(Render, BadInputsAreInputErrors) {
   EXPECT_THROW(parse_view("sideways"), InputError);
   EXPECT_THROW(parse_view("10,95"), InputError);
   EXPECT_THROW(parse_view("10,"), InputError);
+  EXPECT_THROW(frame_camera(Eigen::MatrixXd(0, 3), ViewDirection{}, 1.0), InputError);
+  EXPECT_THROW(frame_camera(Eigen::MatrixXd::Zero(3, 3), ViewDirection{}, 0.0), InputError);
+  EXPECT_THROW(Image(-1, 4), InputError);
+  EXPECT_THROW(downsample(Image(5, 4), 2), InputError);
+  EXPECT_THROW(encode_png(Image()), InputError);
 }
 
 TEST(Camera, ViewPresetsPointWhereTheySay) {

@@ -218,3 +218,86 @@ TEST(ShellSolver, UnconstrainedSystemIsRejected) {
   EXPECT_THROW(ShellSolver(rest, 2 * n, {}), InputError);
   EXPECT_THROW(ShellSolver(rest, 2 * n, {2 * n}), InputError);
 }
+
+namespace {
+
+LinearSolverOptions linear_solver(LinearSolver kind) {
+  LinearSolverOptions o;
+  o.kind = kind;
+  return o;
+}
+
+} // namespace
+
+TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
+  // The same iterations solved by a factor and by CG from the current iterate: the energies and
+  // the tops agree to CG's tolerance, and CG's energies never rise either.
+  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
+      {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+  for (const auto& [name, m] : cases)
+    for (double eta : {0.02, 0.2}) {
+      SCOPED_TRACE(name + " eta " + std::to_string(eta));
+      Generation g = generation(m, eta);
+      const ShellSolver direct(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::Direct));
+      const ShellSolver cg(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::ConjugateGradient));
+      EXPECT_EQ(direct.linear_solver(), LinearSolver::Direct);
+      EXPECT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient);
+      SolveOptions options;
+      options.max_iterations = 15;
+      options.tolerance = 0;
+      Eigen::MatrixXd X_direct = g.X, X_cg = g.X;
+      const SolveResult r_direct = direct.solve(X_direct, options);
+      const SolveResult r_cg = cg.solve(X_cg, options);
+      EXPECT_EQ(r_direct.linear_iterations, 0);
+      EXPECT_GT(r_cg.linear_iterations, 0);
+      expect_monotone(r_cg.energy);
+      ASSERT_EQ(r_cg.energy.size(), r_direct.energy.size());
+      for (std::size_t k = 0; k < r_cg.energy.size(); ++k)
+        EXPECT_NEAR(r_cg.energy[k], r_direct.energy[k], 1e-7 * r_direct.energy[0]) << "iteration " << k;
+      EXPECT_LT((X_cg - X_direct).cwiseAbs().maxCoeff(), 1e-6 * eta);
+      EXPECT_TRUE(X_cg.topRows(g.n) == g.X.topRows(g.n)) << "fixed base moved";
+    }
+}
+
+TEST(ShellSolver, AutoTakesConjugateGradientOnlyForLargeAnchoredSystems) {
+  const SimpleMesh m = test::torus(40, 16);
+  Generation g = generation(m, 0.05);
+  LinearSolverOptions any_size;
+  any_size.cg_min_rows = 0;
+  // Generation: every top vertex shares a tet with the fixed base.
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, range(g.n), {}, any_size).linear_solver(), LinearSolver::ConjugateGradient);
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, range(g.n)).linear_solver(), LinearSolver::Direct) << "small system";
+  // Held at three vertices only (a pose by handles): CG would need many iterations; factor.
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, {0, 7, 300}, {}, any_size).linear_solver(), LinearSolver::Direct);
+}
+
+TEST(ShellSolver, AutoFallsBackToTheFactorWhenConjugateGradientStalls) {
+  Generation g = generation(test::icosphere(3), 0.2);
+  LinearSolverOptions starved;
+  starved.cg_min_rows = 0;
+  starved.cg_max_iterations = 1; // never enough: the first global step factors instead
+  const ShellSolver fallback(g.rest, 2 * g.n, range(g.n), {}, starved);
+  const ShellSolver direct(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::Direct));
+  ASSERT_EQ(fallback.linear_solver(), LinearSolver::ConjugateGradient);
+  SolveOptions options;
+  options.max_iterations = 5;
+  options.tolerance = 0;
+  Eigen::MatrixXd X_fallback = g.X, X_direct = g.X;
+  fallback.solve(X_fallback, options);
+  direct.solve(X_direct, options);
+  EXPECT_EQ(fallback.linear_solver(), LinearSolver::Direct);
+  EXPECT_LT((X_fallback - X_direct).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(ShellSolver, LinearSolverNamesAndBadOptions) {
+  for (LinearSolver s : {LinearSolver::Auto, LinearSolver::Direct, LinearSolver::ConjugateGradient})
+    EXPECT_EQ(parse_linear_solver(to_string(s)), s);
+  EXPECT_THROW(parse_linear_solver("cholesky"), InputError);
+  Generation g = generation(test::icosphere(1), 0.1);
+  LinearSolverOptions bad;
+  bad.cg_tolerance = 0;
+  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, range(g.n), {}, bad), InputError);
+  bad = {};
+  bad.cg_max_iterations = 0;
+  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, range(g.n), {}, bad), InputError);
+}

@@ -1,4 +1,5 @@
-// Stretch of known maps (DESIGN.md "Quality measures").
+// Stretch of known maps (docs/design.md "Quality measures").
+#include <gshell/error.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>
@@ -29,6 +30,16 @@ ShellCase sphere_shell() {
 }
 
 } // namespace
+
+TEST(Stretch, PositionsThatDoNotFitTheTetsAreInputErrors) {
+  const ShellCase s = sphere_shell();
+  EXPECT_THROW(tet_stretch(s.rest, s.X.topRows(s.X.rows() / 2)), InputError); // the top is missing
+  EXPECT_THROW(tet_deformation_determinants(s.rest, Eigen::MatrixXd::Zero(s.X.rows(), 2)), InputError);
+  EXPECT_THROW(stretch_stats(s.rest, Eigen::MatrixXd(0, 3)), InputError);
+  EXPECT_THROW(stretch_stats(Eigen::VectorXd::Zero(3), Eigen::VectorXd::Zero(2), Eigen::VectorXd::Ones(3)), InputError);
+  EXPECT_THROW(rest_tets_from_positions(s.X, s.rest.T.leftCols(3)), InputError);
+  EXPECT_THROW(rest_tets_from_positions(s.X.leftCols(2), s.rest.T), InputError);
+}
 
 TEST(Stretch, IdentityIsZero) {
   const ShellCase s = sphere_shell();

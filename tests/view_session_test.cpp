@@ -307,7 +307,10 @@ TEST(ViewSession, UndoResetAndGroupsOnAPosedShell) {
 
 TEST(ViewSession, ValidityAndColorsFollowTheShell) {
   const PlateFolder plate;
-  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  // The drag below must be able to break validity (pose steps are guarded by default).
+  ViewSessionOptions options = tight_options(plate.tmp.path().string());
+  options.pose.allow_invalid = true;
+  ViewSession session(load_view_input({plate.dir}), options);
   Outbox out;
   session.welcome(out.sink());
   const json hello = out.messages("hello")[0];

@@ -37,8 +37,8 @@ def generate_properties(cls):
                                             description="Maximum local/global iterations of the optimising methods"),
         "allow_invalid": bpy.props.BoolProperty(
             name="Allow invalid", default=False,
-            description="Keep a shell that fails the validity guard (inverted tets or intersections) instead "
-                        "of reporting an error"),
+            description="Rigid and curvature: skip the validity guard and keep the paper's unguarded shell, "
+                        "which may have inverted tets or intersections (the status bar says whether it is valid)"),
     })
     return cls
 
@@ -148,6 +148,8 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         base.gshell.top = top
 
         self.report({"INFO"}, f"gshell: '{top.name}': {summary(shell.report)}")
+        for warning in shell.report.get("warnings", []):  # base crossings, unextrudable vertices, not valid
+            self.report({"WARNING"}, f"gshell: '{base.name}': {warning}")
         scale = base.matrix_world.to_scale()
         if max(scale) > 1.0001 * min(scale):
             self.report({"WARNING"}, f"gshell: '{base.name}' is scaled unevenly {tuple(round(s, 3) for s in scale)}: "

@@ -247,6 +247,29 @@ class GenerateTest(TempDirTest):
             report = json.load(f)
         return out, top, report
 
+    def test_allow_invalid_agrees_with_cli_and_skips_the_guard(self):
+        # A V fold (30 degrees) whose paper shell crosses itself: the guard makes it valid.
+        V, F = gshell.builtin("plane:8")
+        half = math.radians(15)
+        V = np.column_stack([V[:, 0] * math.sin(half), V[:, 1], np.abs(V[:, 0]) * math.cos(half)])
+        guarded = gshell.generate(V, F, thickness=0.1)
+        unguarded = gshell.generate(V, F, thickness=0.1, allow_invalid=True)
+        self.assertTrue(guarded.report["guarded"])
+        self.assertTrue(guarded.report["valid"])
+        self.assertFalse(unguarded.report["guarded"])
+        self.assertFalse(unguarded.report["valid"])
+        self.assertTrue(unguarded.report["warnings"])
+        path = self.path("fold.obj")
+        gshell.write_mesh(path, V, F)
+        out = self.path("fold_cli")
+        run_cli("generate", path, "-o", out, "--quiet", "--thickness", "0.1", "--allow-invalid")
+        top, _ = gshell.read_mesh(os.path.join(out, "top.obj"))
+        with open(os.path.join(out, "report.json")) as f:
+            report = json.load(f)
+        np.testing.assert_allclose(top, unguarded.top, atol=1e-9, rtol=0)
+        self.assertFalse(report["guarded"])
+        self.assertFalse(report["valid"])
+
     def test_agrees_with_cli_sphere(self):
         _, top, report = self.cli_shell("builtin:sphere:3", "--thickness", "0.05")
         V, F = gshell.builtin("sphere:3")

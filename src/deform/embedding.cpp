@@ -42,6 +42,10 @@ Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, 
 
 Eigen::MatrixXd carry(const Embedding& embedding, const Eigen::MatrixXd& X) {
   const int n = embedding.size();
+  // The embedding may come from another shell than X (a caller's bookkeeping error).
+  if (X.cols() != 3 || (n > 0 && embedding.vertices.maxCoeff() >= X.rows()))
+    throw InputError("carry: X (" + std::to_string(X.rows()) + " x " + std::to_string(X.cols()) +
+                     ") lacks vertices the embedding's tets use");
   Eigen::MatrixXd out(n, 3);
   for (int p = 0; p < n; ++p) {
     Eigen::RowVector3d q = Eigen::RowVector3d::Zero();

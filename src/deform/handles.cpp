@@ -24,6 +24,13 @@ std::vector<int> HandleSet::constrained_vertices() const {
 }
 
 Eigen::MatrixXd HandleSet::targets(const Eigen::MatrixXd& rest_vertices, double fraction) const {
+  // The ids were checked against a shell (check_handles), not against this matrix.
+  for (const auto& h : handles)
+    for (int v : h.vertices)
+      if (v < 0 || v >= rest_vertices.rows() || rest_vertices.cols() != 3)
+        throw InputError("handles: rest_vertices is " + std::to_string(rest_vertices.rows()) + " x " +
+                         std::to_string(rest_vertices.cols()) + ", handle vertex " + std::to_string(v) +
+                         " needs a row of 3 coordinates");
   Eigen::MatrixXd P(static_cast<Eigen::Index>(constrained_vertices().size()), 3);
   Eigen::Index row = 0;
   for (const auto& h : handles) {

@@ -1,9 +1,15 @@
 #include <gshell/deform/pose.h>
 
+#include "frame_guard.h"
+#include "geometry/disjoint_sets.h"
+
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 #include <gshell/shell/prism_tets.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <numeric>
 #include <string>
 
@@ -13,24 +19,18 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-int find_root(std::vector<int>& parent, int v) {
-  while (parent[v] != v) v = parent[v] = parent[parent[v]];
-  return v;
-}
-
 /// Every connected part of the base mesh (its top goes with it) needs a handle vertex, or the
 /// energy does not pin it in space and the system is singular.
 void require_anchored_components(const Eigen::MatrixXi& F, int n, const std::vector<int>& constrained) {
-  std::vector<int> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
+  detail::DisjointSets parts(n);
   for (int f = 0; f < F.rows(); ++f)
-    for (int k = 1; k < 3; ++k) parent[find_root(parent, F(f, k))] = find_root(parent, F(f, 0));
+    for (int k = 1; k < 3; ++k) parts.unite(F(f, k), F(f, 0));
   std::vector<char> used(n, 0), anchored(n, 0);
   for (int f = 0; f < F.rows(); ++f)
     for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
-  for (int v : constrained) anchored[find_root(parent, v < n ? v : v - n)] = 1;
+  for (int v : constrained) anchored[parts.find(v < n ? v : v - n)] = 1;
   for (int v = 0; v < n; ++v)
-    if (used[v] && !anchored[find_root(parent, v)])
+    if (used[v] && !anchored[parts.find(v)])
       throw InputError("the handles leave a connected part of the shell free (e.g. the part with base vertex " +
                        std::to_string(v) + "): give every part at least one handle vertex");
 }
@@ -47,6 +47,8 @@ struct PoseSolver::Impl {
   std::unique_ptr<HierarchicalSolver> hierarchical;
   std::unique_ptr<ShellSolver> single;
   double setup_seconds = 0;
+  Shell rest_shell;
+  std::unique_ptr<FrameGuard> guard; ///< built at the first solve_valid
 };
 
 PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKind kind,
@@ -57,6 +59,7 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
   s.kind = kind;
   s.handles = handles;
   s.rest_vertices = rest.vertices();
+  s.rest_shell = rest;
   s.constrained = handles.constrained_vertices();
   if (s.constrained.empty()) throw InputError("no handle vertices");
   const int n = rest.num_base_vertices();
@@ -73,7 +76,7 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
     s.hierarchical = std::make_unique<HierarchicalSolver>(s.rest, s.rest_vertices, rest.F, c, hierarchy);
   else
     s.single = make_shell_solver(s.rest, 2 * n, c);
-  s.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  s.setup_seconds = seconds_since(start);
 }
 
 PoseSolver::~PoseSolver() = default;
@@ -115,6 +118,60 @@ SolveResult PoseSolver::solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& P, cons
 
 SolveResult PoseSolver::solve(Eigen::MatrixXd& X, double fraction, const SolveOptions& options) {
   return solve(X, targets(fraction), options);
+}
+
+SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd& X, const Eigen::MatrixXd& P,
+                                    const SolveOptions& options, const GuardOptions& guard, ValidStep* step) {
+  Impl& s = *impl_;
+  check_state(X, s.rest_vertices);
+  check_state(from, s.rest_vertices);
+  check_targets(P, s.constrained);
+  ValidStep local;
+  ValidStep& out = step ? *step : local;
+  out = ValidStep{};
+  const bool hard = s.handles.mode == ConstraintMode::Hard;
+  if (!s.guard || !s.guard->built_with(guard))
+    s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard,
+                                           hard ? s.constrained : std::vector<int>{}, true);
+  const int n = static_cast<int>(X.rows()) / 2;
+  const Eigen::MatrixXd start = from;
+  SolveResult result = solve(X, P, options);
+  if (s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate)) {
+    out.method = FrameMethod::Bounded;
+  } else if (hard) {
+    Eigen::MatrixXd targets = start;
+    for (std::size_t r = 0; r < s.constrained.size(); ++r) targets.row(s.constrained[r]) = P.row(static_cast<Eigen::Index>(r));
+    Eigen::MatrixXd Y = start;
+    GuardedSolveOptions solve;
+    solve.max_iterations = options.max_iterations;
+    solve.tolerance = options.tolerance;
+    const int substeps = std::clamp(static_cast<int>(std::ceil(max_edge_change(start.topRows(n), X.topRows(n), s.rest_shell.F) /
+                                                               DeformOptions{}.substep_edge_change)),
+                                    1, DeformOptions{}.max_substeps);
+    const FrameGuard::Outcome outcome = s.guard->drag(Y, targets, substeps, s.guard->guards_contacts(), false, solve);
+    out.method = outcome.method;
+    out.blocked_by_contact = outcome.blocked;
+    out.guarded_iterations = outcome.iterations;
+    X = outcome.method == FrameMethod::Failed ? start : std::move(Y);
+  } else {
+    // Soft handles: no guarded solver holds springs; the straight path is cut back instead.
+    const Eigen::MatrixXd D = X - start;
+    double a = 0.5;
+    bool found = false;
+    for (int halving = 0; halving < 20 && !found; ++halving, a *= 0.5) {
+      X = start + a * D;
+      found = s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate);
+    }
+    if (!found) {
+      X = start;
+      out.certificate = certify_shell(X.topRows(n), X.bottomRows(n), s.rest_shell.F);
+    }
+    out.method = FrameMethod::Bounded;
+    out.blocked_by_contact = true;
+  }
+  if (out.method != FrameMethod::Bounded) out.certificate = certify_shell(X.topRows(n), X.bottomRows(n), s.rest_shell.F);
+  out.valid = out.certificate.valid() && out.certificate.base_self_intersections == 0;
+  return result;
 }
 
 Eigen::MatrixXd PoseSolver::predict_start(const Eigen::MatrixXd& X_before, const Eigen::MatrixXd& X_prev, double s,

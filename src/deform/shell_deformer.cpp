@@ -1,8 +1,13 @@
 #include <gshell/deform/shell_deformer.h>
 
+#include "frame_guard.h"
+
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
+#include <gshell/quality/triangle_intersections.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/shell/prism_tets.h>
 
 #include <Eigen/Geometry>
@@ -22,9 +27,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 double signed_volume(const Eigen::MatrixXd& corners, Eigen::Index first) {
   Eigen::Matrix3d D;
@@ -84,6 +86,29 @@ WarmStart parse_warm_start(const std::string& name) {
 void DeformOptions::check() const {
   if (!(tolerance >= 0) || !std::isfinite(tolerance)) throw InputError("tolerance must be >= 0");
   if (max_iterations < 0) throw InputError("iterations must be >= 0");
+  if (!(substep_edge_change > 0 && substep_edge_change <= 2))
+    throw InputError("substep_edge_change must be in (0, 2]");
+  if (max_substeps < 1) throw InputError("max_substeps must be >= 1");
+  check_guard_options(guard);
+}
+
+const char* frame_method_name(FrameMethod m) {
+  switch (m) {
+  case FrameMethod::Unguarded: return "unguarded";
+  case FrameMethod::Bounded: return "bounded";
+  case FrameMethod::Guarded: return "guarded";
+  case FrameMethod::TetsOnly: return "tets_only";
+  case FrameMethod::Failed: return "failed";
+  }
+  return "?";
+}
+
+int count_thinned_vertices(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXd& rest_base,
+                           const Eigen::MatrixXd& rest_top) {
+  int count = 0;
+  for (Eigen::Index i = 0; i < base.rows(); ++i)
+    count += (top.row(i) - base.row(i)).norm() < kThinnedFraction * (rest_top.row(i) - rest_base.row(i)).norm();
+  return count;
 }
 
 VertexRings vertex_rings(const Eigen::MatrixXi& F, int n) {
@@ -204,8 +229,13 @@ ShellDeformer::ShellDeformer(const Shell& rest)
       rings_(vertex_rings(rest.F, rest.num_base_vertices())),
       current_normals_(vertex_normals(rest.base, rest.F)) {}
 
+ShellDeformer::~ShellDeformer() = default;
+ShellDeformer::ShellDeformer(ShellDeformer&&) noexcept = default;
+ShellDeformer& ShellDeformer::operator=(ShellDeformer&&) noexcept = default;
+
 void ShellDeformer::reset() {
   current_ = rest_.vertices();
+  current_clean_ = true;
   current_normals_ = vertex_normals(rest_.base, rest_.F);
   last_correction_.resize(0, 3);
   last_motion_ = 0;
@@ -250,15 +280,30 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   const SolveResult solved = solver_.solve(X, solve_options);
 
   FrameResult result;
-  result.seconds = seconds_since(start);
   result.warm_start_seconds = warm_start_seconds;
   result.iterations = solved.iterations;
   result.energy = solved.energy;
   result.converged = solved.converged;
+  if (!options.allow_invalid) guard_frame(current_, X, options, result);
+  result.seconds = seconds_since(start);
   if (options.measure_stretch) {
     const auto stretch_start = Clock::now();
     result.stretch = stretch_stats(solver_.rest(), X);
     result.stretch_seconds = seconds_since(stretch_start);
+  }
+  result.thinned_vertices = count_thinned_vertices(X.topRows(n), X.bottomRows(n), rest_.base, rest_.top);
+  if (options.certify) {
+    const auto certify_start = Clock::now();
+    if (result.certified) { // by the guard's acceptance, all but the base's own crossings
+      result.certificate.base_self_intersections =
+          static_cast<int>(surface_self_intersections(X.topRows(n), rest_.F).size());
+    } else {
+      result.certificate = certify_shell(X.topRows(n), X.bottomRows(n), rest_.F);
+    }
+    result.certificate_seconds = seconds_since(certify_start);
+    result.valid = result.certificate.valid();
+    // A certified frame is free of contacts whatever made it: the next frame may guard them again.
+    if (!options.allow_invalid && result.valid) current_clean_ = true;
   }
   result.top = X.bottomRows(n);
   if (rotated.rows() == n) last_correction_ = result.top - rotated;
@@ -267,6 +312,43 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   current_ = std::move(X);
   current_normals_ = std::move(new_normals);
   return result;
+}
+
+void ShellDeformer::guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
+                                FrameResult& result) {
+  if (!guard_ || !guard_->built_with(options.guard))
+    guard_ = std::make_unique<FrameGuard>(rest_, solver_.rest(), options.guard, base_ids(rest_.num_base_vertices()),
+                                          false);
+  const bool contacts = guard_->guards_contacts() && current_clean_;
+  ShellCertificate certificate;
+  if (guard_->accepts(previous, X, contacts, &certificate)) {
+    result.method = FrameMethod::Bounded;
+    result.valid = true;
+    if (certificate.intersections_tested()) {
+      result.certificate = std::move(certificate);
+      result.certified = true;
+    }
+    return;
+  }
+  const int n = rest_.num_base_vertices();
+  const double change = max_edge_change(previous.topRows(n), X.topRows(n), rest_.F);
+  const int substeps = std::clamp(static_cast<int>(std::ceil(change / options.substep_edge_change)), 1,
+                                  options.max_substeps);
+  Eigen::MatrixXd Y = previous;
+  GuardedSolveOptions solve;
+  solve.max_iterations = options.max_iterations;
+  solve.tolerance = options.tolerance;
+  const FrameGuard::Outcome outcome = guard_->drag(Y, X, substeps, contacts, true, solve);
+  result.method = outcome.method;
+  result.substeps = outcome.substeps;
+  result.guarded_iterations = outcome.iterations;
+  if (outcome.method == FrameMethod::Failed) {
+    current_clean_ = false; // the paper's solve stands; the certificate says what it breaks
+    return;
+  }
+  result.valid = outcome.method == FrameMethod::Guarded;
+  current_clean_ = outcome.method == FrameMethod::Guarded;
+  X = std::move(Y);
 }
 
 } // namespace gshell

@@ -1,5 +1,8 @@
 #include <gshell/deform/tet_locator.h>
 
+#include <gshell/error.h>
+#include <gshell/geometry/closest_point.h>
+
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
@@ -8,54 +11,11 @@
 
 namespace gshell {
 
-namespace {
-
-Eigen::Vector3d closest_point_on_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                         const Eigen::Vector3d& b) {
-  const Eigen::Vector3d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  if (len2 <= 0) return a;
-  const double s = std::clamp((p - a).dot(ab) / len2, 0.0, 1.0);
-  return a + s * ab;
-}
-
-} // namespace
-
-// Region tests on the barycentric parameters (Voronoi regions of vertices, edges, face).
-Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d ab = b - a, ac = c - a;
-  const double scale2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
-  if (ab.cross(ac).squaredNorm() <= 1e-24 * scale2 * scale2) {
-    // A degenerate triangle is its longest edge (plus a point on it).
-    const Eigen::Vector3d q[3] = {closest_point_on_segment(p, a, b), closest_point_on_segment(p, b, c),
-                                  closest_point_on_segment(p, c, a)};
-    int best = 0;
-    for (int i = 1; i < 3; ++i)
-      if ((q[i] - p).squaredNorm() < (q[best] - p).squaredNorm()) best = i;
-    return q[best];
-  }
-  const Eigen::Vector3d ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
 TetLocator::TetLocator(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T) : X_(X), T_(T) {
+  if (X.cols() != 3 || (T.size() > 0 && T.cols() != 4))
+    throw InputError("TetLocator: X must be N x 3 and T K x 4");
+  if (T.size() > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= X.rows()))
+    throw InputError("TetLocator: T has a vertex id outside 0.." + std::to_string(X.rows() - 1));
   const int K = static_cast<int>(T.rows());
   inverse_edges_.assign(K, Eigen::Matrix3d::Zero());
   std::vector<Eigen::Vector3d> bmin(K), bmax(K);

@@ -8,6 +8,8 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
+#include <string>
 #include <numbers>
 #include <unordered_map>
 #include <vector>
@@ -36,14 +38,46 @@ Eigen::MatrixXi to_matrix(const Rows3i& rows) {
 int grid_id(int i, int j, int columns) { return j * columns + i; }
 
 /// Splits the quad (i,j)-(i+1,j)-(i+1,j+1)-(i,j+1) into two triangles with the same winding.
+// The generators' parameters are the caller's: a resolution outside builtin_resolution_range or a
+// size that is not a positive finite number is an InputError naming the parameter.
+void check_parameters(const char* name, const char* res_name, int res,
+                      std::initializer_list<std::pair<const char*, double>> sizes) {
+  const auto [lo, hi] = builtin_resolution_range(name);
+  if (res < lo || res > hi)
+    throw InputError(std::string("make_") + name + ": " + res_name + " " + std::to_string(res) + " is out of range [" +
+                     std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  for (const auto& [size_name, value] : sizes)
+    if (!(value > 0) || !std::isfinite(value))
+      throw InputError(std::string("make_") + name + ": " + size_name + " must be a positive finite number (got " +
+                       std::to_string(value) + ")");
+}
+
 void add_quad(Rows3i& faces, int a, int b, int c, int d) {
   faces.emplace_back(a, b, c);
   faces.emplace_back(a, c, d);
 }
 
+// Faces of a grid of nu x rows quads whose vertex (i, j) is grid_id(i, j, nu), closed around in i
+// (and in j when `wrap_rows`; otherwise the grid has rows + 1 vertex rows), and the same quads
+// over the UV grid, which repeats the seam column (nu + 1 columns) and row.
+void set_wrapped_grid_faces(TriMesh& mesh, int nu, int rows, bool wrap_rows) {
+  Rows3i faces, uv_faces;
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < nu; ++i) {
+      const int i1 = (i + 1) % nu, j1 = wrap_rows ? (j + 1) % rows : j + 1;
+      add_quad(faces, grid_id(i, j, nu), grid_id(i1, j, nu), grid_id(i1, j1, nu), grid_id(i, j1, nu));
+      add_quad(uv_faces, grid_id(i, j, nu + 1), grid_id(i + 1, j, nu + 1), grid_id(i + 1, j + 1, nu + 1),
+               grid_id(i, j + 1, nu + 1));
+    }
+  }
+  mesh.F = to_matrix(faces);
+  mesh.FUV = to_matrix(uv_faces);
+}
+
 } // namespace
 
 TriMesh make_sphere(int level, double radius) {
+  check_parameters("sphere", "level", level, {{"radius", radius}});
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
   Rows3d v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
               {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
@@ -85,6 +119,7 @@ TriMesh make_sphere(int level, double radius) {
 }
 
 TriMesh make_torus(int res, double major_radius, double minor_radius) {
+  check_parameters("torus", "res", res, {{"major_radius", major_radius}, {"minor_radius", minor_radius}});
   const int nu = res, nv = res / 2;
   TriMesh mesh;
   mesh.V.resize(nu * nv, 3);
@@ -100,21 +135,12 @@ TriMesh make_torus(int res, double major_radius, double minor_radius) {
     }
   }
   // d/du x d/dv points out of the tube, so (i,j) -> (i+1,j) -> (i+1,j+1) is counter-clockwise.
-  Rows3i faces, uv_faces;
-  for (int j = 0; j < nv; ++j) {
-    for (int i = 0; i < nu; ++i) {
-      const int i1 = (i + 1) % nu, j1 = (j + 1) % nv;
-      add_quad(faces, grid_id(i, j, nu), grid_id(i1, j, nu), grid_id(i1, j1, nu), grid_id(i, j1, nu));
-      add_quad(uv_faces, grid_id(i, j, nu + 1), grid_id(i + 1, j, nu + 1), grid_id(i + 1, j + 1, nu + 1),
-               grid_id(i, j + 1, nu + 1));
-    }
-  }
-  mesh.F = to_matrix(faces);
-  mesh.FUV = to_matrix(uv_faces);
+  set_wrapped_grid_faces(mesh, nu, nv, true);
   return mesh;
 }
 
 TriMesh make_plane(int res, double half_size) {
+  check_parameters("plane", "res", res, {{"half_size", half_size}});
   const int n = res + 1;
   TriMesh mesh;
   mesh.V.resize(n * n, 3);
@@ -136,6 +162,7 @@ TriMesh make_plane(int res, double half_size) {
 }
 
 TriMesh make_cylinder(int res, double radius, double height) {
+  check_parameters("cylinder", "res", res, {{"radius", radius}, {"height", height}});
   const int rows = std::max(1, static_cast<int>(std::lround(res * height / (2 * kPi * radius))));
   TriMesh mesh;
   mesh.V.resize(res * (rows + 1), 3);
@@ -151,21 +178,12 @@ TriMesh make_cylinder(int res, double radius, double height) {
     }
   }
   // d/dangle x d/dz points away from the axis.
-  Rows3i faces, uv_faces;
-  for (int j = 0; j < rows; ++j) {
-    for (int i = 0; i < res; ++i) {
-      const int i1 = (i + 1) % res;
-      add_quad(faces, grid_id(i, j, res), grid_id(i1, j, res), grid_id(i1, j + 1, res), grid_id(i, j + 1, res));
-      add_quad(uv_faces, grid_id(i, j, res + 1), grid_id(i + 1, j, res + 1), grid_id(i + 1, j + 1, res + 1),
-               grid_id(i, j + 1, res + 1));
-    }
-  }
-  mesh.F = to_matrix(faces);
-  mesh.FUV = to_matrix(uv_faces);
+  set_wrapped_grid_faces(mesh, res, rows, false);
   return mesh;
 }
 
 TriMesh make_bowl(int res, double radius) {
+  check_parameters("bowl", "res", res, {{"radius", radius}});
   // Ring k sits at polar angle theta_k = k*h from the bottom pole (h = (pi/2)/res) and gets about
   // 2 pi sin(theta_k) / h segments, so its triangles are close to equilateral. Odd rings are turned
   // by half a segment so that equal-count neighbour rings make equilateral rather than right triangles.

@@ -2,6 +2,8 @@
 // Internal: the faces around every vertex, laid out for in-order passes over all vertices.
 // Validation and mesh statistics visit each vertex's star instead of a global edge table, because
 // on real models (vertex ids in no spatial order) random face access is what costs the time.
+#include "geometry/disjoint_sets.h"
+
 #include <Eigen/Core>
 #include <algorithm>
 #include <numeric>
@@ -10,31 +12,6 @@
 namespace gshell::detail {
 
 using RowMajorFaces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
-
-/// Union-find with path halving over 0..n-1.
-class DisjointSets {
-public:
-  explicit DisjointSets(int n = 0) { reset(n); }
-  void reset(int n) {
-    parent_.resize(n);
-    std::iota(parent_.begin(), parent_.end(), 0);
-  }
-  int find(int x) {
-    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
-    return x;
-  }
-  /// True if a and b were in different sets.
-  bool unite(int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return false;
-    parent_[std::max(a, b)] = std::min(a, b);
-    return true;
-  }
-
-private:
-  std::vector<int> parent_;
-};
 
 /// A face is usable for topology when its indices are in range and distinct.
 inline bool face_usable(const RowMajorFaces& T, int f, int n) {

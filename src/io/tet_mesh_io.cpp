@@ -6,23 +6,22 @@
 #include <gshell/error.h>
 #include <gshell/io/atomic_file.h>
 
-#include <stdexcept>
 
 namespace gshell {
 
 namespace {
 
-// Inconsistent arguments are bugs of the caller: std::invalid_argument (exit 2).
+// Inconsistent arguments are the caller's: InputError, checked before anything is written.
 void check_writable(const TetMesh& m) {
   if (m.X.cols() != 3 || (m.T.rows() > 0 && m.T.cols() != 4))
-    throw std::invalid_argument("write_tet_mesh: X must be N x 3 and T K x 4");
+    throw InputError("write_tet_mesh: X must be N x 3 and T K x 4");
   if (m.T.rows() > 0 && (m.T.minCoeff() < 0 || m.T.maxCoeff() >= m.X.rows()))
-    throw std::invalid_argument("write_tet_mesh: tet vertex id out of range");
+    throw InputError("write_tet_mesh: tet vertex id out of range");
   auto check = [](const auto& arrays, Eigen::Index rows, const char* kind) {
     for (const auto& [name, data] : arrays) {
-      if (name.empty()) throw std::invalid_argument(std::string("write_tet_mesh: unnamed ") + kind + " array");
+      if (name.empty()) throw InputError(std::string("write_tet_mesh: unnamed ") + kind + " array");
       if (data.rows() != rows || (data.cols() != 1 && data.cols() != 3))
-        throw std::invalid_argument(std::string("write_tet_mesh: ") + kind + " array '" + name +
+        throw InputError(std::string("write_tet_mesh: ") + kind + " array '" + name +
                                     "' must have one row per " + kind + " and 1 or 3 columns");
     }
   };

@@ -7,6 +7,7 @@
 #include "tet_formats.h"
 
 #include <gshell/error.h>
+#include <gshell/io/xml_escape.h>
 
 #include <bit>
 #include <cmath>
@@ -22,21 +23,6 @@ namespace gshell::io_detail {
 namespace {
 
 constexpr std::uint8_t vtk_tetra = 10;
-
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-    case '&': out += "&amp;"; break;
-    case '<': out += "&lt;"; break;
-    case '>': out += "&gt;"; break;
-    case '"': out += "&quot;"; break;
-    case '\'': out += "&apos;"; break;
-    default: out += c;
-    }
-  }
-  return out;
-}
 
 std::string xml_unescape(std::string_view s) {
   static const std::pair<std::string_view, char> entities[] = {

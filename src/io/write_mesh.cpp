@@ -9,7 +9,6 @@
 #include <gshell/error.h>
 #include <gshell/io/atomic_file.h>
 
-#include <stdexcept>
 
 namespace gshell {
 
@@ -57,24 +56,24 @@ void write_off(std::ostream& out, const TriMesh& mesh, const MeshAttributes& a) 
 
 namespace {
 
-// Inconsistent arguments are bugs of the caller, not bad input: std::invalid_argument (exit 2).
+// Inconsistent arguments are the caller's: InputError, checked before anything is written.
 void check_writable(const TriMesh& mesh, const MeshAttributes& a) {
   const Eigen::Index n = mesh.V.rows(), m = mesh.F.rows();
   if (mesh.V.cols() != 3 || (m > 0 && mesh.F.cols() != 3))
-    throw std::invalid_argument("write_mesh: V must be n x 3 and F m x 3");
+    throw InputError("write_mesh: V must be n x 3 and F m x 3");
   if (m > 0 && (mesh.F.minCoeff() < 0 || mesh.F.maxCoeff() >= n))
-    throw std::invalid_argument("write_mesh: face index out of range");
+    throw InputError("write_mesh: face index out of range");
   if (mesh.has_uv() && (mesh.UV.cols() != 2 || mesh.FUV.cols() != 3 ||
                         (m > 0 && (mesh.FUV.minCoeff() < 0 || mesh.FUV.maxCoeff() >= mesh.UV.rows()))))
-    throw std::invalid_argument("write_mesh: UV must be k x 2 and FUV m x 3 with ids in range");
+    throw InputError("write_mesh: UV must be k x 2 and FUV m x 3 with ids in range");
   if (a.vertex_colors.rows() != 0 && a.vertex_colors.rows() != n)
-    throw std::invalid_argument("write_mesh: vertex_colors must have one row per vertex");
+    throw InputError("write_mesh: vertex_colors must have one row per vertex");
   if (a.face_colors.rows() != 0 && a.face_colors.rows() != m)
-    throw std::invalid_argument("write_mesh: face_colors must have one row per face");
+    throw InputError("write_mesh: face_colors must have one row per face");
   for (const auto& [name, values] : a.vertex_scalars)
-    if (values.size() != n) throw std::invalid_argument("write_mesh: vertex scalar '" + name + "' needs one value per vertex");
+    if (values.size() != n) throw InputError("write_mesh: vertex scalar '" + name + "' needs one value per vertex");
   for (const auto& [name, values] : a.face_scalars)
-    if (values.size() != m) throw std::invalid_argument("write_mesh: face scalar '" + name + "' needs one value per face");
+    if (values.size() != m) throw InputError("write_mesh: face scalar '" + name + "' needs one value per face");
 }
 
 } // namespace

@@ -6,9 +6,10 @@
 #include "surface_writers.h"
 #include "text_out.h"
 
+#include <gshell/error.h>
+
 #include <cstdint>
 #include <set>
-#include <stdexcept>
 #include <string>
 
 namespace gshell::io_detail {
@@ -20,8 +21,8 @@ void check_scalar_names(const std::vector<std::pair<std::string, Eigen::VectorXd
   for (const auto& [name, values] : scalars) {
     bool ok = !name.empty();
     for (char c : name) ok = ok && (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.');
-    if (!ok) throw std::invalid_argument("write_mesh: PLY property name '" + name + "' must be one word of [A-Za-z0-9_.-]");
-    if (!taken.insert(name).second) throw std::invalid_argument("write_mesh: PLY property name '" + name + "' is used twice");
+    if (!ok) throw InputError("write_mesh: PLY property name '" + name + "' must be one word of [A-Za-z0-9_.-]");
+    if (!taken.insert(name).second) throw InputError("write_mesh: PLY property name '" + name + "' is used twice");
   }
 }
 

@@ -8,6 +8,9 @@ namespace gshell::detail {
 /// ids in [0, n).
 void check_triangle_mesh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const char* what);
 
+/// Throws InputError("<what>: ...") unless F is m x 3 with ids in [0, n).
+void check_face_indices(const Eigen::MatrixXi& F, Eigen::Index n, const char* what);
+
 /// Throws InputError("<what>: face f repeats vertex v") unless every face has three distinct ids.
 void check_distinct_corners(const Eigen::MatrixXi& F, const char* what);
 

@@ -1,5 +1,7 @@
 #include "quality/face_bvh.h"
 
+#include <gshell/geometry/closest_point.h>
+
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -36,20 +38,6 @@ float round_down(double x) {
 float round_up(double x) {
   float f = static_cast<float>(x);
   return f < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-}
-
-double segment_squared_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                const Eigen::Vector3d& q) {
-  const Eigen::Vector3d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((q - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (a + t * ab - q).squaredNorm();
-}
-
-double edges_squared_distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                              const Eigen::Vector3d& c, const Eigen::Vector3d& q) {
-  return std::min({segment_squared_distance(a, b, q), segment_squared_distance(b, c, q),
-                   segment_squared_distance(c, a, q)});
 }
 
 } // namespace
@@ -109,10 +97,7 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
       slot_box_[s] = Eigen::AlignedBox3d(a);
       slot_box_[s].extend(b).extend(c);
       if (!distances) continue;
-      const Eigen::Vector3d ab = b - a, ac = c - a;
-      // sin^2 of the angle at a below 1e-24: within ~1e-12 edge lengths of a segment, where the
-      // plane-projection formula loses its accuracy; the edges give the distance instead.
-      slot_triangle_[s] = {a, b, c, ab.cross(ac).squaredNorm() <= 1e-24 * ab.squaredNorm() * ac.squaredNorm()};
+      slot_triangle_[s] = {a, b, c, triangle_is_flat(a, b, c)};
     }
   });
   build_nodes(keyed, distances ? kDistanceLeafSize : kPairLeafSize);
@@ -180,29 +165,8 @@ double FaceBvh::node_squared_distance(const Node& n, const Eigen::Vector3d& q) {
   return d2;
 }
 
-// Closest point by Voronoi regions of the triangle (Ericson, Real-Time Collision Detection 5.1.5).
 double FaceBvh::face_squared_distance(const Triangle& t, const Eigen::Vector3d& q) {
-  const Eigen::Vector3d &a = t.a, &b = t.b, &c = t.c;
-  if (t.flat) return edges_squared_distance(a, b, c, q);
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = q - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return ap.squaredNorm();
-  const Eigen::Vector3d bp = q - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return bp.squaredNorm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (a + (d1 / (d1 - d3)) * ab - q).squaredNorm();
-  const Eigen::Vector3d cp = q - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return cp.squaredNorm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (a + (d2 / (d2 - d6)) * ac - q).squaredNorm();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b) - q).squaredNorm();
-  const double denom = va + vb + vc;
-  if (!(denom > 0)) return edges_squared_distance(a, b, c, q); // rounding on a near-flat face
-  return (a + (vb / denom) * ab + (vc / denom) * ac - q).squaredNorm();
+  return (closest_point_on_triangle(q, t.a, t.b, t.c, t.flat) - q).squaredNorm();
 }
 
 double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2) const {

@@ -71,7 +71,7 @@ private:
   };
   struct Triangle {
     Eigen::Vector3d a, b, c;
-    bool flat = false; // collinear corners (up to ~1e-12 relative): measured by its edges
+    bool flat = false; // triangle_is_flat (geometry/closest_point.h), decided once per face
   };
 
   /// (Morton code, face) of every face by its centroid, sorted along the curve.

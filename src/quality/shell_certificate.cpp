@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 #include <gshell/quality/shell_boundary.h>
+#include <gshell/seconds_since.h>
 #include <gshell/shell/prism_tets.h>
 
 #include "quality/check_mesh_input.h"
@@ -114,7 +115,7 @@ ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixX
     }
   }
   c.inverted_tets = static_cast<int>(c.inverted_tet_ids.size());
-  c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  c.seconds = seconds_since(t0);
   return c;
 }
 

@@ -1,5 +1,7 @@
 #include <gshell/quality/stretch.h>
 
+#include <gshell/error.h>
+
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
 
@@ -7,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace gshell {
@@ -45,10 +48,22 @@ GSHELL_SIMD_DISPATCH(void, tet_stretch_block, tet_stretch_body,
                      (const RestTets& rest, const Eigen::MatrixXd& X, int t_begin, int t_end, double* s),
                      (rest, X, t_begin, t_end, s))
 
+// The positions are the caller's: every tet must find its four vertices among the rows of X.
+void check_positions(const RestTets& rest, const Eigen::MatrixXd& X, const char* what) {
+  if (rest.Dm_inv.size() != static_cast<std::size_t>(rest.size()) || rest.volume.size() != rest.size())
+    throw InputError(std::string(what) + ": rest tets are incomplete (Dm_inv or volume missing)");
+  if (X.cols() != 3)
+    throw InputError(std::string(what) + ": positions must be N x 3 (got " + std::to_string(X.cols()) + " columns)");
+  if (rest.size() > 0 && (rest.T.minCoeff() < 0 || rest.T.maxCoeff() >= X.rows()))
+    throw InputError(std::string(what) + ": a tet refers to a vertex outside the " + std::to_string(X.rows()) +
+                     " rows of the positions");
+}
+
 } // namespace
 
 Eigen::VectorXd tet_stretch(const RestTets& rest, const Eigen::MatrixXd& X) {
   constexpr int kBlock = 64 * detail::kPolarLanes;
+  check_positions(rest, X, "tet_stretch");
   const int K = rest.size();
   Eigen::VectorXd s(K);
   tbb::parallel_for(0, (K + kBlock - 1) / kBlock,
@@ -57,12 +72,17 @@ Eigen::VectorXd tet_stretch(const RestTets& rest, const Eigen::MatrixXd& X) {
 }
 
 Eigen::VectorXd tet_deformation_determinants(const RestTets& rest, const Eigen::MatrixXd& X) {
+  check_positions(rest, X, "tet_deformation_determinants");
   Eigen::VectorXd d(rest.size());
   tbb::parallel_for(0, rest.size(), [&](int t) { d[t] = deformation_gradient(rest, X, t).determinant(); });
   return d;
 }
 
 StretchStats stretch_stats(const Eigen::VectorXd& s, const Eigen::VectorXd& d, const Eigen::VectorXd& volume) {
+  if (d.size() != s.size() || volume.size() != s.size())
+    throw InputError("stretch_stats: stretch, determinants and volume need one value per tet (got " +
+                     std::to_string(s.size()) + ", " + std::to_string(d.size()) + ", " + std::to_string(volume.size()) +
+                     ")");
   StretchStats stats;
   const Eigen::Index K = s.size();
   if (K == 0) return stats;

@@ -74,8 +74,9 @@ Eigen::Matrix4d Camera::projection_matrix(double aspect) const {
 
 Camera frame_camera(const Eigen::MatrixXd& points, const ViewDirection& view, double aspect, Projection projection,
                     double margin) {
-  if (points.rows() == 0 || points.cols() != 3 || !(aspect > 0))
-    throw std::invalid_argument("frame_camera: no points or bad aspect");
+  if (points.rows() == 0 || points.cols() != 3)
+    throw InputError("frame_camera: points must be a non-empty n x 3 matrix");
+  if (!(aspect > 0) || !std::isfinite(aspect)) throw InputError("frame_camera: aspect must be a finite number > 0");
   const Eigen::Vector3d dir = eye_direction(view);
   Eigen::Vector3d up(0, 1, 0);
   if (std::abs(dir.dot(up)) > 0.999) up = view.elevation_deg > 0 ? Eigen::Vector3d(0, 0, -1) : Eigen::Vector3d(0, 0, 1);

@@ -353,6 +353,16 @@ void validity_paragraph(std::ostringstream& html, const json& report) {
     html << ". The base intersects itself (" << format_value(report["base_self_intersections"])
          << " face pairs): no shell over it is an embedding";
   html << ".</p>\n";
+  // Generation: whether the guard made it, and what it could not mend (generate_warnings).
+  if (report.contains("guarded") && report["guarded"].is_boolean())
+    html << "<p>" << (report["guarded"].get<bool>() ? "Guarded generation (valid by construction where the base allows)"
+                                                   : "Unguarded result (no validity guard)")
+         << (report.contains("thinned_vertices") ? "; thinned top vertices (below 0.9 eta): " +
+                                                       format_value(report["thinned_vertices"])
+                                                 : std::string())
+         << ".</p>\n";
+  if (report.contains("warnings") && report["warnings"].is_array())
+    for (const json& w : report["warnings"]) html << "<p class=\"note\">Warning: " << format_value(w) << "</p>\n";
 }
 
 const char* kStyle = R"(body{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#222;padding:0 1em}

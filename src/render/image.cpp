@@ -1,5 +1,7 @@
 #include <gshell/render/image.h>
 
+#include "render/box_filter.h"
+
 #include <gshell/error.h>
 #include <gshell/io/atomic_file.h>
 
@@ -43,7 +45,7 @@ unsigned char* zlib_compress_for_stb(unsigned char* data, int length, int* out_l
 namespace gshell {
 
 Image::Image(int w, int h, std::uint8_t r, std::uint8_t g, std::uint8_t b) : width(w), height(h) {
-  if (w < 0 || h < 0) throw std::invalid_argument("Image: negative size");
+  if (w < 0 || h < 0) throw InputError("Image: width and height must be >= 0 (got " + std::to_string(w) + " x " + std::to_string(h) + ")");
   rgb.resize(static_cast<size_t>(w) * h * 3);
   for (size_t i = 0; i < rgb.size(); i += 3) {
     rgb[i] = r;
@@ -72,18 +74,17 @@ void Image::fill_rect(int x, int y, int w, int h, std::uint8_t r, std::uint8_t g
     }
 }
 
-Image downsample(const Image& image, int factor) {
-  if (factor <= 1) return image;
-  if (image.width % factor || image.height % factor)
-    throw std::invalid_argument("downsample: size is not a multiple of the factor");
-  Image out(image.width / factor, image.height / factor);
+namespace detail {
+
+void box_filter(const std::uint8_t* src, int src_width, int channels, int factor, Image& out) {
   const int n = factor * factor;
   for (int y = 0; y < out.height; ++y)
     for (int x = 0; x < out.width; ++x) {
       int sum[3] = {0, 0, 0};
       for (int dy = 0; dy < factor; ++dy) {
-        const std::uint8_t* p = image.at(x * factor, y * factor + dy);
-        for (int dx = 0; dx < factor; ++dx, p += 3) {
+        const std::uint8_t* p =
+            src + channels * (static_cast<std::size_t>(y * factor + dy) * src_width + static_cast<std::size_t>(x) * factor);
+        for (int dx = 0; dx < factor; ++dx, p += channels) {
           sum[0] += p[0];
           sum[1] += p[1];
           sum[2] += p[2];
@@ -92,6 +93,17 @@ Image downsample(const Image& image, int factor) {
       std::uint8_t* q = out.at(x, y);
       for (int c = 0; c < 3; ++c) q[c] = static_cast<std::uint8_t>((sum[c] + n / 2) / n);
     }
+}
+
+} // namespace detail
+
+Image downsample(const Image& image, int factor) {
+  if (factor <= 1) return image;
+  if (image.width % factor || image.height % factor)
+    throw InputError("downsample: the image size " + std::to_string(image.width) + " x " +
+                     std::to_string(image.height) + " is not a multiple of factor " + std::to_string(factor));
+  Image out(image.width / factor, image.height / factor);
+  detail::box_filter(image.rgb.data(), image.width, 3, factor, out);
   return out;
 }
 
@@ -108,7 +120,7 @@ void blit(Image& dst, const Image& src, int x, int y) {
 }
 
 std::string encode_png(const Image& image) {
-  if (image.width <= 0 || image.height <= 0) throw std::invalid_argument("encode_png: empty image");
+  if (image.width <= 0 || image.height <= 0) throw InputError("encode_png: the image is empty");
   std::string bytes;
   auto append = [](void* context, void* data, int size) {
     static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<size_t>(size));

@@ -2,6 +2,8 @@
 
 #include <gshell/error.h>
 
+#include "render/box_filter.h"
+
 #ifdef GSHELL_HAVE_OSMESA
 #include <GL/gl.h>
 #include <GL/osmesa.h>
@@ -233,21 +235,7 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
   // Box filter straight from the RGBA buffer: one pass over the big image.
   Image image(options.width, options.height);
-  const int n = ss * ss;
-  for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width; ++x) {
-      int sum[3] = {0, 0, 0};
-      for (int dy = 0; dy < ss; ++dy) {
-        const unsigned char* p = buffer.data() + 4 * (static_cast<size_t>(y * ss + dy) * w + static_cast<size_t>(x) * ss);
-        for (int dx = 0; dx < ss; ++dx, p += 4) {
-          sum[0] += p[0];
-          sum[1] += p[1];
-          sum[2] += p[2];
-        }
-      }
-      std::uint8_t* q = image.at(x, y);
-      for (int c = 0; c < 3; ++c) q[c] = static_cast<std::uint8_t>((sum[c] + n / 2) / n);
-    }
+  detail::box_filter(buffer.data(), w, 4, ss, image);
   return image;
 #endif
 }

@@ -29,20 +29,6 @@ std::vector<double> linear_ticks(double lo, double hi, int count) {
 
 } // namespace
 
-std::string xml_escape(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) switch (c) {
-    case '&': out += "&amp;"; break;
-    case '<': out += "&lt;"; break;
-    case '>': out += "&gt;"; break;
-    case '"': out += "&quot;"; break;
-    case '\'': out += "&#39;"; break;
-    default: out += c;
-    }
-  return out;
-}
-
 std::string svg_line_plot(const std::vector<double>& y, const PlotOptions& options) {
   return svg_line_plot(std::vector<PlotSeries>{{"", y}}, options);
 }

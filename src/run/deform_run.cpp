@@ -72,10 +72,29 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   return input;
 }
 
+namespace {
+
+nlohmann::ordered_json count_or_null(int count) { return count < 0 ? nlohmann::ordered_json() : nlohmann::ordered_json(count); }
+
+} // namespace
+
 nlohmann::ordered_json frame_json(const FrameResult& r) {
   nlohmann::ordered_json j{{"iterations", r.iterations}, {"converged", r.converged}, {"energy", r.energy}};
   j.update(stretch_report(r.stretch));
   j["seconds"] = r.seconds;
+  j["valid"] = r.valid;
+  j["method"] = frame_method_name(r.method);
+  j["substeps"] = r.substeps;
+  j["guarded_iterations"] = r.guarded_iterations;
+  j["thinned_vertices"] = r.thinned_vertices;
+  const ShellCertificate& c = r.certificate;
+  j["certificate"] = nlohmann::ordered_json{{"inverted_tets", c.inverted_tets},
+                                            {"top_self_intersections", count_or_null(c.top_self_intersections)},
+                                            {"top_base_intersections", count_or_null(c.top_base_intersections)},
+                                            {"wall_intersections", count_or_null(c.wall_intersections)},
+                                            {"exact", ShellCertificate::exact},
+                                            {"seconds", r.certificate_seconds}};
+  j["base_self_intersections"] = count_or_null(c.base_self_intersections);
   return j;
 }
 
@@ -90,8 +109,13 @@ nlohmann::ordered_json DeformRun::to_json() const {
   using json = nlohmann::ordered_json;
   std::vector<double> seconds, iterations;
   double volume_mean_sum = 0, max_stretch = 0, offset_volume_mean_sum = 0, offset_max = 0;
-  int inverted = 0, offset_inverted = 0, unconverged = 0;
+  int inverted = 0, offset_inverted = 0, unconverged = 0, valid = 0, guarded = 0, max_substeps = 0,
+      certified_inverted = 0;
   for (const DeformFrameRecord& f : frames) {
+    valid += f.result.valid ? 1 : 0;
+    guarded += f.result.substeps > 0 ? 1 : 0;
+    max_substeps = std::max(max_substeps, f.result.substeps);
+    certified_inverted += f.result.certificate.inverted_tets;
     seconds.push_back(f.result.seconds);
     iterations.push_back(f.result.iterations);
     max_stretch = std::max(max_stretch, f.result.stretch.max);
@@ -113,7 +137,12 @@ nlohmann::ordered_json DeformRun::to_json() const {
                {"unconverged_frames", unconverged},
                {"mean_volume_stretch", volume_mean_sum / count},
                {"max_stretch", max_stretch},
-               {"inverted_tets", inverted}};
+               {"inverted_tets", inverted},
+               {"valid_frames", valid},
+               {"invalid_frames", static_cast<int>(frames.size()) - valid},
+               {"certificate_inverted_tets", certified_inverted},
+               {"guarded_frames", guarded},
+               {"max_substeps", max_substeps}};
   if (options.compare_offset)
     summary["offset"] = json{{"mean_volume_stretch", offset_volume_mean_sum / count},
                              {"max_stretch", offset_max},
@@ -126,6 +155,7 @@ nlohmann::ordered_json DeformRun::to_json() const {
               {"tolerance", options.frame.tolerance},
               {"max_iterations", options.frame.max_iterations},
               {"warm_start", warm_start_name(options.frame.warm_start)},
+              {"allow_invalid", options.frame.allow_invalid},
               {"replaced_rest_tets", replaced_rest_tets},
               {"factor_seconds", factor_seconds},
               {"setup_seconds", setup_seconds}};

@@ -71,6 +71,11 @@ struct DragSession::Impl {
   int builds = 0;
   SolveOptions last_limits;
   mutable std::optional<RestTets> rest_tets; ///< for result() before any solver exists
+  /// The last valid state while drag() steps are unguarded previews (guard_drag_steps off).
+  std::optional<Eigen::MatrixXd> valid_before_preview;
+
+  bool guarded() const { return !options.allow_invalid; }
+  bool guarded_drags() const { return guarded() && options.guard_drag_steps; }
 
   const RestTets& tets() const {
     if (solver) return solver->rest_tets();
@@ -106,6 +111,21 @@ struct DragSession::Impl {
     solver = std::make_unique<PoseSolver>(rest, state.handles, options.solver, options.hierarchy);
     solver_key = key;
     ++builds;
+  }
+
+  // The last recorded step was made by solve_valid: its guard fields.
+  PoseStepReport mark_guarded(const ValidStep& v) {
+    PoseStepReport& step = state.steps.back();
+    step.guarded = true;
+    step.valid = v.valid;
+    step.blocked_by_contact = v.blocked_by_contact;
+    step.method = v.method;
+    step.guarded_iterations = v.guarded_iterations;
+    step.inverted_tets = v.certificate.inverted_tets;
+    step.intersections = v.certificate.intersections_tested()
+                             ? static_cast<int>(v.certificate.intersections.size())
+                             : -1;
+    return step;
   }
 
   PoseStepReport record(double fraction, const SolveResult& r, double seconds) {
@@ -220,11 +240,22 @@ PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptio
     }
     next = s.solver->predict_start(s.before.X, st.X, step, P);
   }
+  const Eigen::MatrixXd from = s.guarded_drags() ? st.X : Eigen::MatrixXd();
+  if (s.guarded() && !s.guarded_drags() && !s.valid_before_preview) s.valid_before_preview = st.X;
   s.before = Before{true, std::move(st.X), st.targets, st.fraction, st.version_of_last};
   st.X = std::move(next);
   const double predict_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const SolveOptions limits = options.value_or(s.options.solve);
   s.last_limits = limits;
+  if (s.guarded_drags()) {
+    ValidStep valid;
+    const SolveResult r = s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
+    st.targets = P;
+    st.fraction = fraction;
+    st.version_of_last = st.motion_version;
+    s.record(fraction, r, std::chrono::duration<double>(Clock::now() - start).count());
+    return s.mark_guarded(valid);
+  }
   const SolveResult r = s.solver->solve(st.X, P, limits);
   st.targets = P;
   st.fraction = fraction;
@@ -253,19 +284,28 @@ std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptio
       if (progress) progress(it, energy, seconds);
       if (interrupt()) throw Interrupted{};
     };
-  // The state moves towards P either way (an interrupted solve keeps its iterate).
+  // The state moves towards P either way (an interrupted solve keeps its iterate; a guarded one
+  // goes back to the last valid state).
   if (st.motion_version != st.version_of_last) { // new motions since the last event: this solve is one
     s.before.valid = false;
     st.version_of_last = st.motion_version;
   }
   st.targets = P;
   SolveResult r;
+  ValidStep valid;
+  // After unguarded previews the guarded solve starts from the last valid state.
+  const Eigen::MatrixXd from = !s.guarded() ? Eigen::MatrixXd() : s.valid_before_preview ? *s.valid_before_preview : st.X;
   try {
-    r = s.solver->solve(st.X, P, limits);
+    r = !s.guarded() ? s.solver->solve(st.X, P, limits)
+                     : s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
   } catch (const Interrupted&) {
+    if (s.guarded()) st.X = from;
+    s.valid_before_preview.reset();
     return std::nullopt;
   }
-  return s.record(st.fraction, r, r.seconds);
+  s.valid_before_preview.reset();
+  s.record(st.fraction, r, r.seconds);
+  return s.options.allow_invalid ? s.state.steps.back() : s.mark_guarded(valid);
 }
 
 const Shell& DragSession::rest() const { return impl_->rest; }
@@ -289,6 +329,7 @@ bool DragSession::undo() {
   s.state = std::move(s.undo.back());
   s.undo.pop_back();
   s.before.valid = false;
+  s.valid_before_preview.reset(); // checkpoints hold settled states
   return true;
 }
 
@@ -307,6 +348,7 @@ void DragSession::reset() {
   st.targets = s.current_rows(st.handles);
   st.steps.clear();
   s.before.valid = false;
+  s.valid_before_preview.reset();
 }
 
 int DragSession::solver_builds() const { return impl_->builds; }

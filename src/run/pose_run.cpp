@@ -26,8 +26,16 @@ void PoseOptions::check() const {
 }
 
 nlohmann::ordered_json PoseStepReport::to_json() const {
-  return {{"fraction", fraction}, {"iterations", iterations}, {"energy", energy}, {"seconds", seconds},
-          {"converged", converged}};
+  nlohmann::ordered_json j{{"fraction", fraction}, {"iterations", iterations}, {"energy", energy}, {"seconds", seconds},
+                           {"converged", converged}};
+  if (guarded) {
+    j["valid"] = valid;
+    j["method"] = frame_method_name(method);
+    j["blocked_by_contact"] = blocked_by_contact;
+    j["guarded_iterations"] = guarded_iterations;
+    j["certificate"] = {{"inverted_tets", inverted_tets}, {"intersections", intersections}};
+  }
+  return j;
 }
 
 nlohmann::ordered_json PoseResult::to_json() const {

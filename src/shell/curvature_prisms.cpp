@@ -1,6 +1,8 @@
 // Curvature-sensitive ideal prisms (see the header).
 #include <gshell/shell/curvature_prisms.h>
 
+#include "quality/check_mesh_input.h"
+
 #include <gshell/error.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -66,6 +68,8 @@ PrismCorners curvature_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   check_curvature_clamp(s_min, s_max);
   if (!(std::isfinite(eta) && eta > 0))
     throw InputError("curvature prisms need a positive finite thickness");
+  if (V.rows() > 0 && V.cols() != 3) throw InputError("curvature prisms: V must be n x 3");
+  detail::check_face_indices(F, V.rows(), "curvature prisms");
   const Eigen::Index m = F.rows();
   if (curvature.k1.size() != m || curvature.k2.size() != m || curvature.e1.rows() != m ||
       curvature.e2.rows() != m)

@@ -57,7 +57,22 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
   j["seconds"] = {{"total", r.seconds.total},
                   {"factor", r.seconds.factor},
                   {"solve", r.seconds.solve},
+                  {"guard", r.seconds.guard},
                   {"certificate", r.metrics.certificate.seconds}};
+  j["unextrudable_vertices"] = r.unextrudable_vertices;
+  j["guarded"] = r.guarded;
+  j["warnings"] = generate_warnings(r);
+  if (r.guarded) {
+    const GuardedShell& g = r.guard;
+    j["guard"] = {{"paper_iterations", g.paper.iterations},
+                  {"start_rounds", g.start.rounds},
+                  {"pulled_in_vertices", (g.start.scale.array() < 1).count()},
+                  {"repaired_vertices", g.repaired_vertices},
+                  {"repair_iterations", g.solve.iterations},
+                  {"unprotected_faces", g.unprotected_faces},
+                  {"min_relative_volume", g.solve.iterations > 0 ? nlohmann::json(g.solve.min_relative_volume)
+                                                                 : nlohmann::json(nullptr)}};
+  }
   if (r.curvature) {
     const CurvatureGeneration& c = *r.curvature;
     j["curvature"] = {{"s_min", c.s_min},
@@ -68,6 +83,31 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                       {"seconds", c.prism_seconds}};
   }
   return j;
+}
+
+std::vector<std::string> generate_warnings(const GenerateResult& r) {
+  std::vector<std::string> w;
+  const ShellCertificate& c = r.metrics.certificate;
+  if (c.base_self_intersections > 0)
+    w.push_back("the base intersects itself (" + std::to_string(c.base_self_intersections) +
+                " pairs of faces cross): no top can be clean near those crossings" +
+                (r.guarded ? std::string(", the shell is guarded everywhere else") : std::string()));
+  if (!r.unextrudable_vertices.empty()) {
+    std::string ids;
+    for (std::size_t i = 0; i < r.unextrudable_vertices.size() && i < 10; ++i)
+      ids += (i ? ", " : "") + std::to_string(r.unextrudable_vertices[i]);
+    if (r.unextrudable_vertices.size() > 10) ids += ", ...";
+    w.push_back(std::to_string(r.unextrudable_vertices.size()) +
+                " base vertices have faces no direction sees from their positive side (" + ids +
+                "): prisms around them may stay inverted");
+  }
+  if (c.intersections_tested() && !c.valid())
+    w.push_back(std::string("the shell is not valid: ") + std::to_string(c.inverted_tets) + " inverted tets, " +
+                std::to_string(c.top_self_intersections) + " top/top, " + std::to_string(c.top_base_intersections) +
+                " top/base, " + std::to_string(c.wall_intersections) + " wall intersections" +
+                (r.guarded ? std::string(" (near the base's crossings or unextrudable vertices)")
+                           : std::string(" (unguarded result)")));
+  return w;
 }
 
 std::string metrics_summary(const ShellMetrics& m, int vertices, int faces, double eta) {
@@ -102,8 +142,14 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
                   c.own_stretch.volume_mean, c.own_stretch.p99, c.own_stretch.max, c.own_stretch.inverted);
     out << buf;
   }
-  out << format("time         %.3f s (factor %.3f s, solve %.3f s)\n", r.seconds.total, r.seconds.factor,
-                r.seconds.solve);
+  if (r.guarded)
+    out << "guard        " << r.unextrudable_vertices.size() << " unextrudable vertices, " << (r.guard.start.scale.array() < 1).count()
+        << " pulled in, " << r.guard.repaired_vertices << " repaired in " << r.guard.solve.iterations
+        << " iterations\n";
+  char time[256];
+  std::snprintf(time, sizeof time, "time         %.3f s (factor %.3f s, solve %.3f s, guard %.3f s, certificate %.3f s)\n",
+                r.seconds.total, r.seconds.factor, r.seconds.solve, r.seconds.guard, r.metrics.certificate.seconds);
+  out << time;
   return out.str();
 }
 

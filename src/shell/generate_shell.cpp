@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 #include <gshell/geometry/curvature.h>
+#include <gshell/seconds_since.h>
 #include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
@@ -15,7 +16,6 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 void check_shapes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   if (V.cols() != 3 || F.cols() != 3 || F.rows() == 0) throw InputError("generate: need an n x 3 V and a non-empty m x 3 F");
@@ -30,6 +30,17 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
   return s;
 }
 
+// The certificate, for every method: shell_metrics checked the tets only; a guarded result is
+// tested in full, the base's crossings taken from the guard (the same exact test, not run twice).
+void certify(GenerateResult& r, const GenerateOptions& options) {
+  if (!r.guarded) r.unextrudable_vertices = extrusion_directions(r.shell.base, r.shell.F).unextrudable;
+  if (!r.guarded && !options.count_intersections) return;
+  CertifyOptions o;
+  o.base_self_intersections = !r.guarded;
+  r.metrics.certificate = certify_shell(r.shell.base, r.shell.top, r.shell.F, o);
+  if (r.guarded) r.metrics.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
+}
+
 // Generation towards `ideal`; `ideal_is_normal` lets the metrics reuse the solver's rest tets.
 GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const PrismCorners& ideal,
                                 const GenerateOptions& options, bool ideal_is_normal) {
@@ -39,18 +50,37 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   const int n = static_cast<int>(V.rows());
   GenerateResult r;
   r.method = options.method;
-  std::vector<int> base_vertices(n);
-  std::iota(base_vertices.begin(), base_vertices.end(), 0);
-  const ShellSolver solver(prism_rest_tets(F, n, ideal), 2 * n, base_vertices);
-  r.seconds.factor = solver.factor_seconds();
-  Eigen::MatrixXd X(2 * n, 3);
-  X << V, offset_top(V, F, options.thickness);
-  r.solve = solver.solve(X, options.solve);
-  r.seconds.solve = r.solve.seconds;
-  r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
-  r.metrics = ideal_is_normal
-                  ? shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, solver.rest())
-                  : shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections);
+  const RestTets rest = prism_rest_tets(F, n, ideal);
+  if (options.allow_invalid) {
+    std::vector<int> base_vertices(n);
+    std::iota(base_vertices.begin(), base_vertices.end(), 0);
+    const ShellSolver solver(rest, 2 * n, base_vertices, {}, options.linear);
+    r.seconds.factor = solver.factor_seconds();
+    Eigen::MatrixXd X(2 * n, 3);
+    X << V, offset_top(V, F, options.thickness);
+    r.solve = solver.solve(X, options.solve);
+    r.seconds.solve = r.solve.seconds;
+    r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
+  } else {
+    GuardedSolveOptions solve;
+    solve.max_iterations = options.solve.max_iterations;
+    solve.tolerance = options.solve.tolerance;
+    solve.progress = options.solve.progress;
+    r.guard = guarded_shell(V, F, rest, options.thickness, options.guard, solve, options.linear);
+    r.guarded = true;
+    r.unextrudable_vertices = r.guard.directions.unextrudable;
+    // The paper's iterations (the energy the guard starts from); the repair's own iterations, on
+    // E_guard of the region it moves, are in guard.solve.
+    r.solve = r.guard.paper;
+    r.solve.converged = r.guard.paper.converged && (r.guard.repaired_vertices == 0 || r.guard.solve.converged);
+    r.seconds.factor = r.guard.factor_seconds;
+    r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds;
+    r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve;
+    r.shell = make_shell(V, F, r.guard.top, options.thickness);
+  }
+  r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)
+                              : shell_metrics(V, F, r.shell.top, options.thickness, false);
+  certify(r, options);
   r.seconds.total = seconds_since(t0);
   return r;
 }
@@ -98,6 +128,7 @@ void GenerateOptions::check() const {
   if (solve.max_iterations < 0) throw InputError("iterations must not be negative");
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a non-negative number");
   check_curvature_clamp(s_min, s_max);
+  if (!allow_invalid && method != ShellMethod::Offset) check_guard_options(guard);
 }
 
 double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
@@ -112,6 +143,8 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
 
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options) {
+  options.check();
+  check_shapes(V, F);
   return generate_towards(V, F, ideal, options, false);
 }
 
@@ -131,8 +164,9 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
   // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
   const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
-  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, options.count_intersections, rest);
+  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, false, rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
+  certify(r, options);
   r.solve.converged = true;
   r.seconds.total = seconds_since(t0);
   return r;

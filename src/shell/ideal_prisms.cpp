@@ -1,10 +1,19 @@
 #include <gshell/shell/ideal_prisms.h>
 
+#include "quality/check_mesh_input.h"
+
+#include <gshell/error.h>
+
 #include <Eigen/Geometry>
+
+#include <cmath>
 
 namespace gshell {
 
 PrismCorners normal_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta) {
+  if (V.rows() > 0 && V.cols() != 3) throw InputError("normal_prisms: V must be n x 3");
+  detail::check_face_indices(F, V.rows(), "normal_prisms");
+  if (!std::isfinite(eta)) throw InputError("normal_prisms: eta must be finite");
   PrismCorners P(6 * F.rows(), 3);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));

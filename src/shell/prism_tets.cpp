@@ -1,5 +1,7 @@
 #include <gshell/shell/prism_tets.h>
 
+#include "quality/check_mesh_input.h"
+
 #include <gshell/error.h>
 
 #include <algorithm>
@@ -24,6 +26,7 @@ std::array<std::array<int, 4>, 3> prism_corner_tets(int v0, int v1, int v2) {
 }
 
 Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F) {
+  if (F.rows() > 0 && F.cols() != 3) throw InputError("prism_tet_corners: faces must be m x 3");
   Eigen::MatrixXi C(3 * F.rows(), 4);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
@@ -34,6 +37,7 @@ Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F) {
 }
 
 Eigen::MatrixXi build_prism_tets(const Eigen::MatrixXi& F, int n) {
+  detail::check_face_indices(F, n, "build_prism_tets");
   const Eigen::MatrixXi C = prism_tet_corners(F);
   Eigen::MatrixXi T(C.rows(), 4);
   for (Eigen::Index t = 0; t < C.rows(); ++t) {

@@ -320,6 +320,13 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   if (!constraints.hard && !(constraints.weight > 0))
     throw InputError("HierarchicalSolver: constraints.weight must be > 0 for soft constraints (got " +
                      std::to_string(constraints.weight) + ")");
+  // require_matching_rest and the cluster tree index rest_vertices by tet and face ids before
+  // ShellSolver gets to check them.
+  if (rest_vertices.cols() != 3) throw InputError("HierarchicalSolver: rest_vertices must have 3 columns, got " + std::to_string(rest_vertices.cols()));
+  if (rest.T.size() > 0 && (rest.T.minCoeff() < 0 || rest.T.maxCoeff() >= rest_vertices.rows()))
+    throw InputError("HierarchicalSolver: a tet of rest has a vertex id outside rest_vertices");
+  if (F.size() > 0 && (F.cols() != 3 || F.minCoeff() < 0 || F.maxCoeff() >= rest_vertices.rows() / 2))
+    throw InputError("HierarchicalSolver: F must be m x 3 with base vertex ids in [0, n)");
   require_matching_rest(s.rest, rest_vertices);
 
   s.full = make_shell_solver(s.rest, s.num_vertices(), constraints);

@@ -29,6 +29,10 @@ void set_rest_shape(RestTets& rest, Eigen::Index t, const Eigen::Vector3d& u0, c
 } // namespace
 
 RestTets rest_tets_from_positions(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T) {
+  if (X.cols() != 3 || T.cols() != 4)
+    throw InputError("rest_tets_from_positions: expected N x 3 positions and K x 4 tets (got " +
+                     std::to_string(X.rows()) + " x " + std::to_string(X.cols()) + " and " + std::to_string(T.rows()) +
+                     " x " + std::to_string(T.cols()) + ")");
   RestTets rest;
   rest.T = T;
   rest.Dm_inv.resize(T.rows());
@@ -45,6 +49,7 @@ RestTets rest_tets_from_positions(const Eigen::MatrixXd& X, const Eigen::MatrixX
 }
 
 RestTets rest_tets_from_corners(const Eigen::MatrixXi& T, const Eigen::MatrixXd& corners) {
+  if (T.cols() != 4) throw InputError("rest_tets_from_corners: expected K x 4 tets");
   if (corners.rows() != 4 * T.rows() || corners.cols() != 3)
     throw InputError("rest_tets_from_corners: expected " + std::to_string(4 * T.rows()) + " x 3 corners");
   RestTets rest;

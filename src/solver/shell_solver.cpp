@@ -1,6 +1,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <gshell/error.h>
+#include <gshell/seconds_since.h>
 
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
@@ -30,7 +31,6 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // Tets per energy chunk: chunks are summed in a fixed order so the energy does not depend on
 // how TBB happened to split the work (the monotonicity test compares energies to round-off).
@@ -39,6 +39,10 @@ constexpr int kChunk = 2048;
 // Free vertices from which the x column and the y, z columns are back-substituted concurrently:
 // CHOLMOD's triangular solves are single-threaded, and one column costs about 60% of three.
 constexpr int kParallelSolveRows = 4096;
+
+// Rows per chunk of CG's inner products: partial sums are added in chunk order, so a solve gives
+// the same bits however TBB splits the work (the monotonicity test compares energies to round-off).
+constexpr int kCgChunk = 4096;
 
 // What the local step reads per tet: vertex ids, Dm_inv (row-major) and the rest volume.
 struct LocalStepTets {
@@ -140,13 +144,20 @@ struct ShellSolver::Impl {
   std::vector<int> A_start, A_kept, A_col;
   std::vector<double> A_val;
   std::vector<int> soft_free; // free index of every soft vertex, -1 if that vertex is kept
+  std::vector<int> A_free_col; // parallel to A_col: the free index of a free column (CG's products)
+  std::vector<double> jacobi;  // 1 / diagonal of L_ff (CG's preconditioner)
 
-  double factor_seconds = 0;
+  LinearSolverOptions linear;
+  mutable LinearSolver path = LinearSolver::Direct; // Direct or ConjugateGradient (Auto resolved)
+  // CG's iterate, residual, direction, product, and (Auto) the right-hand side for a fallback.
+  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_b;
+
+  mutable double factor_seconds = 0;
   mutable std::mutex solve_mutex; // the factor's workspace is shared: one linear solve at a time
 
 #ifdef GSHELL_HAVE_CHOLMOD
   mutable cholmod_common cm;
-  cholmod_factor* factor = nullptr;
+  mutable cholmod_factor* factor = nullptr;
   // A CHOLMOD common with the solution and workspaces of one concurrent triangular solve. They
   // persist between solves: allocating them per call costs page faults comparable to the solve.
   struct SolveLane {
@@ -168,7 +179,7 @@ struct ShellSolver::Impl {
   };
   mutable SolveLane lanes[2];
 #else
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper> ldlt;
+  mutable Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper> ldlt;
 #endif
 
   Impl() {
@@ -189,19 +200,27 @@ struct ShellSolver::Impl {
   Impl& operator=(const Impl&) = delete;
 
   void setup(const std::vector<int>& fixed);
-  void assemble_and_factor();
+  void assemble(); // the rows of L (A_*), the Jacobi preconditioner, and the choice of path
+  void factorize() const; // the Cholesky factor of L_ff (path becomes Direct)
+  bool anchored() const;  // at least half the free rows couple to a kept vertex or a soft spring
 
   // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS.
   double local_step(const double* X, double* Q) const;
   double soft_energy(const double* X, const Eigen::MatrixXd& targets) const;
-  void linear_solve(std::vector<double>& rhs) const; // rhs: nf x 3 column-major, overwritten
+  // rhs: nf x 3 column-major, overwritten with the solution; X (row-major, all vertices) gives
+  // CG its start. Returns the CG iterations taken (0 on the direct path).
+  int linear_solve(const double* X, std::vector<double>& rhs) const;
+  void direct_solve(std::vector<double>& rhs) const;
+  // Jacobi-preconditioned CG on the three columns at once (each with its own step sizes), from
+  // X's free rows; returns the iterations and whether every column met the tolerance.
+  std::pair<int, bool> cg_solve(const double* X, std::vector<double>& rhs) const;
   // The part of the right-hand side that does not depend on the rotations: -L_fc x_c (exact
   // elimination of the kept vertices) plus the soft constraints' w p; nf x 3 column-major.
   std::vector<double> rhs_constant(const double* X, const Eigen::MatrixXd& soft_targets) const;
   // Row j of the rotations' part of the right-hand side, sum_t vol G_t R_t^T at free vertex j.
   void gather_rhs(int j, const double* Q, double b[3]) const;
   // X's free rows <- the minimiser for the rotations in Q (rhs: nf x 3 scratch).
-  void global_step(double* X, const double* Q, const std::vector<double>& rhs_const, std::vector<double>& rhs) const;
+  int global_step(double* X, const double* Q, const std::vector<double>& rhs_const, std::vector<double>& rhs) const;
 
   void check_positions(const Eigen::MatrixXd& X, const char* where) const {
     if (X.rows() != N || X.cols() != 3)
@@ -212,6 +231,10 @@ struct ShellSolver::Impl {
         (targets.rows() != static_cast<Eigen::Index>(soft.vertices.size()) || targets.cols() != 3))
       throw InputError(std::string("ShellSolver::") + where + ": expected " + std::to_string(soft.vertices.size()) +
                        " x 3 soft constraint targets");
+  }
+  void check_step(const LocalStep& step, const char* where) const {
+    if (step.Q.size() != 9 * static_cast<std::size_t>(K))
+      throw InputError(std::string("ShellSolver::") + where + ": the local step is for another solver");
   }
 };
 
@@ -274,7 +297,7 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
     for (int v : soft.vertices) soft_free.push_back(free_index[v]);
 }
 
-void ShellSolver::Impl::assemble_and_factor() {
+void ShellSolver::Impl::assemble() {
   // Row j of L = sum_t vol_t G_t G_t^T, built from free vertex j's own tets (rows in parallel).
   std::vector<double> soft_diag(nf, 0.0);
   for (int j : soft_free)
@@ -322,51 +345,70 @@ void ShellSolver::Impl::assemble_and_factor() {
     }
   });
 
-  // The rows (free columns first, then kept ones), and the upper triangle of L_ff in CSC (= lower
-  // triangle rows of the symmetric matrix) for the factorisation.
-  std::vector<int> ff_start(nf + 1, 0);
+  // The rows: free columns first, then kept ones.
   A_start.assign(nf + 1, 0);
   A_kept.assign(nf, 0);
   for (int j = 0; j < nf; ++j) {
-    int nff = 0, nfree = 0;
-    for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) {
-      const int i = free_index[row_col[e]];
-      nfree += i >= 0;
-      nff += i >= 0 && i <= j;
-    }
-    ff_start[j + 1] = ff_start[j] + nff;
+    int nfree = 0;
+    for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) nfree += free_index[row_col[e]] >= 0;
     A_start[j + 1] = A_start[j] + row_len[j];
     A_kept[j] = A_start[j] + nfree;
   }
-  std::vector<int> ff_row(ff_start[nf]);
-  std::vector<double> ff_val(ff_start[nf]);
   A_col.resize(A_start[nf]);
   A_val.resize(A_start[nf]);
+  A_free_col.resize(A_start[nf]);
+  jacobi.assign(nf, 0.0);
   tbb::parallel_for(0, nf, [&](int j) {
-    int a = ff_start[j], free_out = A_start[j], kept_out = A_kept[j];
+    int free_out = A_start[j], kept_out = A_kept[j];
     for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) { // sorted by vertex id = by free id
       const int v = row_col[e];
-      const double val = row_val[e];
       const int i = free_index[v];
       const int out = i < 0 ? kept_out++ : free_out++;
       A_col[out] = v;
-      A_val[out] = val;
-      if (i >= 0 && i <= j) {
-        ff_row[a] = i;
-        ff_val[a++] = val;
-      }
+      A_val[out] = row_val[e];
+      A_free_col[out] = i;
+      if (i == j) jacobi[j] = row_val[e] > 0 ? 1.0 / row_val[e] : 0.0;
     }
   });
   if (nf == 0) return;
+  path = linear.kind == LinearSolver::ConjugateGradient ||
+                 (linear.kind == LinearSolver::Auto && nf >= linear.cg_min_rows && anchored())
+             ? LinearSolver::ConjugateGradient
+             : LinearSolver::Direct;
+}
 
+bool ShellSolver::Impl::anchored() const {
+  std::vector<char> anchor(nf, 0);
+  for (int j : soft_free)
+    if (j >= 0) anchor[j] = 1;
+  long count = 0;
+  for (int j = 0; j < nf; ++j) count += anchor[j] || A_kept[j] < A_start[j + 1];
+  return 2 * count >= nf;
+}
+
+void ShellSolver::Impl::factorize() const {
+  const auto t0 = Clock::now();
+  // The upper triangle of L_ff in CSC (= the lower triangle of its rows: L_ff is symmetric).
+  std::vector<int> ff_start(nf + 1, 0);
+  for (int j = 0; j < nf; ++j) {
+    int nff = 0;
+    for (int e = A_start[j]; e < A_kept[j] && A_free_col[e] <= j; ++e) ++nff; // sorted by free id
+    ff_start[j + 1] = ff_start[j] + nff;
+  }
   const std::string singular =
       "the shell system is singular: a connected part of the tets has no fixed or constrained vertex";
 #ifdef GSHELL_HAVE_CHOLMOD
   cholmod_sparse* A = cholmod_allocate_sparse(nf, nf, ff_start[nf], 1, 1, 1, CHOLMOD_REAL, &cm);
   if (!A) throw std::bad_alloc();
   std::copy(ff_start.begin(), ff_start.end(), static_cast<int*>(A->p));
-  std::copy(ff_row.begin(), ff_row.end(), static_cast<int*>(A->i));
-  std::copy(ff_val.begin(), ff_val.end(), static_cast<double*>(A->x));
+  tbb::parallel_for(0, nf, [&](int j) {
+    int* rows = static_cast<int*>(A->i) + ff_start[j];
+    double* vals = static_cast<double*>(A->x) + ff_start[j];
+    for (int k = 0; k < ff_start[j + 1] - ff_start[j]; ++k) {
+      rows[k] = A_free_col[A_start[j] + k];
+      vals[k] = A_val[A_start[j] + k];
+    }
+  });
   factor = cholmod_analyze(A, &cm);
   if (!factor) {
     cholmod_free_sparse(&A, &cm);
@@ -380,11 +422,20 @@ void ShellSolver::Impl::assemble_and_factor() {
   if (!cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, factor, &cm))
     throw std::runtime_error("CHOLMOD factor conversion failed (status " + std::to_string(cm.status) + ")");
 #else
+  std::vector<int> ff_row(ff_start[nf]);
+  std::vector<double> ff_val(ff_start[nf]);
+  for (int j = 0; j < nf; ++j)
+    for (int k = 0; k < ff_start[j + 1] - ff_start[j]; ++k) {
+      ff_row[ff_start[j] + k] = A_free_col[A_start[j] + k];
+      ff_val[ff_start[j] + k] = A_val[A_start[j] + k];
+    }
   Eigen::Map<const Eigen::SparseMatrix<double>> A(nf, nf, ff_start[nf], ff_start.data(), ff_row.data(),
                                                   ff_val.data());
   ldlt.compute(A);
   if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0).any()) throw InputError(singular);
 #endif
+  path = LinearSolver::Direct;
+  factor_seconds += seconds_since(t0);
 }
 
 double ShellSolver::Impl::local_step(const double* X, double* Q) const {
@@ -436,8 +487,8 @@ void ShellSolver::Impl::gather_rhs(int j, const double* Q, double b[3]) const {
   }
 }
 
-void ShellSolver::Impl::global_step(double* X, const double* Q, const std::vector<double>& rhs_const,
-                                    std::vector<double>& rhs) const {
+int ShellSolver::Impl::global_step(double* X, const double* Q, const std::vector<double>& rhs_const,
+                                   std::vector<double>& rhs) const {
   tbb::parallel_for(0, nf, [&](int j) {
     double b[3];
     gather_rhs(j, Q, b);
@@ -446,14 +497,137 @@ void ShellSolver::Impl::global_step(double* X, const double* Q, const std::vecto
       rhs[i] = b[d] + rhs_const[i];
     }
   });
-  linear_solve(rhs);
+  const int cg_iterations = linear_solve(X, rhs);
   tbb::parallel_for(0, nf, [&](int j) {
     for (int d = 0; d < 3; ++d) X[3 * static_cast<std::size_t>(free_vertices[j]) + d] = rhs[j + static_cast<std::size_t>(d) * nf];
   });
+  return cg_iterations;
 }
 
-void ShellSolver::Impl::linear_solve(std::vector<double>& rhs) const {
+int ShellSolver::Impl::linear_solve(const double* X, std::vector<double>& rhs) const {
   std::lock_guard<std::mutex> lock(solve_mutex);
+  if (path == LinearSolver::Direct) {
+    direct_solve(rhs);
+    return 0;
+  }
+  if (linear.kind == LinearSolver::Auto) cg_b.assign(rhs.begin(), rhs.end());
+  const auto [iterations, converged] = cg_solve(X, rhs);
+  if (!converged && linear.kind == LinearSolver::Auto) { // CG does not pay here: factor once
+    factorize();
+    rhs.swap(cg_b);
+    direct_solve(rhs);
+  }
+  return iterations;
+}
+
+std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<double>& rhs) const {
+  const std::size_t n = nf;
+  const int chunks = static_cast<int>((n + kCgChunk - 1) / kCgChunk);
+  // Kept between solves: fresh vectors would cost a page fault per 4 KB at every global step.
+  for (auto* v : {&cg_x, &cg_r, &cg_p, &cg_q}) v->resize(3 * n);
+  std::vector<double>&x = cg_x, &r = cg_r, &p = cg_p, &q = cg_q;
+  std::vector<std::array<double, 9>> partial(chunks); // per chunk: up to three sums per column
+  // sums <- the chunk-ordered totals of partial.
+  auto totals = [&](double sums[9]) {
+    for (int k = 0; k < 9; ++k) sums[k] = 0;
+    for (const auto& c : partial)
+      for (int k = 0; k < 9; ++k) sums[k] += c[k];
+  };
+  auto for_chunks = [&](auto&& body) { // body(first row, end row, chunk's partial sums)
+    tbb::parallel_for(0, chunks, [&](int c) {
+      auto& s = partial[c];
+      s.fill(0.0);
+      body(static_cast<std::size_t>(c) * kCgChunk, std::min(n, static_cast<std::size_t>(c + 1) * kCgChunk), s);
+    });
+  };
+  auto multiply = [&](const std::vector<double>& in, std::size_t j, double out[3]) { // out = (L_ff in)_j
+    out[0] = out[1] = out[2] = 0;
+    for (int e = A_start[j]; e < A_kept[j]; ++e) {
+      const std::size_t i = A_free_col[e];
+      const double a = A_val[e];
+      for (int d = 0; d < 3; ++d) out[d] += a * in[i + d * n];
+    }
+  };
+  // r = b - L x0 with x0 = X's free rows; p = M^-1 r. Sums: b.b, r.z, r.r.
+  for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>&) {
+    for (std::size_t j = j0; j < j1; ++j)
+      for (int d = 0; d < 3; ++d) x[j + d * n] = X[3 * static_cast<std::size_t>(free_vertices[j]) + d];
+  });
+  for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>& s) {
+    for (std::size_t j = j0; j < j1; ++j) {
+      double lx[3];
+      multiply(x, j, lx);
+      for (int d = 0; d < 3; ++d) {
+        const std::size_t i = j + d * n;
+        const double bi = rhs[i];
+        r[i] = bi - lx[d];
+        p[i] = jacobi[j] * r[i];
+        s[d] += bi * bi;
+        s[3 + d] += r[i] * p[i];
+        s[6 + d] += r[i] * r[i];
+      }
+    }
+  });
+  double sums[9];
+  totals(sums);
+  double limit[3], rz[3];
+  bool active[3]; // a column stays active until its residual meets the tolerance
+  const double tol2 = linear.cg_tolerance * linear.cg_tolerance;
+  for (int d = 0; d < 3; ++d) {
+    limit[d] = tol2 * sums[d];
+    rz[d] = sums[3 + d];
+    active[d] = sums[6 + d] > limit[d] && rz[d] > 0;
+  }
+  int it = 0;
+  for (; it < linear.cg_max_iterations && (active[0] || active[1] || active[2]); ++it) {
+    // q = L p; sums: p.q
+    for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>& s) {
+      for (std::size_t j = j0; j < j1; ++j) {
+        double lp[3];
+        multiply(p, j, lp);
+        for (int d = 0; d < 3; ++d) {
+          q[j + d * n] = lp[d];
+          s[d] += p[j + d * n] * lp[d];
+        }
+      }
+    });
+    totals(sums);
+    double alpha[3];
+    for (int d = 0; d < 3; ++d) alpha[d] = active[d] && sums[d] > 0 ? rz[d] / sums[d] : 0.0;
+    // x += alpha p, r -= alpha q; sums: r.r, r.z
+    for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>& s) {
+      for (std::size_t j = j0; j < j1; ++j)
+        for (int d = 0; d < 3; ++d) {
+          const std::size_t i = j + d * n;
+          x[i] += alpha[d] * p[i];
+          r[i] -= alpha[d] * q[i];
+          s[d] += r[i] * r[i];
+          s[3 + d] += jacobi[j] * r[i] * r[i];
+        }
+    });
+    totals(sums);
+    double beta[3];
+    for (int d = 0; d < 3; ++d) {
+      if (!active[d]) continue;
+      beta[d] = sums[3 + d] / rz[d];
+      rz[d] = sums[3 + d];
+      active[d] = sums[d] > limit[d] && rz[d] > 0;
+    }
+    // p = M^-1 r + beta p
+    for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>&) {
+      for (std::size_t j = j0; j < j1; ++j)
+        for (int d = 0; d < 3; ++d)
+          if (active[d]) {
+            const std::size_t i = j + d * n;
+            p[i] = jacobi[j] * r[i] + beta[d] * p[i];
+          }
+    });
+  }
+  rhs.swap(x);
+  return {it, !active[0] && !active[1] && !active[2]};
+}
+
+void ShellSolver::Impl::direct_solve(std::vector<double>& rhs) const {
 #ifdef GSHELL_HAVE_CHOLMOD
   // Column groups solved concurrently, each through its own CHOLMOD common and workspaces (the
   // factor is only read): the triangular solves are memory-bound and single-threaded in CHOLMOD.
@@ -483,17 +657,22 @@ void ShellSolver::Impl::linear_solve(std::vector<double>& rhs) const {
 #endif
 }
 
-ShellSolver::ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
-                         const SoftConstraints& soft)
+ShellSolver::ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
+                         const SoftConstraints& soft, const LinearSolverOptions& linear)
     : impl_(std::make_unique<Impl>()) {
   const auto t0 = Clock::now();
-  impl_->rest = rest;
+  impl_->rest = std::move(rest);
   impl_->N = num_vertices;
   impl_->soft = soft;
-  if (static_cast<int>(rest.Dm_inv.size()) != rest.size() || rest.volume.size() != rest.size())
+  impl_->linear = linear;
+  if (!(linear.cg_tolerance > 0) || !std::isfinite(linear.cg_tolerance))
+    throw InputError("ShellSolver: the CG tolerance must be positive and finite");
+  if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
+  if (static_cast<int>(impl_->rest.Dm_inv.size()) != impl_->rest.size() || impl_->rest.volume.size() != impl_->rest.size())
     throw InputError("ShellSolver: rest tets are incomplete");
   impl_->setup(fixed);
-  impl_->assemble_and_factor();
+  impl_->assemble();
+  if (impl_->nf > 0 && impl_->path == LinearSolver::Direct) impl_->factorize();
   impl_->factor_seconds = seconds_since(t0);
 }
 
@@ -501,7 +680,71 @@ ShellSolver::~ShellSolver() = default;
 ShellSolver::ShellSolver(ShellSolver&&) noexcept = default;
 ShellSolver& ShellSolver::operator=(ShellSolver&&) noexcept = default;
 
+const std::vector<int>& ShellSolver::free_vertices() const { return impl_->free_vertices; }
+
+void ShellSolver::apply_inverse(Eigen::MatrixXd& B) const {
+  const Impl& m = *impl_;
+  if (B.rows() != m.nf || B.cols() != 3)
+    throw InputError("ShellSolver::apply_inverse: expected " + std::to_string(m.nf) + " x 3 free rows");
+  if (m.nf == 0) return;
+  std::vector<double> rhs(B.data(), B.data() + B.size()); // column-major nf x 3, as direct_solve wants
+  // Callers use the inverse inside their own iterations (the guard's preconditioner): it must be
+  // exact, so a solver on the CG path factors here once.
+  std::lock_guard<std::mutex> lock(m.solve_mutex);
+  if (m.path != LinearSolver::Direct) m.factorize();
+  m.direct_solve(rhs);
+  std::copy(rhs.begin(), rhs.end(), B.data());
+}
+
+Eigen::MatrixXd ShellSolver::multiply_free(const Eigen::MatrixXd& P) const {
+  const Impl& m = *impl_;
+  if (P.rows() != m.nf || P.cols() != 3)
+    throw InputError("ShellSolver::multiply_free: expected " + std::to_string(m.nf) + " x 3 free rows");
+  Eigen::MatrixXd out(m.nf, 3);
+  tbb::parallel_for(tbb::blocked_range<int>(0, m.nf, 1024), [&](const tbb::blocked_range<int>& r) {
+    for (int j = r.begin(); j < r.end(); ++j) {
+      double s[3] = {0, 0, 0};
+      for (int e = m.A_start[j]; e < m.A_kept[j]; ++e) {
+        const int i = m.free_index[m.A_col[e]];
+        for (int d = 0; d < 3; ++d) s[d] += m.A_val[e] * P(i, d);
+      }
+      for (int d = 0; d < 3; ++d) out(j, d) = s[d];
+    }
+  });
+  return out;
+}
+
+Eigen::SparseMatrix<double, Eigen::RowMajor> ShellSolver::system_rows(const std::vector<int>& vertices) const {
+  const Impl& m = *impl_;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (std::size_t r = 0; r < vertices.size(); ++r) {
+    const int v = vertices[r];
+    if (v < 0 || v >= m.N || m.free_index[v] < 0) throw InputError("ShellSolver::system_rows: vertex is not free");
+    const int j = m.free_index[v];
+    for (int e = m.A_start[j]; e < m.A_kept[j]; ++e) entries.emplace_back(static_cast<int>(r), m.A_col[e], m.A_val[e]);
+  }
+  Eigen::SparseMatrix<double, Eigen::RowMajor> rows(static_cast<Eigen::Index>(vertices.size()), m.N);
+  rows.setFromTriplets(entries.begin(), entries.end());
+  return rows;
+}
+
 double ShellSolver::factor_seconds() const { return impl_->factor_seconds; }
+LinearSolver ShellSolver::linear_solver() const { return impl_->path; }
+
+std::string to_string(LinearSolver solver) {
+  switch (solver) {
+  case LinearSolver::Auto: return "auto";
+  case LinearSolver::Direct: return "direct";
+  case LinearSolver::ConjugateGradient: return "cg";
+  }
+  return "unknown";
+}
+
+LinearSolver parse_linear_solver(const std::string& name) {
+  for (LinearSolver s : {LinearSolver::Auto, LinearSolver::Direct, LinearSolver::ConjugateGradient})
+    if (name == to_string(s)) return s;
+  throw InputError("unknown linear solver '" + name + "' (expected auto, direct or cg)");
+}
 const RestTets& ShellSolver::rest() const { return impl_->rest; }
 int ShellSolver::num_vertices() const { return impl_->N; }
 
@@ -547,7 +790,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   result.energy.push_back(E);
   for (int it = 1; it <= options.max_iterations && m.nf > 0; ++it) {
     const auto t_global = Clock::now();
-    m.global_step(X.data(), Q.data(), rhs_const, rhs);
+    result.linear_iterations += m.global_step(X.data(), Q.data(), rhs_const, rhs);
     result.global_seconds += seconds_since(t_global);
     t_local = Clock::now();
     const double E_new = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
@@ -580,8 +823,7 @@ void ShellSolver::global_step(Eigen::MatrixXd& X, const LocalStep& step, const E
   const Impl& m = *impl_;
   m.check_positions(X, "global_step");
   m.check_soft_targets(soft_targets, "global_step");
-  if (step.Q.size() != 9 * static_cast<std::size_t>(m.K))
-    throw InputError("ShellSolver::global_step: the local step is for another solver");
+  m.check_step(step, "global_step");
   if (m.nf == 0) return;
   std::vector<double> x = to_row_major(X);
   std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf));
@@ -594,6 +836,7 @@ Eigen::MatrixXd ShellSolver::half_gradient(const Eigen::MatrixXd& X, const Local
   const Impl& m = *impl_;
   m.check_positions(X, "half_gradient");
   m.check_soft_targets(soft_targets, "half_gradient");
+  m.check_step(step, "half_gradient");
   // 1/2 dE/dx_f = A_ff x_f - (b(R) + rhs_constant): what the global step solves, as a residual.
   const std::vector<double> x = to_row_major(X);
   const std::vector<double> rhs_const = m.rhs_constant(x.data(), soft_targets);

@@ -21,12 +21,14 @@ struct Embedding {
 };
 
 /// Locates every row of P (P x 3) in the tets T (K x 4) over the rest positions X_rest (N x 3),
-/// with a hashed grid (TetLocator), in parallel. Throws InputError if P has a non-finite
-/// coordinate or the tet mesh has no tet of positive volume.
+/// with a hashed grid (TetLocator), in parallel.
+/// \throws InputError when P is not P x 3 or has a non-finite coordinate, as TetLocator's
+///         constructor (X_rest, T shapes and ids), or when no tet has positive volume.
 Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, const Eigen::MatrixXd& P);
 
 /// Positions of the embedded points for deformed shell vertices X (same vertex ids as X_rest):
 /// row p = sum_k bary(p,k) * X(vertices(p,k)).
+/// \throws InputError when X is not N x 3 with a row for every vertex the embedding uses.
 Eigen::MatrixXd carry(const Embedding& embedding, const Eigen::MatrixXd& X);
 
 } // namespace gshell

@@ -1,5 +1,6 @@
 #pragma once
-// Geometric texture through the shell map (paper §4.1 Fig. 5, DESIGN.md "Embedded detail").
+// Geometric texture through the shell map (paper §4.1 Fig. 5; docs/design.md "Embedded
+// detail and geometric textures").
 // Texture space: (u, v, h) with (u, v) the base's texture coordinates and h in [0,1] the height
 // in the shell (0 = base, 1 = top). Over each UV triangle stands the texture-space prism
 // UV triangle x [0,1], cut into 3 tets by the same min-index rule as the shell's prism, so
@@ -36,9 +37,10 @@ struct GeometricTexture {
 
 /// Tiles `tile` repeat_u x repeat_v times over the bounding rectangle of the base's UVs
 /// (`uv_source` has the shell's faces and vertex count, with UV/FUV; see read_shell_folder) and maps
-/// every tiled vertex tet by tet into the shell. Throws InputError when the base has no UVs, its
-/// faces differ from the shell's, every UV triangle is degenerate, the tile is empty or
-/// non-finite, or a repeat count is < 1.
+/// every tiled vertex tet by tet into the shell.
+/// \throws InputError when the base has no UVs or a non-finite one, its faces differ from the
+///         shell's, every UV triangle is degenerate, the tile is empty, non-finite or has a face
+///         id out of range, or a repeat count is < 1.
 GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_source, const TriMesh& tile,
                                        int repeat_u = 1, int repeat_v = 1);
 
@@ -46,6 +48,7 @@ GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_sou
 /// (default 16) over [0,1]^2 with z = 0.1 + 0.8 sin^2(pi x) sin^2(pi y): one round bump per tile,
 /// equal heights along the tile's edges so neighbouring tiles join without gaps.
 bool is_builtin_tile(const std::string& spec);
+/// \throws InputError when `spec` is not builtin:bumps[:N] with N in 1..1024.
 TriMesh make_builtin_tile(const std::string& spec);
 
 } // namespace gshell

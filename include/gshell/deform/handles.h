@@ -42,6 +42,7 @@ struct HandleSet {
   std::vector<int> constrained_vertices() const;
   /// Target positions (|constrained_vertices()| x 3) for the fraction t of the motion, from the
   /// rest positions of all 2n shell vertices.
+  /// \throws InputError when rest_vertices has no row of 3 coordinates for a handle vertex.
   Eigen::MatrixXd targets(const Eigen::MatrixXd& rest_vertices, double fraction) const;
 
   friend bool operator==(const HandleSet&, const HandleSet&) = default;
@@ -58,12 +59,12 @@ void check_handles(const HandleSet& handles, int shell_vertices);
 nlohmann::ordered_json handles_to_json(const HandleSet& handles);
 
 /// Parses a handle file (JSON) against the rest shell: `select` boxes are resolved into vertex ids
-/// here. Throws InputError "PATH: problem" on unreadable or malformed files, unknown keys, wrong
+/// here. \throws InputError "PATH: problem" on unreadable or malformed files, unknown keys, wrong
 /// types, non-finite numbers, ids outside 0..2n-1, empty selections, a zero rotation axis,
 /// a vertex in two handles, or no handle at all.
 HandleSet read_handles(const std::string& path, const Shell& rest);
 
-/// Same, from the JSON text; `name` is used in error messages.
+/// Same, from the JSON text; `name` is used in error messages. \throws InputError as read_handles.
 HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest);
 
 } // namespace gshell

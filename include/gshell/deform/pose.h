@@ -5,6 +5,9 @@
 // of the handles' motion, or whatever an interactive drag asks for). The pose job and the drag
 // session (run/pose_run.h, run/drag_session.h) drive it.
 #include <gshell/deform/handles.h>
+#include <gshell/deform/shell_deformer.h>
+#include <gshell/guard/guarded_shell.h>
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/shell/shell.h>
 #include <gshell/solver/hierarchical_solver.h>
 #include <gshell/solver/rest_tets.h>
@@ -19,6 +22,19 @@ namespace gshell {
 enum class PoseSolverKind {
   Hierarchical, ///< HierarchicalSolver (paper §5)
   Single,       ///< ShellSolver over all 2n vertices (plain local/global)
+};
+
+/// What made a guarded pose step (PoseSolver::solve_valid) valid.
+struct ValidStep {
+  /// Bounded: the solver's own result, accepted through the tet step bound and the certificate;
+  /// Guarded: the guarded solver from the previous step (hard handles); Failed: nothing valid
+  /// was found, the state was left as it was before the step.
+  FrameMethod method = FrameMethod::Bounded;
+  /// The handles force a collision: the step stopped at contact, short of the targets (valid).
+  bool blocked_by_contact = false;
+  int guarded_iterations = 0;
+  bool valid = false;            ///< the certificate holds (base/base pairs included)
+  ShellCertificate certificate;  ///< of the step's result, base/base pairs included
 };
 
 class PoseSolver {
@@ -38,7 +54,21 @@ public:
   /// the previous call. \throws InputError when X or targets have the wrong shape.
   SolveResult solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const SolveOptions& options = {});
   /// The same for the handles at `fraction` of their motion: solve(X, targets(fraction), options).
+  /// \throws InputError as solve().
   SolveResult solve(Eigen::MatrixXd& X, double fraction, const SolveOptions& options = {});
+
+  /// solve() from the start X, kept valid (docs/valid-deformation.md): from `from` (a valid
+  /// state, e.g. the rest shell or the last valid step; X may be a prediction made from it), the
+  /// solver's result (either kind; the hierarchy's coarse
+  /// corrections included) is taken only when the straight path to it keeps every tet above the
+  /// guard's keep_fraction (step bound) and its exact certificate (base/base pairs included:
+  /// the base moves too) holds. Otherwise, with hard handles, the guarded solver drags the
+  /// handles there from X, stopping at contact when they force a collision
+  /// (step->blocked_by_contact); with soft handles, the straight path is halved until its end is
+  /// valid (blocked_by_contact if it had to be). Never leaves X invalid when it started valid.
+  /// \throws InputError when `from`, X or targets have the wrong shape, or as GuardedSolver.
+  SolveResult solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd& X, const Eigen::MatrixXd& targets,
+                          const SolveOptions& options, const GuardOptions& guard, ValidStep* step);
 
   /// Start state for a drag step: the previous step's motion continued, X_prev + s (X_prev -
   /// X_before) (a solved path is smooth, so this is second-order close to the new minimum while

@@ -1,12 +1,15 @@
 #pragma once
-// Base-driven shell deformation (paper §4.2, first type; DESIGN.md "Shell deformation"): the base
+// Base-driven shell deformation (paper §4.2; docs/design.md "Base-driven deformation"): the base
 // is moved by someone else, the top follows with the least stretch relative to the rest shell.
+#include <gshell/guard/guarded_shell.h>
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/shell.h>
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
 #include <Eigen/Core>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,7 +35,7 @@ enum class WarmStart {
                  ///< per frame on the bunny bend, against 2 rotated, 5 translated, 11 previous).
 };
 const char* warm_start_name(WarmStart w);
-/// "previous", "translated", "rotated", "extrapolated"; throws InputError otherwise.
+/// "previous", "translated", "rotated", "extrapolated". \throws InputError on any other name.
 WarmStart parse_warm_start(const std::string& name);
 
 /// The only source of the per-frame defaults (the CLI's help and Python's keywords read DeformOptions{}).
@@ -41,10 +44,44 @@ struct DeformOptions {
   double tolerance = 1e-4; ///< relative energy change |E_k - E_{k-1}| / E_{k-1} that stops a frame
   WarmStart warm_start = WarmStart::Extrapolated;
   bool measure_stretch = true; ///< fill FrameResult::stretch (one more pass over the tets)
+  /// Today's frames, unguarded: the paper's solve from the warm start, nothing more (frames may
+  /// hold inverted tets and intersections). Off (the default): every frame is valid by
+  /// construction (docs/valid-deformation.md): the paper's result is taken only when the straight
+  /// path from the previous frame to it keeps every tet positive (step bound) and its exact
+  /// certificate holds, otherwise the guarded solver drags the shell there from the previous
+  /// frame in sub-steps.
+  bool allow_invalid = false;
+  /// Barrier and step parameters of the guard (relative to the shell's scales, as in generation;
+  /// only j_hat, volume_weight, contact_distance, contact_weight, keep_fraction, cg_iterations and
+  /// cg_tolerance are read).
+  GuardOptions guard;
+  /// A guarded frame moves its base in sub-steps, each changing no base edge vector by more than
+  /// this fraction of the edge's length (about this many radians of turn), in (0, 2].
+  double substep_edge_change = 0.1;
+  int max_substeps = 64; ///< cap on sub-steps per frame (>= 1)
+  /// Fill FrameResult::certificate by the exact certificate (certify_shell, with the base's own
+  /// crossings): not counted in FrameResult::seconds.
+  bool certify = true;
 
-  /// \throws InputError naming the parameter (iterations, tolerance) when it is out of range.
+  /// \throws InputError naming the parameter (iterations, tolerance, guard options, substeps)
+  ///         when it is out of range.
   void check() const;
 };
+
+/// A top vertex counts as thinned in a frame when its offset |top_i - base_i| is below
+/// kThinnedFraction of its rest offset.
+int count_thinned_vertices(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXd& rest_base,
+                           const Eigen::MatrixXd& rest_top);
+
+/// How a frame was made.
+enum class FrameMethod {
+  Unguarded, ///< allow_invalid: the paper's solve only
+  Bounded,   ///< the paper's solve, taken: the tet step bound passes on the way and its certificate holds
+  Guarded,   ///< the guarded solver from the previous frame (sub-steps), boundary contacts kept apart
+  TetsOnly,  ///< guarded against inverted tets only: the base forced a contact (e.g. it crosses itself)
+  Failed,    ///< not even the tets could follow the base: the paper's solve, reported invalid
+};
+const char* frame_method_name(FrameMethod m);
 
 struct FrameResult {
   Eigen::MatrixXd top;         ///< n x 3 deformed top (top vertex i over base vertex i)
@@ -55,21 +92,38 @@ struct FrameResult {
   double seconds = 0;          ///< warm start + solve (excludes the stretch measurement)
   double warm_start_seconds = 0; ///< of which the warm start
   double stretch_seconds = 0;  ///< the stretch measurement
+  FrameMethod method = FrameMethod::Unguarded;
+  int substeps = 0;            ///< sub-steps of a guarded frame (0 when the paper's solve was taken)
+  int guarded_iterations = 0;  ///< iterations of the guarded solver over all sub-steps
+  int thinned_vertices = 0;    ///< count_thinned_vertices of the frame
+  /// The exact certificate of the frame (options.certify; counts -1 = not tested otherwise).
+  ShellCertificate certificate;
+  double certificate_seconds = 0; ///< the certificate beyond what the guard's acceptance computed
+  /// The guard certified the frame while accepting it (counted in seconds; certificate filled
+  /// but for base_self_intersections).
+  bool certified = false;
+  /// The certificate holds (options.certify), else the frame's method guarantees it (Bounded,
+  /// Guarded).
+  bool valid = false;
 };
 
 /// Rest shapes for deforming a shell: its own 3m tets (no cracks). A generated shell may hold a
 /// few flat or inverted tets, which cannot be rest shapes (the energy divides by them): those
-/// whose volume is below kMinRestVolumeRatio of their normal-prism tet (thickness eta, DESIGN.md
-/// "Shell generation") take that ideal tet as their rest shape instead, so deforming pushes them
+/// whose volume is below kMinRestVolumeRatio of their normal-prism tet (thickness eta; see
+/// docs/design.md "Base-driven deformation") take that ideal tet as their rest shape instead, so deforming pushes them
 /// back towards a proper prism rather than preserving the defect. `replaced` (if not null)
 /// receives their count.
 constexpr double kMinRestVolumeRatio = 1e-3;
 RestTets deformation_rest_tets(const Shell& shell, int* replaced = nullptr);
 
+class FrameGuard; // src/deform/frame_guard.h
+
 /// Built once per rest shell: rest shapes from deformation_rest_tets, base vertices fixed, system
 /// matrix factored once; every frame only back-substitutes.
 class ShellDeformer {
 public:
+  /// \throws std::runtime_error when CHOLMOD fails (out of memory). `rest` is taken as a
+  ///         consistent shell (read_shell_folder and generate_shell check theirs).
   explicit ShellDeformer(const Shell& rest);
 
   /// Solves the top for a new base (n x 3, the rest base's vertex order), warm-started from the
@@ -89,7 +143,19 @@ public:
   /// All 2n shell vertices after the last frame (base rows, then top rows).
   const Eigen::MatrixXd& current() const { return current_; }
 
+  ShellDeformer(ShellDeformer&&) noexcept;
+  ShellDeformer& operator=(ShellDeformer&&) noexcept;
+  ~ShellDeformer();
+
 private:
+  // Makes X (the paper's solve from the warm start, base rows = the new base) valid from
+  // `previous` (the last frame): taken if the path to it passes the step bounds, else replaced by
+  // the guarded drag.
+  void guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
+                   FrameResult& result);
+
+  std::unique_ptr<FrameGuard> guard_; ///< built at the first guarded frame
+  bool current_clean_ = true; ///< current_ is free of contacts the guard keeps (not after TetsOnly)
   Shell rest_;
   int replaced_ = 0;
   ShellSolver solver_;

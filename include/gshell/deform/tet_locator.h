@@ -27,6 +27,7 @@ public:
 
   /// X: N x 3 points, T: K x 4 ids. Tets whose volume is negligible (below 1e-14 of their
   /// bounding box) cannot carry affine coordinates and are left out of the index.
+  /// \throws InputError when X is not N x 3, T not K x 4, or a T id is outside 0..N-1.
   TetLocator(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T);
 
   /// The tet containing p (the one where p is deepest when several share it), or, when no tet
@@ -34,7 +35,8 @@ public:
   /// when the mesh has no usable tet.
   TetHit locate(const Eigen::Vector3d& p) const;
 
-  /// Affine coordinates of p in tet t (t must be a usable tet).
+  /// Affine coordinates of p in tet t (t must be a usable tet: not checked, this is the inner
+  /// loop of locate).
   Eigen::Vector4d affine_coordinates(int t, const Eigen::Vector3d& p) const;
 
   int usable_tets() const { return static_cast<int>(usable_.size()); }
@@ -54,9 +56,5 @@ private:
   Cell lo_ = Cell::Zero(), hi_ = Cell::Zero(); ///< occupied cell range (inclusive)
   std::unordered_map<std::uint64_t, std::vector<int>> cells_;
 };
-
-/// Closest point to p on triangle (a, b, c), also for degenerate triangles.
-Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 } // namespace gshell

@@ -1,6 +1,7 @@
 #pragma once
 // Principal curvatures from the normal-cycle curvature tensor (Cohen-Steiner & Morvan 2003),
-// as the curvature-sensitive ideal prisms need them (paper §4.1, DESIGN.md "Shell generation").
+// as the curvature-sensitive ideal prisms need them (paper §4.1; docs/design.md "Principal
+// curvatures").
 //
 // Tensor of a region B (a set of triangles):
 //   T(B) = 1/area(B) * sum_edges beta(e) |e ∩ B| e_hat e_hat^T
@@ -48,14 +49,17 @@ struct CurvatureOptions {
 };
 
 /// Per-face curvature: tensor averaged over the face's `face_rings`-ring of triangles, projected
-/// onto the face's plane. Preconditions: indices in range (throws InputError otherwise, and on
-/// rings < 1). Zero-area faces get zero curvature.
+/// onto the face's plane. Zero-area faces get zero curvature.
+/// \throws InputError when V is not n x 3, F not m x 3, a face index is out of range or
+///         options.face_rings < 1.
 FaceCurvature face_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                              const CurvatureOptions& options = {});
 
 /// Per-vertex curvature: tensor averaged over the vertex's `vertex_rings`-ring of triangles,
 /// projected onto the plane orthogonal to the area-weighted vertex normal. Vertices without faces
 /// get zero curvature.
+/// \throws InputError when V is not n x 3, F not m x 3, a face index is out of range or
+///         options.vertex_rings < 1.
 VertexCurvature vertex_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                  const CurvatureOptions& options = {});
 

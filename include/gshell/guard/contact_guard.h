@@ -55,20 +55,23 @@ public:
   /// skipped when its triangle is excluded or its vertex is a corner of an excluded triangle; an
   /// edge-edge pair when either edge belongs to an excluded triangle (e.g. the triangles around
   /// the crossings of a base that intersects itself, which no top can keep clean).
-  /// Throws InputError on bad sizes or options.
+  /// \throws InputError on bad options (dhat, slack, keep_fraction), a flag vector of the wrong
+  ///         size, a boundary triangle that is not m x 3, has a vertex id outside
+  ///         [0, num_vertices) or repeats a vertex, or num_vertices < 0.
   ContactGuard(const ShellBoundary& boundary, int num_vertices, std::vector<char> movable,
                const ContactOptions& options, std::vector<char> excluded_triangles = {});
   ~ContactGuard();
   ContactGuard(ContactGuard&&) noexcept;
   ContactGuard& operator=(ContactGuard&&) noexcept;
 
-  // Every X and D below is num_vertices x 3 with finite rows at the boundary's vertices (else
-  // InputError). Calls at the same X (exactly equal) share one pass over the candidate list.
+  // Calls at the same X (exactly equal) share one pass over the candidate list.
 
   /// Barrier B(X) = sum over pairs of b(d^2), b(s) = -(s - dhat^2)^2 log(s / dhat^2) for
   /// s < dhat^2 and 0 beyond (d: the distance of the pair); edge-edge pairs of nearly parallel
   /// edges are mollified (contact_barrier.h). +infinity if a pair touches. Deterministic: the
   /// same X gives the same bits whatever the thread count.
+  /// \throws InputError when X (D, G) is not num_vertices x 3 or X has a non-finite coordinate at a
+  ///         boundary vertex (this, add_gradient, add_hessian, step_bound and min_distance).
   double energy(const Eigen::MatrixXd& X);
   /// G (num_vertices x 3) += scale * dB/dX (rows of fixed vertices included).
   void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G);

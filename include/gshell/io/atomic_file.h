@@ -8,8 +8,9 @@
 namespace gshell {
 
 /// Calls write(stream) on a temporary file beside `path`, then renames it to `path`.
-/// Throws InputError naming `path` when the file cannot be created or written; the temporary is
-/// removed on any failure (including an exception thrown by `write`).
+/// \throws InputError naming `path` when it is empty, a directory, or the file cannot be created,
+///         written or moved into place; whatever `write` throws is passed on. The temporary is
+///         removed on any failure.
 void write_file_atomically(const std::string& path, const std::function<void(std::ostream&)>& write,
                            bool binary = false);
 

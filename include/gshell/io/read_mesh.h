@@ -8,7 +8,7 @@ namespace gshell {
 /// chosen by the file extension (case-insensitive). Polygons are fan-triangulated; OBJ `vt`
 /// texture coordinates are kept in UV/FUV (only when every face has them). Vertex order is the
 /// file's; STL corners with equal coordinates become one vertex, numbered by first appearance.
-/// Throws InputError ("PATH: problem (line N)") on a missing file, unknown format or malformed
+/// \throws InputError ("PATH: problem (line N)") on a missing file, unknown format or malformed
 /// content: unparsable numbers, out-of-range indices, counts that do not match the data (also data
 /// left over after the announced elements), binary files of the wrong length.
 /// Does not validate the mesh (see validate_mesh.h): NaN/inf coordinates are read as they are.

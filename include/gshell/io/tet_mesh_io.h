@@ -17,9 +17,13 @@ struct TetMesh {
 
 /// `.vtu` (VTK XML UnstructuredGrid, appended raw binary, readable by ParaView) or `.mesh`
 /// (MEDIT ASCII; data arrays are dropped, the cell reference is 1). Atomic.
+/// \throws InputError naming `path` on another extension or when it cannot be written; InputError
+///         naming the argument when X is not N x 3, T not K x 4, a tet id is out of range or a
+///         data array is unnamed or has the wrong shape. Nothing is written then.
 void write_tet_mesh(const std::string& path, const TetMesh& mesh);
 
 /// Reads back a `.vtu` written by write_tet_mesh (tetrahedra only) or a MEDIT `.mesh`.
+/// \throws InputError naming `path` when it is missing, of another extension or malformed.
 TetMesh read_tet_mesh(const std::string& path);
 
 } // namespace gshell

@@ -19,9 +19,10 @@ struct MeshAttributes {
 
 /// Writes OBJ (with vt when the mesh has UVs), OFF or PLY (binary little endian unless
 /// `ascii_ply`), chosen by extension. Atomic (temporary file + rename). Vertex order is kept.
-/// Throws InputError on an unknown extension (also .stl: it cannot keep vertex order) or an
-/// unwritable path; std::invalid_argument when the mesh or attributes are inconsistent (sizes,
-/// indices, PLY property names that are not one word [A-Za-z0-9_.-] or clash).
+/// \throws InputError naming `path` on an unknown extension (also .stl: it cannot keep vertex
+///         order) or an unwritable path; InputError naming the argument when the mesh or the
+///         attributes are inconsistent (sizes, indices, PLY property names that are not one word
+///         [A-Za-z0-9_.-] or clash). Nothing is written then.
 void write_mesh(const std::string& path, const TriMesh& mesh, const MeshAttributes& attributes = {},
                 bool ascii_ply = false);
 

@@ -30,8 +30,8 @@ struct ShellBoundary {
 /// Row f is base face f reversed, row m + f top face f (ids + n). Every base edge with a single
 /// face, running i -> j in that face, adds the quad base i, base j, top j, top i, cut along the
 /// same diagonal as the prism tets (base(min) - top(max), build_prism_tets), as two triangles
-/// in the order the boundary edges first appear in F. Throws InputError on an index outside
-/// [0, n) or a face with a repeated index.
+/// in the order the boundary edges first appear in F.
+/// \throws InputError when F is not m x 3, an index is outside [0, n) or a face repeats an index.
 ShellBoundary shell_boundary(const Eigen::MatrixXi& F, int n);
 
 } // namespace gshell

@@ -72,8 +72,9 @@ struct ShellCertificate {
 /// Certifies the shell between `base` and `top` (n x 3 each, top vertex i over base vertex i) over
 /// the faces F (m x 3, counter-clockwise, three distinct ids each) exactly; see the conditions
 /// above. Any base/top pair can be certified: a generated shell, a deformed or posed frame, a
-/// shell made by another tool. Runs in parallel. Throws InputError on mismatched sizes, non-finite
-/// coordinates, or a face index out of range or repeated.
+/// shell made by another tool. Runs in parallel.
+/// \throws InputError when base and top are not n x 3 with the same n, a coordinate is not finite,
+///         or F is not m x 3 with three distinct ids in [0, n) per face.
 ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F,
                                const CertifyOptions& options = {});
 

@@ -1,5 +1,5 @@
 #pragma once
-// The quality report of a shell (DESIGN.md "Quality measures"), for any base/top pair.
+// The quality report of a shell (docs/design.md "Quality measures"), for any base/top pair.
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <Eigen/Core>
@@ -26,12 +26,15 @@ struct ShellMetrics {
 
 /// Measures the shell between `base` and `top` (same faces F, top vertex i over base vertex i)
 /// for thickness eta (model units, > 0). Intersections (the certificate's pair tests) are counted
-/// only if asked. Throws InputError on mismatched sizes, eta <= 0 or bad faces.
+/// only if asked.
+/// \throws InputError when eta is not positive and finite, base and top differ in shape or are not
+///         n x 3 and finite, or F is not m x 3 with three distinct ids in [0, n) per face.
 ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
                            double eta, bool count_intersections = true);
 
 /// The same with the rest tets of the normal prisms already built
 /// (prism_rest_tets(F, n, normal_prisms(base, F, eta))), e.g. by the rigid method's solver.
+/// \throws InputError as above, and when normal_rest does not hold 3 tets per face.
 ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
                            double eta, bool count_intersections, const RestTets& normal_rest);
 

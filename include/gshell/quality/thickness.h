@@ -1,6 +1,6 @@
 #pragma once
-// Per-vertex thickness of a shell (DESIGN.md "Quality measures"): how far each top vertex is from
-// the base surface. Divide by eta for the relative thickness of the report.
+// Per-vertex thickness of a shell (docs/design.md "Quality measures"): how far each top vertex is
+// from the base surface. Divide by eta for the relative thickness of the report.
 #include <Eigen/Core>
 
 namespace gshell {
@@ -9,7 +9,8 @@ namespace gshell {
 /// any base triangle (faces F over the rows of `base`); one entry per row of `top`. Degenerate
 /// base faces count as the segment or point they cover. Usually top vertex i sits over base
 /// vertex i (same F), which is used as a starting guess; `top` may have any number of rows.
-/// Throws InputError on a face index out of range, non-finite coordinates or an empty base.
+/// \throws InputError when base is not n x 3 or not finite, F not m x 3 with ids in [0, n), F
+///         empty, or top not finite k x 3.
 Eigen::VectorXd vertex_thickness(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F,
                                  const Eigen::MatrixXd& top);
 

@@ -1,6 +1,6 @@
 #pragma once
-// Counting intersecting triangle pairs (DESIGN.md "Quality measures"): self-intersections of the
-// top surface and intersections between top and base of a shell.
+// Counting intersecting triangle pairs (docs/design.md "Quality measures"): self-intersections of
+// the top surface and intersections between top and base of a shell.
 //
 // Conventions (all functions):
 // - A face is the closed point set of its triangle, so touching (at a point or along an edge)
@@ -21,6 +21,8 @@
 namespace gshell {
 
 /// Pairs (f, g), f < g, of faces of one mesh that share no vertex and intersect; sorted.
+/// \throws InputError when V is not n x 3 and finite or F not m x 3 with ids in [0, n) (this and
+///         every function below).
 std::vector<std::pair<int, int>> self_intersecting_pairs(const Eigen::MatrixXd& V,
                                                          const Eigen::MatrixXi& F);
 
@@ -29,8 +31,8 @@ int count_self_intersections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F)
 
 /// Pairs (f, g), f < g, of faces of one mesh that intersect anywhere except at the vertices and
 /// edges they share; sorted. Sharing one vertex p, they may meet at p only; sharing an edge pq,
-/// on the segment pq only (two faces folded flat onto each other across it are counted). Also
-/// throws InputError on a face that repeats a vertex id.
+/// on the segment pq only (two faces folded flat onto each other across it are counted).
+/// \throws InputError also on a face that repeats a vertex id.
 std::vector<std::pair<int, int>> surface_self_intersections(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
 /// Pairs (f1, f2), f1 a face of mesh 1 and f2 a face of mesh 2, that intersect; sorted. The two

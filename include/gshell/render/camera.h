@@ -15,7 +15,9 @@ struct ViewDirection {
 };
 
 /// Parses "front", "back", "left", "right", "top", "bottom", "iso" (az 30, el 20) or "AZ,EL"
-/// in degrees. Throws InputError on anything else.
+/// in degrees.
+/// \throws InputError naming the view on anything else (also a non-finite angle or an elevation
+///         outside [-90, 90]).
 ViewDirection parse_view(const std::string& text);
 
 enum class Projection { Perspective, Orthographic };
@@ -37,7 +39,8 @@ struct Camera {
 /// A camera looking from `view` at the points (N x 3), centred on their extent across the view
 /// and far enough that all of them fit the viewport (aspect = width / height) with `margin`
 /// (fraction of the half-size) to spare. Up is world +y, except straight top/bottom views, which
-/// use -z / +z. Throws std::invalid_argument on no points or a bad aspect.
+/// use -z / +z.
+/// \throws InputError when `points` is empty or not N x 3, or aspect is not positive and finite.
 Camera frame_camera(const Eigen::MatrixXd& points, const ViewDirection& view, double aspect,
                     Projection projection = Projection::Perspective, double margin = 0.05);
 

@@ -43,7 +43,9 @@ struct FigureLayout {
 
 /// Panels share the width equally; the camera frames all of them together or each on its own
 /// (FigureOptions::shared_camera).
-/// Text size grows with the image height. Throws InputError if the image is too small to hold them.
+/// Text size grows with the image height.
+/// \throws InputError when there are no panels, the image is too small to hold them, or as
+///         render_scene.
 Image render_figure(const std::vector<Panel>& panels, const FigureOptions& options, FigureLayout* layout = nullptr);
 
 } // namespace gshell

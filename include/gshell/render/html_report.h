@@ -15,10 +15,12 @@ struct ReportOptions {
 /// iteration on a log axis), tables and plots of per-frame / per-step records (time per frame,
 /// energy, iterations, ...), and renders (iso view colored by stretch and a cut-away; first /
 /// middle / last frame for a deformation). The markup is well-formed XML (XHTML syntax).
-/// Throws InputError if report.json is missing or not JSON.
+/// \throws InputError naming the file when report.json is missing or not a JSON object, or a render
+///         of DIR fails to load (load_render_subject).
 std::string html_report(const std::string& dir, const ReportOptions& options = {});
 
 /// Writes html_report(dir) to `path` atomically.
+/// \throws InputError as html_report, or naming `path` when it cannot be written.
 void write_html_report(const std::string& dir, const std::string& path, const ReportOptions& options = {});
 
 /// Standard base64 (RFC 4648, with padding).

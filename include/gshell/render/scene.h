@@ -41,7 +41,9 @@ struct RenderOptions {
 bool offscreen_rendering_available();
 
 /// Renders the scene seen by `camera` (whose projection is set up for width / height).
-/// Throws InputError on a bad size or index, std::runtime_error if the GL context fails.
+/// \throws InputError on a non-positive image size, a layer with a bad shape, index, color count
+///         or a non-finite position, or when the library was built without OSMesa;
+///         std::runtime_error if the GL context fails.
 Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions& options);
 
 /// All vertices of all layers stacked, without those the clip plane cuts away (for framing).

@@ -29,16 +29,18 @@ struct RenderSubject {
 /// - a deform output folder (frame_NNNN/ subfolders): its last frame.
 /// A detail.obj in the shell folder (embedded detail carried by deform) is drawn inside the shell.
 /// - anything else: a surface file or builtin spec (gshell::load_mesh).
-/// Throws InputError naming the input when it cannot be read.
+/// \throws InputError naming the input when it cannot be read (read_shell_folder, load_mesh).
 RenderSubject load_render_subject(const std::string& input);
 
 /// The value shown on base face f: the mean of its three tets' stretch weighted by their volumes
 /// |det|/6 at X (tets 3f..3f+2 belong to face f). This is the prism's energy per volume, so the
 /// colors add up to what the solver minimises. `tet_stretch` has one value per row of T.
+/// \throws InputError unless T has 3 rows per face and tet_stretch one value per row of T.
 Eigen::VectorXd face_stretch_from_tets(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T,
                                        const Eigen::VectorXd& tet_stretch);
 
 /// Per-vertex thickness |top_i - base_i| / eta (1 = the requested thickness).
+/// \throws InputError when shell.thickness is not positive.
 Eigen::VectorXd vertex_thickness_ratio(const Shell& shell);
 
 /// Stretch drawn red by default: sum (sigma_i - 1)^2 = 0.1 is e.g. one singular value off by 0.32,
@@ -75,7 +77,8 @@ struct ShellRenderOptions {
 std::string default_caption(const RenderSubject& subject);
 
 /// Renders the subjects side by side (captions: one per subject, or empty for the defaults).
-/// Throws InputError if the caption count does not match or color-by-stretch has no stretch.
+/// \throws InputError when there are no subjects, the caption count does not match, or coloring by
+///         stretch / thickness has no shell to take it from; or as render_figure.
 /// `layout` (optional) receives where panels and color bar went, and the color scale used.
 Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vector<std::string>& captions,
                       const ShellRenderOptions& options, FigureLayout* layout = nullptr);
@@ -85,6 +88,7 @@ struct PreviewPanels {
   std::vector<RenderSubject> subjects;
   std::vector<std::string> captions;
 };
+/// \throws InputError naming DIR or a file in it when it cannot be read (load_render_subject).
 PreviewPanels preview_panels(const std::string& dir, const std::string& name = {});
 
 /// Renders a shell folder written by generate / deform / pose to DIR/preview.png (1280x720,
@@ -93,6 +97,7 @@ PreviewPanels preview_panels(const std::string& dir, const std::string& name = {
 /// Writes the PNG atomically. Returns the path written. Captions name the folder by its last
 /// component, or by `name` when given (the final folder's name while DIR is a staging folder).
 /// `view`: the direction every panel is seen from (default iso).
+/// \throws InputError as preview_panels and render_subjects, or when the PNG cannot be written.
 std::string render_shell_preview(const std::string& dir, const std::string& name = {}, const ViewDirection& view = {});
 
 } // namespace gshell

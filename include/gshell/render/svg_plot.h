@@ -1,5 +1,7 @@
 #pragma once
 // Small self-contained SVG line plots for the HTML report.
+#include <gshell/io/xml_escape.h>
+
 #include <string>
 #include <vector>
 
@@ -24,8 +26,5 @@ std::string svg_line_plot(const std::vector<PlotSeries>& series, const PlotOptio
 
 /// A single line.
 std::string svg_line_plot(const std::vector<double>& y, const PlotOptions& options);
-
-/// Escapes & < > " ' for XML text and attributes.
-std::string xml_escape(const std::string& text);
 
 } // namespace gshell

@@ -47,7 +47,10 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
 
 /// One frame's figures, as `gshell deform` reports it and Python's Deformer.last shows it:
 /// {iterations, converged, energy [start, then per iteration], stretch {mean, volume_mean, max,
-/// p99} against the rest shell, inverted_tets, seconds}.
+/// p99} against the rest shell, inverted_tets (against the rest shell), seconds, valid, method
+/// (unguarded, bounded, guarded, tets_only, failed), substeps, guarded_iterations,
+/// thinned_vertices, certificate {inverted_tets, top_self_intersections, top_base_intersections,
+/// wall_intersections, exact, seconds}, base_self_intersections (the frame's base against itself)}.
 nlohmann::ordered_json frame_json(const FrameResult& frame);
 
 struct DeformFrameRecord {
@@ -75,10 +78,11 @@ struct DeformRun {
   std::vector<DeformFrameRecord> frames;
 
   /// report.json: command, shell, base_vertices, tets, thickness, tolerance, max_iterations,
-  /// warm_start, replaced_rest_tets, factor_seconds, setup_seconds, embed {detail, points,
-  /// outside, max_outside_distance}, summary {frames, median_seconds, total_seconds,
+  /// warm_start, allow_invalid, replaced_rest_tets, factor_seconds, setup_seconds, embed {detail,
+  /// points, outside, max_outside_distance}, summary {frames, median_seconds, total_seconds,
   /// median_iterations, max_iterations, unconverged_frames, mean_volume_stretch, max_stretch,
-  /// inverted_tets, offset {...}}, frames [DeformFrameRecord::to_json].
+  /// inverted_tets, valid_frames, invalid_frames, certificate_inverted_tets, guarded_frames,
+  /// max_substeps, offset {...}}, frames [DeformFrameRecord::to_json].
   nlohmann::ordered_json to_json() const;
 };
 

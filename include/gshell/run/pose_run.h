@@ -37,6 +37,15 @@ struct PoseOptions {
   /// Per step (a drag event solves with these too unless told otherwise): up to 500 iterations,
   /// until the relative energy change per iteration is below 1e-6.
   SolveOptions solve = {500, 1e-6, {}};
+  /// Today's unguarded steps (may invert tets or pass the shell through itself), for comparison.
+  /// Off (the default): every step is valid (PoseSolver::solve_valid), stopping at contact when
+  /// the handles force a collision.
+  bool allow_invalid = false;
+  /// With the guard on: DragSession::drag() steps are guarded too. Off (the viewer's choice, where
+  /// a drag event must answer within a frame): a drag step is an unguarded preview, and settle()
+  /// solves guarded from the last valid state, so the state a drag comes to rest in is valid.
+  bool guard_drag_steps = true;
+  GuardOptions guard; ///< the guard's barriers and bounds (as for generation and deformation)
   /// Called after every iteration with (step 1..steps, iteration, energy, seconds in this step);
   /// replaces solve.progress.
   std::function<void(int, int, double, double)> step_progress;
@@ -51,7 +60,14 @@ struct PoseStepReport {
   double energy = 0;     ///< at the end of the step
   double seconds = 0;    ///< wall time of the step: start prediction and solve
   bool converged = false;
-  /// {fraction, iterations, energy, seconds, converged}
+  bool guarded = false;            ///< made by solve_valid (not allow_invalid)
+  bool valid = false;              ///< guarded: the step's certificate holds
+  bool blocked_by_contact = false; ///< guarded: the handles forced a collision; the step stopped at contact
+  FrameMethod method = FrameMethod::Unguarded;
+  int guarded_iterations = 0;
+  int inverted_tets = -1, intersections = -1; ///< guarded: the certificate's counts (all pair kinds)
+  /// {fraction, iterations, energy, seconds, converged} and, guarded, {valid, method,
+  /// blocked_by_contact, guarded_iterations, certificate {inverted_tets, intersections}}
   nlohmann::ordered_json to_json() const;
 };
 
@@ -87,6 +103,7 @@ class DragSession;
 PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_fraction = 1.0);
 
 /// The same on a fresh session of `rest` with `handles`.
+/// \throws InputError as DragSession's constructor and set_handles, or as above.
 PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options = {});
 
 } // namespace gshell

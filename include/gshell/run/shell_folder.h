@@ -77,6 +77,8 @@ struct ShellFolderContents {
 
 /// Writes base.obj, top.obj, shell.vtu (prism tets of the surface's faces) and report.json into
 /// the existing folder `dir` (e.g. a staging folder or a frame folder).
+/// \throws InputError naming the file that cannot be written, or when the surface and the shell
+///         disagree in shape.
 void write_shell_files(const std::filesystem::path& dir, const ShellFolderContents& contents);
 
 /// Writes a whole shell folder DIR through a StagedFolder: complete or not at all. An existing

@@ -17,7 +17,7 @@ void check_output_folder(const std::filesystem::path& destination,
 class StagedFolder {
 public:
   /// Creates the temporary folder ".NAME.tmp-*" beside `destination` (the parent must exist).
-  /// Throws InputError naming the destination when it cannot.
+  /// \throws InputError naming the destination when it cannot.
   explicit StagedFolder(const std::filesystem::path& destination);
   /// Removes the temporary folder unless commit() succeeded.
   ~StagedFolder();
@@ -29,8 +29,9 @@ public:
 
   /// Renames the temporary folder to the destination. An existing destination is replaced when it
   /// is an empty folder or `is_previous_output(destination)` says it holds an earlier output of the
-  /// same command; otherwise InputError ("exists and is not ... output"), so a mistyped -o never
-  /// deletes unrelated files.
+  /// same command, so a mistyped -o never deletes unrelated files.
+  /// \throws InputError naming the destination when it exists and is not an earlier output
+  ///         ("exists and is not ... output") or the rename fails.
   void commit(const std::function<bool(const std::filesystem::path&)>& is_previous_output);
 
 private:

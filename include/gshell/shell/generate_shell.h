@@ -1,6 +1,8 @@
 #pragma once
-// Shell generation (DESIGN.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
+// Shell generation (docs/design.md "Shell generation", paper §4.1): ideal prisms -> rest tets ->
 // local/global solve of the top with the base fixed, started from the offset surface.
+#include <gshell/guard/guarded_shell.h>
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/shell_metrics.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/curvature_prisms.h>
@@ -22,7 +24,8 @@ enum class ShellMethod {
 
 /// "offset", "rigid", "curvature".
 std::string to_string(ShellMethod method);
-/// Inverse of to_string; throws InputError "unknown method 'X' (expected rigid, offset or curvature)".
+/// Inverse of to_string.
+/// \throws InputError "unknown method 'X' (expected rigid, offset or curvature)".
 ShellMethod parse_shell_method(const std::string& name);
 
 /// The only source of generation defaults: the CLI's help and Python's keyword defaults read
@@ -33,21 +36,32 @@ struct GenerateOptions {
   SolveOptions solve = {50, 1e-5, {}};
   /// Clamp of the curvature method's in-plane scales (curvature_prisms.h explains the defaults).
   double s_min = kDefaultCurvatureSMin, s_max = kDefaultCurvatureSMax;
-  bool count_intersections = true; ///< count top/top and top/base intersections in the metrics
+  /// Test boundary triangle pairs in the certificate of an unguarded result (offset, or
+  /// allow_invalid); off, only its tets are certified (pair counts -1, valid false). A guarded
+  /// result is always certified in full: the certificate is the guard's last step.
+  bool count_intersections = true;
+  /// Rigid and curvature: skip the guard and return the paper's unguarded result (bit for bit
+  /// what these methods gave before the guard), valid or not. Offset is never guarded.
+  bool allow_invalid = false;
+  GuardOptions guard; ///< parameters of the guarded generation (guarded_shell.h)
+  LinearSolverOptions linear; ///< how the global steps are solved (Auto: CG on large meshes)
 
-  /// Throws InputError naming the parameter (thickness, iterations, tolerance, s_min, s_max)
-  /// when one is out of range.
+  /// Throws InputError naming the parameter (thickness, iterations, tolerance, s_min, s_max, the
+  /// guard's) when one is out of range.
   void check() const;
 };
 
 /// Thickness for a ratio of the bounding sphere's radius (centre = bounding-box centre, radius =
-/// distance to the farthest vertex). Throws InputError unless ratio > 0 and finite.
+/// distance to the farthest vertex).
+/// \throws InputError unless ratio > 0 and finite, and when V is empty or all one point.
 double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio);
 
 struct GenerateTimings {
   double total = 0;  ///< whole generate_shell call, metrics included (seconds)
   double factor = 0; ///< assembling and factoring the system matrix
-  double solve = 0;  ///< local/global iterations
+  double solve = 0;  ///< local/global iterations (guarded: the paper's and the repair's)
+  double guard = 0;  ///< guarded generation beyond factor and solve: directions, base
+                     ///< self-intersections, valid start (0 when unguarded)
 };
 
 /// What the curvature method adds to a generation (paper §4.1 "Curvature Sensitive Method").
@@ -61,15 +75,28 @@ struct CurvatureGeneration {
 struct GenerateResult {
   Shell shell;
   ShellMethod method = ShellMethod::Rigid;
-  SolveResult solve; ///< energy[0] = offset start; for Offset only energy[0] (no iterations)
+  /// energy[0] = offset start; for Offset only energy[0] (no iterations). Guarded: the paper's
+  /// iterations the guard starts from (its repair iterations are in guard.solve).
+  SolveResult solve;
   GenerateTimings seconds;
-  ShellMetrics metrics; ///< stretch against the normal prisms, whatever the method
+  /// Stretch against the normal prisms, whatever the method; metrics.certificate is the exact
+  /// certificate of the result (a guarded one always tested in full), metrics.certificate.valid()
+  /// says whether the layer is an embedding (docs/validity.md).
+  ShellMetrics metrics;
   std::optional<CurvatureGeneration> curvature; ///< set by the curvature method
+  bool guarded = false; ///< made by the guarded generation
+  /// Base vertices where no extrusion direction sees every incident face from its positive side
+  /// (extrusion_directions); only tets of prisms touching them may be inverted. Ascending.
+  std::vector<int> unextrudable_vertices;
+  /// The guarded generation's own account (start, solver statistics); empty when unguarded.
+  GuardedShell guard;
 };
 
 /// Rigid-style generation towards the given ideal prisms (6m x 3, ideal_prisms.h layout): rest
 /// tets cut from them (prism_rest_tets), base fixed, top started at offset_top and solved.
 /// The energy is measured against these prisms; the metrics against the normal prisms.
+/// \throws InputError as generate_shell, and when `ideal` is not 6m x 3 or holds a prism turned
+///         inside out.
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options);
 

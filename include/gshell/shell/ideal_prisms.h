@@ -1,5 +1,5 @@
 #pragma once
-// Ideal (distortion-free target) prisms, one per face (DESIGN.md "Shell generation" step 1).
+// Ideal (distortion-free target) prisms, one per face (docs/design.md "Ideal prisms").
 #include <Eigen/Core>
 
 namespace gshell {
@@ -9,6 +9,8 @@ namespace gshell {
 using PrismCorners = Eigen::MatrixXd;
 
 /// Normal prisms: top triangle = base triangle shifted by eta along the face's unit normal.
+/// (A negative eta gives the prisms below the base, turned inside out as rest shapes.)
+/// \throws InputError when V is not n x 3, F not m x 3 with ids in [0, n), or eta is not finite.
 PrismCorners normal_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta);
 
 } // namespace gshell

@@ -1,5 +1,5 @@
 #pragma once
-// Cutting prisms into tets by the min-index rule (DESIGN.md "Prism to tets").
+// Cutting prisms into tets by the min-index rule (docs/design.md "Prisms and tets").
 #include <gshell/solver/rest_tets.h>
 #include <Eigen/Core>
 #include <array>
@@ -10,6 +10,7 @@ namespace gshell {
 /// Returns 3m x 4 tets, tets 3f..3f+2 belonging to face f, each positively oriented when the
 /// top lies on the side of the face normal (counter-clockwise faces). Every side quad with base
 /// ids i < j is cut along base(i)-top(j), so neighbouring prisms agree on the diagonal.
+/// \throws InputError when F is not m x 3 with ids in [0, n).
 Eigen::MatrixXi build_prism_tets(const Eigen::MatrixXi& F, int n);
 
 /// The three tets of the prism over a face with vertex ids (v0, v1, v2), as prism corners 0..5
@@ -19,12 +20,14 @@ std::array<std::array<int, 4>, 3> prism_corner_tets(int v0, int v1, int v2);
 
 /// Same tets, each vertex given as a prism corner 0..5 of its face: 0..2 base corners in the
 /// face's own order (F(f,0..2)), 3..5 the top corners above them. Row t matches build_prism_tets.
+/// \throws InputError when F is not m x 3.
 Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F);
 
 /// Rest tets of the shell over 2n vertices (build_prism_tets) whose rest shapes are the given
 /// per-face prisms (6m x 3, layout of ideal_prisms.h: rows 6f..6f+2 base corners in face order,
 /// 6f+3..6f+5 the top corners). Each prism is its own rest shape ("cracked" ideal prisms).
-/// Throws InputError if a rest tet has non-positive volume (a prism turned inside out).
+/// \throws InputError when F is not m x 3 with ids in [0, n), prisms is not 6m x 3, or a rest tet
+///         has non-positive volume (a prism turned inside out).
 RestTets prism_rest_tets(const Eigen::MatrixXi& F, int n, const Eigen::MatrixXd& prisms);
 
 } // namespace gshell

@@ -1,7 +1,7 @@
 #pragma once
-// The cluster hierarchy of the hierarchical solver (DESIGN.md "Hierarchical dimension reduction",
-// paper §5.1): built top-down over the base vertices by recursive bisection; top vertex i always
-// belongs to the cluster of base vertex i.
+// The cluster hierarchy of the hierarchical solver (paper §5.1; docs/design.md "Hierarchical
+// dimension reduction"): built top-down over the base vertices by recursive bisection; top vertex i
+// always belongs to the cluster of base vertex i.
 #include <Eigen/Core>
 #include <vector>
 

@@ -1,5 +1,5 @@
 #pragma once
-// Hierarchical dimension-reduction solver for direct shell deformation (paper §5, DESIGN.md
+// Hierarchical dimension-reduction solver for direct shell deformation (paper §5, docs/design.md
 // "Hierarchical dimension reduction"). Minimises the same energy as ShellSolver,
 // E(x) = sum_t vol_t ||F_t(x) - R_t||_F^2 (+ soft constraint springs), over all 2n shell vertices.
 //
@@ -133,6 +133,10 @@ class HierarchicalSolver {
 public:
   /// `rest_vertices` are the 2n rest shell vertices the tets' rest shapes come from (base rows
   /// 0..n-1, top n..2n-1), `F` the base faces. Builds the tree, assembles and factors every level.
+  /// \throws InputError when options.levels < 1, rest_vertices is not 2n x 3, a tet or face id is
+  ///         out of range, the rest shapes are not the tets of rest_vertices, soft constraints have
+  ///         a weight <= 0, or as ShellSolver's constructor (bad constraint ids, a free part).
+  ///         std::runtime_error when CHOLMOD fails otherwise (out of memory).
   HierarchicalSolver(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const Eigen::MatrixXi& F,
                      const PositionConstraints& constraints, const HierarchyOptions& options = {});
   ~HierarchicalSolver();
@@ -144,9 +148,11 @@ public:
   /// With the paper coupling the reduced levels continue from the state the previous solve left
   /// (with the residual coupling they restart from X every outer iteration). `options.max_iterations`
   /// and `tolerance` apply to outer iterations; energy[k] is the full energy after outer iteration k.
+  /// \throws InputError when X is not 2n x 3 or targets is not |constraints.vertices| x 3.
   HierarchicalSolveResult solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const SolveOptions& options = {});
 
   /// Full energy of X (with the soft term for soft constraints; hard rows are taken as they are).
+  /// \throws InputError as ShellSolver::energy (X not 2n x 3; soft targets of the wrong shape).
   double energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const;
 
   /// Reduced levels back to the rest shape (identity maps).
@@ -154,6 +160,7 @@ public:
 
   int num_levels() const;                ///< including the full level
   const ClusterTree& tree() const;
+  /// The level accessors below: \throws std::out_of_range unless 0 <= level < num_levels()-1.
   int tree_depth(int level) const;       ///< cluster tree depth of reduced level `level`
   int num_clusters(int level) const;     ///< clusters of a reduced level
   /// Positions B_l z_l of reduced level l (0 <= l < num_levels()-1), 2n x 3.
@@ -175,6 +182,7 @@ private:
 };
 
 /// The single-level solver for these constraints: hard ones eliminated, soft ones as springs.
+/// \throws InputError as ShellSolver's constructor.
 std::unique_ptr<ShellSolver> make_shell_solver(const RestTets& rest, int num_vertices,
                                                const PositionConstraints& constraints);
 

@@ -1,5 +1,5 @@
 #pragma once
-// Per-tet rest shapes for the deformation energy (DESIGN.md "The energy").
+// Per-tet rest shapes for the deformation energy (docs/design.md "The energy").
 #include <Eigen/Core>
 #include <vector>
 
@@ -15,11 +15,14 @@ struct RestTets {
 };
 
 /// Rest shapes taken from positions X (N x 3) of the tets T itself (deformation: the rest shell).
-/// Throws InputError if a tet has non-positive rest volume.
+/// \throws InputError when X is not N x 3, T not K x 4, a tet id is outside [0, N) or a tet has
+///         non-positive (or non-finite) rest volume.
 RestTets rest_tets_from_positions(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T);
 
 /// Rest shapes given per tet corner: corners is 4K x 3, rows 4t..4t+3 the rest positions of tet
-/// t's vertices T(t,0..3). Throws InputError if a tet has non-positive rest volume.
+/// t's vertices T(t,0..3).
+/// \throws InputError when T is not K x 4, corners not 4K x 3, or a tet has non-positive (or
+///         non-finite) rest volume.
 RestTets rest_tets_from_corners(const Eigen::MatrixXi& T, const Eigen::MatrixXd& corners);
 
 } // namespace gshell

@@ -1,12 +1,15 @@
 #pragma once
 // The local/global solver for E(x) = sum_t vol_t ||F_t(x) - R_t||_F^2 (+ soft constraints),
-// DESIGN.md "The energy". Precompute once from rest shapes and the constrained vertex set,
-// then solve from many start states (generation, every frame of a deformation, every drag step).
+// docs/design.md "The energy" and "The solver". Precompute once from rest shapes and the
+// constrained vertex set, then solve from many start states (generation, every frame of a
+// deformation, every drag step).
 #include <gshell/solver/rest_tets.h>
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace gshell {
@@ -18,8 +21,39 @@ struct SolveOptions {
   std::function<void(int, double, double)> progress;
 };
 
+/// How the global step's linear system (L_ff X_f = B, one matrix for the three coordinates) is
+/// solved; docs/scale.md has the measurements behind the defaults.
+enum class LinearSolver {
+  Auto,              ///< ConjugateGradient for large, anchored systems (see below), else Direct
+  Direct,            ///< sparse Cholesky factor (CHOLMOD), computed in the constructor
+  ConjugateGradient, ///< Jacobi-preconditioned CG warm-started from the current iterate; no factor
+};
+
+/// "auto", "direct", "cg".
+std::string to_string(LinearSolver solver);
+/// Inverse of to_string; throws InputError "unknown linear solver 'X' (expected auto, direct or cg)".
+LinearSolver parse_linear_solver(const std::string& name);
+
+struct LinearSolverOptions {
+  LinearSolver kind = LinearSolver::Auto;
+  /// Auto takes CG from this many free vertices on, if at least half of them are anchored (share
+  /// a tet with a kept vertex or carry a soft constraint), as in generation where the whole base
+  /// is kept: then the system is a Laplacian shifted by a mass-like term, whose Jacobi-scaled
+  /// condition number does not grow with the vertex count at a fixed thickness-to-edge ratio,
+  /// while a factor's cost grows like n^1.5. Below it (and for loosely anchored systems such as
+  /// a deformation held at a few handles) the factor pays.
+  int cg_min_rows = 50000;
+  /// CG stops when ||b - L_ff x|| <= cg_tolerance ||b|| holds for each of the 3 columns.
+  double cg_tolerance = 1e-9;
+  /// CG iterations per global step. If Auto's CG has not converged by then, the solver factors
+  /// the matrix once and solves directly from then on; a forced ConjugateGradient keeps the last
+  /// CG iterate (still an energy descent: CG from the current iterate never raises the energy).
+  int cg_max_iterations = 500;
+};
+
 struct SolveResult {
   int iterations = 0;             ///< local/global iterations done
+  int linear_iterations = 0;      ///< CG iterations summed over the global steps (0 if direct)
   std::vector<double> energy;     ///< energy[0] = start state, then one per iteration
   bool converged = false;         ///< stopped by tolerance (not by max_iterations)
   double seconds = 0;
@@ -41,10 +75,16 @@ struct SoftConstraints {
 
 class ShellSolver {
 public:
+  /// \throws InputError when `rest` is incomplete (Dm_inv or volume missing), a tet, fixed or soft
+  ///         vertex id is outside [0, num_vertices), or the system is singular (a connected part
+  ///         of the tets has no fixed or constrained vertex). std::runtime_error when CHOLMOD
+  ///         fails otherwise (out of memory).
   /// `num_vertices` = rows of the state; `fixed` vertices keep their start positions exactly
   /// (eliminated from the system). The system matrix is assembled and factored here, once.
-  ShellSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
-              const SoftConstraints& soft = {});
+  /// `linear` chooses how the global steps are solved (a factor here, or CG at every step).
+  /// `rest` is kept (pass a temporary or std::move it to avoid a copy on big meshes).
+  ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
+              const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
   ~ShellSolver();
   ShellSolver(ShellSolver&&) noexcept;
   ShellSolver& operator=(ShellSolver&&) noexcept;
@@ -52,22 +92,45 @@ public:
   /// Local/global iterations from X (num_vertices x 3, fixed rows hold their prescribed
   /// positions); X is overwritten with the result. `soft_targets` (|soft.vertices| x 3) is
   /// required iff soft constraints were given. The energy never increases between iterations.
+  /// \throws InputError when X is not num_vertices x 3, soft_targets has the wrong shape or
+  ///         options.max_iterations < 0 (X is then unchanged).
   SolveResult solve(Eigen::MatrixXd& X, const SolveOptions& options = {},
                     const Eigen::MatrixXd& soft_targets = {}) const;
 
   /// E(X) including the soft term (if soft_targets are given).
+  /// \throws InputError when X is not num_vertices x 3 or soft_targets has the wrong shape (this and
+  ///         the three functions below).
   double energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& soft_targets = {}) const;
 
   /// The two halves of an iteration, for drivers that combine iterates (Anderson acceleration,
   /// the hierarchical solver's coarse corrections). local_step: rotations and E at X.
   void local_step(const Eigen::MatrixXd& X, LocalStep& step, const Eigen::MatrixXd& soft_targets = {}) const;
   /// X's free rows <- the minimiser of E for the rotations of `step`; the kept rows are only read.
+  /// \throws InputError also when `step` was not taken by this solver (wrong size); so does
+  ///         half_gradient.
   void global_step(Eigen::MatrixXd& X, const LocalStep& step, const Eigen::MatrixXd& soft_targets = {}) const;
   /// Half the gradient of E at X (`step` taken at X); rows of kept vertices are 0.
   Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const LocalStep& step,
                                 const Eigen::MatrixXd& soft_targets = {}) const;
 
+  /// The system matrix A (the energy's Hessian for fixed rotations, halved: E's quadratic part is
+  /// x^T A x), for drivers that build their own steps (the guarded solver's Newton directions).
+  /// They work on the free rows only, in the order of free_vertices() (nf x 3 arrays).
+  const std::vector<int>& free_vertices() const;
+  /// B <- A_ff^-1 B (nf x 3): one back-substitution with the factor (a solver on the CG path
+  /// factors at its first call).
+  void apply_inverse(Eigen::MatrixXd& B) const;
+  /// A_ff P (P: nf x 3).
+  Eigen::MatrixXd multiply_free(const Eigen::MatrixXd& P) const;
+  /// Rows of A for the given free vertices over all vertices, one row per entry of `vertices`
+  /// (|vertices| x num_vertices, free columns only): a local piece of the system, e.g. for a
+  /// direct solve on a small neighbourhood.
+  Eigen::SparseMatrix<double, Eigen::RowMajor> system_rows(const std::vector<int>& vertices) const;
+
   double factor_seconds() const; ///< time spent assembling and factoring in the constructor
+  /// Direct or ConjugateGradient: the path the constructor chose (Auto resolved). A CG solver
+  /// that fell back to a factor reports Direct from then on.
+  LinearSolver linear_solver() const;
   const RestTets& rest() const;
   int num_vertices() const;
 

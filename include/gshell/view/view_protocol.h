@@ -121,6 +121,7 @@ enum class ViewFrameKind : std::uint32_t {
 constexpr std::size_t kViewFrameHeaderBytes = 16;
 
 /// A Positions or Frame frame of the 2n x 3 shell vertices (rounded to float32).
+/// \throws InputError when X does not have 3 columns.
 std::string encode_view_positions(ViewFrameKind kind, std::uint32_t seq, float a, float b, const Eigen::MatrixXd& X);
 /// A Values frame: per-face values (m), then per-vertex values (n), rounded to float32.
 std::string encode_view_values(std::uint32_t seq, const Eigen::VectorXd& face_values,

@@ -43,7 +43,8 @@ class ViewServer {
 public:
   /// Binds host:port (nothing is served until run()).
   /// \throws InputError when the page is missing from this build, the options are bad, or the
-  ///         address cannot be bound (in use, not an address of this machine).
+  ///         host is neither an address nor a known name, or the address cannot be bound (in use,
+  ///         not an address of this machine).
   ViewServer(ViewSession session, ViewServerOptions options);
   /// Stops and joins every thread.
   ~ViewServer();

@@ -40,8 +40,15 @@ struct ViewOutgoing {
 using ViewSink = std::function<void(ViewOutgoing)>;
 
 struct ViewSessionOptions {
-  /// Solver kind, hierarchy, and the settle's limits (the pose job's defaults, PoseOptions{}).
-  PoseOptions pose;
+  /// Solver kind, hierarchy, and the settle's limits (the pose job's defaults, PoseOptions{}),
+  /// except that drag events are unguarded previews (their validity shown by the check thread)
+  /// and the settle makes the resting state valid: a guarded step per event costs a certificate
+  /// of the whole shell, far beyond a frame's budget on big meshes.
+  PoseOptions pose = [] {
+    PoseOptions p;
+    p.guard_drag_steps = false;
+    return p;
+  }();
   /// Outer iterations per drag event (its budget: the page gets an answer after this many, and
   /// the settle finishes the job when the mouse rests). 1: the cheapest answer, one
   /// Anderson-accelerated local/global iteration from the drag-extrapolated start.
@@ -105,6 +112,7 @@ public:
   /// Runs the solver on to convergence with the session's tolerance, asking `interrupt` after
   /// every iteration; sends positions every `stream_seconds` while it runs, and the positions,
   /// colors and statistics at the end. Returns true when converged, false when interrupted.
+  /// \throws InputError as solve_drag().
   bool settle(const ViewSink& send, const std::function<bool()>& interrupt, double stream_seconds = 0.25);
 
   /// The validity figures (inverted tets, intersections, valid) of a snapshot of the shell,

@@ -1,0 +1,112 @@
+// bench_guard: guarded vs unguarded generation, one row per model and ratio.
+//   bench_guard [--method rigid|curvature] [--ratio R]... [--repeat N] MODEL.off...
+// Columns: unguarded certificate counts (inverted tets, top/top, top/base, wall pairs), the guarded
+// ones, `out` = guarded violations outside what the guard has to leave (prisms at unextrudable
+// vertices, triangles next to the base's own crossings; must be 0), thinned / unextrudable vertices,
+// base crossings, start rounds, repaired vertices, the unguarded volume-weighted stretch against the
+// normal prisms and guarded / unguarded, the median seconds of N runs of each (interleaved) and
+// their ratio. A summary line closes the table.
+#include "bench_common.h"
+
+#include <gshell/io/load_mesh.h>
+#include <gshell/shell/generate_shell.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+using namespace gshell;
+using gshell::bench::median;
+
+namespace {
+
+// Certificate violations of a guarded result outside what the guard had to leave (prisms around
+// unextrudable vertices, triangles near the base's own crossings).
+int violations_outside(const GenerateResult& g) {
+  const GuardedSolverParameters& p = g.guard.parameters;
+  const std::vector<char>& u = g.guard.unprotected_triangles;
+  int count = 0;
+  for (int t : g.metrics.certificate.inverted_tet_ids) count += p.skip_tets.empty() || !p.skip_tets[t];
+  for (const BoundaryIntersection& b : g.metrics.certificate.intersections) {
+    if (b.kind == IntersectionKind::BaseBase) continue;
+    count += u.empty() || (!u[b.a] && !u[b.b]);
+  }
+  return count;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> files;
+  std::vector<double> ratios;
+  std::string method = "rigid";
+  int repeat = 1;
+  GuardOptions guard;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--ratio") ratios.push_back(std::stod(argv[++i]));
+    else if (a == "--method") method = argv[++i];
+    else if (a == "--repeat") repeat = std::max(1, std::stoi(argv[++i]));
+    else if (a == "--dhat") guard.contact_distance = std::stod(argv[++i]);
+    else if (a == "--kv") guard.volume_weight = std::stod(argv[++i]);
+    else if (a == "--kc") guard.contact_weight = std::stod(argv[++i]);
+    else if (a == "--jhat") guard.j_hat = std::stod(argv[++i]);
+    else if (a == "--rings") guard.repair_rings = std::stoi(argv[++i]);
+    else if (a == "--spread") guard.start_spread = std::stod(argv[++i]);
+    else if (a == "--margin") guard.start_margin = std::stod(argv[++i]);
+    else if (a == "--thinning") guard.start_thinning = std::stod(argv[++i]);
+    else files.push_back(a);
+  }
+  if (ratios.empty()) ratios = {0.01, 0.03, 0.05};
+  std::printf("%-24s %6s %5s | %4s %5s %5s %4s | %4s %4s %4s %4s %5s | %5s %4s %4s %4s %5s | %6s %6s | %6s %6s %5s\n", "model",
+              "n", "ratio", "inv", "tt", "tb", "wall", "ginv", "gtt", "gtb", "gwal", "out", "thin", "unex", "base", "rnd",
+              "rep", "str_u", "ratio", "t_u", "t_g", "t_g/u");
+  int rows = 0, valid_u = 0, clean_g = 0, valid_g = 0;
+  std::vector<double> stretch_ratios, time_ratios;
+  for (const std::string& file : files) {
+    const TriMesh mesh = load_mesh(file);
+    for (double ratio : ratios) {
+      GenerateOptions o;
+      o.method = parse_shell_method(method);
+      o.thickness = thickness_from_ratio(mesh.V, ratio);
+      o.guard = guard;
+      GenerateResult u, g;
+      std::vector<double> tu, tg;
+      for (int r = 0; r < repeat; ++r) { // interleaved, so that load changes hit both alike
+        o.allow_invalid = true;
+        u = generate_shell(mesh.V, mesh.F, o);
+        o.allow_invalid = false;
+        g = generate_shell(mesh.V, mesh.F, o);
+        tu.push_back(u.seconds.total);
+        tg.push_back(g.seconds.total);
+      }
+      const ShellCertificate &cu = u.metrics.certificate, &cg = g.metrics.certificate;
+      const int out = violations_outside(g);
+      const double stretch_ratio = g.metrics.stretch.volume_mean / u.metrics.stretch.volume_mean;
+      const double time_ratio = median(tg) / median(tu);
+      ++rows;
+      valid_u += cu.valid();
+      valid_g += cg.valid();
+      clean_g += out == 0;
+      if (std::isfinite(stretch_ratio)) stretch_ratios.push_back(stretch_ratio);
+      time_ratios.push_back(time_ratio);
+      std::printf("%-24s %6d %5.2f | %4d %5d %5d %4d | %4d %4d %4d %4d %5d | %5d %4d %4d %4d %5d | %6.4f %6.3f | %6.3f %6.3f %5.2f\n",
+                  file.substr(file.rfind('/') + 1).c_str(), mesh.num_vertices(), ratio, cu.inverted_tets,
+                  cu.top_self_intersections, cu.top_base_intersections, cu.wall_intersections, cg.inverted_tets,
+                  cg.top_self_intersections, cg.top_base_intersections, cg.wall_intersections, out,
+                  g.metrics.thinned_vertices, static_cast<int>(g.unextrudable_vertices.size()),
+                  cg.base_self_intersections, g.guard.start.rounds, g.guard.repaired_vertices,
+                  u.metrics.stretch.volume_mean, stretch_ratio, median(tu), median(tg), time_ratio);
+      std::fflush(stdout);
+    }
+  }
+  if (rows == 0) return 0;
+  std::printf("%s, %d runs each: %d rows; valid unguarded %d, guarded %d; guarded clean outside the "
+              "unavoidable %d; stretch guarded/unguarded median %.3f max %.3f; time guarded/unguarded median %.2f "
+              "max %.2f\n",
+              method.c_str(), repeat, rows, valid_u, valid_g, clean_g, median(stretch_ratios),
+              stretch_ratios.empty() ? 0.0 : *std::max_element(stretch_ratios.begin(), stretch_ratios.end()),
+              median(time_ratios), *std::max_element(time_ratios.begin(), time_ratios.end()));
+}

@@ -1,0 +1,213 @@
+// bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--linear auto,direct] [--ratio 0.02] [--runs 3]
+// How shell generation and the deformer's setup grow with the mesh: builtin:sphere at the given
+// subdivision levels (4x the vertices per level) plus models/bunny00.off when it is there (or
+// the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named. Every
+// case runs in a fresh process (this executable with --case), so the peak memory (VmHWM) is that
+// case's own; times are medians over --runs processes. Prints per case: total, setup (assembly +
+// factor), solve, per-iteration time, CG iterations, the deformer's setup, CPU seconds, peak
+// memory, the report's figures (to compare the solvers), and the growth ratios per 4x vertices.
+#include <gshell/deform/shell_deformer.h>
+#include <gshell/io/load_mesh.h>
+#include <gshell/shell/generate_shell.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <sys/resource.h>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace gshell;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// User + system CPU seconds of all of this process's threads so far (getrusage).
+double process_cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Peak resident memory of this process so far, MB (VmHWM of /proc/self/status).
+double peak_megabytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return 0;
+}
+
+std::string load_average() {
+  std::ifstream f("/proc/loadavg");
+  std::string a, b, c;
+  f >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, sep))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+// One case in this process; prints "key=value" pairs on one line.
+int run_case(const std::string& spec, LinearSolver linear, double ratio) {
+  const TriMesh mesh = load_mesh(spec);
+  GenerateOptions options;
+  options.thickness = thickness_from_ratio(mesh.V, ratio);
+  options.linear.kind = linear;
+  const double cpu0 = process_cpu_seconds();
+  const GenerateResult r = generate_shell(mesh.V, mesh.F, options);
+  const double generate_cpu = process_cpu_seconds() - cpu0;
+  const auto t0 = Clock::now();
+  double deform_factor = 0;
+  {
+    const ShellDeformer deformer(r.shell);
+    deform_factor = deformer.factor_seconds();
+  }
+  const double deform_setup = seconds_since(t0);
+  const int iterations = std::max(1, r.solve.iterations);
+  std::printf("vertices=%d total=%.6g setup=%.6g solve=%.6g iterations=%d per_iteration=%.6g cg=%d "
+              "deform_setup=%.6g deform_factor=%.6g cpu=%.6g peak_mb=%.6g energy=%.10g stretch_mean=%.10g "
+              "stretch_max=%.10g inverted=%d intersections=%d thickness_min=%.10g certificate=%.6g\n",
+              static_cast<int>(mesh.V.rows()), r.seconds.total, r.seconds.factor, r.seconds.solve, r.solve.iterations,
+              r.seconds.solve / iterations, r.solve.linear_iterations, deform_setup, deform_factor, generate_cpu,
+              peak_megabytes(), r.solve.energy.back(), r.metrics.stretch.mean, r.metrics.stretch.max,
+              r.metrics.certificate.inverted_tets,
+              r.metrics.certificate.top_self_intersections + r.metrics.certificate.top_base_intersections,
+              r.metrics.thickness_min, r.metrics.certificate.seconds);
+  return 0;
+}
+
+struct Row {
+  std::string name, linear;
+  std::map<std::string, std::vector<double>> values; // one per run
+  double get(const std::string& key) const {
+    auto it = values.find(key);
+    if (it == values.end() || it->second.empty()) return 0;
+    std::vector<double> v = it->second;
+    std::sort(v.begin(), v.end());
+    return key == "peak_mb" ? v.back() : v[v.size() / 2];
+  }
+};
+
+bool run_child(const std::string& self, const std::string& spec, const std::string& linear, double ratio, Row& row) {
+  const std::string command = "'" + self + "' --case '" + spec + "' --linear " + linear + " --ratio " + std::to_string(ratio);
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return false;
+  std::string out;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof buffer, pipe)) out += buffer;
+  if (pclose(pipe) != 0) {
+    std::fprintf(stderr, "bench_scale: %s failed\n", command.c_str());
+    return false;
+  }
+  for (const std::string& pair : split(out, ' ')) {
+    const auto eq = pair.find('=');
+    if (eq != std::string::npos) row.values[pair.substr(0, eq)].push_back(std::stod(pair.substr(eq + 1)));
+  }
+  return true;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  std::vector<int> levels{6, 7, 8, 9};
+  std::vector<std::string> meshes, linears{"auto"};
+  double ratio = 0.02;
+  int runs = 1;
+  std::string case_spec;
+  bool meshes_given = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "bench_scale: %s needs a value\n", a.c_str());
+        std::exit(1);
+      }
+      return argv[++i];
+    };
+    if (a == "--levels") {
+      levels.clear();
+      for (const auto& s : split(next(), ',')) levels.push_back(std::stoi(s));
+    } else if (a == "--mesh") {
+      meshes.push_back(next());
+      meshes_given = true;
+    } else if (a == "--no-mesh") {
+      meshes_given = true;
+    } else if (a == "--linear") {
+      linears = split(next(), ',');
+    } else if (a == "--ratio") {
+      ratio = std::stod(next());
+    } else if (a == "--runs") {
+      runs = std::max(1, std::stoi(next()));
+    } else if (a == "--case") {
+      case_spec = next();
+    } else {
+      std::fprintf(stderr,
+                   "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--no-mesh] [--linear auto,direct,cg] "
+                   "[--ratio 0.02] [--runs N]\n");
+      return 1;
+    }
+  }
+  if (!case_spec.empty()) return run_case(case_spec, parse_linear_solver(linears.at(0)), ratio);
+  if (!meshes_given && std::filesystem::exists("models/bunny00.off")) meshes.push_back("models/bunny00.off");
+
+  const std::string self = std::filesystem::canonical("/proc/self/exe").string();
+  std::printf("bench_scale: rigid generation at thickness ratio %g, medians of %d fresh processes each; "
+              "load average at start %s\n",
+              ratio, runs, load_average().c_str());
+  std::vector<std::string> specs;
+  for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
+  specs.insert(specs.end(), meshes.begin(), meshes.end());
+  std::vector<Row> rows;
+  std::printf("%-22s %-6s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
+              "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "cert_s", "deform_s",
+              "cpu_s", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
+  for (const std::string& linear : linears)
+    for (const std::string& spec : specs) {
+      Row row{spec, linear, {}};
+      bool ok = true;
+      for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, row);
+      if (!ok) continue;
+      const std::string name = spec.rfind("builtin:", 0) == 0 ? spec.substr(8) : std::filesystem::path(spec).stem().string();
+      std::printf("%-22s %-6s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.0f %8.2f %11.6g %11.6g %11.6g "
+                  "%4.0f "
+                  "%4.0f\n",
+                  name.c_str(), linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
+                  row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("certificate"), row.get("deform_setup"), row.get("cpu"),
+                  row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
+                  row.get("stretch_mean"), row.get("stretch_max"), row.get("inverted"), row.get("intersections"));
+      std::fflush(stdout);
+      rows.push_back(row);
+    }
+
+  std::printf("\ngrowth per 4x vertices (consecutive sphere levels; target <= 4.6):\n");
+  std::printf("%-22s %-6s %8s %8s %8s %8s %8s %8s\n", "step", "linear", "total", "setup", "per_it", "deform", "cpu",
+              "peak_MB");
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const Row &a = rows[i - 1], &b = rows[i];
+    if (a.linear != b.linear || b.name.rfind("builtin:sphere:", 0) != 0 || a.name.rfind("builtin:sphere:", 0) != 0)
+      continue;
+    auto ratio_of = [&](const char* key) { return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0; };
+    const std::string step = a.name.substr(8) + " -> " + b.name.substr(15);
+    std::printf("%-22s %-6s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(), ratio_of("total"),
+                ratio_of("setup"), ratio_of("per_iteration"), ratio_of("deform_setup"), ratio_of("cpu"),
+                ratio_of("peak_mb"));
+  }
+  std::printf("load average at end %s\n", load_average().c_str());
+  return 0;
+}

@@ -1,0 +1,93 @@
+#pragma once
+// Guarded shell generation: the top of a shell optimised towards ideal prisms (the energy of the
+// rigid and curvature methods) from a valid start, staying valid (guarded_solver.h). Where the
+// target thickness does not fit, the layer thins as little as the barriers need; elsewhere the
+// result is close to the unguarded optimum.
+#include <gshell/guard/extrusion_directions.h>
+#include <gshell/guard/guarded_solver.h>
+#include <gshell/guard/valid_start.h>
+#include <gshell/solver/rest_tets.h>
+#include <gshell/solver/shell_solver.h>
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace gshell {
+
+/// Parameters of the guard, relative to the shell's own scales (see docs/guarded-generation.md).
+struct GuardOptions {
+  /// Relative tet volume (det F against the ideal prism's tet) below which the volume barrier
+  /// pushes back, in (0, 1].
+  double j_hat = 0.1;
+  /// Weight of the volume barrier (dimensionless; its terms are rest volume times psi(J / j_hat)).
+  double volume_weight = 1.0;
+  /// Contact barrier support dhat as a fraction of min(eta, mean base edge length) (>= 0; 0 turns
+  /// contacts off: only tets are guarded, intersections are not prevented).
+  double contact_distance = 0.1;
+  /// Weight of the contact barrier (dimensionless): the barrier (length^4) is scaled by
+  /// contact_weight * A / dhat^3, A the mean base area per vertex, so that at dhat / 2 its push
+  /// is about contact_weight * 4 A, comparable with what squashing a prism costs the shell energy.
+  double contact_weight = 0.5;
+  /// Each step keeps every tet above this fraction of its volume and every boundary pair above
+  /// this fraction of its distance, in (0, 1).
+  double keep_fraction = 0.1;
+  int cg_iterations = 20;     ///< CG iterations per Newton direction, at most
+  double cg_tolerance = 0.1;  ///< relative CG residual
+  /// The vertex normal is the extrusion direction where it sees every incident face with at least
+  /// this cosine margin (extrusion_directions), in [-1, 1].
+  double normal_margin = 0.5;
+  double start_thinning = 0.5; ///< ValidStartOptions::thinning
+  double start_spread = 0;     ///< ValidStartOptions::spread
+  /// The start pulls an invalid top vertex towards its base vertex along the line joining them
+  /// when that line sees every incident face with at least this cosine margin, otherwise along a
+  /// path that bends towards the extrusion direction (ValidStartOptions::straight_margin), (0, 1].
+  double start_margin = 0.1;
+  /// Top vertices of unextrudable vertices are held at this fraction of eta along their best
+  /// direction (the prisms around them cannot all be valid; only those are left unguarded).
+  double unextrudable_thickness = 0.1;
+  /// The guarded solver moves the top vertices the start pulled in and this many rings of
+  /// neighbours around them; the rest keeps the paper's result (>= 0).
+  int repair_rings = 3;
+};
+
+/// \throws InputError naming the parameter unless every field is in range.
+void check_guard_options(const GuardOptions& options);
+
+struct GuardedShell {
+  Eigen::MatrixXd top;                 ///< n x 3
+  ExtrusionDirections directions;      ///< directions.unextrudable: vertices no direction serves
+  std::vector<std::pair<int, int>> base_self_intersections; ///< pairs of base faces (the input's)
+  /// Per row of shell_boundary(F, n): the triangles the guard cannot keep clean, near the base's
+  /// own crossings and around unextrudable vertices (the triangles excluded from contacts and
+  /// every triangle sharing a vertex with one). Any two other triangles do not intersect.
+  std::vector<char> unprotected_triangles;
+  int unprotected_faces = 0;           ///< faces with a triangle in unprotected_triangles
+  int repaired_vertices = 0;           ///< top vertices the guarded solver moved
+  SolveResult paper;                   ///< the paper's iterations that give the wanted top
+  ValidStart start;                    ///< that top, pulled in where it is not valid
+  GuardedSolveResult solve;            ///< the guarded iterations from the start
+  GuardedSolverParameters parameters;  ///< the absolute parameters used
+  double factor_seconds = 0;           ///< matrix assembly + factorisation (both solvers)
+  double seconds = 0;                  ///< everything, factor and solve included
+};
+
+/// The guarded solver's absolute parameters for a shell of thickness eta over base (V, F), from
+/// the relative GuardOptions (the same scales as guarded generation: contact distance relative
+/// to min(eta, mean edge), contact stiffness to the base area per vertex).
+/// \throws InputError as check_guard_options.
+GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
+                                                  const GuardOptions& options);
+
+/// The guarded top over base (V, F) towards the rest tets `ideal` (prism_rest_tets of the ideal
+/// prisms: normal or curvature), thickness eta (model units): the paper's local/global iterations
+/// from the offset surface (the unguarded result), a valid start made from it (valid_start), and
+/// the guarded solver from there. solve.max_iterations and tolerance apply to both solves;
+/// `linear` chooses how the paper's iterations solve their global steps (the guarded solver, on
+/// the region it repairs, always factors).
+/// \throws InputError on bad options, thickness eta not positive and finite, or `ideal` not
+///         3 tets per face, or as extrusion_directions (V, F shapes and ids).
+GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
+                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const LinearSolverOptions& linear = {});
+
+} // namespace gshell

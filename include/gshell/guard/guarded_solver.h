@@ -1,0 +1,131 @@
+#pragma once
+// The guarded solver: minimises the shell energy of ShellSolver (sum_t vol_t ||F_t - R_t||^2
+// towards per-tet rest shapes) plus two barriers, from a valid state, so that every iterate stays
+// valid: no tet turns flat or inverted, and no two primitives of the layer's boundary surface
+// (shell_boundary: top, base, side walls) touch.
+//
+//   E_guard(X) = E(X) + volume_weight * VolumeBarrier(X) + contact_stiffness * ContactGuard::energy(X)
+//
+// Both barriers are zero away from trouble (tets above j_hat of their rest volume, pairs farther
+// apart than dhat), so most of the shell sees E alone. Each iteration:
+//  1. direction: the Newton step of the quadratic model with E's fixed-rotation Hessian (the
+//     prefactored system matrix A of ShellSolver) plus the barriers' Hessians, solved by conjugate
+//     gradients preconditioned with A^-1 and started from the plain local/global step -A^-1 g (so
+//     without active barriers it is exactly the paper's iteration, and with them the few stiff
+//     directions near contact are resolved in a few CG iterations: one near-contact spot does not
+//     clamp the step of the whole shell);
+//  2. step bound: the largest step keeping every tet above keep_fraction of its volume (per-tet
+//     cubic, tet_step_bound) and every boundary pair farther apart than keep_fraction of its
+//     distance (conservative CCD, ContactGuard::step_bound), capped at 1;
+//  3. backtracking line search from that step until E_guard decreases (Armijo), so the guarded
+//     energy never rises;
+// until the relative decrease of E_guard falls below the tolerance.
+//
+// Precompute once, solve many: the system matrix is factored and the contact structures built in
+// the constructor, for a rest shape and a set of fixed vertices; solve() runs from any valid
+// state. Fixed vertices may be moved along a straight path during a solve (a deformed base
+// dragging its shell): each iteration first advances them along the path as far as the bounds
+// allow, the free vertices following by the linear response of the model (-A_ff^-1 A_fc dX_c),
+// then takes an energy step with them held.
+#include <gshell/guard/contact_guard.h>
+#include <gshell/guard/volume_barrier.h>
+#include <gshell/quality/shell_boundary.h>
+#include <gshell/solver/shell_solver.h>
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <vector>
+
+namespace gshell {
+
+/// The barrier and step parameters of the guarded solver (absolute values; generation derives
+/// them from the thickness, GenerateOptions::guard).
+struct GuardedSolverParameters {
+  double j_hat = 0.1;         ///< relative volume (det F) below which the volume barrier acts, (0, 1]
+  double volume_weight = 1.0; ///< weight of the volume barrier (dimensionless: terms are vol_t psi)
+  /// Contact barrier support dhat (model units); 0 disables contacts (tets are still guarded).
+  double contact_distance = 0;
+  /// Weight of the contact barrier (1 / model units: the barrier is in length^4, E in length^3).
+  double contact_stiffness = 0;
+  /// A step keeps every tet above this fraction of its volume and every boundary pair above this
+  /// fraction of its distance at the start of the step, in (0, 1).
+  double keep_fraction = 0.1;
+  int cg_iterations = 20;      ///< cap on CG iterations per direction (0: the plain A^-1 step)
+  double cg_tolerance = 0.1;   ///< relative residual (A^-1 norm) at which CG stops
+  /// Before CG, the model is solved exactly on the vertices within this many rings of those the
+  /// barriers act on (a small sparse factorisation); -1 skips it.
+  int local_rings = 2;
+  /// Tets left out of the volume barrier and bound (empty or one flag per tet): those that
+  /// cannot be valid (around unextrudable vertices); they may stay inverted.
+  std::vector<char> skip_tets;
+  /// Boundary triangles left out of contacts (empty or one flag per row of the boundary), e.g.
+  /// around the crossings of a base that intersects itself.
+  std::vector<char> excluded_triangles;
+};
+
+struct GuardedSolveOptions {
+  int max_iterations = 50;
+  double tolerance = 1e-5; ///< stop when the relative decrease of E_guard is below this
+  /// The tolerance is relative to the larger of this and the current E_guard (e.g. the whole
+  /// shell's energy when only a part of it is solved for; 0: E_guard alone).
+  double energy_scale = 0;
+  /// Called after every iteration with (iteration, E_guard, seconds since the solve started).
+  std::function<void(int, double, double)> progress;
+};
+
+struct GuardedSolveResult {
+  int iterations = 0;
+  std::vector<double> energy; ///< E_guard: energy[0] at the start, then one per iteration
+  bool converged = false;     ///< stopped by the tolerance (not by max_iterations or a stall)
+  double seconds = 0;
+  /// Fraction of the prescribed motion of the fixed vertices done (1 when none was given or when
+  /// it completed; less when the bounds stopped it, e.g. a motion that would pinch the layer).
+  double path_done = 1;
+  int cg_iterations = 0;       ///< total over all directions
+  int backtracks = 0;          ///< total line search halvings
+  int clamped_steps = 0;       ///< iterations whose step the tet or contact bound cut below 1
+  double final_energy = 0;     ///< E alone (the shell energy, no barriers) at the result
+  int active_tets = 0;         ///< tets inside the volume barrier at the result
+  double min_relative_volume = 0; ///< smallest det F over the guarded tets at the result
+  int active_contacts = 0;     ///< boundary pairs inside the contact barrier at the result
+};
+
+class GuardedSolver {
+public:
+  /// `rest` over `num_vertices` (2n: base i is i, top i is n + i); `fixed` as in ShellSolver;
+  /// `boundary` the layer's boundary surface (shell_boundary(F, n)).
+  /// \throws InputError on bad parameters (keep_fraction, volume_weight, contact_distance, CG,
+  ///         contact_stiffness), or as the ShellSolver, VolumeBarrier and ContactGuard built here
+  ///         (bad ids or sizes, a free part); std::runtime_error when CHOLMOD fails.
+  GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed, const ShellBoundary& boundary,
+                GuardedSolverParameters parameters);
+  ~GuardedSolver();
+  GuardedSolver(GuardedSolver&&) noexcept;
+  GuardedSolver& operator=(GuardedSolver&&) noexcept;
+
+  /// Minimises E_guard from X (num_vertices x 3, valid: every guarded tet positive, no guarded
+  /// boundary pair touching). X is overwritten with the result, which
+  /// is valid too. With `fixed_targets` (num_vertices x 3, only rows of fixed vertices read), the
+  /// fixed vertices move from their rows in X towards them along straight lines as described
+  /// above.
+  /// \throws InputError when X or fixed_targets is not num_vertices x 3, options are out of range
+  ///         (max_iterations < 0, tolerance < 0) or X is not valid. std::runtime_error if a drag step
+  ///         leaves the valid set (a bug: the step bounds forbid it).
+  GuardedSolveResult solve(Eigen::MatrixXd& X, const GuardedSolveOptions& options = {},
+                           const Eigen::MatrixXd& fixed_targets = {});
+
+  /// E_guard at X (+infinity when X is not valid for the barriers).
+  /// \throws InputError when X is not num_vertices x 3.
+  double energy(const Eigen::MatrixXd& X);
+
+  const ShellSolver& shell_solver() const;
+  const VolumeBarrier& volume_barrier() const;
+  const GuardedSolverParameters& parameters() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+} // namespace gshell

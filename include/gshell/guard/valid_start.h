@@ -1,0 +1,57 @@
+#pragma once
+// A valid start for the guarded solver: each top vertex on a path from its base vertex b_i (s = 0)
+// to a wanted position p_i (s = 1, e.g. the paper's unguarded result), at a per-vertex s_i in
+// (0, 1] as large as is valid. Starting from s = 1, every round checks the shell exactly (tet
+// orientation, boundary triangle intersections) and shrinks s_i by a constant factor at the top
+// vertices of every violation. The path is the straight line b_i + s (p_i - b_i) when that line
+// sees every face at vertex i from its positive side (with a margin), otherwise it bends towards
+// the extrusion direction d_i as s falls: b_i + s |p_i - b_i| unit(s u_i + (1 - s) d_i), u_i the
+// unit of p_i - b_i. Either way it leaves the base along a direction that sees every incident face,
+// and small enough s along such directions are valid when the base itself is (each prism's tets
+// gain volume like s * area * (n_f . d) > 0, and the top stays within a thin neighbourhood of the
+// embedded base), so the rounds end, touching only where needed; where nothing is wrong the start
+// is the wanted top exactly.
+#include <gshell/guard/extrusion_directions.h>
+#include <gshell/quality/shell_boundary.h>
+
+#include <Eigen/Core>
+#include <utility>
+#include <vector>
+
+namespace gshell {
+
+struct ValidStartOptions {
+  /// The path is straight where p_i - b_i keeps at least this cosine margin on every incident face.
+  double straight_margin = 0.1;
+  /// Length of the path along d_i where p_i = b_i (model units, > 0).
+  double fallback_length = 1;
+  double thinning = 0.5; ///< factor applied to s_i of a vertex in a violation, per round, in (0, 1)
+  /// Largest ratio of s between the ends of an edge (> 1; 0 or less: no limit).
+  double spread = 0;
+  int max_rounds = 40;   ///< rounds before giving up (a violation that survives 2^-40 of the target
+                         ///< thickness comes from the base itself, e.g. touching input triangles)
+};
+
+struct ValidStart {
+  Eigen::MatrixXd top;        ///< n x 3
+  Eigen::VectorXd scale;      ///< s_i
+  int rounds = 0;             ///< checks run
+  /// What the last check still found (empty unless max_rounds ran out): tets that are not skipped
+  /// and pairs of boundary rows of which neither is excluded (base/base pairs are not reported).
+  std::vector<int> inverted_tets;
+  std::vector<std::pair<int, int>> intersections;
+  double seconds = 0;
+};
+
+/// The start for the base (V, F) towards the wanted top P (n x 3) with extrusion directions
+/// `directions` (extrusion_directions(V, F)). `skip_tets` (one flag per tet of build_prism_tets, or empty) and `excluded_triangles` (one flag
+/// per row of shell_boundary(F, n), or empty): violations involving those are ignored (they cannot
+/// be mended by thinning). The checks are the certificate's (certify_shell), without base/base pairs.
+/// \throws InputError when P or directions has not one row per base vertex, options.thinning is
+///         outside (0, 1) or options.fallback_length <= 0.
+ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
+                       const ExtrusionDirections& directions,
+                       const std::vector<char>& skip_tets = {}, const std::vector<char>& excluded_triangles = {},
+                       const ValidStartOptions& options = {});
+
+} // namespace gshell

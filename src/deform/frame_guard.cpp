@@ -1,0 +1,154 @@
+#include "frame_guard.h"
+
+#include <gshell/error.h>
+#include <gshell/guard/tet_step_bound.h>
+#include <gshell/quality/shell_certificate.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <numeric>
+
+namespace gshell {
+
+double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const Eigen::MatrixXi& F) {
+  double worst = 0;
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int i = F(f, k), j = F(f, (k + 1) % 3);
+      const Eigen::RowVector3d e0 = from.row(j) - from.row(i), e1 = to.row(j) - to.row(i);
+      const double length = e0.norm();
+      if (length > 0) worst = std::max(worst, (e1 - e0).norm() / length);
+    }
+  return worst;
+}
+
+FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options,
+                       std::vector<int> fixed, bool moving_base)
+    : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()), F_(rest.F), fixed_(std::move(fixed)),
+      moving_base_(moving_base),
+      boundary_(shell_boundary(rest.F, rest.num_base_vertices())) {
+  const int n = n_, m = static_cast<int>(rest.F.rows());
+  double eta = rest.thickness;
+  if (!(eta > 0) && n > 0) eta = (rest.top - rest.base).rowwise().norm().mean();
+  parameters_ = absolute_guard_parameters(rest.base, rest.F, eta, options);
+
+  // What the rest shell breaks already stays out of the guard: its inverted tets, and the faces
+  // of its intersecting triangle pairs with every face sharing a vertex with them (a base that
+  // crosses itself leaves no clean top near the crossing).
+  const ShellCertificate rest_certificate = certify_shell(rest.base, rest.top, rest.F);
+  const Eigen::MatrixXd X = rest.vertices();
+  const VolumeBarrier probe(rest_tets, options.j_hat);
+  parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
+  for (int t : rest_certificate.inverted_tet_ids) parameters_.skip_tets[t] = 1;
+  for (int t = 0; t < rest_tets.size(); ++t)
+    if (!(probe.relative_volume_of(X, t) > 0)) parameters_.skip_tets[t] = 1;
+  std::vector<char> touched(n, 0), excluded_face(m, 0);
+  for (const BoundaryIntersection& pair : rest_certificate.intersections)
+    for (int row : {pair.a, pair.b})
+      for (int k = 0; k < 3; ++k) touched[boundary_.F(row, k) % n] = 1;
+  for (int f = 0; f < m; ++f)
+    excluded_face[f] = touched[rest.F(f, 0)] || touched[rest.F(f, 1)] || touched[rest.F(f, 2)];
+  parameters_.excluded_triangles.assign(boundary_.size(), 0);
+  for (int r = 0; r < boundary_.size(); ++r) parameters_.excluded_triangles[r] = excluded_face[boundary_.face[r]];
+
+  if (parameters_.contact_distance > 0)
+    contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed_, boundary_, parameters_);
+}
+
+FrameGuard::~FrameGuard() = default;
+
+bool FrameGuard::built_with(const GuardOptions& o) const {
+  const GuardOptions& p = options_;
+  return p.j_hat == o.j_hat && p.volume_weight == o.volume_weight && p.contact_distance == o.contact_distance &&
+         p.contact_weight == o.contact_weight && p.keep_fraction == o.keep_fraction &&
+         p.cg_iterations == o.cg_iterations && p.cg_tolerance == o.cg_tolerance;
+}
+
+GuardedSolver& FrameGuard::tets_only() {
+  if (!tets_) {
+    GuardedSolverParameters p = parameters_;
+    p.contact_distance = 0;
+    p.contact_stiffness = 0;
+    tets_ = std::make_unique<GuardedSolver>(rest_tets_, 2 * n_, fixed_, boundary_, p);
+  }
+  return *tets_;
+}
+
+bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
+                         ShellCertificate* certificate) {
+  const TetStepBound tets =
+      tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
+  if (tets.step < 1) return false;
+  if (!contacts || !contact_) return true;
+  // The end state certified exactly (the base against itself left out when the caller moves the
+  // base: a base crossing itself is then the caller's). Cheaper than continuous collision detection along the path, and what matters
+  // is the frame, not the way to it: a certified frame is a valid start for the next one.
+  CertifyOptions options;
+  options.base_self_intersections = moving_base_;
+  ShellCertificate c = certify_shell(X1.topRows(n_), X1.bottomRows(n_), F_, options);
+  bool ok = true;
+  for (int t : c.inverted_tet_ids) ok = ok && parameters_.skip_tets[t];
+  for (const BoundaryIntersection& pair : c.intersections)
+    ok = ok && (parameters_.excluded_triangles[pair.a] || parameters_.excluded_triangles[pair.b]);
+  if (certificate) *certificate = std::move(c);
+  return ok;
+}
+
+FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts,
+                                     bool fall_back_to_tets, const GuardedSolveOptions& solve) {
+  Outcome out;
+  GuardedSolver* solver = nullptr;
+  if (contacts && contact_ && std::isfinite(contact_->energy(X))) solver = contact_.get();
+  else if (!contact_ && std::isfinite(tets_only().energy(X))) solver = &tets_only(); // contacts off
+  else if (fall_back_to_tets && std::isfinite(tets_only().energy(X))) {
+    solver = &tets_only();
+    out.method = FrameMethod::TetsOnly;
+  } else {
+    out.method = FrameMethod::Failed;
+    return out;
+  }
+  const Eigen::MatrixXd from = X;
+  Eigen::MatrixXd step_targets = X;
+  // A stalled drag is retried once (the energy iterations in between may make room), then
+  // continued with the tets alone, or stopped there (blocked).
+  constexpr int kRetries = 2;
+  for (int k = 1; k <= substeps; ++k) {
+    const double t = static_cast<double>(k) / substeps;
+    for (int v : fixed_) step_targets.row(v) = from.row(v) + t * (targets.row(v) - from.row(v));
+    ++out.substeps;
+    for (int attempt = 0;; ++attempt) {
+      const GuardedSolveResult r = solver->solve(X, solve, step_targets);
+      out.iterations += r.iterations;
+      if (std::getenv("GSHELL_FRAME_DEBUG"))
+        std::fprintf(stderr, "substep %d attempt %d: path %.4f iterations %d clamped %d contacts %d min J %.3g %.2fs\n", k,
+                     attempt, r.path_done, r.iterations, r.clamped_steps, r.active_contacts, r.min_relative_volume,
+                     r.seconds);
+      if (r.path_done >= 1) break;
+      // The drag moves the free vertices with the fixed ones by the model's linear response,
+      // which knows nothing of the barriers: two tops pressed against each other over a wide
+      // area can stop it for good (docs/valid-deformation.md), hence only one retry.
+      if (attempt + 1 < kRetries) continue;
+      if (solver == contact_.get() && fall_back_to_tets) {
+        solver = &tets_only();
+        out.method = FrameMethod::TetsOnly;
+        attempt = -1;
+        continue;
+      }
+      if (solver == contact_.get()) {
+        out.blocked = true; // X: as far as the bounds let it go, valid
+        return out;
+      }
+      out.method = FrameMethod::Failed;
+      return out;
+    }
+  }
+  for (int v : fixed_) X.row(v) = targets.row(v); // exactly (the solver ends its path on them)
+  return out;
+}
+
+} // namespace gshell

@@ -1,0 +1,76 @@
+#pragma once
+// The guard of a deformation's frames (ShellDeformer with allow_invalid off): step bounds that
+// decide whether the paper's solve can be taken as it is, and the guarded solvers that drag the
+// shell from the previous frame to the new base otherwise. Built once per rest shell and guard
+// parameters (two factorisations at most: with contacts, and tets only for bases that force a
+// contact).
+#include <gshell/deform/shell_deformer.h>
+#include <gshell/guard/guarded_solver.h>
+#include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/shell_certificate.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+namespace gshell {
+
+/// Largest relative change of a base edge vector from `from` to `to`: max over edges (i, j) of
+/// |(to_j - to_i) - (from_j - from_i)| / |from_j - from_i|.
+double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const Eigen::MatrixXi& F);
+
+class FrameGuard {
+public:
+  /// `rest`: the rest shell (the first frame starts from it), `rest_tets` the solver's rest
+  /// shapes, `fixed` the vertices the caller moves (the base for a deformation, the handles for
+  /// a pose); `moving_base`: the base is free, so base/base pairs count as the shell's own. Tets
+  /// inverted at rest are left unguarded, and the boundary triangles of pairs that intersect at
+  /// rest (with their neighbours) see no contacts: what the rest shell breaks, the guard cannot
+  /// keep.
+  FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options, std::vector<int> fixed,
+             bool moving_base);
+  ~FrameGuard();
+
+  /// Whether this guard was built with these options.
+  bool built_with(const GuardOptions& options) const;
+
+  /// Whether X1 can be taken as the next frame after X0 (a frame made by this guard): the
+  /// straight path from X0 to X1 keeps every guarded tet above keep_fraction of its volume and,
+  /// with `contacts` (X0 free of contacts), X1's exact certificate (without base/base pairs,
+  /// returned in `certificate`) finds no intersection the guard keeps apart. X1 is then a valid
+  /// start for the guarded solver, as X0 is.
+  bool accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, ShellCertificate* certificate);
+  /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
+  bool guards_contacts() const { return contact_ != nullptr; }
+
+  struct Outcome {
+    FrameMethod method = FrameMethod::Guarded;
+    int substeps = 0;
+    int iterations = 0;
+    bool blocked = false; ///< stopped at contact (no fall-back to the tets): X valid, short of the targets
+  };
+  /// Drags X (2n x 3, a frame made by this guard) until its fixed vertices reach their rows of
+  /// `targets`, in `substeps` straight pieces, each solved to the tolerance by the guarded solver.
+  /// Contacts are kept apart while the fixed vertices' motion allows it; when it forces one, only
+  /// the tets are guarded from there on (TetsOnly) with `fall_back_to_tets`, else the drag stops
+  /// where it is (blocked). Failed: X is left somewhere on the way. `contacts`: X is free of
+  /// contacts (else only the tets can be guarded).
+  Outcome drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts, bool fall_back_to_tets,
+               const GuardedSolveOptions& solve);
+
+private:
+  GuardedSolver& tets_only();
+
+
+  GuardOptions options_;
+  RestTets rest_tets_;
+  int n_ = 0;
+  Eigen::MatrixXi F_;
+  std::vector<int> fixed_;
+  bool moving_base_ = false;
+  ShellBoundary boundary_;
+  GuardedSolverParameters parameters_;
+  std::unique_ptr<GuardedSolver> contact_, tets_;
+};
+
+} // namespace gshell

@@ -1,0 +1,218 @@
+#include <gshell/guard/guarded_shell.h>
+
+#include <gshell/error.h>
+#include <gshell/seconds_since.h>
+#include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/triangle_intersections.h>
+#include <gshell/shell/offset_shell.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void require(bool ok, const char* name, const char* range) {
+  if (!ok) throw InputError(std::string("guard option ") + name + " must be " + range);
+}
+
+// Mean length over the faces' half-edges and mean base area per vertex.
+std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  double length = 0, area = 0;
+  for (int f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    length += (b - a).norm() + (c - b).norm() + (a - c).norm();
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return {F.rows() > 0 ? length / (3.0 * static_cast<double>(F.rows())) : 0.0,
+          V.rows() > 0 ? area / static_cast<double>(V.rows()) : 0.0};
+}
+
+// Boundary rows the contact guard cannot protect: the excluded rows and every row sharing a vertex
+// with one (ContactGuard skips the pairs of a vertex that is a corner of an excluded row, and the
+// edges of excluded rows). Two rows outside this set are kept apart by the guard.
+std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vector<char>& excluded, int num_vertices) {
+  std::vector<char> corner(num_vertices, 0), out(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r)
+    if (excluded[r])
+      for (int k = 0; k < 3; ++k) corner[boundary.F(r, k)] = 1;
+  for (int r = 0; r < boundary.size(); ++r)
+    out[r] = corner[boundary.F(r, 0)] || corner[boundary.F(r, 1)] || corner[boundary.F(r, 2)];
+  return out;
+}
+
+} // namespace
+
+void check_guard_options(const GuardOptions& o) {
+  require(o.j_hat > 0 && o.j_hat <= 1, "j_hat", "in (0, 1]");
+  require(o.volume_weight > 0 && std::isfinite(o.volume_weight), "volume_weight", "positive");
+  require(o.contact_distance >= 0 && std::isfinite(o.contact_distance), "contact_distance", ">= 0");
+  require(o.contact_weight > 0 && std::isfinite(o.contact_weight), "contact_weight", "positive");
+  require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
+  require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
+  require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
+  require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
+  require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
+  require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
+  require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
+  require(o.repair_rings >= 0, "repair_rings", ">= 0");
+}
+
+GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
+                                                  const GuardOptions& options) {
+  check_guard_options(options);
+  const auto [edge, vertex_area] = mean_edge_and_vertex_area(V, F);
+  GuardedSolverParameters p;
+  p.j_hat = options.j_hat;
+  p.volume_weight = options.volume_weight;
+  p.contact_distance = options.contact_distance * std::min(eta, edge);
+  p.contact_stiffness =
+      p.contact_distance > 0 ? options.contact_weight * vertex_area / std::pow(p.contact_distance, 3) : 0.0;
+  p.keep_fraction = options.keep_fraction;
+  p.cg_iterations = options.cg_iterations;
+  p.cg_tolerance = options.cg_tolerance;
+  return p;
+}
+
+GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
+                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const LinearSolverOptions& linear) {
+  const auto t0 = Clock::now();
+  check_guard_options(options);
+  if (!(eta > 0) || !std::isfinite(eta)) throw InputError("guarded_shell: thickness must be positive and finite");
+  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  if (ideal.size() != 3 * m) throw InputError("guarded_shell: expected 3 rest tets per face");
+  GuardedShell g;
+  const ShellBoundary boundary = shell_boundary(F, n);
+  g.directions = extrusion_directions(V, F, options.normal_margin);
+  g.base_self_intersections = surface_self_intersections(V, F);
+
+  // Faces around each vertex, for marking stars.
+  std::vector<int> start(n + 1, 0), star;
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) ++start[F(f, k) + 1];
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  star.resize(start[n]);
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int f = 0; f < m; ++f)
+      for (int k = 0; k < 3; ++k) star[fill[F(f, k)]++] = f;
+  }
+  // Prisms around unextrudable vertices cannot all be valid: their tets are not guarded and their
+  // boundary triangles see no contacts. Around the crossings of a self-intersecting base no top
+  // can be clean: the triangles of the faces touching a crossing face see no contacts.
+  std::vector<char> unguarded_face(m, 0), excluded_face(m, 0);
+  for (int v : g.directions.unextrudable)
+    for (int s = start[v]; s < start[v + 1]; ++s) unguarded_face[star[s]] = excluded_face[star[s]] = 1;
+  for (const auto& [f1, f2] : g.base_self_intersections)
+    for (int f : {f1, f2})
+      for (int k = 0; k < 3; ++k)
+        for (int s = start[F(f, k)]; s < start[F(f, k) + 1]; ++s) excluded_face[star[s]] = 1;
+  GuardedSolverParameters& p = g.parameters;
+  p = absolute_guard_parameters(V, F, eta, options);
+  p.skip_tets.assign(3 * static_cast<std::size_t>(m), 0);
+  for (int f = 0; f < m; ++f)
+    if (unguarded_face[f]) p.skip_tets[3 * f] = p.skip_tets[3 * f + 1] = p.skip_tets[3 * f + 2] = 1;
+  p.excluded_triangles.assign(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
+
+  std::vector<int> fixed(n);
+  std::iota(fixed.begin(), fixed.end(), 0);
+  for (int v : g.directions.unextrudable) fixed.push_back(n + v);
+  const ShellSolver paper_solver(ideal, 2 * n, fixed, {}, linear);
+  g.factor_seconds = paper_solver.factor_seconds();
+
+  // The paper's iterations from the offset surface give the top wanted everywhere; the tops of
+  // unextrudable vertices are held low along their best direction.
+  Eigen::MatrixXd X(2 * n, 3);
+  X << V, offset_top(V, F, eta);
+  for (int v : g.directions.unextrudable)
+    X.row(n + v) = V.row(v) + options.unextrudable_thickness * eta * g.directions.direction.row(v);
+  SolveOptions paper;
+  paper.max_iterations = solve.max_iterations;
+  paper.tolerance = solve.tolerance;
+  paper.progress = solve.progress; // the guarded solve reports its own iterations after these
+  g.paper = paper_solver.solve(X, paper);
+
+  // Valid start: that top, pulled towards the base only where it is not valid.
+  ValidStartOptions start_options;
+  start_options.thinning = options.start_thinning;
+  start_options.straight_margin = options.start_margin;
+  start_options.spread = options.start_spread;
+  start_options.fallback_length = eta;
+  g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
+  g.start = valid_start(V, F, X.bottomRows(n), g.directions, p.skip_tets, g.unprotected_triangles, start_options);
+  // Whatever the start could not mend (only a degenerate base leaves anything) is left unguarded
+  // too, so that the solver starts valid for its barriers; the certificate reports it.
+  if (!g.start.inverted_tets.empty() || !g.start.intersections.empty()) {
+    for (int t : g.start.inverted_tets) p.skip_tets[t] = 1;
+    for (const auto& [a, b] : g.start.intersections) p.excluded_triangles[a] = p.excluded_triangles[b] = 1;
+    g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
+  }
+  {
+    std::vector<char> face_out(m, 0);
+    for (int r = 0; r < boundary.size(); ++r)
+      if (g.unprotected_triangles[r]) face_out[boundary.face[r]] = 1;
+    g.unprotected_faces = static_cast<int>(std::count(face_out.begin(), face_out.end(), 1));
+  }
+  // Repair: the guarded solver moves only the top vertices the start pulled in and a few rings
+  // around them; everywhere else the paper's result stands (its barriers are zero there and it is
+  // converged), so the repair costs in proportion to the trouble, not to the shell.
+  std::vector<char> in_region(n, 0);
+  for (int i = 0; i < n; ++i) in_region[i] = g.start.scale[i] < 1;
+  for (int v : g.directions.unextrudable) in_region[v] = 0;
+  for (int ring = 0; ring < options.repair_rings; ++ring) {
+    std::vector<char> grown = in_region;
+    for (int f = 0; f < m; ++f)
+      if (in_region[F(f, 0)] || in_region[F(f, 1)] || in_region[F(f, 2)])
+        for (int k = 0; k < 3; ++k) grown[F(f, k)] = 1;
+    in_region = grown;
+  }
+  for (int v : g.directions.unextrudable) in_region[v] = 0;
+  g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
+  X.bottomRows(n) = g.start.top;
+  if (g.repaired_vertices > 0) {
+    std::vector<int> held(n);
+    std::iota(held.begin(), held.end(), 0);
+    for (int i = 0; i < n; ++i)
+      if (!in_region[i]) held.push_back(n + i);
+    // Only tets with a moving vertex change: the others are left out of the solver altogether.
+    std::vector<int> tets;
+    for (int t = 0; t < ideal.size(); ++t)
+      for (int j = 0; j < 4; ++j)
+        if (ideal.T(t, j) >= n && in_region[ideal.T(t, j) - n]) {
+          tets.push_back(t);
+          break;
+        }
+    RestTets local;
+    local.T.resize(static_cast<int>(tets.size()), 4);
+    local.volume.resize(static_cast<int>(tets.size()));
+    GuardedSolverParameters q = p;
+    q.skip_tets.clear();
+    for (std::size_t k = 0; k < tets.size(); ++k) {
+      local.T.row(static_cast<int>(k)) = ideal.T.row(tets[k]);
+      local.Dm_inv.push_back(ideal.Dm_inv[tets[k]]);
+      local.volume[static_cast<int>(k)] = ideal.volume[tets[k]];
+      q.skip_tets.push_back(p.skip_tets[tets[k]]);
+    }
+    GuardedSolver repair(local, 2 * n, held, boundary, q);
+    g.factor_seconds += repair.shell_solver().factor_seconds();
+    // Converged as the paper's iterations are: relative to the whole shell's energy.
+    GuardedSolveOptions repair_options = solve;
+    repair_options.energy_scale = g.paper.energy.back();
+    g.solve = repair.solve(X, repair_options);
+  }
+  g.top = X.bottomRows(n);
+  g.seconds = seconds_since(t0);
+  return g;
+}
+
+} // namespace gshell

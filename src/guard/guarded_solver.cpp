@@ -1,0 +1,369 @@
+#include <gshell/guard/guarded_solver.h>
+
+#include <gshell/error.h>
+#include <gshell/seconds_since.h>
+#include <gshell/guard/tet_step_bound.h>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+#include <chrono>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace gshell {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Armijo constant of the line search: the accepted step decreases E_guard by at least this
+// fraction of what the slope at the start promises.
+constexpr double kArmijo = 1e-4;
+constexpr int kMaxBacktracks = 30;
+
+double dot(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a.array() * b.array()).sum(); }
+
+} // namespace
+
+struct GuardedSolver::Impl {
+  ShellSolver arap;
+  VolumeBarrier volume;
+  std::unique_ptr<ContactGuard> contact;
+  GuardedSolverParameters p;
+  Eigen::MatrixXi T;
+  int N = 0;
+  std::vector<int> fixed;
+  // Free (solved-for) vertices in the order of the ShellSolver's arrays, and vertex -> that order.
+  std::vector<int> free;
+  std::vector<int> free_index;
+
+  Impl(const RestTets& rest, int num_vertices, const std::vector<int>& fixed_vertices, const ShellBoundary& boundary,
+       GuardedSolverParameters parameters)
+      : arap(rest, num_vertices, fixed_vertices), volume(rest, parameters.j_hat, parameters.skip_tets),
+        p(std::move(parameters)), T(rest.T), N(num_vertices), fixed(fixed_vertices), free(arap.free_vertices()),
+        free_index(num_vertices, -1) {
+    if (!(p.keep_fraction > 0 && p.keep_fraction < 1))
+      throw InputError("GuardedSolver: keep_fraction must be in (0, 1)");
+    if (!(p.volume_weight > 0)) throw InputError("GuardedSolver: volume_weight must be positive");
+    if (!(p.contact_distance >= 0) || !std::isfinite(p.contact_distance))
+      throw InputError("GuardedSolver: contact_distance must be >= 0");
+    if (p.cg_iterations < 0 || !(p.cg_tolerance > 0)) throw InputError("GuardedSolver: bad CG parameters");
+    for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
+    if (p.contact_distance > 0) {
+      if (!(p.contact_stiffness > 0)) throw InputError("GuardedSolver: contact_stiffness must be positive");
+      std::vector<char> movable(N, 0);
+      for (int v : free) movable[v] = 1;
+      ContactOptions options;
+      options.dhat = p.contact_distance;
+      options.keep_fraction = p.keep_fraction;
+      contact = std::make_unique<ContactGuard>(boundary, N, std::move(movable), options, p.excluded_triangles);
+    }
+  }
+
+  int nf() const { return static_cast<int>(free.size()); }
+
+  Eigen::MatrixXd gather(const Eigen::MatrixXd& full) const { // free rows of an N x 3 array
+    Eigen::MatrixXd out(nf(), 3);
+    for (int j = 0; j < nf(); ++j) out.row(j) = full.row(free[j]);
+    return out;
+  }
+  Eigen::MatrixXd scatter(const Eigen::MatrixXd& compact) const { // N x 3, zero on kept rows
+    Eigen::MatrixXd out = Eigen::MatrixXd::Zero(N, 3);
+    for (int j = 0; j < nf(); ++j) out.row(free[j]) = compact.row(j);
+    return out;
+  }
+
+  struct State {
+    LocalStep local;
+    std::vector<int> active_tets; // inside the volume barrier
+    double shell = 0, volume = 0, contact = 0, total = kInf;
+  };
+
+  // E_guard at X; false (total = inf) when X is not valid for the barriers.
+  bool evaluate(const Eigen::MatrixXd& X, State& s) {
+    s.volume = volume.energy(X, &s.active_tets);
+    s.contact = contact ? contact->energy(X) : 0.0;
+    if (!std::isfinite(s.volume) || !std::isfinite(s.contact)) {
+      s.total = kInf;
+      return false;
+    }
+    arap.local_step(X, s.local);
+    s.shell = s.local.energy;
+    s.total = s.shell + p.volume_weight * s.volume + p.contact_stiffness * s.contact;
+    return true;
+  }
+
+  // Half the gradient of E_guard at X, free rows.
+  Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const State& s) {
+    Eigen::MatrixXd g = arap.half_gradient(X, s.local);
+    volume.add_gradient(X, 0.5 * p.volume_weight, g, s.active_tets);
+    if (contact) contact->add_gradient(X, 0.5 * p.contact_stiffness, g);
+    return gather(g);
+  }
+
+  // Half the barriers' Hessian on the free vertices it touches: those vertices (free order
+  // indices) and the matrix over their 3 coordinates each (local index 3 * k + axis).
+  struct LocalHessian {
+    std::vector<int> vertices; // free indices
+    Eigen::SparseMatrix<double> H;
+    bool empty() const { return vertices.empty(); }
+    // y += H x on the touched rows (x, y: nf x 3).
+    void apply_add(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
+      Eigen::VectorXd xl(3 * vertices.size());
+      for (std::size_t k = 0; k < vertices.size(); ++k)
+        for (int d = 0; d < 3; ++d) xl[3 * k + d] = x(vertices[k], d);
+      const Eigen::VectorXd yl = H * xl;
+      for (std::size_t k = 0; k < vertices.size(); ++k)
+        for (int d = 0; d < 3; ++d) y(vertices[k], d) += yl[3 * k + d];
+    }
+  };
+
+  LocalHessian half_barrier_hessian(const Eigen::MatrixXd& X, const State& s) {
+    std::vector<Eigen::Triplet<double>> H;
+    volume.add_hessian(X, 0.5 * p.volume_weight, H, s.active_tets);
+    if (contact) contact->add_hessian(X, 0.5 * p.contact_stiffness, H);
+    LocalHessian out;
+    std::vector<int> local(N, -1);
+    std::vector<Eigen::Triplet<double>> kept;
+    kept.reserve(H.size());
+    auto index = [&](int vertex) {
+      if (local[vertex] < 0) {
+        local[vertex] = static_cast<int>(out.vertices.size());
+        out.vertices.push_back(free_index[vertex]);
+      }
+      return local[vertex];
+    };
+    for (const auto& t : H) {
+      const int a = t.row() / 3, b = t.col() / 3;
+      if (free_index[a] < 0 || free_index[b] < 0) continue;
+      kept.emplace_back(3 * index(a) + t.row() % 3, 3 * index(b) + t.col() % 3, t.value());
+    }
+    const int size = 3 * static_cast<int>(out.vertices.size());
+    out.H.resize(size, size);
+    out.H.setFromTriplets(kept.begin(), kept.end());
+    return out;
+  }
+
+  // The minimiser of the quadratic model over the free vertices within local_rings rings of those
+  // the barrier Hessian touches, all others held: solves (A + H/2)_loc delta = r_loc.
+  Eigen::MatrixXd local_correction(const LocalHessian& Hl, const Eigen::MatrixXd& r) const {
+    Eigen::MatrixXd delta = Eigen::MatrixXd::Zero(nf(), 3);
+    std::vector<int> local_index(N, -1), vertices; // vertex ids
+    for (int j : Hl.vertices) {
+      local_index[free[j]] = static_cast<int>(vertices.size());
+      vertices.push_back(free[j]);
+    }
+    std::size_t frontier = 0;
+    for (int ring = 0; ring < p.local_rings; ++ring) {
+      const std::vector<int> last(vertices.begin() + static_cast<long>(frontier), vertices.end());
+      frontier = vertices.size();
+      const auto rows = arap.system_rows(last);
+      for (int i = 0; i < rows.outerSize(); ++i)
+        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(rows, i); it; ++it)
+          if (local_index[it.col()] < 0) {
+            local_index[it.col()] = static_cast<int>(vertices.size());
+            vertices.push_back(static_cast<int>(it.col()));
+          }
+    }
+    const int nl = static_cast<int>(vertices.size());
+    std::vector<Eigen::Triplet<double>> entries;
+    const auto rows = arap.system_rows(vertices);
+    for (int i = 0; i < nl; ++i)
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(rows, i); it; ++it) {
+        const int j = local_index[it.col()];
+        if (j >= 0)
+          for (int d = 0; d < 3; ++d) entries.emplace_back(3 * i + d, 3 * j + d, it.value());
+      }
+    // Hl's local order is the first |Hl.vertices| entries of `vertices`.
+    for (int k = 0; k < Hl.H.outerSize(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(Hl.H, k); it; ++it)
+        entries.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()), it.value());
+    Eigen::SparseMatrix<double> A(3 * nl, 3 * nl);
+    A.setFromTriplets(entries.begin(), entries.end());
+    Eigen::VectorXd b(3 * nl);
+    for (int i = 0; i < nl; ++i)
+      for (int d = 0; d < 3; ++d) b[3 * i + d] = r(free_index[vertices[i]], d);
+    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
+    if (ldlt.info() != Eigen::Success) return delta;
+    const Eigen::VectorXd x = ldlt.solve(b);
+    for (int i = 0; i < nl; ++i)
+      for (int d = 0; d < 3; ++d) delta(free_index[vertices[i]], d) = x[3 * i + d];
+    return delta;
+  }
+
+  // The Newton direction of the quadratic model A + H/2 (see the header): the plain step
+  // -A^-1 g, corrected on the neighbourhood of the barriers, then CG preconditioned with A^-1.
+  Eigen::MatrixXd direction(const Eigen::MatrixXd& X, const State& state, const Eigen::MatrixXd& g,
+                            int& cg_iterations) {
+    Eigen::MatrixXd d = -g;
+    arap.apply_inverse(d);
+    if (p.cg_iterations == 0 && p.local_rings < 0) return d;
+    const LocalHessian Hl = half_barrier_hessian(X, state);
+    if (Hl.empty()) return d;
+    auto apply = [&](const Eigen::MatrixXd& v) {
+      Eigen::MatrixXd y = arap.multiply_free(v);
+      Hl.apply_add(v, y);
+      return y;
+    };
+    const double gMg = -dot(g, d);
+    if (!(gMg > 0)) return d;
+    Eigen::MatrixXd r = -g - apply(d);
+    if (p.local_rings >= 0) {
+      const Eigen::MatrixXd delta = local_correction(Hl, r);
+      d += delta;
+      r = -g - apply(d);
+    }
+    Eigen::MatrixXd z = r;
+    arap.apply_inverse(z);
+    double rz = dot(r, z);
+    const double stop = p.cg_tolerance * p.cg_tolerance * gMg;
+    Eigen::MatrixXd s = z;
+    for (int k = 0; k < p.cg_iterations && rz > stop; ++k) {
+      const Eigen::MatrixXd q = apply(s);
+      const double sq = dot(s, q);
+      if (!(sq > 0)) break;
+      const double a = rz / sq;
+      d += a * s;
+      r -= a * q;
+      z = r;
+      arap.apply_inverse(z);
+      const double rz_new = dot(r, z);
+      ++cg_iterations;
+      s = z + (rz_new / rz) * s;
+      rz = rz_new;
+    }
+    return d;
+  }
+
+  // Largest step in [0, 1] keeping tets and boundary pairs safe along D (N x 3).
+  double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D) {
+    const TetStepBound tb = tet_step_bound(T, X, D, p.keep_fraction, 1.0, &volume.skip());
+    double a = tb.step;
+    if (contact && a > 0) a = std::min(a, contact->step_bound(X, D, a));
+    return a;
+  }
+};
+
+GuardedSolver::GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
+                             const ShellBoundary& boundary, GuardedSolverParameters parameters)
+    : impl_(std::make_unique<Impl>(rest, num_vertices, fixed, boundary, std::move(parameters))) {}
+
+GuardedSolver::~GuardedSolver() = default;
+GuardedSolver::GuardedSolver(GuardedSolver&&) noexcept = default;
+GuardedSolver& GuardedSolver::operator=(GuardedSolver&&) noexcept = default;
+
+const ShellSolver& GuardedSolver::shell_solver() const { return impl_->arap; }
+const VolumeBarrier& GuardedSolver::volume_barrier() const { return impl_->volume; }
+const GuardedSolverParameters& GuardedSolver::parameters() const { return impl_->p; }
+
+double GuardedSolver::energy(const Eigen::MatrixXd& X) {
+  if (X.rows() != impl_->N || X.cols() != 3) throw InputError("GuardedSolver::energy: bad state size");
+  Impl::State s;
+  impl_->evaluate(X, s);
+  return s.total;
+}
+
+GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOptions& options,
+                                        const Eigen::MatrixXd& fixed_targets) {
+  Impl& m = *impl_;
+  const auto t0 = Clock::now();
+  if (X.rows() != m.N || X.cols() != 3)
+    throw InputError("GuardedSolver::solve: expected " + std::to_string(m.N) + " x 3 positions");
+  if (options.max_iterations < 0 || !(options.tolerance >= 0)) throw InputError("GuardedSolver::solve: bad options");
+  const bool drag = fixed_targets.size() > 0;
+  if (drag && (fixed_targets.rows() != m.N || fixed_targets.cols() != 3))
+    throw InputError("GuardedSolver::solve: fixed_targets must be " + std::to_string(m.N) + " x 3");
+  GuardedSolveResult result;
+  Impl::State state;
+  if (!m.evaluate(X, state))
+    throw InputError("GuardedSolver::solve: the start state is not valid (a guarded tet is flat or inverted, or "
+                     "two boundary primitives touch)");
+  result.energy.push_back(state.total);
+
+  // The prescribed path of the fixed vertices: X_c(tau) = start + tau * (targets - start).
+  Eigen::MatrixXd path = Eigen::MatrixXd::Zero(m.N, 3);
+  double tau = 1;
+  if (drag) {
+    for (int v : m.fixed) path.row(v) = fixed_targets.row(v) - X.row(v);
+    tau = path.isZero(0) ? 1 : 0;
+  }
+
+  for (int it = 1; it <= options.max_iterations && (m.nf() > 0 || tau < 1); ++it) {
+    if (tau < 1) {
+      // Drag: the rest of the path, the free vertices following by the linear response of the
+      // model, -A_ff^-1 A_fc dX_c (A_fc dX_c is the change of the gradient the motion causes).
+      Eigen::MatrixXd D = (1 - tau) * path;
+      if (m.nf() > 0) {
+        Eigen::MatrixXd response = m.gather(m.arap.half_gradient(X + D, state.local) - m.arap.half_gradient(X, state.local));
+        m.arap.apply_inverse(response);
+        D -= m.scatter(response);
+      }
+      const double a = m.step_bound(X, D);
+      if (a > 0) {
+        X += a * D;
+        tau = a >= 1 ? 1 : tau + a * (1 - tau);
+        if (tau >= 1)
+          for (int v : m.fixed) X.row(v) = fixed_targets.row(v);
+        if (!m.evaluate(X, state)) // the bounds keep every guarded tet and pair apart
+          throw std::runtime_error("GuardedSolver: the drag step left the valid set");
+      }
+    }
+    const double E = state.total;
+    bool moved = false, clamped = false;
+    double E_new = E, predicted = 0;
+    if (m.nf() > 0) {
+      const Eigen::MatrixXd g = m.half_gradient(X, state);
+      Eigen::MatrixXd d = m.direction(X, state, g, result.cg_iterations);
+      double slope = 2 * dot(g, d); // dE_guard/dalpha at 0
+      if (!(slope < 0)) { // CG round-off: fall back to the preconditioned gradient, always descent
+        d = -g;
+        m.arap.apply_inverse(d);
+        slope = 2 * dot(g, d);
+      }
+      predicted = -0.5 * slope; // decrease of the full step in the quadratic model
+      if (slope < 0) {
+        const Eigen::MatrixXd D = m.scatter(d);
+        double a = m.step_bound(X, D);
+        clamped = a < 1;
+        result.clamped_steps += clamped;
+        Impl::State trial;
+        for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
+          Eigen::MatrixXd Xt = X + a * D;
+          if (m.evaluate(Xt, trial) && trial.total <= E + kArmijo * a * slope) {
+            X = std::move(Xt);
+            state = std::move(trial);
+            E_new = state.total;
+            moved = true;
+            break;
+          }
+          ++result.backtracks;
+        }
+      }
+    }
+    result.iterations = it;
+    result.energy.push_back(E_new);
+    if (options.progress) options.progress(it, E_new, seconds_since(t0));
+    // Converged when the decrease is small and no bound held the step back (a clamped step with a
+    // large predicted decrease is progress still to be made).
+    const double scale = std::max(options.energy_scale, E);
+    const bool small = E <= 0 || ((E - E_new) < options.tolerance * scale &&
+                                  (!clamped || predicted < options.tolerance * scale));
+    if (tau >= 1 && (small || !moved)) {
+      result.converged = small;
+      break;
+    }
+  }
+  result.path_done = tau;
+  result.final_energy = state.shell;
+  result.active_tets = static_cast<int>(state.active_tets.size());
+  result.min_relative_volume = m.volume.min_relative_volume(X);
+  result.active_contacts = m.contact ? m.contact->active_pairs() : 0;
+  result.seconds = seconds_since(t0);
+  return result;
+}
+
+} // namespace gshell

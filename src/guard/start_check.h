@@ -1,0 +1,40 @@
+#pragma once
+// Exact validity checks for the guarded start's rounds, by the certificate's predicates: the first
+// round certifies the whole shell (certify_shell); later ones test only the tets and boundary
+// triangle pairs that touch the vertices moved since (pairs and tets among unmoved vertices were
+// decided already), so a round costs little more than its moved vertices.
+#include <gshell/quality/shell_boundary.h>
+
+#include <Eigen/Core>
+#include <utility>
+#include <vector>
+
+namespace gshell::detail {
+
+struct StartViolations {
+  std::vector<int> inverted_tets;                 ///< rows of T, not skipped
+  std::vector<std::pair<int, int>> intersections; ///< boundary rows a < b, neither excluded, not both base
+};
+
+class StartChecker {
+public:
+  /// Over base faces F (n base vertices); skip / excluded: one flag per tet of build_prism_tets /
+  /// boundary row, or empty.
+  StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets, std::vector<char> excluded_triangles);
+
+  /// Violations of the shell (base, top). With `moved` (one flag per top vertex), only tets and
+  /// pairs with a moved top vertex are tested.
+  StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                        const std::vector<char>* moved = nullptr) const;
+
+  const ShellBoundary& boundary() const { return boundary_; }
+  const Eigen::MatrixXi& tets() const { return T_; }
+
+private:
+  Eigen::MatrixXi F_, T_;
+  int n_;
+  ShellBoundary boundary_;
+  std::vector<char> skip_, excluded_;
+};
+
+} // namespace gshell::detail

@@ -1,0 +1,117 @@
+#include <gshell/guard/tet_step_bound.h>
+
+#include <gshell/error.h>
+
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace gshell {
+
+namespace {
+
+double det3(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) { return a.dot(b.cross(c)); }
+
+double horner(const std::array<double, 4>& a, double c0, double s) { return ((a[3] * s + a[2]) * s + a[1]) * s + c0; }
+
+} // namespace
+
+std::array<double, 4> tet_volume_cubic(const Eigen::Vector3d x[4], const Eigen::Vector3d d[4]) {
+  const Eigen::Vector3d e1 = x[1] - x[0], e2 = x[2] - x[0], e3 = x[3] - x[0];
+  const Eigen::Vector3d f1 = d[1] - d[0], f2 = d[2] - d[0], f3 = d[3] - d[0];
+  return {det3(e1, e2, e3), det3(f1, e2, e3) + det3(e1, f2, e3) + det3(e1, e2, f3),
+          det3(e1, f2, f3) + det3(f1, e2, f3) + det3(f1, f2, e3), det3(f1, f2, f3)};
+}
+
+double cubic_step_bound(const std::array<double, 4>& a, double keep, double max_step) {
+  // g(s) = p(s) - keep p(0), g(0) > 0: find its first root in (0, max_step].
+  const double c0 = (1 - keep) * a[0];
+  if (!(c0 > 0) || !(max_step > 0)) return 0;
+  // Split [0, max_step] at the critical points of g (roots of 3 a3 s^2 + 2 a2 s + a1) into pieces
+  // where g is monotone; the first piece whose right end has g <= 0 holds the first root.
+  double cuts[3];
+  int ncuts = 0;
+  const double qa = 3 * a[3], qb = 2 * a[2], qc = a[1];
+  if (qa != 0) {
+    const double disc = qb * qb - 4 * qa * qc;
+    if (disc >= 0) {
+      // The numerically stable pair of roots (no cancellation between -qb and the square root).
+      const double q = -0.5 * (qb + std::copysign(std::sqrt(disc), qb));
+      if (q != 0) {
+        cuts[ncuts++] = q / qa;
+        cuts[ncuts++] = qc / q;
+      } else {
+        cuts[ncuts++] = 0;
+      }
+    }
+  } else if (qb != 0) {
+    cuts[ncuts++] = -qc / qb;
+  }
+  std::sort(cuts, cuts + ncuts);
+  double lo = 0;
+  for (int i = 0; i <= ncuts; ++i) {
+    const double hi = i < ncuts ? cuts[i] : max_step;
+    if (!(hi > lo)) continue;
+    const double right = std::min(hi, max_step);
+    if (horner(a, c0, right) <= 0) {
+      // g(lo) > 0 >= g(right), g monotone in between: bisect, keeping g(lo) > 0.
+      double l = lo, r = right;
+      for (int it = 0; it < 200 && r - l > 1e-15 * r; ++it) {
+        const double mid = 0.5 * (l + r);
+        if (!(mid > l && mid < r)) break;
+        if (horner(a, c0, mid) > 0)
+          l = mid;
+        else
+          r = mid;
+      }
+      return l;
+    }
+    lo = right;
+    if (lo >= max_step) break;
+  }
+  return max_step;
+}
+
+TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
+                            double keep_fraction, double max_step, const std::vector<char>* skip) {
+  const int K = static_cast<int>(T.rows());
+  // One pass over T is cheap next to the cubic roots per tet, and a bad id would read past X or D.
+  if (X.cols() != 3 || D.rows() != X.rows() || D.cols() != 3)
+    throw InputError("tet_step_bound: X and D must both be N x 3");
+  if (K > 0 && (T.cols() != 4 || T.minCoeff() < 0 || T.maxCoeff() >= X.rows()))
+    throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
+  if (skip && static_cast<int>(skip->size()) != K) throw InputError("tet_step_bound: skip needs one flag per tet");
+  TetStepBound init;
+  init.step = max_step;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, K, 4096), init,
+      [&](const tbb::blocked_range<int>& r, TetStepBound best) {
+        Eigen::Vector3d x[4], d[4];
+        for (int t = r.begin(); t < r.end(); ++t) {
+          if (skip && (*skip)[t]) continue;
+          bool moves = false;
+          for (int j = 0; j < 4; ++j) {
+            x[j] = X.row(T(t, j)).transpose();
+            d[j] = D.row(T(t, j)).transpose();
+            moves = moves || d[j] != d[0];
+          }
+          if (!moves) continue; // a translation keeps the volume
+          const std::array<double, 4> a = tet_volume_cubic(x, d);
+          if (!(a[0] > 0)) continue;
+          const double s = cubic_step_bound(a, keep_fraction, best.step);
+          if (s < best.step) {
+            best.step = s;
+            best.tet = t;
+          }
+        }
+        return best;
+      },
+      [](const TetStepBound& a, const TetStepBound& b) { return a.step <= b.step ? a : b; });
+}
+
+} // namespace gshell

@@ -1,0 +1,121 @@
+#include <gshell/guard/valid_start.h>
+
+#include <gshell/error.h>
+#include <gshell/shell/prism_tets.h>
+
+#include "guard/start_check.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+
+namespace gshell {
+
+namespace {
+
+// The paths of the header: per vertex, the wanted offset's unit u and length, the direction d, and
+// whether the straight line serves.
+struct Paths {
+  Eigen::MatrixXd u, d;
+  Eigen::VectorXd length;
+  std::vector<char> straight;
+
+  Eigen::RowVector3d offset(int i, double s) const {
+    if (straight[i] || s >= 1) return s * length[i] * u.row(i);
+    const Eigen::RowVector3d w = s * u.row(i) + (1 - s) * d.row(i);
+    const double norm = w.norm();
+    return s * length[i] * (norm > 1e-12 ? Eigen::RowVector3d(w / norm) : Eigen::RowVector3d(d.row(i)));
+  }
+};
+
+Paths make_paths(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
+                 const ExtrusionDirections& directions, const ValidStartOptions& options) {
+  const int n = static_cast<int>(V.rows());
+  Paths p;
+  p.d = directions.direction;
+  p.u = P - V;
+  p.length = p.u.rowwise().norm();
+  p.straight.assign(n, 1);
+  for (int i = 0; i < n; ++i) {
+    if (p.length[i] > 0) {
+      p.u.row(i) /= p.length[i];
+    } else { // nowhere to go: leave along the extrusion direction
+      p.u.row(i) = p.d.row(i);
+      p.length[i] = options.fallback_length;
+    }
+  }
+  // The smallest cosine between each u_i and the normals of the faces around vertex i.
+  Eigen::VectorXd margin = Eigen::VectorXd::Constant(n, 2.0);
+  for (int f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    const Eigen::Vector3d x = (b - a).cross(c - a);
+    if (!(x.norm() > 0)) continue;
+    const Eigen::Vector3d normal = x.normalized();
+    for (int k = 0; k < 3; ++k) margin[F(f, k)] = std::min(margin[F(f, k)], p.u.row(F(f, k)).dot(normal));
+  }
+  for (int i = 0; i < n; ++i) p.straight[i] = margin[i] >= options.straight_margin;
+  return p;
+}
+
+} // namespace
+
+ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
+                       const ExtrusionDirections& directions,
+                       const std::vector<char>& skip_tets, const std::vector<char>& excluded_triangles,
+                       const ValidStartOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int n = static_cast<int>(V.rows());
+  if (P.rows() != n || P.cols() != 3 || directions.direction.rows() != n)
+    throw InputError("valid_start: expected one wanted top vertex and one direction per base vertex");
+  if (!(options.thinning > 0 && options.thinning < 1)) throw InputError("valid_start: thinning must be in (0, 1)");
+  if (!(options.fallback_length > 0)) throw InputError("valid_start: fallback_length must be positive");
+  const Paths paths = make_paths(V, F, P, directions, options);
+  const detail::StartChecker checker(F, n, skip_tets, excluded_triangles);
+  const Eigen::MatrixXi& T = checker.tets();
+  const ShellBoundary& boundary = checker.boundary();
+
+  ValidStart s;
+  s.scale = Eigen::VectorXd::Ones(n);
+  std::vector<char> thin(n), moved(n, 0);
+  for (s.rounds = 1;; ++s.rounds) {
+    if (s.rounds == 1)
+      s.top = P;
+    else
+      for (int i = 0; i < n; ++i)
+        if (moved[i]) s.top.row(i) = V.row(i) + paths.offset(i, s.scale[i]);
+    // The first round checks everything, later ones what the last thinning moved.
+    const detail::StartViolations found = checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
+    s.inverted_tets = found.inverted_tets;
+    s.intersections = found.intersections;
+    std::fill(thin.begin(), thin.end(), 0);
+    for (int t : found.inverted_tets)
+      for (int j = 0; j < 4; ++j)
+        if (T(t, j) >= n) thin[T(t, j) - n] = 1;
+    for (const auto& [a, b] : found.intersections)
+      for (int row : {a, b})
+        for (int k = 0; k < 3; ++k)
+          if (boundary.F(row, k) >= n) thin[boundary.F(row, k) - n] = 1;
+    if ((s.inverted_tets.empty() && s.intersections.empty()) || s.rounds >= options.max_rounds) break;
+    const Eigen::VectorXd before = s.scale;
+    for (int i = 0; i < n; ++i)
+      if (thin[i]) s.scale[i] *= options.thinning;
+    // Thickness steps between neighbours shear the prisms between them into new violations: keep
+    // s_j <= spread * s_i along every edge, so a pulled-in spot slopes into its surroundings.
+    if (options.spread > 1)
+      for (bool changed = true; changed;) {
+        changed = false;
+        for (int f = 0; f < F.rows(); ++f)
+          for (int k = 0; k < 3; ++k) {
+            const int i = F(f, k), j = F(f, (k + 1) % 3);
+            if (s.scale[j] > options.spread * s.scale[i]) { s.scale[j] = options.spread * s.scale[i]; changed = true; }
+            if (s.scale[i] > options.spread * s.scale[j]) { s.scale[i] = options.spread * s.scale[j]; changed = true; }
+          }
+      }
+    for (int i = 0; i < n; ++i) moved[i] = s.scale[i] != before[i];
+  }
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
+}
+
+} // namespace gshell

@@ -1,0 +1,236 @@
+// Valid deformation frames (issue 14): every frame of a guarded ShellDeformer is certified valid
+// (exact certificate: no inverted tet, no top/top, top/base or wall intersection), through bends
+// to 150 degrees, a single far jump (sub-steps) and a fold that presses the top into itself; and
+// allow_invalid reproduces the unguarded frames bit for bit; pose steps stay valid and stop at
+// contact when the handles force a collision.
+#include <gshell/deform/handles.h>
+#include <gshell/deform/shell_deformer.h>
+#include <gshell/run/drag_session.h>
+#include <gshell/run/pose_run.h>
+#include <gshell/deform/synthetic_motion.h>
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/quality/shell_certificate.h>
+#include <gshell/quality/stretch.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/solver/shell_solver.h>
+
+#include <gtest/gtest.h>
+#include "shell_fixtures.h"
+
+#include <cstdio>
+#include <numeric>
+#include <string>
+
+namespace gshell {
+namespace {
+
+using test::flat_plane_shell;
+using test::offset_shell;
+
+StretchStats offset_stretch(const ShellDeformer& deformer, const Eigen::MatrixXd& base) {
+  const Shell& rest = deformer.rest_shell();
+  Eigen::MatrixXd X(2 * base.rows(), 3);
+  X << base, offset_top(base, rest.F, rest.thickness);
+  return stretch_stats(deformer.rest_tets(), X);
+}
+
+// Certifies the frame independently of the deformer's own report.
+void expect_valid_frame(const ShellDeformer& deformer, const FrameResult& r, const Eigen::MatrixXd& base) {
+  const ShellCertificate c = certify_shell(base, r.top, deformer.rest_shell().F);
+  EXPECT_EQ(c.inverted_tets, 0);
+  EXPECT_EQ(c.top_self_intersections, 0);
+  EXPECT_EQ(c.top_base_intersections, 0);
+  EXPECT_EQ(c.wall_intersections, 0);
+  EXPECT_TRUE(r.valid);
+  EXPECT_TRUE(r.certificate.valid());
+  EXPECT_EQ(r.certificate.inverted_tets, 0);
+  EXPECT_EQ((deformer.current().topRows(base.rows()) - base).cwiseAbs().maxCoeff(), 0.0); // the frame's base, exactly
+}
+
+// Bends a thick shell to 150 degrees in `frames` frames: all valid, stretch below re-extruding.
+void bend_to_150(const Shell& rest, int frames, double band, int* unguarded_invalid) {
+  const MotionFrame frame = motion_frame(rest.base);
+  ShellDeformer guarded(rest), unguarded(rest);
+  DeformOptions loose;
+  loose.allow_invalid = true;
+  *unguarded_invalid = 0;
+  for (int k = 1; k <= frames; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const Eigen::MatrixXd base = bend(rest.base, frame, 150.0 * ramp(k, frames), band);
+    const FrameResult r = guarded.solve(base);
+    expect_valid_frame(guarded, r, base);
+    const StretchStats offset = offset_stretch(guarded, base);
+    EXPECT_LT(r.stretch.volume_mean, offset.volume_mean);
+    *unguarded_invalid += unguarded.solve(base, loose).certificate.valid() ? 0 : 1;
+  }
+}
+
+TEST(DeformGuard, PlaneBentTo150DegreesStaysValidAndStretchesLessThanOffset) {
+  int unguarded_invalid = 0;
+  bend_to_150(flat_plane_shell(16, 0.2), 6, 0.3, &unguarded_invalid);
+  // The case is hard enough: the paper's frames break validity on their own.
+  EXPECT_GT(unguarded_invalid, 0);
+}
+
+TEST(DeformGuard, CylinderBentTo150DegreesStaysValidAndStretchesLessThanOffset) {
+  int unguarded_invalid = 0;
+  bend_to_150(offset_shell(make_cylinder(16, 0.25, 3.0), 0.15), 6, 0.4, &unguarded_invalid);
+}
+
+TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  ShellDeformer deformer(rest);
+  const Eigen::MatrixXd base = bend(rest.base, motion_frame(rest.base), 150.0, 0.3);
+  const FrameResult r = deformer.solve(base);
+  expect_valid_frame(deformer, r, base);
+  EXPECT_EQ(r.method, FrameMethod::Guarded);
+  EXPECT_GT(r.substeps, 1);
+}
+
+TEST(DeformGuard, FoldingAPlaneNearlyShutThinsTheTopAndKeepsItClean) {
+  // Folded by 170 degrees in a band whose arc radius (0.19) is below the thickness (0.2): the top
+  // on the concave side must thin, and the two halves' tops come close to each other.
+  const double eta = 0.2;
+  const Shell rest = flat_plane_shell(16, eta);
+  const MotionFrame frame = motion_frame(rest.base);
+  ShellDeformer deformer(rest), unguarded(rest);
+  DeformOptions loose;
+  loose.allow_invalid = true;
+  const int frames = 7;
+  int unguarded_invalid = 0;
+  for (int k = 1; k <= frames; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const Eigen::MatrixXd base = bend(rest.base, frame, 170.0 * ramp(k, frames), 0.3);
+    const FrameResult r = deformer.solve(base);
+    expect_valid_frame(deformer, r, base);
+    EXPECT_EQ(r.certificate.base_self_intersections, 0);
+    if (k == frames) EXPECT_GT(r.thinned_vertices, 20);
+    unguarded_invalid += unguarded.solve(base, loose).certificate.valid() ? 0 : 1;
+  }
+  EXPECT_GT(unguarded_invalid, 0);
+}
+
+TEST(DeformGuard, AllowInvalidReproducesTheUnguardedFramesBitForBit) {
+  // The unguarded frame rebuilt by hand: the rotated-offset warm start, then the paper's solve.
+  const Shell rest = flat_plane_shell(12, 0.2);
+  const int n = rest.num_base_vertices();
+  const MotionFrame frame = motion_frame(rest.base);
+  ShellDeformer deformer(rest);
+  std::vector<int> base_ids(n);
+  std::iota(base_ids.begin(), base_ids.end(), 0);
+  const ShellSolver solver(deformation_rest_tets(rest), 2 * n, base_ids);
+  const VertexRings rings = vertex_rings(rest.F, n);
+  DeformOptions options;
+  options.allow_invalid = true;
+  options.warm_start = WarmStart::RotatedOffset;
+  SolveOptions solve;
+  solve.max_iterations = options.max_iterations;
+  solve.tolerance = options.tolerance;
+  Eigen::MatrixXd X = rest.vertices();
+  int invalid = 0;
+  for (int k = 1; k <= 4; ++k) {
+    const Eigen::MatrixXd base = bend(rest.base, frame, 150.0 * ramp(k, 4), 0.15);
+    Eigen::MatrixXd Y(2 * n, 3);
+    Y << base, rotated_offset_top(X.topRows(n), X.bottomRows(n), base, rest.F, rings);
+    solver.solve(Y, solve);
+    const FrameResult r = deformer.solve(base, options);
+    EXPECT_EQ(r.method, FrameMethod::Unguarded);
+    EXPECT_EQ(r.substeps, 0);
+    EXPECT_TRUE((r.top.array() == Y.bottomRows(n).array()).all()) << "frame " << k;
+    invalid += r.valid ? 0 : 1;
+    X = Y;
+  }
+  EXPECT_GT(invalid, 0); // the guard would have changed these frames
+}
+
+// Two handles at opposite sides of the bowl's rim driven through each other.
+HandleSet squeeze_handles(const Shell& rest) {
+  const int n = rest.num_base_vertices();
+  HandleSet handles;
+  for (int side : {1, -1}) {
+    Handle h;
+    for (int v = 0; v < 2 * n; ++v) {
+      const Eigen::RowVector3d p = v < n ? rest.base.row(v) : rest.top.row(v - n);
+      if (side * p.x() > 0.8) h.vertices.push_back(v);
+    }
+    h.translate = Eigen::Vector3d(-side * 2.4, 0, 0);
+    handles.handles.push_back(h);
+  }
+  return handles;
+}
+
+// A bowl squeezed shut: two handles at opposite sides of the rim driven through each other.
+PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
+  const Shell rest = offset_shell(make_bowl(8), 0.08);
+  const HandleSet handles = squeeze_handles(rest);
+  PoseOptions options;
+  options.solver = kind;
+  options.steps = 4;
+  options.allow_invalid = allow_invalid;
+  options.solve.max_iterations = 100;
+  options.solve.tolerance = 1e-5;
+  return run_pose(rest, handles, options);
+}
+
+// The viewer's mode: drag events are unguarded previews, the settle makes the state valid again.
+TEST(PoseGuard, UnguardedDragPreviewsSettleIntoAValidState) {
+  const Shell rest = offset_shell(make_bowl(8), 0.08);
+  const int n = rest.num_base_vertices();
+  const HandleSet handles = squeeze_handles(rest);
+  PoseOptions options;
+  options.guard_drag_steps = false;
+  options.solve.max_iterations = 100;
+  options.solve.tolerance = 1e-5;
+  DragSession session(rest, options);
+  session.set_handles(handles);
+  bool preview_invalid = false;
+  for (double fraction : {0.25, 0.5, 0.75, 1.0}) {
+    const PoseStepReport step = session.drag(fraction);
+    EXPECT_FALSE(step.guarded);
+    const Eigen::MatrixXd& X = session.vertices();
+    const ShellCertificate c = certify_shell(X.topRows(n), X.bottomRows(n), rest.F);
+    preview_invalid = preview_invalid || !c.valid() || c.base_self_intersections > 0;
+  }
+  EXPECT_TRUE(preview_invalid); // the squeeze passes the previews through themselves
+  const PoseStepReport settled = session.settle();
+  EXPECT_TRUE(settled.guarded);
+  EXPECT_TRUE(settled.valid);
+  const Eigen::MatrixXd& X = session.vertices();
+  const ShellCertificate c = certify_shell(X.topRows(n), X.bottomRows(n), rest.F);
+  EXPECT_TRUE(c.valid());
+  EXPECT_EQ(c.base_self_intersections, 0);
+}
+
+void expect_squeeze_stops_at_contact(PoseSolverKind kind) {
+  const PoseResult guarded = squeeze_bowl(kind, false);
+  bool blocked = false;
+  for (const PoseStepReport& s : guarded.steps) {
+    SCOPED_TRACE("step at fraction " + std::to_string(s.fraction));
+    EXPECT_TRUE(s.guarded);
+    EXPECT_TRUE(s.valid);
+    EXPECT_EQ(s.inverted_tets, 0);
+    EXPECT_EQ(s.intersections, 0);
+    blocked = blocked || s.blocked_by_contact;
+  }
+  EXPECT_TRUE(blocked);
+  const int n = static_cast<int>(guarded.X.rows()) / 2;
+  const Eigen::MatrixXi F = offset_shell(make_bowl(8), 0.08).F;
+  const ShellCertificate c = certify_shell(guarded.X.topRows(n), guarded.X.bottomRows(n), F);
+  EXPECT_TRUE(c.valid());
+  EXPECT_EQ(c.base_self_intersections, 0);
+  // Unguarded, the same squeeze passes the shell through itself.
+  const PoseResult loose = squeeze_bowl(kind, true);
+  const ShellCertificate l = certify_shell(loose.X.topRows(n), loose.X.bottomRows(n), F);
+  EXPECT_FALSE(l.valid() && l.base_self_intersections == 0);
+}
+
+TEST(PoseGuard, SqueezingABowlShutStopsAtContactValidSingleSolver) {
+  expect_squeeze_stops_at_contact(PoseSolverKind::Single);
+}
+
+TEST(PoseGuard, SqueezingABowlShutStopsAtContactValidHierarchicalSolver) {
+  expect_squeeze_stops_at_contact(PoseSolverKind::Hierarchical);
+}
+
+} // namespace
+} // namespace gshell
