@@ -256,7 +256,7 @@ int run_table(const std::vector<std::string>& args) {
     if (!only_cases.empty() && std::find(only_cases.begin(), only_cases.end(), label) == only_cases.end()) continue;
     const TriMesh mesh = bowl ? make_bowl() : load_mesh(tc.model);
     const Shell shell = make_shell(mesh, tc.ratio);
-    const HandleSet handles = bowl ? read_handles(examples + "/" + tc.name + ".json", shell) : make_handles(shell, false);
+    const HandleSet handles = bowl ? read_handles(examples + "/" + tc.name + ".json", shell) : bench::pull_handles(shell, false);
     std::string key = label;
     std::replace(key.begin(), key.end(), ' ', '_');
     key += "_" + std::to_string(2 * shell.num_base_vertices());
