@@ -10,9 +10,10 @@
 //
 //   bench_pose --table [--runs R] [--cap N] [--cache-dir DIR] [--case LABEL]... [--config SPEC]...
 //                      [--only-extra] [--model PATH]... [--bunny PATH] [--examples DIR]
+//                      [--model-cap N] [--model-reference-iterations N]
 //
 // --table: one table of time to 1.001 E* from rest for single, single+Anderson, single+Anderson+
-// path search and hierarchical (and any --config) on the bowl at thickness ratios 0.02 and 0.05
+// path search, hierarchical and hierarchical with pause_unpaid_passes (and any --config) on the bowl at thickness ratios 0.02 and 0.05
 // under the pulls examples/bowl_{pull,twist,half_pull,squeeze_soft}.json, and on bunny00 (and any
 // --model) with the generic pull; prints shell sizes, iterations / median seconds, speed-ups and
 // the coarse passes kept of those run (ms per pass / per full iteration / per path search).
@@ -99,7 +100,7 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
   }
 }
 
-/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4,path=1"
+/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4,path=1,blend=0,pause=0"
 /// (any subset; the rest keep their defaults).
 Config parse_config(const std::string& spec) {
   Config c{"hierarchical " + spec, PoseSolverKind::Hierarchical, {}};
@@ -128,6 +129,7 @@ Config parse_config(const std::string& spec) {
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else if (key == "path") o.path_extrapolation = value != 0;
     else if (key == "blend") o.blend_width = value;
+    else if (key == "pause") o.pause_unpaid_passes = value != 0;
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
   return c;
@@ -181,6 +183,7 @@ struct TableCell {
 
 int run_table(const std::vector<std::string>& args) {
   int runs = 3, cap = 3000, reference_iterations = 6000;
+  int model_cap = -1, model_reference_iterations = -1; // for the mesh cases (--model, bunny); -1: as the bowl's
   std::string examples = "examples", bunny = "models/bunny00.off", cache_dir;
   std::vector<std::string> only_cases;
   std::vector<Config> extra;
@@ -192,6 +195,8 @@ int run_table(const std::vector<std::string>& args) {
     if (args[i] == "--runs") runs = std::max(1, std::atoi(next().c_str()));
     else if (args[i] == "--cap") cap = std::atoi(next().c_str());
     else if (args[i] == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
+    else if (args[i] == "--model-cap") model_cap = std::atoi(next().c_str());
+    else if (args[i] == "--model-reference-iterations") model_reference_iterations = std::atoi(next().c_str());
     else if (args[i] == "--examples") examples = next();
     else if (args[i] == "--bunny") bunny = next();
     else if (args[i] == "--cache-dir") cache_dir = next();
@@ -223,12 +228,17 @@ int run_table(const std::vector<std::string>& args) {
     o.path_extrapolation = true;
     configs.push_back({"single+AA+path", PoseSolverKind::Hierarchical, o});
     configs.push_back({"hierarchical", PoseSolverKind::Hierarchical, HierarchyOptions{}});
+    HierarchyOptions pause;
+    pause.pause_unpaid_passes = true;
+    configs.push_back({"hierarchical+pause", PoseSolverKind::Hierarchical, pause});
   }
   for (Config c : extra) configs.push_back(c);
   const size_t first_ratio = only_extra ? configs.size() : 3; // configurations compared with the first three
 
   std::printf("bench_pose --table: time to E <= 1.001 E* from rest (one big move), median of %d runs; "
-              "E* = single level + Anderson(5) to relative change < 1e-10; cap %d iterations\n", runs, cap);
+              "E* = single level + Anderson(5) to relative change < 1e-10; cap %d iterations (mesh cases: cap %d, "
+              "E* after at most %d iterations)\n", runs, cap, model_cap > 0 ? model_cap : cap,
+              model_reference_iterations > 0 ? model_reference_iterations : reference_iterations);
   std::printf("threads: TBB default; load at start: ");
   if (std::ifstream load("/proc/loadavg"); load) {
     std::string l1, l5, l15;
@@ -260,7 +270,10 @@ int run_table(const std::vector<std::string>& args) {
     std::string key = label;
     std::replace(key.begin(), key.end(), ' ', '_');
     key += "_" + std::to_string(2 * shell.num_base_vertices());
-    const double Estar = table_reference(shell, handles, key, cache_dir, reference_iterations);
+    const int case_cap = !bowl && model_cap > 0 ? model_cap : cap;
+    const double Estar = table_reference(shell, handles, key, cache_dir,
+                                         !bowl && model_reference_iterations > 0 ? model_reference_iterations
+                                                                                 : reference_iterations);
     Row row{label, 2 * shell.num_base_vertices(), Estar, {}};
     for (const Config& c : configs) {
       TableCell cell;
@@ -268,7 +281,7 @@ int run_table(const std::vector<std::string>& args) {
       for (int r = 0; r < runs; ++r) {
         PoseSolver solver(shell, handles, c.kind, c.options);
         setups.push_back(solver.setup_seconds());
-        const Reach reach = time_to_goal(solver, solver.rest_vertices(), 1.0, 1.001 * Estar, cap);
+        const Reach reach = time_to_goal(solver, solver.rest_vertices(), 1.0, 1.001 * Estar, case_cap);
         if (r == 0) {
           cell.reach = reach;
           if (solver.hierarchical()) cell.counters = solver.hierarchical()->counters();

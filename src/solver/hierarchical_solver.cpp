@@ -398,7 +398,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
       s.counters.coarse_seconds += seconds_since(coarse_start);
       // A pass that lowers the energy less than one outer iteration's full iterations did costs
       // more than it gives (it also restarts Anderson): the levels pause as after a rejection.
-      const bool paid = kept && previous - state.step.energy >= full_gain;
+      const bool paid = kept && (!s.options.pause_unpaid_passes || previous - state.step.energy >= full_gain);
       if (kept) {
         ++s.counters.coarse_accepted;
         s.counters.coarse_decrease += previous - state.step.energy;
@@ -421,7 +421,9 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     }
     s.counters.full_seconds += seconds_since(full_start);
     s.counters.full_decrease += before_full - state.step.energy;
-    full_gain = before_full - state.step.energy;
+    // The first outer iteration takes up the jump of the targets from the start state: its gain says
+    // nothing about the rate the full level goes on at.
+    full_gain = it > 1 ? before_full - state.step.energy : 0.0;
     // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
     const double before_path = state.step.energy;
     const auto path_start = Clock::now();
