@@ -10,13 +10,15 @@
 //
 //   bench_pose --table [--runs R] [--cap N] [--cache-dir DIR] [--case LABEL]... [--config SPEC]...
 //                      [--only-extra] [--model PATH]... [--bunny PATH] [--examples DIR]
-//                      [--model-cap N] [--model-reference-iterations N]
+//                      [--model-cap N] [--model-reference-iterations N] [--explain-stalls]
 //
 // --table: one table of time to 1.001 E* from rest for single, single+Anderson, single+Anderson+
 // path search, hierarchical and hierarchical with pause_unpaid_passes (and any --config) on the bowl at thickness ratios 0.02 and 0.05
 // under the pulls examples/bowl_{pull,twist,half_pull,squeeze_soft}.json, and on bunny00 (and any
 // --model) with the generic pull; prints shell sizes, iterations / median seconds, speed-ups and
 // the coarse passes kept of those run (ms per pass / per full iteration / per path search).
+// --explain-stalls: for every hierarchical run that misses 1.001 E*, continue single-level from
+// its state to convergence and print where that settles and how far it lies from the E* state.
 //
 // The reference is the single-level fixed point computed with Anderson acceleration (the same
 // minimum as plain local/global, reached much sooner), to relative change < 1e-10 or N
@@ -84,8 +86,15 @@ struct GoalReached {
 };
 
 /// Iterations and seconds (the solver's own clock) until E <= goal from X0, or the cap.
-Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fraction, double goal, int cap) {
+/// `final_state` (when given) receives the state the solve ended in.
+Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fraction, double goal, int cap,
+                   Eigen::MatrixXd* final_state = nullptr) {
   Eigen::MatrixXd X = X0;
+  struct Keep {
+    Eigen::MatrixXd* out;
+    const Eigen::MatrixXd& X;
+    ~Keep() { if (out) *out = X; }
+  } keep{final_state, X};
   SolveOptions so;
   so.max_iterations = cap;
   so.tolerance = 0;
@@ -144,6 +153,39 @@ struct TableCase {
   double ratio;         ///< thickness / bounding radius
 };
 
+/// Single level + Anderson(5) from X (from rest when `from_rest`) to relative change < 1e-10 or
+/// `iterations`: how the references are computed.
+SolveResult settle_single_level(const Shell& shell, const HandleSet& handles, Eigen::MatrixXd& X, int iterations,
+                                bool from_rest) {
+  HierarchyOptions o;
+  o.levels = 1;
+  o.anderson_history = 5;
+  o.path_extrapolation = false;
+  PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, o);
+  if (from_rest) X = reference.rest_vertices();
+  SolveOptions so;
+  so.max_iterations = iterations;
+  so.tolerance = 1e-10;
+  return reference.solve(X, 1.0, so);
+}
+
+/// Where a hierarchical run that did not reach 1.001 E* stopped: the single-level solver goes on
+/// from its state to convergence; if it stays above E*, the hierarchy found another stationary
+/// state of the same energy (not a flaw of its levels). Prints that energy and how far the state
+/// lies from the reference minimum (largest vertex distance, in shell thicknesses).
+void explain_stall(const Shell& shell, const HandleSet& handles, const std::string& label, double Estar,
+                   Eigen::MatrixXd X, int iterations) {
+  const double stalled = PoseSolver(shell, handles, PoseSolverKind::Single).energy(X, 1.0);
+  const SolveResult on = settle_single_level(shell, handles, X, iterations, false);
+  Eigen::MatrixXd Xstar;
+  settle_single_level(shell, handles, Xstar, iterations, true);
+  const double distance = (X - Xstar).rowwise().norm().maxCoeff() / shell.thickness;
+  std::printf("stall %s: hierarchical stopped at %.5f E*; single level + Anderson from there settles at %.5f E* after %d "
+              "iterations (%s); that state is up to %.2f shell thicknesses from the E* state\n",
+              label.c_str(), stalled / Estar, on.energy.back() / Estar, on.iterations,
+              on.converged ? "converged" : "cap", distance);
+}
+
 /// E* of a case: single level + Anderson(5) to relative change < 1e-10 (or `iterations`), kept in
 /// `cache_dir` (when given) under a name holding the case and the shell's size.
 double table_reference(const Shell& shell, const HandleSet& handles, const std::string& key, const std::string& cache_dir,
@@ -154,16 +196,8 @@ double table_reference(const Shell& shell, const HandleSet& handles, const std::
     double e = 0;
     if (in >> e && e > 0) return e;
   }
-  HierarchyOptions o;
-  o.levels = 1;
-  o.anderson_history = 5;
-  o.path_extrapolation = false;
-  PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, o);
-  Eigen::MatrixXd X = reference.rest_vertices();
-  SolveOptions so;
-  so.max_iterations = iterations;
-  so.tolerance = 1e-10;
-  const SolveResult r = reference.solve(X, 1.0, so);
+  Eigen::MatrixXd X;
+  const SolveResult r = settle_single_level(shell, handles, X, iterations, true);
   std::fprintf(stderr, "bench_pose: %s: E* = %.10g after %d reference iterations (%s)\n", key.c_str(), r.energy.back(),
                r.iterations, r.converged ? "converged" : "iteration cap");
   if (!path.empty()) {
@@ -188,6 +222,7 @@ int run_table(const std::vector<std::string>& args) {
   std::vector<std::string> only_cases;
   std::vector<Config> extra;
   bool only_extra = false; // development: only the --config columns, no speed-ups
+  bool explain_stalls = false;
   bool bowl_cases = true;
   std::vector<std::string> models; // more meshes with the generic pull, ratio 0.01
   for (size_t i = 0; i < args.size(); ++i) {
@@ -203,6 +238,7 @@ int run_table(const std::vector<std::string>& args) {
     else if (args[i] == "--case") only_cases.push_back(next());
     else if (args[i] == "--config") extra.push_back(parse_config(next()));
     else if (args[i] == "--only-extra") only_extra = true;
+    else if (args[i] == "--explain-stalls") explain_stalls = true;
     else if (args[i] == "--model") models.push_back(next());
     else if (args[i] == "--no-bowl") bowl_cases = false;
     else {
@@ -281,7 +317,10 @@ int run_table(const std::vector<std::string>& args) {
       for (int r = 0; r < runs; ++r) {
         PoseSolver solver(shell, handles, c.kind, c.options);
         setups.push_back(solver.setup_seconds());
-        const Reach reach = time_to_goal(solver, solver.rest_vertices(), 1.0, 1.001 * Estar, case_cap);
+        Eigen::MatrixXd final_state;
+        const Reach reach = time_to_goal(solver, solver.rest_vertices(), 1.0, 1.001 * Estar, case_cap, &final_state);
+        if (r == 0 && !reach.reached && solver.hierarchical() && explain_stalls)
+          explain_stall(shell, handles, label + ", " + c.name, Estar, final_state, reference_iterations);
         if (r == 0) {
           cell.reach = reach;
           if (solver.hierarchical()) cell.counters = solver.hierarchical()->counters();
