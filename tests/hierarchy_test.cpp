@@ -218,14 +218,17 @@ TEST(HierarchicalSolver, ReducedLevelsAreExactMembersOfTheirSubspaces) {
 
 TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
   Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
-  // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations.
-  for (int variant = 0; variant < 4; ++variant) {
+  // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations,
+  // 4: the defaults with pauses after passes that do not pay.
+  for (int variant = 0; variant < 5; ++variant) {
+    const bool defaults = variant == 2 || variant == 4;
     HierarchyOptions o;
     o.residual_correction = variant != 1;
-    o.anderson_history = variant == 2 ? 5 : 0;
-    o.level_anderson_history = variant == 2 ? 5 : 0;
-    o.coarse_period = variant == 2 ? HierarchyOptions{}.coarse_period : 1; // else a coarse pass every time
+    o.anderson_history = defaults ? 5 : 0;
+    o.level_anderson_history = defaults ? 5 : 0;
+    o.coarse_period = defaults ? HierarchyOptions{}.coarse_period : 1; // else a coarse pass every time
     o.cluster_rotations = variant != 3;
+    o.pause_unpaid_passes = variant == 4;
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
     Eigen::MatrixXd X;
     const auto r = run_from_rest(solver, p, X, 60);
@@ -303,17 +306,19 @@ TEST(HierarchicalSolver, EnergyNeverRisesAcrossAcceptedCoarseCorrections) {
   }
 }
 
-TEST(HierarchicalSolver, BlendedAndPiecewiseLevelsReachTheSingleLevelMinimum) {
+TEST(HierarchicalSolver, BlendedAndPiecewiseLevelsWithOrWithoutPausesReachTheSingleLevelMinimum) {
   const Shell shell = offset_shell(make_bowl(8), 0.08);
   const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
   const double single = converged_energy(shell, handles, PoseSolverKind::Single);
   EXPECT_GT(single, 0);
-  for (double width : {0.0, 1.0}) {
-    HierarchyOptions o;
-    o.blend_width = width;
-    EXPECT_NEAR(converged_energy(shell, handles, PoseSolverKind::Hierarchical, o), single, 1e-4 * single)
-        << "blend width " << width;
-  }
+  for (double width : {0.0, 1.0})
+    for (bool pause : {false, true}) {
+      HierarchyOptions o;
+      o.blend_width = width;
+      o.pause_unpaid_passes = pause;
+      EXPECT_NEAR(converged_energy(shell, handles, PoseSolverKind::Hierarchical, o), single, 1e-4 * single)
+          << "blend width " << width << ", pause " << pause;
+    }
 }
 
 TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {
