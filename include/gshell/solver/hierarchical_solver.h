@@ -106,9 +106,10 @@ struct HierarchyOptions {
   /// Treat an accepted coarse pass that lowered the energy less than the previous outer
   /// iteration's full iterations did (the first outer iteration, which takes up the targets' jump,
   /// excepted) like a rejected one: the reduced levels pause for 1, 2, 4, ... outer iterations.
-  /// Off by default: it rescues the thin bowl under a twist of its rim (every pass accepted, yet
-  /// stalled at 1.06 E* after 400 outer iterations without it; 1.001 E* in 140 with it) but costs
-  /// the bowl pulled by its rim 19 -> 23 outer iterations (bench_pose, docs/design.md).
+  /// Off by default: it costs the bowl pulled by its rim 19 -> 23 outer iterations, and on the thin
+  /// bowl twisted by its rim, where it reaches 1.001 E* and the default stops at 1.058 E*, that
+  /// stop is another local minimum (the single-level solver stays there), so the rule only picked a
+  /// different basin (bench_pose --table --explain-stalls, docs/design.md).
   bool pause_unpaid_passes = false;
   /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
   /// An extrapolated iterate is kept only if it lowers the energy.
