@@ -8,6 +8,18 @@
 //
 // --config runs an extra hierarchical configuration given as key=value pairs (see parse_config).
 //
+//   bench_pose --table [--runs R] [--cap N] [--cache-dir DIR] [--case LABEL]... [--config SPEC]...
+//                      [--only-extra] [--model PATH]... [--bunny PATH] [--examples DIR]
+//                      [--model-cap N] [--model-reference-iterations N] [--explain-stalls]
+//
+// --table: one table of time to 1.001 E* from rest for single, single+Anderson, single+Anderson+
+// path search, hierarchical and hierarchical with pause_unpaid_passes (and any --config) on the bowl at thickness ratios 0.02 and 0.05
+// under the pulls examples/bowl_{pull,twist,half_pull,squeeze_soft}.json, and on bunny00 (and any
+// --model) with the generic pull; prints shell sizes, iterations / median seconds, speed-ups and
+// the coarse passes kept of those run (ms per pass / per full iteration / per path search).
+// --explain-stalls: for every hierarchical run that misses 1.001 E*, continue single-level from
+// its state to convergence and print where that settles and how far it lies from the E* state.
+//
 // The reference is the single-level fixed point computed with Anderson acceleration (the same
 // minimum as plain local/global, reached much sooner), to relative change < 1e-10 or N
 // iterations; --reference-cache keeps it in a file between runs. --drag-every N times only every
@@ -74,8 +86,15 @@ struct GoalReached {
 };
 
 /// Iterations and seconds (the solver's own clock) until E <= goal from X0, or the cap.
-Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fraction, double goal, int cap) {
+/// `final_state` (when given) receives the state the solve ended in.
+Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fraction, double goal, int cap,
+                   Eigen::MatrixXd* final_state = nullptr) {
   Eigen::MatrixXd X = X0;
+  struct Keep {
+    Eigen::MatrixXd* out;
+    const Eigen::MatrixXd& X;
+    ~Keep() { if (out) *out = X; }
+  } keep{final_state, X};
   SolveOptions so;
   so.max_iterations = cap;
   so.tolerance = 0;
@@ -90,7 +109,7 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
   }
 }
 
-/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4,path=1"
+/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4,path=1,blend=0,pause=0"
 /// (any subset; the rest keep their defaults).
 Config parse_config(const std::string& spec) {
   Config c{"hierarchical " + spec, PoseSolverKind::Hierarchical, {}};
@@ -118,15 +137,250 @@ Config parse_config(const std::string& spec) {
     else if (key == "laa") o.level_anderson_history = static_cast<int>(value);
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else if (key == "path") o.path_extrapolation = value != 0;
+    else if (key == "blend") o.blend_width = value;
+    else if (key == "pause") o.pause_unpaid_passes = value != 0;
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
   return c;
+}
+
+
+// ---- --table: time to 1.001 E* on several pulls, thicknesses and models, one table -------------
+
+struct TableCase {
+  std::string name;     ///< pull name (a handle file in --examples, or "pull" = the built-in pull)
+  std::string model;    ///< "bowl" or a mesh path
+  double ratio;         ///< thickness / bounding radius
+};
+
+/// Single level + Anderson(5) from X (from rest when `from_rest`) to relative change < 1e-10 or
+/// `iterations`: how the references are computed.
+SolveResult settle_single_level(const Shell& shell, const HandleSet& handles, Eigen::MatrixXd& X, int iterations,
+                                bool from_rest) {
+  HierarchyOptions o;
+  o.levels = 1;
+  o.anderson_history = 5;
+  o.path_extrapolation = false;
+  PoseSolver reference(shell, handles, PoseSolverKind::Hierarchical, o);
+  if (from_rest) X = reference.rest_vertices();
+  SolveOptions so;
+  so.max_iterations = iterations;
+  so.tolerance = 1e-10;
+  return reference.solve(X, 1.0, so);
+}
+
+/// Where a hierarchical run that did not reach 1.001 E* stopped: the single-level solver goes on
+/// from its state to convergence; if it stays above E*, the hierarchy found another stationary
+/// state of the same energy (not a flaw of its levels). Prints that energy and how far the state
+/// lies from the reference minimum (largest vertex distance, in shell thicknesses).
+void explain_stall(const Shell& shell, const HandleSet& handles, const std::string& label, double Estar,
+                   Eigen::MatrixXd X, int iterations) {
+  const double stalled = PoseSolver(shell, handles, PoseSolverKind::Single).energy(X, 1.0);
+  const SolveResult on = settle_single_level(shell, handles, X, iterations, false);
+  Eigen::MatrixXd Xstar;
+  settle_single_level(shell, handles, Xstar, iterations, true);
+  const double distance = (X - Xstar).rowwise().norm().maxCoeff() / shell.thickness;
+  std::printf("stall %s: hierarchical stopped at %.5f E*; single level + Anderson from there settles at %.5f E* after %d "
+              "iterations (%s); that state is up to %.2f shell thicknesses from the E* state\n",
+              label.c_str(), stalled / Estar, on.energy.back() / Estar, on.iterations,
+              on.converged ? "converged" : "cap", distance);
+}
+
+/// E* of a case: single level + Anderson(5) to relative change < 1e-10 (or `iterations`), kept in
+/// `cache_dir` (when given) under a name holding the case and the shell's size.
+double table_reference(const Shell& shell, const HandleSet& handles, const std::string& key, const std::string& cache_dir,
+                       int iterations) {
+  const std::string path = cache_dir.empty() ? "" : cache_dir + "/" + key + ".ref";
+  if (!path.empty()) {
+    std::ifstream in(path);
+    double e = 0;
+    if (in >> e && e > 0) return e;
+  }
+  Eigen::MatrixXd X;
+  const SolveResult r = settle_single_level(shell, handles, X, iterations, true);
+  std::fprintf(stderr, "bench_pose: %s: E* = %.10g after %d reference iterations (%s)\n", key.c_str(), r.energy.back(),
+               r.iterations, r.converged ? "converged" : "iteration cap");
+  if (!path.empty()) {
+    std::ofstream out(path);
+    out.precision(17);
+    out << r.energy.back() << "\n";
+  }
+  return r.energy.back();
+}
+
+struct TableCell {
+  Reach reach;             ///< of the first run (iterations do not vary between runs)
+  double seconds = 0;      ///< median over the runs
+  double setup = 0;        ///< PoseSolver construction, median
+  HierarchyCounters counters; ///< hierarchical only: first run
+};
+
+int run_table(const std::vector<std::string>& args) {
+  int runs = 3, cap = 3000, reference_iterations = 6000;
+  int model_cap = -1, model_reference_iterations = -1; // for the mesh cases (--model, bunny); -1: as the bowl's
+  std::string examples = "examples", bunny = "models/bunny00.off", cache_dir;
+  std::vector<std::string> only_cases;
+  std::vector<Config> extra;
+  bool only_extra = false; // development: only the --config columns, no speed-ups
+  bool explain_stalls = false;
+  bool bowl_cases = true;
+  std::vector<std::string> models; // more meshes with the generic pull, ratio 0.01
+  for (size_t i = 0; i < args.size(); ++i) {
+    auto next = [&] { return i + 1 < args.size() ? args[++i] : std::string(); };
+    if (args[i] == "--runs") runs = std::max(1, std::atoi(next().c_str()));
+    else if (args[i] == "--cap") cap = std::atoi(next().c_str());
+    else if (args[i] == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
+    else if (args[i] == "--model-cap") model_cap = std::atoi(next().c_str());
+    else if (args[i] == "--model-reference-iterations") model_reference_iterations = std::atoi(next().c_str());
+    else if (args[i] == "--examples") examples = next();
+    else if (args[i] == "--bunny") bunny = next();
+    else if (args[i] == "--cache-dir") cache_dir = next();
+    else if (args[i] == "--case") only_cases.push_back(next());
+    else if (args[i] == "--config") extra.push_back(parse_config(next()));
+    else if (args[i] == "--only-extra") only_extra = true;
+    else if (args[i] == "--explain-stalls") explain_stalls = true;
+    else if (args[i] == "--model") models.push_back(next());
+    else if (args[i] == "--no-bowl") bowl_cases = false;
+    else {
+      std::fprintf(stderr, "bench_pose --table: unknown argument %s\n", args[i].c_str());
+      return 1;
+    }
+  }
+  std::vector<TableCase> cases;
+  for (double ratio : {0.02, 0.05})
+    for (const char* pull : {"bowl_pull", "bowl_twist", "bowl_half_pull", "bowl_squeeze_soft"})
+      if (bowl_cases) cases.push_back({pull, "bowl", ratio});
+  for (const std::string& m : models) cases.push_back({"pull", m, 0.01});
+  if (std::ifstream(bunny)) cases.push_back({"pull", bunny, 0.01});
+  else std::printf("(%s not found: bunny case skipped; scripts/fetch-models)\n", bunny.c_str());
+
+  std::vector<Config> configs;
+  if (!only_extra) {
+    configs.push_back({"single", PoseSolverKind::Single, {}});
+    HierarchyOptions o;
+    o.levels = 1;
+    o.path_extrapolation = false;
+    configs.push_back({"single+AA", PoseSolverKind::Hierarchical, o});
+    o.path_extrapolation = true;
+    configs.push_back({"single+AA+path", PoseSolverKind::Hierarchical, o});
+    configs.push_back({"hierarchical", PoseSolverKind::Hierarchical, HierarchyOptions{}});
+    HierarchyOptions pause;
+    pause.pause_unpaid_passes = true;
+    configs.push_back({"hierarchical+pause", PoseSolverKind::Hierarchical, pause});
+  }
+  for (Config c : extra) configs.push_back(c);
+  const size_t first_ratio = only_extra ? configs.size() : 3; // configurations compared with the first three
+
+  std::printf("bench_pose --table: time to E <= 1.001 E* from rest (one big move), median of %d runs; "
+              "E* = single level + Anderson(5) to relative change < 1e-10; cap %d iterations (mesh cases: cap %d, "
+              "E* after at most %d iterations)\n", runs, cap, model_cap > 0 ? model_cap : cap,
+              model_reference_iterations > 0 ? model_reference_iterations : reference_iterations);
+  std::printf("threads: TBB default; load at start: ");
+  if (std::ifstream load("/proc/loadavg"); load) {
+    std::string l1, l5, l15;
+    load >> l1 >> l5 >> l15;
+    std::printf("%s %s %s (1/5/15 min)\n", l1.c_str(), l5.c_str(), l15.c_str());
+  } else {
+    std::printf("unknown\n");
+  }
+
+  struct Row {
+    std::string label;
+    int vertices = 0;
+    double Estar = 0;
+    std::vector<TableCell> cells;
+  };
+  std::vector<Row> rows;
+  for (const TableCase& tc : cases) {
+    const bool bowl = tc.model == "bowl";
+    char ratio_text[32];
+    std::snprintf(ratio_text, sizeof ratio_text, "%.2f", tc.ratio);
+    std::string stem = tc.model;
+    stem = stem.substr(stem.find_last_of('/') + 1);
+    stem = stem.substr(0, stem.find_last_of('.'));
+    const std::string label = stem + " " + std::string(ratio_text) + " " + tc.name;
+    if (!only_cases.empty() && std::find(only_cases.begin(), only_cases.end(), label) == only_cases.end()) continue;
+    const TriMesh mesh = bowl ? make_bowl() : load_mesh(tc.model);
+    const Shell shell = make_shell(mesh, tc.ratio);
+    const HandleSet handles = bowl ? read_handles(examples + "/" + tc.name + ".json", shell) : bench::pull_handles(shell, false);
+    std::string key = label;
+    std::replace(key.begin(), key.end(), ' ', '_');
+    key += "_" + std::to_string(2 * shell.num_base_vertices());
+    const int case_cap = !bowl && model_cap > 0 ? model_cap : cap;
+    const double Estar = table_reference(shell, handles, key, cache_dir,
+                                         !bowl && model_reference_iterations > 0 ? model_reference_iterations
+                                                                                 : reference_iterations);
+    Row row{label, 2 * shell.num_base_vertices(), Estar, {}};
+    for (const Config& c : configs) {
+      TableCell cell;
+      std::vector<double> seconds, setups;
+      for (int r = 0; r < runs; ++r) {
+        PoseSolver solver(shell, handles, c.kind, c.options);
+        setups.push_back(solver.setup_seconds());
+        Eigen::MatrixXd final_state;
+        const Reach reach = time_to_goal(solver, solver.rest_vertices(), 1.0, 1.001 * Estar, case_cap, &final_state);
+        if (r == 0 && !reach.reached && solver.hierarchical() && explain_stalls)
+          explain_stall(shell, handles, label + ", " + c.name, Estar, final_state, reference_iterations);
+        if (r == 0) {
+          cell.reach = reach;
+          if (solver.hierarchical()) cell.counters = solver.hierarchical()->counters();
+        }
+        if (!reach.reached) break;
+        seconds.push_back(reach.seconds);
+      }
+      cell.seconds = median(seconds);
+      cell.setup = median(setups);
+      std::fprintf(stderr, "bench_pose: %s, %s: %d iterations%s, %.3f s\n", label.c_str(), c.name.c_str(),
+                   cell.reach.iterations, cell.reach.reached ? "" : " (cap)", cell.seconds);
+      row.cells.push_back(cell);
+    }
+    rows.push_back(row);
+  }
+
+  // One table: per case and configuration, iterations / median seconds; speed-ups of the last
+  // configurations over plain single and over single+AA+path.
+  std::printf("\n| case | shell vertices |");
+  for (const Config& c : configs) std::printf(" %s: it. / s |", c.name.c_str());
+  for (size_t k = first_ratio; k < configs.size(); ++k)
+    std::printf(" %s vs single / vs +AA+path |", configs[k].name.c_str());
+  std::printf(" coarse passes kept |");
+  std::printf("\n|---|---|");
+  for (size_t k = 0; k < configs.size(); ++k) std::printf("---|");
+  for (size_t k = first_ratio; k < configs.size(); ++k) std::printf("---|");
+  std::printf("---|\n");
+  for (const Row& row : rows) {
+    std::printf("| %s | %d |", row.label.c_str(), row.vertices);
+    for (const TableCell& cell : row.cells) {
+      if (cell.reach.reached) std::printf(" %d / %.3f |", cell.reach.iterations, cell.seconds);
+      else std::printf(" >%d (E = %.4f E*) |", cell.reach.iterations, cell.reach.energy / row.Estar);
+    }
+    for (size_t k = first_ratio; k < row.cells.size(); ++k) {
+      const TableCell& h = row.cells[k];
+      auto ratio = [&](const TableCell& base) {
+        return base.reach.reached && h.reach.reached ? base.seconds / h.seconds : std::numeric_limits<double>::quiet_NaN();
+      };
+      std::printf(" %.1fx / %.1fx |", ratio(row.cells[0]), ratio(row.cells[2]));
+    }
+    std::printf(" ");
+    for (const TableCell& cell : row.cells)
+      if (cell.counters.coarse_passes > 0)
+        std::printf("%d/%d (%.0f/%.0f/%.0f ms) ", cell.counters.coarse_accepted, cell.counters.coarse_passes,
+                    1e3 * cell.counters.coarse_seconds / cell.counters.coarse_passes,
+                    1e3 * cell.counters.full_seconds / std::max(1, cell.counters.full_iterations),
+                    1e3 * cell.counters.path_seconds / std::max(1, cell.counters.outer_iterations));
+    std::printf("|\n");
+  }
+  std::printf("\nsetup (s, median) of the hierarchical solver (tree, assembly, factorisations):");
+  for (const Row& row : rows) std::printf(" %s %.3f;", row.label.c_str(), row.cells.back().setup);
+  std::printf("\n");
+  return 0;
 }
 
 } // namespace
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  if (argc > 1 && std::string(argv[1]) == "--table") return run_table(std::vector<std::string>(argv + 2, argv + argc));
   std::string model = "bowl";
   int steps = 30, runs = 3, drag_runs = 1, reference_iterations = 3000, cap = 2000, drag_cap = 600, drag_every = 3;
   double ratio = 0.02;

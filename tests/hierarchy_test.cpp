@@ -9,6 +9,7 @@
 #include "shell_fixtures.h"
 #include <gshell/shell/prism_tets.h>
 #include <gshell/solver/cluster_tree.h>
+#include <gshell/solver/cluster_weights.h>
 #include <gshell/solver/hierarchical_solver.h>
 #include <gshell/solver/rest_tets.h>
 
@@ -72,6 +73,28 @@ HierarchicalSolver after_coarse_passes(const Problem& p, HierarchyOptions o, int
   so.max_iterations = iterations;
   solver.solve(X, p.targets, so);
   return solver;
+}
+
+/// `iterations` outer iterations from rest, without an early stop; X gets the result.
+HierarchicalSolveResult run_from_rest(HierarchicalSolver& solver, const Problem& p, Eigen::MatrixXd& X, int iterations) {
+  X = p.X;
+  SolveOptions so;
+  so.max_iterations = iterations;
+  so.tolerance = 0;
+  return solver.solve(X, p.targets, so);
+}
+
+/// Energy of the minimum a pose solver converges to from rest (relative change < 1e-12).
+double converged_energy(const Shell& shell, const HandleSet& handles, PoseSolverKind kind,
+                        const HierarchyOptions& options = {}) {
+  PoseSolver solver(shell, handles, kind, options);
+  Eigen::MatrixXd X = solver.rest_vertices();
+  SolveOptions so;
+  so.max_iterations = 20000;
+  so.tolerance = 1e-12;
+  const SolveResult r = solver.solve(X, 1.0, so);
+  EXPECT_TRUE(r.converged);
+  return solver.energy(X, 1.0);
 }
 
 void expect_partition(const ClusterTree& tree, int n) {
@@ -195,26 +218,107 @@ TEST(HierarchicalSolver, ReducedLevelsAreExactMembersOfTheirSubspaces) {
 
 TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
   Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
-  // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations.
-  for (int variant = 0; variant < 4; ++variant) {
+  // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations,
+  // 4: the defaults with pauses after passes that do not pay.
+  for (int variant = 0; variant < 5; ++variant) {
+    const bool defaults = variant == 2 || variant == 4;
     HierarchyOptions o;
     o.residual_correction = variant != 1;
-    o.anderson_history = variant == 2 ? 5 : 0;
-    o.level_anderson_history = variant == 2 ? 5 : 0;
-    o.coarse_period = variant == 2 ? HierarchyOptions{}.coarse_period : 1; // else a coarse pass every time
+    o.anderson_history = defaults ? 5 : 0;
+    o.level_anderson_history = defaults ? 5 : 0;
+    o.coarse_period = defaults ? HierarchyOptions{}.coarse_period : 1; // else a coarse pass every time
     o.cluster_rotations = variant != 3;
+    o.pause_unpaid_passes = variant == 4;
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
-    Eigen::MatrixXd X = p.X;
-    SolveOptions so;
-    so.max_iterations = 60;
-    so.tolerance = 0;
-    const auto r = solver.solve(X, p.targets, so);
+    Eigen::MatrixXd X;
+    const auto r = run_from_rest(solver, p, X, 60);
     ASSERT_GE(r.energy.size(), 2u);
     for (size_t k = 1; k < r.energy.size(); ++k)
       EXPECT_LE(r.energy[k], r.energy[k - 1]) << "variant " << variant << ", outer iteration " << k;
     EXPECT_LT(r.energy.back(), 0.5 * r.energy.front());
     EXPECT_NEAR(solver.energy(X, p.targets), r.energy.back(), 1e-12 * r.energy.back());
   }
+}
+
+TEST(ClusterWeights, BlendedWeightsAreAPartitionOfUnityThatReproducesAffineMotions) {
+  const Problem p = bowl_problem(12, {0.5, 0.1, 0.3});
+  const int n = p.shell.num_base_vertices();
+  ClusterTreeOptions to;
+  to.depth = 5;
+  const ClusterTree tree = build_cluster_tree(p.X, p.shell.F, to);
+  const int d = tree.num_depths() - 1;
+  // An arbitrary affine motion x = A u + b (not a rotation: stretch and shear included).
+  Eigen::Matrix3d A;
+  A << 1.3, 0.2, -0.4, 0.1, 0.7, 0.3, -0.2, 0.5, 1.1;
+  const Eigen::RowVector3d b(0.3, -1.2, 0.7);
+  const Eigen::MatrixXd expected = (p.X * A.transpose()).rowwise() + b;
+  for (double width : {0.0, 1.0, 2.0}) {
+    const ClusterWeights w = width > 0 ? blended_cluster_weights(p.X.topRows(n), p.shell.F, tree.cluster_of[d],
+                                                                 tree.num_clusters(d), width)
+                                       : piecewise_cluster_weights(tree.cluster_of[d], tree.num_clusters(d));
+    ASSERT_EQ(w.num_vertices(), n);
+    int blended_vertices = 0;
+    for (int i = 0; i < n; ++i) {
+      double sum = 0;
+      for (int e = w.start[i]; e < w.start[i + 1]; ++e) {
+        EXPECT_GT(w.weight[e], 0);
+        sum += w.weight[e];
+      }
+      EXPECT_NEAR(sum, 1.0, 1e-14) << "vertex " << i << ", width " << width;
+      EXPECT_GT(w.at(i, tree.cluster_of[d][i]), 0) << "a vertex always follows its own cluster";
+      blended_vertices += w.start[i + 1] - w.start[i] > 1;
+    }
+    if (width > 0) EXPECT_GT(blended_vertices, n / 10) << "width " << width << " blends almost nothing";
+    else EXPECT_EQ(blended_vertices, 0);
+    // Every cluster carries the same motion: M_j = A, t_j = A c_j + b (its centroid's image).
+    const Eigen::MatrixXd c = cluster_centroids(w, p.X);
+    Eigen::MatrixXd Z(4 * w.num_clusters, 3);
+    for (int j = 0; j < w.num_clusters; ++j) {
+      Z.block(4 * j, 0, 3, 3) = A.transpose();
+      Z.row(4 * j + 3) = c.row(j) * A.transpose() + b;
+    }
+    const Eigen::MatrixXd X = prolongation_matrix(w, p.X, c) * Z;
+    EXPECT_LT((X - expected).cwiseAbs().maxCoeff(), 1e-12) << "width " << width;
+  }
+}
+
+TEST(HierarchicalSolver, EnergyNeverRisesAcrossAcceptedCoarseCorrections) {
+  // Outer iterations of coarse passes alone (no full-level iterations, no path search): every
+  // change of the energy is a coarse correction, and the accepted ones lower it.
+  Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
+  for (double width : {0.0, 1.0}) {
+    HierarchyOptions o;
+    o.blend_width = width;
+    o.coarse_period = 1;
+    o.full_iterations = 0;
+    o.path_extrapolation = false;
+    HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+    Eigen::MatrixXd X;
+    const auto r = run_from_rest(solver, p, X, 30);
+    EXPECT_GT(r.counters.coarse_accepted, 3) << "width " << width;
+    int lowered = 0;
+    for (size_t k = 1; k < r.energy.size(); ++k) {
+      EXPECT_LE(r.energy[k], r.energy[k - 1]) << "width " << width << ", pass " << k;
+      lowered += r.energy[k] < r.energy[k - 1];
+    }
+    EXPECT_EQ(lowered, r.counters.coarse_accepted) << "width " << width;
+    EXPECT_NEAR(r.counters.coarse_decrease, r.energy.front() - r.energy.back(), 1e-12 * r.energy.front());
+  }
+}
+
+TEST(HierarchicalSolver, BlendedAndPiecewiseLevelsWithOrWithoutPausesReachTheSingleLevelMinimum) {
+  const Shell shell = offset_shell(make_bowl(8), 0.08);
+  const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
+  const double single = converged_energy(shell, handles, PoseSolverKind::Single);
+  EXPECT_GT(single, 0);
+  for (double width : {0.0, 1.0})
+    for (bool pause : {false, true}) {
+      HierarchyOptions o;
+      o.blend_width = width;
+      o.pause_unpaid_passes = pause;
+      EXPECT_NEAR(converged_energy(shell, handles, PoseSolverKind::Hierarchical, o), single, 1e-4 * single)
+          << "blend width " << width << ", pause " << pause;
+    }
 }
 
 TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {
@@ -283,18 +387,8 @@ TEST(HierarchicalSolver, StateCarriesOverBetweenSolves) {
 TEST(PoseSolvers, BothReachTheSameMinimumOnASmallCase) {
   const Shell shell = offset_shell(make_bowl(8), 0.08);
   const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
-  SolveOptions so;
-  so.max_iterations = 20000;
-  so.tolerance = 1e-12;
-  double energies[2];
-  int k = 0;
-  for (PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical}) {
-    PoseSolver solver(shell, handles, kind);
-    Eigen::MatrixXd X = solver.rest_vertices();
-    const SolveResult r = solver.solve(X, 1.0, so);
-    EXPECT_TRUE(r.converged);
-    energies[k++] = solver.energy(X, 1.0);
-  }
+  const double energies[2] = {converged_energy(shell, handles, PoseSolverKind::Single),
+                              converged_energy(shell, handles, PoseSolverKind::Hierarchical)};
   EXPECT_GT(energies[0], 0);
   EXPECT_NEAR(energies[1], energies[0], 1e-3 * energies[0]);
 }

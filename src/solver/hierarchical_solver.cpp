@@ -32,7 +32,7 @@ void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
     Eigen::Matrix3d D;
     for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest.T(t, k + 1)) - X.row(rest.T(t, 0))).transpose();
     if (((D * rest.Dm_inv[t]) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6)
-      throw InputError("HierarchicalSolver: rest shapes do not match rest_vertices at tet " +
+      throw InputError("HierarchicalSolver: rest (the rest shapes) do not match rest_vertices at tet " +
                                   std::to_string(t));
   }
 }
@@ -132,6 +132,7 @@ struct HierarchicalSolver::Impl {
   std::vector<LocalCache> reduced_cache;
   std::vector<Eigen::MatrixXd> tau;  // per reduced level: fine residual coupling of this outer iteration
   double factor_seconds = 0;
+  HierarchyCounters counters; // since construction
 
   int num_vertices() const { return static_cast<int>(rest_vertices_rows); }
   int rest_vertices_rows = 0;
@@ -177,9 +178,20 @@ struct HierarchicalSolver::Impl {
     }
   }
 
+  /// The one point where a coarse correction enters the full state: `trial` (hard rows set) is
+  /// kept only if it lowers the full energy, so the energy never rises across an accepted coarse
+  /// correction. Returns whether it was kept (then state holds trial and its local step).
+  bool accept_coarse_correction(FullState& state, Eigen::MatrixXd& trial, const Eigen::MatrixXd& targets) {
+    full->local_step(trial, state.candidate, soft_targets(targets));
+    if (!(state.candidate.energy < state.step.energy)) return false;
+    state.X.swap(trial);
+    std::swap(state.step, state.candidate);
+    return true;
+  }
+
   /// One coarse-to-fine pass over the reduced levels, ending in a candidate change of the full
   /// state, which is kept only if it lowers the full energy. Returns whether it was kept.
-  bool coarse_correction(FullState& state, const Eigen::MatrixXd& targets, HierarchicalSolveResult& result) {
+  bool coarse_correction(FullState& state, const Eigen::MatrixXd& targets) {
     const int L = static_cast<int>(reduced.size());
     const bool residual = options.residual_correction;
     std::vector<Eigen::MatrixXd> before(L);
@@ -205,7 +217,7 @@ struct HierarchicalSolver::Impl {
         ReducedLevel& level = reduced[l];
         const double objective = reduced_objective(l, targets, reduced_cache[l]);
         const Eigen::MatrixXd kept = level.parameters();
-        if (residual) level.apply_affine(reduced[l - 1], before[l - 1], parent_of(l));
+        if (residual) level.apply_change(reduced[l - 1], before[l - 1]);
         else level.apply(reduced[l - 1].changes_since(before[l - 1]), parent_of(l));
         LocalCache candidate;
         level.local(candidate);
@@ -213,7 +225,7 @@ struct HierarchicalSolver::Impl {
           std::swap(candidate, reduced_cache[l]);
         } else {
           level.parameters() = kept;
-          ++result.rejected_propagations;
+          ++counters.rejected_propagations;
         }
       }
       reduced_iterations(l, targets);
@@ -231,14 +243,7 @@ struct HierarchicalSolver::Impl {
         trial.row(v) = change[finest.cluster_of_vertex(v)].apply(state.X.row(v).transpose()).transpose();
     }
     set_hard_rows(trial, targets);
-    full->local_step(trial, state.candidate, soft_targets(targets));
-    if (!(state.candidate.energy < state.step.energy)) {
-      ++result.rejected_propagations;
-      return false;
-    }
-    state.X.swap(trial);
-    std::swap(state.step, state.candidate);
-    return true;
+    return accept_coarse_correction(state, trial, targets);
   }
 
   /// One local/global iteration of the full level (Anderson-accelerated when enabled). Returns
@@ -309,13 +314,15 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   s.constraints = constraints;
   s.options = options;
   s.rest_vertices_rows = static_cast<int>(rest_vertices.rows());
-  if (options.levels < 1) throw InputError("HierarchicalSolver: levels must be >= 1");
-  if (rest_vertices.rows() % 2 != 0) throw InputError("HierarchicalSolver: rest_vertices must have 2n rows");
+  if (options.levels < 1) throw InputError("HierarchicalSolver: options.levels must be >= 1 (got " + std::to_string(options.levels) + ")");
+  if (rest_vertices.rows() % 2 != 0) throw InputError("HierarchicalSolver: rest_vertices must have 2n rows (base then top), got " +
+                     std::to_string(rest_vertices.rows()));
   if (!constraints.hard && !(constraints.weight > 0))
-    throw InputError("HierarchicalSolver: soft constraints need a positive weight");
+    throw InputError("HierarchicalSolver: constraints.weight must be > 0 for soft constraints (got " +
+                     std::to_string(constraints.weight) + ")");
   // require_matching_rest and the cluster tree index rest_vertices by tet and face ids before
   // ShellSolver gets to check them.
-  if (rest_vertices.cols() != 3) throw InputError("HierarchicalSolver: rest_vertices must have 3 columns");
+  if (rest_vertices.cols() != 3) throw InputError("HierarchicalSolver: rest_vertices must have 3 columns, got " + std::to_string(rest_vertices.cols()));
   if (rest.T.size() > 0 && (rest.T.minCoeff() < 0 || rest.T.maxCoeff() >= rest_vertices.rows()))
     throw InputError("HierarchicalSolver: a tet of rest has a vertex id outside rest_vertices");
   if (F.size() > 0 && (F.cols() != 3 || F.minCoeff() < 0 || F.maxCoeff() >= rest_vertices.rows() / 2))
@@ -342,8 +349,13 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   for (int l = 0; l < reduced_levels; ++l) {
     const int d = first + l * split;
     s.depth_of_level.push_back(d);
-    s.reduced.emplace_back(s.rest, rest_vertices, s.tree.cluster_of[d], s.tree.num_clusters(d),
-                           L, constraints.vertices, weight, options.cluster_rotations);
+    const ClusterWeights weights =
+        options.blend_width > 0
+            ? blended_cluster_weights(rest_vertices.topRows(n_base), F, s.tree.cluster_of[d], s.tree.num_clusters(d),
+                                      options.blend_width)
+            : piecewise_cluster_weights(s.tree.cluster_of[d], s.tree.num_clusters(d));
+    s.reduced.emplace_back(s.rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
+                           options.cluster_rotations);
   }
   s.reduced_cache.resize(reduced_levels);
   s.tau.resize(reduced_levels);
@@ -359,38 +371,66 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   Impl& s = *impl_;
   const auto start = Clock::now();
   if (X.rows() != s.num_vertices() || X.cols() != 3)
-    throw InputError("HierarchicalSolver::solve: X must be 2n x 3");
+    throw InputError("HierarchicalSolver::solve: X must be " + std::to_string(s.num_vertices()) + " x 3, got " +
+                     std::to_string(X.rows()) + " x " + std::to_string(X.cols()));
   if (targets.rows() != static_cast<Eigen::Index>(s.constraints.vertices.size()) || targets.cols() != 3)
-    throw InputError("HierarchicalSolver::solve: one target row per constrained vertex");
+    throw InputError("HierarchicalSolver::solve: targets must be " + std::to_string(s.constraints.vertices.size()) +
+                     " x 3 (one row per constrained vertex), got " + std::to_string(targets.rows()) + " x " +
+                     std::to_string(targets.cols()));
 
   s.set_hard_rows(X, targets);
   FullState state{X, {}, {}, {}, {}, {}};
   s.full->local_step(X, state.step, s.soft_targets(targets));
 
   HierarchicalSolveResult result;
+  const HierarchyCounters counted_before = s.counters;
   result.energy.push_back(state.step.energy);
   AndersonHistory anderson(s.options.anderson_history);
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
+  double full_gain = 0;      // what the full iterations of the previous outer iteration lowered the energy by
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.step.energy;
     const int period = std::max(1, s.options.coarse_period);
     if (!s.reduced.empty() && it % period == 0 && skip-- <= 0) {
-      if (s.coarse_correction(state, targets, result)) {
-        backoff = 1;
+      const auto coarse_start = Clock::now();
+      ++s.counters.coarse_passes;
+      const bool kept = s.coarse_correction(state, targets);
+      s.counters.coarse_seconds += seconds_since(coarse_start);
+      // A pass that lowers the energy less than one outer iteration's full iterations did costs
+      // more than it gives (it also restarts Anderson): the levels pause as after a rejection.
+      const bool paid = kept && (!s.options.pause_unpaid_passes || previous - state.step.energy >= full_gain);
+      if (kept) {
+        ++s.counters.coarse_accepted;
+        s.counters.coarse_decrease += previous - state.step.energy;
         // The secant pairs recorded so far still describe the full level's fixed-point map; only
         // a pair spanning the coarse jump would not (measured: fewer outer iterations than clearing).
         anderson.restart();
+      }
+      if (paid) {
+        backoff = 1;
       } else {
         skip = backoff;
         backoff = std::min(2 * backoff, 16);
       }
     }
+    const double before_full = state.step.energy;
+    const auto full_start = Clock::now();
     for (int k = 0; k < s.options.full_iterations; ++k) {
-      ++result.full_iterations;
+      ++s.counters.full_iterations;
       if (!s.full_iteration(state, targets, anderson)) break;
     }
+    s.counters.full_seconds += seconds_since(full_start);
+    s.counters.full_decrease += before_full - state.step.energy;
+    // The first outer iteration takes up the jump of the targets from the start state: its gain says
+    // nothing about the rate the full level goes on at.
+    full_gain = it > 1 ? before_full - state.step.energy : 0.0;
     // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
+    const double before_path = state.step.energy;
+    const auto path_start = Clock::now();
     if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets)) anderson.restart();
+    s.counters.path_seconds += seconds_since(path_start);
+    s.counters.path_decrease += before_path - state.step.energy;
+    ++s.counters.outer_iterations;
     result.iterations = it;
     result.energy.push_back(state.step.energy);
     result.seconds = seconds_since(start);
@@ -401,6 +441,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     }
   }
   result.seconds = seconds_since(start);
+  result.counters = s.counters.since(counted_before);
   return result;
 }
 
@@ -418,6 +459,7 @@ const ClusterTree& HierarchicalSolver::tree() const { return impl_->tree; }
 int HierarchicalSolver::tree_depth(int level) const { return impl_->depth_of_level.at(level); }
 int HierarchicalSolver::num_clusters(int level) const { return impl_->reduced.at(level).num_clusters(); }
 Eigen::MatrixXd HierarchicalSolver::level_positions(int level) const { return impl_->reduced.at(level).positions(); }
+const ClusterWeights& HierarchicalSolver::level_weights(int level) const { return impl_->reduced.at(level).weights(); }
 const Eigen::MatrixXd& HierarchicalSolver::level_parameters(int level) const {
   return impl_->reduced.at(level).parameters();
 }
@@ -427,5 +469,22 @@ double HierarchicalSolver::level_energy(int level, const Eigen::MatrixXd& target
   return cache.elastic + impl_->reduced.at(level).springs(targets);
 }
 double HierarchicalSolver::factor_seconds() const { return impl_->factor_seconds; }
+const HierarchyCounters& HierarchicalSolver::counters() const { return impl_->counters; }
+
+HierarchyCounters HierarchyCounters::since(const HierarchyCounters& earlier) const {
+  HierarchyCounters d = *this;
+  d.outer_iterations -= earlier.outer_iterations;
+  d.full_iterations -= earlier.full_iterations;
+  d.coarse_passes -= earlier.coarse_passes;
+  d.coarse_accepted -= earlier.coarse_accepted;
+  d.rejected_propagations -= earlier.rejected_propagations;
+  d.coarse_decrease -= earlier.coarse_decrease;
+  d.full_decrease -= earlier.full_decrease;
+  d.path_decrease -= earlier.path_decrease;
+  d.coarse_seconds -= earlier.coarse_seconds;
+  d.full_seconds -= earlier.full_seconds;
+  d.path_seconds -= earlier.path_seconds;
+  return d;
+}
 
 } // namespace gshell

@@ -50,55 +50,44 @@ Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_verti
 
 // ---- reduced level ------------------------------------------------------------------------------
 
-ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices,
-                           const std::vector<int>& cluster_of_base, int num_clusters,
-                           const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained, double weight,
-                           bool cluster_rotations)
-    : rest_(rest), N_(static_cast<int>(rest_vertices.rows())), m_(num_clusters), constrained_(constrained),
-      weight_(weight), cluster_rotations_(cluster_rotations) {
-  const int n = N_ / 2;
-  cluster_.resize(N_);
-  for (int v = 0; v < N_; ++v) cluster_[v] = cluster_of_base[v < n ? v : v - n];
+ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const ClusterWeights& weights,
+                           const std::vector<int>& home, const Eigen::SparseMatrix<double>& L,
+                           const std::vector<int>& constrained, double weight, bool cluster_rotations)
+    : rest_(rest), N_(static_cast<int>(rest_vertices.rows())), n_(N_ / 2), m_(weights.num_clusters),
+      weights_(weights), constrained_(constrained), weight_(weight), cluster_rotations_(cluster_rotations) {
+  if (weights_.num_vertices() != n_ || static_cast<int>(home.size()) != n_)
+    throw std::invalid_argument("ReducedLevel: one weight list and one home cluster per base vertex");
+  home_.resize(N_);
+  for (int v = 0; v < N_; ++v) home_[v] = home[base_of(v)];
 
-  Eigen::MatrixXd centroid = Eigen::MatrixXd::Zero(m_, 3);
-  Eigen::VectorXi count = Eigen::VectorXi::Zero(m_);
-  for (int v = 0; v < N_; ++v) {
-    centroid.row(cluster_[v]) += rest_vertices.row(v);
-    ++count(cluster_[v]);
-  }
-  for (int j = 0; j < m_; ++j) centroid.row(j) /= std::max(1, count(j));
-  centroid_ = centroid;
-  local_coords_.resize(N_, 3);
-  for (int v = 0; v < N_; ++v) local_coords_.row(v) = rest_vertices.row(v) - centroid.row(cluster_[v]);
+  // Centroids weighted like the maps act (any point would do: [u - c, 1] spans the same space).
+  centroid_ = cluster_centroids(weights_, rest_vertices);
+  const int entries = static_cast<int>(weights_.cluster.size());
+  coords_.resize(2 * entries, 3);
+  for (int i = 0; i < n_; ++i)
+    for (int e = weights_.start[i]; e < weights_.start[i + 1]; ++e) {
+      coords_.row(2 * e) = rest_vertices.row(i) - centroid_.row(weights_.cluster[e]);
+      coords_.row(2 * e + 1) = rest_vertices.row(n_ + i) - centroid_.row(weights_.cluster[e]);
+    }
 
-  // Exact border-tet rotations: split the tets into cluster interiors and border tets.
+  // Exact rotations: tets whose corners all move with one cluster alone have F = M_j.
   interior_volume_ = Eigen::VectorXd::Zero(m_);
   for (int t = 0; t < rest.size() && !cluster_rotations_; ++t) {
-    const int c = cluster_[rest.T(t, 0)];
+    int c = -1;
     bool inside = true;
-    for (int k = 1; k < 4; ++k) inside = inside && cluster_[rest.T(t, k)] == c;
-    if (inside) {
-      interior_volume_(c) += rest.volume(t);
-      continue;
+    for (int k = 0; k < 4 && inside; ++k) {
+      const int i = base_of(rest.T(t, k));
+      inside = weights_.start[i + 1] - weights_.start[i] == 1 && (c < 0 || weights_.cluster[weights_.start[i]] == c);
+      c = weights_.cluster[weights_.start[i]];
     }
-    BorderTet bt;
-    bt.tet = t;
-    for (int k = 0; k < 4; ++k) {
-      bt.cluster[k] = cluster_[rest.T(t, k)];
-      bt.coords[k] = local_coords_.row(rest.T(t, k)).transpose();
-    }
-    border_.push_back(bt);
+    if (inside) interior_volume_(c) += rest.volume(t);
+    else border_.push_back(t);
   }
 
-  // B: x_v^T = [u_v - c_j, 1] Z_j, so the reduced matrix is B^T (L + springs) B.
-  std::vector<Eigen::Triplet<double>> bt;
-  bt.reserve(4 * static_cast<size_t>(N_));
-  for (int v = 0; v < N_; ++v) {
-    for (int k = 0; k < 3; ++k) bt.emplace_back(v, 4 * cluster_[v] + k, local_coords_(v, k));
-    bt.emplace_back(v, 4 * cluster_[v] + 3, 1.0);
-  }
-  Eigen::SparseMatrix<double> B(N_, 4 * m_);
-  B.setFromTriplets(bt.begin(), bt.end());
+  // x = B z, so the reduced matrix is B^T (L + springs) B.
+  const Eigen::SparseMatrix<double> B = prolongation_matrix(weights_, rest_vertices, centroid_);
+  B_ = B;
+  Bt_ = B.transpose();
   Eigen::SparseMatrix<double> springs_diag(N_, N_);
   std::vector<Eigen::Triplet<double>> sd;
   for (int v : constrained_) sd.emplace_back(v, v, weight_);
@@ -106,24 +95,16 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
   const Eigen::SparseMatrix<double> Bt = B.transpose();
   A_ = Bt * ((L + springs_diag) * B);
   solver_.factor(A_);
+  fit_solver_.factor(Bt * B);
   if (cluster_rotations_) {
     A_elastic_ = Bt * (L * B);
     build_pairs();
   }
 
-  std::vector<Eigen::Matrix4d> moments(m_, Eigen::Matrix4d::Zero());
-  for (int v = 0; v < N_; ++v) {
-    Eigen::Vector4d u;
-    u << local_coords_.row(v).transpose(), 1.0;
-    moments[cluster_[v]] += u * u.transpose();
-  }
-  fit_inverse_.resize(m_);
-  for (int j = 0; j < m_; ++j) fit_inverse_[j] = moments[j].inverse();
-
   Z_rest_ = Eigen::MatrixXd::Zero(4 * m_, 3);
   for (int j = 0; j < m_; ++j) {
     Z_rest_.block(4 * j, 0, 3, 3).setIdentity();
-    Z_rest_.row(4 * j + 3) = centroid.row(j);
+    Z_rest_.row(4 * j + 3) = centroid_.row(j);
   }
   Z_ = Z_rest_;
 }
@@ -131,21 +112,14 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
 void ReducedLevel::reset() { Z_ = Z_rest_; }
 
 Eigen::Vector3d ReducedLevel::position(int v) const {
-  const int j = cluster_[v];
-  return map(j) * local_coords_.row(v).transpose() + translation(j);
+  Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+  for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(B_, v); it; ++it) x += it.value() * Z_.row(it.col());
+  return x.transpose();
 }
 
 Eigen::MatrixXd ReducedLevel::positions() const { return positions(Z_); }
 
-Eigen::MatrixXd ReducedLevel::positions(const Eigen::MatrixXd& Z) const {
-  Eigen::MatrixXd X(N_, 3);
-  for (int v = 0; v < N_; ++v) {
-    const int j = cluster_[v];
-    const Eigen::Matrix<double, 4, 3> Zj = Z.middleRows<4>(4 * j);
-    X.row(v) = local_coords_.row(v) * Zj.topRows<3>() + Zj.row(3);
-  }
-  return X;
-}
+Eigen::MatrixXd ReducedLevel::positions(const Eigen::MatrixXd& Z) const { return B_ * Z; }
 
 void ReducedLevel::build_pairs() {
   using Block = Eigen::Matrix<double, 4, 3>;
@@ -159,14 +133,14 @@ void ReducedLevel::build_pairs() {
     by_owner[j].emplace_back(i, w);
   };
   for (int t = 0; t < rest_.size(); ++t) {
-    const int j = cluster_[rest_.T(t, 0)];
+    const int j = home_[rest_.T(t, 0)];
     const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest_.Dm_inv[t]);
-    total_volume_ += rest_.volume(t);
+    const double vol = rest_.volume(t);
+    total_volume_ += vol;
     for (int k = 0; k < 4; ++k) {
       const int v = rest_.T(t, k);
-      Eigen::Vector4d u;
-      u << local_coords_.row(v).transpose(), 1.0;
-      add(j, cluster_[v], rest_.volume(t) * u * G.row(k));
+      for (int e = weights_.start[base_of(v)]; e < weights_.start[base_of(v) + 1]; ++e)
+        add(j, weights_.cluster[e], (vol * weights_.weight[e]) * lifted(e, v) * G.row(k));
     }
   }
   pair_start_.assign(m_ + 1, 0);
@@ -205,33 +179,28 @@ void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
   // Summed in a fixed order after the parallel part, so energies are reproducible to the bit.
   std::vector<double>& energy = cache.element_energy;
   energy.resize(m_ + nb);
-  // Every tet inside cluster j has F = M_j: one polar decomposition serves all of them.
+  // Every tet moved by cluster j alone has F = M_j: one polar decomposition serves all of them.
   std::vector<Eigen::Matrix3d> M(m_), R(m_);
-  std::vector<Eigen::Vector3d> T(m_);
-  for (int j = 0; j < m_; ++j) {
-    M[j] = map(j);
-    T[j] = translation(j);
-  }
+  for (int j = 0; j < m_; ++j) M[j] = map(j);
   closest_rotations(M.data(), R.data(), m_);
   for (int j = 0; j < m_; ++j) {
     energy[j] = interior_volume_(j) * (M[j] - R[j]).squaredNorm();
     cache.Q[j] = interior_volume_(j) * R[j].transpose();
   }
+  const Eigen::MatrixXd X = nb > 0 ? positions() : Eigen::MatrixXd();
   tbb::parallel_for(tbb::blocked_range<int>(0, nb, kGrain), [&](const tbb::blocked_range<int>& range) {
     Eigen::Matrix3d F[kBatch], Rb[kBatch];
     for (int b0 = range.begin(); b0 < range.end(); b0 += kBatch) {
       const int count = std::min(kBatch, range.end() - b0);
       for (int i = 0; i < count; ++i) {
-        const BorderTet& bt = border_[b0 + i];
-        Eigen::Vector3d x[4];
-        for (int k = 0; k < 4; ++k) x[k].noalias() = M[bt.cluster[k]] * bt.coords[k] + T[bt.cluster[k]];
+        const int t = border_[b0 + i];
         Eigen::Matrix3d D;
-        for (int k = 0; k < 3; ++k) D.col(k) = x[k + 1] - x[0];
-        F[i] = D * rest_.Dm_inv[bt.tet];
+        for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest_.T(t, k + 1)) - X.row(rest_.T(t, 0))).transpose();
+        F[i] = D * rest_.Dm_inv[t];
       }
       closest_rotations(F, Rb, count);
       for (int i = 0; i < count; ++i) {
-        const int t = border_[b0 + i].tet;
+        const int t = border_[b0 + i];
         energy[m_ + b0 + i] = rest_.volume(t) * (F[i] - Rb[i]).squaredNorm();
         cache.Q[m_ + b0 + i] = rest_.volume(t) * rest_.Dm_inv[t] * Rb[i].transpose();
       }
@@ -251,34 +220,25 @@ double ReducedLevel::springs(const Eigen::MatrixXd& targets) const {
 Eigen::MatrixXd ReducedLevel::rhs(const Eigen::MatrixXd& targets, const LocalCache& cache) const {
   using Block = Eigen::Matrix<double, 4, 3>;
   std::vector<Block> acc(m_, Block::Zero());
+  // A force f at vertex v acts on the maps through B^T: sum_e w_e [u_v - c_j; 1] f.
+  auto add_force = [&](int v, const Eigen::RowVector3d& f) {
+    for (int e = weights_.start[base_of(v)]; e < weights_.start[base_of(v) + 1]; ++e)
+      acc[weights_.cluster[e]].noalias() += (weights_.weight[e] * lifted(e, v)) * f;
+  };
   if (cluster_rotations_) {
     // d/dZ_i of sum_j tr(R_j^T S_j) = sum_j W_ji R_j^T; cache.Q[j] holds R_j^T.
     for (int j = 0; j < m_; ++j)
       for (int p = pair_start_[j]; p < pair_start_[j + 1]; ++p)
         acc[pairs_[p].cluster].noalias() += pairs_[p].W * cache.Q[j];
   } else {
-  // Inside a cluster sum_k [u_k - c; 1] g_k^T = [I; 0] (rest F = I, rows of G sum to 0), so the
-  // interior tets add vol * R^T to the M rows only; cache.Q[j] holds V_j * R_j^T.
-  for (int j = 0; j < m_; ++j) acc[j].topRows<3>() = cache.Q[j];
-  const int nb = static_cast<int>(border_.size());
-  for (int b = 0; b < nb; ++b) {
-    const BorderTet& bt = border_[b];
-    const Eigen::Matrix3d& Q = cache.Q[m_ + b];
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::RowVector3d q = corner_rhs(Q, k);
-      Block& a = acc[bt.cluster[k]];
-      a.topRows<3>().noalias() += bt.coords[k] * q;
-      a.row(3) += q;
-    }
+    // Inside a cluster sum_k [u_k - c; 1] g_k^T = [I; 0] (rest F = I, rows of G sum to 0), so the
+    // tets it moves alone add vol * R^T to the M rows only; cache.Q[j] holds V_j * R_j^T.
+    for (int j = 0; j < m_; ++j) acc[j].topRows<3>() = cache.Q[j];
+    const int nb = static_cast<int>(border_.size());
+    for (int b = 0; b < nb; ++b)
+      for (int k = 0; k < 4; ++k) add_force(rest_.T(border_[b], k), corner_rhs(cache.Q[m_ + b], k));
   }
-  }
-  for (size_t r = 0; r < constrained_.size(); ++r) {
-    const int v = constrained_[r];
-    const Eigen::RowVector3d p = weight_ * targets.row(r);
-    Block& a = acc[cluster_[v]];
-    a.topRows<3>().noalias() += local_coords_.row(v).transpose() * p;
-    a.row(3) += p;
-  }
+  for (size_t r = 0; r < constrained_.size(); ++r) add_force(constrained_[r], weight_ * targets.row(r));
   Eigen::MatrixXd out(4 * m_, 3);
   for (int j = 0; j < m_; ++j) out.middleRows<4>(4 * j) = acc[j];
   return out;
@@ -294,23 +254,11 @@ Eigen::MatrixXd ReducedLevel::half_gradient(const Eigen::MatrixXd& targets, cons
 }
 
 void ReducedLevel::fit(const Eigen::MatrixXd& X) {
-  const Eigen::MatrixXd moments = restrict_field(X); // sum_v [u_v - c; 1] x_v^T per cluster
-  for (int j = 0; j < m_; ++j) Z_.middleRows<4>(4 * j) = fit_inverse_[j] * moments.middleRows<4>(4 * j);
+  Z_ = restrict_field(X);
+  fit_solver_.solve_in_place(Z_);
 }
 
-Eigen::MatrixXd ReducedLevel::restrict_field(const Eigen::MatrixXd& g) const {
-  using Block = Eigen::Matrix<double, 4, 3>;
-  std::vector<Block> acc(m_, Block::Zero());
-  for (int v = 0; v < N_; ++v) {
-    const Eigen::RowVector3d gv = g.row(v);
-    Block& a = acc[cluster_[v]];
-    a.topRows<3>().noalias() += local_coords_.row(v).transpose() * gv;
-    a.row(3) += gv;
-  }
-  Eigen::MatrixXd out(4 * m_, 3);
-  for (int j = 0; j < m_; ++j) out.middleRows<4>(4 * j) = acc[j];
-  return out;
-}
+Eigen::MatrixXd ReducedLevel::restrict_field(const Eigen::MatrixXd& g) const { return Bt_ * g; }
 
 std::vector<RigidChange> ReducedLevel::changes_since(const Eigen::MatrixXd& before) const {
   std::vector<RigidChange> out(m_);
@@ -323,16 +271,10 @@ std::vector<RigidChange> ReducedLevel::changes_since(const Eigen::MatrixXd& befo
   return out;
 }
 
-void ReducedLevel::apply_affine(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before,
-                                const std::vector<int>& parent_of) {
-  for (int j = 0; j < m_; ++j) {
-    const int p = parent_of[j];
-    // The parent's displacement dM (u - c_p) + dt, written in this cluster's coordinates u - c_j.
-    const Eigen::Matrix3d dMt = parent.Z_.block(4 * p, 0, 3, 3) - parent_before.block(4 * p, 0, 3, 3);
-    const Eigen::RowVector3d dt = parent.Z_.row(4 * p + 3) - parent_before.row(4 * p + 3);
-    Z_.block(4 * j, 0, 3, 3) += dMt;
-    Z_.row(4 * j + 3) += (centroid_.row(j) - parent.centroid_.row(p)) * dMt + dt;
-  }
+void ReducedLevel::apply_change(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before) {
+  Eigen::MatrixXd change = restrict_field(parent.positions(parent.Z_ - parent_before)); // B is linear in z
+  fit_solver_.solve_in_place(change);
+  Z_ += change;
 }
 
 void ReducedLevel::apply(const std::vector<RigidChange>& parent_change, const std::vector<int>& parent_of) {

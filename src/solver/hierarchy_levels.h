@@ -4,6 +4,7 @@
 // caller can evaluate a candidate state and keep or drop it.
 #include "hierarchy_linear.h"
 
+#include <gshell/solver/cluster_weights.h>
 #include <gshell/solver/hierarchical_solver.h>
 
 #include <Eigen/Core>
@@ -36,14 +37,17 @@ struct RigidChange {
 
 class ReducedLevel {
 public:
-  /// `cluster_of_base[i]` in 0..num_clusters-1; top vertex n+i shares base vertex i's cluster.
+  /// `weights` blend the clusters' affine maps at every base vertex; top vertex n+i takes base
+  /// vertex i's weights. `home[i]` is the cluster holding base vertex i in the tree (the owner of
+  /// the tets at its corner 0, and whose rigid change the paper coupling applies to it).
   /// `weight` is the absolute spring weight of the constraints on this level.
   /// With `cluster_rotations`, every tet takes the rotation of the cluster that owns it (the
-  /// cluster of its corner 0), border tets included: then the local step and the right-hand side
-  /// come from precomputed per-cluster-pair matrices and cost O(cluster pairs), not O(tets).
-  /// Without, tets across cluster borders get their own rotation (the exact subspace energy).
-  ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const std::vector<int>& cluster_of_base,
-               int num_clusters, const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained,
+  /// home cluster of its corner 0), border tets included: then the local step and the
+  /// right-hand side come from precomputed per-cluster-pair matrices and cost O(cluster pairs),
+  /// not O(tets). Without, every tet whose corners are not all moved by one cluster alone gets its
+  /// own rotation (the exact subspace energy).
+  ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const ClusterWeights& weights,
+               const std::vector<int>& home, const Eigen::SparseMatrix<double>& L, const std::vector<int>& constrained,
                double weight, bool cluster_rotations);
 
   int num_clusters() const { return m_; }
@@ -55,7 +59,8 @@ public:
   Eigen::Vector3d position(int v) const;
   Eigen::MatrixXd positions() const;              ///< B z, all 2n vertices
   Eigen::MatrixXd positions(const Eigen::MatrixXd& parameters) const; ///< B z for other parameters
-  int cluster_of_vertex(int v) const { return cluster_[v]; }
+  int cluster_of_vertex(int v) const { return home_[v]; } ///< home cluster
+  const ClusterWeights& weights() const { return weights_; }
 
   /// Q: one per cluster (R^T with cluster rotations, else interior volume * R^T), then one per border tet.
   /// Without `with_energy` (cluster rotations only) the energies are left out and marked invalid.
@@ -67,41 +72,40 @@ public:
   void solve(const Eigen::MatrixXd& rhs);
   /// Half the reduced energy gradient A z - rhs at the current parameters (cache taken there).
   Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& targets, const LocalCache& cache) const;
-  /// Parameters <- the least-squares affine fit of every cluster to positions X (2n x 3).
+  /// Parameters <- the least-squares fit B z = X to positions X (2n x 3).
   void fit(const Eigen::MatrixXd& X);
   /// B^T g for a per-vertex field g (2n x 3): how a fine-level force acts on the affine maps.
   Eigen::MatrixXd restrict_field(const Eigen::MatrixXd& g) const;
 
   /// Per-cluster rigid change from parameters `before` to the current ones.
   std::vector<RigidChange> changes_since(const Eigen::MatrixXd& before) const;
-  /// Adds the parent level's affine change since `parent_before` to this level's maps (the
-  /// exact embedding: the parent's subspace lies inside this one).
-  void apply_affine(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before, const std::vector<int>& parent_of);
+  /// Adds the parent level's change since `parent_before`, fitted in the least-squares sense to
+  /// this level's subspace (exact when the parent's subspace lies inside this one, as with
+  /// piecewise maps on nested clusters).
+  void apply_change(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before);
   /// Applies each parent's rigid change to this level's clusters (parent_of[c] = parent cluster).
   void apply(const std::vector<RigidChange>& parent_change, const std::vector<int>& parent_of);
 
 private:
   const RestTets& rest_;
-  int N_, m_;
-  std::vector<int> cluster_;                 // per shell vertex
-  Eigen::MatrixXd local_coords_;             // u_v - c_cluster(v)
+  int N_, n_, m_;
+  ClusterWeights weights_;
+  std::vector<int> home_;                    // per shell vertex
+  Eigen::MatrixXd coords_;                   // per weight entry e and surface s (row 2e + s): u - c_cluster
   Eigen::VectorXd interior_volume_;          // per cluster
-  struct BorderTet {                          // a tet spanning several clusters
-    int tet;
-    int cluster[4];
-    Eigen::Vector3d coords[4];                // corner's u - c_cluster
-  };
-  std::vector<BorderTet> border_;
-  Eigen::MatrixXd centroid_;                  // rest centroid per cluster
+  std::vector<int> border_;                  // tets not moved by one cluster alone (exact rotations)
+  Eigen::MatrixXd centroid_;                 // rest centroid per cluster (weighted)
   std::vector<int> constrained_;
   double weight_;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> B_, Bt_; // x = B z (2n x 4m) and its transpose
   Eigen::SparseMatrix<double> A_;
-  std::vector<Eigen::Matrix4d> fit_inverse_;  // per cluster (sum_v [u_v - c; 1][u_v - c; 1]^T)^-1
   SpdSolver solver_;
+  SpdSolver fit_solver_;                     // B^T B
   Eigen::MatrixXd Z_, Z_rest_;
 
   // Cluster rotations: sum over the tets owned by cluster j of vol F_t = sum_i Z_i^T W_ji, with
-  // W_ji = sum over those tets' corners k in cluster i of vol [u_k - c_i; 1] g_k^T (4x3).
+  // W_ji = sum over those tets' corners k and the weights w_ki of cluster i there of
+  // vol w_ki [u_k - c_i; 1] g_k^T (4x3).
   struct Pair {
     int cluster; // i
     Eigen::Matrix<double, 4, 3> W;
@@ -111,6 +115,13 @@ private:
   std::vector<Pair> pairs_;
   Eigen::SparseMatrix<double> A_elastic_; // B^T L B: sum vol ||F_t||^2 = tr(Z^T A_elastic Z)
   double total_volume_ = 0;
+  int base_of(int v) const { return v < n_ ? v : v - n_; }
+  /// [u_v - c_j; 1] of weight entry e at shell vertex v.
+  Eigen::Vector4d lifted(int e, int v) const {
+    Eigen::Vector4d u;
+    u << coords_.row(2 * e + (v < n_ ? 0 : 1)).transpose(), 1.0;
+    return u;
+  }
   void build_pairs();
   void local_cluster_rotations(LocalCache& cache, bool with_energy) const;
 };
