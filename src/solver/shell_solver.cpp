@@ -146,11 +146,13 @@ struct ShellSolver::Impl {
   std::vector<int> soft_free; // free index of every soft vertex, -1 if that vertex is kept
   std::vector<int> A_free_col; // parallel to A_col: the free index of a free column (CG's products)
   std::vector<double> jacobi;  // 1 / diagonal of L_ff (CG's preconditioner)
+  std::unique_ptr<AggregationMultigrid> multigrid; // CG's preconditioner unless Jacobi was asked for
 
   LinearSolverOptions linear;
   mutable LinearSolver path = LinearSolver::Direct; // Direct or ConjugateGradient (Auto resolved)
-  // CG's iterate, residual, direction, product, and (Auto) the right-hand side for a fallback.
-  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_b;
+  // CG's iterate, residual, direction, product, preconditioned residual (multigrid), and (Auto)
+  // the right-hand side for a fallback.
+  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_z, cg_b;
 
   mutable double factor_seconds = 0;
   mutable std::mutex solve_mutex; // the factor's workspace is shared: one linear solve at a time
@@ -202,6 +204,7 @@ struct ShellSolver::Impl {
   void setup(const std::vector<int>& fixed);
   void assemble(); // the rows of L (A_*), the Jacobi preconditioner, and the choice of path
   void factorize() const; // the Cholesky factor of L_ff (path becomes Direct)
+  void build_multigrid(); // the V-cycle preconditioner on L_ff
   bool anchored() const;  // at least half the free rows couple to a kept vertex or a soft spring
 
   // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS.
@@ -386,6 +389,20 @@ bool ShellSolver::Impl::anchored() const {
   return 2 * count >= nf;
 }
 
+void ShellSolver::Impl::build_multigrid() {
+  // L_ff in compressed row form: row j's free columns are A_col[A_start[j], A_kept[j]).
+  Eigen::SparseMatrix<double, Eigen::RowMajor> A(nf, nf);
+  std::vector<int> row_start(nf + 1, 0);
+  for (int j = 0; j < nf; ++j) row_start[j + 1] = row_start[j] + (A_kept[j] - A_start[j]);
+  A.resizeNonZeros(row_start[nf]);
+  std::copy(row_start.begin(), row_start.end(), A.outerIndexPtr());
+  tbb::parallel_for(0, nf, [&](int j) {
+    std::copy(A_free_col.begin() + A_start[j], A_free_col.begin() + A_kept[j], A.innerIndexPtr() + row_start[j]);
+    std::copy(A_val.begin() + A_start[j], A_val.begin() + A_kept[j], A.valuePtr() + row_start[j]);
+  });
+  multigrid = std::make_unique<AggregationMultigrid>(A, linear.multigrid);
+}
+
 void ShellSolver::Impl::factorize() const {
   const auto t0 = Clock::now();
   // The upper triangle of L_ff in CSC (= the lower triangle of its rows: L_ff is symmetric).
@@ -525,7 +542,8 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
   const int chunks = static_cast<int>((n + kCgChunk - 1) / kCgChunk);
   // Kept between solves: fresh vectors would cost a page fault per 4 KB at every global step.
   for (auto* v : {&cg_x, &cg_r, &cg_p, &cg_q}) v->resize(3 * n);
-  std::vector<double>&x = cg_x, &r = cg_r, &p = cg_p, &q = cg_q;
+  if (multigrid) cg_z.resize(3 * n);
+  std::vector<double>&x = cg_x, &r = cg_r, &p = cg_p, &q = cg_q, &z = cg_z;
   std::vector<std::array<double, 9>> partial(chunks); // per chunk: up to three sums per column
   // sums <- the chunk-ordered totals of partial.
   auto totals = [&](double sums[9]) {
@@ -547,6 +565,15 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
       const double a = A_val[e];
       for (int d = 0; d < 3; ++d) out[d] += a * in[i + d * n];
     }
+  };
+  // z <- M^-1 r by one V-cycle on the three columns at once; sums: r.z per column.
+  auto v_cycle = [&] {
+    using Columns = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3>>;
+    multigrid->apply(Columns(r.data(), static_cast<Eigen::Index>(n), 3), Columns(z.data(), static_cast<Eigen::Index>(n), 3));
+    for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>& s) {
+      for (std::size_t j = j0; j < j1; ++j)
+        for (int d = 0; d < 3; ++d) s[d] += r[j + d * n] * z[j + d * n];
+    });
   };
   // r = b - L x0 with x0 = X's free rows; p = M^-1 r. Sums: b.b, r.z, r.r.
   for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>&) {
@@ -570,6 +597,17 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
   });
   double sums[9];
   totals(sums);
+  if (multigrid) { // p = z = V-cycle(r) instead of the diagonal scaling above
+    const double rr[3] = {sums[6], sums[7], sums[8]}, bb[3] = {sums[0], sums[1], sums[2]};
+    v_cycle();
+    totals(sums);
+    for (int d = 0; d < 3; ++d) {
+      sums[3 + d] = sums[d];
+      sums[d] = bb[d];
+      sums[6 + d] = rr[d];
+    }
+    std::copy(z.begin(), z.end(), p.begin());
+  }
   double limit[3], rz[3];
   bool active[3]; // a column stays active until its residual meets the tolerance
   const double tol2 = linear.cg_tolerance * linear.cg_tolerance;
@@ -606,6 +644,15 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
         }
     });
     totals(sums);
+    if (multigrid) { // r.z with z = V-cycle(r) instead of the diagonal's
+      const double rr[3] = {sums[0], sums[1], sums[2]};
+      v_cycle();
+      totals(sums);
+      for (int d = 0; d < 3; ++d) {
+        sums[3 + d] = sums[d];
+        sums[d] = rr[d];
+      }
+    }
     double beta[3];
     for (int d = 0; d < 3; ++d) {
       if (!active[d]) continue;
@@ -619,7 +666,7 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
         for (int d = 0; d < 3; ++d)
           if (active[d]) {
             const std::size_t i = j + d * n;
-            p[i] = jacobi[j] * r[i] + beta[d] * p[i];
+            p[i] = (multigrid ? z[i] : jacobi[j] * r[i]) + beta[d] * p[i];
           }
     });
   }
@@ -673,6 +720,9 @@ ShellSolver::ShellSolver(RestTets rest, int num_vertices, const std::vector<int>
   impl_->setup(fixed);
   impl_->assemble();
   if (impl_->nf > 0 && impl_->path == LinearSolver::Direct) impl_->factorize();
+  if (impl_->nf > 0 && impl_->path == LinearSolver::ConjugateGradient &&
+      linear.preconditioner == CgPreconditioner::Multigrid)
+    impl_->build_multigrid();
   impl_->factor_seconds = seconds_since(t0);
 }
 

@@ -3,6 +3,7 @@
 // docs/design.md "The energy" and "The solver". Precompute once from rest shapes and the
 // constrained vertex set, then solve from many start states (generation, every frame of a
 // deformation, every drag step).
+#include <gshell/solver/aggregation_multigrid.h>
 #include <gshell/solver/rest_tets.h>
 
 #include <Eigen/Core>
@@ -26,7 +27,13 @@ struct SolveOptions {
 enum class LinearSolver {
   Auto,              ///< ConjugateGradient for large, anchored systems (see below), else Direct
   Direct,            ///< sparse Cholesky factor (CHOLMOD), computed in the constructor
-  ConjugateGradient, ///< Jacobi-preconditioned CG warm-started from the current iterate; no factor
+  ConjugateGradient, ///< preconditioned CG warm-started from the current iterate; no factor
+};
+
+/// The preconditioner of the ConjugateGradient path.
+enum class CgPreconditioner {
+  Multigrid, ///< one smoothed-aggregation V-cycle (AggregationMultigrid): iterations flat in the size
+  Jacobi,    ///< the diagonal: no setup, but iterations grow like the inverse edge length
 };
 
 /// "auto", "direct", "cg".
@@ -49,6 +56,8 @@ struct LinearSolverOptions {
   /// the matrix once and solves directly from then on; a forced ConjugateGradient keeps the last
   /// CG iterate (still an energy descent: CG from the current iterate never raises the energy).
   int cg_max_iterations = 500;
+  CgPreconditioner preconditioner = CgPreconditioner::Multigrid;
+  MultigridOptions multigrid; ///< the hierarchy's parameters (Multigrid preconditioner)
 };
 
 struct SolveResult {
