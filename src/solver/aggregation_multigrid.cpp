@@ -10,6 +10,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <deque>
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -58,15 +59,15 @@ double spectral_radius(const SpMat& A, const Eigen::VectorXd& inv_diag) {
   }
   std::mt19937 random(12345); // fixed: the same matrix gives the same hierarchy
   std::uniform_real_distribution<double> uniform(0.5, 1.5);
-  Block v(n, kColumns), w(n, kColumns); // the first column is iterated, the others ride along
-  for (Eigen::Index i = 0; i < n; ++i) v.row(i).setConstant(uniform(random));
+  Eigen::VectorXd v(n), sv(n), w(n);
+  for (Eigen::Index i = 0; i < n; ++i) v[i] = uniform(random);
   double lambda = 0;
   for (int it = 0; it < 20; ++it) {
-    v.col(0) = v.col(0) / v.col(0).norm();
-    Block sv = s.asDiagonal() * v;
-    multiply(A, sv, w);
-    w = s.asDiagonal() * w;
-    lambda = v.col(0).dot(w.col(0)); // Rayleigh quotient: a lower bound that converges from below
+    v /= v.norm();
+    sv = s.cwiseProduct(v);
+    for_rows(n, [&](Eigen::Index r0, Eigen::Index len) { w.segment(r0, len).noalias() = A.middleRows(r0, len) * sv; });
+    w = s.cwiseProduct(w);
+    lambda = v.dot(w); // Rayleigh quotient: a lower bound that converges from below
     v.swap(w);
   }
   return std::min(gershgorin, lambda);
@@ -126,7 +127,7 @@ struct AggregationMultigrid::Impl {
     SpMat P, R;            // prolongation to this level from the next, and its transpose
     mutable Block b, x, r, d, t;
   };
-  std::vector<Level> levels;
+  std::deque<Level> levels; // a deque: adding a level moves none of the others
   detail::SpdSolver coarsest;
   mutable Eigen::MatrixXd coarsest_work;
   MultigridOptions options;
@@ -196,7 +197,7 @@ void AggregationMultigrid::Impl::cycle(std::size_t l) const {
   smooth(L, false, false);
 }
 
-AggregationMultigrid::AggregationMultigrid(const Eigen::SparseMatrix<double, Eigen::RowMajor>& A,
+AggregationMultigrid::AggregationMultigrid(Eigen::SparseMatrix<double, Eigen::RowMajor> A,
                                            const MultigridOptions& options)
     : impl_(std::make_unique<Impl>()) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -209,7 +210,7 @@ AggregationMultigrid::AggregationMultigrid(const Eigen::SparseMatrix<double, Eig
   m.options = options;
   double theta = options.strength;
   m.levels.emplace_back();
-  m.levels.back().A = A;
+  m.levels.back().A = std::move(A);
   m.levels.back().A.makeCompressed();
   for (;;) {
     Impl::Level& L = m.levels.back();

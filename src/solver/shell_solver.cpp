@@ -400,7 +400,7 @@ void ShellSolver::Impl::build_multigrid() {
     std::copy(A_free_col.begin() + A_start[j], A_free_col.begin() + A_kept[j], A.innerIndexPtr() + row_start[j]);
     std::copy(A_val.begin() + A_start[j], A_val.begin() + A_kept[j], A.valuePtr() + row_start[j]);
   });
-  multigrid = std::make_unique<AggregationMultigrid>(A, linear.multigrid);
+  multigrid = std::make_unique<AggregationMultigrid>(std::move(A), linear.multigrid);
 }
 
 void ShellSolver::Impl::factorize() const {
