@@ -94,6 +94,12 @@ public:
   /// `rest` is kept (pass a temporary or std::move it to avoid a copy on big meshes).
   ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
               const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
+  /// The same, sharing `rest` instead of holding its own copy (the solver reads the tets in
+  /// place). A caller that outlives the solver can pass a non-owning pointer,
+  /// `std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &tets)`.
+  /// \throws InputError also when `rest` is null.
+  ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
+              const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
   ~ShellSolver();
   ShellSolver(ShellSolver&&) noexcept;
   ShellSolver& operator=(ShellSolver&&) noexcept;
