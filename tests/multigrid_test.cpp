@@ -3,7 +3,6 @@
 // the shell solver's multigrid-preconditioned global steps against the factor.
 #include <gshell/error.h>
 #include <gshell/shell/ideal_prisms.h>
-#include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 #include <gshell/solver/aggregation_multigrid.h>
 #include <gshell/solver/shell_solver.h>
@@ -30,22 +29,6 @@ std::vector<int> range(int first, int count) {
   return v;
 }
 
-// Generation of a shell of thickness eta on m: normal prisms as rest shapes, base kept.
-struct Generation {
-  RestTets rest;
-  Eigen::MatrixXd X;
-  int n = 0;
-};
-
-Generation generation(const SimpleMesh& m, double eta) {
-  Generation g;
-  g.n = static_cast<int>(m.V.rows());
-  g.rest = prism_rest_tets(m.F, g.n, normal_prisms(m.V, m.F, eta));
-  g.X.resize(2 * g.n, 3);
-  g.X << m.V, offset_top(m.V, m.F, eta);
-  return g;
-}
-
 LinearSolverOptions cg_options(CgPreconditioner preconditioner, int coarsest_rows = 2000) {
   LinearSolverOptions o;
   o.kind = LinearSolver::ConjugateGradient;
@@ -54,13 +37,14 @@ LinearSolverOptions cg_options(CgPreconditioner preconditioner, int coarsest_row
   return o;
 }
 
-// The global step's matrix A_ff of generation on m (top vertices, in vertex order), read back
-// from the solver.
+// The global step's matrix A_ff of generating a shell of thickness eta on m (normal prisms as
+// rest shapes, base kept; top vertices in vertex order), read back from the solver.
 SpMat generation_matrix(const SimpleMesh& m, double eta) {
-  const Generation g = generation(m, eta);
-  const ShellSolver solver(g.rest, 2 * g.n, range(0, g.n), {}, cg_options(CgPreconditioner::Jacobi));
-  const Eigen::SparseMatrix<double, Eigen::RowMajor> rows = solver.system_rows(range(g.n, g.n));
-  return rows.rightCols(g.n);
+  const int n = static_cast<int>(m.V.rows());
+  const ShellSolver solver(prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, eta)), 2 * n, range(0, n), {},
+                           cg_options(CgPreconditioner::Jacobi));
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> rows = solver.system_rows(range(n, n));
+  return rows.rightCols(n);
 }
 
 struct PcgRun {
