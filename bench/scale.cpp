@@ -1,7 +1,8 @@
-// bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--linear auto,direct] [--ratio 0.02] [--runs 3]
+// bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--linear auto,direct,auto:jacobi] [--ratio 0.02] [--runs 3]
 // How shell generation and the deformer's setup grow with the mesh: builtin:sphere at the given
 // subdivision levels (4x the vertices per level) plus models/bunny00.off when it is there (or
-// the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named. Every
+// the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named (CG paths
+// take the multigrid preconditioner; a ":jacobi" suffix, e.g. auto:jacobi, takes Jacobi's). Every
 // case runs in a fresh process (this executable with --case), so the peak memory (VmHWM) is that
 // case's own; times are medians over --runs processes. Prints per case: total, setup (assembly +
 // factor), solve, per-iteration time, CG iterations, the deformer's setup, CPU seconds, peak
@@ -64,11 +65,12 @@ std::vector<std::string> split(const std::string& s, char sep) {
 }
 
 // One case in this process; prints "key=value" pairs on one line.
-int run_case(const std::string& spec, LinearSolver linear, double ratio) {
+int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner preconditioner, double ratio) {
   const TriMesh mesh = load_mesh(spec);
   GenerateOptions options;
   options.thickness = thickness_from_ratio(mesh.V, ratio);
   options.linear.kind = linear;
+  options.linear.preconditioner = preconditioner;
   const double cpu0 = process_cpu_seconds();
   const GenerateResult r = generate_shell(mesh.V, mesh.F, options);
   const double generate_cpu = process_cpu_seconds() - cpu0;
@@ -158,12 +160,22 @@ int main(int argc, char** argv) {
       case_spec = next();
     } else {
       std::fprintf(stderr,
-                   "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--no-mesh] [--linear auto,direct,cg] "
+                   "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
                    "[--ratio 0.02] [--runs N]\n");
       return 1;
     }
   }
-  if (!case_spec.empty()) return run_case(case_spec, parse_linear_solver(linears.at(0)), ratio);
+  if (!case_spec.empty()) {
+    // "auto", "cg", ... with the multigrid preconditioner; "auto:jacobi", "cg:jacobi" with Jacobi's.
+    const std::vector<std::string> parts = split(linears.at(0), ':');
+    const bool jacobi = parts.size() > 1 && parts[1] == "jacobi";
+    if (parts.empty() || (parts.size() > 1 && !jacobi)) {
+      std::fprintf(stderr, "bench_scale: unknown linear solver '%s'\n", linears.at(0).c_str());
+      return 1;
+    }
+    return run_case(case_spec, parse_linear_solver(parts[0]), jacobi ? CgPreconditioner::Jacobi : CgPreconditioner::Multigrid,
+                    ratio);
+  }
   if (!meshes_given && std::filesystem::exists("models/bunny00.off")) meshes.push_back("models/bunny00.off");
 
   const std::string self = std::filesystem::canonical("/proc/self/exe").string();
@@ -174,7 +186,7 @@ int main(int argc, char** argv) {
   for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
   specs.insert(specs.end(), meshes.begin(), meshes.end());
   std::vector<Row> rows;
-  std::printf("%-22s %-6s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
+  std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
               "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "cert_s", "deform_s",
               "cpu_s", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
   for (const std::string& linear : linears)
@@ -184,7 +196,7 @@ int main(int argc, char** argv) {
       for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, row);
       if (!ok) continue;
       const std::string name = spec.rfind("builtin:", 0) == 0 ? spec.substr(8) : std::filesystem::path(spec).stem().string();
-      std::printf("%-22s %-6s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.0f %8.2f %11.6g %11.6g %11.6g "
+      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.0f %8.2f %11.6g %11.6g %11.6g "
                   "%4.0f "
                   "%4.0f\n",
                   name.c_str(), linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
@@ -196,7 +208,7 @@ int main(int argc, char** argv) {
     }
 
   std::printf("\ngrowth per 4x vertices (consecutive sphere levels; target <= 4.6):\n");
-  std::printf("%-22s %-6s %8s %8s %8s %8s %8s %8s\n", "step", "linear", "total", "setup", "per_it", "deform", "cpu",
+  std::printf("%-22s %-11s %8s %8s %8s %8s %8s %8s\n", "step", "linear", "total", "setup", "per_it", "deform", "cpu",
               "peak_MB");
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const Row &a = rows[i - 1], &b = rows[i];
@@ -204,7 +216,7 @@ int main(int argc, char** argv) {
       continue;
     auto ratio_of = [&](const char* key) { return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0; };
     const std::string step = a.name.substr(8) + " -> " + b.name.substr(15);
-    std::printf("%-22s %-6s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(), ratio_of("total"),
+    std::printf("%-22s %-11s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(), ratio_of("total"),
                 ratio_of("setup"), ratio_of("per_iteration"), ratio_of("deform_setup"), ratio_of("cpu"),
                 ratio_of("peak_mb"));
   }

@@ -230,16 +230,22 @@ LinearSolverOptions linear_solver(LinearSolver kind) {
 } // namespace
 
 TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
-  // The same iterations solved by a factor and by CG from the current iterate: the energies and
-  // the tops agree to CG's tolerance, and CG's energies never rise either.
+  // The same iterations solved by a factor and by CG from the current iterate, preconditioned by
+  // the diagonal or by the multigrid V-cycle (with a coarsest level small enough for 3-4 levels
+  // here): the energies and the tops agree to CG's tolerance, and CG's energies never rise either.
   const std::vector<std::pair<std::string, SimpleMesh>> cases = {
       {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
   for (const auto& [name, m] : cases)
-    for (double eta : {0.02, 0.2}) {
-      SCOPED_TRACE(name + " eta " + std::to_string(eta));
+    for (double eta : {0.02, 0.2})
+    for (CgPreconditioner preconditioner : {CgPreconditioner::Jacobi, CgPreconditioner::Multigrid}) {
+      SCOPED_TRACE(name + " eta " + std::to_string(eta) +
+                   (preconditioner == CgPreconditioner::Jacobi ? " jacobi" : " multigrid"));
       Generation g = generation(m, eta);
       const ShellSolver direct(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::Direct));
-      const ShellSolver cg(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::ConjugateGradient));
+      LinearSolverOptions cg_options = linear_solver(LinearSolver::ConjugateGradient);
+      cg_options.preconditioner = preconditioner;
+      cg_options.multigrid.coarsest_rows = 20;
+      const ShellSolver cg(g.rest, 2 * g.n, range(g.n), {}, cg_options);
       EXPECT_EQ(direct.linear_solver(), LinearSolver::Direct);
       EXPECT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient);
       SolveOptions options;
@@ -276,6 +282,7 @@ TEST(ShellSolver, AutoFallsBackToTheFactorWhenConjugateGradientStalls) {
   LinearSolverOptions starved;
   starved.cg_min_rows = 0;
   starved.cg_max_iterations = 1; // never enough: the first global step factors instead
+  starved.preconditioner = CgPreconditioner::Jacobi; // (a V-cycle here is the exact coarsest solve)
   const ShellSolver fallback(g.rest, 2 * g.n, range(g.n), {}, starved);
   const ShellSolver direct(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::Direct));
   ASSERT_EQ(fallback.linear_solver(), LinearSolver::ConjugateGradient);

@@ -127,7 +127,10 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   std::vector<int> fixed(n);
   std::iota(fixed.begin(), fixed.end(), 0);
   for (int v : g.directions.unextrudable) fixed.push_back(n + v);
-  const ShellSolver paper_solver(ideal, 2 * n, fixed, {}, linear);
+  // Shares `ideal` (which outlives it) rather than copying it: at millions of faces a copy of
+  // the rest tets is the largest allocation of the generation.
+  const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal), 2 * n, fixed, {},
+                                 linear);
   g.factor_seconds = paper_solver.factor_seconds();
 
   // The paper's iterations from the offset surface give the top wanted everywhere; the tops of

@@ -54,7 +54,8 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   if (options.allow_invalid) {
     std::vector<int> base_vertices(n);
     std::iota(base_vertices.begin(), base_vertices.end(), 0);
-    const ShellSolver solver(rest, 2 * n, base_vertices, {}, options.linear);
+    const ShellSolver solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &rest), 2 * n, base_vertices, {},
+                             options.linear); // shares `rest` (kept for the metrics) instead of copying it
     r.seconds.factor = solver.factor_seconds();
     Eigen::MatrixXd X(2 * n, 3);
     X << V, offset_top(V, F, options.thickness);

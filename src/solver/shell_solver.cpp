@@ -44,12 +44,16 @@ constexpr int kParallelSolveRows = 4096;
 // the same bits however TBB splits the work (the monotonicity test compares energies to round-off).
 constexpr int kCgChunk = 4096;
 
-// What the local step reads per tet: vertex ids, Dm_inv (row-major) and the rest volume.
+// What the local step reads per tet, straight from RestTets (no copy: at millions of faces the
+// tets are the solver's largest data): vertex j of tet t at T[t + j K] (column-major K x 4),
+// Dm_inv(k, c) at Dinv[9 t + k + 3 c] (column-major 3x3 matrices, stored contiguously), volume.
 struct LocalStepTets {
-  const std::array<int, 4>* tet;
+  const int* T;
+  std::size_t K;
   const double* Dinv;
   const double* vol;
 };
+static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double), "Dm_inv matrices must be contiguous");
 
 // The local step over tets [t_begin, t_end): their energy, and with Q (9 per tet) every tet's
 // vol Dm_inv R^T (row-major) for the right-hand side. X: row-major positions.
@@ -73,19 +77,20 @@ GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const doubl
       }
       // F_t = D_t Dm_inv_t with D = the current edge vectors x_{j+1} - x_0 as columns.
       const int t = t0 + l;
-      const auto& v = tets.tet[t];
-      const double* di = &tets.Dinv[9 * static_cast<std::size_t>(t)];
+      const int* v = tets.T + t;
+      const double* di = &tets.Dinv[9 * static_cast<std::size_t>(t)]; // Dm_inv(k, c) = di[k + 3 c]
       const double* x0 = X + 3 * static_cast<std::size_t>(v[0]);
       double D[3][3];
       for (int j = 0; j < 3; ++j) {
-        const double* xj = X + 3 * static_cast<std::size_t>(v[j + 1]);
+        const double* xj = X + 3 * static_cast<std::size_t>(v[(j + 1) * tets.K]);
         for (int r = 0; r < 3; ++r) D[r][j] = xj[r] - x0[r];
       }
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c)
-          Fs[(3 * r + c) * W + l] = D[r][0] * di[c] + D[r][1] * di[3 + c] + D[r][2] * di[6 + c];
-      if (Q)
-        for (int k = 0; k < 9; ++k) Ds[k * W + l] = di[k];
+          Fs[(3 * r + c) * W + l] = D[r][0] * di[3 * c] + D[r][1] * di[1 + 3 * c] + D[r][2] * di[2 + 3 * c];
+      if (Q) // Ds: Dm_inv row-major
+        for (int k = 0; k < 3; ++k)
+          for (int c = 0; c < 3; ++c) Ds[(3 * k + c) * W + l] = di[k + 3 * c];
       vols[l] = tets.vol[t];
     }
     detail::closest_rotations_lanes(Fs, Rs);
@@ -120,18 +125,20 @@ GSHELL_SIMD_DISPATCH(double, local_step_chunk, local_step_body,
 } // namespace
 
 struct ShellSolver::Impl {
-  RestTets rest;
+  std::shared_ptr<const RestTets> rest;
   int N = 0;      // rows of the state
   int K = 0;      // tets
   int nf = 0;     // free (solved-for) vertices
   SoftConstraints soft;
 
-  // Flat per-tet data for the local step: vertex ids, Dm_inv (row-major) and the rest volume.
   // The gradient operator is G_t = E Dm_inv with E = [-1 -1 -1; I] (4x3): F_t = X_t^T G_t for
-  // the 4x3 stacked corner positions X_t.
-  std::vector<std::array<int, 4>> tet;
-  std::vector<double> Dinv;
-  std::vector<double> vol;
+  // the 4x3 stacked corner positions X_t. The tets are read from *rest in place (LocalStepTets).
+  int tet(int t, int j) const { return rest->T(t, j); }
+  double dinv(int t, int k, int c) const { return rest->Dm_inv[t](k, c); }
+  double vol(int t) const { return rest->volume[t]; }
+  LocalStepTets local_step_tets() const {
+    return {rest->T.data(), static_cast<std::size_t>(K), K > 0 ? rest->Dm_inv[0].data() : nullptr, rest->volume.data()};
+  }
 
   std::vector<int> free_vertices; // free index -> vertex
   std::vector<int> free_index;    // vertex -> free index, -1 for vertices kept where they start
@@ -146,11 +153,13 @@ struct ShellSolver::Impl {
   std::vector<int> soft_free; // free index of every soft vertex, -1 if that vertex is kept
   std::vector<int> A_free_col; // parallel to A_col: the free index of a free column (CG's products)
   std::vector<double> jacobi;  // 1 / diagonal of L_ff (CG's preconditioner)
+  std::unique_ptr<AggregationMultigrid> multigrid; // CG's preconditioner unless Jacobi was asked for
 
   LinearSolverOptions linear;
   mutable LinearSolver path = LinearSolver::Direct; // Direct or ConjugateGradient (Auto resolved)
-  // CG's iterate, residual, direction, product, and (Auto) the right-hand side for a fallback.
-  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_b;
+  // CG's iterate, residual, direction, product, preconditioned residual (multigrid), and (Auto)
+  // the right-hand side for a fallback.
+  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_z, cg_b;
 
   mutable double factor_seconds = 0;
   mutable std::mutex solve_mutex; // the factor's workspace is shared: one linear solve at a time
@@ -202,6 +211,7 @@ struct ShellSolver::Impl {
   void setup(const std::vector<int>& fixed);
   void assemble(); // the rows of L (A_*), the Jacobi preconditioner, and the choice of path
   void factorize() const; // the Cholesky factor of L_ff (path becomes Direct)
+  void build_multigrid(); // the V-cycle preconditioner on L_ff
   bool anchored() const;  // at least half the free rows couple to a kept vertex or a soft spring
 
   // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS.
@@ -239,27 +249,18 @@ struct ShellSolver::Impl {
 };
 
 void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
-  K = rest.size();
-  tet.resize(K);
-  Dinv.resize(9 * static_cast<std::size_t>(K));
-  vol.resize(K);
-  for (int t = 0; t < K; ++t) {
+  K = rest->size();
+  for (int t = 0; t < K; ++t)
     for (int j = 0; j < 4; ++j) {
-      const int v = rest.T(t, j);
+      const int v = tet(t, j);
       if (v < 0 || v >= N)
         throw InputError("tet " + std::to_string(t) + " has vertex id " + std::to_string(v) + " out of range");
-      tet[t][j] = v;
     }
-    const Eigen::Matrix3d& Di = rest.Dm_inv[t];
-    for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c) Dinv[9 * static_cast<std::size_t>(t) + 3 * k + c] = Di(k, c);
-    vol[t] = rest.volume[t];
-  }
 
   // Vertices no tet (and no soft constraint) touches have no equation: keep them where they start.
   std::vector<char> used(N, 0);
-  for (const auto& tv : tet)
-    for (int v : tv) used[v] = 1;
+  for (int t = 0; t < K; ++t)
+    for (int j = 0; j < 4; ++j) used[tet(t, j)] = 1;
   const bool has_soft = soft.weight > 0 && !soft.vertices.empty();
   if (has_soft)
     for (int v : soft.vertices) {
@@ -280,15 +281,15 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
   nf = static_cast<int>(free_vertices.size());
 
   gather_start.assign(nf + 1, 0);
-  for (const auto& tv : tet)
-    for (int v : tv)
-      if (free_index[v] >= 0) ++gather_start[free_index[v] + 1];
+  for (int t = 0; t < K; ++t)
+    for (int j = 0; j < 4; ++j)
+      if (free_index[tet(t, j)] >= 0) ++gather_start[free_index[tet(t, j)] + 1];
   for (int j = 0; j < nf; ++j) gather_start[j + 1] += gather_start[j];
   gather_slot.resize(gather_start[nf]);
   std::vector<int> fill(gather_start.begin(), gather_start.end() - 1);
   for (int t = 0; t < K; ++t)
     for (int k = 0; k < 4; ++k) {
-      const int j = free_index[tet[t][k]];
+      const int j = free_index[tet(t, k)];
       if (j >= 0) gather_slot[fill[j]++] = 4 * t + k;
     }
 
@@ -325,13 +326,12 @@ void ShellSolver::Impl::assemble() {
       for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
         const int t = gather_slot[s] / 4, k = gather_slot[s] % 4;
         double g[12]; // G_t = E Dm_inv, row-major 4x3
-        const double* di = &Dinv[9 * static_cast<std::size_t>(t)];
         for (int c = 0; c < 3; ++c) {
-          g[c] = -(di[c] + di[3 + c] + di[6 + c]);
-          for (int i = 0; i < 3; ++i) g[3 * (i + 1) + c] = di[3 * i + c];
+          g[c] = -(dinv(t, 0, c) + dinv(t, 1, c) + dinv(t, 2, c));
+          for (int i = 0; i < 3; ++i) g[3 * (i + 1) + c] = dinv(t, i, c);
         }
         for (int a = 0; a < 4; ++a)
-          add(tet[t][a], vol[t] * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]));
+          add(tet(t, a), vol(t) * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]));
       }
       std::sort(w.touched.begin(), w.touched.end());
       w.touched.erase(std::unique(w.touched.begin(), w.touched.end()), w.touched.end());
@@ -384,6 +384,20 @@ bool ShellSolver::Impl::anchored() const {
   long count = 0;
   for (int j = 0; j < nf; ++j) count += anchor[j] || A_kept[j] < A_start[j + 1];
   return 2 * count >= nf;
+}
+
+void ShellSolver::Impl::build_multigrid() {
+  // L_ff in compressed row form: row j's free columns are A_col[A_start[j], A_kept[j]).
+  Eigen::SparseMatrix<double, Eigen::RowMajor> A(nf, nf);
+  std::vector<int> row_start(nf + 1, 0);
+  for (int j = 0; j < nf; ++j) row_start[j + 1] = row_start[j] + (A_kept[j] - A_start[j]);
+  A.resizeNonZeros(row_start[nf]);
+  std::copy(row_start.begin(), row_start.end(), A.outerIndexPtr());
+  tbb::parallel_for(0, nf, [&](int j) {
+    std::copy(A_free_col.begin() + A_start[j], A_free_col.begin() + A_kept[j], A.innerIndexPtr() + row_start[j]);
+    std::copy(A_val.begin() + A_start[j], A_val.begin() + A_kept[j], A.valuePtr() + row_start[j]);
+  });
+  multigrid = std::make_unique<AggregationMultigrid>(std::move(A), linear.multigrid);
 }
 
 void ShellSolver::Impl::factorize() const {
@@ -442,7 +456,7 @@ double ShellSolver::Impl::local_step(const double* X, double* Q) const {
   static_assert(kChunk % detail::kPolarLanes == 0);
   const int chunks = (K + kChunk - 1) / kChunk;
   std::vector<double> chunk_energy(chunks, 0.0);
-  const LocalStepTets tets{tet.data(), Dinv.data(), vol.data()};
+  const LocalStepTets tets = local_step_tets();
   tbb::parallel_for(0, chunks, [&](int ci) {
     chunk_energy[ci] = local_step_chunk(tets, X, Q, ci * kChunk, std::min(K, (ci + 1) * kChunk));
   });
@@ -525,7 +539,8 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
   const int chunks = static_cast<int>((n + kCgChunk - 1) / kCgChunk);
   // Kept between solves: fresh vectors would cost a page fault per 4 KB at every global step.
   for (auto* v : {&cg_x, &cg_r, &cg_p, &cg_q}) v->resize(3 * n);
-  std::vector<double>&x = cg_x, &r = cg_r, &p = cg_p, &q = cg_q;
+  if (multigrid) cg_z.resize(3 * n);
+  std::vector<double>&x = cg_x, &r = cg_r, &p = cg_p, &q = cg_q, &z = cg_z;
   std::vector<std::array<double, 9>> partial(chunks); // per chunk: up to three sums per column
   // sums <- the chunk-ordered totals of partial.
   auto totals = [&](double sums[9]) {
@@ -547,6 +562,15 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
       const double a = A_val[e];
       for (int d = 0; d < 3; ++d) out[d] += a * in[i + d * n];
     }
+  };
+  // z <- M^-1 r by one V-cycle on the three columns at once; sums: r.z per column.
+  auto v_cycle = [&] {
+    using Columns = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3>>;
+    multigrid->apply(Columns(r.data(), static_cast<Eigen::Index>(n), 3), Columns(z.data(), static_cast<Eigen::Index>(n), 3));
+    for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>& s) {
+      for (std::size_t j = j0; j < j1; ++j)
+        for (int d = 0; d < 3; ++d) s[d] += r[j + d * n] * z[j + d * n];
+    });
   };
   // r = b - L x0 with x0 = X's free rows; p = M^-1 r. Sums: b.b, r.z, r.r.
   for_chunks([&](std::size_t j0, std::size_t j1, std::array<double, 9>&) {
@@ -570,6 +594,17 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
   });
   double sums[9];
   totals(sums);
+  if (multigrid) { // p = z = V-cycle(r) instead of the diagonal scaling above
+    const double rr[3] = {sums[6], sums[7], sums[8]}, bb[3] = {sums[0], sums[1], sums[2]};
+    v_cycle();
+    totals(sums);
+    for (int d = 0; d < 3; ++d) {
+      sums[3 + d] = sums[d];
+      sums[d] = bb[d];
+      sums[6 + d] = rr[d];
+    }
+    std::copy(z.begin(), z.end(), p.begin());
+  }
   double limit[3], rz[3];
   bool active[3]; // a column stays active until its residual meets the tolerance
   const double tol2 = linear.cg_tolerance * linear.cg_tolerance;
@@ -606,6 +641,15 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
         }
     });
     totals(sums);
+    if (multigrid) { // r.z with z = V-cycle(r) instead of the diagonal's
+      const double rr[3] = {sums[0], sums[1], sums[2]};
+      v_cycle();
+      totals(sums);
+      for (int d = 0; d < 3; ++d) {
+        sums[3 + d] = sums[d];
+        sums[d] = rr[d];
+      }
+    }
     double beta[3];
     for (int d = 0; d < 3; ++d) {
       if (!active[d]) continue;
@@ -619,7 +663,7 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
         for (int d = 0; d < 3; ++d)
           if (active[d]) {
             const std::size_t i = j + d * n;
-            p[i] = jacobi[j] * r[i] + beta[d] * p[i];
+            p[i] = (multigrid ? z[i] : jacobi[j] * r[i]) + beta[d] * p[i];
           }
     });
   }
@@ -659,20 +703,28 @@ void ShellSolver::Impl::direct_solve(std::vector<double>& rhs) const {
 
 ShellSolver::ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
                          const SoftConstraints& soft, const LinearSolverOptions& linear)
+    : ShellSolver(std::make_shared<const RestTets>(std::move(rest)), num_vertices, fixed, soft, linear) {}
+
+ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
+                         const SoftConstraints& soft, const LinearSolverOptions& linear)
     : impl_(std::make_unique<Impl>()) {
   const auto t0 = Clock::now();
   impl_->rest = std::move(rest);
+  if (!impl_->rest) throw InputError("ShellSolver: no rest tets");
   impl_->N = num_vertices;
   impl_->soft = soft;
   impl_->linear = linear;
   if (!(linear.cg_tolerance > 0) || !std::isfinite(linear.cg_tolerance))
     throw InputError("ShellSolver: the CG tolerance must be positive and finite");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
-  if (static_cast<int>(impl_->rest.Dm_inv.size()) != impl_->rest.size() || impl_->rest.volume.size() != impl_->rest.size())
+  if (static_cast<int>(impl_->rest->Dm_inv.size()) != impl_->rest->size() || impl_->rest->volume.size() != impl_->rest->size())
     throw InputError("ShellSolver: rest tets are incomplete");
   impl_->setup(fixed);
   impl_->assemble();
   if (impl_->nf > 0 && impl_->path == LinearSolver::Direct) impl_->factorize();
+  if (impl_->nf > 0 && impl_->path == LinearSolver::ConjugateGradient &&
+      linear.preconditioner == CgPreconditioner::Multigrid)
+    impl_->build_multigrid();
   impl_->factor_seconds = seconds_since(t0);
 }
 
@@ -745,7 +797,7 @@ LinearSolver parse_linear_solver(const std::string& name) {
     if (name == to_string(s)) return s;
   throw InputError("unknown linear solver '" + name + "' (expected auto, direct or cg)");
 }
-const RestTets& ShellSolver::rest() const { return impl_->rest; }
+const RestTets& ShellSolver::rest() const { return *impl_->rest; }
 int ShellSolver::num_vertices() const { return impl_->N; }
 
 namespace {
@@ -783,7 +835,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   // Energy at rounding level (stretch below 1e-20 per unit rest volume: singular values within
   // 1e-10 of 1, e.g. a flat shell that starts optimal) has no relative change worth waiting for;
   // without this, such a shell ran to the iteration limit on rounding noise.
-  const double negligible_energy = 1e-20 * std::accumulate(m.vol.begin(), m.vol.end(), 0.0);
+  const double negligible_energy = 1e-20 * m.rest->volume.sum();
   auto t_local = Clock::now();
   double E = m.local_step(X.data(), Q.data()) + m.soft_energy(X.data(), soft_targets);
   result.local_seconds += seconds_since(t_local);

@@ -3,6 +3,7 @@
 // docs/design.md "The energy" and "The solver". Precompute once from rest shapes and the
 // constrained vertex set, then solve from many start states (generation, every frame of a
 // deformation, every drag step).
+#include <gshell/solver/aggregation_multigrid.h>
 #include <gshell/solver/rest_tets.h>
 
 #include <Eigen/Core>
@@ -26,7 +27,13 @@ struct SolveOptions {
 enum class LinearSolver {
   Auto,              ///< ConjugateGradient for large, anchored systems (see below), else Direct
   Direct,            ///< sparse Cholesky factor (CHOLMOD), computed in the constructor
-  ConjugateGradient, ///< Jacobi-preconditioned CG warm-started from the current iterate; no factor
+  ConjugateGradient, ///< preconditioned CG warm-started from the current iterate; no factor
+};
+
+/// The preconditioner of the ConjugateGradient path.
+enum class CgPreconditioner {
+  Multigrid, ///< one smoothed-aggregation V-cycle (AggregationMultigrid): iterations flat in the size
+  Jacobi,    ///< the diagonal: no setup, but iterations grow like the inverse edge length
 };
 
 /// "auto", "direct", "cg".
@@ -49,6 +56,8 @@ struct LinearSolverOptions {
   /// the matrix once and solves directly from then on; a forced ConjugateGradient keeps the last
   /// CG iterate (still an energy descent: CG from the current iterate never raises the energy).
   int cg_max_iterations = 500;
+  CgPreconditioner preconditioner = CgPreconditioner::Multigrid;
+  MultigridOptions multigrid; ///< the hierarchy's parameters (Multigrid preconditioner)
 };
 
 struct SolveResult {
@@ -84,6 +93,12 @@ public:
   /// `linear` chooses how the global steps are solved (a factor here, or CG at every step).
   /// `rest` is kept (pass a temporary or std::move it to avoid a copy on big meshes).
   ShellSolver(RestTets rest, int num_vertices, const std::vector<int>& fixed,
+              const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
+  /// The same, sharing `rest` instead of holding its own copy (the solver reads the tets in
+  /// place). A caller that outlives the solver can pass a non-owning pointer,
+  /// `std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &tets)`.
+  /// \throws InputError also when `rest` is null.
+  ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
               const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
   ~ShellSolver();
   ShellSolver(ShellSolver&&) noexcept;
