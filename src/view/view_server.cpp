@@ -190,6 +190,16 @@ public:
     // Twice the parser's limit: a message a little too long gets the parser's clear error on the
     // page; only a far bigger one makes Beast close the connection (1009, shown by the page).
     ws_.read_message_max(2 * server_.session.limits().max_bytes);
+    // A page that goes (a reload, a closed tab) sends a close frame: it leaves the count at once,
+    // not when the close handshake has finished behind a frame still being written to it, so a
+    // reloaded page is not told that another page shares the session.
+    ws_.control_callback([weak = weak_from_this()](websocket::frame_type kind, beast::string_view) {
+      if (kind != websocket::frame_type::close) return;
+      if (const auto self = weak.lock()) {
+        self->open_ = false;
+        self->server_.page_closed(self->id_);
+      }
+    });
     ws_.async_accept(request, [self = shared_from_this()](beast::error_code ec) {
       if (ec) return;
       self->open_ = true;
