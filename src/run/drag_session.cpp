@@ -315,6 +315,34 @@ PoseStepReport DragSession::settle(const std::optional<SolveOptions>& options) {
 
 namespace {
 struct Interrupted {}; // thrown from the solver's progress callback to end a settle early
+struct Settled {};     // thrown from it when the settle's stop rule holds
+
+/// When a settle may stop: when the energy still to lose, estimated from how the decrease shrinks
+/// (geometrically: d rho / (1 - rho) after a decrease d over two outer iterations that was rho times
+/// the one before), plus the last decrease, is below `tolerance` times the energy. The solver's own
+/// rule (one iteration's decrease below tolerance times the energy) stops a slowly converging tail
+/// far from the minimum, how far depending on where the settle began, i.e. on how many drag events
+/// the machine's speed let through; this one stops at the same distance wherever it began.
+/// Pairs of iterations: the hierarchical solver's coarse passes come every second one.
+class SettleRule {
+public:
+  explicit SettleRule(double tolerance) : tolerance_(tolerance) {}
+  bool done(double energy) {
+    energies_.push_back(energy);
+    const std::size_t k = energies_.size() - 1;
+    if (!(energy > 0)) return true;
+    if (k < 4) return false;
+    const double last = energies_[k - 2] - energies_[k], before = energies_[k - 4] - energies_[k - 2];
+    if (!(last > 0)) return true; // no progress over two iterations: converged to round-off
+    if (!(last < before)) return false;
+    const double rho = last / before;
+    return last / (1 - rho) <= tolerance_ * energy;
+  }
+
+private:
+  double tolerance_;
+  std::vector<double> energies_;
+};
 } // namespace
 
 std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptions>& options,
@@ -342,14 +370,46 @@ std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptio
   ValidStep valid;
   // After unguarded previews the guarded solve starts from the last valid state.
   const Eigen::MatrixXd from = !s.guarded() ? Eigen::MatrixXd() : s.valid_before_preview ? *s.valid_before_preview : st.X;
+  // The hierarchical solver updates X in place: it runs to the settle's stop rule unguarded first,
+  // the guarded solve then starts there (and certifies it). The single-level solver keeps its own rule.
+  const bool in_place = s.solver->hierarchical() != nullptr;
+  int rule_iterations = 0;
+  double rule_seconds = 0;
+  bool rule_held = !in_place;
   try {
-    r = !s.guarded() ? s.solver->solve(st.X, P, limits)
+    if (in_place) {
+      SettleRule rule(limits.tolerance);
+      SolveOptions to_rule = limits;
+      to_rule.tolerance = 0; // the rule decides (the solver still stops when the energy no longer falls)
+      to_rule.progress = [&, progress = limits.progress](int it, double energy, double seconds) {
+        if (progress) progress(it, energy, seconds);
+        rule_iterations = it;
+        rule_seconds = seconds;
+        if (rule.done(energy)) throw Settled{};
+      };
+      try {
+        const SolveResult first = s.solver->solve(st.X, P, to_rule);
+        rule_iterations = first.iterations;
+        rule_seconds = first.seconds;
+        rule_held = first.converged;
+      } catch (const Settled&) {
+        rule_held = true;
+      }
+    }
+    r = !s.guarded() ? (in_place ? SolveResult{} : s.solver->solve(st.X, P, limits))
                      : s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
   } catch (const Interrupted&) {
     if (s.guarded()) st.X = from;
     s.valid_before_preview.reset();
     return std::nullopt;
   }
+  if (!s.guarded() && in_place) { // the rule's solve is the settle
+    r.converged = true;
+    r.energy = {s.solver->energy(st.X, P)};
+  }
+  r.iterations += rule_iterations;
+  r.seconds += rule_seconds;
+  r.converged = r.converged && rule_held;
   s.valid_before_preview.reset();
   s.record(st.fraction, r, r.seconds);
   return s.options.allow_invalid ? s.state.steps.back() : s.mark_guarded(valid);
