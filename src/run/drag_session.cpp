@@ -380,7 +380,7 @@ std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptio
     if (in_place) {
       SettleRule rule(limits.tolerance);
       SolveOptions to_rule = limits;
-      to_rule.tolerance = 0; // the rule decides (the solver still stops when the energy no longer falls)
+      to_rule.tolerance = 0; // the rule decides, also when the energy no longer falls
       to_rule.progress = [&, progress = limits.progress](int it, double energy, double seconds) {
         if (progress) progress(it, energy, seconds);
         rule_iterations = it;
