@@ -14,6 +14,8 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <gtest/gtest.h>
+
+#include <cstring>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -271,4 +273,55 @@ TEST(ViewServer, SigtermStopsGshellViewWithinASecond) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
   EXPECT_LT(seconds, 1.0);
+}
+
+TEST(ViewServer, APageThatSaysWhatItDrewGetsOnePositionsFrameAtATime) {
+  // Flow control: after a page's first "drawn", the server sends it the next positions frame only
+  // once it has drawn the last one, the newest waiting in between (a slow page gets the latest
+  // shell, not a backlog). Pages that never say so get every frame.
+  RunningServer s;
+  Client page(s.server->port(), s.host(), ""), tool(s.server->port(), s.host(), "");
+  page.next("stats"); // the end of the welcome
+  tool.next("stats");
+  page.send(R"({"type":"drawn"})");
+  page.send(R"({"type":"add_handle","name":"all","vertices":[0,1,2,3,4,5,6,49,50,51]})");
+  page.next("handles", [](const json& j) { return !j["handles"]["handles"].empty(); });
+  for (int k = 1; k <= 6; ++k)
+    page.send(R"({"type":"drag","seq":)" + std::to_string(k) + R"(,"handle":0,"translate":[)" + std::to_string(0.05 * k) + ",0,0]}");
+  page.send(R"({"type":"release"})");
+  // Read raw frames until the settle is reported, counting positions frames.
+  const auto positions_until_settled = [](Client& c) {
+    int count = 0;
+    for (;;) {
+      beast::flat_buffer buffer;
+      c.ws.read(buffer);
+      const std::string bytes = beast::buffers_to_string(buffer.data());
+      if (!c.ws.got_text()) {
+        std::uint32_t kind = 0;
+        std::memcpy(&kind, bytes.data(), 4);
+        if (kind == static_cast<std::uint32_t>(ViewFrameKind::Positions)) ++count;
+      } else if (const json j = json::parse(bytes); j["type"] == "stats" && j["phase"] == "settled") {
+        return count;
+      }
+    }
+  };
+  EXPECT_EQ(positions_until_settled(page), 1); // the first answer; it has not said it drew it
+  EXPECT_GE(positions_until_settled(tool), 1); // answers and the settled shell (a waiting one replaced by a newer)
+  // Once it has drawn, the waiting frame (the settled shell) comes, before the answer to a later message.
+  page.send(R"({"type":"drawn"})");
+  page.send(R"({"type":"save_handles"})"); // answered to this page only, after the network thread saw "drawn"
+  int after = 0;
+  for (;;) {
+    beast::flat_buffer buffer;
+    page.ws.read(buffer);
+    const std::string bytes = beast::buffers_to_string(buffer.data());
+    if (!page.ws.got_text()) {
+      std::uint32_t kind = 0;
+      std::memcpy(&kind, bytes.data(), 4);
+      if (kind == static_cast<std::uint32_t>(ViewFrameKind::Positions)) ++after;
+    } else if (json::parse(bytes)["type"] == "handles_file") {
+      break;
+    }
+  }
+  EXPECT_EQ(after, 1);
 }

@@ -416,7 +416,7 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
     s.send_state(send);
   } else if (std::holds_alternative<ViewCertify>(m)) {
     certify(send);
-  }
+  } // ViewDrawn: flow control, the server's (view_server.cpp)
 }
 
 bool ViewSession::drag_pending() const { return impl_->pending; }

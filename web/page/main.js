@@ -125,6 +125,9 @@ view.onDrawn((seq, now, applyMs, renderMs) => {
     resolveReady();
   }
   bench.drawn(seq, now, applyMs, renderMs);
+  // Flow control: the server sends the next positions only once these are drawn, so a page that
+  // draws slowly gets the latest shell rather than a backlog.
+  if (socket && socket.readyState === WebSocket.OPEN) socket.send('{"type":"drawn"}');
 });
 
 // ---- display -------------------------------------------------------------------------------------
