@@ -117,6 +117,22 @@ struct Client {
     }
   }
   std::deque<json> backlog;
+  /// Positions frames received until a text message satisfies `pred` (other messages dropped).
+  int positions_until(const std::function<bool(const json&)>& pred) {
+    int count = 0;
+    for (;;) {
+      beast::flat_buffer buffer;
+      ws.read(buffer);
+      const std::string bytes = beast::buffers_to_string(buffer.data());
+      if (ws.got_text()) {
+        if (pred(json::parse(bytes))) return count;
+      } else {
+        std::uint32_t kind = 0;
+        std::memcpy(&kind, bytes.data(), 4);
+        if (kind == static_cast<std::uint32_t>(ViewFrameKind::Positions)) ++count;
+      }
+    }
+  }
   void send(const std::string& text) {
     ws.text(true);
     ws.write(net::buffer(text));
@@ -289,39 +305,11 @@ TEST(ViewServer, APageThatSaysWhatItDrewGetsOnePositionsFrameAtATime) {
   for (int k = 1; k <= 6; ++k)
     page.send(R"({"type":"drag","seq":)" + std::to_string(k) + R"(,"handle":0,"translate":[)" + std::to_string(0.05 * k) + ",0,0]}");
   page.send(R"({"type":"release"})");
-  // Read raw frames until the settle is reported, counting positions frames.
-  const auto positions_until_settled = [](Client& c) {
-    int count = 0;
-    for (;;) {
-      beast::flat_buffer buffer;
-      c.ws.read(buffer);
-      const std::string bytes = beast::buffers_to_string(buffer.data());
-      if (!c.ws.got_text()) {
-        std::uint32_t kind = 0;
-        std::memcpy(&kind, bytes.data(), 4);
-        if (kind == static_cast<std::uint32_t>(ViewFrameKind::Positions)) ++count;
-      } else if (const json j = json::parse(bytes); j["type"] == "stats" && j["phase"] == "settled") {
-        return count;
-      }
-    }
-  };
-  EXPECT_EQ(positions_until_settled(page), 1); // the first answer; it has not said it drew it
-  EXPECT_GE(positions_until_settled(tool), 1); // answers and the settled shell (a waiting one replaced by a newer)
+  const auto settled = [](const json& j) { return j["type"] == "stats" && j["phase"] == "settled"; };
+  EXPECT_EQ(page.positions_until(settled), 1); // the first answer; it has not said it drew it
+  EXPECT_GE(tool.positions_until(settled), 1); // answers and the settled shell (a waiting one replaced by a newer)
   // Once it has drawn, the waiting frame (the settled shell) comes, before the answer to a later message.
   page.send(R"({"type":"drawn"})");
   page.send(R"({"type":"save_handles"})"); // answered to this page only, after the network thread saw "drawn"
-  int after = 0;
-  for (;;) {
-    beast::flat_buffer buffer;
-    page.ws.read(buffer);
-    const std::string bytes = beast::buffers_to_string(buffer.data());
-    if (!page.ws.got_text()) {
-      std::uint32_t kind = 0;
-      std::memcpy(&kind, bytes.data(), 4);
-      if (kind == static_cast<std::uint32_t>(ViewFrameKind::Positions)) ++after;
-    } else if (json::parse(bytes)["type"] == "handles_file") {
-      break;
-    }
-  }
-  EXPECT_EQ(after, 1);
+  EXPECT_EQ(page.positions_until([](const json& j) { return j["type"] == "handles_file"; }), 1);
 }
