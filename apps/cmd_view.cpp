@@ -157,13 +157,17 @@ void add_view_command(CLI::App& app) {
   cmd->add_option("--levels", a->session.pose.hierarchy.levels, "Levels of the hierarchical solver including the full one")
       ->capture_default_str();
   cmd->add_option("--tolerance", a->session.pose.solve.tolerance,
-                  "Settle until the relative energy change per iteration is below this")
+                  "Settle until the energy still to lose (estimated from how fast it falls) is below this fraction of it")
       ->capture_default_str();
   cmd->add_option("--iterations", a->session.pose.solve.max_iterations, "Maximum iterations of a settle")
       ->capture_default_str();
   cmd->add_option("--event-iterations", a->session.event_iterations,
-                  "Solver iterations per drag event before the page gets the shell (the settle finishes the job)")
+                  "Iterations per drag event before the page gets the shell: of the hierarchy's finest reduced level, "
+                  "or with --full-events of the full solver (the settle finishes the job)")
       ->capture_default_str();
+  cmd->add_flag("--full-events{false}", a->session.reduced_events,
+                "Answer drag events with full-level iterations from the drag-extrapolated start (as pose --steps) "
+                "instead of the reduced level's preview (slower on big shells)");
   cmd->callback([a, cmd] { run(*cmd, *a); });
 }
 

@@ -392,3 +392,85 @@ TEST(DragSession, PrepareBuildsTheSolverAheadOfTheFirstEvent) {
   EXPECT_EQ(session.rest_tets().size(), 3 * plate.shell.F.rows());
   EXPECT_GT(session.rest_tets().volume.minCoeff(), 0);
 }
+
+TEST(DragSession, PreviewsMoveTheShellFromTheDragsStartAndTheSettleFinishesIt) {
+  // The viewer's events: the hierarchy's finest reduced level moves the shell from where the drag
+  // began, with no full-level work; the settle then reaches what run_pose reaches.
+  const Plate plate;
+  PoseOptions o = tight(PoseSolverKind::Hierarchical);
+  o.steps = 4;
+  const PoseResult reference = run_pose(plate.shell, plate.handles, o);
+  o.guard_drag_steps = false; // as the viewer: events are unguarded previews, the settle is guarded
+  DragSession session(plate.shell, o);
+  HandleSet still = plate.handles;
+  still.handles[1].translate.setZero();
+  still.handles[1].degrees = 0;
+  session.set_handles(still);
+  const Eigen::MatrixXd rest = plate.shell.vertices();
+
+  // Targets where the shell is: it stays (the level is at rest at its anchor).
+  session.preview();
+  EXPECT_LT(max_distance(session.vertices(), rest), 1e-12);
+  // Both groups shifted alike: a translation, in the level's subspace and free of energy.
+  const Eigen::Vector3d shift(0.2, -0.1, 0.3);
+  session.set_motion(0, shift);
+  session.set_motion(1, shift);
+  session.preview();
+  for (int v = 0; v < rest.rows(); ++v)
+    EXPECT_LT((session.vertices().row(v) - rest.row(v) - shift.transpose()).norm(), 1e-9) << v;
+  session.reset();
+
+  const std::size_t steps = session.result_step_count();
+  const std::vector<int> ids = plate.handles.constrained_vertices();
+  for (int event = 1; event <= 12; ++event) {
+    const double t = event / 12.0;
+    session.set_motion(1, t * plate.lift, Eigen::Vector3d::UnitY(), -30 * t);
+    const PoseStepReport step = session.preview(1.0, 1);
+    EXPECT_EQ(step.iterations, 1);
+    ASSERT_TRUE(session.vertices().allFinite());
+    // Hard handles sit on their targets after every event.
+    const Eigen::MatrixXd P = session.handles().targets(rest, 1.0);
+    for (size_t r = 0; r < ids.size(); ++r) EXPECT_LT((session.vertices().row(ids[r]) - P.row(r)).norm(), 1e-12);
+  }
+  EXPECT_EQ(session.result_step_count(), steps); // previews are no steps of the pose
+  // The last preview moved the free vertices along (the plate bends), not only the handles.
+  int moved = 0;
+  for (int v = 0; v < rest.rows(); ++v)
+    if (!std::binary_search(ids.begin(), ids.end(), v) && (session.vertices().row(v) - rest.row(v)).norm() > 0.05) ++moved;
+  EXPECT_GT(moved, rest.rows() / 4);
+  const PoseStepReport settled = session.settle();
+  EXPECT_TRUE(settled.converged);
+  EXPECT_EQ(session.solver_builds(), 1);
+  EXPECT_LT(max_distance(session.vertices(), reference.X), 1e-5);
+}
+
+TEST(DragSession, TheSettleStopsNearTheMinimumWhereverItBegins) {
+  // The settle's stop rule is about the energy still to lose, not about one iteration's gain: from
+  // a far start (one preview jumping to the targets) and from a near one (after 12 quick events) it ends within
+  // a few tolerances of the minimum.
+  const Plate plate;
+  PoseOptions reference_options = tight(PoseSolverKind::Single);
+  reference_options.solve.tolerance = 1e-13;
+  DragSession reference(plate.shell, reference_options);
+  reference.set_handles(plate.handles);
+  reference.drag();
+  const double minimum = reference.result().steps.back().energy;
+  for (int events : {1, 12}) {
+    PoseOptions o = tight(PoseSolverKind::Hierarchical);
+    o.solve.tolerance = 1e-6;
+    o.solve.max_iterations = 500;
+    o.guard_drag_steps = false;
+    DragSession session(plate.shell, o);
+    HandleSet h = plate.handles;
+    session.set_handles(h);
+    for (int event = 1; event <= events; ++event) {
+      const double t = event / static_cast<double>(events);
+      session.set_motion(1, t * plate.lift, Eigen::Vector3d::UnitY(), -30 * t);
+      session.preview(1.0, 1);
+    }
+    const PoseStepReport settled = session.settle();
+    EXPECT_TRUE(settled.converged) << events;
+    EXPECT_LE(settled.energy, minimum * (1 + 3e-6)) << events << " events: " << settled.energy << " vs " << minimum;
+    EXPECT_GE(settled.energy, minimum * (1 - 1e-9)) << events;
+  }
+}

@@ -29,7 +29,7 @@ const viewer = await startViewer(gshell, ['builtin:plane:12', '--thickness', '0.
 const browser = await launchBrowser();
 try {
   const page = await browser.newPage();
-  await page.setViewport({ width: 1200, height: 800 });
+  await page.setViewport({ width: 1280, height: 800 });
   const errors = [];
   page.on('pageerror', (e) => errors.push(e.message));
   await page.goto(viewer.url);
@@ -99,6 +99,15 @@ try {
   const panel = await page.$eval('#stats-body', (el) => el.textContent);
   check(validity.certificate && validity.certificate.exact === true && validity.valid === true && validity.certificate.inverted_tets === 0 &&
         /valid \(exact\)yes/.test(panel), `the panel shows the certificate of the dragged shell (${JSON.stringify(validity.certificate)})`);
+  // Nothing is drawn over the shell: the panels lie beside the canvas, not on it (1280 x 800).
+  const overlaps = await page.evaluate(() => {
+    const canvas = document.querySelector('#view canvas').getBoundingClientRect();
+    return ['panel', 'stats', 'colorbar'].filter((id) => {
+      const r = document.getElementById(id).getBoundingClientRect();
+      return r.width > 0 && r.left < canvas.right - 0.5 && r.right > canvas.left + 0.5 && r.top < canvas.bottom - 0.5 && r.bottom > canvas.top + 0.5;
+    });
+  });
+  check(overlaps.length === 0, `no panel covers the shell's canvas${overlaps.length ? ': ' + overlaps.join(', ') + ' do' : ''}`);
   const shot = path.join(outDir, 'view_browser_dragged.png');
   await page.screenshot({ path: shot });
   check(fs.statSync(shot).size > 10000, `screenshot of the dragged shell: ${shot}`);

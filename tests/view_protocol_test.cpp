@@ -80,6 +80,7 @@ TEST(ViewProtocol, EveryMessageParsesToWhatItSays) {
   as<ViewReset>(parse(R"({"type":"reset"})"));
   as<ViewSaveHandles>(parse(R"({"type":"save_handles"})"));
   as<ViewCertify>(parse(R"({"type":"certify"})"));
+  as<ViewDrawn>(parse(R"({"type":"drawn"})"));
   const ViewLoadHandles load = as<ViewLoadHandles>(parse(R"({"type":"load_handles","name":"a.json","text":"{}"})"));
   EXPECT_EQ(load.name, "a.json");
   EXPECT_EQ(load.text, "{}");

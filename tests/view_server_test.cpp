@@ -14,6 +14,8 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <gtest/gtest.h>
+
+#include <cstring>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -115,6 +117,22 @@ struct Client {
     }
   }
   std::deque<json> backlog;
+  /// Positions frames received until a text message satisfies `pred` (other messages dropped).
+  int positions_until(const std::function<bool(const json&)>& pred) {
+    int count = 0;
+    for (;;) {
+      beast::flat_buffer buffer;
+      ws.read(buffer);
+      const std::string bytes = beast::buffers_to_string(buffer.data());
+      if (ws.got_text()) {
+        if (pred(json::parse(bytes))) return count;
+      } else {
+        std::uint32_t kind = 0;
+        std::memcpy(&kind, bytes.data(), 4);
+        if (kind == static_cast<std::uint32_t>(ViewFrameKind::Positions)) ++count;
+      }
+    }
+  }
   void send(const std::string& text) {
     ws.text(true);
     ws.write(net::buffer(text));
@@ -271,4 +289,27 @@ TEST(ViewServer, SigtermStopsGshellViewWithinASecond) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
   EXPECT_LT(seconds, 1.0);
+}
+
+TEST(ViewServer, APageThatSaysWhatItDrewGetsOnePositionsFrameAtATime) {
+  // Flow control: after a page's first "drawn", the server sends it the next positions frame only
+  // once it has drawn the last one, the newest waiting in between (a slow page gets the latest
+  // shell, not a backlog). Pages that never say so get every frame.
+  RunningServer s;
+  Client page(s.server->port(), s.host(), ""), tool(s.server->port(), s.host(), "");
+  page.next("stats"); // the end of the welcome
+  tool.next("stats");
+  page.send(R"({"type":"drawn"})");
+  page.send(R"({"type":"add_handle","name":"all","vertices":[0,1,2,3,4,5,6,49,50,51]})");
+  page.next("handles", [](const json& j) { return !j["handles"]["handles"].empty(); });
+  for (int k = 1; k <= 6; ++k)
+    page.send(R"({"type":"drag","seq":)" + std::to_string(k) + R"(,"handle":0,"translate":[)" + std::to_string(0.05 * k) + ",0,0]}");
+  page.send(R"({"type":"release"})");
+  const auto settled = [](const json& j) { return j["type"] == "stats" && j["phase"] == "settled"; };
+  EXPECT_EQ(page.positions_until(settled), 1); // the first answer; it has not said it drew it
+  EXPECT_GE(tool.positions_until(settled), 1); // answers and the settled shell (a waiting one replaced by a newer)
+  // Once it has drawn, the waiting frame (the settled shell) comes, before the answer to a later message.
+  page.send(R"({"type":"drawn"})");
+  page.send(R"({"type":"save_handles"})"); // answered to this page only, after the network thread saw "drawn"
+  EXPECT_EQ(page.positions_until([](const json& j) { return j["type"] == "handles_file"; }), 1);
 }

@@ -210,5 +210,6 @@ const RestTets& PoseSolver::rest_tets() const { return impl_->rest; }
 PoseSolverKind PoseSolver::kind() const { return impl_->kind; }
 double PoseSolver::setup_seconds() const { return impl_->setup_seconds; }
 const HierarchicalSolver* PoseSolver::hierarchical() const { return impl_->hierarchical.get(); }
+HierarchicalSolver* PoseSolver::hierarchical() { return impl_->hierarchical.get(); }
 
 } // namespace gshell

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace gshell {
 
@@ -73,6 +74,9 @@ struct DragSession::Impl {
   mutable std::optional<RestTets> rest_tets; ///< for result() before any solver exists
   /// The last valid state while drag() steps are unguarded previews (guard_drag_steps off).
   std::optional<Eigen::MatrixXd> valid_before_preview;
+  /// preview() has anchored the solver's reduced level at the current state (cleared by
+  /// everything else that moves the shell or changes the solver).
+  bool preview_anchored = false;
 
   bool guarded() const { return !options.allow_invalid; }
   bool guarded_drags() const { return guarded() && options.guard_drag_steps; }
@@ -94,6 +98,7 @@ struct DragSession::Impl {
 
   void replace_handles(HandleSet h) {
     check_handles(h, static_cast<int>(rest_vertices.rows()));
+    preview_anchored = false;
     const bool same_vertices = key_of(h) == key_of(state.handles);
     state.handles = std::move(h);
     ++state.motion_version;
@@ -107,6 +112,7 @@ struct DragSession::Impl {
   void ensure_solver() {
     const SolverKey key = key_of(state.handles);
     if (solver && key == solver_key) return;
+    preview_anchored = false;
     solver.reset(); // free the old factorisations before building new ones
     solver = std::make_unique<PoseSolver>(rest, state.handles, options.solver, options.hierarchy);
     solver_key = key;
@@ -224,6 +230,7 @@ PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptio
   Impl& s = *impl_;
   if (!std::isfinite(fraction)) throw InputError("fraction must be finite");
   s.ensure_solver();
+  s.preview_anchored = false;
   const auto start = Clock::now();
   State& st = s.state;
   const Eigen::MatrixXd P = st.handles.targets(s.rest_vertices, fraction);
@@ -263,18 +270,86 @@ PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptio
   return s.record(fraction, r, r.seconds + predict_seconds);
 }
 
+PoseStepReport DragSession::preview(double fraction, int iterations) {
+  Impl& s = *impl_;
+  if (!std::isfinite(fraction)) throw InputError("fraction must be finite");
+  if (iterations < 1) throw InputError("preview: iterations must be >= 1");
+  s.ensure_solver();
+  HierarchicalSolver* hierarchy = s.solver->hierarchical();
+  if (!hierarchy || hierarchy->num_levels() < 2 || s.guarded_drags()) {
+    SolveOptions limits = s.options.solve;
+    limits.max_iterations = iterations;
+    return drag(fraction, limits);
+  }
+  const auto start = Clock::now();
+  State& st = s.state;
+  const Eigen::MatrixXd P = st.handles.targets(s.rest_vertices, fraction);
+  if (s.guarded() && !s.valid_before_preview) s.valid_before_preview = st.X;
+  if (!s.preview_anchored) {
+    // The hard rows of X are its handles' targets: at rest there, X moves only as the targets do.
+    hierarchy->anchor_preview(st.X, s.current_rows(st.handles));
+    s.preview_anchored = true;
+  }
+  double step_ahead = 0; // how far the new targets lie along the last change of targets (as drag())
+  if (s.options.extrapolate && s.before.valid) {
+    const Eigen::MatrixXd last = st.targets - s.before.targets;
+    const double length = last.squaredNorm();
+    if (length > 0) step_ahead = (P - st.targets).cwiseProduct(last).sum() / length;
+  }
+  s.before = Before{true, st.X, st.targets, st.fraction, st.version_of_last};
+  hierarchy->preview(st.X, P, iterations, step_ahead);
+  st.targets = P;
+  st.fraction = fraction;
+  st.version_of_last = st.motion_version;
+  PoseStepReport step;
+  step.fraction = fraction;
+  step.iterations = iterations;
+  step.energy = std::numeric_limits<double>::quiet_NaN();
+  step.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return step;
+}
+
 PoseStepReport DragSession::settle(const std::optional<SolveOptions>& options) {
   return *settle(options, {});
 }
 
 namespace {
 struct Interrupted {}; // thrown from the solver's progress callback to end a settle early
+struct Settled {};     // thrown from it when the settle's stop rule holds
+
+/// When a settle may stop: when the energy still to lose, estimated from how the decrease shrinks
+/// (geometrically: d rho / (1 - rho) after a decrease d over two outer iterations that was rho times
+/// the one before), plus the last decrease, is below `tolerance` times the energy. The solver's own
+/// rule (one iteration's decrease below tolerance times the energy) stops a slowly converging tail
+/// far from the minimum, how far depending on where the settle began, i.e. on how many drag events
+/// the machine's speed let through; this one stops at the same distance wherever it began.
+/// Pairs of iterations: the hierarchical solver's coarse passes come every second one.
+class SettleRule {
+public:
+  explicit SettleRule(double tolerance) : tolerance_(tolerance) {}
+  bool done(double energy) {
+    energies_.push_back(energy);
+    const std::size_t k = energies_.size() - 1;
+    if (!(energy > 0)) return true;
+    if (k < 4) return false;
+    const double last = energies_[k - 2] - energies_[k], before = energies_[k - 4] - energies_[k - 2];
+    if (!(last > 0)) return true; // no progress over two iterations: converged to round-off
+    if (!(last < before)) return false;
+    const double rho = last / before;
+    return last / (1 - rho) <= tolerance_ * energy;
+  }
+
+private:
+  double tolerance_;
+  std::vector<double> energies_;
+};
 } // namespace
 
 std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptions>& options,
                                                   const std::function<bool()>& interrupt) {
   Impl& s = *impl_;
   s.ensure_solver();
+  s.preview_anchored = false;
   State& st = s.state;
   const Eigen::MatrixXd P = st.handles.targets(s.rest_vertices, st.fraction);
   SolveOptions limits = options.value_or(s.options.solve);
@@ -295,14 +370,46 @@ std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptio
   ValidStep valid;
   // After unguarded previews the guarded solve starts from the last valid state.
   const Eigen::MatrixXd from = !s.guarded() ? Eigen::MatrixXd() : s.valid_before_preview ? *s.valid_before_preview : st.X;
+  // The hierarchical solver updates X in place: it runs to the settle's stop rule unguarded first,
+  // the guarded solve then starts there (and certifies it). The single-level solver keeps its own rule.
+  const bool in_place = s.solver->hierarchical() != nullptr;
+  int rule_iterations = 0;
+  double rule_seconds = 0;
+  bool rule_held = !in_place;
   try {
-    r = !s.guarded() ? s.solver->solve(st.X, P, limits)
+    if (in_place) {
+      SettleRule rule(limits.tolerance);
+      SolveOptions to_rule = limits;
+      to_rule.tolerance = 0; // the rule decides, also when the energy no longer falls
+      to_rule.progress = [&, progress = limits.progress](int it, double energy, double seconds) {
+        if (progress) progress(it, energy, seconds);
+        rule_iterations = it;
+        rule_seconds = seconds;
+        if (rule.done(energy)) throw Settled{};
+      };
+      try {
+        const SolveResult first = s.solver->solve(st.X, P, to_rule);
+        rule_iterations = first.iterations;
+        rule_seconds = first.seconds;
+        rule_held = first.converged;
+      } catch (const Settled&) {
+        rule_held = true;
+      }
+    }
+    r = !s.guarded() ? (in_place ? SolveResult{} : s.solver->solve(st.X, P, limits))
                      : s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
   } catch (const Interrupted&) {
     if (s.guarded()) st.X = from;
     s.valid_before_preview.reset();
     return std::nullopt;
   }
+  if (!s.guarded() && in_place) { // the rule's solve is the settle
+    r.converged = true;
+    r.energy = {s.solver->energy(st.X, P)};
+  }
+  r.iterations += rule_iterations;
+  r.seconds += rule_seconds;
+  r.converged = r.converged && rule_held;
   s.valid_before_preview.reset();
   s.record(st.fraction, r, r.seconds);
   return s.options.allow_invalid ? s.state.steps.back() : s.mark_guarded(valid);
@@ -329,6 +436,7 @@ bool DragSession::undo() {
   s.state = std::move(s.undo.back());
   s.undo.pop_back();
   s.before.valid = false;
+  s.preview_anchored = false;
   s.valid_before_preview.reset(); // checkpoints hold settled states
   return true;
 }
@@ -348,6 +456,7 @@ void DragSession::reset() {
   st.targets = s.current_rows(st.handles);
   st.steps.clear();
   s.before.valid = false;
+  s.preview_anchored = false;
   s.valid_before_preview.reset();
 }
 

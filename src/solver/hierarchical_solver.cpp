@@ -131,6 +131,11 @@ struct HierarchicalSolver::Impl {
   std::vector<ReducedLevel> reduced;
   std::vector<LocalCache> reduced_cache;
   std::vector<Eigen::MatrixXd> tau;  // per reduced level: fine residual coupling of this outer iteration
+  struct Preview {                   // anchor_preview / preview
+    int level = -1;                  // -1: not anchored
+    Eigen::MatrixXd anchor, z_anchor, tau, z_last;
+    LocalCache cache;
+  } preview;
   double factor_seconds = 0;
   HierarchyCounters counters; // since construction
 
@@ -447,6 +452,62 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
 
 double HierarchicalSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets) const {
   return impl_->full->energy(X, impl_->soft_targets(targets));
+}
+
+void HierarchicalSolver::anchor_preview(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int level) {
+  Impl& s = *impl_;
+  if (X.rows() != s.num_vertices() || X.cols() != 3)
+    throw InputError("HierarchicalSolver::anchor_preview: X must be 2n x 3");
+  if (targets.rows() != static_cast<Eigen::Index>(s.constraints.vertices.size()) || targets.cols() != 3)
+    throw InputError("HierarchicalSolver::anchor_preview: one target row per constrained vertex");
+  const int L = static_cast<int>(s.reduced.size());
+  if (L == 0) throw InputError("HierarchicalSolver::anchor_preview: the solver has no reduced level");
+  if (level < -1 || level >= L) throw InputError("HierarchicalSolver::anchor_preview: no reduced level " + std::to_string(level));
+  Impl::Preview& p = s.preview;
+  p.level = level < 0 ? L - 1 : level;
+  p.anchor = X;
+  s.set_hard_rows(p.anchor, targets);
+  LocalStep step;
+  s.full->local_step(p.anchor, step, s.soft_targets(targets));
+  const Eigen::MatrixXd gradient = s.full->half_gradient(p.anchor, step, s.soft_targets(targets));
+  ReducedLevel& r = s.reduced[p.level];
+  r.fit(p.anchor);
+  r.local(p.cache);
+  p.z_anchor = r.parameters();
+  p.z_last.resize(0, 0);
+  // As the coarse passes' residual coupling: the level's gradient at the fit equals the full one.
+  p.tau = r.half_gradient(targets, p.cache) - r.restrict_field(gradient);
+  s.reduced_cache[p.level].energy_valid = false; // its parameters are the preview's now
+}
+
+void HierarchicalSolver::preview(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int iterations, double extrapolate) {
+  Impl& s = *impl_;
+  Impl::Preview& p = s.preview;
+  if (p.level < 0) throw std::logic_error("HierarchicalSolver::preview before anchor_preview");
+  if (iterations < 1) throw InputError("HierarchicalSolver::preview: iterations must be >= 1");
+  if (targets.rows() != static_cast<Eigen::Index>(s.constraints.vertices.size()) || targets.cols() != 3)
+    throw InputError("HierarchicalSolver::preview: one target row per constrained vertex");
+  ReducedLevel& r = s.reduced[p.level];
+  if (p.z_last.size() == r.parameters().size() && extrapolate > 0 && extrapolate <= 2) {
+    const Eigen::MatrixXd z = r.parameters();
+    r.parameters() += extrapolate * (z - p.z_last);
+    p.z_last = z;
+    r.local(p.cache, false);
+  } else {
+    p.z_last = r.parameters();
+  }
+  AndersonHistory anderson(s.options.level_anderson_history);
+  Eigen::MatrixXd before, accelerated;
+  for (int k = 0; k < iterations; ++k) {
+    const Eigen::MatrixXd rhs = r.rhs(targets, p.cache) + p.tau;
+    before = r.parameters();
+    r.solve(rhs);
+    if (anderson.extrapolate(before, r.parameters(), accelerated)) r.parameters().swap(accelerated);
+    r.local(p.cache, false);
+  }
+  s.reduced_cache[p.level].energy_valid = false;
+  X = p.anchor + r.positions(r.parameters() - p.z_anchor); // B is linear in z
+  s.set_hard_rows(X, targets);
 }
 
 void HierarchicalSolver::reset() {

@@ -206,6 +206,7 @@ const std::map<std::string, Parser>& parsers() {
          return ViewShowFrame{static_cast<int>(f.index(f.at("index"), "index", std::int64_t(1) << 30))};
        }},
       {"certify", [](const json& o, const ViewMessageLimits&) -> ViewMessage { Fields(o, "certify", {}); return ViewCertify{}; }},
+      {"drawn", [](const json& o, const ViewMessageLimits&) -> ViewMessage { Fields(o, "drawn", {}); return ViewDrawn{}; }},
   };
   return table;
 }
@@ -216,7 +217,7 @@ const char* view_message_type(const ViewMessage& message) {
   static constexpr const char* names[] = {"add_handle", "remove_handle", "set_handle_vertices", "grab",
                                           "drag",       "release",       "undo",                "reset",
                                           "save_handles", "load_handles", "save_shell",         "frame",
-                                          "certify"};
+                                          "certify",    "drawn"};
   static_assert(std::size(names) == std::variant_size_v<ViewMessage>);
   return names[message.index()];
 }

@@ -39,6 +39,8 @@ namespace {
 /// HTTP requests are small (GET of a file): anything bigger is not from our page.
 constexpr std::size_t kHttpHeaderLimit = 16 * 1024;
 constexpr std::size_t kHttpBodyLimit = 16 * 1024;
+/// A "drawn" message is tiny: longer text is never one (no second parse of big messages).
+constexpr std::size_t kDrawnMessageBytes = 64;
 /// After stop(), pages get this long to receive their "going away" before the loop ends.
 constexpr auto kCloseGrace = std::chrono::milliseconds(300);
 
@@ -190,6 +192,16 @@ public:
     // Twice the parser's limit: a message a little too long gets the parser's clear error on the
     // page; only a far bigger one makes Beast close the connection (1009, shown by the page).
     ws_.read_message_max(2 * server_.session.limits().max_bytes);
+    // A page that goes (a reload, a closed tab) sends a close frame: it leaves the count at once,
+    // not when the close handshake has finished behind a frame still being written to it, so a
+    // reloaded page is not told that another page shares the session.
+    ws_.control_callback([weak = weak_from_this()](websocket::frame_type kind, beast::string_view) {
+      if (kind != websocket::frame_type::close) return;
+      if (const auto self = weak.lock()) {
+        self->open_ = false;
+        self->server_.page_closed(self->id_);
+      }
+    });
     ws_.async_accept(request, [self = shared_from_this()](beast::error_code ec) {
       if (ec) return;
       self->open_ = true;
@@ -206,6 +218,10 @@ public:
       }
       if (!self->ws_.got_text()) {
         self->send_text(R"({"type":"error","request":null,"message":"binary messages are not accepted: send JSON text"})");
+      } else if (self->buffer_.size() <= kDrawnMessageBytes &&
+                 beast::buffers_to_string(self->buffer_.data()).find("\"drawn\"") != std::string::npos &&
+                 self->is_drawn(beast::buffers_to_string(self->buffer_.data()))) {
+        self->drawn();
       } else {
         Item item;
         item.kind = Item::Message;
@@ -221,6 +237,15 @@ public:
 
   void send(const Outgoing& out) {
     if (!open_ || close_code_) return;
+    // Flow control (pages that say what they have drawn): one positions frame on its way at a
+    // time; a newer one waits in `held_` (replacing an older waiting one) until the page has drawn.
+    if (out.frame_kind == static_cast<std::uint32_t>(ViewFrameKind::Positions) && acknowledges_) {
+      if (undrawn_) {
+        held_ = out;
+        return;
+      }
+      undrawn_ = true;
+    }
     // A positions or values frame not yet on its way is out of date once a newer one comes.
     if (out.frame_kind == static_cast<std::uint32_t>(ViewFrameKind::Positions) ||
         out.frame_kind == static_cast<std::uint32_t>(ViewFrameKind::Values)) {
@@ -238,6 +263,25 @@ public:
     Outgoing out;
     out.bytes = std::make_shared<const std::string>(text);
     send(out);
+  }
+
+  /// The page has drawn the last positions frame it got: the next may go.
+  void drawn() {
+    acknowledges_ = true;
+    undrawn_ = false;
+    if (held_) {
+      const Outgoing next = *held_;
+      held_.reset();
+      send(next);
+    }
+  }
+
+  bool is_drawn(const std::string& text) const {
+    try {
+      return std::holds_alternative<ViewDrawn>(parse_view_message(text, server_.session.limits()));
+    } catch (const InputError&) {
+      return false; // the solver thread answers it with the parser's error
+    }
   }
 
   /// Closes after what is queued has gone out.
@@ -273,6 +317,8 @@ private:
   ServerCore& server_;
   int id_;
   bool open_ = false, writing_ = false;
+  bool acknowledges_ = false, undrawn_ = false; ///< flow control (drawn())
+  std::optional<Outgoing> held_;
   std::optional<websocket::close_code> close_code_;
   std::deque<Outgoing> queue_;
 };

@@ -416,7 +416,7 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
     s.send_state(send);
   } else if (std::holds_alternative<ViewCertify>(m)) {
     certify(send);
-  }
+  } // ViewDrawn: flow control, the server's (view_server.cpp)
 }
 
 bool ViewSession::drag_pending() const { return impl_->pending; }
@@ -427,9 +427,14 @@ void ViewSession::solve_drag(const ViewSink& send) {
   Impl& s = *impl_;
   if (!s.pending || !s.drag) return;
   s.pending = false;
-  SolveOptions limits = s.options.pose.solve;
-  limits.max_iterations = s.options.event_iterations;
-  const PoseStepReport step = s.drag->drag(1.0, limits);
+  PoseStepReport step;
+  if (s.options.reduced_events) {
+    step = s.drag->preview(1.0, s.options.event_iterations);
+  } else {
+    SolveOptions limits = s.options.pose.solve;
+    limits.max_iterations = s.options.event_iterations;
+    step = s.drag->drag(1.0, limits);
+  }
   s.handles_changed = false; // the solver is built for them now
   s.solver_note.clear();
   s.last_step = step;

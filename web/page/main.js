@@ -125,6 +125,9 @@ view.onDrawn((seq, now, applyMs, renderMs) => {
     resolveReady();
   }
   bench.drawn(seq, now, applyMs, renderMs);
+  // Flow control: the server sends the next positions only once these are drawn, so a page that
+  // draws slowly gets the latest shell rather than a backlog.
+  if (socket && socket.readyState === WebSocket.OPEN) socket.send('{"type":"drawn"}');
 });
 
 // ---- display -------------------------------------------------------------------------------------
@@ -194,8 +197,10 @@ function showStats() {
   rows.push(['solve ms / step', num(state.solveMs, 3)], ['latency ms', num(state.latencyMs, 3)]);
   rows.push(['updates / s', num(state.updateRate, 3)], ['frames drawn / s', num(state.fps, 3)]);
   // Whatever else a step reports (e.g. contact warnings from later solvers) is shown as is.
+  // (The guard's fields of a settled step are shown by the certificate rows above; contact is news.)
   if (s.step) for (const [key, value] of Object.entries(s.step))
-    if (!['fraction', 'iterations', 'energy', 'seconds', 'converged', 'seq', 'latency_ms'].includes(key)) rows.push([key.replaceAll('_', ' '), String(value), value ? 'bad' : '']);
+    if (!['fraction', 'iterations', 'energy', 'seconds', 'converged', 'seq', 'latency_ms', 'guarded', 'valid', 'method', 'guarded_iterations', 'certificate'].includes(key) && (key !== 'blocked_by_contact' || value))
+      rows.push([key.replaceAll('_', ' '), typeof value === 'object' ? JSON.stringify(value) : String(value), value ? 'bad' : '']);
   if (s.solver) rows.push(['solver', s.solver, 'bad']);
   const body = $('stats-body');
   body.replaceChildren(...rows.map(([k, val, cls]) => {

@@ -95,6 +95,7 @@ public:
   double setup_seconds() const;
   /// The hierarchical solver (null for the single-level one), e.g. to read its levels.
   const HierarchicalSolver* hierarchical() const;
+  HierarchicalSolver* hierarchical(); ///< for its interactive previews (anchor_preview, preview)
 
 private:
   struct Impl;

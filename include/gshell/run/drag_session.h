@@ -70,6 +70,15 @@ public:
   /// `options` default to the session's (PoseOptions::solve); pass few iterations for a quick
   /// event. Records a step. \throws InputError when the handles leave a part of the shell free.
   PoseStepReport drag(double fraction = 1.0, const std::optional<SolveOptions>& options = std::nullopt);
+  /// The cheapest event, for an interactive drag: the handles at `fraction` of their motions,
+  /// answered by the hierarchical solver's finest reduced level (HierarchicalSolver::preview,
+  /// `iterations` of its iterations) as a change of the state the drag began at (the state of the
+  /// last drag() or settle(), its anchor). It costs no full-level work (bunny00: about a tenth
+  /// of one full local/global iteration), so it is no minimiser of the full energy: a settle()
+  /// afterwards converges it. Not recorded as a step (the report's energy is NaN: not evaluated);
+  /// unguarded as a drag() with guard_drag_steps off. For the single-level solver (or guarded
+  /// drag steps) it is drag() with `iterations` iterations. \throws InputError as drag().
+  PoseStepReport preview(double fraction = 1.0, int iterations = 3);
   /// Runs on from the current state for the same targets (the mouse rests), with the session's
   /// options by default. Records a step. \throws InputError as drag().
   PoseStepReport settle(const std::optional<SolveOptions>& options = std::nullopt);

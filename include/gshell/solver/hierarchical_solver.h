@@ -166,6 +166,22 @@ public:
   /// Reduced levels back to the rest shape (identity maps).
   void reset();
 
+  /// Interactive previews (a drag event answered in a few milliseconds, docs/viewer.md): the
+  /// change reduced level `level` (-1: the finest) finds for new targets, carried onto the full
+  /// state. anchor_preview() takes the state X the previews move from (e.g. the settled shell
+  /// when a drag begins): the level is fitted to X and its residual coupling to the full level is
+  /// frozen there (one full local step), so that for the targets of X the level is at rest and a
+  /// drag moves the shell from X smoothly. preview() starts the level where the last preview
+  /// left it, moved on by `extrapolate` times the last preview's change of the level when that is
+  /// in (0, 2] (a drag-extrapolated start), runs `iterations` (Anderson-accelerated) local/global
+  /// iterations of the level for `targets`, and sets X = X_anchor + B (z - z_anchor) with hard
+  /// rows at the targets. No full-level work; the energy is not evaluated (a solve() afterwards
+  /// converges the full problem). solve() and reset() use the same levels: anchor again after them.
+  /// \throws InputError when X or targets have the wrong shape, the solver has no reduced level,
+  ///         `level` is out of range or `iterations` < 1; std::logic_error before anchor_preview.
+  void anchor_preview(const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int level = -1);
+  void preview(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int iterations, double extrapolate = 0);
+
   int num_levels() const;                ///< including the full level
   const ClusterTree& tree() const;
   /// The level accessors below: \throws std::out_of_range unless 0 <= level < num_levels()-1.

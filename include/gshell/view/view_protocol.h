@@ -89,10 +89,14 @@ struct ViewShowFrame {
 };
 /// {"type":"certify"}: compute the validity figures (inverted tets, intersections) now.
 struct ViewCertify {};
+/// {"type":"drawn"}: the page has drawn the last positions frame it got (flow control: a page that
+/// sends these gets at most one positions frame it has not drawn yet; the server's network thread
+/// handles them, the session never sees them).
+struct ViewDrawn {};
 
 using ViewMessage = std::variant<ViewAddHandle, ViewRemoveHandle, ViewSetHandleVertices, ViewGrab, ViewDrag,
                                  ViewRelease, ViewUndo, ViewReset, ViewSaveHandles, ViewLoadHandles, ViewSaveShell,
-                                 ViewShowFrame, ViewCertify>;
+                                 ViewShowFrame, ViewCertify, ViewDrawn>;
 
 /// The "type" of a message, as on the wire.
 const char* view_message_type(const ViewMessage& message);

@@ -49,9 +49,15 @@ struct ViewSessionOptions {
     p.guard_drag_steps = false;
     return p;
   }();
-  /// Outer iterations per drag event (its budget: the page gets an answer after this many, and
-  /// the settle finishes the job when the mouse rests). 1: the cheapest answer, one
-  /// Anderson-accelerated local/global iteration from the drag-extrapolated start.
+  /// How a drag event is answered (the settle finishes the job when the mouse rests):
+  /// true: the hierarchical solver's finest reduced level moves the shell from where the drag
+  /// began (DragSession::preview: no full-level work, a few milliseconds on bunny00);
+  /// false, or the single-level solver: outer iterations of the full solver from the
+  /// drag-extrapolated start (DragSession::drag), as `gshell pose --steps` takes its steps.
+  bool reduced_events = true;
+  /// Iterations per drag event, of the reduced level from its drag-extrapolated start
+  /// (reduced_events; bunny00: more iterations hardly lower the preview's energy) or of the full
+  /// solver (1: one Anderson-accelerated local/global iteration).
   int event_iterations = 1;
   /// Colors and stretch statistics are recomputed with every event when they cost at most this
   /// fraction of the event's solve, else only while settling and at rest (big meshes).
