@@ -40,7 +40,7 @@ struct GuardOptions {
   double start_thinning = 0.5; ///< ValidStartOptions::thinning
   double start_spread = 0;     ///< ValidStartOptions::spread
   int start_refine = 6;        ///< ValidStartOptions::refine_passes (>= 0)
-  double start_backoff = 1;    ///< ValidStartOptions::backoff, in (0, 1]
+  double start_backoff = 0.7;  ///< ValidStartOptions::backoff, in (0, 1]
   /// The start pulls an invalid top vertex towards its base vertex along the line joining them
   /// when that line sees every incident face with at least this cosine margin, otherwise along a
   /// path that bends towards the extrusion direction (ValidStartOptions::straight_margin), (0, 1].
