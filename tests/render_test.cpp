@@ -362,6 +362,19 @@ TEST(ShellRender, FaceStretchIsTheVolumeWeightedMeanOfItsTets) {
   EXPECT_NEAR(face[0], (1 * 0.6 + 2 * 0.0 + 3 * 0.2) / 6, 1e-12);
 }
 
+TEST(ShellRender, FaceStretchRefusesTetsOutsideTheVertices) {
+  Eigen::MatrixXd X(4, 3);
+  X << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  Eigen::MatrixXi T(3, 4);
+  T << 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 4; // id 4 of 4 vertices
+  const Eigen::VectorXd stretch = Eigen::Vector3d::Zero();
+  EXPECT_THROW(face_stretch_from_tets(X, T, stretch), InputError);
+  T(2, 3) = -1;
+  EXPECT_THROW(face_stretch_from_tets(X, T, stretch), InputError);
+  T(2, 3) = 3;
+  EXPECT_NO_THROW(face_stretch_from_tets(X, T, stretch));
+}
+
 namespace {
 
 // A shell over the builtin plane (normal prisms of thickness eta) whose every position is then

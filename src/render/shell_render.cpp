@@ -62,6 +62,9 @@ RenderSubject load_shell_folder(const fs::path& dir, const std::string& name) {
 Eigen::VectorXd face_stretch_from_tets(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T, const Eigen::VectorXd& tet_stretch) {
   if (T.rows() % 3 || tet_stretch.size() != T.rows())
     throw InputError("face stretch: need 3 tets per face and one stretch value per tet");
+  if (X.cols() != 3 || (T.size() > 0 && (T.cols() != 4 || T.minCoeff() < 0 || T.maxCoeff() >= X.rows())))
+    throw InputError("face stretch: tets must be m x 4 with vertex ids in [0, " + std::to_string(X.rows()) +
+                     ") of an n x 3 vertex matrix");
   const Eigen::Index m = T.rows() / 3;
   Eigen::VectorXd faces(m);
   for (Eigen::Index f = 0; f < m; ++f) {

@@ -35,7 +35,8 @@ RenderSubject load_render_subject(const std::string& input);
 /// The value shown on base face f: the mean of its three tets' stretch weighted by their volumes
 /// |det|/6 at X (tets 3f..3f+2 belong to face f). This is the prism's energy per volume, so the
 /// colors add up to what the solver minimises. `tet_stretch` has one value per row of T.
-/// \throws InputError unless T has 3 rows per face and tet_stretch one value per row of T.
+/// \throws InputError unless X is n x 3, T is m x 4 with 3 rows per face and ids in [0, n), and
+///         tet_stretch has one value per row of T.
 Eigen::VectorXd face_stretch_from_tets(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T,
                                        const Eigen::VectorXd& tet_stretch);
 
