@@ -10,8 +10,14 @@
 
 #include <gshell/io/load_mesh.h>
 #include <gshell/shell/generate_shell.h>
+#include <gshell/shell/prism_tets.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/guard/volume_barrier.h>
+#include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/stretch.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -43,7 +49,9 @@ int main(int argc, char** argv) {
   std::vector<double> ratios;
   std::string method = "rigid";
   int repeat = 1;
-  GuardOptions guard;
+  bool detail = false;
+  int guard_iterations = -1;
+  GuardOptions guard = generation_guard_options();
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--ratio") ratios.push_back(std::stod(argv[++i]));
@@ -57,6 +65,11 @@ int main(int argc, char** argv) {
     else if (a == "--spread") guard.start_spread = std::stod(argv[++i]);
     else if (a == "--margin") guard.start_margin = std::stod(argv[++i]);
     else if (a == "--thinning") guard.start_thinning = std::stod(argv[++i]);
+    else if (a == "--detail") detail = true;
+    else if (a == "--refine") guard.start_refine = std::stoi(argv[++i]);
+    else if (a == "--backoff") guard.start_backoff = std::stod(argv[++i]);
+    else if (a == "--iters") guard_iterations = std::stoi(argv[++i]);
+    else if (a == "--repair-iters") guard.repair_iterations = std::stoi(argv[++i]);
     else files.push_back(a);
   }
   if (ratios.empty()) ratios = {0.01, 0.03, 0.05};
@@ -72,6 +85,7 @@ int main(int argc, char** argv) {
       o.method = parse_shell_method(method);
       o.thickness = thickness_from_ratio(mesh.V, ratio);
       o.guard = guard;
+      if (guard_iterations >= 0) o.solve.max_iterations = guard_iterations;
       GenerateResult u, g;
       std::vector<double> tu, tg;
       for (int r = 0; r < repeat; ++r) { // interleaved, so that load changes hit both alike
@@ -99,6 +113,62 @@ int main(int argc, char** argv) {
                   g.metrics.thinned_vertices, static_cast<int>(g.unextrudable_vertices.size()),
                   cg.base_self_intersections, g.guard.start.rounds, g.guard.repaired_vertices,
                   u.metrics.stretch.volume_mean, stretch_ratio, median(tu), median(tg), time_ratio);
+      if (detail) {
+        const GuardedShell& d = g.guard;
+        std::printf("  guarded: paper %d it %.3f s | start %d rounds %.3f s | repair %d vertices, %d it (%s), "
+                    "%d cg, %d backtracks, %d clamped, %d active tets, %d active contacts, %.3f s | factor %.3f s | "
+                    "certificate %.3f s | total %.3f s\n",
+                    d.paper.iterations, d.paper.seconds, d.start.rounds, d.start.seconds, d.repaired_vertices,
+                    d.solve.iterations, d.solve.converged ? "converged" : "not converged", d.solve.cg_iterations,
+                    d.solve.backtracks, d.solve.clamped_steps, d.solve.active_tets, d.solve.active_contacts,
+                    d.solve.seconds, d.factor_seconds, g.metrics.certificate.seconds, g.seconds.total);
+        if (std::getenv("GUARD_PROBE")) {
+          const int nv = mesh.num_vertices();
+          const RestTets rest = prism_rest_tets(mesh.F, nv, normal_prisms(mesh.V, mesh.F, o.thickness));
+          const VolumeBarrier vb(rest, 0.1);
+          for (const GenerateResult* r : {&u, &g}) {
+            Eigen::MatrixXd X(2 * nv, 3);
+            X << mesh.V, r->shell.top;
+            int neg = 0, low = 0, low3 = 0;
+            for (int t = 0; t < rest.size(); ++t) {
+              const double J = vb.relative_volume_of(X, t);
+              neg += J <= 0;
+              low += J > 0 && J < 0.1;
+              low3 += J > 0 && J < 0.03;
+            }
+            std::printf("  %s: J<=0 %d, 0<J<0.1 %d, 0<J<0.03 %d\n", r == &u ? "unguarded" : "guarded", neg, low, low3);
+          }
+          // Stretch away from what the guard must leave: faces with an unprotected boundary
+          // triangle (base crossings, unextrudable vertices) and two rings of faces around them.
+          const ShellBoundary boundary = shell_boundary(mesh.F, nv);
+          std::vector<char> near(nv, 0);
+          for (int row = 0; row < boundary.size(); ++row)
+            if (g.guard.unprotected_triangles[row])
+              for (int k = 0; k < 3; ++k) near[mesh.F(boundary.face[row], k)] = 1;
+          for (int ring = 0; ring < 2; ++ring) {
+            std::vector<char> grown = near;
+            for (int f = 0; f < mesh.F.rows(); ++f)
+              if (near[mesh.F(f, 0)] || near[mesh.F(f, 1)] || near[mesh.F(f, 2)])
+                for (int k = 0; k < 3; ++k) grown[mesh.F(f, k)] = 1;
+            near = grown;
+          }
+          double su = 0, sg = 0, w = 0;
+          Eigen::MatrixXd Xu(2 * nv, 3), Xg(2 * nv, 3);
+          Xu << mesh.V, u.shell.top;
+          Xg << mesh.V, g.shell.top;
+          const Eigen::VectorXd tu = tet_stretch(rest, Xu), tg = tet_stretch(rest, Xg);
+          for (int f = 0; f < mesh.F.rows(); ++f) {
+            if (near[mesh.F(f, 0)] || near[mesh.F(f, 1)] || near[mesh.F(f, 2)]) continue;
+            for (int k = 0; k < 3; ++k) {
+              su += rest.volume[3 * f + k] * tu[3 * f + k];
+              sg += rest.volume[3 * f + k] * tg[3 * f + k];
+              w += rest.volume[3 * f + k];
+            }
+          }
+          std::printf("  stretch away from the unavoidable (+2 rings): unguarded %.4f guarded %.4f ratio %.3f\n", su / w,
+                      sg / w, sg / su);
+        }
+      }
       std::fflush(stdout);
     }
   }

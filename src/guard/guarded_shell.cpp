@@ -61,9 +61,18 @@ void check_guard_options(const GuardOptions& o) {
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
+  require(o.start_refine >= 0, "start_refine", ">= 0");
+  require(o.start_backoff > 0 && o.start_backoff <= 1, "start_backoff", "in (0, 1]");
   require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
   require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
   require(o.repair_rings >= 0, "repair_rings", ">= 0");
+  require(o.repair_iterations >= -1, "repair_iterations", ">= -1");
+}
+
+GuardOptions generation_guard_options() {
+  GuardOptions o;
+  o.contact_distance = 0.03;
+  return o;
 }
 
 GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta,
@@ -150,6 +159,8 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   start_options.thinning = options.start_thinning;
   start_options.straight_margin = options.start_margin;
   start_options.spread = options.start_spread;
+  start_options.refine_passes = options.start_refine;
+  start_options.backoff = options.start_backoff;
   start_options.fallback_length = eta;
   g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
   g.start = valid_start(V, F, X.bottomRows(n), g.directions, p.skip_tets, g.unprotected_triangles, start_options);
@@ -211,6 +222,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     // Converged as the paper's iterations are: relative to the whole shell's energy.
     GuardedSolveOptions repair_options = solve;
     repair_options.energy_scale = g.paper.energy.back();
+    if (options.repair_iterations >= 0) repair_options.max_iterations = options.repair_iterations;
     g.solve = repair.solve(X, repair_options);
   }
   g.top = X.bottomRows(n);

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace gshell {
 
@@ -113,6 +114,64 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
           }
       }
     for (int i = 0; i < n; ++i) moved[i] = s.scale[i] != before[i];
+  }
+  if (s.inverted_tets.empty() && s.intersections.empty() && options.refine_passes > 0) {
+    // The halving overshoots: a vertex of a violation is halved even where a little less would
+    // do. Bisect each pulled-in s_i between its valid value (lo) and the last one that was not
+    // (hi), all vertices at once: raise every one to the geometric middle, then put back to lo
+    // the raised vertices of every violation found, until none is left (the tets and pairs whose
+    // vertices are all at lo are those of the valid state, so this ends). Then back off by
+    // `backoff` the same way, so that the start keeps a margin from the flat tets and touching
+    // triangles the bisection ends next to.
+    Eigen::VectorXd lo = s.scale, hi = s.scale;
+    for (int i = 0; i < n; ++i)
+      if (lo[i] < 1) hi[i] = std::min(1.0, lo[i] / options.thinning);
+    auto place = [&](const std::vector<char>& which) {
+      for (int i = 0; i < n; ++i)
+        if (which[i]) s.top.row(i) = V.row(i) + paths.offset(i, s.scale[i]);
+    };
+    // Sets s to `target` where it differs from lo, reverting violators; returns the kept ones.
+    auto try_move = [&](const Eigen::VectorXd& target, bool bisecting) {
+      std::vector<char> changed(n, 0);
+      for (int i = 0; i < n; ++i) changed[i] = target[i] != lo[i];
+      s.scale = target;
+      place(changed);
+      std::vector<char> check = changed;
+      while (std::find(check.begin(), check.end(), 1) != check.end()) {
+        ++s.rounds;
+        const detail::StartViolations found = checker.check(V, s.top, &check);
+        std::fill(check.begin(), check.end(), 0);
+        auto revert = [&](int vertex) {
+          if (vertex < n || !changed[vertex - n]) return;
+          const int i = vertex - n;
+          changed[i] = 0;
+          check[i] = 1;
+          if (bisecting) hi[i] = s.scale[i];
+          s.scale[i] = lo[i];
+        };
+        for (int t : found.inverted_tets)
+          for (int j = 0; j < 4; ++j) revert(T(t, j));
+        for (const auto& [a, b] : found.intersections)
+          for (int row : {a, b})
+            for (int k = 0; k < 3; ++k) revert(boundary.F(row, k));
+        place(check);
+      }
+      for (int i = 0; i < n; ++i)
+        if (changed[i]) lo[i] = s.scale[i];
+    };
+    for (int pass = 0; pass < options.refine_passes; ++pass) {
+      Eigen::VectorXd target = lo;
+      for (int i = 0; i < n; ++i)
+        if (hi[i] > lo[i]) target[i] = lo[i] * std::sqrt(hi[i] / lo[i]);
+      try_move(target, true);
+    }
+    if (options.backoff < 1) {
+      Eigen::VectorXd target = lo;
+      for (int i = 0; i < n; ++i)
+        if (lo[i] < 1) target[i] = lo[i] * options.backoff;
+      try_move(target, false);
+    }
+    s.scale = lo;
   }
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;

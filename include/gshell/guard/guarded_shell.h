@@ -22,7 +22,8 @@ struct GuardOptions {
   /// Weight of the volume barrier (dimensionless; its terms are rest volume times psi(J / j_hat)).
   double volume_weight = 1.0;
   /// Contact barrier support dhat as a fraction of min(eta, mean base edge length) (>= 0; 0 turns
-  /// contacts off: only tets are guarded, intersections are not prevented).
+  /// contacts off: only tets are guarded, intersections are not prevented). Generation uses 0.03
+  /// (generation_guard_options()).
   double contact_distance = 0.1;
   /// Weight of the contact barrier (dimensionless): the barrier (length^4) is scaled by
   /// contact_weight * A / dhat^3, A the mean base area per vertex, so that at dhat / 2 its push
@@ -38,6 +39,8 @@ struct GuardOptions {
   double normal_margin = 0.5;
   double start_thinning = 0.5; ///< ValidStartOptions::thinning
   double start_spread = 0;     ///< ValidStartOptions::spread
+  int start_refine = 6;        ///< ValidStartOptions::refine_passes (>= 0)
+  double start_backoff = 0.7;  ///< ValidStartOptions::backoff, in (0, 1]
   /// The start pulls an invalid top vertex towards its base vertex along the line joining them
   /// when that line sees every incident face with at least this cosine margin, otherwise along a
   /// path that bends towards the extrusion direction (ValidStartOptions::straight_margin), (0, 1].
@@ -48,10 +51,19 @@ struct GuardOptions {
   /// The guarded solver moves the top vertices the start pulled in and this many rings of
   /// neighbours around them; the rest keeps the paper's result (>= 0).
   int repair_rings = 3;
+  /// Iterations of the guarded solver at most (-1: the solve's max_iterations, as the paper's).
+  int repair_iterations = -1;
 };
 
 /// \throws InputError naming the parameter unless every field is in range.
 void check_guard_options(const GuardOptions& options);
+
+/// GuardOptions{} with the contact support generation uses (GenerateOptions::guard): 0.03 of
+/// min(eta, mean edge) instead of 0.1. Where the start thins a region, its top lies close to its
+/// base over many triangles; a tenth of the edge length puts tens of thousands of pairs inside
+/// the barrier on hard models (dino: 27k), each a 12 x 12 Hessian per iteration, and their push
+/// holds the top thinner than it needs to be. docs/guarded-generation.md has the measurements.
+GuardOptions generation_guard_options();
 
 struct GuardedShell {
   Eigen::MatrixXd top;                 ///< n x 3

@@ -28,6 +28,12 @@ struct ValidStartOptions {
   double thinning = 0.5; ///< factor applied to s_i of a vertex in a violation, per round, in (0, 1)
   /// Largest ratio of s between the ends of an edge (> 1; 0 or less: no limit).
   double spread = 0;
+  /// Bisection passes that raise each pulled-in s_i back between its valid value and the last
+  /// invalid one (0: keep the halving's result; each pass halves log(hi / lo)).
+  int refine_passes = 0;
+  /// After the bisection, pulled-in s_i are lowered by this factor where that stays valid (a
+  /// margin from the validity boundary the bisection ends next to), in (0, 1]; 1: none.
+  double backoff = 1;
   int max_rounds = 40;   ///< rounds before giving up (a violation that survives 2^-40 of the target
                          ///< thickness comes from the base itself, e.g. touching input triangles)
 };

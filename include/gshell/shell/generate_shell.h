@@ -43,7 +43,7 @@ struct GenerateOptions {
   /// Rigid and curvature: skip the guard and return the paper's unguarded result (bit for bit
   /// what these methods gave before the guard), valid or not. Offset is never guarded.
   bool allow_invalid = false;
-  GuardOptions guard; ///< parameters of the guarded generation (guarded_shell.h)
+  GuardOptions guard = generation_guard_options(); ///< parameters of the guarded generation (guarded_shell.h)
   LinearSolverOptions linear; ///< how the global steps are solved (Auto: CG on large meshes)
 
   /// Throws InputError naming the parameter (thickness, iterations, tolerance, s_min, s_max, the
