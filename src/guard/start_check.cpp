@@ -11,6 +11,15 @@
 #include <algorithm>
 
 namespace gshell::detail {
+namespace {
+
+Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids) {
+  Eigen::MatrixXi S(static_cast<int>(ids.size()), 3);
+  for (std::size_t i = 0; i < ids.size(); ++i) S.row(static_cast<int>(i)) = B.row(ids[i]);
+  return S;
+}
+
+} // namespace
 
 StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets,
                            std::vector<char> excluded_triangles)
@@ -18,7 +27,12 @@ StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> sk
       excluded_(std::move(excluded_triangles)) {
   if (skip_.empty()) skip_.assign(T_.rows(), 0);
   if (excluded_.empty()) excluded_.assign(boundary_.size(), 0);
+  for (int r = 0; r < boundary_.size(); ++r)
+    if (!excluded_[r]) rows_.push_back(r);
+  rows_F_ = rows_of(boundary_.F, rows_);
 }
+
+StartChecker::~StartChecker() = default;
 
 StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                                     const std::vector<char>* moved) const {
@@ -49,23 +63,23 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   for (const auto& part : inverted) v.inverted_tets.insert(v.inverted_tets.end(), part.begin(), part.end());
   std::sort(v.inverted_tets.begin(), v.inverted_tets.end());
 
-  // Pairs of (a row with a moved vertex) x (any row); base/base pairs cannot have one.
+  // Pairs of (a row with a moved vertex) x (any row); base/base pairs cannot have one. The tree
+  // over all rows is refit between rounds: a round moves few vertices, and rebuilding it (the
+  // Morton sort) was most of a round's cost on big meshes.
   const Eigen::MatrixXi& B = boundary_.F;
-  std::vector<int> rows, changed;
-  for (int r = 0; r < boundary_.size(); ++r) {
-    if (excluded_[r]) continue;
-    rows.push_back(r);
+  std::vector<int> changed;
+  for (int r : rows_)
     if (is_moved(B(r, 0)) || is_moved(B(r, 1)) || is_moved(B(r, 2))) changed.push_back(r);
-  }
   if (changed.empty()) return v;
-  auto sub = [&](const std::vector<int>& ids) {
-    Eigen::MatrixXi S(static_cast<int>(ids.size()), 3);
-    for (std::size_t i = 0; i < ids.size(); ++i) S.row(static_cast<int>(i)) = B.row(ids[i]);
-    return S;
-  };
   std::vector<char> is_changed(boundary_.size(), 0);
   for (int r : changed) is_changed[r] = 1;
-  const FaceSet some(X, sub(changed)), all(X, sub(rows));
+  if (all_)
+    all_->move_to(X, rows_F_);
+  else
+    all_ = std::make_unique<FaceSet>(X, rows_F_);
+  const FaceSet some(X, rows_of(B, changed));
+  const FaceSet& all = *all_;
+  const std::vector<int>& rows = rows_;
   PairCollector found;
   some.for_each_pair_meeting_beyond_shared(all, [&](int s, int t) {
     const int a = changed[s], b = rows[t];

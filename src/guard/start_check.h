@@ -6,10 +6,13 @@
 #include <gshell/quality/shell_boundary.h>
 
 #include <Eigen/Core>
+#include <memory>
 #include <utility>
 #include <vector>
 
 namespace gshell::detail {
+
+class FaceSet;
 
 struct StartViolations {
   std::vector<int> inverted_tets;                 ///< rows of T, not skipped
@@ -21,9 +24,11 @@ public:
   /// Over base faces F (n base vertices); skip / excluded: one flag per tet of build_prism_tets /
   /// boundary row, or empty.
   StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets, std::vector<char> excluded_triangles);
+  ~StartChecker();
 
   /// Violations of the shell (base, top). With `moved` (one flag per top vertex), only tets and
-  /// pairs with a moved top vertex are tested.
+  /// pairs with a moved top vertex are tested. Not for concurrent calls on one object: the tree
+  /// over the checked rows is built at the first such call and refit (not rebuilt) afterwards.
   StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                         const std::vector<char>* moved = nullptr) const;
 
@@ -35,6 +40,9 @@ private:
   int n_;
   ShellBoundary boundary_;
   std::vector<char> skip_, excluded_;
+  std::vector<int> rows_;       // boundary rows not excluded
+  Eigen::MatrixXi rows_F_;      // their faces
+  mutable std::unique_ptr<FaceSet> all_; // over rows_F_, at the last checked positions
 };
 
 } // namespace gshell::detail
