@@ -21,7 +21,13 @@ if(GSHELL_SANITIZE)
     execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=libclang_rt.asan-x86_64.so
                     OUTPUT_VARIABLE _gshell_libasan OUTPUT_STRIP_TRAILING_WHITESPACE)
   endif()
-  set(GSHELL_PYTHON_TEST_ENVIRONMENT "LD_PRELOAD=${_gshell_libasan};ASAN_OPTIONS=detect_leaks=0")
+  # libstdc++ goes in with it: python3 does not link it, and ASan's __cxa_throw interceptor finds
+  # the real one only if libstdc++ is loaded when the runtime starts (else the first C++ throw in
+  # the module aborts with "real___cxa_throw != 0").
+  execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=libstdc++.so.6
+                  OUTPUT_VARIABLE _gshell_libstdcxx OUTPUT_STRIP_TRAILING_WHITESPACE)
+  get_filename_component(_gshell_libstdcxx "${_gshell_libstdcxx}" REALPATH)
+  set(GSHELL_PYTHON_TEST_ENVIRONMENT "LD_PRELOAD=${_gshell_libasan}:${_gshell_libstdcxx};ASAN_OPTIONS=detect_leaks=0")
   message(STATUS "gshell: sanitizer build (ASan + UBSan); Python tests preload ${_gshell_libasan}")
 endif()
 
