@@ -99,6 +99,10 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   return ok;
 }
 
+ShellCertificate FrameGuard::certify(const Eigen::MatrixXd& X) {
+  return certifier_.certify(X.topRows(n_), X.bottomRows(n_), CertifyOptions{});
+}
+
 FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts,
                                      bool fall_back_to_tets, const GuardedSolveOptions& solve) {
   Outcome out;

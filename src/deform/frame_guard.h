@@ -40,6 +40,9 @@ public:
   /// returned in `certificate`) finds no intersection the guard keeps apart. X1 is then a valid
   /// start for the guarded solver, as X0 is.
   bool accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, ShellCertificate* certificate);
+  /// The exact certificate of X (2n x 3), base/base pairs included: certify_shell's answer, by
+  /// the guard's certifier (trees refit, not rebuilt).
+  ShellCertificate certify(const Eigen::MatrixXd& X);
   /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
   bool guards_contacts() const { return contact_ != nullptr; }
 

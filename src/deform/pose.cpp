@@ -164,12 +164,12 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     }
     if (!found) {
       X = start;
-      out.certificate = certify_shell(X.topRows(n), X.bottomRows(n), s.rest_shell.F);
+      out.certificate = s.guard->certify(X);
     }
     out.method = FrameMethod::Bounded;
     out.blocked_by_contact = true;
   }
-  if (out.method != FrameMethod::Bounded) out.certificate = certify_shell(X.topRows(n), X.bottomRows(n), s.rest_shell.F);
+  if (out.method != FrameMethod::Bounded) out.certificate = s.guard->certify(X);
   out.valid = out.certificate.valid() && out.certificate.base_self_intersections == 0;
   return result;
 }

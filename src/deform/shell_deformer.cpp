@@ -298,7 +298,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
       result.certificate.base_self_intersections =
           static_cast<int>(surface_self_intersections(X.topRows(n), rest_.F).size());
     } else {
-      result.certificate = certify_shell(X.topRows(n), X.bottomRows(n), rest_.F);
+      result.certificate = guard_ ? guard_->certify(X) : certify_shell(X.topRows(n), X.bottomRows(n), rest_.F);
     }
     result.certificate_seconds = seconds_since(certify_start);
     result.valid = result.certificate.valid();
