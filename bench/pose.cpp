@@ -10,14 +10,19 @@
 //
 //   bench_pose --table [--runs R] [--cap N] [--cache-dir DIR] [--case LABEL]... [--config SPEC]...
 //                      [--only-extra] [--model PATH]... [--bunny PATH] [--examples DIR]
-//                      [--model-cap N] [--model-reference-iterations N] [--explain-stalls]
+//                      [--model-cap N] [--model-reference-iterations N] [--settle-tolerance T]
+//                      [--explain-stalls]
 //
 // --table: one table of time to 1.001 E* from rest for single, single+Anderson, single+Anderson+
-// path search, hierarchical and hierarchical with pause_unpaid_passes (and any --config) on the bowl at thickness ratios 0.02 and 0.05
+// path search and hierarchical (and any --config) on the bowl at thickness ratios 0.02 and 0.05
 // under the pulls examples/bowl_{pull,twist,half_pull,squeeze_soft}.json, and on bunny00 (and any
-// --model) with the generic pull; prints shell sizes, iterations / median seconds, speed-ups and
-// the coarse passes kept of those run (ms per pass / per full iteration / per path search).
-// --explain-stalls: for every hierarchical run that misses 1.001 E*, continue single-level from
+// --model) with the generic pull. E* of a case is the lowest minimum any solver reaches from rest
+// (a pull can have several: the twist does): every run goes on past 1.001 E* until it settles, and
+// the table says where each settled and which solver found E*. Prints shell sizes, iterations /
+// median seconds, speed-ups and the coarse passes kept (ms per pass / per full iteration / per
+// path search).
+// --explain-stalls: for every run that misses 1.001 E* (state kept: hierarchical, or settled by the
+// solver's own test), continue single-level from
 // its state to convergence and print where that settles and how far it lies from the E* state.
 //
 // The reference is the single-level fixed point computed with Anderson acceleration (the same
@@ -44,6 +49,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -76,6 +82,7 @@ struct Reach {
   int iterations = 0;
   double seconds = 0;
   double energy = 0; ///< at the end (when not reached)
+  double cpu = 0;    ///< CPU seconds (--table runs only)
 };
 
 /// Thrown from the progress callback to end a solve at the first iteration that reaches the goal
@@ -109,7 +116,8 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
   }
 }
 
-/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,lt=0,min=8,hw=100,period=4,path=1,blend=0,pause=0"
+/// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,top=8,lt=0,min=8,hw=100,
+/// period=4,path=1,blend=0,pause=0"
 /// (any subset; the rest keep their defaults).
 Config parse_config(const std::string& spec) {
   Config c{"hierarchical " + spec, PoseSolverKind::Hierarchical, {}};
@@ -134,6 +142,7 @@ Config parse_config(const std::string& spec) {
     else if (key == "hw") o.reduced_hard_weight = value;
     else if (key == "cr") o.cluster_rotations = value != 0;
     else if (key == "fcs") o.finest_cluster_size = static_cast<int>(value);
+    else if (key == "top") o.coarsest_clusters = static_cast<int>(value);
     else if (key == "laa") o.level_anderson_history = static_cast<int>(value);
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else if (key == "path") o.path_extrapolation = value != 0;
@@ -208,16 +217,79 @@ double table_reference(const Shell& shell, const HandleSet& handles, const std::
   return r.energy.back();
 }
 
+/// One table run: a solve from rest with the energy and the solver's clock after every outer
+/// iteration, so that time to 1.001 E* can be read off once E* is known (E* is the lowest minimum
+/// any solver reaches, known only after all of them ran).
+struct Trajectory {
+  /// [k]: after outer iteration k (k = 0: the start, 0 s); seconds = the solver's wall clock, cpu =
+  /// this process's CPU time since the solve began (all threads; steadier than wall time on a
+  /// loaded machine).
+  std::vector<double> energy, seconds, cpu;
+  bool converged = false;              ///< stopped by settling (not by the cap)
+  Eigen::MatrixXd final_state;
+};
+
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Thrown from the progress callback once a run has settled.
+struct Settled {};
+
+/// Runs `solver` from rest until it settles or `cap` outer iterations: settled = relative energy
+/// change of one outer iteration below `tolerance` (the solver's own test), or below 1e-6 once
+/// E <= 1.001 `reference` (then it is in the reference's basin and only creeps to its bottom; a
+/// run heading for a lower minimum still moves faster than that when it passes 1.001 E_ref).
+Trajectory run_trajectory(PoseSolver& solver, double reference, int cap, double tolerance) {
+  Trajectory t;
+  Eigen::MatrixXd X = solver.rest_vertices();
+  // The start (rest, handles not yet at their targets) counts as not reached.
+  t.energy.push_back(std::numeric_limits<double>::infinity());
+  t.seconds.push_back(0);
+  t.cpu.push_back(0);
+  const double cpu0 = process_cpu_seconds();
+  SolveOptions so;
+  so.max_iterations = cap;
+  so.tolerance = tolerance;
+  so.progress = [&](int, double e, double sec) {
+    const double previous = t.energy.back();
+    t.energy.push_back(e);
+    t.seconds.push_back(sec);
+    t.cpu.push_back(process_cpu_seconds() - cpu0);
+    if (e <= 1.001 * reference && previous - e < 1e-6 * previous) throw Settled{};
+  };
+  try {
+    t.converged = solver.solve(X, 1.0, so).converged;
+    t.final_state = X;
+  } catch (const Settled&) {
+    // Only within 1.001 E_ref (the single-level solver does not hand out its state when the
+    // callback throws; the final state is needed only for runs that end below the reference).
+    t.converged = true;
+  }
+  return t;
+}
+
+/// The first iteration of `t` with E <= goal (reached = false: none).
+Reach reach_in(const Trajectory& t, double goal) {
+  for (size_t k = 0; k < t.energy.size(); ++k)
+    if (t.energy[k] <= goal) return {true, static_cast<int>(k), t.seconds[k], t.energy[k], t.cpu[k]};
+  return {false, static_cast<int>(t.energy.size()) - 1, t.seconds.back(), t.energy.back(), t.cpu.back()};
+}
+
 struct TableCell {
-  Reach reach;             ///< of the first run (iterations do not vary between runs)
-  double seconds = 0;      ///< median over the runs
-  double setup = 0;        ///< PoseSolver construction, median
+  Trajectory trajectory;      ///< of the first run
+  Reach reach;                ///< to 1.001 E* (iterations do not vary between runs)
+  double seconds = 0;         ///< median over the runs
+  double setup = 0;           ///< PoseSolver construction, median
   HierarchyCounters counters; ///< hierarchical only: first run
 };
 
 int run_table(const std::vector<std::string>& args) {
-  int runs = 3, cap = 3000, reference_iterations = 6000;
+  int runs = 1, cap = 3000, reference_iterations = 6000;
   int model_cap = -1, model_reference_iterations = -1; // for the mesh cases (--model, bunny); -1: as the bowl's
+  double settle_tolerance = 1e-9;
   std::string examples = "examples", bunny = "models/bunny00.off", cache_dir;
   std::vector<std::string> only_cases;
   std::vector<Config> extra;
@@ -232,6 +304,7 @@ int run_table(const std::vector<std::string>& args) {
     else if (args[i] == "--reference-iterations") reference_iterations = std::atoi(next().c_str());
     else if (args[i] == "--model-cap") model_cap = std::atoi(next().c_str());
     else if (args[i] == "--model-reference-iterations") model_reference_iterations = std::atoi(next().c_str());
+    else if (args[i] == "--settle-tolerance") settle_tolerance = std::atof(next().c_str());
     else if (args[i] == "--examples") examples = next();
     else if (args[i] == "--bunny") bunny = next();
     else if (args[i] == "--cache-dir") cache_dir = next();
@@ -264,16 +337,16 @@ int run_table(const std::vector<std::string>& args) {
     o.path_extrapolation = true;
     configs.push_back({"single+AA+path", PoseSolverKind::Hierarchical, o});
     configs.push_back({"hierarchical", PoseSolverKind::Hierarchical, HierarchyOptions{}});
-    HierarchyOptions pause;
-    pause.pause_unpaid_passes = true;
-    configs.push_back({"hierarchical+pause", PoseSolverKind::Hierarchical, pause});
   }
   for (Config c : extra) configs.push_back(c);
   const size_t first_ratio = only_extra ? configs.size() : 3; // configurations compared with the first three
 
-  std::printf("bench_pose --table: time to E <= 1.001 E* from rest (one big move), median of %d runs; "
-              "E* = single level + Anderson(5) to relative change < 1e-10; cap %d iterations (mesh cases: cap %d, "
-              "E* after at most %d iterations)\n", runs, cap, model_cap > 0 ? model_cap : cap,
+  std::printf("bench_pose --table: time to E <= 1.001 E* from rest (one big move), median of %d run(s). E* of a case = "
+              "the lowest minimum any solver reaches from rest: the reference (single level + Anderson(5) to relative "
+              "change < 1e-10) or a lower one a solver settles in. Runs go on past 1.001 E* until they settle "
+              "(relative change < %.0e, or < 1e-6 within 1.001 E_ref) or the cap: %d iterations (mesh cases: %d, "
+              "reference after at most %d)\n",
+              runs, settle_tolerance, cap, model_cap > 0 ? model_cap : cap,
               model_reference_iterations > 0 ? model_reference_iterations : reference_iterations);
   std::printf("threads: TBB default; load at start: ");
   if (std::ifstream load("/proc/loadavg"); load) {
@@ -287,7 +360,8 @@ int run_table(const std::vector<std::string>& args) {
   struct Row {
     std::string label;
     int vertices = 0;
-    double Estar = 0;
+    double Estar = 0, Eref = 0;
+    std::string found_by = "reference"; ///< who reached E*
     std::vector<TableCell> cells;
   };
   std::vector<Row> rows;
@@ -307,59 +381,82 @@ int run_table(const std::vector<std::string>& args) {
     std::replace(key.begin(), key.end(), ' ', '_');
     key += "_" + std::to_string(2 * shell.num_base_vertices());
     const int case_cap = !bowl && model_cap > 0 ? model_cap : cap;
-    const double Estar = table_reference(shell, handles, key, cache_dir,
-                                         !bowl && model_reference_iterations > 0 ? model_reference_iterations
-                                                                                 : reference_iterations);
-    Row row{label, 2 * shell.num_base_vertices(), Estar, {}};
+    const int case_reference_iterations =
+        !bowl && model_reference_iterations > 0 ? model_reference_iterations : reference_iterations;
+    const double Eref = table_reference(shell, handles, key, cache_dir, case_reference_iterations);
+    Row row{label, 2 * shell.num_base_vertices(), Eref, Eref, "reference", {}};
     for (const Config& c : configs) {
       TableCell cell;
-      std::vector<double> seconds, setups;
-      for (int r = 0; r < runs; ++r) {
-        PoseSolver solver(shell, handles, c.kind, c.options);
+      PoseSolver solver(shell, handles, c.kind, c.options);
+      cell.setup = solver.setup_seconds();
+      cell.trajectory = run_trajectory(solver, Eref, case_cap, settle_tolerance);
+      if (solver.hierarchical()) cell.counters = solver.hierarchical()->counters();
+      const double end = cell.trajectory.energy.back();
+      std::fprintf(stderr, "bench_pose: %s, %s: ends at %.5f E_ref after %d iterations (%s), %.3f s\n", label.c_str(),
+                   c.name.c_str(), end / Eref, static_cast<int>(cell.trajectory.energy.size()) - 1,
+                   cell.trajectory.converged ? "settled" : "cap", cell.trajectory.seconds.back());
+      // A run ending clearly below the reference found a lower minimum: settle it there (single
+      // level + Anderson from its state) for that minimum's energy.
+      if (end < (1 - 1e-4) * row.Estar && cell.trajectory.final_state.size() > 0) {
+        Eigen::MatrixXd X = cell.trajectory.final_state;
+        const SolveResult settled = settle_single_level(shell, handles, X, case_reference_iterations, false);
+        row.Estar = std::min(end, settled.energy.back());
+        row.found_by = c.name;
+      }
+      row.cells.push_back(std::move(cell));
+    }
+    const double goal = 1.001 * row.Estar;
+    for (size_t k = 0; k < configs.size(); ++k) {
+      TableCell& cell = row.cells[k];
+      cell.reach = reach_in(cell.trajectory, goal);
+      std::vector<double> seconds, setups{cell.setup};
+      if (cell.reach.reached) seconds.push_back(cell.reach.seconds);
+      for (int r = 1; r < runs && cell.reach.reached; ++r) {
+        PoseSolver solver(shell, handles, configs[k].kind, configs[k].options);
         setups.push_back(solver.setup_seconds());
-        Eigen::MatrixXd final_state;
-        const Reach reach = time_to_goal(solver, solver.rest_vertices(), 1.0, 1.001 * Estar, case_cap, &final_state);
-        if (r == 0 && !reach.reached && solver.hierarchical() && explain_stalls)
-          explain_stall(shell, handles, label + ", " + c.name, Estar, final_state, reference_iterations);
-        if (r == 0) {
-          cell.reach = reach;
-          if (solver.hierarchical()) cell.counters = solver.hierarchical()->counters();
-        }
-        if (!reach.reached) break;
-        seconds.push_back(reach.seconds);
+        seconds.push_back(time_to_goal(solver, solver.rest_vertices(), 1.0, goal, case_cap).seconds);
       }
       cell.seconds = median(seconds);
       cell.setup = median(setups);
-      std::fprintf(stderr, "bench_pose: %s, %s: %d iterations%s, %.3f s\n", label.c_str(), c.name.c_str(),
-                   cell.reach.iterations, cell.reach.reached ? "" : " (cap)", cell.seconds);
-      row.cells.push_back(cell);
+      if (!cell.reach.reached && cell.trajectory.final_state.size() > 0 && explain_stalls)
+        explain_stall(shell, handles, label + ", " + configs[k].name, row.Estar, cell.trajectory.final_state,
+                      case_reference_iterations);
+      cell.trajectory.final_state.resize(0, 0);
     }
-    rows.push_back(row);
+    rows.push_back(std::move(row));
   }
 
-  // One table: per case and configuration, iterations / median seconds; speed-ups of the last
-  // configurations over plain single and over single+AA+path.
-  std::printf("\n| case | shell vertices |");
-  for (const Config& c : configs) std::printf(" %s: it. / s |", c.name.c_str());
+  // One table: per case and configuration, iterations / median seconds to 1.001 E* and where the
+  // run settled (E / E*); speed-ups of the last configurations over single, single+AA and
+  // single+AA+path.
+  std::printf("\n| case | shell vertices | E* found by |");
+  for (const Config& c : configs) std::printf(" %s: it. / s / CPU s (settles at E/E*) |", c.name.c_str());
   for (size_t k = first_ratio; k < configs.size(); ++k)
-    std::printf(" %s vs single / vs +AA+path |", configs[k].name.c_str());
+    std::printf(" %s vs single / +AA / +AA+path (CPU s) |", configs[k].name.c_str());
   std::printf(" coarse passes kept |");
-  std::printf("\n|---|---|");
+  std::printf("\n|---|---|---|");
   for (size_t k = 0; k < configs.size(); ++k) std::printf("---|");
   for (size_t k = first_ratio; k < configs.size(); ++k) std::printf("---|");
   std::printf("---|\n");
   for (const Row& row : rows) {
-    std::printf("| %s | %d |", row.label.c_str(), row.vertices);
+    std::printf("| %s | %d | %s", row.label.c_str(), row.vertices, row.found_by.c_str());
+    if (row.Estar < row.Eref) std::printf(" (reference %.4f E*)", row.Eref / row.Estar);
+    std::printf(" |");
     for (const TableCell& cell : row.cells) {
-      if (cell.reach.reached) std::printf(" %d / %.3f |", cell.reach.iterations, cell.seconds);
-      else std::printf(" >%d (E = %.4f E*) |", cell.reach.iterations, cell.reach.energy / row.Estar);
+      const double end = cell.trajectory.energy.back() / row.Estar;
+      const char* how = cell.trajectory.converged ? "" : ", cap";
+      if (cell.reach.reached)
+        std::printf(" %d / %.3f / %.3f (%.4f%s) |", cell.reach.iterations, cell.seconds, cell.reach.cpu, end, how);
+      else std::printf(" >%d (%.4f%s) |", cell.reach.iterations, end, how);
     }
     for (size_t k = first_ratio; k < row.cells.size(); ++k) {
       const TableCell& h = row.cells[k];
       auto ratio = [&](const TableCell& base) {
-        return base.reach.reached && h.reach.reached ? base.seconds / h.seconds : std::numeric_limits<double>::quiet_NaN();
+        return base.reach.reached && h.reach.reached ? base.reach.cpu / h.reach.cpu
+                                                     : std::numeric_limits<double>::quiet_NaN();
       };
-      std::printf(" %.1fx / %.1fx |", ratio(row.cells[0]), ratio(row.cells[2]));
+      if (only_extra) std::printf(" |");
+      else std::printf(" %.1fx / %.1fx / %.1fx |", ratio(row.cells[0]), ratio(row.cells[1]), ratio(row.cells[2]));
     }
     std::printf(" ");
     for (const TableCell& cell : row.cells)
@@ -370,7 +467,10 @@ int run_table(const std::vector<std::string>& args) {
                     1e3 * cell.counters.path_seconds / std::max(1, cell.counters.outer_iterations));
     std::printf("|\n");
   }
-  std::printf("\nsetup (s, median) of the hierarchical solver (tree, assembly, factorisations):");
+  std::printf("\n(E/E* in parentheses: where the run settled; above 1.001 and settled = another local minimum; "
+              "'cap' = still moving at the cap. Coarse passes kept: accepted/run (ms per pass / per full iteration / "
+              "per path search), over the whole run.)\n");
+  std::printf("setup (s) of the last configuration (tree, assembly, factorisations):");
   for (const Row& row : rows) std::printf(" %s %.3f;", row.label.c_str(), row.cells.back().setup);
   std::printf("\n");
   return 0;

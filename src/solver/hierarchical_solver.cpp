@@ -340,11 +340,14 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   const int reduced_levels = options.levels - 1;
   const int split = std::max(1, options.splits_per_level);
   ClusterTreeOptions tree_options;
-  // The finest reduced level has about finest_cluster_size base vertices per cluster; each coarser
-  // one is splits_per_level bisection rounds up (never above the root).
+  // The coarsest reduced level has about coarsest_clusters clusters and each finer one is
+  // splits_per_level bisection rounds down, but the finest has at least finest_cluster_size base
+  // vertices per cluster (on small meshes the levels then move up, never above the root).
   const int n_base = s.num_vertices() / 2;
-  const int finest = static_cast<int>(std::lround(std::log2(std::max(1.0, static_cast<double>(n_base) /
-                                                                         std::max(1, options.finest_cluster_size)))));
+  const int by_size = static_cast<int>(std::lround(std::log2(std::max(1.0, static_cast<double>(n_base) /
+                                                                          std::max(1, options.finest_cluster_size)))));
+  const int top = static_cast<int>(std::lround(std::log2(std::max(1, options.coarsest_clusters))));
+  const int finest = std::min(by_size, top + (reduced_levels - 1) * split);
   const int first = std::max(0, finest - (reduced_levels - 1) * split);
   tree_options.depth = reduced_levels > 0 ? first + (reduced_levels - 1) * split : 0;
   tree_options.min_cluster_size = options.min_cluster_size;

@@ -9,8 +9,9 @@
 // is assembled and factored once. Tets inside one cluster have F_t = M_j: one polar decomposition
 // serves all of them. By default (cluster_rotations) the tets across cluster borders take the
 // rotation of the cluster that owns them as well, so a reduced iteration costs O(cluster pairs),
-// independent of the tet count; otherwise each border tet gets its own rotation. The finest
-// reduced level has about 8 base vertices per cluster, the coarser ones 4x fewer clusters each.
+// independent of the tet count; otherwise each border tet gets its own rotation. The coarsest
+// reduced level has about 8 clusters, each finer one 4x as many (down to 8 base vertices per
+// cluster on small meshes): 8, 32, 128 and 512 clusters on the bowl and on bunny00 alike.
 // Level L-1 is the full problem: a ShellSolver over all 2n vertices (hard handles eliminated),
 // driven step by step.
 //
@@ -58,8 +59,15 @@ struct PositionConstraints {
 struct HierarchyOptions {
   int levels = 5;             ///< levels including the full one; 1 = the plain single-level solver
   int splits_per_level = 2;   ///< bisection rounds between successive levels (up to 4x clusters)
-  /// Base vertices per cluster at the finest reduced level (its tree depth is log2(n / this),
-  /// rounded); the coarser levels lie splits_per_level bisection rounds apart above it.
+  /// Clusters of the coarsest reduced level (its tree depth is log2 of this, rounded); the finer
+  /// levels lie splits_per_level bisection rounds apart below it. Fixed, not growing with the
+  /// mesh: the slow modes the reduced levels are for (bending and twisting the whole shell between
+  /// the handles) need only a few clusters whatever the resolution, and the finer the reduced
+  /// levels, the more a coarse pass costs (bunny00 with the finest level at 8 vertices per
+  /// cluster: 64 clusters at the top, a pass ~4 full iterations; docs/design.md).
+  int coarsest_clusters = 8;
+  /// At least this many base vertices per cluster at the finest reduced level (its tree depth is
+  /// at most log2(n / this), rounded): on small meshes the levels move up the tree.
   int finest_cluster_size = 8;
   int min_cluster_size = 8;   ///< base vertices; clusters are not split below this
   int level_iterations = 10;  ///< local/global iterations per reduced level and coarse pass (at most)
