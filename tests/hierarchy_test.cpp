@@ -21,6 +21,7 @@
 #include <Eigen/LU>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 
 using namespace gshell;
@@ -216,19 +217,42 @@ TEST(HierarchicalSolver, ReducedLevelsAreExactMembersOfTheirSubspaces) {
   }
 }
 
+TEST(HierarchicalSolver, LevelsHangFromAFixedCoarsestClusterCountAtEveryMeshSize) {
+  // The coarsest reduced level has about coarsest_clusters clusters whatever the resolution, each
+  // finer one up to 4x as many; on a small mesh the finest keeps >= finest_cluster_size base
+  // vertices per cluster and the levels move up the tree.
+  for (int res : {40, 80}) {
+    Problem p = bowl_problem(res, {0.8, 0.2, 0.5});
+    const int n = p.shell.num_base_vertices();
+    HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints);
+    ASSERT_EQ(solver.num_levels(), 5) << "res " << res;
+    EXPECT_EQ(solver.tree_depth(0), 3) << "res " << res << ", " << n << " base vertices";
+    EXPECT_EQ(solver.num_clusters(0), 8) << "res " << res;
+    for (int l = 1; l < 4; ++l) {
+      EXPECT_EQ(solver.tree_depth(l), solver.tree_depth(l - 1) + 2) << "res " << res << ", level " << l;
+      EXPECT_GT(solver.num_clusters(l), 3 * solver.num_clusters(l - 1)) << "res " << res << ", level " << l;
+      EXPECT_LE(solver.num_clusters(l), 4 * solver.num_clusters(l - 1)) << "res " << res << ", level " << l;
+    }
+  }
+  Problem small = bowl_problem(12, {0.8, 0.2, 0.5});
+  const int n = small.shell.num_base_vertices();
+  HierarchicalSolver solver(small.rest, small.X, small.shell.F, small.constraints);
+  const int finest = solver.num_levels() - 2;
+  EXPECT_EQ(solver.tree_depth(finest), static_cast<int>(std::lround(std::log2(n / 8.0)))) << n << " base vertices";
+  EXPECT_LT(solver.tree_depth(0), 3) << "the levels move up on a small mesh";
+}
+
 TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
   Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
-  // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations,
-  // 4: the defaults with pauses after passes that do not pay.
-  for (int variant = 0; variant < 5; ++variant) {
-    const bool defaults = variant == 2 || variant == 4;
+  // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations.
+  for (int variant = 0; variant < 4; ++variant) {
+    const bool defaults = variant == 2;
     HierarchyOptions o;
     o.residual_correction = variant != 1;
     o.anderson_history = defaults ? 5 : 0;
     o.level_anderson_history = defaults ? 5 : 0;
     o.coarse_period = defaults ? HierarchyOptions{}.coarse_period : 1; // else a coarse pass every time
     o.cluster_rotations = variant != 3;
-    o.pause_unpaid_passes = variant == 4;
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
     Eigen::MatrixXd X;
     const auto r = run_from_rest(solver, p, X, 60);
@@ -240,7 +264,7 @@ TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
   }
 }
 
-TEST(ClusterWeights, BlendedWeightsAreAPartitionOfUnityThatReproducesAffineMotions) {
+TEST(ClusterWeights, PiecewiseWeightsAreAPartitionOfUnityThatReproducesAffineMotions) {
   const Problem p = bowl_problem(12, {0.5, 0.1, 0.3});
   const int n = p.shell.num_base_vertices();
   ClusterTreeOptions to;
@@ -252,24 +276,13 @@ TEST(ClusterWeights, BlendedWeightsAreAPartitionOfUnityThatReproducesAffineMotio
   A << 1.3, 0.2, -0.4, 0.1, 0.7, 0.3, -0.2, 0.5, 1.1;
   const Eigen::RowVector3d b(0.3, -1.2, 0.7);
   const Eigen::MatrixXd expected = (p.X * A.transpose()).rowwise() + b;
-  for (double width : {0.0, 1.0, 2.0}) {
-    const ClusterWeights w = width > 0 ? blended_cluster_weights(p.X.topRows(n), p.shell.F, tree.cluster_of[d],
-                                                                 tree.num_clusters(d), width)
-                                       : piecewise_cluster_weights(tree.cluster_of[d], tree.num_clusters(d));
+  {
+    const ClusterWeights w = piecewise_cluster_weights(tree.cluster_of[d], tree.num_clusters(d));
     ASSERT_EQ(w.num_vertices(), n);
-    int blended_vertices = 0;
     for (int i = 0; i < n; ++i) {
-      double sum = 0;
-      for (int e = w.start[i]; e < w.start[i + 1]; ++e) {
-        EXPECT_GT(w.weight[e], 0);
-        sum += w.weight[e];
-      }
-      EXPECT_NEAR(sum, 1.0, 1e-14) << "vertex " << i << ", width " << width;
-      EXPECT_GT(w.at(i, tree.cluster_of[d][i]), 0) << "a vertex always follows its own cluster";
-      blended_vertices += w.start[i + 1] - w.start[i] > 1;
+      ASSERT_EQ(w.start[i + 1] - w.start[i], 1) << "vertex " << i;
+      EXPECT_EQ(w.at(i, tree.cluster_of[d][i]), 1.0) << "a vertex follows its own cluster alone";
     }
-    if (width > 0) EXPECT_GT(blended_vertices, n / 10) << "width " << width << " blends almost nothing";
-    else EXPECT_EQ(blended_vertices, 0);
     // Every cluster carries the same motion: M_j = A, t_j = A c_j + b (its centroid's image).
     const Eigen::MatrixXd c = cluster_centroids(w, p.X);
     Eigen::MatrixXd Z(4 * w.num_clusters, 3);
@@ -278,7 +291,7 @@ TEST(ClusterWeights, BlendedWeightsAreAPartitionOfUnityThatReproducesAffineMotio
       Z.row(4 * j + 3) = c.row(j) * A.transpose() + b;
     }
     const Eigen::MatrixXd X = prolongation_matrix(w, p.X, c) * Z;
-    EXPECT_LT((X - expected).cwiseAbs().maxCoeff(), 1e-12) << "width " << width;
+    EXPECT_LT((X - expected).cwiseAbs().maxCoeff(), 1e-12);
   }
 }
 
@@ -286,39 +299,37 @@ TEST(HierarchicalSolver, EnergyNeverRisesAcrossAcceptedCoarseCorrections) {
   // Outer iterations of coarse passes alone (no full-level iterations, no path search): every
   // change of the energy is a coarse correction, and the accepted ones lower it.
   Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
-  for (double width : {0.0, 1.0}) {
+  for (int coarsest : {2, 8}) {
     HierarchyOptions o;
-    o.blend_width = width;
+    o.coarsest_clusters = coarsest;
     o.coarse_period = 1;
     o.full_iterations = 0;
     o.path_extrapolation = false;
     HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
     Eigen::MatrixXd X;
     const auto r = run_from_rest(solver, p, X, 30);
-    EXPECT_GT(r.counters.coarse_accepted, 3) << "width " << width;
+    EXPECT_GT(r.counters.coarse_accepted, 3) << "coarsest " << coarsest;
     int lowered = 0;
     for (size_t k = 1; k < r.energy.size(); ++k) {
-      EXPECT_LE(r.energy[k], r.energy[k - 1]) << "width " << width << ", pass " << k;
+      EXPECT_LE(r.energy[k], r.energy[k - 1]) << "coarsest " << coarsest << ", pass " << k;
       lowered += r.energy[k] < r.energy[k - 1];
     }
-    EXPECT_EQ(lowered, r.counters.coarse_accepted) << "width " << width;
+    EXPECT_EQ(lowered, r.counters.coarse_accepted) << "coarsest " << coarsest;
     EXPECT_NEAR(r.counters.coarse_decrease, r.energy.front() - r.energy.back(), 1e-12 * r.energy.front());
   }
 }
 
-TEST(HierarchicalSolver, BlendedAndPiecewiseLevelsWithOrWithoutPausesReachTheSingleLevelMinimum) {
+TEST(HierarchicalSolver, LevelsFromCoarseOrFineTopsReachTheSingleLevelMinimum) {
   const Shell shell = offset_shell(make_bowl(8), 0.08);
   const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
   const double single = converged_energy(shell, handles, PoseSolverKind::Single);
   EXPECT_GT(single, 0);
-  for (double width : {0.0, 1.0})
-    for (bool pause : {false, true}) {
-      HierarchyOptions o;
-      o.blend_width = width;
-      o.pause_unpaid_passes = pause;
-      EXPECT_NEAR(converged_energy(shell, handles, PoseSolverKind::Hierarchical, o), single, 1e-4 * single)
-          << "blend width " << width << ", pause " << pause;
-    }
+  for (int coarsest : {1, 2, 8, 32}) {
+    HierarchyOptions o;
+    o.coarsest_clusters = coarsest;
+    EXPECT_NEAR(converged_energy(shell, handles, PoseSolverKind::Hierarchical, o), single, 1e-4 * single)
+        << "coarsest level of " << coarsest << " clusters";
+  }
 }
 
 TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {

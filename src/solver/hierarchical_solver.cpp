@@ -357,11 +357,7 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   for (int l = 0; l < reduced_levels; ++l) {
     const int d = first + l * split;
     s.depth_of_level.push_back(d);
-    const ClusterWeights weights =
-        options.blend_width > 0
-            ? blended_cluster_weights(rest_vertices.topRows(n_base), F, s.tree.cluster_of[d], s.tree.num_clusters(d),
-                                      options.blend_width)
-            : piecewise_cluster_weights(s.tree.cluster_of[d], s.tree.num_clusters(d));
+    const ClusterWeights weights = piecewise_cluster_weights(s.tree.cluster_of[d], s.tree.num_clusters(d));
     s.reduced.emplace_back(s.rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
                            options.cluster_rotations);
   }
@@ -395,7 +391,6 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   result.energy.push_back(state.step.energy);
   AndersonHistory anderson(s.options.anderson_history);
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
-  double full_gain = 0;      // what the full iterations of the previous outer iteration lowered the energy by
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.step.energy;
     const int period = std::max(1, s.options.coarse_period);
@@ -404,17 +399,12 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
       ++s.counters.coarse_passes;
       const bool kept = s.coarse_correction(state, targets);
       s.counters.coarse_seconds += seconds_since(coarse_start);
-      // A pass that lowers the energy less than one outer iteration's full iterations did costs
-      // more than it gives (it also restarts Anderson): the levels pause as after a rejection.
-      const bool paid = kept && (!s.options.pause_unpaid_passes || previous - state.step.energy >= full_gain);
       if (kept) {
         ++s.counters.coarse_accepted;
         s.counters.coarse_decrease += previous - state.step.energy;
         // The secant pairs recorded so far still describe the full level's fixed-point map; only
         // a pair spanning the coarse jump would not (measured: fewer outer iterations than clearing).
         anderson.restart();
-      }
-      if (paid) {
         backoff = 1;
       } else {
         skip = backoff;
@@ -429,9 +419,6 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     }
     s.counters.full_seconds += seconds_since(full_start);
     s.counters.full_decrease += before_full - state.step.energy;
-    // The first outer iteration takes up the jump of the targets from the start state: its gain says
-    // nothing about the rate the full level goes on at.
-    full_gain = it > 1 ? before_full - state.step.energy : 0.0;
     // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
     const double before_path = state.step.energy;
     const auto path_start = Clock::now();

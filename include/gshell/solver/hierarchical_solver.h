@@ -31,12 +31,9 @@
 //    translation are applied to its children and, at the end, to the full state's vertices.
 // Every coarse_period-th outer iteration ends with a line search along the path of the iterates
 // (path_extrapolation). Every change handed down is kept only if it does not raise that level's
-// objective, and the full state's only if it lowers the full energy, so the energy never
-// increases across outer iterations. After a rejected pass (and, with pause_unpaid_passes, after
-// one that lowered the energy less than the previous outer iteration's full iterations did) the
-// reduced levels pause for 1, 2, 4, ... outer iterations.
-// The clusters' maps meet piecewise by default (the paper's subspace); blend_width > 0 blends them
-// with a smooth partition of unity (cluster_weights.h).
+// objective, and the full state's only if it lowers the full energy (the one acceptance test),
+// so the energy never increases across outer iterations. After a rejected pass the reduced levels
+// pause for 1, 2, 4, ... outer iterations. The clusters' maps meet piecewise (the paper's subspace).
 #include <gshell/solver/cluster_tree.h>
 #include <gshell/solver/cluster_weights.h>
 #include <gshell/solver/rest_tets.h>
@@ -93,13 +90,6 @@ struct HierarchyOptions {
   /// price of an approximate reduced energy (the residual coupling still makes the fixed points
   /// agree). Off: tets across cluster borders get their own rotation (the exact subspace energy).
   bool cluster_rotations = true;
-  /// How the clusters' affine maps meet: 0 = piecewise (each vertex moves with its own cluster's
-  /// map, the paper's subspace); w > 0 = blended across a band of w times a cluster's RMS radius
-  /// around it (blended_cluster_weights), so the reduced levels can bend smoothly. Not the default:
-  /// with the residual coupling piecewise passes are already accepted, and blended ones cost 2-3x
-  /// as much (denser reduced matrices) for at most a third fewer outer iterations (bench_pose
-  /// --table, docs/design.md); with the paper coupling blending does lower the rejections.
-  double blend_width = 0;
   /// Anderson acceleration of every reduced level's iterations within one coarse pass (history
   /// length; 0 = off). Not safeguarded per iteration: the full level keeps a pass's result only
   /// if it lowers the full energy.
@@ -111,14 +101,6 @@ struct HierarchyOptions {
   /// steps (bench_pose bowl, big move: 35 -> 19 outer iterations; the slowest drag step, where
   /// the bowl snaps through: 320 -> 138).
   bool path_extrapolation = true;
-  /// Treat an accepted coarse pass that lowered the energy less than the previous outer
-  /// iteration's full iterations did (the first outer iteration, which takes up the targets' jump,
-  /// excepted) like a rejected one: the reduced levels pause for 1, 2, 4, ... outer iterations.
-  /// Off by default: it costs the bowl pulled by its rim 19 -> 23 outer iterations, and on the thin
-  /// bowl twisted by its rim, where it reaches 1.001 E* and the default stops at 1.058 E*, that
-  /// stop is another local minimum (the single-level solver stays there), so the rule only picked a
-  /// different basin (bench_pose --table --explain-stalls, docs/design.md).
-  bool pause_unpaid_passes = false;
   /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
   /// An extrapolated iterate is kept only if it lowers the energy.
   int anderson_history = 5;
@@ -197,7 +179,7 @@ public:
   int num_clusters(int level) const;     ///< clusters of a reduced level
   /// Positions B_l z_l of reduced level l (0 <= l < num_levels()-1), 2n x 3.
   Eigen::MatrixXd level_positions(int level) const;
-  /// How the affine maps of reduced level l act on the base vertices (piecewise or blended).
+  /// How the affine maps of reduced level l act on the base vertices (piecewise: its own cluster).
   const ClusterWeights& level_weights(int level) const;
   /// Affine maps of reduced level l: 4 rows per cluster, [M_j^T; t_j^T] (x^T = [(u-c_j)^T 1] Z_j).
   const Eigen::MatrixXd& level_parameters(int level) const;
