@@ -21,9 +21,9 @@
 // the table says where each settled and which solver found E*. Prints shell sizes, iterations /
 // median seconds, speed-ups and the coarse passes kept (ms per pass / per full iteration / per
 // path search).
-// --explain-stalls: for every run that misses 1.001 E* (state kept: hierarchical, or settled by the
-// solver's own test), continue single-level from
-// its state to convergence and print where that settles and how far it lies from the E* state.
+// --explain-stalls: for every run that misses 1.001 E* (and kept its state: all but those stopped
+// near the reference), continue single-level from its state to convergence and print where that
+// settles and how far it lies from the E* state.
 //
 // The reference is the single-level fixed point computed with Anderson acceleration (the same
 // minimum as plain local/global, reached much sooner), to relative change < 1e-10 or N
