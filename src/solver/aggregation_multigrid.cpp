@@ -237,42 +237,79 @@ struct AggregationMultigrid::Impl {
   void cycle(std::size_t l) const;
 };
 
+// out = row i of M times X (3 columns).
+inline void row_times(const SpMat& M, Eigen::Index i, const Block& X, double out[kColumns]) {
+  const int* index = M.innerIndexPtr();
+  const double* value = M.valuePtr();
+  const double* x = X.data();
+  double s0 = 0, s1 = 0, s2 = 0;
+  for (int k = M.outerIndexPtr()[i]; k < M.outerIndexPtr()[i + 1]; ++k) {
+    const double a = value[k];
+    const double* xk = x + kColumns * static_cast<std::size_t>(index[k]);
+    s0 += a * xk[0];
+    s1 += a * xk[1];
+    s2 += a * xk[2];
+  }
+  out[0] = s0;
+  out[1] = s1;
+  out[2] = s2;
+}
+
 // Chebyshev iteration on A x = b preconditioned by D^-1 over [lambda_max / 8, 1.1 lambda_max]
 // (Saad, Iterative Methods, Alg. 12.1): damps the upper part of the spectrum, which the coarse
 // level cannot represent. Leaves b - A x in L.r when asked (free after the last update). The
 // lower end: on generation systems of sphere:7, PCG to 1e-8 took 9 iterations with lambda / 8 and
 // lambda / 4 and 14 with lambda / 30 at degree 2 (degree 1: 14-16, degree 3: 9-10 at more cost).
+// Each step is one pass over the rows: the product A d of a row and every vector update of that
+// row together (the next direction goes to a second buffer, as other rows still read d); the
+// cycle is bound by memory traffic, and separate passes for the updates cost as much as the
+// products.
 void AggregationMultigrid::Impl::smooth(const Level& L, bool zero_start, bool want_residual) const {
   const double upper = 1.1 * L.lambda_max, lower = L.lambda_max / 8.0;
   const double theta = 0.5 * (upper + lower), delta = 0.5 * (upper - lower), sigma = theta / delta;
   const Eigen::Index n = L.A.rows();
-  if (zero_start) {
-    L.x.setZero(n, kColumns);
-    L.r = L.b;
-  } else {
-    multiply(L.A, L.x, L.t);
-    L.r.resize(n, kColumns);
-    for_rows(n, [&](Eigen::Index r0, Eigen::Index len) { L.r.middleRows(r0, len) = L.b.middleRows(r0, len) - L.t.middleRows(r0, len); });
-  }
+  L.x.resize(n, kColumns);
+  L.r.resize(n, kColumns);
   L.d.resize(n, kColumns);
+  L.t.resize(n, kColumns);
   for_rows(n, [&](Eigen::Index r0, Eigen::Index len) {
-    L.d.middleRows(r0, len) = (L.inv_diag.segment(r0, len) / theta).asDiagonal() * L.r.middleRows(r0, len);
+    for (Eigen::Index i = r0; i < r0 + len; ++i) {
+      const double scale = L.inv_diag[i] / theta;
+      double ax[kColumns] = {0, 0, 0};
+      if (!zero_start) row_times(L.A, i, L.x, ax);
+      for (int c = 0; c < kColumns; ++c) {
+        const double r = L.b(i, c) - ax[c];
+        if (zero_start) L.x(i, c) = 0.0;
+        L.r(i, c) = r;
+        L.d(i, c) = scale * r;
+      }
+    }
   });
   double rho = 1.0 / sigma;
   const int degree = options.smoothing_degree;
   for (int k = 1; k <= degree; ++k) {
     const bool last = k == degree;
-    if (!last || want_residual) multiply(L.A, L.d, L.t);
     const double rho_next = 1.0 / (2.0 * sigma - rho);
     const double keep = rho_next * rho, scale = 2.0 * rho_next / delta;
+    if (last && !want_residual) {
+      for_rows(n, [&](Eigen::Index r0, Eigen::Index len) { L.x.middleRows(r0, len) += L.d.middleRows(r0, len); });
+      break;
+    }
     for_rows(n, [&](Eigen::Index r0, Eigen::Index len) {
-      L.x.middleRows(r0, len) += L.d.middleRows(r0, len);
-      if (last && !want_residual) return;
-      L.r.middleRows(r0, len) -= L.t.middleRows(r0, len);
-      if (last) return;
-      L.d.middleRows(r0, len) = keep * L.d.middleRows(r0, len) +
-                                (scale * L.inv_diag.segment(r0, len)).asDiagonal() * L.r.middleRows(r0, len);
+      for (Eigen::Index i = r0; i < r0 + len; ++i) {
+        double ad[kColumns];
+        row_times(L.A, i, L.d, ad);
+        const double step = scale * L.inv_diag[i];
+        for (int c = 0; c < kColumns; ++c) {
+          const double d = L.d(i, c);
+          L.x(i, c) += d;
+          const double r = L.r(i, c) - ad[c];
+          L.r(i, c) = r;
+          if (!last) L.t(i, c) = keep * d + step * r; // the next direction
+        }
+      }
     });
+    if (!last) L.d.swap(L.t);
     rho = rho_next;
   }
 }
@@ -291,8 +328,13 @@ void AggregationMultigrid::Impl::cycle(std::size_t l) const {
   const Level& C = levels[l + 1];
   multiply(L.R, L.r, C.b);
   cycle(l + 1);
-  multiply(L.P, C.x, L.t);
-  for_rows(L.A.rows(), [&](Eigen::Index r0, Eigen::Index len) { L.x.middleRows(r0, len) += L.t.middleRows(r0, len); });
+  for_rows(L.A.rows(), [&](Eigen::Index r0, Eigen::Index len) {
+    for (Eigen::Index i = r0; i < r0 + len; ++i) {
+      double px[kColumns];
+      row_times(L.P, i, C.x, px);
+      for (int c = 0; c < kColumns; ++c) L.x(i, c) += px[c];
+    }
+  });
   smooth(L, false, false);
 }
 
