@@ -9,11 +9,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -254,31 +252,17 @@ struct ShellSolver::Impl {
 
 void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
   K = rest->size();
-  // Passes over the tets in parallel (at millions of tets each serial pass took a noticeable
-  // share of the setup). The first bad tet is named whatever the split.
-  const int bad = tbb::parallel_reduce(
-      tbb::blocked_range<int>(0, K, 8192), K,
-      [&](const tbb::blocked_range<int>& r, int first) {
-        for (int t = r.begin(); t < r.end() && t < first; ++t)
-          for (int j = 0; j < 4; ++j)
-            if (tet(t, j) < 0 || tet(t, j) >= N) return t;
-        return first;
-      },
-      [](int a, int b) { return std::min(a, b); });
-  if (bad < K)
-    for (int j = 0; j < 4; ++j)
-      if (tet(bad, j) < 0 || tet(bad, j) >= N)
-        throw InputError("tet " + std::to_string(bad) + " has vertex id " + std::to_string(tet(bad, j)) + " out of range");
+  for (int t = 0; t < K; ++t)
+    for (int j = 0; j < 4; ++j) {
+      const int v = tet(t, j);
+      if (v < 0 || v >= N)
+        throw InputError("tet " + std::to_string(t) + " has vertex id " + std::to_string(v) + " out of range");
+    }
 
-  // Tet corners per vertex; vertices no tet (and no soft constraint) touches have no equation:
-  // they are kept where they start.
-  std::vector<int> corners(N, 0);
-  tbb::parallel_for(tbb::blocked_range<int>(0, K, 8192), [&](const tbb::blocked_range<int>& r) {
-    for (int j = 0; j < 4; ++j)
-      for (int t = r.begin(); t < r.end(); ++t) std::atomic_ref<int>(corners[tet(t, j)]).fetch_add(1, std::memory_order_relaxed);
-  });
+  // Vertices no tet (and no soft constraint) touches have no equation: keep them where they start.
   std::vector<char> used(N, 0);
-  for (int v = 0; v < N; ++v) used[v] = corners[v] > 0;
+  for (int t = 0; t < K; ++t)
+    for (int j = 0; j < 4; ++j) used[tet(t, j)] = 1;
   const bool has_soft = soft.weight > 0 && !soft.vertices.empty();
   if (has_soft)
     for (int v : soft.vertices) {
@@ -299,21 +283,17 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
   nf = static_cast<int>(free_vertices.size());
 
   gather_start.assign(nf + 1, 0);
-  for (int j = 0; j < nf; ++j) gather_start[j + 1] = gather_start[j] + corners[free_vertices[j]];
+  for (int t = 0; t < K; ++t)
+    for (int j = 0; j < 4; ++j)
+      if (free_index[tet(t, j)] >= 0) ++gather_start[free_index[tet(t, j)] + 1];
+  for (int j = 0; j < nf; ++j) gather_start[j + 1] += gather_start[j];
   gather_slot.resize(gather_start[nf]);
-  // Slots placed concurrently land in any order within their row: each row is sorted after, so
-  // the gathers sum in tet order whatever the split.
   std::vector<int> fill(gather_start.begin(), gather_start.end() - 1);
-  tbb::parallel_for(tbb::blocked_range<int>(0, K, 8192), [&](const tbb::blocked_range<int>& r) {
-    for (int t = r.begin(); t < r.end(); ++t)
-      for (int k = 0; k < 4; ++k) {
-        const int j = free_index[tet(t, k)];
-        if (j >= 0) gather_slot[std::atomic_ref<int>(fill[j]).fetch_add(1, std::memory_order_relaxed)] = 4 * t + k;
-      }
-  });
-  tbb::parallel_for(tbb::blocked_range<int>(0, nf, 4096), [&](const tbb::blocked_range<int>& r) {
-    for (int j = r.begin(); j < r.end(); ++j) std::sort(gather_slot.begin() + gather_start[j], gather_slot.begin() + gather_start[j + 1]);
-  });
+  for (int t = 0; t < K; ++t)
+    for (int k = 0; k < 4; ++k) {
+      const int j = free_index[tet(t, k)];
+      if (j >= 0) gather_slot[fill[j]++] = 4 * t + k;
+    }
 
   soft_free.clear();
   if (has_soft)
