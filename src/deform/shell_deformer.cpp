@@ -4,7 +4,6 @@
 
 #include <gshell/error.h>
 #include <gshell/seconds_since.h>
-#include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/generate_shell.h>
