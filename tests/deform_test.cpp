@@ -5,7 +5,9 @@
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -13,6 +15,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <set>
 
 namespace gshell {
 namespace {
@@ -107,6 +110,54 @@ TEST(ShellDeformer, InvertedRestTetsTakeTheirIdealShape) {
   // A sound shell keeps all of its own tets.
   deformation_rest_tets(flat_plane_shell(6, 0.1), &replaced);
   EXPECT_EQ(replaced, 0);
+}
+
+TEST(ShellDeformer, RestTetsAreTheShellsOwnOrTheirNormalPrismsTet) {
+  // Checked against the definitions: each rest tet is either the shell's own tet (its shape from
+  // the shell's vertices) or, exactly when that one's volume is below kMinRestVolumeRatio of it,
+  // the tet of the face's normal prism of thickness eta.
+  Shell rest = flat_plane_shell(6, 0.1);
+  rest.top(3 * 7 + 3, 2) = -0.05; // inverts the tets around an interior vertex
+  rest.top(2 * 7 + 4, 2) = 0.00005; // flattens some: below the ratio
+  rest.top(4 * 7 + 2, 2) = 0.02;    // thins some: above it
+  const int n = rest.num_base_vertices();
+  int replaced = 0;
+  const RestTets tets = deformation_rest_tets(rest, &replaced);
+  const Eigen::MatrixXi T = build_prism_tets(rest.F, n);
+  const RestTets ideal = prism_rest_tets(rest.F, n, normal_prisms(rest.base, rest.F, rest.thickness));
+  const Eigen::MatrixXd X = rest.vertices();
+  ASSERT_EQ(tets.T, T);
+  int expected = 0;
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    Eigen::Matrix3d D;
+    for (int k = 0; k < 3; ++k) D.col(k) = (X.row(T(t, k + 1)) - X.row(T(t, 0))).transpose();
+    const double own_volume = D.determinant() / 6;
+    const bool replace = own_volume < kMinRestVolumeRatio * ideal.volume[t];
+    expected += replace;
+    const Eigen::Matrix3d want = replace ? ideal.Dm_inv[t] : Eigen::Matrix3d(D.inverse());
+    EXPECT_NEAR(tets.volume[t], replace ? ideal.volume[t] : own_volume, 1e-12) << "tet " << t;
+    EXPECT_LT((tets.Dm_inv[t] - want).cwiseAbs().maxCoeff(), 1e-9 * want.cwiseAbs().maxCoeff()) << "tet " << t;
+  }
+  EXPECT_GT(expected, 0);
+  EXPECT_EQ(replaced, expected);
+}
+
+TEST(ShellDeformer, VertexRingsAreTheSortedEdgeNeighbours) {
+  for (const Shell& shell : {flat_plane_shell(5, 0.1), sphere_shell(2, 0.1)}) {
+    const int n = shell.num_base_vertices();
+    std::vector<std::set<int>> want(n);
+    for (Eigen::Index f = 0; f < shell.F.rows(); ++f)
+      for (int c = 0; c < 3; ++c) {
+        want[shell.F(f, c)].insert(shell.F(f, (c + 1) % 3));
+        want[shell.F(f, (c + 1) % 3)].insert(shell.F(f, c));
+      }
+    const VertexRings rings = vertex_rings(shell.F, n);
+    ASSERT_EQ(rings.start.size(), static_cast<std::size_t>(n + 1));
+    for (int i = 0; i < n; ++i)
+      EXPECT_EQ(std::vector<int>(rings.ids.begin() + rings.start[i], rings.ids.begin() + rings.start[i + 1]),
+                std::vector<int>(want[i].begin(), want[i].end()))
+          << "vertex " << i;
+  }
 }
 
 TEST(ShellDeformer, BadFramesAreRejectedAndLeaveTheStateAlone) {

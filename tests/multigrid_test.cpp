@@ -10,12 +10,14 @@
 #include "core_test_meshes.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
 #include <functional>
 #include <numeric>
 #include <random>
+#include <thread>
 
 using namespace gshell;
 using gshell::test::SimpleMesh;
@@ -119,6 +121,35 @@ TEST(AggregationMultigrid, VCycleIsASymmetricPositiveDefiniteMapThatUnderestimat
     EXPECT_GT(mu.minCoeff(), 0.0);
     EXPECT_LE(mu.maxCoeff(), 1.0 + 1e-9);
   }
+}
+
+TEST(AggregationMultigrid, HierarchyAndCycleDoNotDependOnTheThreadCount) {
+  // The setup (power iterations, prolongation, Galerkin products) and the cycle run in parallel
+  // over blocks of rows; their sums are taken in a fixed order, so one thread and all of them
+  // give the same bits (the shell solver's energies must not depend on the machine).
+  const SpMat A = generation_matrix(test::icosphere(5), 0.3); // 10,242 rows: several blocks
+  Eigen::MatrixXd R(A.rows(), 3);
+  for (int c = 0; c < 3; ++c) R.col(c) = random_vector(A.rows(), 20 + c);
+  MultigridOptions options;
+  options.coarsest_rows = 50;
+  auto run = [&](int threads, std::vector<MultigridLevelInfo>& levels) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const AggregationMultigrid mg(A, options);
+    levels = mg.levels();
+    Eigen::MatrixXd Z(A.rows(), 3);
+    mg.apply(R, Z);
+    return Z;
+  };
+  std::vector<MultigridLevelInfo> one_levels, all_levels;
+  const Eigen::MatrixXd one = run(1, one_levels);
+  const Eigen::MatrixXd all = run(static_cast<int>(std::max(2u, std::thread::hardware_concurrency())), all_levels);
+  ASSERT_GE(one_levels.size(), 3u);
+  ASSERT_EQ(one_levels.size(), all_levels.size());
+  for (std::size_t l = 0; l < one_levels.size(); ++l) {
+    EXPECT_EQ(one_levels[l].rows, all_levels[l].rows);
+    EXPECT_EQ(one_levels[l].nonzeros, all_levels[l].nonzeros);
+  }
+  EXPECT_TRUE(one == all) << "max difference " << (one - all).cwiseAbs().maxCoeff();
 }
 
 TEST(AggregationMultigrid, PcgConvergesMonotonicallyInTheEnergyNorm) {

@@ -8,9 +8,11 @@
 #include "core_test_meshes.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
 #include <numeric>
+#include <thread>
 
 using namespace gshell;
 using gshell::test::SimpleMesh;
@@ -207,6 +209,44 @@ TEST(ShellSolver, StepsReproduceSolveAndGradientMatchesFiniteDifferences) {
       const double fd = (solver.energy(plus, P) - solver.energy(minus, P)) / (2 * h);
       EXPECT_NEAR(2 * g_half(v, d), fd, 1e-6 * std::max(1.0, std::abs(fd))) << "vertex " << v << " axis " << d;
     }
+}
+
+TEST(ShellSolver, AssemblyIsTheSumOfTheTetsAndDoesNotDependOnTheThreadCount) {
+  // Row j of A = sum over the tets t at free vertex j of vol_t G_t G_t^T (G_t = [-1 -1 -1; I]
+  // Dm_inv_t): rebuilt here tet by tet and compared with the solver's rows, built in parallel
+  // blocks with one thread and with all of them (same bits).
+  const Generation g = generation(gshell::test::icosphere(4), 0.1); // 2,562 free rows: several blocks
+  const int n = g.n;
+  std::vector<int> free_rows(n);
+  std::iota(free_rows.begin(), free_rows.end(), n);
+  using Rows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+  auto rows_with = [&](int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const ShellSolver solver(g.rest, 2 * n, range(n));
+    return solver.system_rows(free_rows);
+  };
+  const Rows one = rows_with(1);
+  const Rows all = rows_with(static_cast<int>(std::max(2u, std::thread::hardware_concurrency())));
+  ASSERT_EQ(one.nonZeros(), all.nonZeros());
+  EXPECT_TRUE(std::equal(one.valuePtr(), one.valuePtr() + one.nonZeros(), all.valuePtr()));
+  EXPECT_TRUE(std::equal(one.innerIndexPtr(), one.innerIndexPtr() + one.nonZeros(), all.innerIndexPtr()));
+  std::vector<Eigen::Triplet<double>> entries;
+  Eigen::Matrix<double, 4, 3> E;
+  E << -1, -1, -1, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  for (int t = 0; t < g.rest.size(); ++t) {
+    const Eigen::Matrix<double, 4, 3> G = E * g.rest.Dm_inv[t];
+    const Eigen::Matrix4d local = g.rest.volume[t] * G * G.transpose();
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b)
+        if (g.rest.T(t, a) >= n && g.rest.T(t, b) >= n) // free rows, free columns (the base is kept)
+          entries.emplace_back(g.rest.T(t, a) - n, g.rest.T(t, b), local(a, b));
+  }
+  Rows want(n, 2 * n);
+  want.setFromTriplets(entries.begin(), entries.end());
+  const Rows difference = one - want;
+  double worst = 0;
+  for (Eigen::Index k = 0; k < difference.nonZeros(); ++k) worst = std::max(worst, std::abs(difference.valuePtr()[k]));
+  EXPECT_LT(worst, 1e-12 * want.coeffs().cwiseAbs().maxCoeff());
 }
 
 TEST(ShellSolver, UnconstrainedSystemIsRejected) {

@@ -4,7 +4,6 @@
 
 #include <gshell/error.h>
 #include <gshell/seconds_since.h>
-#include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/generate_shell.h>
@@ -15,7 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <Eigen/LU>
+#include <atomic>
 
 #include <chrono>
 #include <cmath>
@@ -28,10 +27,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 
-double signed_volume(const Eigen::MatrixXd& corners, Eigen::Index first) {
-  Eigen::Matrix3d D;
-  for (int k = 0; k < 3; ++k) D.col(k) = (corners.row(first + k + 1) - corners.row(first)).transpose();
-  return D.determinant() / 6;
+// 6 x the signed volume of the tet with corners U (rows).
+double six_volume(const TetCorners& U) {
+  return (U.row(1) - U.row(0)).cross(U.row(2) - U.row(0)).dot(U.row(3) - U.row(0));
 }
 
 std::vector<int> base_ids(int n) {
@@ -44,25 +42,35 @@ std::vector<int> base_ids(int n) {
 
 RestTets deformation_rest_tets(const Shell& shell, int* replaced) {
   const int n = shell.num_base_vertices();
-  const Eigen::MatrixXi T = build_prism_tets(shell.F, n), C = prism_tet_corners(shell.F);
   double eta = shell.thickness;
   if (!(eta > 0) && n > 0) eta = (shell.top - shell.base).rowwise().norm().mean();
-  const PrismCorners ideal = normal_prisms(shell.base, shell.F, eta);
-  const Eigen::MatrixXd X = shell.vertices();
-  Eigen::MatrixXd corners(4 * T.rows(), 3), ideal_corners(4, 3);
-  int count = 0;
-  for (Eigen::Index t = 0; t < T.rows(); ++t) {
-    for (int k = 0; k < 4; ++k) {
-      corners.row(4 * t + k) = X.row(T(t, k));
-      ideal_corners.row(k) = ideal.row(6 * (t / 3) + C(t, k));
-    }
-    if (signed_volume(corners, 4 * t) < kMinRestVolumeRatio * signed_volume(ideal_corners, 0)) {
-      corners.middleRows(4 * t, 4) = ideal_corners;
-      ++count;
-    }
-  }
+  if (!std::isfinite(eta)) throw InputError("deformation_rest_tets: the shell's thickness is not finite");
+  // Row-major copies: a tet reads whole points, at random places in millions of them.
+  using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  const Points base = shell.base, top = shell.top;
+  std::atomic<int> count{0};
+  // Each tet's corners made where it is needed (tets in parallel), not gathered into 4K x 3 and
+  // 6m x 3 matrices first: at millions of faces those were the setup's largest memory traffic.
+  // The ideal corners are normal_prisms's: a base vertex itself, a top vertex eta along the
+  // unit normal of the tet's face above its base vertex.
+  RestTets rest = rest_tets_from_corner_function(
+      build_prism_tets(shell.F, n), [&](Eigen::Index t, const std::array<int, 4>& ids, TetCorners& U) {
+        const Eigen::Index f = t / 3;
+        const Eigen::RowVector3d a = base.row(shell.F(f, 0)), b = base.row(shell.F(f, 1)), c = base.row(shell.F(f, 2));
+        const Eigen::RowVector3d lift = eta * (b - a).cross(c - a).normalized();
+        TetCorners ideal;
+        for (int k = 0; k < 4; ++k) {
+          const int v = ids[k];
+          U.row(k) = v < n ? base.row(v) : top.row(v - n);
+          ideal.row(k) = v < n ? base.row(v) : Eigen::RowVector3d(base.row(v - n) + lift);
+        }
+        if (six_volume(U) < kMinRestVolumeRatio * six_volume(ideal)) {
+          U = ideal;
+          count.fetch_add(1, std::memory_order_relaxed);
+        }
+      });
   if (replaced) *replaced = count;
-  return rest_tets_from_corners(T, corners);
+  return rest;
 }
 
 const char* warm_start_name(WarmStart w) {
@@ -112,22 +120,35 @@ int count_thinned_vertices(const Eigen::MatrixXd& base, const Eigen::MatrixXd& t
 }
 
 VertexRings vertex_rings(const Eigen::MatrixXi& F, int n) {
-  std::vector<std::vector<int>> rings(n);
+  // Compressed from the start (both directions of every face edge, counted, placed, then sorted
+  // and made unique per vertex in parallel): a vector per vertex cost an allocation each.
+  VertexRings out;
+  std::vector<int> start(n + 1, 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) start[F(f, c) + 1] += 2;
+  for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+  std::vector<int> ids(start[n]), fill(start.begin(), start.end() - 1);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     for (int c = 0; c < 3; ++c) {
       const int a = F(f, c), b = F(f, (c + 1) % 3);
-      rings[a].push_back(b);
-      rings[b].push_back(a);
+      ids[fill[a]++] = b;
+      ids[fill[b]++] = a;
     }
-  VertexRings out;
+  std::vector<int> unique_count(n);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 4096), [&](const tbb::blocked_range<int>& range) {
+    for (int i = range.begin(); i != range.end(); ++i) {
+      const auto first = ids.begin() + start[i], last = ids.begin() + start[i + 1];
+      std::sort(first, last);
+      unique_count[i] = static_cast<int>(std::unique(first, last) - first);
+    }
+  });
   out.start.assign(n + 1, 0);
-  for (int i = 0; i < n; ++i) {
-    auto& r = rings[i];
-    std::sort(r.begin(), r.end());
-    r.erase(std::unique(r.begin(), r.end()), r.end());
-    out.start[i + 1] = out.start[i] + static_cast<int>(r.size());
-    out.ids.insert(out.ids.end(), r.begin(), r.end());
-  }
+  for (int i = 0; i < n; ++i) out.start[i + 1] = out.start[i] + unique_count[i];
+  out.ids.resize(out.start[n]);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 4096), [&](const tbb::blocked_range<int>& range) {
+    for (int i = range.begin(); i != range.end(); ++i)
+      std::copy_n(ids.begin() + start[i], unique_count[i], out.ids.begin() + out.start[i]);
+  });
   return out;
 }
 

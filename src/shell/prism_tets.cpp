@@ -4,6 +4,9 @@
 
 #include <gshell/error.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <string>
@@ -28,37 +31,42 @@ std::array<std::array<int, 4>, 3> prism_corner_tets(int v0, int v1, int v2) {
 Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F) {
   if (F.rows() > 0 && F.cols() != 3) throw InputError("prism_tet_corners: faces must be m x 3");
   Eigen::MatrixXi C(3 * F.rows(), 4);
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
-    for (int k = 0; k < 3; ++k)
-      for (int j = 0; j < 4; ++j) C(3 * f + k, j) = tets[k][j];
-  }
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, F.rows(), 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    for (Eigen::Index f = r.begin(); f != r.end(); ++f) {
+      const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 4; ++j) C(3 * f + k, j) = tets[k][j];
+    }
+  });
   return C;
 }
 
 Eigen::MatrixXi build_prism_tets(const Eigen::MatrixXi& F, int n) {
   detail::check_face_indices(F, n, "build_prism_tets");
-  const Eigen::MatrixXi C = prism_tet_corners(F);
-  Eigen::MatrixXi T(C.rows(), 4);
-  for (Eigen::Index t = 0; t < C.rows(); ++t) {
-    const Eigen::Index f = t / 3;
-    for (int j = 0; j < 4; ++j) {
-      const int corner = C(t, j);
-      T(t, j) = corner < 3 ? F(f, corner) : n + F(f, corner - 3);
+  Eigen::MatrixXi T(3 * F.rows(), 4);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, F.rows(), 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    for (Eigen::Index f = r.begin(); f != r.end(); ++f) {
+      const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 4; ++j) {
+          const int corner = tets[k][j];
+          T(3 * f + k, j) = corner < 3 ? F(f, corner) : n + F(f, corner - 3);
+        }
     }
-  }
+  });
   return T;
 }
 
 RestTets prism_rest_tets(const Eigen::MatrixXi& F, int n, const Eigen::MatrixXd& prisms) {
   if (prisms.rows() != 6 * F.rows() || prisms.cols() != 3)
     throw InputError("prism_rest_tets: expected " + std::to_string(6 * F.rows()) + " x 3 prism corners");
-  const Eigen::MatrixXi C = prism_tet_corners(F);
-  const Eigen::MatrixXi T = build_prism_tets(F, n);
-  Eigen::MatrixXd corners(4 * C.rows(), 3);
-  for (Eigen::Index t = 0; t < C.rows(); ++t)
-    for (int j = 0; j < 4; ++j) corners.row(4 * t + j) = prisms.row(6 * (t / 3) + C(t, j));
-  return rest_tets_from_corners(T, corners);
+  // Corners taken per tet, in parallel (no 4K x 3 corner matrix: at millions of faces it was the
+  // largest temporary of generation's setup, filled in a serial pass).
+  return rest_tets_from_corner_function(build_prism_tets(F, n), [&](Eigen::Index t, const std::array<int, 4>&, TetCorners& U) {
+    const Eigen::Index f = t / 3;
+    const auto corners = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2))[t % 3];
+    for (int j = 0; j < 4; ++j) U.row(j) = prisms.row(6 * f + corners[j]);
+  });
 }
 
 } // namespace gshell

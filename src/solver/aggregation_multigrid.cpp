@@ -7,9 +7,11 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <array>
 #include <deque>
 #include <chrono>
 #include <cmath>
@@ -46,31 +48,128 @@ void multiply(const SpMat& M, const Block& X, Block& Y) {
   });
 }
 
+// Chunks of rows whose partial sums are added in chunk order: the hierarchy does not depend on
+// how TBB splits the work.
+constexpr int kSumChunk = 8192;
+
 // Largest eigenvalue of D^-1 A (D = diag A) by power iteration on D^-1/2 A D^-1/2 (symmetric,
-// same spectrum), never above the Gershgorin bound max_i sum_j |a_ij| / a_ii.
+// same spectrum), never above the Gershgorin bound max_i sum_j |a_ij| / a_ii. Every vector
+// operation is fused into two parallel passes per iteration (on millions of rows the sequential
+// vector updates cost as much as the products).
 double spectral_radius(const SpMat& A, const Eigen::VectorXd& inv_diag) {
   const Eigen::Index n = A.rows();
+  const int chunks = static_cast<int>((n + kSumChunk - 1) / kSumChunk);
+  auto chunk_rows = [&](int c) { return std::pair<Eigen::Index, Eigen::Index>(Eigen::Index(c) * kSumChunk, std::min<Eigen::Index>(n, Eigen::Index(c + 1) * kSumChunk)); };
   const Eigen::VectorXd s = inv_diag.cwiseSqrt();
-  double gershgorin = 0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    double row = 0;
-    for (SpMat::InnerIterator it(A, i); it; ++it) row += std::abs(it.value());
-    gershgorin = std::max(gershgorin, row * inv_diag[i]);
-  }
+  std::vector<double> bound(chunks, 0.0);
+  tbb::parallel_for(0, chunks, [&](int c) {
+    const auto [r0, r1] = chunk_rows(c);
+    for (Eigen::Index i = r0; i < r1; ++i) {
+      double row = 0;
+      for (SpMat::InnerIterator it(A, i); it; ++it) row += std::abs(it.value());
+      bound[c] = std::max(bound[c], row * inv_diag[i]);
+    }
+  });
+  const double gershgorin = *std::max_element(bound.begin(), bound.end());
   std::mt19937 random(12345); // fixed: the same matrix gives the same hierarchy
   std::uniform_real_distribution<double> uniform(0.5, 1.5);
-  Eigen::VectorXd v(n), sv(n), w(n);
+  Eigen::VectorXd v(n), u(n), w(n); // v unit, u = D^-1/2 v, w = D^-1/2 A u
   for (Eigen::Index i = 0; i < n; ++i) v[i] = uniform(random);
+  v /= v.norm();
+  u = s.cwiseProduct(v);
+  std::vector<std::array<double, 2>> partial(chunks);
   double lambda = 0;
   for (int it = 0; it < 20; ++it) {
-    v /= v.norm();
-    sv = s.cwiseProduct(v);
-    for_rows(n, [&](Eigen::Index r0, Eigen::Index len) { w.segment(r0, len).noalias() = A.middleRows(r0, len) * sv; });
-    w = s.cwiseProduct(w);
-    lambda = v.dot(w); // Rayleigh quotient: a lower bound that converges from below
-    v.swap(w);
+    tbb::parallel_for(0, chunks, [&](int c) {
+      const auto [r0, r1] = chunk_rows(c);
+      w.segment(r0, r1 - r0).noalias() = A.middleRows(r0, r1 - r0) * u;
+      w.segment(r0, r1 - r0) = w.segment(r0, r1 - r0).cwiseProduct(s.segment(r0, r1 - r0));
+      partial[c] = {v.segment(r0, r1 - r0).dot(w.segment(r0, r1 - r0)), w.segment(r0, r1 - r0).squaredNorm()};
+    });
+    double vw = 0, ww = 0;
+    for (const auto& p : partial) {
+      vw += p[0];
+      ww += p[1];
+    }
+    lambda = vw; // Rayleigh quotient: a lower bound that converges from below
+    if (!(ww > 0)) break;
+    const double scale = 1.0 / std::sqrt(ww);
+    tbb::parallel_for(0, chunks, [&](int c) {
+      const auto [r0, r1] = chunk_rows(c);
+      v.segment(r0, r1 - r0) = scale * w.segment(r0, r1 - r0);
+      u.segment(r0, r1 - r0) = v.segment(r0, r1 - r0).cwiseProduct(s.segment(r0, r1 - r0));
+    });
   }
   return std::min(gershgorin, lambda);
+}
+
+// Compressed rows made in parallel: row_entries(i, out) appends row i's (column, value) pairs,
+// columns ascending. Rows are made in blocks, each into its own buffer, then copied into place.
+template <class RowEntries> SpMat rows_in_parallel(Eigen::Index rows, Eigen::Index cols, RowEntries&& row_entries) {
+  constexpr Eigen::Index kBlock = 2048;
+  const int blocks = static_cast<int>((rows + kBlock - 1) / kBlock);
+  struct Block {
+    std::vector<std::pair<int, double>> entries;
+    std::vector<int> len;
+  };
+  std::vector<Block> out(blocks);
+  tbb::parallel_for(0, blocks, [&](int b) {
+    Block& block = out[b];
+    for (Eigen::Index i = b * kBlock; i < std::min(rows, (b + 1) * kBlock); ++i) {
+      const std::size_t before = block.entries.size();
+      row_entries(i, block.entries);
+      block.len.push_back(static_cast<int>(block.entries.size() - before));
+    }
+  });
+  SpMat M(rows, cols);
+  std::vector<Eigen::Index> block_start(blocks + 1, 0);
+  for (int b = 0; b < blocks; ++b) block_start[b + 1] = block_start[b] + static_cast<Eigen::Index>(out[b].entries.size());
+  M.resizeNonZeros(block_start[blocks]);
+  auto* outer = M.outerIndexPtr();
+  outer[0] = 0;
+  tbb::parallel_for(0, blocks, [&](int b) {
+    Block& block = out[b];
+    auto start = block_start[b];
+    for (std::size_t r = 0; r < block.len.size(); ++r) outer[b * kBlock + r + 1] = static_cast<int>(start += block.len[r]);
+    for (std::size_t e = 0; e < block.entries.size(); ++e) {
+      M.innerIndexPtr()[block_start[b] + e] = block.entries[e].first;
+      M.valuePtr()[block_start[b] + e] = block.entries[e].second;
+    }
+    block = Block{};
+  });
+  return M;
+}
+
+// A B for row-major sparse matrices, rows in parallel (Eigen's sparse product is sequential):
+// each row accumulated in a per-thread dense array over B's columns, summing in the order of
+// A's row and then B's rows (the same bits however the rows are split).
+SpMat sparse_product(const SpMat& A, const SpMat& B) {
+  struct Workspace {
+    std::vector<double> sum;
+    std::vector<int> touched;
+    std::vector<char> seen;
+  };
+  tbb::enumerable_thread_specific<Workspace> workspaces(
+      [&] { return Workspace{std::vector<double>(B.cols(), 0.0), {}, std::vector<char>(B.cols(), 0)}; });
+  return rows_in_parallel(A.rows(), B.cols(), [&](Eigen::Index i, std::vector<std::pair<int, double>>& out) {
+    Workspace& w = workspaces.local();
+    w.touched.clear();
+    for (SpMat::InnerIterator a(A, i); a; ++a)
+      for (SpMat::InnerIterator b(B, a.index()); b; ++b) {
+        const int j = static_cast<int>(b.index());
+        if (!w.seen[j]) {
+          w.seen[j] = 1;
+          w.touched.push_back(j);
+        }
+        w.sum[j] += a.value() * b.value();
+      }
+    std::sort(w.touched.begin(), w.touched.end());
+    for (int j : w.touched) {
+      out.emplace_back(j, w.sum[j]);
+      w.sum[j] = 0.0;
+      w.seen[j] = 0;
+    }
+  });
 }
 
 // Aggregates of the strong graph of A (|a_ij| >= theta sqrt(a_ii a_jj)): first whole
@@ -138,42 +237,79 @@ struct AggregationMultigrid::Impl {
   void cycle(std::size_t l) const;
 };
 
+// out = row i of M times X (3 columns).
+inline void row_times(const SpMat& M, Eigen::Index i, const Block& X, double out[kColumns]) {
+  const int* index = M.innerIndexPtr();
+  const double* value = M.valuePtr();
+  const double* x = X.data();
+  double s0 = 0, s1 = 0, s2 = 0;
+  for (int k = M.outerIndexPtr()[i]; k < M.outerIndexPtr()[i + 1]; ++k) {
+    const double a = value[k];
+    const double* xk = x + kColumns * static_cast<std::size_t>(index[k]);
+    s0 += a * xk[0];
+    s1 += a * xk[1];
+    s2 += a * xk[2];
+  }
+  out[0] = s0;
+  out[1] = s1;
+  out[2] = s2;
+}
+
 // Chebyshev iteration on A x = b preconditioned by D^-1 over [lambda_max / 8, 1.1 lambda_max]
 // (Saad, Iterative Methods, Alg. 12.1): damps the upper part of the spectrum, which the coarse
 // level cannot represent. Leaves b - A x in L.r when asked (free after the last update). The
 // lower end: on generation systems of sphere:7, PCG to 1e-8 took 9 iterations with lambda / 8 and
 // lambda / 4 and 14 with lambda / 30 at degree 2 (degree 1: 14-16, degree 3: 9-10 at more cost).
+// Each step is one pass over the rows: the product A d of a row and every vector update of that
+// row together (the next direction goes to a second buffer, as other rows still read d); the
+// cycle is bound by memory traffic, and separate passes for the updates cost as much as the
+// products.
 void AggregationMultigrid::Impl::smooth(const Level& L, bool zero_start, bool want_residual) const {
   const double upper = 1.1 * L.lambda_max, lower = L.lambda_max / 8.0;
   const double theta = 0.5 * (upper + lower), delta = 0.5 * (upper - lower), sigma = theta / delta;
   const Eigen::Index n = L.A.rows();
-  if (zero_start) {
-    L.x.setZero(n, kColumns);
-    L.r = L.b;
-  } else {
-    multiply(L.A, L.x, L.t);
-    L.r.resize(n, kColumns);
-    for_rows(n, [&](Eigen::Index r0, Eigen::Index len) { L.r.middleRows(r0, len) = L.b.middleRows(r0, len) - L.t.middleRows(r0, len); });
-  }
+  L.x.resize(n, kColumns);
+  L.r.resize(n, kColumns);
   L.d.resize(n, kColumns);
+  L.t.resize(n, kColumns);
   for_rows(n, [&](Eigen::Index r0, Eigen::Index len) {
-    L.d.middleRows(r0, len) = (L.inv_diag.segment(r0, len) / theta).asDiagonal() * L.r.middleRows(r0, len);
+    for (Eigen::Index i = r0; i < r0 + len; ++i) {
+      const double scale = L.inv_diag[i] / theta;
+      double ax[kColumns] = {0, 0, 0};
+      if (!zero_start) row_times(L.A, i, L.x, ax);
+      for (int c = 0; c < kColumns; ++c) {
+        const double r = L.b(i, c) - ax[c];
+        if (zero_start) L.x(i, c) = 0.0;
+        L.r(i, c) = r;
+        L.d(i, c) = scale * r;
+      }
+    }
   });
   double rho = 1.0 / sigma;
   const int degree = options.smoothing_degree;
   for (int k = 1; k <= degree; ++k) {
     const bool last = k == degree;
-    if (!last || want_residual) multiply(L.A, L.d, L.t);
     const double rho_next = 1.0 / (2.0 * sigma - rho);
     const double keep = rho_next * rho, scale = 2.0 * rho_next / delta;
+    if (last && !want_residual) {
+      for_rows(n, [&](Eigen::Index r0, Eigen::Index len) { L.x.middleRows(r0, len) += L.d.middleRows(r0, len); });
+      break;
+    }
     for_rows(n, [&](Eigen::Index r0, Eigen::Index len) {
-      L.x.middleRows(r0, len) += L.d.middleRows(r0, len);
-      if (last && !want_residual) return;
-      L.r.middleRows(r0, len) -= L.t.middleRows(r0, len);
-      if (last) return;
-      L.d.middleRows(r0, len) = keep * L.d.middleRows(r0, len) +
-                                (scale * L.inv_diag.segment(r0, len)).asDiagonal() * L.r.middleRows(r0, len);
+      for (Eigen::Index i = r0; i < r0 + len; ++i) {
+        double ad[kColumns];
+        row_times(L.A, i, L.d, ad);
+        const double step = scale * L.inv_diag[i];
+        for (int c = 0; c < kColumns; ++c) {
+          const double d = L.d(i, c);
+          L.x(i, c) += d;
+          const double r = L.r(i, c) - ad[c];
+          L.r(i, c) = r;
+          if (!last) L.t(i, c) = keep * d + step * r; // the next direction
+        }
+      }
     });
+    if (!last) L.d.swap(L.t);
     rho = rho_next;
   }
 }
@@ -192,8 +328,13 @@ void AggregationMultigrid::Impl::cycle(std::size_t l) const {
   const Level& C = levels[l + 1];
   multiply(L.R, L.r, C.b);
   cycle(l + 1);
-  multiply(L.P, C.x, L.t);
-  for_rows(L.A.rows(), [&](Eigen::Index r0, Eigen::Index len) { L.x.middleRows(r0, len) += L.t.middleRows(r0, len); });
+  for_rows(L.A.rows(), [&](Eigen::Index r0, Eigen::Index len) {
+    for (Eigen::Index i = r0; i < r0 + len; ++i) {
+      double px[kColumns];
+      row_times(L.P, i, C.x, px);
+      for (int c = 0; c < kColumns; ++c) L.x(i, c) += px[c];
+    }
+  });
   smooth(L, false, false);
 }
 
@@ -223,20 +364,26 @@ AggregationMultigrid::AggregationMultigrid(Eigen::SparseMatrix<double, Eigen::Ro
     int coarse_rows = 0;
     const std::vector<int> agg = aggregate(L.A, diag, theta, coarse_rows);
     if (coarse_rows > 0.75 * static_cast<double>(L.A.rows())) break; // stalled: factor this level
-    SpMat tentative(L.A.rows(), coarse_rows);
-    tentative.reserve(Eigen::VectorXi::Ones(L.A.rows()));
-    for (Eigen::Index i = 0; i < L.A.rows(); ++i) tentative.insert(i, agg[i]) = 1.0;
-    tentative.makeCompressed();
     // P = (I - omega D^-1 A) P_tent with omega = 4 / (3 rho(D^-1 A)), the usual smoothed-
-    // aggregation choice: it damps the tentative basis functions' high-frequency edges.
-    SpMat AP = L.A * tentative;
+    // aggregation choice: it damps the tentative basis functions' high-frequency edges. P_tent
+    // is piecewise constant on the aggregates, so row i of A P_tent sums row i of A by aggregate.
     const double omega = 4.0 / (3.0 * L.lambda_max);
-    L.P = tentative - (omega * L.inv_diag).asDiagonal() * AP;
-    L.P.prune(0.0);
-    L.P.makeCompressed();
+    L.P = rows_in_parallel(L.A.rows(), coarse_rows, [&](Eigen::Index i, std::vector<std::pair<int, double>>& out) {
+      const std::size_t first = out.size();
+      for (SpMat::InnerIterator it(L.A, i); it; ++it) {
+        const int a = agg[it.index()];
+        auto e = std::find_if(out.begin() + first, out.end(), [&](const auto& x) { return x.first == a; });
+        if (e == out.end()) out.emplace_back(a, 0.0), e = out.end() - 1;
+        e->second -= omega * L.inv_diag[i] * it.value();
+      }
+      auto own = std::find_if(out.begin() + first, out.end(), [&](const auto& x) { return x.first == agg[i]; });
+      if (own == out.end()) out.emplace_back(agg[i], 1.0);
+      else own->second += 1.0;
+      out.erase(std::remove_if(out.begin() + first, out.end(), [](const auto& x) { return x.second == 0.0; }), out.end());
+      std::sort(out.begin() + first, out.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    });
     L.R = L.P.transpose();
-    AP = L.A * L.P;
-    SpMat coarse = L.R * AP;
+    SpMat coarse = sparse_product(L.R, sparse_product(L.A, L.P));
     coarse.makeCompressed();
     m.levels.emplace_back();
     m.levels.back().A = std::move(coarse);

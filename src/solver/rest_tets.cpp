@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Dense>
@@ -52,14 +53,25 @@ RestTets rest_tets_from_corners(const Eigen::MatrixXi& T, const Eigen::MatrixXd&
   if (T.cols() != 4) throw InputError("rest_tets_from_corners: expected K x 4 tets");
   if (corners.rows() != 4 * T.rows() || corners.cols() != 3)
     throw InputError("rest_tets_from_corners: expected " + std::to_string(4 * T.rows()) + " x 3 corners");
+  return rest_tets_from_corner_function(T, [&](Eigen::Index t, const std::array<int, 4>&, TetCorners& U) { U = corners.middleRows(4 * t, 4); });
+}
+
+RestTets rest_tets_from_corner_function(Eigen::MatrixXi T,
+                                        const std::function<void(Eigen::Index t, const std::array<int, 4>& ids, TetCorners& U)>& corners) {
+  if (T.cols() != 4) throw InputError("rest_tets_from_corners: expected K x 4 tets");
   RestTets rest;
-  rest.T = T;
-  rest.Dm_inv.resize(T.rows());
-  rest.volume.resize(T.rows());
+  rest.T = std::move(T);
+  rest.Dm_inv.resize(rest.T.rows());
+  rest.volume.resize(rest.T.rows());
   // TBB rethrows a tet's InputError in this thread.
-  tbb::parallel_for(Eigen::Index(0), T.rows(), [&](Eigen::Index t) {
-    set_rest_shape(rest, t, corners.row(4 * t).transpose(), corners.row(4 * t + 1).transpose(),
-                   corners.row(4 * t + 2).transpose(), corners.row(4 * t + 3).transpose());
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, rest.T.rows(), 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    TetCorners U;
+    std::array<int, 4> ids;
+    for (Eigen::Index t = r.begin(); t != r.end(); ++t) {
+      for (int j = 0; j < 4; ++j) ids[j] = rest.T(t, j);
+      corners(t, ids, U);
+      set_rest_shape(rest, t, U.row(0).transpose(), U.row(1).transpose(), U.row(2).transpose(), U.row(3).transpose());
+    }
   });
   return rest;
 }

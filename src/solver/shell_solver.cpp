@@ -7,7 +7,6 @@
 #include "solver/simd_dispatch.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
@@ -39,6 +38,9 @@ constexpr int kChunk = 2048;
 // Free vertices from which the x column and the y, z columns are back-substituted concurrently:
 // CHOLMOD's triangular solves are single-threaded, and one column costs about 60% of three.
 constexpr int kParallelSolveRows = 4096;
+
+// Rows of the system matrix assembled per task.
+constexpr int kAssembleBlock = 1024;
 
 // Rows per chunk of CG's inner products: partial sums are added in chunk order, so a solve gives
 // the same bits however TBB splits the work (the monotonicity test compares energies to round-off).
@@ -303,26 +305,39 @@ void ShellSolver::Impl::assemble() {
   std::vector<double> soft_diag(nf, 0.0);
   for (int j : soft_free)
     if (j >= 0) soft_diag[j] += soft.weight;
-  // Each row goes to its own slice of a flat buffer (capacity: one entry per tet corner it
-  // touches, plus the diagonal), accumulated through a per-thread dense array indexed by vertex.
-  std::vector<int> row_cap(nf + 1, 0), row_len(nf, 0);
-  for (int j = 0; j < nf; ++j) row_cap[j + 1] = row_cap[j] + 4 * (gather_start[j + 1] - gather_start[j]) + 1;
-  std::vector<int> row_col(row_cap[nf]);
-  std::vector<double> row_val(row_cap[nf]);
-  struct Workspace {
-    std::vector<double> sum;
-    std::vector<int> touched;
+  // Rows are built in blocks (in parallel), each block into buffers of exactly its entries, then
+  // copied into place: a row has about 15 distinct columns, so a short list searched linearly
+  // accumulates them in cache. (A dense per-thread array indexed by vertex, with a buffer of one
+  // slot per tet corner, made the assembly of 2.6M rows twice as slow per row as of 655K rows:
+  // random access over tens of MB and page faults on a 1.5 GB buffer.)
+  const int blocks = (nf + kAssembleBlock - 1) / kAssembleBlock;
+  struct RowBlock {
+    std::vector<int> col, len, nfree; // columns of the block's rows in row order, sorted per row
+    std::vector<double> val;
   };
-  tbb::enumerable_thread_specific<Workspace> workspaces([&] { return Workspace{std::vector<double>(N, 0.0), {}}; });
-  tbb::parallel_for(tbb::blocked_range<int>(0, nf, 256), [&](const tbb::blocked_range<int>& range) {
-    Workspace& w = workspaces.local();
-    for (int j = range.begin(); j != range.end(); ++j) {
-      w.touched.clear();
+  std::vector<RowBlock> row_blocks(blocks);
+  tbb::parallel_for(0, blocks, [&](int b) {
+    RowBlock& out = row_blocks[b];
+    std::vector<std::pair<int, double>> row; // (column, sum) in order of first touch
+    for (int j = b * kAssembleBlock; j < std::min(nf, (b + 1) * kAssembleBlock); ++j) {
+      row.clear();
       auto add = [&](int v, double val) {
-        if (w.sum[v] == 0.0) w.touched.push_back(v); // an exact zero sum is dropped as well
-        w.sum[v] += val;
+        for (auto& e : row)
+          if (e.first == v) {
+            e.second += val;
+            return;
+          }
+        row.emplace_back(v, val);
       };
       add(free_vertices[j], soft_diag[j]);
+      // The next row's tets are fetched while this row sums: at millions of tets their Dm_inv
+      // come from memory, and waiting for each in turn took most of the assembly.
+      if (j + 1 < nf)
+        for (int s = gather_start[j + 1]; s < gather_start[j + 2]; ++s) {
+          const double* d = rest->Dm_inv[gather_slot[s] / 4].data();
+          __builtin_prefetch(d);
+          __builtin_prefetch(d + 8);
+        }
       for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
         const int t = gather_slot[s] / 4, k = gather_slot[s] % 4;
         double g[12]; // G_t = E Dm_inv, row-major 4x3
@@ -333,15 +348,15 @@ void ShellSolver::Impl::assemble() {
         for (int a = 0; a < 4; ++a)
           add(tet(t, a), vol(t) * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]));
       }
-      std::sort(w.touched.begin(), w.touched.end());
-      w.touched.erase(std::unique(w.touched.begin(), w.touched.end()), w.touched.end());
-      int out = row_cap[j];
-      for (int v : w.touched) {
-        row_col[out] = v;
-        row_val[out++] = w.sum[v];
-        w.sum[v] = 0.0;
+      std::sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+      int nfree = 0;
+      for (const auto& [v, val] : row) {
+        out.col.push_back(v);
+        out.val.push_back(val);
+        nfree += free_index[v] >= 0;
       }
-      row_len[j] = out - row_cap[j];
+      out.len.push_back(static_cast<int>(row.size()));
+      out.nfree.push_back(nfree);
     }
   });
 
@@ -349,26 +364,30 @@ void ShellSolver::Impl::assemble() {
   A_start.assign(nf + 1, 0);
   A_kept.assign(nf, 0);
   for (int j = 0; j < nf; ++j) {
-    int nfree = 0;
-    for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) nfree += free_index[row_col[e]] >= 0;
-    A_start[j + 1] = A_start[j] + row_len[j];
-    A_kept[j] = A_start[j] + nfree;
+    const RowBlock& b = row_blocks[j / kAssembleBlock];
+    A_start[j + 1] = A_start[j] + b.len[j % kAssembleBlock];
+    A_kept[j] = A_start[j] + b.nfree[j % kAssembleBlock];
   }
   A_col.resize(A_start[nf]);
   A_val.resize(A_start[nf]);
   A_free_col.resize(A_start[nf]);
   jacobi.assign(nf, 0.0);
-  tbb::parallel_for(0, nf, [&](int j) {
-    int free_out = A_start[j], kept_out = A_kept[j];
-    for (int e = row_cap[j]; e < row_cap[j] + row_len[j]; ++e) { // sorted by vertex id = by free id
-      const int v = row_col[e];
-      const int i = free_index[v];
-      const int out = i < 0 ? kept_out++ : free_out++;
-      A_col[out] = v;
-      A_val[out] = row_val[e];
-      A_free_col[out] = i;
-      if (i == j) jacobi[j] = row_val[e] > 0 ? 1.0 / row_val[e] : 0.0;
+  tbb::parallel_for(0, blocks, [&](int b) {
+    RowBlock& in = row_blocks[b];
+    int e = 0;
+    for (int j = b * kAssembleBlock; j < std::min(nf, (b + 1) * kAssembleBlock); ++j) {
+      int free_out = A_start[j], kept_out = A_kept[j];
+      for (const int end = e + in.len[j - b * kAssembleBlock]; e < end; ++e) { // sorted by vertex id = by free id
+        const int v = in.col[e];
+        const int i = free_index[v];
+        const int out = i < 0 ? kept_out++ : free_out++;
+        A_col[out] = v;
+        A_val[out] = in.val[e];
+        A_free_col[out] = i;
+        if (i == j) jacobi[j] = in.val[e] > 0 ? 1.0 / in.val[e] : 0.0;
+      }
     }
+    in = RowBlock{}; // freed as soon as copied: the peak holds the matrix about twice, not more
   });
   if (nf == 0) return;
   path = linear.kind == LinearSolver::ConjugateGradient ||

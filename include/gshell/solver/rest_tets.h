@@ -1,6 +1,8 @@
 #pragma once
 // Per-tet rest shapes for the deformation energy (docs/design.md "The energy").
 #include <Eigen/Core>
+#include <array>
+#include <functional>
 #include <vector>
 
 namespace gshell {
@@ -24,5 +26,16 @@ RestTets rest_tets_from_positions(const Eigen::MatrixXd& X, const Eigen::MatrixX
 /// \throws InputError when T is not K x 4, corners not 4K x 3, or a tet has non-positive (or
 ///         non-finite) rest volume.
 RestTets rest_tets_from_corners(const Eigen::MatrixXi& T, const Eigen::MatrixXd& corners);
+
+/// Row j of a tet's 4 x 3 rest corners: the rest position of its vertex T(t, j).
+using TetCorners = Eigen::Matrix<double, 4, 3, Eigen::RowMajor>;
+
+/// The same with the corners made per tet by `corners(t, ids, U)` (ids = row t of T; called
+/// concurrently for different t), so that no 4K x 3 corner matrix is held: at millions of tets it would be the largest
+/// temporary of the setup.
+/// \throws InputError when T is not K x 4 or a tet has non-positive (or non-finite) rest volume;
+///         whatever `corners` throws.
+RestTets rest_tets_from_corner_function(Eigen::MatrixXi T,
+                                        const std::function<void(Eigen::Index t, const std::array<int, 4>& ids, TetCorners& U)>& corners);
 
 } // namespace gshell
