@@ -14,6 +14,8 @@
 // frames to DEG degrees by the deformer (--allow-invalid, untimed), then one ShellCertifier
 // certifies every frame in order (trees refit), as the deform guard does (no base/base pairs) and
 // as the pose guard does (with them); median ms per frame over the frames, then over the runs.
+#include "bench_common.h"
+
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/geometry/mesh_topology.h>
@@ -91,11 +93,6 @@ std::vector<std::string> expand(const std::vector<std::string>& inputs) {
   return meshes;
 }
 
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-}
-
 // --frames mode: see the head of this file.
 int certify_frames(const std::string& input, double ratio, int frame_count, double degrees, int runs) {
   TriMesh mesh;
@@ -106,11 +103,7 @@ int certify_frames(const std::string& input, double ratio, int frame_count, doub
     std::fprintf(stderr, "bench_certificate: %s\n", e.what());
     return 1;
   }
-  GenerateOptions generate;
-  generate.method = ShellMethod::Rigid;
-  generate.thickness = thickness_from_ratio(mesh.V, ratio);
-  generate.count_intersections = false;
-  const Shell rest = generate_shell(mesh.V, mesh.F, generate).shell;
+  const Shell rest = gshell::bench::rigid_rest_shell(mesh, ratio).shell;
   const int n = rest.num_base_vertices();
   ShellDeformer deformer(rest);
   const MotionFrame frame = motion_frame(rest.base);
@@ -143,13 +136,13 @@ int certify_frames(const std::string& input, double ratio, int frame_count, doub
         inverted += c.inverted_tets;
         pairs += static_cast<long long>(c.intersections.size());
       }
-      run_ms.push_back(median_of(ms));
-      run_cpu.push_back(median_of(cpu));
+      run_ms.push_back(gshell::bench::median(ms));
+      run_cpu.push_back(gshell::bench::median(cpu));
     }
     std::printf("certificate per frame (%s): median %.2f ms wall, %.2f ms CPU over %d runs; inverted tets summed "
                 "%lld, intersecting pairs summed %lld\n",
-                base_pairs ? "with base/base, as pose" : "without base/base, as deform", median_of(run_ms),
-                median_of(run_cpu), runs, inverted, pairs);
+                base_pairs ? "with base/base, as pose" : "without base/base, as deform", gshell::bench::median(run_ms),
+                gshell::bench::median(run_cpu), runs, inverted, pairs);
   }
   return 0;
 }
