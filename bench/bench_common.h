@@ -2,6 +2,8 @@
 // Helpers the benchmarks share (header-only: each bench/*.cpp is its own executable).
 #include <gshell/deform/handles.h>
 #include <gshell/deform/pose.h>
+#include <gshell/io/load_mesh.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/shell/shell.h>
 
 #include <Eigen/Core>
@@ -11,6 +13,16 @@
 #include <vector>
 
 namespace gshell::bench {
+
+/// The rest shell as `gshell generate --method rigid --thickness-ratio RATIO` makes it (no
+/// intersection counts), for the deformation benchmarks.
+inline GenerateResult rigid_rest_shell(const TriMesh& mesh, double ratio) {
+  GenerateOptions generate;
+  generate.method = ShellMethod::Rigid;
+  generate.thickness = thickness_from_ratio(mesh.V, ratio);
+  generate.count_intersections = false;
+  return generate_shell(mesh.V, mesh.F, generate);
+}
 
 /// Median of the values (mean of the middle two for an even count; NaN when empty).
 inline double median(std::vector<double> v) {

@@ -8,6 +8,16 @@
 // One row per shell: vertices, the certificate's counts, the old counts, times. Meshes that
 // cannot carry a shell, and with --closed those with a boundary, are listed as skipped.
 // The baseline table of docs/validity.md: bench_certificate --closed --runs 3 models
+//
+// bench_certificate --frames K [--bend DEG=60] [--ratio R] [--runs K] [MESH]: the certificate of a
+// deformation's frames alone (issue 14): the rigid shell at ratio R (default 0.01 here) bent in K
+// frames to DEG degrees by the deformer (--allow-invalid, untimed), then one ShellCertifier
+// certifies every frame in order (trees refit), as the deform guard does (no base/base pairs) and
+// as the pose guard does (with them); median ms per frame over the frames, then over the runs.
+#include "bench_common.h"
+
+#include <gshell/deform/shell_deformer.h>
+#include <gshell/deform/synthetic_motion.h>
 #include <gshell/geometry/mesh_topology.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/load_mesh.h>
@@ -83,21 +93,80 @@ std::vector<std::string> expand(const std::vector<std::string>& inputs) {
   return meshes;
 }
 
+// --frames mode: see the head of this file.
+int certify_frames(const std::string& input, double ratio, int frame_count, double degrees, int runs) {
+  TriMesh mesh;
+  try {
+    mesh = load_mesh(input);
+    require_valid_mesh(mesh, input);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_certificate: %s\n", e.what());
+    return 1;
+  }
+  const Shell rest = gshell::bench::rigid_rest_shell(mesh, ratio).shell;
+  const int n = rest.num_base_vertices();
+  ShellDeformer deformer(rest);
+  const MotionFrame frame = motion_frame(rest.base);
+  DeformOptions deform;
+  deform.allow_invalid = true;
+  deform.certify = false;
+  deform.measure_stretch = false;
+  std::vector<Eigen::MatrixXd> X;
+  for (int k = 1; k <= frame_count; ++k) {
+    deformer.solve(bend(rest.base, frame, degrees * ramp(k, frame_count)), deform);
+    X.push_back(deformer.current());
+  }
+  std::printf("mesh %s: %d base vertices, %d faces, ratio %g; %d frames bent to %.0f degrees (unguarded solve)\n",
+              input.c_str(), n, static_cast<int>(rest.F.rows()), ratio, frame_count, degrees);
+  CertifyOptions without_base;
+  without_base.base_self_intersections = false;
+  for (const bool base_pairs : {false, true}) {
+    std::vector<double> run_ms, run_cpu;
+    long long inverted = 0, pairs = 0;
+    for (int r = 0; r < runs; ++r) {
+      ShellCertifier certifier(rest.F, n);
+      certifier.certify(rest.base, rest.top, base_pairs ? CertifyOptions{} : without_base); // built at rest
+      std::vector<double> ms, cpu;
+      inverted = pairs = 0;
+      for (const Eigen::MatrixXd& x : X) {
+        ShellCertificate c;
+        const Time t = timed([&] { c = certifier.certify(x.topRows(n), x.bottomRows(n), base_pairs ? CertifyOptions{} : without_base); });
+        ms.push_back(1e3 * t.wall);
+        cpu.push_back(1e3 * t.cpu);
+        inverted += c.inverted_tets;
+        pairs += static_cast<long long>(c.intersections.size());
+      }
+      run_ms.push_back(gshell::bench::median(ms));
+      run_cpu.push_back(gshell::bench::median(cpu));
+    }
+    std::printf("certificate per frame (%s): median %.2f ms wall, %.2f ms CPU over %d runs; inverted tets summed "
+                "%lld, intersecting pairs summed %lld\n",
+                base_pairs ? "with base/base, as pose" : "without base/base, as deform", gshell::bench::median(run_ms),
+                gshell::bench::median(run_cpu), runs, inverted, pairs);
+  }
+  return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
   double ratio = 0.03;
-  int runs = 5;
+  int runs = 5, frames = 0;
+  double degrees = 60;
+  bool ratio_given = false;
   bool closed_only = false;
   std::vector<std::string> methods{"rigid", "curvature", "offset"}, inputs;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--ratio") && i + 1 < argc) ratio = std::stod(argv[++i]);
+    if (!std::strcmp(argv[i], "--ratio") && i + 1 < argc) ratio = std::stod(argv[++i]), ratio_given = true;
+    else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc) frames = std::stoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--bend") && i + 1 < argc) degrees = std::stod(argv[++i]);
     else if (!std::strcmp(argv[i], "--methods") && i + 1 < argc) methods = split(argv[++i]);
     else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::stoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--closed")) closed_only = true;
     else inputs.push_back(argv[i]);
   }
   if (inputs.empty()) inputs.push_back("models/bunny00.off");
+  if (frames > 0) return certify_frames(inputs.front(), ratio_given ? ratio : 0.01, frames, degrees, runs);
 
   std::printf("ratio %.3g; times: median of %d, wall s (cpu s summed over threads); old = today's counts\n", ratio, runs);
   std::printf("%-28s %-9s %7s | %8s %7s %8s %5s %8s | %7s %8s | %15s %15s %15s\n", "mesh", "method", "verts",

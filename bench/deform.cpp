@@ -156,12 +156,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_deform: %s\n", e.what());
     return 1;
   }
-  // The rest shell as `gshell generate --method rigid --thickness-ratio RATIO` makes it.
-  GenerateOptions generate;
-  generate.method = ShellMethod::Rigid;
-  generate.thickness = thickness_from_ratio(mesh.V, ratio);
-  generate.count_intersections = false;
-  const GenerateResult generated = generate_shell(mesh.V, mesh.F, generate);
+  const GenerateResult generated = gshell::bench::rigid_rest_shell(mesh, ratio);
   const Shell& rest = generated.shell;
   const double eta = rest.thickness, generate_seconds = generated.seconds.total;
   std::printf("mesh %s: %d base vertices, %d faces; shell %d vertices, %d tets, eta %.4g (generated in %.2f s)\n",

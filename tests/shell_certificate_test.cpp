@@ -428,6 +428,54 @@ TEST(ShellCertificate, ShellPairsMatchExactConstructionsOnLatticeShells) {
   EXPECT_EQ(kinds.size(), 3u); // top/top, top/base and wall pairs all occur (the bases are clean)
 }
 
+TEST(ShellCertificate, TopCornersTouchingATiltedBaseFarFromTheOriginAreJudgedExactly) {
+  // The pair tests reject most pairs of a thin shell by a slab along one face's normal computed in
+  // doubles (exact_faces.h, slabs_separate); its margin must cover the rounding, which grows with
+  // the coordinates. Here a tilted base with generic (rounded) coordinates lies 2^20 from the
+  // origin, and every other top corner is put on a base face up to rounding, then a few ulps up
+  // or down: every pair of boundary triangles must be judged as the exact
+  // construction judges it (without the margin some of them are called apart while they touch).
+  const SimpleMesh m = test::plane(3);
+  const int n = static_cast<int>(m.V.rows());
+  const double far = 1048576;
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> wobble(-0.01, 0.01);
+  Eigen::MatrixXd base(n, 3), top(n, 3);
+  for (int v = 0; v < n; ++v) {
+    const double x = m.V(v, 0) * 1.1, y = m.V(v, 1) * 0.9;
+    base.row(v) << far + x, far / 3 + y, far / 7 + 0.3 * x + 0.7 * y + wobble(rng);
+    top.row(v) = base.row(v) + Eigen::RowVector3d(-0.3, -0.7, 1) / 8;
+  }
+  Eigen::MatrixXd X(2 * n, 3);
+  const ShellBoundary b = shell_boundary(m.F, n);
+  std::uniform_int_distribution<int> face(0, static_cast<int>(m.F.rows()) - 1), ulps(-3, 3);
+  int meeting = 0, apart = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    Eigen::MatrixXd moved = top;
+    for (int v = trial % 2; v < n; v += 2) { // every other top corner, the rest stay clear above
+      const int g = face(rng), k = ulps(rng);
+      moved.row(v) = 0.25 * base.row(m.F(g, 0)) + 0.25 * base.row(m.F(g, 1)) + 0.5 * base.row(m.F(g, 2));
+      for (int i = 0; i < std::abs(k); ++i)
+        moved(v, 2) = std::nextafter(moved(v, 2), k > 0 ? INFINITY : -INFINITY);
+    }
+    const ShellCertificate c = certify_shell(base, moved, m.F);
+    std::set<std::pair<int, int>> found;
+    for (const BoundaryIntersection& p : c.intersections) found.insert({p.a, p.b});
+    X << base, moved;
+    for (int f = 0; f < b.size(); ++f)
+      for (int h = f + 1; h < b.size(); ++h) {
+        if (degenerate(X, b.F, f) || degenerate(X, b.F, h)) continue;
+        const bool expected = brute_force_meets_beyond_shared(X, b.F, f, h);
+        EXPECT_EQ(found.count({f, h}) == 1, expected) << "trial " << trial << " rows " << f << ", " << h;
+        const bool top_base = b.part[f] != b.part[h] && b.part[f] != BoundaryPart::Wall && b.part[h] != BoundaryPart::Wall;
+        meeting += expected && top_base;
+        apart += !expected && top_base;
+      }
+  }
+  EXPECT_GT(meeting, 100);
+  EXPECT_GT(apart, 1000);
+}
+
 TEST(ShellCertificate, NearlyFlatStarTrianglesAreJudgedExactly) {
   // Flat fans of six triangles around a vertex, one far corner placed on the line through the
   // centre and the previous far corner up to rounding: that triangle is a hair's breadth from

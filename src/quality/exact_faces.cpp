@@ -7,6 +7,10 @@
 #include <CGAL/Intersections_3/Segment_3_Triangle_3.h>
 #include <CGAL/Intersections_3/Triangle_3_Triangle_3.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 namespace gshell::detail {
 namespace {
 
@@ -120,7 +124,44 @@ bool meet_beyond_edge(const Point& p, const Point& q, const Point& a, const Poin
   return (beyond(a, p, q) && beyond(b, p, q)) || (beyond(a, q, p) && beyond(b, q, p));
 }
 
+double dot(const double n[3], const Point& p) { return n[0] * p.x() + n[1] * p.y() + n[2] * p.z(); }
+
+// Whether every corner of `f` lies beyond slab s (all above hi + margin or all below lo - margin).
+bool beyond_slab(const FaceSlab& s, const ExactFace& f, double margin) {
+  const double d0 = dot(s.n, f.p[0]), d1 = dot(s.n, f.p[1]), d2 = dot(s.n, f.p[2]);
+  const double up = s.hi + margin, down = s.lo - margin;
+  return (d0 > up && d1 > up && d2 > up) || (d0 < down && d1 < down && d2 < down);
+}
+
 } // namespace
+
+FaceSlab face_slab(const ExactFace& f) {
+  FaceSlab s;
+  const Point &a = f.p[0], &b = f.p[1], &c = f.p[2];
+  const double u[3] = {b.x() - a.x(), b.y() - a.y(), b.z() - a.z()};
+  const double v[3] = {c.x() - a.x(), c.y() - a.y(), c.z() - a.z()};
+  double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  const double big = std::max({std::abs(n[0]), std::abs(n[1]), std::abs(n[2])});
+  if (!(big > 0) || !std::isfinite(big)) return s; // n = 0: the slab separates nothing
+  for (int d = 0; d < 3; ++d) s.n[d] = n[d] / big;
+  const double d0 = dot(s.n, a), d1 = dot(s.n, b), d2 = dot(s.n, c);
+  s.lo = std::min({d0, d1, d2});
+  s.hi = std::max({d0, d1, d2});
+  return s;
+}
+
+double slab_margin(double max_abs) {
+  // With |n_i| <= 1 and |p_i| <= M a rounded n.p is within gamma_3 * 3M < 1.0e-15 M of n.p
+  // (Higham, "Accuracy and Stability of Numerical Algorithms", 3.1); a comparison of one such
+  // product with a slab end adds two of these errors and the rounding of hi + margin. 1e-14 M
+  // covers them with room; the absolute floor covers products that round to denormals.
+  if (!(max_abs < 1e150)) return std::numeric_limits<double>::infinity();
+  return 1e-14 * max_abs + 1e-290;
+}
+
+bool slabs_separate(const ExactFace& a, const FaceSlab& sa, const ExactFace& b, const FaceSlab& sb, double margin) {
+  return beyond_slab(sa, b, margin) || beyond_slab(sb, a, margin);
+}
 
 ExactFace exact_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f) {
   ExactFace face;

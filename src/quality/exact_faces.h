@@ -61,4 +61,27 @@ inline bool faces_intersect_beyond_shared(const ExactFace& a, const ExactFace& b
   return faces_intersect_beyond_shared(a, b, shared_corners(a.id, b.id));
 }
 
+/// A face's slab along a direction n close to its normal (scaled so that max |n_i| = 1): the
+/// range [lo, hi] of the rounded n.p over its corners. Two faces are disjoint when the corners of
+/// one lie beyond the other's slab by more than the rounding of these dot products can explain
+/// (slabs_separate): a cheap exact rejection for the many pairs of a thin shell whose boxes meet
+/// while they lie apart along their normals (a top face over the base faces below it). Any n
+/// gives a correct answer (a plane along n then separates them); a good one decides more pairs.
+struct FaceSlab {
+  double n[3] = {0, 0, 0};
+  double lo = 0, hi = 0;
+};
+
+FaceSlab face_slab(const ExactFace& f);
+
+/// The margin of slabs_separate for faces whose coordinates are at most `max_abs` in magnitude:
+/// bounds the rounding error of a slab's ends plus that of the dot product compared with them.
+/// Infinite (nothing is ever separated) when the products could overflow.
+double slab_margin(double max_abs);
+
+/// True when a and b (with their face_slab) are disjoint, shown exactly: all of b's corners lie
+/// beyond a's slab by more than `margin` (slab_margin of their largest coordinate), or all of a's
+/// beyond b's. False: undecided (the faces may or may not meet).
+bool slabs_separate(const ExactFace& a, const FaceSlab& sa, const ExactFace& b, const FaceSlab& sb, double margin);
+
 } // namespace gshell::detail

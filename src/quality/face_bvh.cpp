@@ -30,14 +30,26 @@ std::uint64_t spread_bits(std::uint64_t x) {
   return x;
 }
 
+// The next float towards -infinity / +infinity of a float that is not NaN, by its bits (as
+// std::nextafter, which is a library call; these run for every face of every frame).
+float float_below(float f) {
+  if (f == 0) return -std::numeric_limits<float>::denorm_min();
+  const std::uint32_t bits = std::bit_cast<std::uint32_t>(f);
+  return std::bit_cast<float>(f > 0 ? bits - 1 : bits + 1);
+}
+
+float float_above(float f) { return -float_below(-f); }
+
+// x rounded to a float no larger (round_down) / no smaller (round_up) than x (a double beyond the
+// float range: the largest float, or an infinity).
 float round_down(double x) {
-  float f = static_cast<float>(x);
-  return f > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+  const float f = static_cast<float>(x);
+  return f > x ? float_below(f) : f;
 }
 
 float round_up(double x) {
-  float f = static_cast<float>(x);
-  return f < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  const float f = static_cast<float>(x);
+  return f < x ? float_above(f) : f;
 }
 
 } // namespace
@@ -87,6 +99,7 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
 
   slot_face_.resize(m);
   slot_box_.resize(m);
+  slot_float_box_.resize(m);
   const bool distances = use == Use::distances;
   if (distances) slot_triangle_.resize(m);
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
@@ -94,6 +107,7 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
       const int f = keyed[s].second;
       slot_face_[s] = f;
       slot_box_[s] = face_box(V, F, f);
+      set_float_boxes(s, s + 1);
       if (!distances) continue;
       const Eigen::Vector3d a = corner(f, 0), b = corner(f, 1), c = corner(f, 2);
       slot_triangle_[s] = {a, b, c, triangle_is_flat(a, b, c)};
@@ -110,10 +124,12 @@ FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {
   const std::vector<std::pair<std::uint64_t, int>> keyed = morton_order(centroids);
   slot_face_.resize(m);
   slot_box_.resize(m);
+  slot_float_box_.resize(m);
   for (int s = 0; s < m; ++s) {
     slot_face_[s] = keyed[s].second;
     slot_box_[s] = boxes[keyed[s].second];
   }
+  set_float_boxes(0, m);
   build_nodes(keyed, std::max(leaf_size, 1));
 }
 
@@ -123,13 +139,26 @@ Eigen::AlignedBox3d FaceBvh::face_box(const Eigen::MatrixXd& V, const Eigen::Mat
   return box;
 }
 
+void FaceBvh::set_float_boxes(int begin, int end) {
+  for (int s = begin; s < end; ++s)
+    for (int d = 0; d < 3; ++d) {
+      slot_float_box_[s].lo[d] = round_down(slot_box_[s].min()[d]);
+      slot_float_box_[s].hi[d] = round_up(slot_box_[s].max()[d]);
+    }
+}
+
 void FaceBvh::set_leaf_box(Node& node) const {
-  Eigen::AlignedBox3d box;
-  for (int s = node.begin; s < node.end; ++s) box.extend(slot_box_[s]);
+  // The float cover of the slots' exact boxes: rounding each end outwards, then taking the
+  // min / max, is the same as rounding the exact min / max outwards (rounding is monotone).
   for (int d = 0; d < 3; ++d) {
-    node.lo[d] = round_down(box.min()[d]);
-    node.hi[d] = round_up(box.max()[d]);
+    node.lo[d] = std::numeric_limits<float>::infinity();
+    node.hi[d] = -std::numeric_limits<float>::infinity();
   }
+  for (int s = node.begin; s < node.end; ++s)
+    for (int d = 0; d < 3; ++d) {
+      node.lo[d] = std::min(node.lo[d], slot_float_box_[s].lo[d]);
+      node.hi[d] = std::max(node.hi[d], slot_float_box_[s].hi[d]);
+    }
 }
 
 void FaceBvh::refit(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
@@ -137,14 +166,17 @@ void FaceBvh::refit(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   const int m = num_faces();
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
     for (int s = r.begin(); s < r.end(); ++s) slot_box_[s] = face_box(V, F, slot_face_[s]);
+    set_float_boxes(r.begin(), r.end());
+  });
+  const int count = static_cast<int>(nodes_.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, count, 8192), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i < r.end(); ++i)
+      if (nodes_[i].leaf()) set_leaf_box(nodes_[i]);
   });
   // Children come after their parent (depth-first), so a backward pass sees them first.
-  for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
+  for (int i = count - 1; i >= 0; --i) {
     Node& n = nodes_[i];
-    if (n.leaf()) {
-      set_leaf_box(n);
-      continue;
-    }
+    if (n.leaf()) continue;
     const Node &l = nodes_[i + 1], &r = nodes_[n.right];
     for (int d = 0; d < 3; ++d) {
       n.lo[d] = std::min(l.lo[d], r.lo[d]);

@@ -6,8 +6,10 @@
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 #include <vector>
 
@@ -87,17 +89,34 @@ private:
     if (a.star_ && (shared.count == 1 || shared.count == 2))
       for (int i = 0; i < shared.count; ++i)
         if (a.star_[ia.id[shared.in_a[i]]]) return false;
+    if (shared.count == 0 &&
+        slabs_separate(a.faces_[s], a.slabs_[s], b.faces_[t], b.slabs_[t], std::max(a.margin_, b.margin_)))
+      return false;
     return faces_intersect_beyond_shared(a.faces_[s], b.faces_[t], shared);
   }
 
   void take_positions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star) {
-    faces_ = exact_faces_in_slot_order(V, F, bvh_);
-    ids_.resize(faces_.size());
+    const int count = bvh_.num_faces();
+    const std::vector<int>& face = bvh_.faces_in_leaf_order();
+    faces_.resize(count);
+    ids_.resize(count);
+    slabs_.resize(count);
     star_ = embedded_star ? embedded_star->data() : nullptr;
-    for (std::size_t s = 0; s < faces_.size(); ++s) {
-      const std::array<int, 3>& id = faces_[s].id;
-      ids_[s] = {id, star_ && star_[id[0]] && star_[id[1]] && star_[id[2]]};
-    }
+    const double max_abs = tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, count, 4096), 0.0,
+        [&](const tbb::blocked_range<int>& r, double largest) {
+          for (int s = r.begin(); s < r.end(); ++s) {
+            faces_[s] = exact_face(V, F, face[s]);
+            const std::array<int, 3>& id = faces_[s].id;
+            ids_[s] = {id, star_ && star_[id[0]] && star_[id[1]] && star_[id[2]]};
+            slabs_[s] = face_slab(faces_[s]);
+            for (const ExactPoint& p : faces_[s].p)
+              largest = std::max({largest, std::abs(p.x()), std::abs(p.y()), std::abs(p.z())});
+          }
+          return largest;
+        },
+        [](double a, double b) { return std::max(a, b); });
+    margin_ = slab_margin(max_abs);
   }
 
   static bool share_id(const std::array<int, 3>& a, const std::array<int, 3>& b) {
@@ -112,6 +131,8 @@ private:
   FaceBvh bvh_;
   std::vector<ExactFace> faces_; // in slot order
   std::vector<Ids> ids_;         // in slot order
+  std::vector<FaceSlab> slabs_;  // in slot order
+  double margin_ = 0;            // slab_margin of these faces' coordinates
   const char* star_ = nullptr;
 };
 
