@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
     else if (a == "--margin") guard.start_margin = std::stod(argv[++i]);
     else if (a == "--thinning") guard.start_thinning = std::stod(argv[++i]);
     else if (a == "--detail") detail = true;
+    else if (a == "--gn-volume") guard.projected_volume_hessian = false;
     else if (a == "--refine") guard.start_refine = std::stoi(argv[++i]);
     else if (a == "--backoff") guard.start_backoff = std::stod(argv[++i]);
     else if (a == "--iters") guard_iterations = std::stoi(argv[++i]);

@@ -15,6 +15,8 @@
 #include <atomic>
 #include <cstdint>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <string>
 
@@ -321,7 +323,9 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   std::atomic<double> alpha(max_step);
   auto bound_pair = [&](PairKind kind, const Ids& ids) {
     const PairPoints p = m.points(ids), d = {dx[ids[0]], dx[ids[1]], dx[ids[2]], dx[ids[3]]};
-    lower_to(alpha, pair_step_bound(kind, p, d, alpha.load(std::memory_order_relaxed), ccd));
+    const double pb = pair_step_bound(kind, p, d, alpha.load(std::memory_order_relaxed), ccd);
+    if (pb == 0 && std::getenv("GUARD_DEBUG")) std::fprintf(stderr, "zero bound pair kind %d ids %d %d %d %d d0 %g\n", int(kind), ids[0], ids[1], ids[2], ids[3], std::sqrt(pair_squared_distance(kind, p)));
+    lower_to(alpha, pb);
   };
   // A listed pair at d_b at the build is at least d_b - 2 drift - 2 rho alpha apart along the
   // step, never below its floor while that exceeds keep_fraction * dhat: no CCD needed.

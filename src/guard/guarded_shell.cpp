@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <numeric>
 #include <string>
 
@@ -66,12 +68,14 @@ void check_guard_options(const GuardOptions& o) {
   require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
   require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
   require(o.repair_rings >= 0, "repair_rings", ">= 0");
+  require(o.repair_min_scale >= 0 && o.repair_min_scale < 1, "repair_min_scale", "in [0, 1)");
   require(o.repair_iterations >= -1, "repair_iterations", ">= -1");
 }
 
 GuardOptions generation_guard_options() {
   GuardOptions o;
   o.contact_distance = 0.03;
+  o.projected_volume_hessian = true;
   return o;
 }
 
@@ -88,6 +92,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.keep_fraction = options.keep_fraction;
   p.cg_iterations = options.cg_iterations;
   p.cg_tolerance = options.cg_tolerance;
+  p.projected_volume_hessian = options.projected_volume_hessian;
   return p;
 }
 
@@ -191,8 +196,24 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     in_region = grown;
   }
   for (int v : g.directions.unextrudable) in_region[v] = 0;
+  // Top vertices the start had to pull nearly onto their base stay there: their pairs with the
+  // base triangles around them are closer than the contact step bound can resolve in floating
+  // point (it then returns 0 and the whole repair stands still), and their violations came from
+  // the base itself (two input sheets nearly touching).
+  // Their neighbours are held too: a top edge from such a vertex to a moving one nearly meets
+  // the base edges at its base vertex.
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (g.start.scale[F(f, k)] < options.repair_min_scale)
+        for (int l = 0; l < 3; ++l) in_region[F(f, l)] = 0;
   g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
   X.bottomRows(n) = g.start.top;
+  if (std::getenv("GUARD_DEBUG")) {
+    int tiny[6] = {0};
+    for (int i = 0; i < n; ++i)
+      for (int k = 0; k < 6; ++k) tiny[k] += g.start.scale[i] < std::pow(10.0, -k);
+    std::fprintf(stderr, "start scale < 1: %d, <0.1 %d, <1e-2 %d, <1e-3 %d, <1e-4 %d, <1e-5 %d, min %g; skipped tets %zu\n", tiny[0], tiny[1], tiny[2], tiny[3], tiny[4], tiny[5], g.start.scale.minCoeff(), g.start.inverted_tets.size());
+  }
   if (g.repaired_vertices > 0) {
     std::vector<int> held(n);
     std::iota(held.begin(), held.end(), 0);

@@ -34,6 +34,8 @@ struct GuardOptions {
   double keep_fraction = 0.1;
   int cg_iterations = 20;     ///< CG iterations per Newton direction, at most
   double cg_tolerance = 0.1;  ///< relative CG residual
+  /// GuardedSolverParameters::projected_volume_hessian (generation: true).
+  bool projected_volume_hessian = false;
   /// The vertex normal is the extrusion direction where it sees every incident face with at least
   /// this cosine margin (extrusion_directions), in [-1, 1].
   double normal_margin = 0.5;
@@ -51,6 +53,10 @@ struct GuardOptions {
   /// The guarded solver moves the top vertices the start pulled in and this many rings of
   /// neighbours around them; the rest keeps the paper's result (>= 0).
   int repair_rings = 3;
+  /// Top vertices the start pulled below this fraction of their wanted offset are held where the
+  /// start put them (their pairs with the base nearby are too close for the contact step bound to
+  /// resolve in floating point), in [0, 1).
+  double repair_min_scale = 1e-3;
   /// Iterations of the guarded solver at most (-1: the solve's max_iterations, as the paper's).
   int repair_iterations = -1;
 };
