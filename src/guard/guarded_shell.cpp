@@ -76,6 +76,7 @@ GuardOptions generation_guard_options() {
   GuardOptions o;
   o.contact_distance = 0.03;
   o.projected_volume_hessian = true;
+  o.projected_contact_hessian = false;
   return o;
 }
 
@@ -93,6 +94,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.cg_iterations = options.cg_iterations;
   p.cg_tolerance = options.cg_tolerance;
   p.projected_volume_hessian = options.projected_volume_hessian;
+  p.projected_contact_hessian = options.projected_contact_hessian;
   return p;
 }
 

@@ -132,7 +132,7 @@ struct GuardedSolver::Impl {
   std::vector<Eigen::Triplet<double>> half_barrier_triplets(const Eigen::MatrixXd& X, const State& s) {
     std::vector<Eigen::Triplet<double>> H;
     volume.add_hessian(X, 0.5 * p.volume_weight, H, s.active_tets, p.projected_volume_hessian);
-    if (contact) contact->add_hessian(X, 0.5 * p.contact_stiffness, H);
+    if (contact) contact->add_hessian(X, 0.5 * p.contact_stiffness, H, p.projected_contact_hessian);
     return H;
   }
 

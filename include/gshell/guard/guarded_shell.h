@@ -36,6 +36,8 @@ struct GuardOptions {
   double cg_tolerance = 0.1;  ///< relative CG residual
   /// GuardedSolverParameters::projected_volume_hessian (generation: true).
   bool projected_volume_hessian = false;
+  /// GuardedSolverParameters::projected_contact_hessian (generation: false).
+  bool projected_contact_hessian = true;
   /// The vertex normal is the extrusion direction where it sees every incident face with at least
   /// this cosine margin (extrusion_directions), in [-1, 1].
   double normal_margin = 0.5;

@@ -65,6 +65,9 @@ struct GuardedSolverParameters {
   /// The volume barrier's Hessian in the directions: each tet's whole Hessian projected onto its
   /// positive eigenvalues (true) or its Gauss-Newton part (false; VolumeBarrier::add_hessian).
   bool projected_volume_hessian = false;
+  /// The contact barrier's Hessian: each pair's projected onto its positive eigenvalues (true) or
+  /// its Gauss-Newton part along the distance (false; ContactGuard::add_hessian).
+  bool projected_contact_hessian = true;
   /// Tets left out of the volume barrier and bound (empty or one flag per tet): those that
   /// cannot be valid (around unextrudable vertices); they may stay inverted.
   std::vector<char> skip_tets;
