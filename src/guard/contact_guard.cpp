@@ -15,8 +15,6 @@
 #include <atomic>
 #include <cstdint>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <string>
 

@@ -11,8 +11,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <numeric>
 #include <string>
 
@@ -60,6 +58,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.contact_weight > 0 && std::isfinite(o.contact_weight), "contact_weight", "positive");
   require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
   require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
+  require(o.local_rings >= -1, "local_rings", ">= -1");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
@@ -77,6 +76,7 @@ GuardOptions generation_guard_options() {
   o.contact_distance = 0.03;
   o.projected_volume_hessian = true;
   o.projected_contact_hessian = false;
+  o.local_rings = 4;
   return o;
 }
 
@@ -95,6 +95,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.cg_tolerance = options.cg_tolerance;
   p.projected_volume_hessian = options.projected_volume_hessian;
   p.projected_contact_hessian = options.projected_contact_hessian;
+  p.local_rings = options.local_rings;
   return p;
 }
 
@@ -210,12 +211,6 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
         for (int l = 0; l < 3; ++l) in_region[F(f, l)] = 0;
   g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
   X.bottomRows(n) = g.start.top;
-  if (std::getenv("GUARD_DEBUG")) {
-    int tiny[6] = {0};
-    for (int i = 0; i < n; ++i)
-      for (int k = 0; k < 6; ++k) tiny[k] += g.start.scale[i] < std::pow(10.0, -k);
-    std::fprintf(stderr, "start scale < 1: %d, <0.1 %d, <1e-2 %d, <1e-3 %d, <1e-4 %d, <1e-5 %d, min %g; skipped tets %zu\n", tiny[0], tiny[1], tiny[2], tiny[3], tiny[4], tiny[5], g.start.scale.minCoeff(), g.start.inverted_tets.size());
-  }
   if (g.repaired_vertices > 0) {
     std::vector<int> held(n);
     std::iota(held.begin(), held.end(), 0);

@@ -8,8 +8,6 @@
 #include <Eigen/SparseCore>
 
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -273,12 +271,10 @@ struct GuardedSolver::Impl {
   }
 
   // Largest step in [0, 1] keeping tets and boundary pairs safe along D (N x 3).
-  double dbg_tet = 0, dbg_contact = 0; int dbg_tet_id = -1;
   double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D) {
     const TetStepBound tb = tet_step_bound(T, X, D, p.keep_fraction, 1.0, &volume.skip());
     double a = tb.step;
-    dbg_tet = a; dbg_tet_id = tb.tet; dbg_contact = 1;
-    if (contact) { dbg_contact = contact->step_bound(X, D, 1.0); a = std::min(a, dbg_contact); }
+    if (contact && a > 0) a = std::min(a, contact->step_bound(X, D, a));
     return a;
   }
 };
@@ -394,7 +390,6 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
       }
     }
     result.iterations = it;
-    if (std::getenv("GUARD_DEBUG")) std::fprintf(stderr, "it %d E %.6g -> %.6g tet %.3g (t%d J %.3g) contact %.3g cg %d act %zu/%d pred %.3g\n", it, E, E_new, m.dbg_tet, m.dbg_tet_id, m.dbg_tet_id >= 0 ? m.volume.relative_volume_of(X, m.dbg_tet_id) : 0.0, m.dbg_contact, result.cg_iterations, state.active_tets.size(), m.contact ? m.contact->active_pairs() : 0, predicted);
     result.energy.push_back(E_new);
     if (options.progress) options.progress(it, E_new, seconds_since(t0));
     // Converged when the decrease is small and no bound held the step back (a clamped step with a
