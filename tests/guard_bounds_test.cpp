@@ -128,6 +128,15 @@ TEST(TetStepBound, MismatchedShapesAndIdsAreInputErrors) {
   EXPECT_EQ(tet_step_bound(T, X, D, 0.5, 1).step, 1);
 }
 
+// The unit tet with every coordinate moved by a normal deviate of 0.25.
+Eigen::MatrixXd jittered_unit_tet(std::mt19937& rng) {
+  std::normal_distribution<double> g(0, 1);
+  Eigen::MatrixXd X = unit_tet();
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 3; ++k) X(i, k) += 0.25 * g(rng);
+  return X;
+}
+
 TEST(VolumeBarrier, ZeroAboveTheThresholdInfiniteWhenFlat) {
   const VolumeBarrier barrier(unit_rest(), 0.2);
   EXPECT_EQ(barrier.energy(unit_tet()), 0.0);
@@ -146,13 +155,10 @@ TEST(VolumeBarrier, ZeroAboveTheThresholdInfiniteWhenFlat) {
 
 TEST(VolumeBarrier, GradientMatchesFiniteDifferences) {
   std::mt19937 rng(3);
-  std::normal_distribution<double> g(0, 1);
   const VolumeBarrier barrier(unit_rest(), 0.5);
   int tested = 0;
   for (int trial = 0; trial < 200 && tested < 30; ++trial) {
-    Eigen::MatrixXd X = unit_tet();
-    for (int i = 0; i < 4; ++i)
-      for (int k = 0; k < 3; ++k) X(i, k) += 0.25 * g(rng);
+    const Eigen::MatrixXd X = jittered_unit_tet(rng);
     const double J = volume6(X) / 1.0;
     if (!(J > 0.05 && J < 0.45)) continue; // inside the barrier, away from its kink
     ++tested;
@@ -206,9 +212,7 @@ TEST(VolumeBarrier, ProjectedHessianIsPsdAndAboveTheTrueHessian) {
   const VolumeBarrier barrier(unit_rest(), 0.5);
   int tested = 0;
   for (int trial = 0; trial < 400 && tested < 20; ++trial) {
-    Eigen::MatrixXd X = unit_tet();
-    for (int i = 0; i < 4; ++i)
-      for (int k = 0; k < 3; ++k) X(i, k) += 0.25 * g(rng);
+    const Eigen::MatrixXd X = jittered_unit_tet(rng);
     const double J = volume6(X);
     if (!(J > 0.05 && J < 0.45)) continue;
     ++tested;

@@ -71,8 +71,10 @@ struct GuardOptions {
 /// \throws InputError naming the parameter unless every field is in range.
 void check_guard_options(const GuardOptions& options);
 
-/// GuardOptions{} with the contact support generation uses (GenerateOptions::guard): 0.03 of
-/// min(eta, mean edge) instead of 0.1. Where the start thins a region, its top lies close to its
+/// GuardOptions{} with what generation uses (GenerateOptions::guard): the contact support 0.03 of
+/// min(eta, mean edge) instead of 0.1, the projected volume-barrier Hessian, the Gauss-Newton
+/// contact Hessian and a 4-ring local solve (docs/guarded-generation.md, "Repair directions";
+/// deformation and pose keep GuardOptions{}). Where the start thins a region, its top lies close to its
 /// base over many triangles; a tenth of the edge length puts tens of thousands of pairs inside
 /// the barrier on hard models (dino: 27k), each a 12 x 12 Hessian per iteration, and their push
 /// holds the top thinner than it needs to be. docs/guarded-generation.md has the measurements.
