@@ -16,6 +16,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstring>
@@ -49,6 +50,12 @@ struct Outgoing {
   std::shared_ptr<const std::string> bytes;
   bool binary = false;
   std::uint32_t frame_kind = 0; ///< binary frames: ViewFrameKind (a newer one replaces a waiting one)
+  bool snapshot = false;        ///< ViewOutgoing::snapshot
+
+  /// A newer message of the same kind makes a waiting one obsolete (frames of one kind, stats).
+  bool replaces(const Outgoing& waiting) const {
+    return (frame_kind != 0 && frame_kind == waiting.frame_kind) || (snapshot && waiting.snapshot);
+  }
 };
 
 std::uint32_t frame_kind_of(const std::string& bytes) {
@@ -133,6 +140,7 @@ struct ServerCore {
     Outgoing out;
     out.binary = message.binary;
     out.frame_kind = message.binary ? frame_kind_of(message.bytes) : 0;
+    out.snapshot = message.snapshot;
     out.bytes = std::make_shared<const std::string>(std::move(message.bytes));
     net::post(ioc, [this, target, out] { route(target, out); });
   }
@@ -238,14 +246,22 @@ public:
   void send(const Outgoing& out) {
     if (!open_ || close_code_) return;
     // Flow control (pages that say what they have drawn): one positions frame on its way at a
-    // time; a newer one waits in `held_` (replacing an older waiting one) until the page has drawn.
-    if (out.frame_kind == static_cast<std::uint32_t>(ViewFrameKind::Positions) && acknowledges_) {
-      if (undrawn_) {
-        held_ = out;
+    // time. While a newer one waits for the page to draw, every later message waits behind it, in
+    // order, so that no status (e.g. "settled") reaches the page before the shell it describes.
+    const bool positions = out.frame_kind == static_cast<std::uint32_t>(ViewFrameKind::Positions);
+    if (!held_.empty() || (positions && acknowledges_ && undrawn_)) {
+      // A newer frame takes a waiting one's place (still before the messages sent after it); a
+      // newer stats snapshot goes last (after what it follows) and drops the waiting one.
+      const auto older = std::find_if(held_.begin(), held_.end(), [&](const Outgoing& w) { return out.replaces(w); });
+      if (older != held_.end() && !out.snapshot) {
+        *older = out;
         return;
       }
-      undrawn_ = true;
+      if (older != held_.end()) held_.erase(older);
+      held_.push_back(out);
+      return;
     }
+    if (positions && acknowledges_) undrawn_ = true;
     // A positions or values frame not yet on its way is out of date once a newer one comes.
     if (out.frame_kind == static_cast<std::uint32_t>(ViewFrameKind::Positions) ||
         out.frame_kind == static_cast<std::uint32_t>(ViewFrameKind::Values)) {
@@ -265,15 +281,14 @@ public:
     send(out);
   }
 
-  /// The page has drawn the last positions frame it got: the next may go.
+  /// The page has drawn the last positions frame it got: what waited goes, in order (its first
+  /// positions frame makes the rest wait again only if a newer frame comes before the next "drawn").
   void drawn() {
     acknowledges_ = true;
     undrawn_ = false;
-    if (held_) {
-      const Outgoing next = *held_;
-      held_.reset();
-      send(next);
-    }
+    std::deque<Outgoing> waiting;
+    waiting.swap(held_);
+    for (const Outgoing& out : waiting) send(out);
   }
 
   bool is_drawn(const std::string& text) const {
@@ -318,7 +333,7 @@ private:
   int id_;
   bool open_ = false, writing_ = false;
   bool acknowledges_ = false, undrawn_ = false; ///< flow control (drawn())
-  std::optional<Outgoing> held_;
+  std::deque<Outgoing> held_; ///< flow control: what waits for the page's next "drawn", in order
   std::optional<websocket::close_code> close_code_;
   std::deque<Outgoing> queue_;
 };

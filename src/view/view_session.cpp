@@ -181,7 +181,11 @@ struct ViewSession::Impl {
     send({encode_view_values(drag ? answered_seq : static_cast<std::uint32_t>(frame), face_values, vertex_values), true});
   }
 
-  void send_stats(const ViewSink& send) const { send(text(stats())); }
+  void send_stats(const ViewSink& send) const {
+    ViewOutgoing m = text(stats());
+    m.snapshot = true;
+    send(std::move(m));
+  }
 
   void send_handles(const ViewSink& send) const {
     ojson j = message("handles");

@@ -36,6 +36,9 @@ struct ViewOutgoing {
   bool binary = false;
   /// Only for the page whose message caused it (errors, the handle file); else for every page.
   bool to_sender = false;
+  /// A snapshot of the session's state (the stats message): a newer one makes a waiting one
+  /// obsolete, so a page that is slow to draw is not sent a backlog of them.
+  bool snapshot = false;
 };
 using ViewSink = std::function<void(ViewOutgoing)>;
 
