@@ -224,7 +224,7 @@ TEST(GuardedGeneration, SameBitsWithOneThreadAndMany) {
 TEST(GuardedGeneration, TopsPulledOntoTheBaseAreHeldThere) {
   // Two sheets 0.01 eta apart: the start pulls the tops to a few 1e-5 of their offset, closer to
   // the base than the contact step bound resolves (it returned 0: 50 repair iterations standing
-  // still). The repair now holds every top below 1e-3 of its offset, and their neighbours, where
+  // still). The repair now holds every top below 1e-4 of its offset, and their neighbours, where
   // the start put them; here that is all of them, and the result is valid.
   const double eta = 0.2;
   const TriMesh m = facing_sheets(6, 0.01 * eta);

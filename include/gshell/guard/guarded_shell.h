@@ -63,7 +63,7 @@ struct GuardOptions {
   /// Top vertices the start pulled below this fraction of their wanted offset are held where the
   /// start put them (their pairs with the base nearby are too close for the contact step bound to
   /// resolve in floating point), in [0, 1).
-  double repair_min_scale = 1e-3;
+  double repair_min_scale = 1e-4;
   /// Iterations of the guarded solver at most (-1: the solve's max_iterations, as the paper's).
   int repair_iterations = -1;
 };
