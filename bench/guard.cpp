@@ -1,5 +1,7 @@
 // bench_guard: guarded vs unguarded generation, one row per model and ratio.
-//   bench_guard [--method rigid|curvature] [--ratio R]... [--repeat N] MODEL.off...
+//   bench_guard [options] MODEL.off...     (bench_guard --help lists the options)
+// The table of issue 13 over CGAL's closed models, one command:
+//   bench_guard --closed --ratio 0.01 --ratio 0.03 --ratio 0.05 models/*.off
 // Columns: unguarded certificate counts (inverted tets, top/top, top/base, wall pairs), the guarded
 // ones, `out` = guarded violations outside what the guard has to leave (prisms at unextrudable
 // vertices, triangles next to the base's own crossings; must be 0), thinned / unextrudable vertices,
@@ -8,6 +10,8 @@
 // their ratio. A summary line closes the table.
 #include "bench_common.h"
 
+#include <gshell/geometry/mesh_topology.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/shell/generate_shell.h>
 #include <gshell/shell/prism_tets.h>
@@ -20,6 +24,7 @@
 #include <cstdlib>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -42,6 +47,37 @@ int violations_outside(const GenerateResult& g) {
   return count;
 }
 
+const char* const kHelp = R"(bench_guard: guarded vs unguarded generation (issue 13's table), one row per model and ratio.
+usage: bench_guard [options] MODEL... 
+  --method rigid|curvature   shell method (default rigid)
+  --ratio R                  thickness ratio; repeatable (default: 0.01 0.03 0.05)
+  --repeat N                 runs of each (guarded and unguarded interleaved); medians are shown
+  --list FILE                read model paths from FILE (one per line, # comments), besides MODEL...
+  --closed                   keep only models that load, validate and are closed (no boundary edge);
+                             the others are named on stderr with the reason
+  --detail                   time per phase of each guarded run
+  --repair-iters N           cap on the repair's iterations (default: the solve's 50)
+  --iters N                  cap on the paper's and the repair's iterations
+  guard parameters (GuardOptions; defaults are generation_guard_options()):
+  --dhat X --kv X --kc X --jhat X --rings N --spread X --margin X --thinning X --refine N
+  --backoff X --min-scale X --local-rings N --gn-volume --projected-contact
+Example (the issue's table over CGAL's closed models):
+  bench_guard --closed --ratio 0.01 --ratio 0.03 --ratio 0.05 models/*.off
+)";
+
+// Empty when the mesh at `file` loads, validates and is closed, else why not.
+std::string not_closed(const std::string& file) {
+  try {
+    const TriMesh mesh = load_mesh(file);
+    require_valid_mesh(mesh, file);
+    const MeshStats stats = mesh_stats(mesh);
+    if (stats.boundary_edges > 0) return std::to_string(stats.boundary_edges) + " boundary edges";
+    return {};
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -52,9 +88,29 @@ int main(int argc, char** argv) {
   bool detail = false;
   int guard_iterations = -1;
   GuardOptions guard = generation_guard_options();
+  bool closed_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--ratio") ratios.push_back(std::stod(argv[++i]));
+    const bool has_value = i + 1 < argc;
+    if (a == "--help" || a == "-h") {
+      std::fputs(kHelp, stdout);
+      return 0;
+    }
+    if (a.rfind("--", 0) == 0 && a != "--detail" && a != "--closed" && a != "--gn-volume" &&
+        a != "--projected-contact" && !has_value) {
+      std::fprintf(stderr, "bench_guard: option %s needs a value (bench_guard --help)\n", a.c_str());
+      return 1;
+    }
+    if (a == "--closed") closed_only = true;
+    else if (a == "--list") {
+      std::ifstream in(argv[++i]);
+      if (!in) {
+        std::fprintf(stderr, "bench_guard: cannot read the model list %s\n", argv[i]);
+        return 1;
+      }
+      for (std::string line; std::getline(in, line);)
+        if (!line.empty() && line[0] != '#') files.push_back(line);
+    } else if (a == "--ratio") ratios.push_back(std::stod(argv[++i]));
     else if (a == "--method") method = argv[++i];
     else if (a == "--repeat") repeat = std::max(1, std::stoi(argv[++i]));
     else if (a == "--dhat") guard.contact_distance = std::stod(argv[++i]);
@@ -66,11 +122,31 @@ int main(int argc, char** argv) {
     else if (a == "--margin") guard.start_margin = std::stod(argv[++i]);
     else if (a == "--thinning") guard.start_thinning = std::stod(argv[++i]);
     else if (a == "--detail") detail = true;
+    else if (a == "--gn-volume") guard.projected_volume_hessian = false;
+    else if (a == "--projected-contact") guard.projected_contact_hessian = true;
     else if (a == "--refine") guard.start_refine = std::stoi(argv[++i]);
     else if (a == "--backoff") guard.start_backoff = std::stod(argv[++i]);
     else if (a == "--iters") guard_iterations = std::stoi(argv[++i]);
     else if (a == "--repair-iters") guard.repair_iterations = std::stoi(argv[++i]);
-    else files.push_back(a);
+    else if (a == "--local-rings") guard.local_rings = std::stoi(argv[++i]);
+    else if (a == "--min-scale") guard.repair_min_scale = std::stod(argv[++i]);
+    else if (a.rfind("--", 0) == 0) {
+      std::fprintf(stderr, "bench_guard: unknown option %s (bench_guard --help)\n", a.c_str());
+      return 1;
+    } else files.push_back(a);
+  }
+  if (closed_only) {
+    std::vector<std::string> kept;
+    for (const std::string& file : files) {
+      const std::string why = not_closed(file);
+      if (why.empty()) kept.push_back(file);
+      else std::fprintf(stderr, "bench_guard: skipping %s: %s\n", file.c_str(), why.c_str());
+    }
+    files = kept;
+  }
+  if (files.empty()) {
+    std::fprintf(stderr, "bench_guard: no model given (bench_guard --help)\n");
+    return 1;
   }
   if (ratios.empty()) ratios = {0.01, 0.03, 0.05};
   std::printf("%-24s %6s %5s | %4s %5s %5s %4s | %4s %4s %4s %4s %5s | %5s %4s %4s %4s %5s | %6s %6s | %6s %6s %5s\n", "model",

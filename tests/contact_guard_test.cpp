@@ -250,6 +250,34 @@ TEST(ContactBarrier, GradientAndHessianMatchFiniteDifferences) {
   }
 }
 
+TEST(ContactBarrier, GaussNewtonHessianIsPsdAndExactAlongTheApproach) {
+  // A point over a triangle's interior approaching along the normal: the distance is linear in
+  // that motion, so the Gauss-Newton Hessian's curvature there is the barrier's exact one.
+  const double dhat = 0.5;
+  for (double height : {0.4, 0.1, 0.01}) {
+    SCOPED_TRACE(height);
+    const PairPoints x = pts({0.2, 0.3, height}, {0, 0, 0}, {1, 0, 0}, {0, 1, 0});
+    const Matrix12d h = pair_barrier_gauss_newton(PairKind::PointTriangle, x, dhat);
+    Matrix12d exact;
+    pair_barrier(PairKind::PointTriangle, x, dhat, nullptr, &exact);
+    EXPECT_NEAR(h(2, 2), exact(2, 2), 1e-9 * std::abs(exact(2, 2)));
+    EXPECT_GT(h(2, 2), 0);
+    const Eigen::SelfAdjointEigenSolver<Matrix12d> eig(h);
+    EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-12 * eig.eigenvalues().cwiseAbs().maxCoeff());
+  }
+  // Every kind of closest feature: positive semi-definite, rank one, zero beyond dhat.
+  for (const Case& c : feature_cases()) {
+    SCOPED_TRACE(c.name);
+    const Matrix12d h = pair_barrier_gauss_newton(c.kind, c.x, 1.5);
+    const Eigen::SelfAdjointEigenSolver<Matrix12d> eig(h);
+    const double top = eig.eigenvalues().maxCoeff();
+    EXPECT_GT(top, 0);
+    EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-12 * top);
+    EXPECT_LT(eig.eigenvalues()[10], 1e-12 * top);
+    EXPECT_TRUE(pair_barrier_gauss_newton(c.kind, c.x, 1e-3).isZero(0));
+  }
+}
+
 TEST(ContactBarrier, ProjectionIsPositiveSemidefiniteAndKeepsPositiveParts) {
   std::mt19937 rng(3);
   for (int i = 0; i < 20; ++i) {

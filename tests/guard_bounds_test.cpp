@@ -7,11 +7,15 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/solver/rest_tets.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/SparseCore>
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 namespace gshell {
 namespace {
@@ -124,6 +128,15 @@ TEST(TetStepBound, MismatchedShapesAndIdsAreInputErrors) {
   EXPECT_EQ(tet_step_bound(T, X, D, 0.5, 1).step, 1);
 }
 
+// The unit tet with every coordinate moved by a normal deviate of 0.25.
+Eigen::MatrixXd jittered_unit_tet(std::mt19937& rng) {
+  std::normal_distribution<double> g(0, 1);
+  Eigen::MatrixXd X = unit_tet();
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 3; ++k) X(i, k) += 0.25 * g(rng);
+  return X;
+}
+
 TEST(VolumeBarrier, ZeroAboveTheThresholdInfiniteWhenFlat) {
   const VolumeBarrier barrier(unit_rest(), 0.2);
   EXPECT_EQ(barrier.energy(unit_tet()), 0.0);
@@ -142,13 +155,10 @@ TEST(VolumeBarrier, ZeroAboveTheThresholdInfiniteWhenFlat) {
 
 TEST(VolumeBarrier, GradientMatchesFiniteDifferences) {
   std::mt19937 rng(3);
-  std::normal_distribution<double> g(0, 1);
   const VolumeBarrier barrier(unit_rest(), 0.5);
   int tested = 0;
   for (int trial = 0; trial < 200 && tested < 30; ++trial) {
-    Eigen::MatrixXd X = unit_tet();
-    for (int i = 0; i < 4; ++i)
-      for (int k = 0; k < 3; ++k) X(i, k) += 0.25 * g(rng);
+    const Eigen::MatrixXd X = jittered_unit_tet(rng);
     const double J = volume6(X) / 1.0;
     if (!(J > 0.05 && J < 0.45)) continue; // inside the barrier, away from its kink
     ++tested;
@@ -165,6 +175,118 @@ TEST(VolumeBarrier, GradientMatchesFiniteDifferences) {
       }
   }
   EXPECT_GE(tested, 10);
+}
+
+// The barrier's Hessian at X (12 x 12, one tet) as assembled by add_hessian.
+Eigen::MatrixXd barrier_hessian(const VolumeBarrier& barrier, const Eigen::MatrixXd& X, bool projected) {
+  std::vector<Eigen::Triplet<double>> t;
+  barrier.add_hessian(X, 1.0, t, barrier.active_tets(X), projected);
+  Eigen::SparseMatrix<double> H(12, 12);
+  H.setFromTriplets(t.begin(), t.end());
+  return Eigen::MatrixXd(H);
+}
+
+// The true Hessian of the barrier by central differences of its analytic gradient.
+Eigen::MatrixXd finite_difference_hessian(const VolumeBarrier& barrier, const Eigen::MatrixXd& X, double h) {
+  Eigen::MatrixXd H(12, 12);
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 3; ++k) {
+      Eigen::MatrixXd Xp = X, Xm = X, Gp = Eigen::MatrixXd::Zero(4, 3), Gm = Gp;
+      Xp(i, k) += h;
+      Xm(i, k) -= h;
+      barrier.add_gradient(Xp, 1.0, Gp, barrier.active_tets(Xp));
+      barrier.add_gradient(Xm, 1.0, Gm, barrier.active_tets(Xm));
+      const Eigen::MatrixXd d = (Gp - Gm) / (2 * h);
+      for (int j = 0; j < 4; ++j)
+        for (int l = 0; l < 3; ++l) H(3 * j + l, 3 * i + k) = d(j, l);
+    }
+  return H;
+}
+
+TEST(VolumeBarrier, ProjectedHessianIsPsdAndAboveTheTrueHessian) {
+  // Projecting the whole Hessian onto its positive eigenvalues only raises its quadratic form:
+  // v' H_proj v >= v' H v for every v, with H_proj positive semi-definite, and translations
+  // cost nothing. (A wrong sign of the d^2J term breaks the inequality for some v.)
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g(0, 1);
+  const VolumeBarrier barrier(unit_rest(), 0.5);
+  int tested = 0;
+  for (int trial = 0; trial < 400 && tested < 20; ++trial) {
+    const Eigen::MatrixXd X = jittered_unit_tet(rng);
+    const double J = volume6(X);
+    if (!(J > 0.05 && J < 0.45)) continue;
+    ++tested;
+    const Eigen::MatrixXd Hp = barrier_hessian(barrier, X, true), H = finite_difference_hessian(barrier, X, 1e-6);
+    const double scale = std::max(1.0, H.cwiseAbs().maxCoeff());
+    EXPECT_LT((H - H.transpose()).cwiseAbs().maxCoeff(), 1e-5 * scale);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Hp);
+    EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-9 * scale) << "trial " << trial;
+    for (int k = 0; k < 20; ++k) {
+      const Eigen::VectorXd v = Eigen::VectorXd::NullaryExpr(12, [&] { return g(rng); });
+      EXPECT_GE(v.dot(Hp * v), v.dot(H * v) - 1e-5 * scale * v.squaredNorm()) << "trial " << trial;
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      Eigen::VectorXd shift = Eigen::VectorXd::Zero(12);
+      for (int i = 0; i < 4; ++i) shift[3 * i + axis] = 1;
+      EXPECT_LT((Hp * shift).norm(), 1e-9 * scale);
+    }
+  }
+  EXPECT_GE(tested, 10);
+}
+
+TEST(VolumeBarrier, ProjectedHessianResistsTurningANearlyFlatTetFlatter) {
+  // A nearly flat tet and motions orthogonal to grad J (first order: no change of J) along which
+  // the true barrier curves up (they flatten it at second order): the Gauss-Newton part sees
+  // nothing there, the projected Hessian at least the true curvature.
+  Eigen::MatrixXd X = unit_tet();
+  X(3, 2) = 0.02; // J = 0.02, deep inside j_hat = 0.1
+  const VolumeBarrier barrier(unit_rest(), 0.1);
+  const Eigen::MatrixXd Hp = barrier_hessian(barrier, X, true), Hg = barrier_hessian(barrier, X, false);
+  const Eigen::MatrixXd H = finite_difference_hessian(barrier, X, 1e-8);
+  Eigen::Vector3d grad[4];
+  barrier.relative_volume_gradient(X, 0, grad);
+  Eigen::VectorXd gJ(12);
+  for (int i = 0; i < 4; ++i) gJ.segment<3>(3 * i) = grad[i];
+  std::mt19937 rng(2);
+  std::normal_distribution<double> g(0, 1);
+  int found = 0;
+  for (int k = 0; k < 50; ++k) {
+    Eigen::VectorXd v = Eigen::VectorXd::NullaryExpr(12, [&] { return g(rng); });
+    v -= gJ * (gJ.dot(v) / gJ.squaredNorm());
+    const double curvature = v.dot(H * v);
+    if (!(curvature > 1e-3 * v.squaredNorm() * H.cwiseAbs().maxCoeff())) continue;
+    ++found;
+    EXPECT_NEAR(v.dot(Hg * v), 0.0, 1e-9 * curvature);
+    EXPECT_GE(v.dot(Hp * v), curvature * (1 - 1e-4));
+  }
+  EXPECT_GE(found, 5);
+}
+
+TEST(TetStepBound, SameBitsWithOneThreadAndMany) {
+  // The bound of each tet does not depend on which tets were looked at before it (the thread
+  // schedule), so the minimum is the same bits however the tets are split among threads.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0, 1);
+  const int K = 20000;
+  Eigen::MatrixXd X(4 * K, 3), D(4 * K, 3);
+  Eigen::MatrixXi T(K, 4);
+  for (int t = 0; t < K; ++t) {
+    Eigen::MatrixXd x = unit_tet();
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 3; ++k) {
+        x(i, k) += 0.2 * g(rng);
+        D(4 * t + i, k) = g(rng);
+      }
+    if (volume6(x) < 0) x.row(0).swap(x.row(1));
+    X.middleRows(4 * t, 4) = x;
+    T.row(t) << 4 * t, 4 * t + 1, 4 * t + 2, 4 * t + 3;
+  }
+  const TetStepBound many = tet_step_bound(T, X, D, 0.1, 1.0);
+  TetStepBound one;
+  tbb::task_arena(1).execute([&] { one = tet_step_bound(T, X, D, 0.1, 1.0); });
+  ASSERT_LT(many.step, 1.0);
+  EXPECT_EQ(one.step, many.step);
+  EXPECT_EQ(one.tet, many.tet);
 }
 
 TEST(ExtrusionDirections, ConvexSurfacesKeepTheirNormals) {

@@ -13,6 +13,7 @@
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <numeric>
@@ -204,4 +205,35 @@ TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {
   EXPECT_FALSE(u.guarded);
   EXPECT_FALSE(u.metrics.certificate.valid()); // this case inverts: the flag says so
   EXPECT_EQ(u.metrics.certificate.inverted_tets, recertify(u).inverted_tets);
+}
+
+TEST(GuardedGeneration, SameBitsWithOneThreadAndMany) {
+  // The repair's step bounds and sums do not depend on the thread schedule: a case that needs the
+  // repair gives the same top with one thread as with all of them.
+  const TriMesh m = bumpy_sphere(3, 0.25);
+  const GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.05));
+  const GenerateResult many = generate_shell(m.V, m.F, o);
+  ASSERT_GT(many.guard.repaired_vertices, 0);
+  ASSERT_GT(many.guard.solve.iterations, 1);
+  GenerateResult one;
+  tbb::task_arena(1).execute([&] { one = generate_shell(m.V, m.F, o); });
+  EXPECT_EQ(one.guard.solve.iterations, many.guard.solve.iterations);
+  EXPECT_TRUE(one.shell.top == many.shell.top);
+}
+
+TEST(GuardedGeneration, TopsPulledOntoTheBaseAreHeldThere) {
+  // Two sheets 0.01 eta apart: the start pulls the tops to a few 1e-5 of their offset, closer to
+  // the base than the contact step bound resolves (it returned 0: 50 repair iterations standing
+  // still). The repair now holds every top below 1e-4 of its offset, and their neighbours, where
+  // the start put them; here that is all of them, and the result is valid.
+  const double eta = 0.2;
+  const TriMesh m = facing_sheets(6, 0.01 * eta);
+  const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta));
+  expect_valid(g);
+  int below = 0;
+  for (int i = 0; i < m.V.rows(); ++i) below += g.guard.start.scale[i] < GenerateOptions{}.guard.repair_min_scale;
+  EXPECT_GT(below, 0);
+  EXPECT_EQ(g.guard.repaired_vertices, 0);
+  EXPECT_EQ(g.guard.solve.iterations, 0);
+  EXPECT_TRUE(g.shell.top == g.guard.start.top);
 }

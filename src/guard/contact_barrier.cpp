@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -114,6 +115,18 @@ double pair_barrier(PairKind kind, const PairPoints& x, double dhat, Vector12d* 
     *hessian = h;
   }
   return m * b.b;
+}
+
+Matrix12d pair_barrier_gauss_newton(PairKind kind, const PairPoints& x, double dhat) {
+  const double s_hat = dhat * dhat;
+  const PairDistance d = pair_distance(kind, x);
+  if (!(d.squared < s_hat) || !(d.squared > 0)) return Matrix12d::Zero();
+  const BarrierValue b = barrier(d.squared, s_hat);
+  // grad s grad s^T = 4 s grad d grad d^T: f''(d) grad d grad d^T = (b'' + b' / (2 s)) grad s grad s^T.
+  double coefficient = std::max(b.d2b + b.db / (2 * d.squared), 0.0);
+  if (kind == PairKind::EdgeEdge) coefficient *= mollifier(parallel_sin2(x));
+  const Vector12d gs = squared_distance_gradient(x, d);
+  return coefficient * gs * gs.transpose();
 }
 
 double pair_barrier_energy(PairKind kind, const PairPoints& x, double s, double dhat) {

@@ -274,7 +274,8 @@ void ContactGuard::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::M
   }
 }
 
-void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H) {
+void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
+                               bool projected) {
   Impl& m = *impl_;
   m.scan(X);
   const int n = static_cast<int>(m.active.size());
@@ -283,10 +284,14 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
     std::vector<Eigen::Triplet<double>>& out = block_triplets[b];
     Matrix12d h;
     for (int i = begin; i < end; ++i) {
-      h.setZero(); // stays zero for a touching pair
       const Ids& ids = m.ids(m.active[i]);
-      pair_barrier(m.active[i].kind, m.points(ids), m.options.dhat, nullptr, &h);
-      project_to_psd(h);
+      if (projected) {
+        h.setZero(); // stays zero for a touching pair
+        pair_barrier(m.active[i].kind, m.points(ids), m.options.dhat, nullptr, &h);
+        project_to_psd(h);
+      } else {
+        h = pair_barrier_gauss_newton(m.active[i].kind, m.points(ids), m.options.dhat);
+      }
       for (int k = 0; k < 4; ++k)
         for (int l = 0; l < 4; ++l)
           for (int a = 0; a < 3; ++a)
@@ -319,9 +324,14 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
 
   const PairCcdOptions ccd{m.options.keep_fraction, m.options.dhat};
   std::atomic<double> alpha(max_step);
+  // Each pair's bound over a fixed range (max_step, then the listed pairs' bound), not below the
+  // running minimum: the CCD's rounding allowance depends on its range and the running minimum on
+  // the thread schedule, so the result would not be the same bits run to run.
+  double ccd_range = max_step;
   auto bound_pair = [&](PairKind kind, const Ids& ids) {
     const PairPoints p = m.points(ids), d = {dx[ids[0]], dx[ids[1]], dx[ids[2]], dx[ids[3]]};
-    lower_to(alpha, pair_step_bound(kind, p, d, alpha.load(std::memory_order_relaxed), ccd));
+    const double pb = pair_step_bound(kind, p, d, ccd_range, ccd);
+    lower_to(alpha, pb);
   };
   // A listed pair at d_b at the build is at least d_b - 2 drift - 2 rho alpha apart along the
   // step, never below its floor while that exceeds keep_fraction * dhat: no CCD needed.
@@ -340,6 +350,7 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   const double alpha_far = (m.radius - 2 * m.drift - floor_max) / (2 * rho);
   const double listed = alpha.load();
   if (alpha_far >= listed) return listed;
+  ccd_range = listed;
 
   // A longer step: every pair whose boxes, swept over [0, listed] and grown by half the largest
   // floor, meet (only those can come that close) gets its own CCD. When the fixed patch's vertices

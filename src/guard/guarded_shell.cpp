@@ -58,6 +58,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.contact_weight > 0 && std::isfinite(o.contact_weight), "contact_weight", "positive");
   require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
   require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
+  require(o.local_rings >= -1, "local_rings", ">= -1");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
@@ -66,12 +67,16 @@ void check_guard_options(const GuardOptions& o) {
   require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
   require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
   require(o.repair_rings >= 0, "repair_rings", ">= 0");
+  require(o.repair_min_scale >= 0 && o.repair_min_scale < 1, "repair_min_scale", "in [0, 1)");
   require(o.repair_iterations >= -1, "repair_iterations", ">= -1");
 }
 
 GuardOptions generation_guard_options() {
   GuardOptions o;
   o.contact_distance = 0.03;
+  o.projected_volume_hessian = true;
+  o.projected_contact_hessian = false;
+  o.local_rings = 4;
   return o;
 }
 
@@ -88,6 +93,9 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.keep_fraction = options.keep_fraction;
   p.cg_iterations = options.cg_iterations;
   p.cg_tolerance = options.cg_tolerance;
+  p.projected_volume_hessian = options.projected_volume_hessian;
+  p.projected_contact_hessian = options.projected_contact_hessian;
+  p.local_rings = options.local_rings;
   return p;
 }
 
@@ -191,6 +199,16 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     in_region = grown;
   }
   for (int v : g.directions.unextrudable) in_region[v] = 0;
+  // Top vertices the start had to pull nearly onto their base stay there: their pairs with the
+  // base triangles around them are closer than the contact step bound can resolve in floating
+  // point (it then returns 0 and the whole repair stands still), and their violations came from
+  // the base itself (two input sheets nearly touching).
+  // Their neighbours are held too: a top edge from such a vertex to a moving one nearly meets
+  // the base edges at its base vertex.
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (g.start.scale[F(f, k)] < options.repair_min_scale)
+        for (int l = 0; l < 3; ++l) in_region[F(f, l)] = 0;
   g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
   X.bottomRows(n) = g.start.top;
   if (g.repaired_vertices > 0) {

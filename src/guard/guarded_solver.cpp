@@ -129,8 +129,8 @@ struct GuardedSolver::Impl {
   // Half the barriers' Hessian at X over all vertices (3 * vertex + axis), as triplets.
   std::vector<Eigen::Triplet<double>> half_barrier_triplets(const Eigen::MatrixXd& X, const State& s) {
     std::vector<Eigen::Triplet<double>> H;
-    volume.add_hessian(X, 0.5 * p.volume_weight, H, s.active_tets);
-    if (contact) contact->add_hessian(X, 0.5 * p.contact_stiffness, H);
+    volume.add_hessian(X, 0.5 * p.volume_weight, H, s.active_tets, p.projected_volume_hessian);
+    if (contact) contact->add_hessian(X, 0.5 * p.contact_stiffness, H, p.projected_contact_hessian);
     return H;
   }
 

@@ -103,15 +103,19 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
           if (!moves) continue; // a translation keeps the volume
           const std::array<double, 4> a = tet_volume_cubic(x, d);
           if (!(a[0] > 0)) continue;
-          const double s = cubic_step_bound(a, keep_fraction, best.step);
-          if (s < best.step) {
+          // Each tet's bound on the whole [0, max_step], not below the running best: the bisection's
+          // last bits depend on its interval, and the running best on the thread schedule.
+          const double s = cubic_step_bound(a, keep_fraction, max_step);
+          if (s < best.step || (s == best.step && best.tet >= 0 && t < best.tet)) {
             best.step = s;
             best.tet = t;
           }
         }
         return best;
       },
-      [](const TetStepBound& a, const TetStepBound& b) { return a.step <= b.step ? a : b; });
+      [](const TetStepBound& a, const TetStepBound& b) {
+        return a.step < b.step || (a.step == b.step && a.tet < b.tet) ? a : b;
+      });
 }
 
 } // namespace gshell

@@ -3,6 +3,7 @@
 #include <gshell/error.h>
 
 #include <Eigen/Geometry>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -98,17 +99,64 @@ void VolumeBarrier::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::
 }
 
 void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
-                                const std::vector<int>& active) const {
+                                const std::vector<int>& active, bool projected) const {
+  using Matrix9d = Eigen::Matrix<double, 9, 9>;
   for (int t : active) {
     Eigen::Vector3d g[4];
     const double u = relative_volume(X, t, g) / j_hat_;
     if (!(u > 0) || u >= 1) continue;
     const double s = scale * weight_[t] * psi2(u) / (j_hat_ * j_hat_);
+    if (!projected) {
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b)
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+              H.emplace_back(3 * T_(t, a) + i, 3 * T_(t, b) + j, s * g[a][i] * g[b][j]);
+      continue;
+    }
+    // In the edges e_k = x_k - x_0 (k = 1..3): J = c e1 . (e2 x e3), dJ/de_k = g[k], and
+    // d^2J/de_k de_l = -c [e_m]x (k, l, m cyclic) and its transpose for (l, k).
+    const Eigen::Vector3d x0 = X.row(T_(t, 0)).transpose();
+    Eigen::Vector3d e[3];
+    for (int k = 0; k < 3; ++k) e[k] = X.row(T_(t, k + 1)).transpose() - x0;
+    auto cross_matrix = [](const Eigen::Vector3d& v) {
+      Eigen::Matrix3d m;
+      m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+      return m;
+    };
+    const double c = inv_det_rest_[t];
+    const double s1 = scale * weight_[t] * psi1(u) / j_hat_;
+    Matrix9d h = Matrix9d::Zero();
+    for (int k = 0; k < 3; ++k) {
+      const int l = (k + 1) % 3, m = (k + 2) % 3;
+      const Eigen::Matrix3d block = -s1 * c * cross_matrix(e[m]); // s1 d^2J/de_k de_l
+      h.block<3, 3>(3 * k, 3 * l) += block;
+      h.block<3, 3>(3 * l, 3 * k) += block.transpose();
+    }
+    Eigen::Matrix<double, 9, 1> grad;
+    for (int k = 0; k < 3; ++k) grad.segment<3>(3 * k) = g[k + 1];
+    h += s * grad * grad.transpose();
+    const Eigen::SelfAdjointEigenSolver<Matrix9d> eig(h);
+    if (eig.eigenvalues().minCoeff() < 0)
+      h = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0).asDiagonal() * eig.eigenvectors().transpose();
+    // Back to the corners: d e_k / d x_k = I, d e_k / d x_0 = -I.
+    Eigen::Matrix<double, 12, 12> hx;
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+        auto edge_block = [&](int k, int l) { return h.block<3, 3>(3 * k, 3 * l); };
+        if (a > 0 && b > 0) block = edge_block(a - 1, b - 1);
+        else if (a > 0) block = -(edge_block(a - 1, 0) + edge_block(a - 1, 1) + edge_block(a - 1, 2));
+        else if (b > 0) block = -(edge_block(0, b - 1) + edge_block(1, b - 1) + edge_block(2, b - 1));
+        else
+          for (int k = 0; k < 3; ++k)
+            for (int l = 0; l < 3; ++l) block += edge_block(k, l);
+        hx.block<3, 3>(3 * a, 3 * b) = block;
+      }
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b)
         for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            H.emplace_back(3 * T_(t, a) + i, 3 * T_(t, b) + j, s * g[a][i] * g[b][j]);
+          for (int j = 0; j < 3; ++j) H.emplace_back(3 * T_(t, a) + i, 3 * T_(t, b) + j, hx(3 * a + i, 3 * b + j));
   }
 }
 

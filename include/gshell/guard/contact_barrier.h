@@ -28,6 +28,14 @@ BarrierValue barrier(double s, double s_hat);
 double pair_barrier(PairKind kind, const PairPoints& x, double dhat, Vector12d* gradient = nullptr,
                     Matrix12d* hessian = nullptr);
 
+/// A positive semi-definite Hessian approximation of pair_barrier without an eigen-decomposition:
+/// the barrier's second derivative along the distance alone, f''(d) grad d grad d^T with
+/// f(d) = b(d^2) (times the mollifier for edge-edge pairs), the curvature of d itself left out
+/// (Gauss-Newton). f'' = 4 s b'' + 2 b' > 0 below dhat, so this is PSD by construction; it holds
+/// the pair apart along the direction in which it approaches, which is what a step must respect.
+/// Zero beyond dhat and at contact.
+Matrix12d pair_barrier_gauss_newton(PairKind kind, const PairPoints& x, double dhat);
+
 /// pair_barrier's value when the pair's squared distance s is known (the same bits).
 double pair_barrier_energy(PairKind kind, const PairPoints& x, double s, double dhat);
 

@@ -78,7 +78,10 @@ public:
   /// Appends scale * H, H a positive semi-definite approximation of d^2B/dX^2 (each pair's block
   /// projected onto its positive eigenvalues), as triplets indexed 3 * vertex + axis (fixed
   /// vertices included: a solver drops the rows it does not solve for).
-  void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H);
+  /// With `projected` false, each pair's block is pair_barrier_gauss_newton instead (no
+  /// eigen-decomposition: the cost of a Hessian falls several-fold).
+  void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
+                   bool projected = true);
 
   /// The largest alpha in [0, max_step] such that along X + s D, 0 <= s <= alpha, no pair comes
   /// closer than keep_fraction * min(d0, dhat), d0 its distance at X (conservative: the true

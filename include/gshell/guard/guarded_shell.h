@@ -34,6 +34,15 @@ struct GuardOptions {
   double keep_fraction = 0.1;
   int cg_iterations = 20;     ///< CG iterations per Newton direction, at most
   double cg_tolerance = 0.1;  ///< relative CG residual
+  /// GuardedSolverParameters::local_rings: the direction's exact local solve covers the vertices
+  /// within this many rings of those the barriers act on (generation: 4, where it reaches the
+  /// whole repair region's coupling and the directions are the model's exact Newton steps:
+  /// dino 44 -> 30 iterations; -1 skips it).
+  int local_rings = 2;
+  /// GuardedSolverParameters::projected_volume_hessian (generation: true).
+  bool projected_volume_hessian = false;
+  /// GuardedSolverParameters::projected_contact_hessian (generation: false).
+  bool projected_contact_hessian = true;
   /// The vertex normal is the extrusion direction where it sees every incident face with at least
   /// this cosine margin (extrusion_directions), in [-1, 1].
   double normal_margin = 0.5;
@@ -51,6 +60,10 @@ struct GuardOptions {
   /// The guarded solver moves the top vertices the start pulled in and this many rings of
   /// neighbours around them; the rest keeps the paper's result (>= 0).
   int repair_rings = 3;
+  /// Top vertices the start pulled below this fraction of their wanted offset are held where the
+  /// start put them (their pairs with the base nearby are too close for the contact step bound to
+  /// resolve in floating point), in [0, 1).
+  double repair_min_scale = 1e-4;
   /// Iterations of the guarded solver at most (-1: the solve's max_iterations, as the paper's).
   int repair_iterations = -1;
 };
@@ -58,8 +71,10 @@ struct GuardOptions {
 /// \throws InputError naming the parameter unless every field is in range.
 void check_guard_options(const GuardOptions& options);
 
-/// GuardOptions{} with the contact support generation uses (GenerateOptions::guard): 0.03 of
-/// min(eta, mean edge) instead of 0.1. Where the start thins a region, its top lies close to its
+/// GuardOptions{} with what generation uses (GenerateOptions::guard): the contact support 0.03 of
+/// min(eta, mean edge) instead of 0.1, the projected volume-barrier Hessian, the Gauss-Newton
+/// contact Hessian and a 4-ring local solve (docs/guarded-generation.md, "Repair directions";
+/// deformation and pose keep GuardOptions{}). Where the start thins a region, its top lies close to its
 /// base over many triangles; a tenth of the edge length puts tens of thousands of pairs inside
 /// the barrier on hard models (dino: 27k), each a 12 x 12 Hessian per iteration, and their push
 /// holds the top thinner than it needs to be. docs/guarded-generation.md has the measurements.

@@ -62,6 +62,12 @@ struct GuardedSolverParameters {
   /// Before CG, the model is solved exactly on the vertices within this many rings of those the
   /// barriers act on (a small sparse factorisation); -1 skips it.
   int local_rings = 2;
+  /// The volume barrier's Hessian in the directions: each tet's whole Hessian projected onto its
+  /// positive eigenvalues (true) or its Gauss-Newton part (false; VolumeBarrier::add_hessian).
+  bool projected_volume_hessian = false;
+  /// The contact barrier's Hessian: each pair's projected onto its positive eigenvalues (true) or
+  /// its Gauss-Newton part along the distance (false; ContactGuard::add_hessian).
+  bool projected_contact_hessian = true;
   /// Tets left out of the volume barrier and bound (empty or one flag per tet): those that
   /// cannot be valid (around unextrudable vertices); they may stay inverted.
   std::vector<char> skip_tets;

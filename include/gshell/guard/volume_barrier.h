@@ -27,10 +27,15 @@ public:
   double energy(const Eigen::MatrixXd& X, std::vector<int>* active = nullptr) const;
   /// G += scale * dB/dX, summed over `active` (the list energy() gave at this X).
   void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G, const std::vector<int>& active) const;
-  /// Appends scale * H over `active`, H the Gauss-Newton part of d^2B/dX^2 (vol psi'' grad J
-  /// grad J^T per tet, positive semi-definite), as triplets indexed 3 * vertex + axis.
+  /// Appends scale * H over `active` as triplets indexed 3 * vertex + axis, H positive
+  /// semi-definite: with `projected` false the Gauss-Newton part of d^2B/dX^2 (vol psi'' grad J
+  /// grad J^T per tet); with `projected` true each tet's whole Hessian, psi'' grad J grad J^T +
+  /// psi' d^2J, projected onto its positive eigenvalues (in the space of the tet's three edges).
+  /// The Gauss-Newton part does not see that turning a nearly flat tet further flat (a motion
+  /// orthogonal to grad J) lowers J at second order, and psi' ~ -1/J makes that term dominant
+  /// there: a solver using it alone keeps squashing such tets, each step clamped by them.
   void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
-                   const std::vector<int>& active) const;
+                   const std::vector<int>& active, bool projected = false) const;
 
   /// Tets with 0 < J < j_hat at X (where the barrier acts), ascending.
   std::vector<int> active_tets(const Eigen::MatrixXd& X) const;
