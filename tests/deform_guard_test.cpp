@@ -9,6 +9,7 @@
 #include <gshell/run/pose_run.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/shell/prism_tets.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/offset_shell.h>
@@ -76,6 +77,30 @@ TEST(DeformGuard, PlaneBentTo150DegreesStaysValidAndStretchesLessThanOffset) {
 TEST(DeformGuard, CylinderBentTo150DegreesStaysValidAndStretchesLessThanOffset) {
   int unguarded_invalid = 0;
   bend_to_150(offset_shell(make_cylinder(16, 0.25, 3.0), 0.15), 6, 0.4, &unguarded_invalid);
+}
+
+TEST(DeformGuard, TetsFlatToRoundingErrorAtRestDoNotHoldTheFramesStill) {
+  // One top vertex pressed onto the base to 1e-13 of the thickness: its tets are positive but flat
+  // to rounding error, so no floating-point step bound keeps their sign. They stay out of the
+  // guard; every frame is solved (no internal error), and whatever the frames break is theirs.
+  Shell rest = flat_plane_shell(16, 0.2);
+  const int n = rest.num_base_vertices();
+  int v = 0;
+  for (int i = 1; i < n; ++i) // the vertex nearest the plane's middle: an interior one
+    if (rest.base.row(i).head<2>().squaredNorm() < rest.base.row(v).head<2>().squaredNorm()) v = i;
+  rest.top.row(v) = rest.base.row(v) + 1e-13 * (rest.top.row(v) - rest.base.row(v));
+  const Eigen::MatrixXi T = build_prism_tets(rest.F, n);
+  const MotionFrame frame = motion_frame(rest.base);
+  ShellDeformer deformer(rest);
+  for (int k = 1; k <= 4; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const Eigen::MatrixXd base = bend(rest.base, frame, 120.0 * ramp(k, 4), 0.4);
+    FrameResult r;
+    ASSERT_NO_THROW(r = deformer.solve(base));
+    EXPECT_NE(r.method, FrameMethod::Failed);
+    const ShellCertificate c = certify_shell(base, r.top, rest.F);
+    for (int t : c.inverted_tet_ids) EXPECT_TRUE((T.row(t).array() == n + v).any()) << "tet " << t;
+  }
 }
 
 TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {

@@ -1,6 +1,7 @@
 #include "frame_guard.h"
 
 #include <gshell/error.h>
+#include <gshell/guard/extrusion_directions.h>
 #include <gshell/guard/tet_step_bound.h>
 #include <gshell/quality/shell_certificate.h>
 
@@ -45,8 +46,20 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   const VolumeBarrier probe(rest_tets, options.j_hat);
   parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
   for (int t : rest_certificate.inverted_tet_ids) parameters_.skip_tets[t] = 1;
+  // So do tets flat to rounding error (J below kFlat): no step bound computed in floating point
+  // keeps their sign, and a drag guarding them crawls at steps of 1e-10 (CGAL's man: minutes per
+  // frame, then a step that rounded one of them inverted). The certificate still counts them.
+  constexpr double kFlat = 1e-8;
   for (int t = 0; t < rest_tets.size(); ++t)
-    if (!(probe.relative_volume_of(X, t) > 0)) parameters_.skip_tets[t] = 1;
+    if (!(probe.relative_volume_of(X, t) > kFlat)) parameters_.skip_tets[t] = 1;
+  // And every tet of a prism at an unextrudable vertex of the base (no direction sees all its faces
+  // from their positive side): one of them must be inverted, and which one may change as the base
+  // moves, so guarding the others would hold the frame still.
+  std::vector<char> unextrudable(n, 0);
+  for (int v : extrusion_directions(rest.base, rest.F).unextrudable) unextrudable[v] = 1;
+  for (int f = 0; f < m; ++f)
+    if (unextrudable[rest.F(f, 0)] || unextrudable[rest.F(f, 1)] || unextrudable[rest.F(f, 2)])
+      for (int k = 0; k < 3; ++k) parameters_.skip_tets[3 * f + k] = 1;
   std::vector<char> touched(n, 0), excluded_face(m, 0);
   for (const BoundaryIntersection& pair : rest_certificate.intersections)
     for (int row : {pair.a, pair.b})

@@ -347,14 +347,22 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
           D += m.scatter(m.direction(m.local_hessian(H), coupling, result.cg_iterations));
         }
       }
-      const double a = m.step_bound(X, D);
-      if (a > 0) {
-        X += a * D;
-        tau = a >= 1 ? 1 : tau + a * (1 - tau);
-        if (tau >= 1)
-          for (int v : m.fixed) X.row(v) = fixed_targets.row(v);
-        if (!m.evaluate(X, state)) // the bounds keep every guarded tet and pair apart
-          throw std::runtime_error("GuardedSolver: the drag step left the valid set");
+      // The bounds keep every guarded tet and pair apart in exact arithmetic; a tet already flat to
+      // rounding error can still cross zero when the step is rounded: such a step is halved, and
+      // the path held where even that fails (the caller sees a stalled drag, never a broken state).
+      double a = m.step_bound(X, D);
+      for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
+        Eigen::MatrixXd Xt = X + a * D;
+        const double tau_t = a >= 1 ? 1 : tau + a * (1 - tau);
+        if (tau_t >= 1)
+          for (int v : m.fixed) Xt.row(v) = fixed_targets.row(v);
+        Impl::State trial;
+        if (m.evaluate(Xt, trial)) {
+          X = std::move(Xt);
+          state = std::move(trial);
+          tau = tau_t;
+          break;
+        }
       }
     }
     const double E = state.total;
