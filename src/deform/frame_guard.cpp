@@ -55,17 +55,20 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // And every tet of a prism at an unextrudable vertex of the base (no direction sees all its faces
   // from their positive side): one of them must be inverted, and which one may change as the base
   // moves, so guarding the others would hold the frame still.
+  const auto touches = [&](const std::vector<char>& flagged, int f) {
+    return flagged[rest.F(f, 0)] || flagged[rest.F(f, 1)] || flagged[rest.F(f, 2)];
+  };
   std::vector<char> unextrudable(n, 0);
   for (int v : extrusion_directions(rest.base, rest.F).unextrudable) unextrudable[v] = 1;
   for (int f = 0; f < m; ++f)
-    if (unextrudable[rest.F(f, 0)] || unextrudable[rest.F(f, 1)] || unextrudable[rest.F(f, 2)])
+    if (touches(unextrudable, f))
       for (int k = 0; k < 3; ++k) parameters_.skip_tets[3 * f + k] = 1;
   std::vector<char> touched(n, 0), excluded_face(m, 0);
   for (const BoundaryIntersection& pair : rest_certificate.intersections)
     for (int row : {pair.a, pair.b})
       for (int k = 0; k < 3; ++k) touched[boundary_.F(row, k) % n] = 1;
   for (int f = 0; f < m; ++f)
-    excluded_face[f] = touched[rest.F(f, 0)] || touched[rest.F(f, 1)] || touched[rest.F(f, 2)];
+    excluded_face[f] = touches(touched, f);
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   for (int r = 0; r < boundary_.size(); ++r) parameters_.excluded_triangles[r] = excluded_face[boundary_.face[r]];
 
