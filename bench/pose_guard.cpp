@@ -16,6 +16,9 @@
 // does); the guarded step is PoseSolver::solve_valid from the reference state of step k-1 with
 // the same number of iterations (tolerance 0), i.e. the same solve plus the guard (tet step bound
 // and certificate, or the guarded drag when those refuse the solve). Both solvers, --runs runs.
+// Also printed: the largest vertex motion per drag step (against the mean base edge and the
+// thickness), the CPU time of the median step (all threads, steadier than wall time on a loaded
+// machine) and the certificate's median wall time inside the guarded step.
 #include "bench_common.h"
 
 #include <gshell/deform/pose.h>
@@ -31,6 +34,8 @@
 #include <cstring>
 #include <string>
 #include <vector>
+
+#include <time.h>
 
 using namespace gshell;
 using gshell::bench::median;
@@ -77,6 +82,13 @@ int iterations_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, const Eige
   }
 }
 
+/// CPU seconds of the whole process (all threads): steadier than wall time on a loaded machine.
+double cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -85,13 +97,16 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 void goal_drag(const Shell& shell, const HandleSet& handles, PoseSolverKind kind, int steps, int runs,
                const std::vector<Eigen::MatrixXd>& Xref, const std::vector<double>& Eref) {
   constexpr int kCap = 600;
-  std::vector<double> plain_median, guarded_median, guarded_max;
-  std::vector<double> plain_ms, guarded_ms, iterations;
+  std::vector<double> plain_median, guarded_median, guarded_max, plain_cpu_median, guarded_cpu_median;
+  std::vector<double> plain_ms, guarded_ms, iterations, plain_cpu, guarded_cpu, certificate_ms;
   int valid = 0, bounded = 0, missed = 0;
   for (int r = 0; r < runs; ++r) {
     PoseSolver counter(shell, handles, kind), plain(shell, handles, kind), guarded(shell, handles, kind);
     plain_ms.clear();
     guarded_ms.clear();
+    plain_cpu.clear();
+    guarded_cpu.clear();
+    certificate_ms.clear();
     iterations.clear();
     valid = bounded = missed = 0;
     for (int k = 1; k <= steps; ++k) {
@@ -106,21 +121,28 @@ void goal_drag(const Shell& shell, const HandleSet& handles, PoseSolverKind kind
       options.max_iterations = count;
       options.tolerance = 0;
       auto t0 = std::chrono::steady_clock::now();
+      double c0 = cpu_seconds();
       Eigen::MatrixXd X = k >= 2 ? plain.predict_start(Xref[k - 2], (k - 2.0) / steps, Xref[k - 1], (k - 1.0) / steps, f)
                                  : Xref[k - 1];
       plain.solve(X, P, options);
       plain_ms.push_back(1e3 * seconds_since(t0));
+      plain_cpu.push_back(1e3 * (cpu_seconds() - c0));
       t0 = std::chrono::steady_clock::now();
+      c0 = cpu_seconds();
       Eigen::MatrixXd Y = k >= 2 ? guarded.predict_start(Xref[k - 2], (k - 2.0) / steps, Xref[k - 1], (k - 1.0) / steps, f)
                                  : Xref[k - 1];
       ValidStep step;
       guarded.solve_valid(Xref[k - 1], Y, P, options, GuardOptions{}, &step);
       guarded_ms.push_back(1e3 * seconds_since(t0));
+      guarded_cpu.push_back(1e3 * (cpu_seconds() - c0));
+      certificate_ms.push_back(1e3 * step.certificate.seconds);
       valid += step.valid ? 1 : 0;
       bounded += step.method == FrameMethod::Bounded ? 1 : 0;
     }
     plain_median.push_back(median(plain_ms));
     guarded_median.push_back(median(guarded_ms));
+    plain_cpu_median.push_back(median(plain_cpu));
+    guarded_cpu_median.push_back(median(guarded_cpu));
     guarded_max.push_back(*std::max_element(guarded_ms.begin(), guarded_ms.end()));
   }
   const auto slowest = std::max_element(guarded_ms.begin(), guarded_ms.end()) - guarded_ms.begin();
@@ -131,6 +153,9 @@ void goal_drag(const Shell& shell, const HandleSet& handles, PoseSolverKind kind
               kind == PoseSolverKind::Single ? "single" : "hierarchical", steps, runs, median(plain_median),
               median(guarded_median), median(guarded_max), static_cast<int>(slowest) + 1, plain_ms[slowest],
               iterations[slowest], valid, steps, bounded, missed, kCap);
+  std::printf("  CPU (all threads): median step %.2f ms unguarded, %.2f ms guarded (%.2fx)\n", median(plain_cpu_median),
+              median(guarded_cpu_median), median(guarded_cpu_median) / median(plain_cpu_median));
+  std::printf("  certificate inside the guarded step (wall, last run): median %.2f ms\n", median(certificate_ms));
   std::printf("  iterations per step:");
   for (double i : iterations) std::printf(" %.0f", i);
   std::printf("\n  guarded step ms:");
@@ -184,6 +209,17 @@ int main(int argc, char** argv) {
     std::vector<Eigen::MatrixXd> Xref;
     std::vector<double> Eref;
     references(shell, handles, steps, Xref, Eref);
+    // How far a drag step moves the shell, against its edges and thickness: what a cache of
+    // candidate pairs with boxes grown by one step's motion would have to cover.
+    double edge = 0;
+    for (int f = 0; f < shell.F.rows(); ++f)
+      for (int k = 0; k < 3; ++k) edge += (shell.base.row(shell.F(f, k)) - shell.base.row(shell.F(f, (k + 1) % 3))).norm();
+    edge /= 3.0 * static_cast<double>(shell.F.rows());
+    std::vector<double> motion;
+    for (int k = 1; k <= steps; ++k) motion.push_back((Xref[k] - Xref[k - 1]).rowwise().norm().maxCoeff());
+    std::printf("largest vertex motion per step: median %.3g (%.2f mean base edges, %.2f thicknesses), max %.3g\n",
+                median(motion), median(motion) / edge, median(motion) / shell.thickness,
+                *std::max_element(motion.begin(), motion.end()));
     for (PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical})
       goal_drag(shell, handles, kind, steps, runs, Xref, Eref);
     return 0;
