@@ -117,7 +117,7 @@ Reach time_to_goal(PoseSolver& solver, const Eigen::MatrixXd& X0, double fractio
 }
 
 /// A hierarchical configuration from "levels=5,split=2,li=10,fi=1,aa=5,laa=5,fas=1,cr=1,fcs=8,top=8,lt=0,min=8,hw=100,
-/// period=4,path=1"
+/// period=4,path=1,fc=10"
 /// (any subset; the rest keep their defaults).
 Config parse_config(const std::string& spec) {
   Config c{"hierarchical " + spec, PoseSolverKind::Hierarchical, {}};
@@ -146,6 +146,7 @@ Config parse_config(const std::string& spec) {
     else if (key == "laa") o.level_anderson_history = static_cast<int>(value);
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else if (key == "path") o.path_extrapolation = value != 0;
+    else if (key == "fc") o.first_coarse_iteration = static_cast<int>(value);
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
   return c;
@@ -388,7 +389,16 @@ int run_table(const std::vector<std::string>& args) {
       PoseSolver solver(shell, handles, c.kind, c.options);
       cell.setup = solver.setup_seconds();
       cell.trajectory = run_trajectory(solver, Eref, case_cap, settle_tolerance);
-      if (solver.hierarchical()) cell.counters = solver.hierarchical()->counters();
+      if (solver.hierarchical()) {
+        cell.counters = solver.hierarchical()->counters();
+        const HierarchyCounters& h = cell.counters;
+        // Where the energy went (relative to E_ref) and what each part cost: the hierarchy's ledger.
+        if (h.coarse_passes > 0)
+          std::fprintf(stderr, "bench_pose: %s, %s: coarse %d/%d kept, drop %.4g E_ref in %.3f s; full %d it., drop %.4g E_ref "
+                       "in %.3f s; path drop %.4g E_ref in %.3f s\n", label.c_str(), c.name.c_str(), h.coarse_accepted,
+                       h.coarse_passes, h.coarse_decrease / Eref, h.coarse_seconds, h.full_iterations,
+                       h.full_decrease / Eref, h.full_seconds, h.path_decrease / Eref, h.path_seconds);
+      }
       const double end = cell.trajectory.energy.back();
       std::fprintf(stderr, "bench_pose: %s, %s: ends at %.5f E_ref after %d iterations (%s), %.3f s\n", label.c_str(),
                    c.name.c_str(), end / Eref, static_cast<int>(cell.trajectory.energy.size()) - 1,

@@ -162,6 +162,26 @@ TEST(DeformGuard, FoldingAPlaneShutThinsTheTopAndKeepsItClean) { fold_plane(180.
 
 TEST(DeformGuard, AJumpFromRestToAShutFoldIsValid) { fold_plane(180.0, 1); }
 
+TEST(DeformGuard, AFrameAfterAnInvalidOneStartsFromTheLastValidState) {
+  // Folded on to 240 degrees, the plane's base crosses itself: no valid frame exists, the guard
+  // keeps the tets alone. Folded back to 180 degrees (shut, the base clear of itself, the top
+  // pressed against itself), a valid frame exists again; it must be dragged from the last valid
+  // state, not from the invalid frame before it, whose tops already pass through each other.
+  const Shell rest = flat_plane_shell(16, 0.2);
+  const MotionFrame frame = motion_frame(rest.base);
+  ShellDeformer deformer(rest);
+  const Eigen::MatrixXd crossed = bend(rest.base, frame, 240.0, 0.3);
+  const FrameResult first = deformer.solve(crossed);
+  EXPECT_FALSE(first.valid);
+  EXPECT_FALSE(first.resumed);
+  EXPECT_GT(first.certificate.base_self_intersections, 0);
+  EXPECT_EQ(first.certificate.inverted_tets, 0);
+  const Eigen::MatrixXd shut = bend(rest.base, frame, 180.0, 0.3);
+  const FrameResult second = deformer.solve(shut);
+  EXPECT_TRUE(second.resumed);
+  expect_valid_frame(deformer, second, shut);
+}
+
 TEST(DeformGuard, AllowInvalidReproducesTheUnguardedFramesBitForBit) {
   // The unguarded frame rebuilt by hand: the rotated-offset warm start, then the paper's solve.
   const Shell rest = flat_plane_shell(12, 0.2);

@@ -68,6 +68,7 @@ Problem bowl_problem(int res, const Eigen::Vector3d& move, bool hard = true) {
 /// reduced levels have left the rest shape.
 HierarchicalSolver after_coarse_passes(const Problem& p, HierarchyOptions o, int iterations) {
   o.coarse_period = 1;
+  o.first_coarse_iteration = 0;
   HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
   Eigen::MatrixXd X = p.X;
   SolveOptions so;
@@ -316,6 +317,25 @@ TEST(HierarchicalSolver, EnergyNeverRisesAcrossAcceptedCoarseCorrections) {
     }
     EXPECT_EQ(lowered, r.counters.coarse_accepted) << "coarsest " << coarsest;
     EXPECT_NEAR(r.counters.coarse_decrease, r.energy.front() - r.energy.back(), 1e-12 * r.energy.front());
+  }
+}
+
+TEST(HierarchicalSolver, NoCoarsePassBeforeTheFirstCoarseIteration) {
+  // The full level alone decides how the shell starts to buckle: outer iterations before
+  // first_coarse_iteration (counted per solve) run no coarse pass, later ones do.
+  Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
+  for (int first : {0, 7}) {
+    HierarchyOptions o;
+    o.coarse_period = 1;
+    o.first_coarse_iteration = first;
+    HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+    Eigen::MatrixXd X;
+    const auto early = run_from_rest(solver, p, X, 6);
+    if (first == 0) EXPECT_GT(early.counters.coarse_passes, 0);
+    else EXPECT_EQ(early.counters.coarse_passes, 0);
+    const auto later = run_from_rest(solver, p, X, 9); // a new solve: iterations 1..9 again
+    EXPECT_GT(later.counters.coarse_passes, 0) << "first " << first;
+    EXPECT_LE(later.counters.coarse_passes, first == 0 ? 9 : 3) << "first " << first;
   }
 }
 

@@ -9,8 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <numeric>
 
@@ -82,7 +80,9 @@ bool FrameGuard::built_with(const GuardOptions& o) const {
   const GuardOptions& p = options_;
   return p.j_hat == o.j_hat && p.volume_weight == o.volume_weight && p.contact_distance == o.contact_distance &&
          p.contact_weight == o.contact_weight && p.keep_fraction == o.keep_fraction &&
-         p.cg_iterations == o.cg_iterations && p.cg_tolerance == o.cg_tolerance;
+         p.cg_iterations == o.cg_iterations && p.cg_tolerance == o.cg_tolerance && p.local_rings == o.local_rings &&
+         p.projected_volume_hessian == o.projected_volume_hessian &&
+         p.projected_contact_hessian == o.projected_contact_hessian;
 }
 
 GuardedSolver& FrameGuard::tets_only() {
@@ -144,10 +144,6 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
     for (int attempt = 0;; ++attempt) {
       const GuardedSolveResult r = solver->solve(X, solve, step_targets);
       out.iterations += r.iterations;
-      if (std::getenv("GSHELL_FRAME_DEBUG"))
-        std::fprintf(stderr, "substep %d attempt %d: path %.4f iterations %d clamped %d contacts %d min J %.3g %.2fs\n", k,
-                     attempt, r.path_done, r.iterations, r.clamped_steps, r.active_contacts, r.min_relative_volume,
-                     r.seconds);
       if (r.path_done >= 1) break;
       // The drag moves the free vertices with the fixed ones by the model's linear response,
       // which knows nothing of the barriers: two tops pressed against each other over a wide

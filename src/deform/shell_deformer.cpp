@@ -91,6 +91,18 @@ WarmStart parse_warm_start(const std::string& name) {
   throw InputError("unknown warm_start '" + name + "' (expected extrapolated, rotated, translated or previous)");
 }
 
+GuardOptions frame_guard_options() {
+  // Generation's Hessians and local solve; its contact support (0.03) is not taken: a frame that
+  // presses the top against itself (a plane folded shut) then lets one side bulge past the middle
+  // of the gap while the other side thins for both, where 0.1 thins both sides alike.
+  const GuardOptions generation = generation_guard_options();
+  GuardOptions o;
+  o.projected_volume_hessian = generation.projected_volume_hessian;
+  o.projected_contact_hessian = generation.projected_contact_hessian;
+  o.local_rings = generation.local_rings;
+  return o;
+}
+
 void DeformOptions::check() const {
   if (!(tolerance >= 0) || !std::isfinite(tolerance)) throw InputError("tolerance must be >= 0");
   if (max_iterations < 0) throw InputError("iterations must be >= 0");
@@ -257,6 +269,7 @@ ShellDeformer& ShellDeformer::operator=(ShellDeformer&&) noexcept = default;
 void ShellDeformer::reset() {
   current_ = rest_.vertices();
   current_clean_ = true;
+  resume_.resize(0, 3);
   current_normals_ = vertex_normals(rest_.base, rest_.F);
   last_correction_.resize(0, 3);
   last_motion_ = 0;
@@ -324,7 +337,10 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
     result.certificate_seconds = seconds_since(certify_start);
     result.valid = result.certificate.valid();
     // A certified frame is free of contacts whatever made it: the next frame may guard them again.
-    if (!options.allow_invalid && result.valid) current_clean_ = true;
+    if (!options.allow_invalid && result.valid) {
+      current_clean_ = true;
+      resume_.resize(0, 3);
+    }
   }
   result.top = X.bottomRows(n);
   if (rotated.rows() == n) last_correction_ = result.top - rotated;
@@ -335,12 +351,20 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   return result;
 }
 
-void ShellDeformer::guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
+void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X, const DeformOptions& options,
                                 FrameResult& result) {
   if (!guard_ || !guard_->built_with(options.guard))
     guard_ = std::make_unique<FrameGuard>(rest_, solver_.rest(), options.guard, base_ids(rest_.num_base_vertices()),
                                           false);
-  const bool contacts = guard_->guards_contacts() && current_clean_;
+  // After a frame the guard could not make valid, the next one starts from the last valid frame
+  // instead (an invalid shell carried forward would leave every later frame guarded by its tets
+  // alone, or, after a Failed frame, not at all). Starting from where the contact guard gave up
+  // was tried: from there (the tops pressed together) the drag stalls again where a drag from
+  // the last valid frame completes (tests/deform_guard_test.cpp).
+  const bool resumed = !current_clean_ && resume_.rows() == last.rows();
+  const Eigen::MatrixXd& previous = resumed ? resume_ : last;
+  result.resumed = resumed;
+  const bool contacts = guard_->guards_contacts() && (current_clean_ || resumed);
   ShellCertificate certificate;
   if (guard_->accepts(previous, X, contacts, &certificate)) {
     result.method = FrameMethod::Bounded;
@@ -349,6 +373,8 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd
       result.certificate = std::move(certificate);
       result.certified = true;
     }
+    current_clean_ = true;
+    resume_.resize(0, 3);
     return;
   }
   const int n = rest_.num_base_vertices();
@@ -359,17 +385,27 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd
   GuardedSolveOptions solve;
   solve.max_iterations = options.max_iterations;
   solve.tolerance = options.tolerance;
-  const FrameGuard::Outcome outcome = guard_->drag(Y, X, substeps, contacts, true, solve);
+  FrameGuard::Outcome outcome = guard_->drag(Y, X, substeps, contacts, true, solve);
+  // Not even the tets could follow the drag: the paper's solve is still taken as tets-only when the
+  // straight path to it keeps every guarded tet positive (it then inverts none of them).
+  if (outcome.method == FrameMethod::Failed && guard_->accepts(previous, X, false, nullptr)) {
+    outcome.method = FrameMethod::TetsOnly;
+    Y = X;
+  }
   result.method = outcome.method;
   result.substeps = outcome.substeps;
   result.guarded_iterations = outcome.iterations;
-  if (outcome.method == FrameMethod::Failed) {
-    current_clean_ = false; // the paper's solve stands; the certificate says what it breaks
-    return;
-  }
   result.valid = outcome.method == FrameMethod::Guarded;
-  current_clean_ = outcome.method == FrameMethod::Guarded;
-  X = std::move(Y);
+  if (result.valid) {
+    current_clean_ = true;
+    resume_.resize(0, 3);
+  } else {
+    // The frame returned (tets only, or the paper's solve) is not carried forward: the next frame
+    // starts from the last valid one (where this one started).
+    if (!resumed) resume_ = last;
+    current_clean_ = false;
+  }
+  if (outcome.method != FrameMethod::Failed) X = std::move(Y); // Failed: the paper's solve stands
 }
 
 } // namespace gshell

@@ -394,7 +394,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.step.energy;
     const int period = std::max(1, s.options.coarse_period);
-    if (!s.reduced.empty() && it % period == 0 && skip-- <= 0) {
+    if (!s.reduced.empty() && it % period == 0 && it >= s.options.first_coarse_iteration && skip-- <= 0) {
       const auto coarse_start = Clock::now();
       ++s.counters.coarse_passes;
       const bool kept = s.coarse_correction(state, targets);

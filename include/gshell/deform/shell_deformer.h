@@ -38,6 +38,13 @@ const char* warm_start_name(WarmStart w);
 /// "previous", "translated", "rotated", "extrapolated". \throws InputError on any other name.
 WarmStart parse_warm_start(const std::string& name);
 
+/// The guard options of deformation frames: GuardOptions{} with generation's directions
+/// (generation_guard_options: the volume barrier's Hessian projected per tet, the contact
+/// barrier's Gauss-Newton Hessian, a 4-ring local solve); the contact support stays 0.1. On hard
+/// models a dragged frame meets near-flat tets and wide contacts, as a repair does
+/// (docs/valid-deformation.md has the measurements).
+GuardOptions frame_guard_options();
+
 /// The only source of the per-frame defaults (the CLI's help and Python's keywords read DeformOptions{}).
 struct DeformOptions {
   int max_iterations = 50;
@@ -52,9 +59,9 @@ struct DeformOptions {
   /// frame in sub-steps.
   bool allow_invalid = false;
   /// Barrier and step parameters of the guard (relative to the shell's scales, as in generation;
-  /// only j_hat, volume_weight, contact_distance, contact_weight, keep_fraction, cg_iterations and
-  /// cg_tolerance are read).
-  GuardOptions guard;
+  /// only j_hat, volume_weight, contact_distance, contact_weight, keep_fraction, cg_iterations,
+  /// cg_tolerance, local_rings and the two Hessian choices are read).
+  GuardOptions guard = frame_guard_options();
   /// A guarded frame moves its base in sub-steps, each changing no base edge vector by more than
   /// this fraction of the edge's length (about this many radians of turn), in (0, 2].
   double substep_edge_change = 0.1;
@@ -105,6 +112,9 @@ struct FrameResult {
   /// The certificate holds (options.certify), else the frame's method guarantees it (Bounded,
   /// Guarded).
   bool valid = false;
+  /// The previous frame was not valid for the guard (TetsOnly or Failed), so the guard started this
+  /// one from the last valid frame instead.
+  bool resumed = false;
 };
 
 /// Rest shapes for deforming a shell: its own 3m tets (no cracks). A generated shell may hold a
@@ -149,13 +159,16 @@ public:
 
 private:
   // Makes X (the paper's solve from the warm start, base rows = the new base) valid from
-  // `previous` (the last frame): taken if the path to it passes the step bounds, else replaced by
-  // the guarded drag.
+  // `previous` (the last frame, or resume_ when that frame is not valid): taken if the path to it
+  // passes the step bounds, else replaced by the guarded drag.
   void guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
                    FrameResult& result);
 
   std::unique_ptr<FrameGuard> guard_; ///< built at the first guarded frame
-  bool current_clean_ = true; ///< current_ is free of contacts the guard keeps (not after TetsOnly)
+  bool current_clean_ = true; ///< current_ is valid for the guard (not after TetsOnly or Failed)
+  /// When current_ is not clean: the last clean frame (2n x 3), which the next guarded frame starts
+  /// from instead. An invalid frame is returned, never carried forward.
+  Eigen::MatrixXd resume_;
   Shell rest_;
   int replaced_ = 0;
   ShellSolver solver_;

@@ -104,6 +104,15 @@ struct HierarchyOptions {
   /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
   /// An extrapolated iterate is kept only if it lowers the energy.
   int anderson_history = 5;
+  /// No coarse pass before this outer iteration of a solve (0: from the first period on). A
+  /// coarse pass right after the handles moved (the rest of the shell still at rest) minimises the
+  /// reduced levels' stiffer energy from a badly distorted state and can pick another buckling
+  /// pattern than the full level would; from 10 the full level has settled which way the shell
+  /// buckles and the passes only speed up the way down. bench_pose --table, CPU s to 1.001 E*,
+  /// 0 -> 10: thick twist 1.0117 E* (another minimum, any other setting) -> 0.30 s, thin twist
+  /// 10.6 -> 1.35 s, but the pull 0.21 -> 0.32 s and the squeezes and the thin half pull slower
+  /// too; bunny00 settles at 1.0069 E* either way (docs/design.md). Hence off by default.
+  int first_coarse_iteration = 0;
 };
 
 /// What the solver's parts did (counted per solve, and in all since construction).
