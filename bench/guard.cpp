@@ -56,7 +56,10 @@ usage: bench_guard [options] MODEL...
   --closed                   keep only models that load, validate and are closed (no boundary edge);
                              the others are named on stderr with the reason
   --detail                   time per phase of each guarded run
-  --repair-iters N           cap on the repair's iterations (default: the solve's 50)
+  --repair-iters N           cap on the repair's iterations (default: the solve's 50, extended by
+                             --repair-budget)
+  --repair-budget X          repaired vertices x iterations the repair may run past the solve's cap
+                             (default 100000; 0: none)
   --iters N                  cap on the paper's and the repair's iterations
   guard parameters (GuardOptions; defaults are generation_guard_options()):
   --dhat X --kv X --kc X --jhat X --rings N --spread X --margin X --thinning X --refine N
@@ -128,6 +131,7 @@ int main(int argc, char** argv) {
     else if (a == "--backoff") guard.start_backoff = std::stod(argv[++i]);
     else if (a == "--iters") guard_iterations = std::stoi(argv[++i]);
     else if (a == "--repair-iters") guard.repair_iterations = std::stoi(argv[++i]);
+    else if (a == "--repair-budget") guard.repair_budget = std::stod(argv[++i]);
     else if (a == "--local-rings") guard.local_rings = std::stoi(argv[++i]);
     else if (a == "--min-scale") guard.repair_min_scale = std::stod(argv[++i]);
     else if (a.rfind("--", 0) == 0) {
@@ -243,6 +247,51 @@ int main(int argc, char** argv) {
           }
           std::printf("  stretch away from the unavoidable (+2 rings): unguarded %.4f guarded %.4f ratio %.3f\n", su / w,
                       sg / w, sg / su);
+          // Where the guarded stretch comes from: prisms by their least start scale (held below
+          // repair_min_scale, pulled in, untouched) and by their least final relative thickness.
+          const Eigen::VectorXd& sc = g.guard.start.scale;
+          const Eigen::VectorXd& th = g.metrics.vertex_thickness;
+          auto classes = [&](auto key, const char* name, std::initializer_list<double> edges) {
+            std::vector<double> eu(edges.size() + 1, 0), eg(edges.size() + 1, 0), ew(edges.size() + 1, 0);
+            std::vector<int> nf(edges.size() + 1, 0);
+            for (int f = 0; f < mesh.F.rows(); ++f) {
+              double k = 1e300;
+              for (int j = 0; j < 3; ++j) k = std::min(k, key(mesh.F(f, j)));
+              std::size_t c = 0;
+              for (double e : edges) {
+                if (k < e) break;
+                ++c;
+              }
+              ++nf[c];
+              for (int j = 0; j < 3; ++j) {
+                eu[c] += rest.volume[3 * f + j] * tu[3 * f + j];
+                eg[c] += rest.volume[3 * f + j] * tg[3 * f + j];
+                ew[c] += rest.volume[3 * f + j];
+              }
+            }
+            double W = 0, U = 0;
+            for (std::size_t c = 0; c < ew.size(); ++c) W += ew[c], U += eu[c];
+            std::printf("  by %s:", name);
+            std::size_t c = 0;
+            double lo = 0;
+            for (double e : edges) {
+              std::printf(" [%.0e,%.0e) %d faces u %.4f g %.4f (g/u %.3f) excess %.4f |", lo, e, nf[c], eu[c] / W,
+                          eg[c] / W, eg[c] / eu[c], (eg[c] - eu[c]) / U);
+              lo = e;
+              ++c;
+            }
+            std::printf(" >= %.0e %d faces u %.4f g %.4f (g/u %.3f) excess %.4f\n", lo, nf[c], eu[c] / W, eg[c] / W,
+                        eg[c] / eu[c], (eg[c] - eu[c]) / U);
+          };
+          classes([&](int v) { return sc[v]; }, "least start scale", {1e-4, 0.1, 0.5, 1.0});
+          classes([&](int v) { return th[v]; }, "least guarded thickness", {0.1, 0.5, 0.9});
+          int listed = 0;
+          for (int v = 0; v < nv && listed < 12; ++v)
+            if (sc[v] < 1e-3) {
+              ++listed;
+              std::printf("  low start: v %d scale %.2e margin %.2e thickness u %.3f g %.3f\n", v, sc[v],
+                          g.guard.directions.margin[v], u.metrics.vertex_thickness[v], th[v]);
+            }
         }
       }
       std::fflush(stdout);

@@ -237,3 +237,24 @@ TEST(GuardedGeneration, TopsPulledOntoTheBaseAreHeldThere) {
   EXPECT_EQ(g.guard.solve.iterations, 0);
   EXPECT_TRUE(g.shell.top == g.guard.start.top);
 }
+
+TEST(GuardedGeneration, SmallRepairRunsPastTheSolvesIterationCap) {
+  // The repair's cap is the solve's max_iterations, extended while iterations x repaired vertices
+  // stay within repair_budget: a small repair stopped unconverged by the cap (CGAL's mpi_triang at
+  // 50) goes on to convergence, lowering its energy; without the budget it stops at the cap.
+  const TriMesh m = bumpy_sphere(3, 0.25);
+  GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.05));
+  o.solve.max_iterations = 3;
+  ASSERT_GT(o.guard.repair_budget, 0) << "generation's default has the budget";
+  const GenerateResult extended = generate_shell(m.V, m.F, o);
+  o.guard.repair_budget = 0;
+  const GenerateResult capped = generate_shell(m.V, m.F, o);
+  ASSERT_GT(capped.guard.repaired_vertices, 0);
+  EXPECT_EQ(capped.guard.solve.iterations, 3);
+  EXPECT_FALSE(capped.guard.solve.converged);
+  EXPECT_GT(extended.guard.solve.iterations, 3);
+  EXPECT_LE(extended.guard.solve.iterations * extended.guard.repaired_vertices, GenerateOptions{}.guard.repair_budget);
+  EXPECT_LT(extended.guard.solve.energy.back(), capped.guard.solve.energy.back());
+  expect_valid(extended);
+  expect_valid(capped);
+}

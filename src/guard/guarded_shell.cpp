@@ -69,6 +69,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.repair_rings >= 0, "repair_rings", ">= 0");
   require(o.repair_min_scale >= 0 && o.repair_min_scale < 1, "repair_min_scale", "in [0, 1)");
   require(o.repair_iterations >= -1, "repair_iterations", ">= -1");
+  require(o.repair_budget >= 0 && std::isfinite(o.repair_budget), "repair_budget", ">= 0");
 }
 
 GuardOptions generation_guard_options() {
@@ -77,6 +78,7 @@ GuardOptions generation_guard_options() {
   o.projected_volume_hessian = true;
   o.projected_contact_hessian = false;
   o.local_rings = 4;
+  o.repair_budget = 1e5;
   return o;
 }
 
@@ -240,7 +242,14 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     // Converged as the paper's iterations are: relative to the whole shell's energy.
     GuardedSolveOptions repair_options = solve;
     repair_options.energy_scale = g.paper.energy.back();
-    if (options.repair_iterations >= 0) repair_options.max_iterations = options.repair_iterations;
+    if (options.repair_iterations >= 0) {
+      repair_options.max_iterations = options.repair_iterations;
+    } else if (options.repair_budget > 0) {
+      // The extension's ceiling: past it, the small unconverged repairs measured gain nothing.
+      constexpr double kMaxRepairIterations = 300;
+      const double affordable = std::min(kMaxRepairIterations, options.repair_budget / g.repaired_vertices);
+      repair_options.max_iterations = std::max(solve.max_iterations, static_cast<int>(affordable));
+    }
     g.solve = repair.solve(X, repair_options);
   }
   g.top = X.bottomRows(n);
