@@ -1,5 +1,7 @@
 #include "quality/exact_faces.h"
 
+#include "quality/filtered_orientation.h"
+
 #include <CGAL/Intersections_3/Point_3_Point_3.h>
 #include <CGAL/Intersections_3/Point_3_Segment_3.h>
 #include <CGAL/Intersections_3/Point_3_Triangle_3.h>
@@ -163,13 +165,28 @@ bool slabs_separate(const ExactFace& a, const FaceSlab& sa, const ExactFace& b, 
   return beyond_slab(sa, b, margin) || beyond_slab(sb, a, margin);
 }
 
+namespace {
+
+// CGAL::collinear(a, b, c), sooner: three points are collinear iff their projections onto the
+// three coordinate planes all are, and the first filtered 2D orientation of a proper triangle
+// (every face of every frame goes through here) is almost always decided in doubles.
+bool collinear(const Point& a, const Point& b, const Point& c) {
+  for (int d = 0; d < 3; ++d) {
+    const int e = (d + 1) % 3;
+    if (orientation_sign(a[d], a[e], b[d], b[e], c[d], c[e]) != 0) return false;
+  }
+  return true;
+}
+
+} // namespace
+
 ExactFace exact_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f) {
   ExactFace face;
   for (int k = 0; k < 3; ++k) {
     face.id[k] = F(f, k);
     face.p[k] = Point(V(F(f, k), 0), V(F(f, k), 1), V(F(f, k), 2));
   }
-  if (CGAL::collinear(face.p[0], face.p[1], face.p[2])) {
+  if (collinear(face.p[0], face.p[1], face.p[2])) {
     face.end = collinear_ends(face.p);
     face.dim = face.p[face.end[0]] == face.p[face.end[1]] ? 0 : 1;
   }

@@ -56,6 +56,14 @@ public:
   template <class Visit>
   void for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const;
 
+  /// The same two searches by the float covers of the slot boxes alone (rounded outwards, so they
+  /// hold the exact boxes): every pair whose exact boxes meet is visited, and a few more whose
+  /// boxes only come within float rounding. For callers whose pair test is exact anyway (and
+  /// cheaper than the double box test for most pairs, e.g. neighbours settled by their ids): no
+  /// second test of 48-byte boxes per pair.
+  template <class Visit> void for_each_pair_of_meeting_float_boxes(Visit&& visit) const;
+  template <class Visit> void for_each_pair_of_meeting_float_boxes(const FaceBvh& other, Visit&& visit) const;
+
   /// Calls visit(b0, e0, b1, e1) for every unordered pair of leaves whose boxes meet, each leaf
   /// with itself included (then b0 == b1): the slot ranges [b0, e0), [b1, e1) of their faces.
   /// A leaf's box holds its faces' boxes (rounded outwards), so every pair of faces whose boxes
@@ -185,6 +193,32 @@ void FaceBvh::for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) con
     for (int i = na.begin; i < na.end; ++i)
       for (int j = nb.begin; j < nb.end; ++j)
         if (slot_boxes_meet(i, other, j)) visit(i, j);
+  };
+  if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
+}
+
+template <class Visit>
+void FaceBvh::for_each_pair_of_meeting_float_boxes(Visit&& visit) const {
+  auto leaves = [&](const Node& na, const Node& nb, bool self) {
+    const FloatBox* box = slot_float_box_.data();
+    for (int i = na.begin; i < na.end; ++i) {
+      const FloatBox a = box[i];
+      for (int j = self ? i + 1 : nb.begin; j < nb.end; ++j)
+        if (float_boxes_meet(a, box[j])) visit(i, j);
+    }
+  };
+  if (!nodes_.empty()) join(0, *this, 0, true, leaves);
+}
+
+template <class Visit>
+void FaceBvh::for_each_pair_of_meeting_float_boxes(const FaceBvh& other, Visit&& visit) const {
+  auto leaves = [&](const Node& na, const Node& nb, bool) {
+    const FloatBox *box = slot_float_box_.data(), *other_box = other.slot_float_box_.data();
+    for (int i = na.begin; i < na.end; ++i) {
+      const FloatBox a = box[i];
+      for (int j = nb.begin; j < nb.end; ++j)
+        if (float_boxes_meet(a, other_box[j])) visit(i, j);
+    }
   };
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }

@@ -66,7 +66,7 @@ public:
   /// the vertices and edges it shares (faces_intersect_beyond_shared).
   template <class Found> void for_each_pair_meeting_beyond_shared(Found&& found) const {
     const std::vector<int>& face = bvh_.faces_in_leaf_order();
-    bvh_.for_each_overlapping_pair([&](int s, int t) {
+    bvh_.for_each_pair_of_meeting_float_boxes([&](int s, int t) {
       if (meet(*this, s, *this, t)) found(std::min(face[s], face[t]), std::max(face[s], face[t]));
     });
   }
@@ -74,7 +74,7 @@ public:
   /// The same for pairs (f, g), f a face of this set and g one of `other` (over the same ids).
   template <class Found> void for_each_pair_meeting_beyond_shared(const FaceSet& other, Found&& found) const {
     const std::vector<int>&face = bvh_.faces_in_leaf_order(), &other_face = other.bvh_.faces_in_leaf_order();
-    bvh_.for_each_overlapping_pair(other.bvh_, [&](int s, int t) {
+    bvh_.for_each_pair_of_meeting_float_boxes(other.bvh_, [&](int s, int t) {
       if (meet(*this, s, other, t)) found(face[s], other_face[t]);
     });
   }
