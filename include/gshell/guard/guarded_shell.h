@@ -81,8 +81,10 @@ void check_guard_options(const GuardOptions& options);
 
 /// GuardOptions{} with what generation uses (GenerateOptions::guard): the contact support 0.03 of
 /// min(eta, mean edge) instead of 0.1, the projected volume-barrier Hessian, the Gauss-Newton
-/// contact Hessian, a 4-ring local solve and a repair budget of 100,000 vertex-iterations (docs/guarded-generation.md, "Repair directions";
-/// deformation and pose keep GuardOptions{}). Where the start thins a region, its top lies close to its
+/// contact Hessian, a 4-ring local solve and a repair budget of 100,000 vertex-iterations
+/// (docs/guarded-generation.md, "Repair directions"; deformation frames take the same Hessians and
+/// local solve with the contact support 0.1, frame_guard_options() in deform/shell_deformer.h;
+/// pose keeps GuardOptions{}). Where the start thins a region, its top lies close to its
 /// base over many triangles; a tenth of the edge length puts tens of thousands of pairs inside
 /// the barrier on hard models (dino: 27k), each a 12 x 12 Hessian per iteration, and their push
 /// holds the top thinner than it needs to be. docs/guarded-generation.md has the measurements.
