@@ -72,7 +72,9 @@ try {
   await page.mouse.down();
   await page.mouse.move(grip.x - 20, grip.y - 160, { steps: 30 });
   await page.mouse.up();
-  const settled = await page.evaluate(() => window.gshellView.waitFor('settled', 120000));
+  // The settle of the last drag: on a loaded machine the mouse can rest mid-drag long enough for
+  // an earlier settle, whose state the later drags then change.
+  const settled = await page.evaluate(() => window.gshellView.waitFor('settled', 120000, window.gshellView.sentSeq));
   check(settled.phase === 'settled', `the shell settled after the release (${settled.step && settled.step.iterations} iterations)`);
 
   const moved = await page.evaluate(() => window.gshellView.positions());

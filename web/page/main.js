@@ -409,12 +409,17 @@ window.gshellView = {
     const S = view.project(), r = view.renderer.domElement.getBoundingClientRect();
     return Number.isNaN(S[3 * v]) ? null : { x: r.left + S[3 * v], y: r.top + S[3 * v + 1] };
   },
-  /** Resolves when the stats say `phase` (e.g. 'settled'), or rejects after `ms`. */
-  waitFor(phase, ms = 60000) {
+  /** The seq of the last drag message the page sent (mouse or scripted). */
+  get sentSeq() { return tools.seq; },
+  /** Resolves when the stats say `phase` (e.g. 'settled') for a step that has taken in the drag
+   *  `seq` or a later one, or rejects after `ms`. Without `seq` an earlier settle (the mouse
+   *  rested mid-drag on a slow machine) would do. */
+  waitFor(phase, ms = 60000, seq = 0) {
     return new Promise((resolve, reject) => {
       const t0 = performance.now();
       const poll = () => {
-        if (state.stats && state.stats.phase === phase && !view.pending) return resolve(state.stats);
+        const stepSeq = (state.stats && state.stats.step && state.stats.step.seq) || 0;
+        if (state.stats && state.stats.phase === phase && stepSeq >= seq && !view.pending) return resolve(state.stats);
         if (performance.now() - t0 > ms) return reject(new Error(`no ${phase} within ${ms} ms (${state.stats && state.stats.phase})`));
         setTimeout(poll, 20);
       };
@@ -446,7 +451,7 @@ window.gshellView = {
     const result = { first, last, sent: [...bench.sentAt.entries()], answers: bench.answers, draws: bench.draws };
     if (settle) {
       send(JSON.stringify({ type: 'release' }));
-      result.settled = await this.waitFor('settled', 600000);
+      result.settled = await this.waitFor('settled', 600000, last);
     }
     return result;
   },
