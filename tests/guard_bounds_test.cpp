@@ -289,6 +289,40 @@ TEST(TetStepBound, SameBitsWithOneThreadAndMany) {
   EXPECT_EQ(one.tet, many.tet);
 }
 
+TEST(TetStepBound, EveryTetsBoundIsItsCubicsFirstRoot) {
+  // tet_step_bound settles most tets without a root search (the Bernstein coefficients of their
+  // volume cubic stay above the fraction kept); that shortcut must not change any tet's answer.
+  // Each tet alone, against cubic_step_bound of its cubic, over motions from tiny (every tet
+  // kept) through ones that come within a hair of the fraction to ones that flatten the tet.
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g(0, 1);
+  int kept = 0, limited = 0;
+  for (double scale : {1e-3, 0.1, 0.5, 1.0, 3.0})
+    for (int trial = 0; trial < 2000; ++trial) {
+      Eigen::MatrixXd x = unit_tet(), D(4, 3);
+      for (int i = 0; i < 4; ++i)
+        for (int k = 0; k < 3; ++k) {
+          x(i, k) += 0.2 * g(rng);
+          D(i, k) = scale * g(rng);
+        }
+      if (volume6(x) < 0) x.row(0).swap(x.row(1));
+      for (double max_step : {1.0, 0.37}) {
+        Eigen::Vector3d p[4], d[4];
+        for (int i = 0; i < 4; ++i) {
+          p[i] = x.row(i).transpose();
+          d[i] = D.row(i).transpose();
+        }
+        const double expected = cubic_step_bound(tet_volume_cubic(p, d), 0.1, max_step);
+        const TetStepBound b = tet_step_bound(one_tet(), x, D, 0.1, max_step);
+        ASSERT_EQ(b.step, expected) << "scale " << scale << " trial " << trial << " max_step " << max_step;
+        ASSERT_EQ(b.tet, expected < max_step ? 0 : -1);
+        (expected < max_step ? limited : kept) += 1;
+      }
+    }
+  EXPECT_GT(kept, 1000);
+  EXPECT_GT(limited, 1000);
+}
+
 TEST(ExtrusionDirections, ConvexSurfacesKeepTheirNormals) {
   const TriMesh sphere = make_sphere(2);
   const ExtrusionDirections d = extrusion_directions(sphere.V, sphere.F);

@@ -6,6 +6,7 @@
 #include <gshell/quality/shell_certificate.h>
 
 #include <Eigen/Geometry>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -97,16 +98,26 @@ GuardedSolver& FrameGuard::tets_only() {
 
 bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
                          ShellCertificate* certificate) {
-  const TetStepBound tets =
-      tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
-  if (tets.step < 1) return false;
-  if (!contacts || !contact_) return true;
   // The end state certified exactly (the base against itself left out when the caller moves the
   // base: a base crossing itself is then the caller's). Cheaper than continuous collision detection along the path, and what matters
   // is the frame, not the way to it: a certified frame is a valid start for the next one.
-  CertifyOptions options;
-  options.base_self_intersections = moving_base_;
-  ShellCertificate c = certifier_.certify(X1.topRows(n_), X1.bottomRows(n_), options);
+  // The tet step bound and the certificate run side by side: most frames pass both, and the two
+  // fill each other's idle threads (serial parts of the certificate's tree passes).
+  const bool certify = contacts && contact_;
+  TetStepBound tets;
+  ShellCertificate c;
+  auto bound = [&] {
+    tets = tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
+  };
+  auto certify_end = [&] {
+    CertifyOptions options;
+    options.base_self_intersections = moving_base_;
+    c = certifier_.certify(X1.topRows(n_), X1.bottomRows(n_), options);
+  };
+  if (certify) tbb::parallel_invoke(bound, certify_end);
+  else bound();
+  if (tets.step < 1) return false;
+  if (!certify) return true;
   bool ok = true;
   for (int t : c.inverted_tet_ids) ok = ok && parameters_.skip_tets[t];
   for (const BoundaryIntersection& pair : c.intersections)

@@ -77,15 +77,33 @@ double cubic_step_bound(const std::array<double, 4>& a, double keep, double max_
   return max_step;
 }
 
+namespace {
+
+// Whether g(s) = p(s) - keep p(0) > 0 on all of [0, max_step] follows from the Bernstein
+// coefficients of g on that interval (g lies in their convex hull), with a margin above the
+// rounding of any evaluation of g there: then cubic_step_bound returns max_step, and most tets of
+// a step skip its root search. False: undecided.
+bool surely_keeps_volume(const std::array<double, 4>& a, double keep, double max_step) {
+  const double c0 = (1 - keep) * a[0], h = max_step;
+  const double c1 = a[1] * h, c2 = a[2] * h * h, c3 = a[3] * h * h * h;
+  const double b1 = c0 + c1 / 3, b2 = c0 + (2 * c1 + c2) / 3, b3 = c0 + c1 + c2 + c3;
+  const double margin = 1e-12 * (std::abs(c0) + std::abs(c1) + std::abs(c2) + std::abs(c3));
+  return c0 > margin && b1 > margin && b2 > margin && b3 > margin;
+}
+
+} // namespace
+
 TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                             double keep_fraction, double max_step, const std::vector<char>* skip) {
   const int K = static_cast<int>(T.rows());
-  // One pass over T is cheap next to the cubic roots per tet, and a bad id would read past X or D.
   if (X.cols() != 3 || D.rows() != X.rows() || D.cols() != 3)
     throw InputError("tet_step_bound: X and D must both be N x 3");
-  if (K > 0 && (T.cols() != 4 || T.minCoeff() < 0 || T.maxCoeff() >= X.rows()))
-    throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
+  if (K > 0 && T.cols() != 4) throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
   if (skip && static_cast<int>(skip->size()) != K) throw InputError("tet_step_bound: skip needs one flag per tet");
+  // A vertex's position and motion in one cache line each: every vertex is read by a dozen tets.
+  using RowMajorPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  const RowMajorPoints P = X, M = D;
+  const int N = static_cast<int>(X.rows());
   TetStepBound init;
   init.step = max_step;
   return tbb::parallel_reduce(
@@ -93,16 +111,19 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
       [&](const tbb::blocked_range<int>& r, TetStepBound best) {
         Eigen::Vector3d x[4], d[4];
         for (int t = r.begin(); t < r.end(); ++t) {
+          for (int j = 0; j < 4; ++j)
+            if (T(t, j) < 0 || T(t, j) >= N) // a bad id would read past X or D
+              throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
           if (skip && (*skip)[t]) continue;
           bool moves = false;
           for (int j = 0; j < 4; ++j) {
-            x[j] = X.row(T(t, j)).transpose();
-            d[j] = D.row(T(t, j)).transpose();
+            x[j] = P.row(T(t, j)).transpose();
+            d[j] = M.row(T(t, j)).transpose();
             moves = moves || d[j] != d[0];
           }
           if (!moves) continue; // a translation keeps the volume
           const std::array<double, 4> a = tet_volume_cubic(x, d);
-          if (!(a[0] > 0)) continue;
+          if (!(a[0] > 0) || surely_keeps_volume(a, keep_fraction, max_step)) continue;
           // Each tet's bound on the whole [0, max_step], not below the running best: the bisection's
           // last bits depend on its interval, and the running best on the thread schedule.
           const double s = cubic_step_bound(a, keep_fraction, max_step);
