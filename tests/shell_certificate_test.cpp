@@ -398,6 +398,11 @@ TEST(ShellCertificate, PairSearchByFloatBoxesMissesNoTouchingOrNearlyTouchingPai
   // test: a soup over shared lattice points, whose faces' boxes touch exactly (equal coordinates),
   // or miss by one ulp (a point nudged off the lattice, below float resolution: the float covers
   // still meet), and faces one ulp off collinear (triangles, not segments, for the exact test).
+  // Scaled by powers of two (exact, ulps stay ulps) to negative coordinates, to floats' denormal
+  // range and beyond the float range, where the covers are denormals, the largest float or
+  // infinities.
+  for (const double scale : {1.0, -1.0, 0x1p-125, 0x1p150}) {
+  SCOPED_TRACE(scale);
   std::mt19937 rng(5);
   std::uniform_int_distribution<int> cell(0, 4), coin(0, 3);
   const int lattice_points = 70, nearly_flat = 10;
@@ -428,6 +433,7 @@ TEST(ShellCertificate, PairSearchByFloatBoxesMissesNoTouchingOrNearlyTouchingPai
   }
   Eigen::MatrixXi F(static_cast<int>(faces.size()), 3);
   for (int f = 0; f < F.rows(); ++f) F.row(f) = faces[f];
+  V *= scale;
 
   const Pairs found = surface_self_intersections(V, F);
   const std::set<std::pair<int, int>> found_set(found.begin(), found.end());
@@ -445,6 +451,7 @@ TEST(ShellCertificate, PairSearchByFloatBoxesMissesNoTouchingOrNearlyTouchingPai
   EXPECT_GT(compared, 5000);
   EXPECT_GT(meeting, 1000);
   EXPECT_GT(flat_meeting, 20); // the nearly flat faces meet others as the triangles they are
+  }
 }
 
 TEST(ShellCertificate, ShellPairsMatchExactConstructionsOnLatticeShells) {

@@ -34,12 +34,17 @@ public:
 
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
-  /// Moves the faces to new positions V (the F this tree was built from, Use::pairs): face and
-  /// node boxes are recomputed exactly as a build computes them, the tree's shape and leaf order
-  /// are kept. Every query stays exact (a node's box still holds its faces' boxes); only its speed
-  /// depends on how compact the nodes stay, which they do when V is a motion of the built
-  /// positions that keeps neighbouring faces near each other (frames of a deformation).
-  void refit(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+  /// Moving the faces (Use::pairs), in two parts so that callers set the new face boxes in a pass
+  /// over the faces of their own: set_slot_box for every slot (from several threads, each slot
+  /// once), then refit_nodes. Face and node boxes are then what a build computes, the tree's
+  /// shape and leaf order are kept. Every query stays exact (a node's box still holds its faces'
+  /// boxes); only its speed depends on how compact the nodes stay, which they do when the faces
+  /// follow a motion that keeps neighbouring faces near each other (frames of a deformation).
+  void set_slot_box(int slot, const Eigen::AlignedBox3d& box) {
+    slot_box_[slot] = box;
+    set_float_boxes(slot, slot + 1);
+  }
+  void refit_nodes();
 
   /// Face ids in the tree's leaf order: consecutive faces are close in space, so work done in
   /// this order stays cache-friendly.

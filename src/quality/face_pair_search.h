@@ -58,8 +58,8 @@ public:
   /// The same faces (F as constructed) at new positions V, with new star flags: the tree is refit
   /// (FaceBvh::refit), not rebuilt, so a sequence of frames of one motion costs less per frame.
   void move_to(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star = nullptr) {
-    bvh_.refit(V, F);
-    take_positions(V, F, embedded_star);
+    take_positions(V, F, embedded_star, true);
+    bvh_.refit_nodes();
   }
 
   /// Calls found(f, g), f < g faces of this set, concurrently for every pair that meets beyond
@@ -95,7 +95,10 @@ private:
     return faces_intersect_beyond_shared(a.faces_[s], b.faces_[t], shared);
   }
 
-  void take_positions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star) {
+  // The faces' exact shapes at V and, with set_boxes, their boxes in the tree (one pass: each
+  // face's corners are read once).
+  void take_positions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star,
+                      bool set_boxes = false) {
     const int count = bvh_.num_faces();
     const std::vector<int>& face = bvh_.faces_in_leaf_order();
     faces_.resize(count);
@@ -110,6 +113,11 @@ private:
             const std::array<int, 3>& id = faces_[s].id;
             ids_[s] = {id, star_ && star_[id[0]] && star_[id[1]] && star_[id[2]]};
             slabs_[s] = face_slab(faces_[s]);
+            if (set_boxes) {
+              Eigen::AlignedBox3d box;
+              for (const ExactPoint& p : faces_[s].p) box.extend(Eigen::Vector3d(p.x(), p.y(), p.z()));
+              bvh_.set_slot_box(s, box);
+            }
             for (const ExactPoint& p : faces_[s].p)
               largest = std::max({largest, std::abs(p.x()), std::abs(p.y()), std::abs(p.z())});
           }
