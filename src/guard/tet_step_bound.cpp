@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 
+#include "solver/simd_dispatch.h"
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -80,17 +81,59 @@ double cubic_step_bound(const std::array<double, 4>& a, double keep, double max_
 
 namespace {
 
-// Whether g(s) = p(s) - keep p(0) > 0 on all of [0, max_step] follows from the Bernstein
-// coefficients of g on that interval (g lies in their convex hull), with a margin above the
-// rounding of any evaluation of g there: then cubic_step_bound returns max_step, and most tets of
-// a step skip its root search. False: undecided.
-bool surely_keeps_volume(const std::array<double, 4>& a, double keep, double max_step) {
-  const double c0 = (1 - keep) * a[0], h = max_step;
-  const double c1 = a[1] * h, c2 = a[2] * h * h, c3 = a[3] * h * h * h;
-  const double b1 = c0 + c1 / 3, b2 = c0 + (2 * c1 + c2) / 3, b3 = c0 + c1 + c2 + c3;
-  const double margin = 1e-12 * (std::abs(c0) + std::abs(c1) + std::abs(c2) + std::abs(c3));
-  return c0 > margin && b1 > margin && b2 > margin && b3 > margin;
+// Tets settled in lanes, kLanes at a time: the volume cubic of each and whether the Bernstein
+// coefficients of g(s) = p(s) - keep p(0) on [0, max_step] all lie above a margin (g lies in their
+// convex hull, so g > 0 there). The margin exceeds by far both the rounding of any evaluation of g
+// on [0, max_step] and the difference between these coefficients and tet_volume_cubic's (other
+// order of operations, fused multiply-adds): a settled tet is one for which cubic_step_bound
+// returns max_step, and most tets of a step are settled here without a root search. Only tets
+// within about 1e-13 of flat, or whose cubic comes near the kept fraction, go on to the search.
+constexpr int kLanes = 16;
+
+struct TetLanes {
+  double x[4][3][kLanes] = {}; // corner, axis, lane
+  double d[4][3][kLanes] = {};
+};
+
+GSHELL_SIMD_KERNEL void settle_lanes_body(const TetLanes& t, double keep, double h, unsigned char* settled) {
+  for (int l = 0; l < kLanes; ++l) {
+    double e[3][3], f[3][3]; // edge k (from corner 0 to corner k + 1), axis
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) {
+        e[k][a] = t.x[k + 1][a][l] - t.x[0][a][l];
+        f[k][a] = t.d[k + 1][a][l] - t.d[0][a][l];
+      }
+    // det[e1 + s f1, e2 + s f2, e3 + s f3] = (e1 + s f1) . (c + s m + s^2 g) with c = e2 x e3,
+    // m = f2 x e3 + e2 x f3, g = f2 x f3 (plain arithmetic: the loop vectorises across lanes).
+    double c[3], m[3], g[3];
+    for (int a = 0; a < 3; ++a) {
+      const int b = (a + 1) % 3, q = (a + 2) % 3;
+      c[a] = e[1][b] * e[2][q] - e[1][q] * e[2][b];
+      m[a] = f[1][b] * e[2][q] - f[1][q] * e[2][b] + e[1][b] * f[2][q] - e[1][q] * f[2][b];
+      g[a] = f[1][b] * f[2][q] - f[1][q] * f[2][b];
+    }
+    double a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+    for (int a = 0; a < 3; ++a) {
+      a0 += e[0][a] * c[a];
+      a1 += e[0][a] * m[a] + f[0][a] * c[a];
+      a2 += e[0][a] * g[a] + f[0][a] * m[a];
+      a3 += f[0][a] * g[a];
+    }
+    const double c0 = (1 - keep) * a0, c1 = a1 * h, c2 = a2 * h * h, c3 = a3 * h * h * h;
+    const double b1 = c0 + c1 / 3, b2 = c0 + (2 * c1 + c2) / 3, b3 = c0 + c1 + c2 + c3;
+    // Every product summed into a coefficient, and so every coefficient and every rounding of
+    // them, is bounded by mag: the margin lies 30 times above any such rounding difference.
+    double mag = 1;
+    for (int k = 0; k < 3; ++k)
+      mag *= std::abs(e[k][0]) + std::abs(e[k][1]) + std::abs(e[k][2]) +
+             h * (std::abs(f[k][0]) + std::abs(f[k][1]) + std::abs(f[k][2]));
+    const double margin = 1e-13 * mag;
+    settled[l] = (c0 > margin) & (b1 > margin) & (b2 > margin) & (b3 > margin);
+  }
 }
+
+GSHELL_SIMD_DISPATCH(void, settle_lanes, settle_lanes_body,
+                     (const TetLanes& t, double keep, double h, unsigned char* settled), (t, keep, h, settled))
 
 } // namespace
 
@@ -113,30 +156,55 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
   return tbb::parallel_reduce(
       tbb::blocked_range<int>(0, K, 4096), init,
       [&](const tbb::blocked_range<int>& r, TetStepBound best) {
-        Eigen::Vector3d x[4], d[4];
+        TetLanes lanes;
+        int tet_in_lane[kLanes];
+        unsigned char settled[kLanes];
+        int used = 0;
+        // The tets not settled in their lanes, each alone, in tet order.
+        auto finish_lanes = [&] {
+          settle_lanes(lanes, keep_fraction, max_step, settled);
+          for (int l = 0; l < used; ++l) {
+            if (settled[l]) continue;
+            const int t = tet_in_lane[l];
+            Eigen::Vector3d x[4], d[4];
+            for (int j = 0; j < 4; ++j) {
+              const double* row = PM.row(T(t, j)).data();
+              x[j] = Eigen::Vector3d(row[0], row[1], row[2]);
+              d[j] = Eigen::Vector3d(row[3], row[4], row[5]);
+            }
+            const std::array<double, 4> a = tet_volume_cubic(x, d);
+            if (!(a[0] > 0)) continue;
+            // Each tet's bound on the whole [0, max_step], not below the running best: the
+            // bisection's last bits depend on its interval, and the running best on the thread
+            // schedule.
+            const double s = cubic_step_bound(a, keep_fraction, max_step);
+            if (s < best.step || (s == best.step && best.tet >= 0 && t < best.tet)) {
+              best.step = s;
+              best.tet = t;
+            }
+          }
+          used = 0;
+        };
         for (int t = r.begin(); t < r.end(); ++t) {
           for (int j = 0; j < 4; ++j)
             if (T(t, j) < 0 || T(t, j) >= N) // a bad id would read past X or D
               throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
           if (skip && (*skip)[t]) continue;
           bool moves = false;
+          const double* d0 = PM.row(T(t, 0)).data() + 3;
           for (int j = 0; j < 4; ++j) {
             const double* row = PM.row(T(t, j)).data();
-            x[j] = Eigen::Vector3d(row[0], row[1], row[2]);
-            d[j] = Eigen::Vector3d(row[3], row[4], row[5]);
-            moves = moves || d[j] != d[0];
+            for (int a = 0; a < 3; ++a) {
+              lanes.x[j][a][used] = row[a];
+              lanes.d[j][a][used] = row[3 + a];
+              moves = moves || row[3 + a] != d0[a];
+            }
           }
           if (!moves) continue; // a translation keeps the volume
-          const std::array<double, 4> a = tet_volume_cubic(x, d);
-          if (!(a[0] > 0) || surely_keeps_volume(a, keep_fraction, max_step)) continue;
-          // Each tet's bound on the whole [0, max_step], not below the running best: the bisection's
-          // last bits depend on its interval, and the running best on the thread schedule.
-          const double s = cubic_step_bound(a, keep_fraction, max_step);
-          if (s < best.step || (s == best.step && best.tet >= 0 && t < best.tet)) {
-            best.step = s;
-            best.tet = t;
-          }
+          tet_in_lane[used] = t;
+          if (++used == kLanes) finish_lanes();
         }
+        finish_lanes();
         return best;
       },
       [](const TetStepBound& a, const TetStepBound& b) {
