@@ -56,7 +56,8 @@ public:
   }
 
   /// The same faces (F as constructed) at new positions V, with new star flags: the tree is refit
-  /// (FaceBvh::refit), not rebuilt, so a sequence of frames of one motion costs less per frame.
+  /// (FaceBvh::set_slot_box, refit_nodes), not rebuilt, so a sequence of frames of one motion costs
+  /// less per frame.
   void move_to(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star = nullptr) {
     take_positions(V, F, embedded_star, true);
     bvh_.refit_nodes();
