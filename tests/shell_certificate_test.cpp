@@ -402,55 +402,55 @@ TEST(ShellCertificate, PairSearchByFloatBoxesMissesNoTouchingOrNearlyTouchingPai
   // range and beyond the float range, where the covers are denormals, the largest float or
   // infinities.
   for (const double scale : {1.0, -1.0, 0x1p-125, 0x1p150}) {
-  SCOPED_TRACE(scale);
-  std::mt19937 rng(5);
-  std::uniform_int_distribution<int> cell(0, 4), coin(0, 3);
-  const int lattice_points = 70, nearly_flat = 10;
-  Eigen::MatrixXd V(lattice_points + 3 * nearly_flat, 3);
-  for (int v = 0; v < lattice_points; ++v)
-    for (int d = 0; d < 3; ++d) {
-      V(v, d) = 0.25 * cell(rng);
-      if (coin(rng) == 0) V(v, d) = std::nextafter(V(v, d), coin(rng) < 2 ? -1.0 : 2.0);
+    SCOPED_TRACE(scale);
+    std::mt19937 rng(5);
+    std::uniform_int_distribution<int> cell(0, 4), coin(0, 3);
+    const int lattice_points = 70, nearly_flat = 10;
+    Eigen::MatrixXd V(lattice_points + 3 * nearly_flat, 3);
+    for (int v = 0; v < lattice_points; ++v)
+      for (int d = 0; d < 3; ++d) {
+        V(v, d) = 0.25 * cell(rng);
+        if (coin(rng) == 0) V(v, d) = std::nextafter(V(v, d), coin(rng) < 2 ? -1.0 : 2.0);
+      }
+    for (int k = 0; k < nearly_flat; ++k) { // p, q and their midpoint one ulp off the line pq
+      const int p = lattice_points + 3 * k;
+      for (int d = 0; d < 3; ++d) {
+        V(p, d) = 0.25 * cell(rng);
+        V(p + 1, d) = V(p, d) + 0.5;
+        V(p + 2, d) = V(p, d) + 0.25;
+      }
+      V(p + 2, k % 3) = std::nextafter(V(p + 2, k % 3), 2.0);
     }
-  for (int k = 0; k < nearly_flat; ++k) { // p, q and their midpoint one ulp off the line pq
-    const int p = lattice_points + 3 * k;
-    for (int d = 0; d < 3; ++d) {
-      V(p, d) = 0.25 * cell(rng);
-      V(p + 1, d) = V(p, d) + 0.5;
-      V(p + 2, d) = V(p, d) + 0.25;
+    std::vector<Eigen::RowVector3i> faces;
+    std::uniform_int_distribution<int> id(0, lattice_points - 1);
+    while (faces.size() < 100) {
+      const Eigen::RowVector3i f(id(rng), id(rng), id(rng));
+      if (f[0] != f[1] && f[1] != f[2] && f[0] != f[2]) faces.push_back(f);
     }
-    V(p + 2, k % 3) = std::nextafter(V(p + 2, k % 3), 2.0);
-  }
-  std::vector<Eigen::RowVector3i> faces;
-  std::uniform_int_distribution<int> id(0, lattice_points - 1);
-  while (faces.size() < 100) {
-    const Eigen::RowVector3i f(id(rng), id(rng), id(rng));
-    if (f[0] != f[1] && f[1] != f[2] && f[0] != f[2]) faces.push_back(f);
-  }
-  for (int k = 0; k < nearly_flat; ++k) {
-    const int p = lattice_points + 3 * k;
-    faces.emplace_back(p, p + 1, p + 2);
-  }
-  Eigen::MatrixXi F(static_cast<int>(faces.size()), 3);
-  for (int f = 0; f < F.rows(); ++f) F.row(f) = faces[f];
-  V *= scale;
+    for (int k = 0; k < nearly_flat; ++k) {
+      const int p = lattice_points + 3 * k;
+      faces.emplace_back(p, p + 1, p + 2);
+    }
+    Eigen::MatrixXi F(static_cast<int>(faces.size()), 3);
+    for (int f = 0; f < F.rows(); ++f) F.row(f) = faces[f];
+    V *= scale;
 
-  const Pairs found = surface_self_intersections(V, F);
-  const std::set<std::pair<int, int>> found_set(found.begin(), found.end());
-  int compared = 0, meeting = 0, flat_meeting = 0;
-  for (int f = 0; f < F.rows(); ++f)
-    for (int g = f + 1; g < F.rows(); ++g) {
-      if (degenerate(V, F, f) || degenerate(V, F, g)) continue;
-      const bool expected = brute_force_meets_beyond_shared(V, F, f, g);
-      EXPECT_EQ(found_set.count({f, g}) == 1, expected) << "faces " << f << ", " << g;
-      ++compared;
-      meeting += expected;
-      flat_meeting += expected && g >= F.rows() - nearly_flat;
-    }
-  for (int f = F.rows() - nearly_flat; f < F.rows(); ++f) EXPECT_FALSE(degenerate(V, F, f));
-  EXPECT_GT(compared, 5000);
-  EXPECT_GT(meeting, 1000);
-  EXPECT_GT(flat_meeting, 20); // the nearly flat faces meet others as the triangles they are
+    const Pairs found = surface_self_intersections(V, F);
+    const std::set<std::pair<int, int>> found_set(found.begin(), found.end());
+    int compared = 0, meeting = 0, flat_meeting = 0;
+    for (int f = 0; f < F.rows(); ++f)
+      for (int g = f + 1; g < F.rows(); ++g) {
+        if (degenerate(V, F, f) || degenerate(V, F, g)) continue;
+        const bool expected = brute_force_meets_beyond_shared(V, F, f, g);
+        EXPECT_EQ(found_set.count({f, g}) == 1, expected) << "faces " << f << ", " << g;
+        ++compared;
+        meeting += expected;
+        flat_meeting += expected && g >= F.rows() - nearly_flat;
+      }
+    for (int f = F.rows() - nearly_flat; f < F.rows(); ++f) EXPECT_FALSE(degenerate(V, F, f));
+    EXPECT_GT(compared, 5000);
+    EXPECT_GT(meeting, 1000);
+    EXPECT_GT(flat_meeting, 20); // the nearly flat faces meet others as the triangles they are
   }
 }
 

@@ -99,10 +99,11 @@ GuardedSolver& FrameGuard::tets_only() {
 bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
                          ShellCertificate* certificate) {
   // The end state certified exactly (the base against itself left out when the caller moves the
-  // base: a base crossing itself is then the caller's). Cheaper than continuous collision detection along the path, and what matters
-  // is the frame, not the way to it: a certified frame is a valid start for the next one.
-  // The tet step bound and the certificate run side by side: most frames pass both, and the two
-  // fill each other's idle threads (serial parts of the certificate's tree passes).
+  // base: a base crossing itself is then the caller's). Cheaper than continuous collision
+  // detection along the path, and what matters is the frame, not the way to it: a certified frame
+  // is a valid start for the next one. The tet step bound and the certificate run side by side:
+  // most frames pass both, and the two fill each other's idle threads (serial parts of the
+  // certificate's tree passes).
   const bool certify = contacts && contact_;
   TetStepBound tets;
   ShellCertificate c;
