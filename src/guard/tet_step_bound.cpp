@@ -168,9 +168,8 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
             const int t = tet_in_lane[l];
             Eigen::Vector3d x[4], d[4];
             for (int j = 0; j < 4; ++j) {
-              const double* row = PM.row(T(t, j)).data();
-              x[j] = Eigen::Vector3d(row[0], row[1], row[2]);
-              d[j] = Eigen::Vector3d(row[3], row[4], row[5]);
+              x[j] = Eigen::Vector3d(lanes.x[j][0][l], lanes.x[j][1][l], lanes.x[j][2][l]);
+              d[j] = Eigen::Vector3d(lanes.d[j][0][l], lanes.d[j][1][l], lanes.d[j][2][l]);
             }
             const std::array<double, 4> a = tet_volume_cubic(x, d);
             if (!(a[0] > 0)) continue;

@@ -59,7 +59,7 @@ public:
   /// (FaceBvh::set_slot_box, refit_nodes), not rebuilt, so a sequence of frames of one motion costs
   /// less per frame.
   void move_to(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star = nullptr) {
-    take_positions(V, F, embedded_star, true);
+    take_positions(V, F, embedded_star);
     bvh_.refit_nodes();
   }
 
@@ -96,10 +96,9 @@ private:
     return faces_intersect_beyond_shared(a.faces_[s], b.faces_[t], shared);
   }
 
-  // The faces' exact shapes at V and, with set_boxes, their boxes in the tree (one pass: each
-  // face's corners are read once).
-  void take_positions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star,
-                      bool set_boxes = false) {
+  // The faces' exact shapes at V and their boxes in the tree (one pass: each face's corners are
+  // read once; after a build the boxes are those the build set, so only a refit needs them).
+  void take_positions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star) {
     const int count = bvh_.num_faces();
     const std::vector<int>& face = bvh_.faces_in_leaf_order();
     faces_.resize(count);
@@ -114,11 +113,9 @@ private:
             const std::array<int, 3>& id = faces_[s].id;
             ids_[s] = {id, star_ && star_[id[0]] && star_[id[1]] && star_[id[2]]};
             slabs_[s] = face_slab(faces_[s]);
-            if (set_boxes) {
-              Eigen::AlignedBox3d box;
-              for (const ExactPoint& p : faces_[s].p) box.extend(Eigen::Vector3d(p.x(), p.y(), p.z()));
-              bvh_.set_slot_box(s, box);
-            }
+            Eigen::AlignedBox3d box;
+            for (const ExactPoint& p : faces_[s].p) box.extend(Eigen::Vector3d(p.x(), p.y(), p.z()));
+            bvh_.set_slot_box(s, box);
             for (const ExactPoint& p : faces_[s].p)
               largest = std::max({largest, std::abs(p.x()), std::abs(p.y()), std::abs(p.z())});
           }
