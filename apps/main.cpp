@@ -3,6 +3,7 @@
 #include "command_registry.h"
 
 #include <gshell/error.h>
+#include <gshell/run/process_memory.h>
 
 #include <algorithm>
 #include <exception>
@@ -114,6 +115,7 @@ std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std:
 
 int main(int argc, char** argv) {
   using namespace gshell::cli;
+  gshell::reuse_freed_memory(); // one command per process: keep freed buffers for the next phase
   CLI::App app{"gshell: build and deform shells (Huang et al. 2007, gradient-based shell generation "
                "and deformation)."};
   app.set_version_flag("--version", std::string("gshell ") + GSHELL_VERSION);

@@ -9,6 +9,7 @@
 // memory, the report's figures (to compare the solvers), and the growth ratios per 4x vertices.
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/io/load_mesh.h>
+#include <gshell/run/process_memory.h>
 #include <gshell/shell/generate_shell.h>
 
 #include <algorithm>
@@ -167,6 +168,7 @@ int main(int argc, char** argv) {
     }
   }
   if (!case_spec.empty()) {
+    gshell::reuse_freed_memory(); // as the gshell CLI does
     // "auto", "cg", ... with the multigrid preconditioner; "auto:jacobi", "cg:jacobi" with Jacobi's.
     const std::vector<std::string> parts = split(linears.at(0), ':');
     const bool jacobi = parts.size() > 1 && parts[1] == "jacobi";

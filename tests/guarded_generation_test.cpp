@@ -185,6 +185,55 @@ TEST(GuardedGeneration, PlaneAndCylinderKeepThePaperResult) {
   }
 }
 
+// Every field of two certificates but the time.
+void expect_same_certificate(const ShellCertificate& a, const ShellCertificate& b) {
+  EXPECT_EQ(a.inverted_tets, b.inverted_tets);
+  EXPECT_EQ(a.top_self_intersections, b.top_self_intersections);
+  EXPECT_EQ(a.top_base_intersections, b.top_base_intersections);
+  EXPECT_EQ(a.wall_intersections, b.wall_intersections);
+  EXPECT_EQ(a.base_self_intersections, b.base_self_intersections);
+  EXPECT_EQ(a.inverted_tet_ids, b.inverted_tet_ids);
+  ASSERT_EQ(a.intersections.size(), b.intersections.size());
+  for (std::size_t k = 0; k < a.intersections.size(); ++k) {
+    EXPECT_EQ(a.intersections[k].a, b.intersections[k].a) << k;
+    EXPECT_EQ(a.intersections[k].b, b.intersections[k].b) << k;
+  }
+}
+
+TEST(GuardedGeneration, TopNeedingNoMendingCarriesTheCertificateOfItsFirstCheck) {
+  // Where the start's first check finds nothing to mend, the result is the paper's top and the
+  // certificate that check computed is reported instead of a second run: it must be the one a
+  // fresh certification of the returned shell gives, field by field. The crossing planes have
+  // violations the guard leaves alone (around the base's own crossing), so their certificate is
+  // not empty.
+  TriMesh crossing = make_plane(8);
+  {
+    TriMesh upright = crossing;
+    upright.V.col(2) = upright.V.col(1); // the plane turned about the x axis, crossing the first
+    upright.V.col(1).setZero();
+    const int n = static_cast<int>(crossing.V.rows());
+    crossing.V.conservativeResize(2 * n, 3);
+    crossing.V.bottomRows(n) = upright.V;
+    crossing.F.conservativeResize(2 * upright.F.rows(), 3);
+    crossing.F.bottomRows(upright.F.rows()) = upright.F.array() + n;
+  }
+  for (const TriMesh& m : {make_sphere(3, 1.0), make_cylinder(24), crossing}) {
+    const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.02)));
+    ASSERT_EQ(g.guard.start.rounds, 1);
+    ASSERT_EQ(g.guard.repaired_vertices, 0);
+    EXPECT_TRUE((g.guard.start.scale.array() == 1).all());
+    // A guarded result lists the shell's pairs, not the base's own (those are counted only).
+    CertifyOptions shell_pairs;
+    shell_pairs.base_self_intersections = false;
+    ShellCertificate expected = certify_shell(g.shell.base, g.shell.top, g.shell.F, shell_pairs);
+    expected.base_self_intersections = recertify(g).base_self_intersections;
+    expect_same_certificate(g.metrics.certificate, expected);
+  }
+  EXPECT_GT(generate_shell(crossing.V, crossing.F, options_for(ShellMethod::Rigid, thickness_from_ratio(crossing.V, 0.02)))
+                .metrics.certificate.base_self_intersections,
+            0);
+}
+
 TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {
   // The unguarded path written out: rest tets of the normal prisms, base held, top from the
   // offset surface, the local/global solver.

@@ -146,23 +146,25 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   std::vector<int> fixed(n);
   std::iota(fixed.begin(), fixed.end(), 0);
   for (int v : g.directions.unextrudable) fixed.push_back(n + v);
-  // Shares `ideal` (which outlives it) rather than copying it: at millions of faces a copy of
-  // the rest tets is the largest allocation of the generation.
-  const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal), 2 * n, fixed, {},
-                                 linear);
-  g.factor_seconds = paper_solver.factor_seconds();
-
   // The paper's iterations from the offset surface give the top wanted everywhere; the tops of
   // unextrudable vertices are held low along their best direction.
   Eigen::MatrixXd X(2 * n, 3);
   X << V, offset_top(V, F, eta);
   for (int v : g.directions.unextrudable)
     X.row(n + v) = V.row(v) + options.unextrudable_thickness * eta * g.directions.direction.row(v);
-  SolveOptions paper;
-  paper.max_iterations = solve.max_iterations;
-  paper.tolerance = solve.tolerance;
-  paper.progress = solve.progress; // the guarded solve reports its own iterations after these
-  g.paper = paper_solver.solve(X, paper);
+  {
+    // Shares `ideal` (which outlives it) rather than copying it: at millions of faces a copy of
+    // the rest tets is the largest allocation of the generation. Scoped: its matrix and factor
+    // or multigrid are freed before the start's certificate, where the generation peaks.
+    const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal), 2 * n, fixed,
+                                   {}, linear);
+    g.factor_seconds = paper_solver.factor_seconds();
+    SolveOptions paper;
+    paper.max_iterations = solve.max_iterations;
+    paper.tolerance = solve.tolerance;
+    paper.progress = solve.progress; // the guarded solve reports its own iterations after these
+    g.paper = paper_solver.solve(X, paper);
+  }
 
   // Valid start: that top, pulled towards the base only where it is not valid.
   ValidStartOptions start_options;

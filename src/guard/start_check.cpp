@@ -40,7 +40,7 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   if (!moved) { // the whole shell: the certificate itself, without the base's own pairs
     CertifyOptions options;
     options.base_self_intersections = false;
-    const ShellCertificate c = certify_shell(base, top, F_, options);
+    const ShellCertificate& c = v.certificate.emplace(certify_shell(base, top, F_, options));
     for (int t : c.inverted_tet_ids)
       if (!skip_[t]) v.inverted_tets.push_back(t);
     for (const BoundaryIntersection& p : c.intersections)

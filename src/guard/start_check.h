@@ -4,9 +4,11 @@
 // triangle pairs that touch the vertices moved since (pairs and tets among unmoved vertices were
 // decided already), so a round costs little more than its moved vertices.
 #include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/shell_certificate.h>
 
 #include <Eigen/Core>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -17,6 +19,9 @@ class FaceSet;
 struct StartViolations {
   std::vector<int> inverted_tets;                 ///< rows of T, not skipped
   std::vector<std::pair<int, int>> intersections; ///< boundary rows a < b, neither excluded, not both base
+  /// The whole shell's certificate (base/base pairs not searched), when the check was of the whole
+  /// shell; skipped tets and excluded rows are counted in it.
+  std::optional<ShellCertificate> certificate;
 };
 
 class StartChecker {

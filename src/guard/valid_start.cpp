@@ -86,7 +86,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       for (int i = 0; i < n; ++i)
         if (moved[i]) s.top.row(i) = V.row(i) + paths.offset(i, s.scale[i]);
     // The first round checks everything, later ones what the last thinning moved.
-    const detail::StartViolations found = checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
+    detail::StartViolations found = checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
     s.inverted_tets = found.inverted_tets;
     s.intersections = found.intersections;
     std::fill(thin.begin(), thin.end(), 0);
@@ -97,6 +97,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       for (int row : {a, b})
         for (int k = 0; k < 3; ++k)
           if (boundary.F(row, k) >= n) thin[boundary.F(row, k) - n] = 1;
+    if (s.inverted_tets.empty() && s.intersections.empty() && s.rounds == 1) s.certificate = std::move(found.certificate);
     if ((s.inverted_tets.empty() && s.intersections.empty()) || s.rounds >= options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
     for (int i = 0; i < n; ++i)

@@ -106,6 +106,100 @@ FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
     }
   });
   build_nodes(keyed, distances ? kDistanceLeafSize : kPairLeafSize);
+  if (distances) build_oriented_boxes();
+}
+
+void FaceBvh::build_oriented_boxes() {
+  const int count = static_cast<int>(nodes_.size());
+  node_oriented_box_.resize(count);
+  // Area-weighted normals (twice the area), summed up the tree: children come after their parent.
+  std::vector<Eigen::Vector3d> normal(count, Eigen::Vector3d::Zero());
+  tbb::parallel_for(tbb::blocked_range<int>(0, count, 1024), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i < r.end(); ++i)
+      if (nodes_[i].leaf())
+        for (int s = nodes_[i].begin; s < nodes_[i].end; ++s) {
+          const Triangle& t = slot_triangle_[s];
+          normal[i] += (t.b - t.a).cross(t.c - t.a);
+        }
+  });
+  for (int i = count - 1; i >= 0; --i)
+    if (!nodes_[i].leaf()) normal[i] = normal[i + 1] + normal[nodes_[i].right];
+
+  auto set_axes = [&](int i) {
+    OrientedBox& box = node_oriented_box_[i];
+    Eigen::Vector3d n = normal[i];
+    const double length = n.norm();
+    n = length > 0 && std::isfinite(length) ? Eigen::Vector3d(n / length) : Eigen::Vector3d::UnitZ();
+    int k = 0; // the coordinate axis least along n gives the first tangent
+    for (int d = 1; d < 3; ++d)
+      if (std::abs(n[d]) < std::abs(n[k])) k = d;
+    const Eigen::Vector3d t = (Eigen::Vector3d::Unit(k) - n[k] * n).normalized();
+    const Eigen::Vector3d b = n.cross(t);
+    for (int d = 0; d < 3; ++d) {
+      box.axis[0][d] = t[d];
+      box.axis[1][d] = b[d];
+      box.axis[2][d] = n[d];
+      box.lo[d] = std::numeric_limits<double>::infinity();
+      box.hi[d] = -std::numeric_limits<double>::infinity();
+    }
+  };
+  auto extend = [](OrientedBox& box, const Eigen::Vector3d& p) {
+    for (int d = 0; d < 3; ++d) {
+      const double x = box.axis[d][0] * p[0] + box.axis[d][1] * p[1] + box.axis[d][2] * p[2];
+      box.lo[d] = std::min(box.lo[d], x);
+      box.hi[d] = std::max(box.hi[d], x);
+    }
+  };
+  // Projections and the query's own are rounded; a pad far above that error (relative 1e-12 of
+  // the coordinates, plus the same of the extent) keeps every vertex inside.
+  auto pad = [](OrientedBox& box) {
+    for (int d = 0; d < 3; ++d) {
+      const double e = 1e-12 * (std::max(std::abs(box.lo[d]), std::abs(box.hi[d])) + (box.hi[d] - box.lo[d]));
+      box.lo[d] -= e;
+      box.hi[d] += e;
+    }
+  };
+  // Leaves from their triangles' corners; inner nodes from the corners of their children's boxes
+  // (bounds of bounds: looser than from the faces, but the leaves are where queries spend).
+  tbb::parallel_for(tbb::blocked_range<int>(0, count, 1024), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i < r.end(); ++i) {
+      if (!nodes_[i].leaf()) continue;
+      set_axes(i);
+      OrientedBox& box = node_oriented_box_[i];
+      for (int s = nodes_[i].begin; s < nodes_[i].end; ++s)
+        for (const Eigen::Vector3d* p : {&slot_triangle_[s].a, &slot_triangle_[s].b, &slot_triangle_[s].c})
+          extend(box, *p);
+      pad(box);
+    }
+  });
+  for (int i = count - 1; i >= 0; --i) {
+    if (nodes_[i].leaf()) continue;
+    set_axes(i);
+    OrientedBox& box = node_oriented_box_[i];
+    for (int child : {i + 1, nodes_[i].right}) {
+      const OrientedBox& c = node_oriented_box_[child];
+      for (int corner = 0; corner < 8; ++corner) {
+        Eigen::Vector3d p = Eigen::Vector3d::Zero();
+        for (int d = 0; d < 3; ++d) {
+          const double x = corner >> d & 1 ? c.hi[d] : c.lo[d];
+          p += x * Eigen::Vector3d(c.axis[d][0], c.axis[d][1], c.axis[d][2]);
+        }
+        extend(box, p);
+      }
+    }
+    pad(box);
+  }
+}
+
+double FaceBvh::oriented_squared_distance(int node, const Eigen::Vector3d& q) const {
+  const OrientedBox& box = node_oriented_box_[node];
+  double d2 = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double x = box.axis[d][0] * q[0] + box.axis[d][1] * q[1] + box.axis[d][2] * q[2];
+    const double gap = std::max({box.lo[d] - x, x - box.hi[d], 0.0});
+    d2 += gap * gap;
+  }
+  return d2;
 }
 
 FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {
@@ -224,11 +318,11 @@ double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2) const 
   if (nodes_.empty()) return best;
   struct Entry {
     int node;
-    double d2; // squared distance from q to the node's box
+    double d2; // lower bound on the squared distance from q to the node's faces
   };
   Entry stack[128]; // holds at most depth + 1 entries; depth <= 63 code bits + log2(faces)
   int top = 0;
-  stack[top++] = {0, node_squared_distance(nodes_[0], q)};
+  stack[top++] = {0, node_lower_bound(0, q)};
   while (top > 0) {
     const Entry e = stack[--top];
     if (e.d2 >= best) continue;
@@ -239,8 +333,8 @@ double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2) const 
           best = std::min(best, face_squared_distance(slot_triangle_[s], q));
       continue;
     }
-    const Entry l{e.node + 1, node_squared_distance(nodes_[e.node + 1], q)};
-    const Entry r{node.right, node_squared_distance(nodes_[node.right], q)};
+    const Entry l{e.node + 1, node_lower_bound(e.node + 1, q)};
+    const Entry r{node.right, node_lower_bound(node.right, q)};
     // The nearer child goes on top of the stack: searched first, it tightens `best` early.
     const Entry& near = l.d2 <= r.d2 ? l : r;
     const Entry& far = l.d2 <= r.d2 ? r : l;

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <utility>
 
 namespace gshell {
 
@@ -32,17 +33,26 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
 
 // The certificate, for every method: shell_metrics checked the tets only; a guarded result is
 // tested in full, the base's crossings taken from the guard (the same exact test, not run twice).
+// Where the paper's top needed no mending, the guard's first check certified that very top: its
+// certificate is the result's (certify_shell is deterministic), not computed a second time.
 void certify(GenerateResult& r, const GenerateOptions& options) {
   if (!r.guarded) r.unextrudable_vertices = extrusion_directions(r.shell.base, r.shell.F).unextrudable;
   if (!r.guarded && !options.count_intersections) return;
-  CertifyOptions o;
-  o.base_self_intersections = !r.guarded;
-  r.metrics.certificate = certify_shell(r.shell.base, r.shell.top, r.shell.F, o);
+  if (r.guarded && r.guard.start.certificate && r.guard.repaired_vertices == 0) {
+    r.metrics.certificate = std::move(*r.guard.start.certificate);
+    r.guard.start.certificate.reset();
+  } else {
+    CertifyOptions o;
+    o.base_self_intersections = !r.guarded;
+    r.metrics.certificate = certify_shell(r.shell.base, r.shell.top, r.shell.F, o);
+  }
   if (r.guarded) r.metrics.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
 }
 
-// Generation towards `ideal`; `ideal_is_normal` lets the metrics reuse the solver's rest tets.
-GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const PrismCorners& ideal,
+// Generation towards the ideal prisms' rest tets `rest`; `ideal_is_normal` lets the metrics reuse
+// them. Callers pass the rest tets rather than the prisms so that the prisms' corners (as large
+// as the rest tets) can be freed before the solve.
+GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& rest,
                                 const GenerateOptions& options, bool ideal_is_normal) {
   const auto t0 = Clock::now();
   options.check();
@@ -50,7 +60,6 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   const int n = static_cast<int>(V.rows());
   GenerateResult r;
   r.method = options.method;
-  const RestTets rest = prism_rest_tets(F, n, ideal);
   if (options.allow_invalid) {
     std::vector<int> base_vertices(n);
     std::iota(base_vertices.begin(), base_vertices.end(), 0);
@@ -94,7 +103,7 @@ GenerateResult generate_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixX
   const PrismCorners ideal =
       curvature_prisms(V, F, face_curvature(V, F), options.thickness, options.s_min, options.s_max, &prisms);
   const double prism_seconds = seconds_since(t0);
-  GenerateResult r = generate_towards(V, F, ideal, options, false);
+  GenerateResult r = generate_towards(V, F, prism_rest_tets(F, static_cast<int>(V.rows()), ideal), options, false);
   r.seconds.total += prism_seconds;
   CurvatureGeneration& c = r.curvature.emplace();
   c.s_min = options.s_min;
@@ -146,7 +155,7 @@ GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen:
                                           const PrismCorners& ideal, const GenerateOptions& options) {
   options.check();
   check_shapes(V, F);
-  return generate_towards(V, F, ideal, options, false);
+  return generate_towards(V, F, prism_rest_tets(F, static_cast<int>(V.rows()), ideal), options, false);
 }
 
 GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
@@ -155,7 +164,8 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   if (options.method == ShellMethod::Curvature) return generate_curvature(V, F, options);
   if (options.method == ShellMethod::Rigid) {
     const auto t0 = Clock::now();
-    GenerateResult r = generate_towards(V, F, normal_prisms(V, F, options.thickness), options, true);
+    const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
+    GenerateResult r = generate_towards(V, F, rest, options, true);
     r.seconds.total = seconds_since(t0);
     return r;
   }

@@ -13,8 +13,10 @@
 // is the wanted top exactly.
 #include <gshell/guard/extrusion_directions.h>
 #include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/shell_certificate.h>
 
 #include <Eigen/Core>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -46,6 +48,11 @@ struct ValidStart {
   /// and pairs of boundary rows of which neither is excluded (base/base pairs are not reported).
   std::vector<int> inverted_tets;
   std::vector<std::pair<int, int>> intersections;
+  /// The exact certificate of `top` (certify_shell, base/base pairs not searched) when the first
+  /// check, of the wanted top itself, found nothing to mend: `top` is then P bit for bit and this
+  /// certificate is its own (skipped tets and excluded triangles are counted in it). Empty when
+  /// the start moved any vertex.
+  std::optional<ShellCertificate> certificate;
   double seconds = 0;
 };
 

@@ -1,0 +1,15 @@
+#pragma once
+// Memory policy for processes that run one job and exit (the CLI, the benchmarks).
+namespace gshell {
+
+/// Keeps memory the process frees for its next allocations instead of returning it to the
+/// operating system. glibc maps every block above its threshold (at most 32 MB) afresh and unmaps
+/// it when freed, so each phase of a generation on millions of faces (rest tets, trees, face data:
+/// hundreds of MB each) faults in and zeroes every page of its buffers again; at builtin:sphere:9
+/// that was 4.9M page faults for a 6.4 GB peak (docs/scale.md). Afterwards no block is mapped on
+/// its own and the heap is trimmed only above 2 GB of free top.
+/// Call once, early, in a process whose footprint may stay at its peak until it exits; not from
+/// a library inside a long-lived host. Does nothing where the C library is not glibc.
+void reuse_freed_memory();
+
+} // namespace gshell

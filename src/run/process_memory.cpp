@@ -1,0 +1,18 @@
+#include <gshell/run/process_memory.h>
+
+#include <climits> // also brings glibc's <features.h>, which defines __GLIBC__
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
+namespace gshell {
+
+void reuse_freed_memory() {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_TRIM_THRESHOLD, INT_MAX);
+#endif
+}
+
+} // namespace gshell
