@@ -116,6 +116,31 @@ TEST(Thickness, PairedShellMatchesAllFacesClosestPoint) {
   EXPECT_GT(t[top.rows() - 1], 5.0);
 }
 
+TEST(Thickness, JustAboveAFineBumpySurfaceMatchesAllFacesClosestPoint) {
+  // Queries a small fraction of an edge above a curved surface: the search's oriented node boxes
+  // (thin along the surface normal) prune nearly everything there, so a box that missed one of
+  // its faces would show as a larger distance over that face. Probes over face interiors, edges
+  // and vertices, some just below the surface.
+  TriMesh base = test::icosphere(4);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> bump(0.9, 1.1), unit(0, 1), height(-0.004, 0.004);
+  for (Eigen::Index i = 0; i < base.V.rows(); ++i) base.V.row(i) *= bump(rng);
+  Eigen::MatrixXd probes(3 * base.F.rows() / 4, 3);
+  for (Eigen::Index k = 0; k < probes.rows(); ++k) {
+    const Eigen::Index f = (4 * k) / 3;
+    const Eigen::Vector3d a = base.V.row(base.F(f, 0)), b = base.V.row(base.F(f, 1)), c = base.V.row(base.F(f, 2));
+    double u = unit(rng), v = unit(rng);
+    if (k % 7 == 0) v = 0;        // on an edge
+    if (k % 11 == 0) u = v = 0;   // at a vertex
+    if (u + v > 1) u = 1 - u, v = 1 - v;
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+    probes.row(k) = (a + u * (b - a) + v * (c - a) + height(rng) * n).transpose();
+  }
+  const Eigen::VectorXd t = vertex_thickness(base.V, base.F, probes);
+  for (Eigen::Index k = 0; k < probes.rows(); ++k)
+    EXPECT_NEAR(t[k], brute_force_distance(base.V, base.F, probes.row(k).transpose()), 1e-12) << k;
+}
+
 TEST(Thickness, DegenerateBaseFacesAreTheirSegments) {
   // One proper face far away and one face with collinear corners along the x axis.
   Eigen::MatrixXd base(6, 3);
