@@ -23,13 +23,17 @@ Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids) {
 
 StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets,
                            std::vector<char> excluded_triangles)
-    : F_(F), T_(build_prism_tets(F, n)), n_(n), boundary_(shell_boundary(F, n)), skip_(std::move(skip_tets)),
+    : F_(F), n_(n), boundary_(shell_boundary(F, n)), skip_(std::move(skip_tets)),
       excluded_(std::move(excluded_triangles)) {
-  if (skip_.empty()) skip_.assign(T_.rows(), 0);
+  if (skip_.empty()) skip_.assign(3 * static_cast<std::size_t>(F.rows()), 0);
   if (excluded_.empty()) excluded_.assign(boundary_.size(), 0);
   for (int r = 0; r < boundary_.size(); ++r)
     if (!excluded_[r]) rows_.push_back(r);
-  rows_F_ = rows_of(boundary_.F, rows_);
+}
+
+const Eigen::MatrixXi& StartChecker::tets() const {
+  if (T_.rows() == 0 && F_.rows() > 0) T_ = build_prism_tets(F_, n_);
+  return T_;
 }
 
 StartChecker::~StartChecker() = default;
@@ -48,15 +52,16 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
     return v;
   }
 
+  const Eigen::MatrixXi& T = tets();
   Eigen::MatrixXd X(2 * n_, 3);
   X << base, top;
   auto is_moved = [&](int vertex) { return vertex >= n_ && (*moved)[vertex - n_]; };
   tbb::enumerable_thread_specific<std::vector<int>> inverted;
-  tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(T_.rows()), 8192), [&](const tbb::blocked_range<int>& r) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(T.rows()), 8192), [&](const tbb::blocked_range<int>& r) {
     auto point = [&](int i) { return ExactPoint(X(i, 0), X(i, 1), X(i, 2)); };
     for (int t = r.begin(); t < r.end(); ++t) {
-      if (skip_[t] || !(is_moved(T_(t, 1)) || is_moved(T_(t, 2)) || is_moved(T_(t, 3)) || is_moved(T_(t, 0)))) continue;
-      if (CGAL::orientation(point(T_(t, 0)), point(T_(t, 1)), point(T_(t, 2)), point(T_(t, 3))) != CGAL::POSITIVE)
+      if (skip_[t] || !(is_moved(T(t, 1)) || is_moved(T(t, 2)) || is_moved(T(t, 3)) || is_moved(T(t, 0)))) continue;
+      if (CGAL::orientation(point(T(t, 0)), point(T(t, 1)), point(T(t, 2)), point(T(t, 3))) != CGAL::POSITIVE)
         inverted.local().push_back(t);
     }
   });
@@ -73,10 +78,12 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   if (changed.empty()) return v;
   std::vector<char> is_changed(boundary_.size(), 0);
   for (int r : changed) is_changed[r] = 1;
-  if (all_)
+  if (all_) {
     all_->move_to(X, rows_F_);
-  else
+  } else {
+    rows_F_ = rows_of(B, rows_);
     all_ = std::make_unique<FaceSet>(X, rows_F_);
+  }
   const FaceSet some(X, rows_of(B, changed));
   const FaceSet& all = *all_;
   const std::vector<int>& rows = rows_;

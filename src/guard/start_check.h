@@ -38,15 +38,20 @@ public:
                         const std::vector<char>* moved = nullptr) const;
 
   const ShellBoundary& boundary() const { return boundary_; }
-  const Eigen::MatrixXi& tets() const { return T_; }
+  /// build_prism_tets(F, n), made at the first call (not concurrently).
+  const Eigen::MatrixXi& tets() const;
 
 private:
-  Eigen::MatrixXi F_, T_;
+  // The tets and the checked rows' faces are only needed by the checks after the first (which
+  // is certify_shell's own): made when first needed, so that a start that finds nothing to mend
+  // never holds them beside the certificate, where generation peaks.
+  Eigen::MatrixXi F_;
+  mutable Eigen::MatrixXi T_;
   int n_;
   ShellBoundary boundary_;
   std::vector<char> skip_, excluded_;
-  std::vector<int> rows_;       // boundary rows not excluded
-  Eigen::MatrixXi rows_F_;      // their faces
+  std::vector<int> rows_;            // boundary rows not excluded
+  mutable Eigen::MatrixXi rows_F_;   // their faces
   mutable std::unique_ptr<FaceSet> all_; // over rows_F_, at the last checked positions
 };
 

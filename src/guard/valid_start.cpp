@@ -73,7 +73,6 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
   if (!(options.fallback_length > 0)) throw InputError("valid_start: fallback_length must be positive");
   const Paths paths = make_paths(V, F, P, directions, options);
   const detail::StartChecker checker(F, n, skip_tets, excluded_triangles);
-  const Eigen::MatrixXi& T = checker.tets();
   const ShellBoundary& boundary = checker.boundary();
 
   ValidStart s;
@@ -92,7 +91,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
     std::fill(thin.begin(), thin.end(), 0);
     for (int t : found.inverted_tets)
       for (int j = 0; j < 4; ++j)
-        if (T(t, j) >= n) thin[T(t, j) - n] = 1;
+        if (const int vertex = checker.tets()(t, j); vertex >= n) thin[vertex - n] = 1;
     for (const auto& [a, b] : found.intersections)
       for (int row : {a, b})
         for (int k = 0; k < 3; ++k)
@@ -151,7 +150,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
           s.scale[i] = lo[i];
         };
         for (int t : found.inverted_tets)
-          for (int j = 0; j < 4; ++j) revert(T(t, j));
+          for (int j = 0; j < 4; ++j) revert(checker.tets()(t, j));
         for (const auto& [a, b] : found.intersections)
           for (int row : {a, b})
             for (int k = 0; k < 3; ++k) revert(boundary.F(row, k));
