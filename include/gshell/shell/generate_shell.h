@@ -81,7 +81,9 @@ struct GenerateResult {
   GenerateTimings seconds;
   /// Stretch against the normal prisms, whatever the method; metrics.certificate is the exact
   /// certificate of the result (a guarded one always tested in full), metrics.certificate.valid()
-  /// says whether the layer is an embedding (docs/validity.md).
+  /// says whether the layer is an embedding (docs/validity.md). When the guard found nothing to
+  /// mend, the certificate is the one its valid start computed of this very top, and its
+  /// `seconds` are part of seconds.guard too.
   ShellMetrics metrics;
   std::optional<CurvatureGeneration> curvature; ///< set by the curvature method
   bool guarded = false; ///< made by the guarded generation
