@@ -96,8 +96,9 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       for (int row : {a, b})
         for (int k = 0; k < 3; ++k)
           if (boundary.F(row, k) >= n) thin[boundary.F(row, k) - n] = 1;
-    if (s.inverted_tets.empty() && s.intersections.empty() && s.rounds == 1) s.certificate = std::move(found.certificate);
-    if ((s.inverted_tets.empty() && s.intersections.empty()) || s.rounds >= options.max_rounds) break;
+    const bool clean = s.inverted_tets.empty() && s.intersections.empty();
+    if (clean && s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
+    if (clean || s.rounds >= options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
     for (int i = 0; i < n; ++i)
       if (thin[i]) s.scale[i] *= options.thinning;

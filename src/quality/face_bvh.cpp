@@ -126,47 +126,38 @@ void FaceBvh::build_oriented_boxes() {
   for (int i = count - 1; i >= 0; --i)
     if (!nodes_[i].leaf()) normal[i] = normal[i + 1] + normal[nodes_[i].right];
 
-  auto set_axes = [&](int i) {
+  // Axes from the node's normal n: the coordinate axis least along n gives the first tangent.
+  auto start_box = [&](int i) -> OrientedBox& {
     OrientedBox& box = node_oriented_box_[i];
-    Eigen::Vector3d n = normal[i];
-    const double length = n.norm();
-    n = length > 0 && std::isfinite(length) ? Eigen::Vector3d(n / length) : Eigen::Vector3d::UnitZ();
-    int k = 0; // the coordinate axis least along n gives the first tangent
-    for (int d = 1; d < 3; ++d)
-      if (std::abs(n[d]) < std::abs(n[k])) k = d;
+    const double length = normal[i].norm();
+    const Eigen::Vector3d n =
+        length > 0 && std::isfinite(length) ? Eigen::Vector3d(normal[i] / length) : Eigen::Vector3d::UnitZ();
+    int k;
+    n.cwiseAbs().minCoeff(&k);
     const Eigen::Vector3d t = (Eigen::Vector3d::Unit(k) - n[k] * n).normalized();
-    const Eigen::Vector3d b = n.cross(t);
-    for (int d = 0; d < 3; ++d) {
-      box.axis[0][d] = t[d];
-      box.axis[1][d] = b[d];
-      box.axis[2][d] = n[d];
-      box.lo[d] = std::numeric_limits<double>::infinity();
-      box.hi[d] = -std::numeric_limits<double>::infinity();
-    }
+    box.axes << t.transpose(), n.cross(t).transpose(), n.transpose();
+    box.lo.setConstant(std::numeric_limits<double>::infinity());
+    box.hi.setConstant(-std::numeric_limits<double>::infinity());
+    return box;
   };
   auto extend = [](OrientedBox& box, const Eigen::Vector3d& p) {
-    for (int d = 0; d < 3; ++d) {
-      const double x = box.axis[d][0] * p[0] + box.axis[d][1] * p[1] + box.axis[d][2] * p[2];
-      box.lo[d] = std::min(box.lo[d], x);
-      box.hi[d] = std::max(box.hi[d], x);
-    }
+    const Eigen::Vector3d x = box.axes * p;
+    box.lo = box.lo.cwiseMin(x);
+    box.hi = box.hi.cwiseMax(x);
   };
   // Projections and the query's own are rounded; a pad far above that error (relative 1e-12 of
   // the coordinates, plus the same of the extent) keeps every vertex inside.
   auto pad = [](OrientedBox& box) {
-    for (int d = 0; d < 3; ++d) {
-      const double e = 1e-12 * (std::max(std::abs(box.lo[d]), std::abs(box.hi[d])) + (box.hi[d] - box.lo[d]));
-      box.lo[d] -= e;
-      box.hi[d] += e;
-    }
+    const Eigen::Vector3d e = 1e-12 * (box.lo.cwiseAbs().cwiseMax(box.hi.cwiseAbs()) + (box.hi - box.lo));
+    box.lo -= e;
+    box.hi += e;
   };
   // Leaves from their triangles' corners; inner nodes from the corners of their children's boxes
   // (bounds of bounds: looser than from the faces, but the leaves are where queries spend).
   tbb::parallel_for(tbb::blocked_range<int>(0, count, 1024), [&](const tbb::blocked_range<int>& r) {
     for (int i = r.begin(); i < r.end(); ++i) {
       if (!nodes_[i].leaf()) continue;
-      set_axes(i);
-      OrientedBox& box = node_oriented_box_[i];
+      OrientedBox& box = start_box(i);
       for (int s = nodes_[i].begin; s < nodes_[i].end; ++s)
         for (const Eigen::Vector3d* p : {&slot_triangle_[s].a, &slot_triangle_[s].b, &slot_triangle_[s].c})
           extend(box, *p);
@@ -175,17 +166,13 @@ void FaceBvh::build_oriented_boxes() {
   });
   for (int i = count - 1; i >= 0; --i) {
     if (nodes_[i].leaf()) continue;
-    set_axes(i);
-    OrientedBox& box = node_oriented_box_[i];
+    OrientedBox& box = start_box(i);
     for (int child : {i + 1, nodes_[i].right}) {
       const OrientedBox& c = node_oriented_box_[child];
       for (int corner = 0; corner < 8; ++corner) {
-        Eigen::Vector3d p = Eigen::Vector3d::Zero();
-        for (int d = 0; d < 3; ++d) {
-          const double x = corner >> d & 1 ? c.hi[d] : c.lo[d];
-          p += x * Eigen::Vector3d(c.axis[d][0], c.axis[d][1], c.axis[d][2]);
-        }
-        extend(box, p);
+        const Eigen::Vector3d local((corner & 1 ? c.hi : c.lo)[0], (corner & 2 ? c.hi : c.lo)[1],
+                                    (corner & 4 ? c.hi : c.lo)[2]);
+        extend(box, c.axes.transpose() * local);
       }
     }
     pad(box);
@@ -194,13 +181,8 @@ void FaceBvh::build_oriented_boxes() {
 
 double FaceBvh::oriented_squared_distance(int node, const Eigen::Vector3d& q) const {
   const OrientedBox& box = node_oriented_box_[node];
-  double d2 = 0;
-  for (int d = 0; d < 3; ++d) {
-    const double x = box.axis[d][0] * q[0] + box.axis[d][1] * q[1] + box.axis[d][2] * q[2];
-    const double gap = std::max({box.lo[d] - x, x - box.hi[d], 0.0});
-    d2 += gap * gap;
-  }
-  return d2;
+  const Eigen::Vector3d x = box.axes * q;
+  return (box.lo - x).cwiseMax(x - box.hi).cwiseMax(0.0).squaredNorm();
 }
 
 FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {

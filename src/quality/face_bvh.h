@@ -116,8 +116,8 @@ private:
   // opened about sqrt(distance / width) of them per level (it grew 1.6x per refinement at a
   // fixed thickness). A box along the normal is as thin as the surface's bend over the node.
   struct OrientedBox {
-    double axis[3][3];   // unit rows: a tangent, the other tangent, the normal
-    double lo[3], hi[3]; // the node's vertices' coordinates along the axes, padded outwards
+    Eigen::Matrix3d axes;   // unit rows: a tangent, the other tangent, the normal
+    Eigen::Vector3d lo, hi; // the node's vertices' coordinates along the axes, padded outwards
   };
   void build_oriented_boxes();
   double oriented_squared_distance(int node, const Eigen::Vector3d& q) const;

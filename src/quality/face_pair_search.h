@@ -116,8 +116,7 @@ private:
             Eigen::AlignedBox3d box;
             for (const ExactPoint& p : faces_[s].p) box.extend(Eigen::Vector3d(p.x(), p.y(), p.z()));
             bvh_.set_slot_box(s, box);
-            for (const ExactPoint& p : faces_[s].p)
-              largest = std::max({largest, std::abs(p.x()), std::abs(p.y()), std::abs(p.z())});
+            largest = std::max({largest, box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff()});
           }
           return largest;
         },

@@ -38,7 +38,7 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
 void certify(GenerateResult& r, const GenerateOptions& options) {
   if (!r.guarded) r.unextrudable_vertices = extrusion_directions(r.shell.base, r.shell.F).unextrudable;
   if (!r.guarded && !options.count_intersections) return;
-  if (r.guarded && r.guard.start.certificate && r.guard.repaired_vertices == 0) {
+  if (r.guarded && r.guard.start.certificate) { // set only when the start moved nothing: no repair either
     r.metrics.certificate = std::move(*r.guard.start.certificate);
     r.guard.start.certificate.reset();
   } else {
