@@ -307,3 +307,38 @@ TEST(GuardedGeneration, SmallRepairRunsPastTheSolvesIterationCap) {
   expect_valid(extended);
   expect_valid(capped);
 }
+
+TEST(GuardedGeneration, RelaxingTheBarriersLowersTheEnergyOfTheRepairedRegionOnly) {
+  // The repair's barriers hold its top further from the validity limits than needed; a relaxation
+  // round solves the same region again with weaker barriers and is kept only if it lowers the
+  // shell energy E. The result stays valid, E does not rise, and only repaired tops move.
+  const TriMesh m = bumpy_sphere(3, 0.25);
+  GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.05));
+  ASSERT_EQ(o.guard.relax_rounds, 1) << "generation's default relaxes once";
+  const GenerateResult relaxed = generate_shell(m.V, m.F, o);
+  o.guard.relax_rounds = 0;
+  const GenerateResult repaired = generate_shell(m.V, m.F, o);
+  ASSERT_GT(repaired.guard.repaired_vertices, 0);
+  EXPECT_EQ(repaired.guard.relax.iterations, 0);
+  ASSERT_EQ(relaxed.guard.relax.kept_rounds, 1);
+  EXPECT_GT(relaxed.guard.relax.iterations, 0);
+  EXPECT_DOUBLE_EQ(relaxed.guard.relax.first_energy, repaired.guard.solve.final_energy);
+  EXPECT_LT(relaxed.guard.solve.final_energy, repaired.guard.solve.final_energy);
+  expect_valid(relaxed);
+  expect_valid(repaired);
+  // The shell energy E of each returned top, computed here from the shells themselves.
+  const int n = static_cast<int>(m.V.rows());
+  std::vector<int> base(n);
+  std::iota(base.begin(), base.end(), 0);
+  const ShellSolver energy(prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, o.thickness)), 2 * n, base);
+  auto E = [&](const GenerateResult& r) {
+    Eigen::MatrixXd X(2 * m.V.rows(), 3);
+    X << m.V, r.shell.top;
+    return energy.energy(X);
+  };
+  EXPECT_LT(E(relaxed), E(repaired));
+  int moved = 0;
+  for (int i = 0; i < n; ++i) moved += relaxed.shell.top.row(i) != repaired.shell.top.row(i);
+  EXPECT_GT(moved, 0);
+  EXPECT_LE(moved, repaired.guard.repaired_vertices);
+}

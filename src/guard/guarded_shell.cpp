@@ -49,6 +49,44 @@ std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vec
   return out;
 }
 
+// The barriers that keep the repair's steps clear of the validity limits also hold the top
+// further from those limits than a valid top needs to be. Each round solves the repaired region
+// again from the result with weaker barriers (j_hat / 3, both weights / 10, the contact support
+// halved) and keeps the outcome only if it lowers the shell energy E; validity never depends on
+// the barriers' strength, only on the step bounds, so every round's result is as valid as its
+// start.
+void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const GuardOptions& options,
+           const RestTets& local, const std::vector<int>& held, const ShellBoundary& boundary,
+           const GuardedSolverParameters& repair, const GuardedSolveOptions& solve, Eigen::MatrixXd& X,
+           GuardedShell& g) {
+  GuardOptions weak = options;
+  double energy = g.solve.final_energy;
+  g.relax.first_energy = energy;
+  for (int round = 0; round < options.relax_rounds; ++round) {
+    weak.j_hat /= 3;
+    weak.volume_weight /= 10;
+    weak.contact_weight /= 10;
+    weak.contact_distance /= 2;
+    GuardedSolverParameters q = absolute_guard_parameters(V, F, eta, weak);
+    q.skip_tets = repair.skip_tets;
+    q.excluded_triangles = repair.excluded_triangles;
+    GuardedSolver relaxed(local, static_cast<int>(X.rows()), held, boundary, q);
+    g.factor_seconds += relaxed.shell_solver().factor_seconds();
+    Eigen::MatrixXd Y = X;
+    const GuardedSolveResult r = relaxed.solve(Y, solve);
+    g.relax.iterations += r.iterations;
+    g.relax.seconds += r.seconds;
+    if (!(r.final_energy < energy)) break;
+    X = std::move(Y);
+    energy = r.final_energy;
+    ++g.relax.kept_rounds;
+    g.solve.final_energy = r.final_energy;
+    g.solve.active_tets = r.active_tets;
+    g.solve.min_relative_volume = r.min_relative_volume;
+    g.solve.active_contacts = r.active_contacts;
+  }
+}
+
 } // namespace
 
 void check_guard_options(const GuardOptions& o) {
@@ -70,6 +108,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.repair_min_scale >= 0 && o.repair_min_scale < 1, "repair_min_scale", "in [0, 1)");
   require(o.repair_iterations >= -1, "repair_iterations", ">= -1");
   require(o.repair_budget >= 0 && std::isfinite(o.repair_budget), "repair_budget", ">= 0");
+  require(o.relax_rounds >= 0, "relax_rounds", ">= 0");
 }
 
 GuardOptions generation_guard_options() {
@@ -79,6 +118,7 @@ GuardOptions generation_guard_options() {
   o.projected_contact_hessian = false;
   o.local_rings = 4;
   o.repair_budget = 1e5;
+  o.relax_rounds = 1;
   return o;
 }
 
@@ -253,6 +293,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
       repair_options.max_iterations = std::max(solve.max_iterations, static_cast<int>(affordable));
     }
     g.solve = repair.solve(X, repair_options);
+    relax(V, F, eta, options, local, held, boundary, q, repair_options, X, g);
   }
   g.top = X.bottomRows(n);
   g.seconds = seconds_since(t0);

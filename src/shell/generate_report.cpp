@@ -69,6 +69,8 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                   {"pulled_in_vertices", (g.start.scale.array() < 1).count()},
                   {"repaired_vertices", g.repaired_vertices},
                   {"repair_iterations", g.solve.iterations},
+                  {"relax_iterations", g.relax.iterations},
+                  {"relax_rounds_kept", g.relax.kept_rounds},
                   {"unprotected_faces", g.unprotected_faces},
                   {"min_relative_volume", g.solve.iterations > 0 ? nlohmann::json(g.solve.min_relative_volume)
                                                                  : nlohmann::json(nullptr)}};
@@ -145,7 +147,7 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
   if (r.guarded)
     out << "guard        " << r.unextrudable_vertices.size() << " unextrudable vertices, " << (r.guard.start.scale.array() < 1).count()
         << " pulled in, " << r.guard.repaired_vertices << " repaired in " << r.guard.solve.iterations
-        << " iterations\n";
+        << " iterations (+" << r.guard.relax.iterations << " relaxing, " << r.guard.relax.kept_rounds << " kept)\n";
   char time[256];
   std::snprintf(time, sizeof time, "time         %.3f s (factor %.3f s, solve %.3f s, guard %.3f s, certificate %.3f s)\n",
                 r.seconds.total, r.seconds.factor, r.seconds.solve, r.seconds.guard, r.metrics.certificate.seconds);

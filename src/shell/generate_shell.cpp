@@ -84,7 +84,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.solve = r.guard.paper;
     r.solve.converged = r.guard.paper.converged && (r.guard.repaired_vertices == 0 || r.guard.solve.converged);
     r.seconds.factor = r.guard.factor_seconds;
-    r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds;
+    r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds + r.guard.relax.seconds;
     r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve;
     r.shell = make_shell(V, F, r.guard.top, options.thickness);
   }
