@@ -180,17 +180,25 @@ bool collinear(const Point& a, const Point& b, const Point& c) {
 
 } // namespace
 
-ExactFace exact_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f) {
+ExactFace exact_face(const std::array<int, 3>& id, const std::array<Point, 3>& p) {
   ExactFace face;
-  for (int k = 0; k < 3; ++k) {
-    face.id[k] = F(f, k);
-    face.p[k] = Point(V(F(f, k), 0), V(F(f, k), 1), V(F(f, k), 2));
-  }
+  face.id = id;
+  face.p = p;
   if (collinear(face.p[0], face.p[1], face.p[2])) {
     face.end = collinear_ends(face.p);
     face.dim = face.p[face.end[0]] == face.p[face.end[1]] ? 0 : 1;
   }
   return face;
+}
+
+ExactFace exact_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f) {
+  std::array<int, 3> id;
+  std::array<Point, 3> p;
+  for (int k = 0; k < 3; ++k) {
+    id[k] = F(f, k);
+    p[k] = Point(V(F(f, k), 0), V(F(f, k), 1), V(F(f, k), 2));
+  }
+  return exact_face(id, p);
 }
 
 bool faces_intersect(const ExactFace& a, const ExactFace& b) { return meet(hull(a), hull(b)); }

@@ -30,6 +30,9 @@ struct ExactFace {
 /// Face f of (V, F) (indices checked by the caller).
 ExactFace exact_face(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f);
 
+/// The face with these ids and corners (its dimension decided exactly).
+ExactFace exact_face(const std::array<int, 3>& id, const std::array<ExactPoint, 3>& p);
+
 /// Whether the closed point sets of a and b meet (vertex ids are ignored).
 bool faces_intersect(const ExactFace& a, const ExactFace& b);
 
