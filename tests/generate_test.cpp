@@ -169,3 +169,35 @@ TEST(Generate, ConjugateGradientPathGivesTheDirectReport) {
     }
   }
 }
+
+TEST(Generate, WarningNamesWhatTheValidStartCouldNotMend) {
+  // A guarded result whose start left a tet and a boundary pair unmended (as on a base folded
+  // flat onto itself at its rim, CGAL's cylinder_locally_refined): the warning names the base
+  // vertices involved, narrowest extrusion cone first, and the invalid-shell warning gives that
+  // as the cause instead of crossings or unextrudable vertices the base does not have.
+  const TriMesh mesh = make_builtin("builtin:torus:24");
+  GenerateResult r = generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, 0.05, 5));
+  ASSERT_TRUE(r.guarded);
+  ASSERT_TRUE(r.metrics.certificate.valid());
+  for (const std::string& w : generate_warnings(r)) ADD_FAILURE() << "unexpected warning: " << w;
+  const int f = 7;
+  r.guard.start.inverted_tets = {3 * f + 1};
+  r.guard.start.intersections = {{f, 2 * static_cast<int>(mesh.F.rows()) - 1}}; // a base row and a top row
+  const int narrowest = mesh.F(f, 2);
+  r.guard.directions.margin[narrowest] = 1e-5;
+  r.metrics.certificate.inverted_tets = 1;
+  const std::vector<std::string> w = generate_warnings(r);
+  ASSERT_EQ(w.size(), 2u);
+  const std::string opening =
+      "the valid start could not mend 1 tets and 1 boundary triangle pairs around base vertices " +
+      std::to_string(narrowest) + ", ";
+  EXPECT_EQ(w[0].rfind(opening, 0), 0u) << w[0];
+  EXPECT_NE(w[0].find("smallest extrusion margin 1e-05"), std::string::npos) << w[0];
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NE(w[0].find(std::to_string(mesh.F(f, k))), std::string::npos) << w[0];
+    const int top_face_vertex = mesh.F(mesh.F.rows() - 1, k);
+    EXPECT_NE(w[0].find(std::to_string(top_face_vertex)), std::string::npos) << "top row's base vertex " << w[0];
+  }
+  EXPECT_NE(w[1].find("(near what the start could not mend)"), std::string::npos) << w[1];
+  EXPECT_EQ(generate_report(r, "builtin:torus:24", 0.02)["guard"]["start_unmended_tets"], 1);
+}

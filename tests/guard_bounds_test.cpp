@@ -411,5 +411,30 @@ TEST(ExtrusionDirections, FacesNoDirectionSeesAreReported) {
   EXPECT_GT(best, d.margin[0] - 0.02);
 }
 
+TEST(ExtrusionDirections, RimWallCuttingThroughItsOwnFaceIsBlocked) {
+  // Vertex 0 at the origin on the rim of an open fan of two faces: (0, 1, 2) along the boundary
+  // edge to vertex 1 = (1, 0, 0), and (0, 2, 3), which reaches over the x > 0, z > 0 quarter of
+  // the xz plane (it contains (0.5, 0, 0.5)); (0, 3) is the other boundary edge. Lifted along +z
+  // the wall over edge (0, 1) is that quarter near vertex 0, so it crosses face (0, 2, 3) however
+  // thin the layer; along -z both walls stay clear; and once the fan is closed (no rim at
+  // vertex 0) nothing is blocked.
+  Eigen::MatrixXd V(4, 3);
+  V << 0, 0, 0, //
+      1, 0, 0,  //
+      0.5, -1, 0.5, //
+      0.5, 1, 0.5;
+  Eigen::MatrixXi F(2, 3);
+  F << 0, 1, 2, //
+      0, 2, 3;
+  Eigen::MatrixXd up = Eigen::MatrixXd::Zero(4, 3), down = up;
+  up.col(2).setOnes();
+  down.col(2).setConstant(-1);
+  EXPECT_EQ(rim_vertices_with_blocked_walls(V, F, up, {0}), std::vector<int>{0});
+  EXPECT_TRUE(rim_vertices_with_blocked_walls(V, F, down, {0}).empty());
+  Eigen::MatrixXi closed(3, 3);
+  closed << F, Eigen::RowVector3i(0, 3, 1);
+  EXPECT_TRUE(rim_vertices_with_blocked_walls(V, closed, up, {0}).empty());
+}
+
 } // namespace
 } // namespace gshell

@@ -2,10 +2,13 @@
 
 #include <gshell/error.h>
 
+#include "quality/exact_faces.h"
+
 #include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <limits>
 #include <string>
 
@@ -59,7 +62,58 @@ void best_direction(const std::vector<Eigen::Vector3d>& normals, Eigen::Vector3d
       }
 }
 
+// At a vertex v on the rim of an open surface, the side wall over each boundary edge (v, j)
+// leaves v between the edge and d: near v it is the planar sector spanned by b_j - b_v and d. If
+// that sector cuts through one of v's other faces, the wall meets that face however thin the
+// layer (both are sectors at v). Decided exactly on a wall triangle with those sides (a triangle
+// and a face sharing only v meet beyond v exactly when their sectors do).
+bool walls_clear(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int v, const std::vector<int>& faces,
+                 const Eigen::Vector3d& d) {
+  using detail::ExactPoint;
+  // Rim neighbours: j such that (v, j) is an edge of a single face around v.
+  std::vector<int> seen;
+  for (int f : faces)
+    for (int k = 0; k < 3; ++k)
+      if (F(f, k) != v) seen.push_back(F(f, k));
+  std::sort(seen.begin(), seen.end());
+  const Eigen::Vector3d b = V.row(v);
+  for (std::size_t i = 0; i < seen.size();) {
+    std::size_t next = i;
+    while (next < seen.size() && seen[next] == seen[i]) ++next;
+    const int j = seen[i];
+    const bool rim = next - i == 1;
+    i = next;
+    if (!rim) continue;
+    const Eigen::Vector3d e = V.row(j);
+    const Eigen::Vector3d lift = b + (e - b).norm() * d;
+    const detail::ExactFace wall = detail::exact_face( // its third corner is a new point: an id no face has
+        {v, j, -1}, {ExactPoint(b.x(), b.y(), b.z()), ExactPoint(e.x(), e.y(), e.z()),
+                     ExactPoint(lift.x(), lift.y(), lift.z())});
+    for (int f : faces)
+      if (F(f, 0) != j && F(f, 1) != j && F(f, 2) != j && // not the face along the edge itself
+          detail::faces_intersect_beyond_shared(wall, detail::exact_face(V, F, f)))
+        return false;
+  }
+  return true;
+}
+
 } // namespace
+
+std::vector<int> rim_vertices_with_blocked_walls(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                 const Eigen::MatrixXd& directions, const std::vector<int>& vertices) {
+  const int n = static_cast<int>(V.rows());
+  std::vector<int> slot(n, -1);
+  for (std::size_t k = 0; k < vertices.size(); ++k) slot[vertices[k]] = static_cast<int>(k);
+  std::vector<std::vector<int>> faces(vertices.size());
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (slot[F(f, k)] >= 0) faces[slot[F(f, k)]].push_back(f);
+  std::vector<int> blocked;
+  for (std::size_t k = 0; k < vertices.size(); ++k)
+    if (!walls_clear(V, F, vertices[k], faces[k], directions.row(vertices[k]).transpose())) blocked.push_back(vertices[k]);
+  std::sort(blocked.begin(), blocked.end());
+  return blocked;
+}
 
 ExtrusionDirections extrusion_directions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double normal_margin) {
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());

@@ -1,8 +1,10 @@
 #include <gshell/shell/generate_report.h>
 
 #include <gshell/quality/certificate_report.h>
+#include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/stretch_report.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -71,6 +73,8 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                   {"repair_iterations", g.solve.iterations},
                   {"relax_iterations", g.relax.iterations},
                   {"relax_rounds_kept", g.relax.kept_rounds},
+                  {"start_unmended_tets", g.start.inverted_tets.size()},
+                  {"start_unmended_pairs", g.start.intersections.size()},
                   {"unprotected_faces", g.unprotected_faces},
                   {"min_relative_volume", g.solve.iterations > 0 ? nlohmann::json(g.solve.min_relative_volume)
                                                                  : nlohmann::json(nullptr)}};
@@ -100,15 +104,54 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
       ids += (i ? ", " : "") + std::to_string(r.unextrudable_vertices[i]);
     if (r.unextrudable_vertices.size() > 10) ids += ", ...";
     w.push_back(std::to_string(r.unextrudable_vertices.size()) +
-                " base vertices have faces no direction sees from their positive side (" + ids +
-                "): prisms around them may stay inverted");
+                " base vertices cannot be extruded (" + ids +
+                "; no direction sees all their faces from the positive side, or on the rim their side walls "
+                "cut through their own faces): prisms around them may stay inverted");
   }
-  if (c.intersections_tested() && !c.valid())
+  const ValidStart& start = r.guard.start;
+  const bool unmended = r.guarded && (!start.inverted_tets.empty() || !start.intersections.empty());
+  if (unmended) {
+    // The base vertices of what is left, those with the narrowest cone of extrusion directions
+    // first: that is where the base folds nearly flat onto itself.
+    const int n = static_cast<int>(r.shell.base.rows());
+    std::vector<char> touched(n, 0);
+    for (int t : start.inverted_tets)
+      for (int k = 0; k < 3; ++k) touched[r.shell.F(t / 3, k)] = 1;
+    if (!start.intersections.empty()) {
+      const ShellBoundary boundary = shell_boundary(r.shell.F, n);
+      for (const auto& [a, b] : start.intersections)
+        for (int row : {a, b})
+          for (int k = 0; k < 3; ++k) touched[boundary.F(row, k) % n] = 1;
+    }
+    std::vector<int> vertices;
+    for (int i = 0; i < n; ++i)
+      if (touched[i]) vertices.push_back(i);
+    const Eigen::VectorXd& margin = r.guard.directions.margin;
+    std::stable_sort(vertices.begin(), vertices.end(), [&](int a, int b) { return margin[a] < margin[b]; });
+    std::string ids;
+    for (std::size_t i = 0; i < vertices.size() && i < 10; ++i) ids += (i ? ", " : "") + std::to_string(vertices[i]);
+    if (vertices.size() > 10) ids += ", ...";
+    w.push_back("the valid start could not mend " + std::to_string(start.inverted_tets.size()) + " tets and " +
+                std::to_string(start.intersections.size()) + " boundary triangle pairs around base vertices " + ids +
+                format(" (smallest extrusion margin %.2g: faces folded nearly flat onto each other)",
+                       vertices.empty() ? 0.0 : margin[vertices.front()]) +
+                ", the shell is guarded everywhere else");
+  }
+  if (c.intersections_tested() && !c.valid()) {
+    std::string where = " (unguarded result)";
+    if (r.guarded) {
+      std::vector<std::string> causes;
+      if (c.base_self_intersections > 0) causes.push_back("the base's crossings");
+      if (!r.unextrudable_vertices.empty()) causes.push_back("unextrudable vertices");
+      if (unmended) causes.push_back("what the start could not mend");
+      where = " (near ";
+      for (std::size_t i = 0; i < causes.size(); ++i) where += (i == 0 ? "" : i + 1 == causes.size() ? " and " : ", ") + causes[i];
+      where += ")";
+    }
     w.push_back(std::string("the shell is not valid: ") + std::to_string(c.inverted_tets) + " inverted tets, " +
                 std::to_string(c.top_self_intersections) + " top/top, " + std::to_string(c.top_base_intersections) +
-                " top/base, " + std::to_string(c.wall_intersections) + " wall intersections" +
-                (r.guarded ? std::string(" (near the base's crossings or unextrudable vertices)")
-                           : std::string(" (unguarded result)")));
+                " top/base, " + std::to_string(c.wall_intersections) + " wall intersections" + where);
+  }
   return w;
 }
 

@@ -7,6 +7,7 @@
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numeric>
@@ -79,6 +80,9 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.guard = guarded_shell(V, F, rest, options.thickness, options.guard, solve, options.linear);
     r.guarded = true;
     r.unextrudable_vertices = r.guard.directions.unextrudable;
+    r.unextrudable_vertices.insert(r.unextrudable_vertices.end(), r.guard.blocked_rim_vertices.begin(),
+                                   r.guard.blocked_rim_vertices.end());
+    std::sort(r.unextrudable_vertices.begin(), r.unextrudable_vertices.end());
     // The paper's iterations (the energy the guard starts from); the repair's own iterations, on
     // E_guard of the region it moves, are in guard.solve.
     r.solve = r.guard.paper;

@@ -29,4 +29,13 @@ struct ExtrusionDirections {
 ExtrusionDirections extrusion_directions(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                          double normal_margin = 0.5);
 
+/// Those of `vertices` (base vertices of (V, F)) on the rim of an open surface whose side walls,
+/// lifted along their row of `directions`, cut through one of the vertex's own faces: near the
+/// vertex the wall over a boundary edge (v, j) is the sector spanned by b_j - b_v and the
+/// direction, and if that sector crosses another face at v the two meet however thin the layer
+/// is made (e.g. a rim folded flat back onto the faces next to it). Exact predicates on the
+/// rounded lifted corner. Ascending.
+std::vector<int> rim_vertices_with_blocked_walls(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                                 const Eigen::MatrixXd& directions, const std::vector<int>& vertices);
+
 } // namespace gshell

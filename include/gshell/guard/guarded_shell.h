@@ -101,6 +101,10 @@ GuardOptions generation_guard_options();
 struct GuardedShell {
   Eigen::MatrixXd top;                 ///< n x 3
   ExtrusionDirections directions;      ///< directions.unextrudable: vertices no direction serves
+  /// Rim vertices among those of what the start could not mend whose side walls cut through their
+  /// own faces along their direction (rim_vertices_with_blocked_walls): no thickness mends them.
+  /// Reported with the unextrudable vertices; ascending.
+  std::vector<int> blocked_rim_vertices;
   std::vector<std::pair<int, int>> base_self_intersections; ///< pairs of base faces (the input's)
   /// Per row of shell_boundary(F, n): the triangles the guard cannot keep clean, near the base's
   /// own crossings and around unextrudable vertices (the triangles excluded from contacts and

@@ -88,7 +88,9 @@ struct GenerateResult {
   std::optional<CurvatureGeneration> curvature; ///< set by the curvature method
   bool guarded = false; ///< made by the guarded generation
   /// Base vertices where no extrusion direction sees every incident face from its positive side
-  /// (extrusion_directions); only tets of prisms touching them may be inverted. Ascending.
+  /// (extrusion_directions), and rim vertices whose side walls cut through their own faces
+  /// (GuardedShell::blocked_rim_vertices); only the prisms and walls touching them may stay
+  /// invalid. Ascending.
   std::vector<int> unextrudable_vertices;
   /// The guarded generation's own account (start, solver statistics); empty when unguarded.
   GuardedShell guard;
