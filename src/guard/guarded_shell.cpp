@@ -228,16 +228,10 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     for (int t : g.start.inverted_tets) p.skip_tets[t] = 1;
     for (const auto& [a, b] : g.start.intersections) p.excluded_triangles[a] = p.excluded_triangles[b] = 1;
     g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
-    std::vector<char> touched(n, 0);
-    for (int t : g.start.inverted_tets)
-      for (int k = 0; k < 3; ++k) touched[F(t / 3, k)] = 1;
-    for (const auto& [a, b] : g.start.intersections)
-      for (int row : {a, b})
-        for (int k = 0; k < 3; ++k) touched[boundary.F(row, k) % n] = 1;
-    for (int v : g.directions.unextrudable) touched[v] = 0;
     std::vector<int> candidates;
-    for (int i = 0; i < n; ++i)
-      if (touched[i]) candidates.push_back(i);
+    for (int v : unmended_vertices(g.start, F, n))
+      if (!std::binary_search(g.directions.unextrudable.begin(), g.directions.unextrudable.end(), v))
+        candidates.push_back(v);
     g.blocked_rim_vertices = rim_vertices_with_blocked_walls(V, F, g.directions.direction, candidates);
   }
   {

@@ -1,6 +1,7 @@
 #include <gshell/guard/valid_start.h>
 
 #include <gshell/error.h>
+#include <gshell/quality/shell_boundary.h>
 #include <gshell/shell/prism_tets.h>
 
 #include "guard/start_check.h"
@@ -176,6 +177,22 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
   }
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
+}
+
+std::vector<int> unmended_vertices(const ValidStart& start, const Eigen::MatrixXi& F, int n) {
+  std::vector<char> touched(n, 0);
+  for (int t : start.inverted_tets)
+    for (int k = 0; k < 3; ++k) touched[F(t / 3, k)] = 1;
+  if (!start.intersections.empty()) {
+    const ShellBoundary boundary = shell_boundary(F, n);
+    for (const auto& [a, b] : start.intersections)
+      for (int row : {a, b})
+        for (int k = 0; k < 3; ++k) touched[boundary.F(row, k) % n] = 1;
+  }
+  std::vector<int> vertices;
+  for (int i = 0; i < n; ++i)
+    if (touched[i]) vertices.push_back(i);
+  return vertices;
 }
 
 } // namespace gshell

@@ -1,7 +1,6 @@
 #include <gshell/shell/generate_report.h>
 
 #include <gshell/quality/certificate_report.h>
-#include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/stretch_report.h>
 
 #include <algorithm>
@@ -113,19 +112,7 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
   if (unmended) {
     // The base vertices of what is left, those with the narrowest cone of extrusion directions
     // first: that is where the base folds nearly flat onto itself.
-    const int n = static_cast<int>(r.shell.base.rows());
-    std::vector<char> touched(n, 0);
-    for (int t : start.inverted_tets)
-      for (int k = 0; k < 3; ++k) touched[r.shell.F(t / 3, k)] = 1;
-    if (!start.intersections.empty()) {
-      const ShellBoundary boundary = shell_boundary(r.shell.F, n);
-      for (const auto& [a, b] : start.intersections)
-        for (int row : {a, b})
-          for (int k = 0; k < 3; ++k) touched[boundary.F(row, k) % n] = 1;
-    }
-    std::vector<int> vertices;
-    for (int i = 0; i < n; ++i)
-      if (touched[i]) vertices.push_back(i);
+    std::vector<int> vertices = unmended_vertices(start, r.shell.F, static_cast<int>(r.shell.base.rows()));
     const Eigen::VectorXd& margin = r.guard.directions.margin;
     std::stable_sort(vertices.begin(), vertices.end(), [&](int a, int b) { return margin[a] < margin[b]; });
     std::string ids;

@@ -67,4 +67,9 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
                        const std::vector<char>& skip_tets = {}, const std::vector<char>& excluded_triangles = {},
                        const ValidStartOptions& options = {});
 
+/// The base vertices (ids in 0..n-1 of F's mesh) of what `start`'s last check still found: the
+/// faces of its inverted tets and of its intersecting boundary rows (walls and tops name their
+/// base vertices). Ascending; empty when the start mended everything.
+std::vector<int> unmended_vertices(const ValidStart& start, const Eigen::MatrixXi& F, int n);
+
 } // namespace gshell
