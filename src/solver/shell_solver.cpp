@@ -12,8 +12,10 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <mutex>
 #include <numeric>
 #include <string>
@@ -57,10 +59,22 @@ struct LocalStepTets {
 };
 static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double), "Dm_inv matrices must be contiguous");
 
-// The local step over tets [t_begin, t_end): their energy, and with Q (9 per tet) every tet's
-// vol Dm_inv R^T (row-major) for the right-hand side. X: row-major positions.
-GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const double* X, double* Q, int t_begin,
-                                          int t_end) {
+// Where the local step puts each tet's vol Dm_inv R^T: stored per tet (Q, 9 per tet, row-major)
+// for a later gather, or added at once into the rotations' part of the right-hand side (b: nf x 3
+// column-major, rows by free_index; the caller makes sure no other thread adds to the same rows).
+struct RotationSink {
+  double* Q = nullptr;
+  double* b = nullptr;
+  const int* free_index = nullptr;
+  std::size_t nf = 0;
+};
+
+// The local step over tets [t_begin, t_end): their energy, and (with a sink) every tet's
+// vol Dm_inv R^T for the right-hand side. X: row-major positions.
+GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const double* X, const RotationSink& sink,
+                                          int t_begin, int t_end) {
+  double* const Q = sink.Q;
+  const bool rotations = Q || sink.b;
   constexpr int W = detail::kPolarLanes;
   double e = 0;
   // W tets at a time in struct-of-arrays layout (entry k of lane l at [k * W + l]) so that the
@@ -90,7 +104,7 @@ GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const doubl
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c)
           Fs[(3 * r + c) * W + l] = D[r][0] * di[3 * c] + D[r][1] * di[1 + 3 * c] + D[r][2] * di[2 + 3 * c];
-      if (Q) // Ds: Dm_inv row-major
+      if (rotations) // Ds: Dm_inv row-major
         for (int k = 0; k < 3; ++k)
           for (int c = 0; c < 3; ++c) Ds[(3 * k + c) * W + l] = di[k + 3 * c];
       vols[l] = tets.vol[t];
@@ -103,7 +117,7 @@ GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const doubl
         d2[l] += d * d;
       }
     for (int l = 0; l < W; ++l) e += vols[l] * d2[l];
-    if (!Q) continue;
+    if (!rotations) continue;
     // vol Dm_inv R^T: rows 1..3 of this tet's share vol G_t R^T of the right-hand side (row 0
     // is minus their sum, G_t = [-1 -1 -1; I] Dm_inv).
     for (int k = 0; k < 3; ++k)
@@ -112,17 +126,33 @@ GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const doubl
           Ps[(3 * k + r) * W + l] =
               vols[l] * (Ds[(3 * k) * W + l] * Rs[(3 * r) * W + l] + Ds[(3 * k + 1) * W + l] * Rs[(3 * r + 1) * W + l] +
                          Ds[(3 * k + 2) * W + l] * Rs[(3 * r + 2) * W + l]);
-    // Stored per tet, contiguously, so the writes stream; the gather picks the rows it needs.
-    double* q = Q + 9 * static_cast<std::size_t>(t0);
+    if (Q) {
+      // Stored per tet, contiguously, so the writes stream; the gather picks the rows it needs.
+      double* q = Q + 9 * static_cast<std::size_t>(t0);
+      for (int l = 0; l < lanes; ++l)
+        for (int k = 0; k < 9; ++k) q[9 * l + k] = Ps[k * W + l];
+      continue;
+    }
+    // Added as gather_rhs would add them (same expressions, same order per row).
     for (int l = 0; l < lanes; ++l)
-      for (int k = 0; k < 9; ++k) q[9 * l + k] = Ps[k * W + l];
+      for (int c = 0; c < 4; ++c) {
+        const int j = sink.free_index[tets.T[t0 + l + c * tets.K]];
+        if (j < 0) continue;
+        double* row = sink.b + j;
+        for (int r = 0; r < 3; ++r) {
+          if (c == 0)
+            row[r * sink.nf] -= Ps[r * W + l] + Ps[(3 + r) * W + l] + Ps[(6 + r) * W + l];
+          else
+            row[r * sink.nf] += Ps[(3 * (c - 1) + r) * W + l];
+        }
+      }
   }
   return e;
 }
 
 GSHELL_SIMD_DISPATCH(double, local_step_chunk, local_step_body,
-                     (const LocalStepTets& tets, const double* X, double* Q, int t_begin, int t_end),
-                     (tets, X, Q, t_begin, t_end))
+                     (const LocalStepTets& tets, const double* X, const RotationSink& sink, int t_begin, int t_end),
+                     (tets, X, sink, t_begin, t_end))
 
 } // namespace
 
@@ -144,6 +174,13 @@ struct ShellSolver::Impl {
 
   std::vector<int> free_vertices; // free index -> vertex
   std::vector<int> free_index;    // vertex -> free index, -1 for vertices kept where they start
+  // The local step's chunks (kChunk tets each) grouped by colour: chunks of one colour share no
+  // free vertex, so solve() lets them add their rows of the right-hand side straight into it, in
+  // parallel and in a fixed order, instead of storing 72 bytes of rotations per tet for a gather
+  // (1.1 GB at 15.7M tets, the largest buffer of a big generation). Chunks of colour c are
+  // colour_chunk[colour_start[c] .. colour_start[c + 1]). Empty when the tets are ordered so
+  // incoherently that too many colours would be needed (then solve() stores and gathers).
+  std::vector<int> colour_start, colour_chunk;
   // Per free vertex: the (tet * 4 + corner) slots of the local step's RHS rows to sum (a gather,
   // so the global step's right-hand side is built in parallel without atomics).
   std::vector<int> gather_start, gather_slot;
@@ -218,6 +255,10 @@ struct ShellSolver::Impl {
 
   // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS.
   double local_step(const double* X, double* Q) const;
+  // Energy of X, and b (3 nf) <- the rotations' part of the right-hand side, what gather_rhs
+  // would give row by row, bit for bit (needs the colouring).
+  double local_step_into_rhs(const double* X, std::vector<double>& b) const;
+  void colour_chunks();
   double soft_energy(const double* X, const Eigen::MatrixXd& targets) const;
   // rhs: nf x 3 column-major, overwritten with the solution; X (row-major, all vertices) gives
   // CG its start. Returns the CG iterations taken (0 on the direct path).
@@ -233,6 +274,8 @@ struct ShellSolver::Impl {
   void gather_rhs(int j, const double* Q, double b[3]) const;
   // X's free rows <- the minimiser for the rotations in Q (rhs: nf x 3 scratch).
   int global_step(double* X, const double* Q, const std::vector<double>& rhs_const, std::vector<double>& rhs) const;
+  // X's free rows <- the solution for the full right-hand side rhs (overwritten); CG iterations.
+  int solve_free_rows(double* X, std::vector<double>& rhs) const;
 
   void check_positions(const Eigen::MatrixXd& X, const char* where) const {
     if (X.rows() != N || X.cols() != 3)
@@ -282,6 +325,7 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
     }
   nf = static_cast<int>(free_vertices.size());
 
+  colour_chunks();
   gather_start.assign(nf + 1, 0);
   for (int t = 0; t < K; ++t)
     for (int j = 0; j < 4; ++j)
@@ -289,11 +333,17 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
   for (int j = 0; j < nf; ++j) gather_start[j + 1] += gather_start[j];
   gather_slot.resize(gather_start[nf]);
   std::vector<int> fill(gather_start.begin(), gather_start.end() - 1);
-  for (int t = 0; t < K; ++t)
-    for (int k = 0; k < 4; ++k) {
-      const int j = free_index[tet(t, k)];
-      if (j >= 0) gather_slot[fill[j]++] = 4 * t + k;
-    }
+  // Each row's slots in the order the coloured local step adds them (colour by colour, chunks and
+  // tets ascending), so that the gather and the fused step give the same bits.
+  auto add_slots = [&](int t_begin, int t_end) {
+    for (int t = t_begin; t < t_end; ++t)
+      for (int k = 0; k < 4; ++k) {
+        const int j = free_index[tet(t, k)];
+        if (j >= 0) gather_slot[fill[j]++] = 4 * t + k;
+      }
+  };
+  if (colour_chunk.empty()) add_slots(0, K);
+  for (int chunk : colour_chunk) add_slots(chunk * kChunk, std::min(K, (chunk + 1) * kChunk));
 
   soft_free.clear();
   if (has_soft)
@@ -476,9 +526,64 @@ double ShellSolver::Impl::local_step(const double* X, double* Q) const {
   const int chunks = (K + kChunk - 1) / kChunk;
   std::vector<double> chunk_energy(chunks, 0.0);
   const LocalStepTets tets = local_step_tets();
+  const RotationSink sink{Q};
   tbb::parallel_for(0, chunks, [&](int ci) {
-    chunk_energy[ci] = local_step_chunk(tets, X, Q, ci * kChunk, std::min(K, (ci + 1) * kChunk));
+    chunk_energy[ci] = local_step_chunk(tets, X, sink, ci * kChunk, std::min(K, (ci + 1) * kChunk));
   });
+  double E = 0;
+  for (double e : chunk_energy) E += e;
+  return E;
+}
+
+void ShellSolver::Impl::colour_chunks() {
+  // Greedy colouring: a chunk takes the lowest colour no earlier chunk sharing a free vertex has
+  // (one bit per colour and vertex). Tets in mesh order touch a compact region per chunk, so a
+  // few colours do (8 for an icosphere's 30 chunks); a shuffled order needs about one per chunk,
+  // and then the gather path is kept.
+  constexpr int kMaxColours = 32;
+  colour_start.clear();
+  colour_chunk.clear();
+  const int chunks = (K + kChunk - 1) / kChunk;
+  std::vector<std::uint32_t> used(nf, 0);
+  std::vector<int> colour(chunks, 0);
+  int colours = 0;
+  for (int ci = 0; ci < chunks; ++ci) {
+    std::uint32_t taken = 0;
+    const int t_end = std::min(K, (ci + 1) * kChunk);
+    for (int t = ci * kChunk; t < t_end; ++t)
+      for (int k = 0; k < 4; ++k)
+        if (const int j = free_index[tet(t, k)]; j >= 0) taken |= used[j];
+    if (taken == ~std::uint32_t{0}) return; // more than kMaxColours needed
+    const int c = std::countr_one(taken);
+    colour[ci] = c;
+    colours = std::max(colours, c + 1);
+    for (int t = ci * kChunk; t < t_end; ++t)
+      for (int k = 0; k < 4; ++k)
+        if (const int j = free_index[tet(t, k)]; j >= 0) used[j] |= std::uint32_t{1} << c;
+  }
+  static_assert(kMaxColours == 32, "one bit per colour in a 32-bit mask");
+  // Colours run one after another: with fewer than 4 chunks per colour on average the fused
+  // step would lose more parallelism than the stored rotations cost.
+  if (chunks < 4 * colours) return;
+  colour_start.assign(colours + 1, 0);
+  for (int ci = 0; ci < chunks; ++ci) ++colour_start[colour[ci] + 1];
+  for (int c = 0; c < colours; ++c) colour_start[c + 1] += colour_start[c];
+  colour_chunk.resize(chunks);
+  std::vector<int> fill(colour_start.begin(), colour_start.end() - 1);
+  for (int ci = 0; ci < chunks; ++ci) colour_chunk[fill[colour[ci]]++] = ci;
+}
+
+double ShellSolver::Impl::local_step_into_rhs(const double* X, std::vector<double>& b) const {
+  const int chunks = (K + kChunk - 1) / kChunk;
+  std::vector<double> chunk_energy(chunks, 0.0);
+  const LocalStepTets tets = local_step_tets();
+  b.assign(3 * static_cast<std::size_t>(nf), 0.0);
+  const RotationSink sink{nullptr, b.data(), free_index.data(), static_cast<std::size_t>(nf)};
+  for (std::size_t c = 0; c + 1 < colour_start.size(); ++c)
+    tbb::parallel_for(colour_start[c], colour_start[c + 1], [&](int s) {
+      const int ci = colour_chunk[s];
+      chunk_energy[ci] = local_step_chunk(tets, X, sink, ci * kChunk, std::min(K, (ci + 1) * kChunk));
+    });
   double E = 0;
   for (double e : chunk_energy) E += e;
   return E;
@@ -530,6 +635,10 @@ int ShellSolver::Impl::global_step(double* X, const double* Q, const std::vector
       rhs[i] = b[d] + rhs_const[i];
     }
   });
+  return solve_free_rows(X, rhs);
+}
+
+int ShellSolver::Impl::solve_free_rows(double* X, std::vector<double>& rhs) const {
   const int cg_iterations = linear_solve(X, rhs);
   tbb::parallel_for(0, nf, [&](int j) {
     for (int d = 0; d < 3; ++d) X[3 * static_cast<std::size_t>(free_vertices[j]) + d] = rhs[j + static_cast<std::size_t>(d) * nf];
@@ -848,25 +957,36 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
   std::vector<double> X = to_row_major(Xio);
   const std::vector<double> rhs_const = m.rhs_constant(X.data(), soft_targets);
-  // Not zeroed: the first local step writes every entry, from all threads (zeroing it here, on one
-  // thread, was the largest single-threaded first touch of a big generation: 1.1 GB at 15.7M tets).
-  const std::unique_ptr<double[]> Q = std::make_unique_for_overwrite<double[]>(9 * static_cast<std::size_t>(m.K));
-  std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf));
+  // With the colouring the local step adds the rotations straight into b; otherwise they are
+  // stored per tet (Q) and gathered. Q is not zeroed: the first local step writes every entry,
+  // from all threads.
+  const bool fused = !m.colour_chunk.empty();
+  const std::unique_ptr<double[]> Q =
+      fused ? nullptr : std::make_unique_for_overwrite<double[]>(9 * static_cast<std::size_t>(m.K));
+  std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf)), b;
+  auto local_step = [&] { return fused ? m.local_step_into_rhs(X.data(), b) : m.local_step(X.data(), Q.get()); };
+  auto global_step = [&] {
+    if (!fused) return m.global_step(X.data(), Q.get(), rhs_const, rhs);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rhs.size(), 1 << 14), [&](const auto& r) {
+      for (std::size_t i = r.begin(); i < r.end(); ++i) rhs[i] = b[i] + rhs_const[i];
+    });
+    return m.solve_free_rows(X.data(), rhs);
+  };
   SolveResult result;
   // Energy at rounding level (stretch below 1e-20 per unit rest volume: singular values within
   // 1e-10 of 1, e.g. a flat shell that starts optimal) has no relative change worth waiting for;
   // without this, such a shell ran to the iteration limit on rounding noise.
   const double negligible_energy = 1e-20 * m.rest->volume.sum();
   auto t_local = Clock::now();
-  double E = m.local_step(X.data(), Q.get()) + m.soft_energy(X.data(), soft_targets);
+  double E = local_step() + m.soft_energy(X.data(), soft_targets);
   result.local_seconds += seconds_since(t_local);
   result.energy.push_back(E);
   for (int it = 1; it <= options.max_iterations && m.nf > 0; ++it) {
     const auto t_global = Clock::now();
-    result.linear_iterations += m.global_step(X.data(), Q.get(), rhs_const, rhs);
+    result.linear_iterations += global_step();
     result.global_seconds += seconds_since(t_global);
     t_local = Clock::now();
-    const double E_new = m.local_step(X.data(), Q.get()) + m.soft_energy(X.data(), soft_targets);
+    const double E_new = local_step() + m.soft_energy(X.data(), soft_targets);
     result.local_seconds += seconds_since(t_local);
     result.energy.push_back(E_new);
     result.iterations = it;
