@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 
+#include "geometry/vertex_stars.h"
 #include "quality/exact_faces.h"
 
 #include <Eigen/Geometry>
@@ -67,32 +68,27 @@ void best_direction(const std::vector<Eigen::Vector3d>& normals, Eigen::Vector3d
 // that sector cuts through one of v's other faces, the wall meets that face however thin the
 // layer (both are sectors at v). Decided exactly on a wall triangle with those sides (a triangle
 // and a face sharing only v meet beyond v exactly when their sectors do).
-bool walls_clear(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int v, const std::vector<int>& faces,
-                 const Eigen::Vector3d& d) {
+bool walls_clear(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const detail::VertexStars& stars, int v,
+                 const Eigen::Vector3d& d, std::vector<detail::Neighbour>& neighbours) {
   using detail::ExactPoint;
-  // Rim neighbours: j such that (v, j) is an edge of a single face around v.
-  std::vector<int> seen;
-  for (int f : faces)
-    for (int k = 0; k < 3; ++k)
-      if (F(f, k) != v) seen.push_back(F(f, k));
-  std::sort(seen.begin(), seen.end());
+  stars.neighbours(v, neighbours); // the faces of edge (v, w) are one run of equal `vertex`
   const Eigen::Vector3d b = V.row(v);
-  for (std::size_t i = 0; i < seen.size();) {
-    std::size_t next = i;
-    while (next < seen.size() && seen[next] == seen[i]) ++next;
-    const int j = seen[i];
-    const bool rim = next - i == 1;
-    i = next;
+  for (std::size_t i = 0; i < neighbours.size(); ++i) {
+    const int j = neighbours[i].vertex;
+    const bool rim = (i == 0 || neighbours[i - 1].vertex != j) &&
+                     (i + 1 == neighbours.size() || neighbours[i + 1].vertex != j);
     if (!rim) continue;
     const Eigen::Vector3d e = V.row(j);
     const Eigen::Vector3d lift = b + (e - b).norm() * d;
     const detail::ExactFace wall = detail::exact_face( // its third corner is a new point: an id no face has
         {v, j, -1}, {ExactPoint(b.x(), b.y(), b.z()), ExactPoint(e.x(), e.y(), e.z()),
                      ExactPoint(lift.x(), lift.y(), lift.z())});
-    for (int f : faces)
-      if (F(f, 0) != j && F(f, 1) != j && F(f, 2) != j && // not the face along the edge itself
-          detail::faces_intersect_beyond_shared(wall, detail::exact_face(V, F, f)))
+    for (int c = 0; c < stars.degree(v); ++c) {
+      const detail::VertexStars::Corner& corner = stars.corner(v, c);
+      if (corner.next != j && corner.prev != j && // not the face along the edge itself
+          detail::faces_intersect_beyond_shared(wall, detail::exact_face(V, F, corner.face)))
         return false;
+    }
   }
   return true;
 }
@@ -101,16 +97,12 @@ bool walls_clear(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int v, cons
 
 std::vector<int> rim_vertices_with_blocked_walls(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                                  const Eigen::MatrixXd& directions, const std::vector<int>& vertices) {
-  const int n = static_cast<int>(V.rows());
-  std::vector<int> slot(n, -1);
-  for (std::size_t k = 0; k < vertices.size(); ++k) slot[vertices[k]] = static_cast<int>(k);
-  std::vector<std::vector<int>> faces(vertices.size());
-  for (int f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k)
-      if (slot[F(f, k)] >= 0) faces[slot[F(f, k)]].push_back(f);
   std::vector<int> blocked;
-  for (std::size_t k = 0; k < vertices.size(); ++k)
-    if (!walls_clear(V, F, vertices[k], faces[k], directions.row(vertices[k]).transpose())) blocked.push_back(vertices[k]);
+  if (vertices.empty()) return blocked;
+  const detail::VertexStars stars(detail::RowMajorFaces(F), static_cast<int>(V.rows()));
+  std::vector<detail::Neighbour> neighbours;
+  for (int v : vertices)
+    if (!walls_clear(V, F, stars, v, directions.row(v).transpose(), neighbours)) blocked.push_back(v);
   std::sort(blocked.begin(), blocked.end());
   return blocked;
 }

@@ -253,11 +253,10 @@ struct ShellSolver::Impl {
   void build_multigrid(); // the V-cycle preconditioner on L_ff
   bool anchored() const;  // at least half the free rows couple to a kept vertex or a soft spring
 
-  // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS.
-  double local_step(const double* X, double* Q) const;
-  // Energy of X, and b (3 nf) <- the rotations' part of the right-hand side, what gather_rhs
-  // would give row by row, bit for bit (needs the colouring).
-  double local_step_into_rhs(const double* X, std::vector<double>& b) const;
+  // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS;
+  // with b (3 nf, needs the colouring) instead, b <- the rotations' part of the right-hand side,
+  // what gather_rhs would give row by row, bit for bit.
+  double local_step(const double* X, double* Q, std::vector<double>* b = nullptr) const;
   void colour_chunks();
   double soft_energy(const double* X, const Eigen::MatrixXd& targets) const;
   // rhs: nf x 3 column-major, overwritten with the solution; X (row-major, all vertices) gives
@@ -521,15 +520,24 @@ void ShellSolver::Impl::factorize() const {
   factor_seconds += seconds_since(t0);
 }
 
-double ShellSolver::Impl::local_step(const double* X, double* Q) const {
+double ShellSolver::Impl::local_step(const double* X, double* Q, std::vector<double>* b) const {
   static_assert(kChunk % detail::kPolarLanes == 0);
   const int chunks = (K + kChunk - 1) / kChunk;
   std::vector<double> chunk_energy(chunks, 0.0);
   const LocalStepTets tets = local_step_tets();
-  const RotationSink sink{Q};
-  tbb::parallel_for(0, chunks, [&](int ci) {
+  RotationSink sink{Q};
+  if (b) {
+    b->assign(3 * static_cast<std::size_t>(nf), 0.0);
+    sink = {nullptr, b->data(), free_index.data(), static_cast<std::size_t>(nf)};
+  }
+  auto run = [&](int ci) {
     chunk_energy[ci] = local_step_chunk(tets, X, sink, ci * kChunk, std::min(K, (ci + 1) * kChunk));
-  });
+  };
+  if (!b)
+    tbb::parallel_for(0, chunks, run);
+  else // colour after colour: chunks of one colour add to disjoint rows
+    for (std::size_t c = 0; c + 1 < colour_start.size(); ++c)
+      tbb::parallel_for(colour_start[c], colour_start[c + 1], [&](int s) { run(colour_chunk[s]); });
   double E = 0;
   for (double e : chunk_energy) E += e;
   return E;
@@ -571,22 +579,6 @@ void ShellSolver::Impl::colour_chunks() {
   colour_chunk.resize(chunks);
   std::vector<int> fill(colour_start.begin(), colour_start.end() - 1);
   for (int ci = 0; ci < chunks; ++ci) colour_chunk[fill[colour[ci]]++] = ci;
-}
-
-double ShellSolver::Impl::local_step_into_rhs(const double* X, std::vector<double>& b) const {
-  const int chunks = (K + kChunk - 1) / kChunk;
-  std::vector<double> chunk_energy(chunks, 0.0);
-  const LocalStepTets tets = local_step_tets();
-  b.assign(3 * static_cast<std::size_t>(nf), 0.0);
-  const RotationSink sink{nullptr, b.data(), free_index.data(), static_cast<std::size_t>(nf)};
-  for (std::size_t c = 0; c + 1 < colour_start.size(); ++c)
-    tbb::parallel_for(colour_start[c], colour_start[c + 1], [&](int s) {
-      const int ci = colour_chunk[s];
-      chunk_energy[ci] = local_step_chunk(tets, X, sink, ci * kChunk, std::min(K, (ci + 1) * kChunk));
-    });
-  double E = 0;
-  for (double e : chunk_energy) E += e;
-  return E;
 }
 
 double ShellSolver::Impl::soft_energy(const double* X, const Eigen::MatrixXd& targets) const {
@@ -964,7 +956,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   const std::unique_ptr<double[]> Q =
       fused ? nullptr : std::make_unique_for_overwrite<double[]>(9 * static_cast<std::size_t>(m.K));
   std::vector<double> rhs(3 * static_cast<std::size_t>(m.nf)), b;
-  auto local_step = [&] { return fused ? m.local_step_into_rhs(X.data(), b) : m.local_step(X.data(), Q.get()); };
+  auto local_step = [&] { return m.local_step(X.data(), Q.get(), fused ? &b : nullptr); };
   auto global_step = [&] {
     if (!fused) return m.global_step(X.data(), Q.get(), rhs_const, rhs);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rhs.size(), 1 << 14), [&](const auto& r) {
