@@ -5,6 +5,7 @@
 // bit.
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/shell_certificate.h>
+#include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
@@ -15,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <random>
@@ -143,6 +145,38 @@ TEST(GuardedGeneration, TorusThickerThanItsHoleThinsOnlyInTheHole) {
       if (radial > R + 0.9 * r) EXPECT_NEAR(g.metrics.vertex_thickness[i], u.metrics.vertex_thickness[i], 0.05) << i;
     }
   }
+}
+
+TEST(GuardedGeneration, WhatAStartThatGivesUpStaysOutOfTheGuardAndAloneInvalid) {
+  // A start that gives up (on real input only a degenerate base makes it: a rim folded flat onto
+  // its neighbours) leaves its unmended tets and boundary pairs out of the guard, so that the
+  // guarded solver still starts valid for its barriers. Forced here on a bumpy sphere whose
+  // unguarded shell inverts and intersects, by allowing the start two rounds (one thinning): the
+  // repair then runs beside what was handed over, every tet and pair left invalid must be one the
+  // start handed over, everything else certifies clean, and the warning says so.
+  const TriMesh m = bumpy_sphere(3, 0.4);
+  GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.05));
+  o.guard.start_max_rounds = 2;
+  const GenerateResult g = generate_shell(m.V, m.F, o);
+  ASSERT_TRUE(g.guarded);
+  const std::vector<int>& handed = g.guard.start.inverted_tets; // ascending, as the checker reports them
+  ASSERT_FALSE(handed.empty() || g.guard.start.intersections.empty()) << "want both tets and pairs handed over";
+  EXPECT_GT(g.guard.repaired_vertices, 0);
+  const ShellCertificate c = recertify(g);
+  EXPECT_EQ(c.base_self_intersections, 0);
+  for (int t : c.inverted_tet_ids)
+    EXPECT_TRUE(std::binary_search(handed.begin(), handed.end(), t)) << "tet " << t << " inverted but guarded";
+  for (const BoundaryIntersection& p : c.intersections)
+    EXPECT_TRUE(g.guard.unprotected_triangles[p.a] || g.guard.unprotected_triangles[p.b])
+        << "rows " << p.a << ", " << p.b << " intersect but were guarded";
+  EXPECT_FALSE(g.metrics.certificate.valid());
+  const std::vector<std::string> w = generate_warnings(g);
+  EXPECT_TRUE(std::any_of(w.begin(), w.end(), [](const std::string& s) {
+    return s.find("the valid start could not mend") != std::string::npos;
+  }));
+  // With every round it needs, the start mends the same input (the cap alone made it give up).
+  o.guard.start_max_rounds = GuardOptions{}.start_max_rounds;
+  expect_valid(generate_shell(m.V, m.F, o));
 }
 
 TEST(GuardedGeneration, SphereAtHalfItsRadiusIsValid) {

@@ -102,6 +102,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
   require(o.start_refine >= 0, "start_refine", ">= 0");
   require(o.start_backoff > 0 && o.start_backoff <= 1, "start_backoff", "in (0, 1]");
+  require(o.start_max_rounds >= 1, "start_max_rounds", ">= 1");
   require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
   require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
   require(o.repair_rings >= 0, "repair_rings", ">= 0");
@@ -213,6 +214,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   start_options.spread = options.start_spread;
   start_options.refine_passes = options.start_refine;
   start_options.backoff = options.start_backoff;
+  start_options.max_rounds = options.start_max_rounds;
   start_options.fallback_length = eta;
   g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
   g.start = valid_start(V, F, X.bottomRows(n), g.directions, p.skip_tets, g.unprotected_triangles, start_options);
