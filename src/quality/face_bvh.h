@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <tbb/parallel_invoke.h>
+#include <cassert>
 #include <cstdint>
 #include <vector>
 
@@ -21,8 +22,11 @@ class FaceBvh {
 public:
   /// What the tree is built for: pair searches want small leaves (few box pairs per leaf pair),
   /// distance queries bigger ones (fewer nodes; faces in a leaf are cheap to reject by box) and
-  /// a copy of the triangles in leaf order.
-  enum class Use { pairs, distances };
+  /// a copy of the triangles in leaf order. `float_pairs`: pair searches whose caller decides
+  /// every visited pair exactly anyway (for_each_pair_of_meeting_float_boxes only): the faces'
+  /// exact boxes are not kept, only their float covers (24 bytes per face instead of 72; at
+  /// millions of faces the certificate's two trees held 0.5 GB of exact boxes).
+  enum class Use { pairs, distances, float_pairs };
 
   /// F must index rows of V (checked by the caller).
   FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use);
@@ -34,15 +38,15 @@ public:
 
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
-  /// Moving the faces (Use::pairs), in two parts so that callers set the new face boxes in a pass
+  /// Moving the faces (Use::pairs or float_pairs), in two parts so that callers set the new face boxes in a pass
   /// over the faces of their own: set_slot_box for every slot (from several threads, each slot
   /// once), then refit_nodes. Face and node boxes are then what a build computes, the tree's
   /// shape and leaf order are kept. Every query stays exact (a node's box still holds its faces'
   /// boxes); only its speed depends on how compact the nodes stay, which they do when the faces
   /// follow a motion that keeps neighbouring faces near each other (frames of a deformation).
   void set_slot_box(int slot, const Eigen::AlignedBox3d& box) {
-    slot_box_[slot] = box;
-    set_float_boxes(slot, slot + 1);
+    if (!slot_box_.empty()) slot_box_[slot] = box;
+    set_float_box(slot, box);
   }
   void refit_nodes();
 
@@ -54,6 +58,7 @@ public:
   /// with s, t their slots (positions in faces_in_leaf_order(), in any order): data the caller
   /// keeps in slot order is read with good locality. Face boxes are the exact min/max of the
   /// vertex doubles, so no touching pair is missed. visit runs concurrently from several threads.
+  /// Not for Use::float_pairs trees (they keep no exact boxes).
   template <class Visit> void for_each_overlapping_pair(Visit&& visit) const;
 
   /// Calls visit(s, t) for every slot s of this tree and t of `other` whose faces' closed boxes
@@ -102,6 +107,9 @@ private:
   static std::vector<std::pair<std::uint64_t, int>> morton_order(const std::vector<Eigen::Vector3d>& centroids);
   void build_nodes(const std::vector<std::pair<std::uint64_t, int>>& keyed, int leaf_size);
   int build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
+  // Where build splits slots [begin, end) (sorted codes), and how many nodes it makes there.
+  static int split(const std::vector<std::uint64_t>& codes, int begin, int end);
+  static int count_nodes(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
   static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
   static bool nodes_meet(const Node& a, const Node& b);
   static Eigen::AlignedBox3d face_box(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f);
@@ -145,12 +153,12 @@ private:
     return float_boxes_meet(slot_float_box_[i], other.slot_float_box_[j]) &&
            exact_boxes_meet(slot_box_[i], other.slot_box_[j]);
   }
-  // slot_float_box_ from slot_box_ over slots [begin, end).
-  void set_float_boxes(int begin, int end);
+  // slot_float_box_[slot]: the float cover of `box`.
+  void set_float_box(int slot, const Eigen::AlignedBox3d& box);
 
   // Per slot (leaf order): face id, exact box, its float cover, triangle.
   std::vector<int> slot_face_;
-  std::vector<Eigen::AlignedBox3d> slot_box_;
+  std::vector<Eigen::AlignedBox3d> slot_box_; // empty for Use::float_pairs
   std::vector<FloatBox> slot_float_box_;
   std::vector<Triangle> slot_triangle_; // Use::distances only
   std::vector<OrientedBox> node_oriented_box_; // Use::distances only, one per node
@@ -202,6 +210,7 @@ void FaceBvh::join(int a, const FaceBvh& other, int b, bool same_tree, Leaves& l
 
 template <class Visit>
 void FaceBvh::for_each_overlapping_pair(Visit&& visit) const {
+  assert(slot_box_.size() == slot_face_.size() && "for_each_overlapping_pair needs exact boxes (not Use::float_pairs)");
   auto leaves = [&](const Node& na, const Node& nb, bool self) {
     for (int i = na.begin; i < na.end; ++i)
       for (int j = self ? i + 1 : nb.begin; j < nb.end; ++j)
@@ -212,6 +221,8 @@ void FaceBvh::for_each_overlapping_pair(Visit&& visit) const {
 
 template <class Visit>
 void FaceBvh::for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) const {
+  assert(slot_box_.size() == slot_face_.size() && other.slot_box_.size() == other.slot_face_.size() &&
+         "for_each_overlapping_pair needs exact boxes (not Use::float_pairs)");
   auto leaves = [&](const Node& na, const Node& nb, bool) {
     for (int i = na.begin; i < na.end; ++i)
       for (int j = nb.begin; j < nb.end; ++j)

@@ -51,7 +51,7 @@ private:
 class FaceSet {
 public:
   FaceSet(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star = nullptr)
-      : bvh_(V, F, FaceBvh::Use::pairs) {
+      : bvh_(V, F, FaceBvh::Use::float_pairs) {
     take_positions(V, F, embedded_star);
   }
 
