@@ -61,6 +61,7 @@ usage: bench_guard [options] MODEL...
   --repair-budget X          repaired vertices x iterations the repair may run past the solve's cap
                              (default 100000; 0: none)
   --relax N                  barrier relaxation rounds after the repair (default 1; 0: none)
+  --lift N                   sweeps lifting thin tops after the repair (default 4; 0: none)
   --iters N                  cap on the paper's and the repair's iterations
   guard parameters (GuardOptions; defaults are generation_guard_options()):
   --dhat X --kv X --kc X --jhat X --rings N --spread X --margin X --thinning X --refine N
@@ -134,6 +135,7 @@ int main(int argc, char** argv) {
     else if (a == "--repair-iters") guard.repair_iterations = std::stoi(argv[++i]);
     else if (a == "--repair-budget") guard.repair_budget = std::stod(argv[++i]);
     else if (a == "--relax") guard.relax_rounds = std::stoi(argv[++i]);
+    else if (a == "--lift") guard.lift_sweeps = std::stoi(argv[++i]);
     else if (a == "--local-rings") guard.local_rings = std::stoi(argv[++i]);
     else if (a == "--min-scale") guard.repair_min_scale = std::stod(argv[++i]);
     else if (a.rfind("--", 0) == 0) {

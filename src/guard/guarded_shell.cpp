@@ -5,6 +5,9 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+
+#include "guard/lift_thin_tops.h"
 
 #include <Eigen/Geometry>
 
@@ -110,6 +113,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.repair_iterations >= -1, "repair_iterations", ">= -1");
   require(o.repair_budget >= 0 && std::isfinite(o.repair_budget), "repair_budget", ">= 0");
   require(o.relax_rounds >= 0, "relax_rounds", ">= 0");
+  require(o.lift_sweeps >= 0, "lift_sweeps", ">= 0");
 }
 
 GuardOptions generation_guard_options() {
@@ -120,6 +124,7 @@ GuardOptions generation_guard_options() {
   o.local_rings = 4;
   o.repair_budget = 1e5;
   o.relax_rounds = 1;
+  o.lift_sweeps = 4;
   return o;
 }
 
@@ -267,6 +272,9 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
       if (g.start.scale[F(f, k)] < options.repair_min_scale)
         for (int l = 0; l < 3; ++l) in_region[F(f, l)] = 0;
   g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
+  const bool thinned = (g.start.scale.array() < 1).any();
+  Eigen::MatrixXd wanted;
+  if (thinned && options.lift_sweeps > 0) wanted = X.bottomRows(n);
   X.bottomRows(n) = g.start.top;
   if (g.repaired_vertices > 0) {
     std::vector<int> held(n);
@@ -307,6 +315,29 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     }
     g.solve = repair.solve(X, repair_options);
     relax(V, F, eta, options, local, held, boundary, q, repair_options, X, g);
+  }
+  if (wanted.size() > 0) {
+    const auto lift_start = Clock::now();
+    // Vertices outside the guard's protection (unextrudable, next to what it cannot keep clean)
+    // stay: the checker does not see their skipped tets and unprotected rows.
+    std::vector<char> movable(n, 1);
+    for (int v : g.directions.unextrudable) movable[v] = 0;
+    for (int v : g.blocked_rim_vertices) movable[v] = 0;
+    const Eigen::MatrixXi T = build_prism_tets(F, n);
+    for (int t = 0; t < T.rows(); ++t)
+      if (p.skip_tets[t])
+        for (int j = 0; j < 4; ++j)
+          if (T(t, j) >= n) movable[T(t, j) - n] = 0;
+    for (int r = 0; r < boundary.size(); ++r)
+      if (g.unprotected_triangles[r])
+        for (int k = 0; k < 3; ++k)
+          if (boundary.F(r, k) >= n) movable[boundary.F(r, k) - n] = 0;
+    const detail::StartChecker checker(F, n, p.skip_tets, g.unprotected_triangles);
+    Eigen::MatrixXd top = X.bottomRows(n);
+    const detail::LiftResult lifted =
+        detail::lift_thin_tops(V, F, ideal, wanted, g.directions.direction, movable, checker, options.lift_sweeps, top);
+    X.bottomRows(n) = top;
+    g.lift = {lifted.candidates, lifted.lifted, lifted.checks, lifted.energy_drop, seconds_since(lift_start)};
   }
   g.top = X.bottomRows(n);
   g.seconds = seconds_since(t0);

@@ -7,6 +7,7 @@
 #include <gshell/quality/shell_certificate.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -36,6 +37,35 @@ public:
   /// over the checked rows is built at the first such call and refit (not rebuilt) afterwards.
   StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                         const std::vector<char>* moved = nullptr) const;
+
+  /// Checks the top vertices flagged in `check` (top = top positions, one row per base vertex),
+  /// calls put_back(i) for every top vertex i of a violation found that is flagged in `moved`
+  /// (which must restore top.row(i); the flag is cleared) and checks those again, until a check
+  /// finds nothing. Clears `check`; `moved` keeps the moves that stand. Returns the checks run.
+  /// A move of a vertex that was valid with its neighbours where they stood is thus kept only
+  /// where it is valid with the moves kept around it.
+  template <class PutBack>
+  int settle(const Eigen::MatrixXd& base, Eigen::MatrixXd& top, std::vector<char>& moved, std::vector<char>& check,
+             PutBack&& put_back) const {
+    int checks = 0;
+    while (std::find(check.begin(), check.end(), 1) != check.end()) {
+      ++checks;
+      const StartViolations found = this->check(base, top, &check);
+      std::fill(check.begin(), check.end(), 0);
+      auto revert = [&](int vertex) {
+        if (vertex < n_ || !moved[vertex - n_]) return;
+        moved[vertex - n_] = 0;
+        check[vertex - n_] = 1;
+        put_back(vertex - n_);
+      };
+      for (int t : found.inverted_tets)
+        for (int j = 0; j < 4; ++j) revert(tets()(t, j));
+      for (const auto& [a, b] : found.intersections)
+        for (int row : {a, b})
+          for (int k = 0; k < 3; ++k) revert(boundary_.F(row, k));
+    }
+    return checks;
+  }
 
   const ShellBoundary& boundary() const { return boundary_; }
   /// build_prism_tets(F, n), made at the first call (not concurrently).

@@ -139,25 +139,11 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       s.scale = target;
       place(changed);
       std::vector<char> check = changed;
-      while (std::find(check.begin(), check.end(), 1) != check.end()) {
-        ++s.rounds;
-        const detail::StartViolations found = checker.check(V, s.top, &check);
-        std::fill(check.begin(), check.end(), 0);
-        auto revert = [&](int vertex) {
-          if (vertex < n || !changed[vertex - n]) return;
-          const int i = vertex - n;
-          changed[i] = 0;
-          check[i] = 1;
-          if (bisecting) hi[i] = s.scale[i];
-          s.scale[i] = lo[i];
-        };
-        for (int t : found.inverted_tets)
-          for (int j = 0; j < 4; ++j) revert(checker.tets()(t, j));
-        for (const auto& [a, b] : found.intersections)
-          for (int row : {a, b})
-            for (int k = 0; k < 3; ++k) revert(boundary.F(row, k));
-        place(check);
-      }
+      s.rounds += checker.settle(V, s.top, changed, check, [&](int i) {
+        if (bisecting) hi[i] = s.scale[i];
+        s.scale[i] = lo[i];
+        s.top.row(i) = V.row(i) + paths.offset(i, lo[i]);
+      });
       for (int i = 0; i < n; ++i)
         if (changed[i]) lo[i] = s.scale[i];
     };
