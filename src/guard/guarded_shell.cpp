@@ -5,7 +5,6 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/offset_shell.h>
-#include <gshell/shell/prism_tets.h>
 
 #include "guard/lift_thin_tops.h"
 
@@ -272,9 +271,8 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
       if (g.start.scale[F(f, k)] < options.repair_min_scale)
         for (int l = 0; l < 3; ++l) in_region[F(f, l)] = 0;
   g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
-  const bool thinned = (g.start.scale.array() < 1).any();
-  Eigen::MatrixXd wanted;
-  if (thinned && options.lift_sweeps > 0) wanted = X.bottomRows(n);
+  Eigen::MatrixXd wanted; // the paper's top, kept for the lifting where the start thinned anything
+  if (options.lift_sweeps > 0 && (g.start.scale.array() < 1).any()) wanted = X.bottomRows(n);
   X.bottomRows(n) = g.start.top;
   if (g.repaired_vertices > 0) {
     std::vector<int> held(n);
@@ -320,10 +318,11 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     const auto lift_start = Clock::now();
     // Vertices outside the guard's protection (unextrudable, next to what it cannot keep clean)
     // stay: the checker does not see their skipped tets and unprotected rows.
+    const detail::StartChecker checker(F, n, p.skip_tets, g.unprotected_triangles);
     std::vector<char> movable(n, 1);
     for (int v : g.directions.unextrudable) movable[v] = 0;
     for (int v : g.blocked_rim_vertices) movable[v] = 0;
-    const Eigen::MatrixXi T = build_prism_tets(F, n);
+    const Eigen::MatrixXi& T = checker.tets();
     for (int t = 0; t < T.rows(); ++t)
       if (p.skip_tets[t])
         for (int j = 0; j < 4; ++j)
@@ -332,7 +331,6 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
       if (g.unprotected_triangles[r])
         for (int k = 0; k < 3; ++k)
           if (boundary.F(r, k) >= n) movable[boundary.F(r, k) - n] = 0;
-    const detail::StartChecker checker(F, n, p.skip_tets, g.unprotected_triangles);
     Eigen::MatrixXd top = X.bottomRows(n);
     const detail::LiftResult lifted =
         detail::lift_thin_tops(V, F, ideal, wanted, g.directions.direction, movable, checker, options.lift_sweeps, top);
