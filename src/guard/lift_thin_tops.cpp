@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 namespace gshell::detail {
 namespace {
@@ -18,66 +19,59 @@ constexpr int kFamilies = 3;          // towards wanted from the top, from the b
 // as the repair's barriers keep theirs, instead of ending against it.
 constexpr double kRoom = 0.05;
 
-// Compressed rows: items of key k are items[start[k], start[k + 1]).
-struct Rows {
-  std::vector<int> start, items;
-  template <class Each> static Rows build(int keys, Each&& each) { // each(emit(key, item))
-    Rows r;
-    r.start.assign(keys + 1, 0);
-    each([&](int key, int) { ++r.start[key + 1]; });
-    for (int k = 0; k < keys; ++k) r.start[k + 1] += r.start[k];
-    r.items.resize(r.start[keys]);
-    std::vector<int> fill(r.start.begin(), r.start.end() - 1);
-    each([&](int key, int item) { r.items[fill[key]++] = item; });
-    return r;
-  }
-};
-
 } // namespace
 
 LiftResult lift_thin_tops(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal,
                           const Eigen::MatrixXd& wanted, const Eigen::MatrixXd& directions,
                           const std::vector<char>& movable, const StartChecker& checker, int sweeps,
                           Eigen::MatrixXd& top) {
-  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  const int n = static_cast<int>(V.rows());
   LiftResult result;
-  std::vector<int> candidates;
-  std::vector<char> is_candidate(n, 0);
+  // Candidates by position c; per-candidate data is indexed by c, not by vertex, so that a few
+  // candidates on a large mesh cost little.
+  std::vector<int> candidates, slot(n, -1);
   for (int i = 0; i < n; ++i)
     if (movable[i] && (top.row(i) - V.row(i)).norm() < kThinFraction * (wanted.row(i) - V.row(i)).norm()) {
+      slot[i] = static_cast<int>(candidates.size());
       candidates.push_back(i);
-      is_candidate[i] = 1;
     }
-  result.candidates = static_cast<int>(candidates.size());
-  if (candidates.empty() || sweeps <= 0) return result;
+  const int count = static_cast<int>(candidates.size());
+  result.candidates = count;
+  if (count == 0 || sweeps <= 0) return result;
 
-  const Rows tets_of = Rows::build(n, [&](auto emit) {
+  // The tets holding each candidate's top (compressed rows: those of c are tets[start[c], start[c + 1])).
+  std::vector<int> start(count + 1, 0), tets;
+  auto for_each_candidate_tet = [&](auto&& visit) {
     for (int t = 0; t < ideal.size(); ++t)
       for (int j = 0; j < 4; ++j)
-        if (const int v = ideal.T(t, j); v >= n && is_candidate[v - n]) emit(v - n, t);
-  });
-  const Rows faces_of = Rows::build(n, [&](auto emit) {
-    for (int f = 0; f < m; ++f)
-      for (int k = 0; k < 3; ++k)
-        if (is_candidate[F(f, k)]) emit(F(f, k), f);
-  });
-  // Groups sharing no face (greedy colouring): a member's tets hold no other member's top.
-  std::vector<int> colour(n, -1);
+        if (const int v = ideal.T(t, j); v >= n && slot[v - n] >= 0) visit(slot[v - n], t);
+  };
+  for_each_candidate_tet([&](int c, int) { ++start[c + 1]; });
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  tets.resize(start[count]);
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for_each_candidate_tet([&](int c, int t) { tets[fill[c]++] = t; });
+  }
+  // Groups sharing no face (greedy colouring): a member's tets hold no other member's top. Tet t
+  // is one of the three of face t / 3, and every face around a top has a tet holding it.
+  std::vector<int> colour(count, -1);
   int colours = 0;
-  for (int i : candidates) {
+  for (int c = 0; c < count; ++c) {
     std::vector<char> used(colours + 1, 0);
-    for (int k = faces_of.start[i]; k < faces_of.start[i + 1]; ++k)
+    for (int k = start[c]; k < start[c + 1]; ++k)
       for (int l = 0; l < 3; ++l)
-        if (const int c = colour[F(faces_of.items[k], l)]; c >= 0) used[c] = 1;
-    colour[i] = static_cast<int>(std::find(used.begin(), used.end(), 0) - used.begin());
-    colours = std::max(colours, colour[i] + 1);
+        if (const int d = slot[F(tets[k] / 3, l)]; d >= 0 && colour[d] >= 0) used[colour[d]] = 1;
+    colour[c] = static_cast<int>(std::find(used.begin(), used.end(), 0) - used.begin());
+    colours = std::max(colours, colour[c] + 1);
   }
 
-  // E over the tets of top vertex i with that vertex at p (the others where they are).
-  auto local_energy = [&](int i, const Eigen::RowVector3d& p) {
+  // E over the tets of candidate c's top with that top at p (the others where they are).
+  auto local_energy = [&](int c, const Eigen::RowVector3d& p) {
+    const int i = candidates[c];
     double e = 0;
-    for (int k = tets_of.start[i]; k < tets_of.start[i + 1]; ++k) {
-      const int t = tets_of.items[k];
+    for (int k = start[c]; k < start[c + 1]; ++k) {
+      const int t = tets[k];
       auto corner = [&](int j) -> Eigen::Vector3d {
         const int v = ideal.T(t, j);
         if (v == n + i) return p.transpose();
@@ -91,7 +85,8 @@ LiftResult lift_thin_tops(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, co
     }
     return e;
   };
-  auto trial = [&](int i, int family, int level) -> Eigen::RowVector3d {
+  auto trial = [&](int c, int family, int level) -> Eigen::RowVector3d {
+    const int i = candidates[c];
     const double s = std::ldexp(1.0, -level);
     switch (family) {
     case 0: return top.row(i) + s * (wanted.row(i) - top.row(i));
@@ -106,62 +101,63 @@ LiftResult lift_thin_tops(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, co
     double drop; // of the energy of the vertex's tets
     Eigen::RowVector3d position;
   };
-  std::vector<std::vector<Trial>> trials(n);
-  std::vector<std::size_t> next_trial(n, 0);
-  std::vector<Eigen::RowVector3d> before(n);
-  std::vector<char> moved(n, 0), check(n, 0);
+  std::vector<std::vector<Trial>> trials(count);
+  std::vector<std::size_t> next_trial(count, 0);
+  std::vector<Eigen::RowVector3d> before(count);
+  std::vector<char> moved(n, 0), check(n, 0); // per vertex, as the checker reads them
   auto settle = [&] {
-    result.checks += checker.settle(V, top, moved, check, [&](int i) { top.row(i) = before[i]; });
+    result.checks += checker.settle(V, top, moved, check, [&](int i) { top.row(i) = before[slot[i]]; });
   };
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     const int lifted_before = result.lifted;
-    for (int c = 0; c < colours; ++c) {
+    for (int group = 0; group < colours; ++group) {
       std::vector<int> pending;
-      for (int i : candidates)
-        if (colour[i] == c) pending.push_back(i);
+      for (int c = 0; c < count; ++c)
+        if (colour[c] == group) pending.push_back(c);
       // The group's neighbours stay put while it moves, so its members' trials are fixed.
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pending.size(), 16), [&](const auto& r) {
         for (std::size_t k = r.begin(); k < r.end(); ++k) {
-          const int i = pending[k];
-          const double current = local_energy(i, top.row(i));
-          std::vector<Trial>& list = trials[i];
+          const int c = pending[k];
+          const double current = local_energy(c, top.row(candidates[c]));
+          std::vector<Trial>& list = trials[c];
           list.clear();
           for (int level = 0; level < kLevels; ++level)
             for (int family = 0; family < kFamilies; ++family) {
-              const Eigen::RowVector3d p = trial(i, family, level);
-              if (const double e = local_energy(i, p); e < current) list.push_back({current - e, p});
+              const Eigen::RowVector3d p = trial(c, family, level);
+              if (const double e = local_energy(c, p); e < current) list.push_back({current - e, p});
             }
           std::sort(list.begin(), list.end(), [](const Trial& x, const Trial& y) { return x.drop > y.drop; });
-          next_trial[i] = 0;
+          next_trial[c] = 0;
         }
       });
-      std::erase_if(pending, [&](int i) { return trials[i].empty(); });
+      std::erase_if(pending, [&](int c) { return trials[c].empty(); });
       while (!pending.empty()) {
         // First the moves carried further (the room), then the moves themselves; either time,
         // every moved vertex of a violation is put back and what was put back checked again,
-        // until the check finds nothing (as the valid start's bisection does).
-        for (int i : pending) {
-          before[i] = top.row(i);
-          const Eigen::RowVector3d step = trials[i][next_trial[i]].position - before[i];
+        // until the check finds nothing (StartChecker::settle).
+        for (int c : pending) {
+          const int i = candidates[c];
+          before[c] = top.row(i);
+          const Eigen::RowVector3d step = trials[c][next_trial[c]].position - before[c];
           const double length = step.norm(); // > 0: a trial lowers the energy, so it moves
-          top.row(i) = before[i] + step * (1 + std::max(kRoom * (wanted.row(i) - V.row(i)).norm(), length) / length);
+          top.row(i) = before[c] + step * (1 + std::max(kRoom * (wanted.row(i) - V.row(i)).norm(), length) / length);
           moved[i] = check[i] = 1;
         }
         settle();
-        for (int i : pending)
-          if (moved[i]) {
-            top.row(i) = trials[i][next_trial[i]].position;
+        for (int c : pending)
+          if (const int i = candidates[c]; moved[i]) {
+            top.row(i) = trials[c][next_trial[c]].position;
             check[i] = 1;
           }
         settle();
         std::vector<int> next;
-        for (int i : pending) {
-          if (moved[i]) {
+        for (int c : pending) {
+          if (const int i = candidates[c]; moved[i]) {
             moved[i] = 0;
             ++result.lifted;
-            result.energy_drop += trials[i][next_trial[i]].drop;
-          } else if (++next_trial[i] < trials[i].size()) {
-            next.push_back(i);
+            result.energy_drop += trials[c][next_trial[c]].drop;
+          } else if (++next_trial[c] < trials[c].size()) {
+            next.push_back(c);
           }
         }
         pending.swap(next);

@@ -38,6 +38,18 @@ public:
   StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                         const std::vector<char>* moved = nullptr) const;
 
+  /// Calls visit(i) for every top vertex n + i of the tets and boundary rows in `found` (once per
+  /// tet or row it belongs to).
+  template <class Visit> void for_each_top_vertex(const StartViolations& found, Visit&& visit) const {
+    for (int t : found.inverted_tets)
+      for (int j = 0; j < 4; ++j)
+        if (const int v = tets()(t, j); v >= n_) visit(v - n_);
+    for (const auto& [a, b] : found.intersections)
+      for (int row : {a, b})
+        for (int k = 0; k < 3; ++k)
+          if (const int v = boundary_.F(row, k); v >= n_) visit(v - n_);
+  }
+
   /// Checks the top vertices flagged in `check` (top = top positions, one row per base vertex),
   /// calls put_back(i) for every top vertex i of a violation found that is flagged in `moved`
   /// (which must restore top.row(i); the flag is cleared) and checks those again, until a check
@@ -52,17 +64,12 @@ public:
       ++checks;
       const StartViolations found = this->check(base, top, &check);
       std::fill(check.begin(), check.end(), 0);
-      auto revert = [&](int vertex) {
-        if (vertex < n_ || !moved[vertex - n_]) return;
-        moved[vertex - n_] = 0;
-        check[vertex - n_] = 1;
-        put_back(vertex - n_);
-      };
-      for (int t : found.inverted_tets)
-        for (int j = 0; j < 4; ++j) revert(tets()(t, j));
-      for (const auto& [a, b] : found.intersections)
-        for (int row : {a, b})
-          for (int k = 0; k < 3; ++k) revert(boundary_.F(row, k));
+      for_each_top_vertex(found, [&](int i) {
+        if (!moved[i]) return;
+        moved[i] = 0;
+        check[i] = 1;
+        put_back(i);
+      });
     }
     return checks;
   }

@@ -74,7 +74,6 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
   if (!(options.fallback_length > 0)) throw InputError("valid_start: fallback_length must be positive");
   const Paths paths = make_paths(V, F, P, directions, options);
   const detail::StartChecker checker(F, n, skip_tets, excluded_triangles);
-  const ShellBoundary& boundary = checker.boundary();
 
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
@@ -90,13 +89,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
     s.inverted_tets = found.inverted_tets;
     s.intersections = found.intersections;
     std::fill(thin.begin(), thin.end(), 0);
-    for (int t : found.inverted_tets)
-      for (int j = 0; j < 4; ++j)
-        if (const int vertex = checker.tets()(t, j); vertex >= n) thin[vertex - n] = 1;
-    for (const auto& [a, b] : found.intersections)
-      for (int row : {a, b})
-        for (int k = 0; k < 3; ++k)
-          if (boundary.F(row, k) >= n) thin[boundary.F(row, k) - n] = 1;
+    checker.for_each_top_vertex(found, [&](int i) { thin[i] = 1; });
     const bool clean = s.inverted_tets.empty() && s.intersections.empty();
     if (clean && s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
     if (clean || s.rounds >= options.max_rounds) break;
