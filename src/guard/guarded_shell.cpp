@@ -3,6 +3,7 @@
 #include <gshell/error.h>
 #include <gshell/seconds_since.h>
 #include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/stretch.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/offset_shell.h>
 
@@ -51,6 +52,17 @@ std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vec
   return out;
 }
 
+// What the repair, its relaxation and the lifting make of the valid start (the GuardedShell
+// fields of the same names).
+struct Mended {
+  Eigen::MatrixXd X; // base rows, then the top
+  int repaired_vertices = 0;
+  GuardedSolveResult solve;
+  GuardedShell::Relax relax;
+  GuardedShell::Lift lift;
+  double factor_seconds = 0;
+};
+
 // The barriers that keep the repair's steps clear of the validity limits also hold the top
 // further from those limits than a valid top needs to be. Each round solves the repaired region
 // again from the result with weaker barriers (j_hat / 3, both weights / 10, the contact support
@@ -59,8 +71,8 @@ std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vec
 // start.
 void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const GuardOptions& options,
            const RestTets& local, const std::vector<int>& held, const ShellBoundary& boundary,
-           const GuardedSolverParameters& repair, const GuardedSolveOptions& solve, Eigen::MatrixXd& X,
-           GuardedShell& g) {
+           const GuardedSolverParameters& repair, const GuardedSolveOptions& solve, Mended& g) {
+  Eigen::MatrixXd& X = g.X;
   GuardOptions weak = options;
   double energy = g.solve.final_energy;
   g.relax.first_energy = energy;
@@ -87,6 +99,97 @@ void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const
     g.solve.min_relative_volume = r.min_relative_volume;
     g.solve.active_contacts = r.active_contacts;
   }
+}
+
+// E, the shell energy the paper's iterations lower: rest volume times stretch, summed over tets.
+double shell_energy(const RestTets& ideal, const Eigen::MatrixXd& X) { return tet_stretch(ideal, X).dot(ideal.volume); }
+
+// What the repair, the relaxation and the lifting read besides their region and start.
+struct MendInputs {
+  const Eigen::MatrixXd& V;
+  const Eigen::MatrixXi& F;
+  const RestTets& ideal;
+  double eta;
+  const GuardOptions& options;
+  const GuardedSolveOptions& solve;
+  const ShellBoundary& boundary;
+  const GuardedShell& g;         // directions, start, paper, parameters, unprotected rows so far
+  const Eigen::MatrixXd& wanted; // the paper's top where the lifting runs, else empty
+};
+
+// The guarded solver over the top vertices flagged in `region` (the rest held) from the valid
+// start X, its relaxation rounds, then the lifting of thin tops.
+Mended mend(const MendInputs& in, const std::vector<char>& region, const Eigen::MatrixXd& X) {
+  const int n = static_cast<int>(in.V.rows());
+  const RestTets& ideal = in.ideal;
+  const GuardedSolverParameters& p = in.g.parameters;
+  Mended out;
+  out.X = X;
+  out.repaired_vertices = static_cast<int>(std::count(region.begin(), region.end(), 1));
+  if (out.repaired_vertices > 0) {
+    std::vector<int> held(n);
+    std::iota(held.begin(), held.end(), 0);
+    for (int i = 0; i < n; ++i)
+      if (!region[i]) held.push_back(n + i);
+    // Only tets with a moving vertex change: the others are left out of the solver altogether.
+    std::vector<int> tets;
+    for (int t = 0; t < ideal.size(); ++t)
+      for (int j = 0; j < 4; ++j)
+        if (ideal.T(t, j) >= n && region[ideal.T(t, j) - n]) {
+          tets.push_back(t);
+          break;
+        }
+    RestTets local;
+    local.T.resize(static_cast<int>(tets.size()), 4);
+    local.volume.resize(static_cast<int>(tets.size()));
+    GuardedSolverParameters q = p;
+    q.skip_tets.clear();
+    for (std::size_t k = 0; k < tets.size(); ++k) {
+      local.T.row(static_cast<int>(k)) = ideal.T.row(tets[k]);
+      local.Dm_inv.push_back(ideal.Dm_inv[tets[k]]);
+      local.volume[static_cast<int>(k)] = ideal.volume[tets[k]];
+      q.skip_tets.push_back(p.skip_tets[tets[k]]);
+    }
+    GuardedSolver repair(local, 2 * n, held, in.boundary, q);
+    out.factor_seconds += repair.shell_solver().factor_seconds();
+    // Converged as the paper's iterations are: relative to the whole shell's energy.
+    GuardedSolveOptions repair_options = in.solve;
+    repair_options.energy_scale = in.g.paper.energy.back();
+    if (in.options.repair_iterations >= 0) {
+      repair_options.max_iterations = in.options.repair_iterations;
+    } else if (in.options.repair_budget > 0) {
+      // The extension's ceiling: past it, the small unconverged repairs measured gain nothing.
+      constexpr double kMaxRepairIterations = 300;
+      const double affordable = std::min(kMaxRepairIterations, in.options.repair_budget / out.repaired_vertices);
+      repair_options.max_iterations = std::max(in.solve.max_iterations, static_cast<int>(affordable));
+    }
+    out.solve = repair.solve(out.X, repair_options);
+    relax(in.V, in.F, in.eta, in.options, local, held, in.boundary, q, repair_options, out);
+  }
+  if (in.wanted.size() > 0) {
+    const auto lift_start = Clock::now();
+    // Vertices outside the guard's protection (unextrudable, next to what it cannot keep clean)
+    // stay: the checker does not see their skipped tets and unprotected rows.
+    const detail::StartChecker checker(in.F, n, p.skip_tets, in.g.unprotected_triangles);
+    std::vector<char> movable(n, 1);
+    for (int v : in.g.directions.unextrudable) movable[v] = 0;
+    for (int v : in.g.blocked_rim_vertices) movable[v] = 0;
+    const Eigen::MatrixXi& T = checker.tets();
+    for (int t = 0; t < T.rows(); ++t)
+      if (p.skip_tets[t])
+        for (int j = 0; j < 4; ++j)
+          if (T(t, j) >= n) movable[T(t, j) - n] = 0;
+    for (int r = 0; r < in.boundary.size(); ++r)
+      if (in.g.unprotected_triangles[r])
+        for (int k = 0; k < 3; ++k)
+          if (in.boundary.F(r, k) >= n) movable[in.boundary.F(r, k) - n] = 0;
+    Eigen::MatrixXd top = out.X.bottomRows(n);
+    const detail::LiftResult lifted = detail::lift_thin_tops(in.V, in.F, ideal, in.wanted, in.g.directions.direction,
+                                                             movable, checker, in.options.lift_sweeps, top);
+    out.X.bottomRows(n) = top;
+    out.lift = {lifted.candidates, lifted.lifted, lifted.checks, lifted.energy_drop, seconds_since(lift_start)};
+  }
+  return out;
 }
 
 } // namespace
@@ -124,6 +227,7 @@ GuardOptions generation_guard_options() {
   o.repair_budget = 1e5;
   o.relax_rounds = 1;
   o.lift_sweeps = 4;
+  o.try_lift_only = true;
   return o;
 }
 
@@ -261,82 +365,36 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   }
   for (int v : g.directions.unextrudable) in_region[v] = 0;
   // Top vertices the start had to pull nearly onto their base stay there: their pairs with the
-  // base triangles around them are closer than the contact step bound can resolve in floating
+  // base triangles around them can be closer than the contact step bound resolves in floating
   // point (it then returns 0 and the whole repair stands still), and their violations came from
   // the base itself (two input sheets nearly touching).
   // Their neighbours are held too: a top edge from such a vertex to a moving one nearly meets
   // the base edges at its base vertex.
+  const std::vector<char> unheld = in_region;
   for (int f = 0; f < m; ++f)
     for (int k = 0; k < 3; ++k)
       if (g.start.scale[F(f, k)] < options.repair_min_scale)
         for (int l = 0; l < 3; ++l) in_region[F(f, l)] = 0;
-  g.repaired_vertices = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
+  g.held_vertices = static_cast<int>(std::count(unheld.begin(), unheld.end(), 1) -
+                                     std::count(in_region.begin(), in_region.end(), 1));
   Eigen::MatrixXd wanted; // the paper's top, kept for the lifting where the start thinned anything
   if (options.lift_sweeps > 0 && (g.start.scale.array() < 1).any()) wanted = X.bottomRows(n);
   X.bottomRows(n) = g.start.top;
-  if (g.repaired_vertices > 0) {
-    std::vector<int> held(n);
-    std::iota(held.begin(), held.end(), 0);
-    for (int i = 0; i < n; ++i)
-      if (!in_region[i]) held.push_back(n + i);
-    // Only tets with a moving vertex change: the others are left out of the solver altogether.
-    std::vector<int> tets;
-    for (int t = 0; t < ideal.size(); ++t)
-      for (int j = 0; j < 4; ++j)
-        if (ideal.T(t, j) >= n && in_region[ideal.T(t, j) - n]) {
-          tets.push_back(t);
-          break;
-        }
-    RestTets local;
-    local.T.resize(static_cast<int>(tets.size()), 4);
-    local.volume.resize(static_cast<int>(tets.size()));
-    GuardedSolverParameters q = p;
-    q.skip_tets.clear();
-    for (std::size_t k = 0; k < tets.size(); ++k) {
-      local.T.row(static_cast<int>(k)) = ideal.T.row(tets[k]);
-      local.Dm_inv.push_back(ideal.Dm_inv[tets[k]]);
-      local.volume[static_cast<int>(k)] = ideal.volume[tets[k]];
-      q.skip_tets.push_back(p.skip_tets[tets[k]]);
-    }
-    GuardedSolver repair(local, 2 * n, held, boundary, q);
-    g.factor_seconds += repair.shell_solver().factor_seconds();
-    // Converged as the paper's iterations are: relative to the whole shell's energy.
-    GuardedSolveOptions repair_options = solve;
-    repair_options.energy_scale = g.paper.energy.back();
-    if (options.repair_iterations >= 0) {
-      repair_options.max_iterations = options.repair_iterations;
-    } else if (options.repair_budget > 0) {
-      // The extension's ceiling: past it, the small unconverged repairs measured gain nothing.
-      constexpr double kMaxRepairIterations = 300;
-      const double affordable = std::min(kMaxRepairIterations, options.repair_budget / g.repaired_vertices);
-      repair_options.max_iterations = std::max(solve.max_iterations, static_cast<int>(affordable));
-    }
-    g.solve = repair.solve(X, repair_options);
-    relax(V, F, eta, options, local, held, boundary, q, repair_options, X, g);
+  const MendInputs inputs{V, F, ideal, eta, options, solve, boundary, g, wanted};
+  Mended mended = mend(inputs, in_region, X);
+  g.factor_seconds += mended.factor_seconds;
+  // Around held tops the repair can move their neighbours where they block them: the lifting
+  // alone, from the start, is kept where it ends at the lower energy E.
+  if (g.held_vertices > 0 && options.try_lift_only && wanted.size() > 0) {
+    Mended lifted = mend(inputs, std::vector<char>(n, 0), X);
+    g.lift_only = shell_energy(ideal, lifted.X) < shell_energy(ideal, mended.X);
+    if (g.lift_only) mended = std::move(lifted);
   }
-  if (wanted.size() > 0) {
-    const auto lift_start = Clock::now();
-    // Vertices outside the guard's protection (unextrudable, next to what it cannot keep clean)
-    // stay: the checker does not see their skipped tets and unprotected rows.
-    const detail::StartChecker checker(F, n, p.skip_tets, g.unprotected_triangles);
-    std::vector<char> movable(n, 1);
-    for (int v : g.directions.unextrudable) movable[v] = 0;
-    for (int v : g.blocked_rim_vertices) movable[v] = 0;
-    const Eigen::MatrixXi& T = checker.tets();
-    for (int t = 0; t < T.rows(); ++t)
-      if (p.skip_tets[t])
-        for (int j = 0; j < 4; ++j)
-          if (T(t, j) >= n) movable[T(t, j) - n] = 0;
-    for (int r = 0; r < boundary.size(); ++r)
-      if (g.unprotected_triangles[r])
-        for (int k = 0; k < 3; ++k)
-          if (boundary.F(r, k) >= n) movable[boundary.F(r, k) - n] = 0;
-    Eigen::MatrixXd top = X.bottomRows(n);
-    const detail::LiftResult lifted =
-        detail::lift_thin_tops(V, F, ideal, wanted, g.directions.direction, movable, checker, options.lift_sweeps, top);
-    X.bottomRows(n) = top;
-    g.lift = {lifted.candidates, lifted.lifted, lifted.checks, lifted.energy_drop, seconds_since(lift_start)};
-  }
+  X = std::move(mended.X);
+  g.repaired_vertices = mended.repaired_vertices;
+  g.solve = mended.solve;
+  g.relax = mended.relax;
+  g.lift = mended.lift;
   g.top = X.bottomRows(n);
   g.seconds = seconds_since(t0);
   return g;

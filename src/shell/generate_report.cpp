@@ -74,6 +74,8 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                   {"relax_rounds_kept", g.relax.kept_rounds},
                   {"lift_candidates", g.lift.candidates},
                   {"lift_moves", g.lift.moves},
+                  {"held_vertices", g.held_vertices},
+                  {"lift_only", g.lift_only},
                   {"start_unmended_tets", g.start.inverted_tets.size()},
                   {"start_unmended_pairs", g.start.intersections.size()},
                   {"unprotected_faces", g.unprotected_faces},
@@ -180,7 +182,7 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
     out << "guard        " << r.unextrudable_vertices.size() << " unextrudable vertices, " << (r.guard.start.scale.array() < 1).count()
         << " pulled in, " << r.guard.repaired_vertices << " repaired in " << r.guard.solve.iterations
         << " iterations (+" << r.guard.relax.iterations << " relaxing, " << r.guard.relax.kept_rounds << " kept), "
-        << r.guard.lift.moves << " lifting moves\n";
+        << r.guard.lift.moves << " lifting moves" << (r.guard.lift_only ? " (lifting alone kept, no repair)" : "") << "\n";
   char time[256];
   std::snprintf(time, sizeof time, "time         %.3f s (factor %.3f s, solve %.3f s, guard %.3f s, certificate %.3f s)\n",
                 r.seconds.total, r.seconds.factor, r.seconds.solve, r.seconds.guard, r.metrics.certificate.seconds);

@@ -68,6 +68,13 @@ struct GuardOptions {
   /// start put them (their pairs with the base nearby are too close for the contact step bound to
   /// resolve in floating point), in [0, 1).
   double repair_min_scale = 1e-4;
+  /// Where repair_min_scale holds any top, the lifting also runs from the valid start alone, with
+  /// no repair before it, and the result with the lower shell energy E is kept. Around tops held
+  /// nearly on their base the repair can move the neighbours where they block them: on CGAL's
+  /// double-torus-example (tops at 3e-5 of their offset in tight creases) the stretch against
+  /// the unguarded result at 0.01 / 0.03 / 0.05 falls 1.040 / 1.164 / 1.140 -> 1.040 / 1.086 /
+  /// 1.091 (docs/guarded-generation.md, "Lifting from the start alone"). Generation: true.
+  bool try_lift_only = false;
   /// Iterations of the guarded solver at most (-1: the solve's max_iterations, as the paper's,
   /// extended by repair_budget).
   int repair_iterations = -1;
@@ -124,6 +131,11 @@ struct GuardedShell {
   std::vector<char> unprotected_triangles;
   int unprotected_faces = 0;           ///< faces with a triangle in unprotected_triangles
   int repaired_vertices = 0;           ///< top vertices the guarded solver moved
+  /// Top vertices of the repair's region held where the start put them (GuardOptions::repair_min_scale).
+  int held_vertices = 0;
+  /// The top is the start lifted with no repair before (GuardOptions::try_lift_only): it ended
+  /// at the lower energy. repaired_vertices, solve and relax are then those of no repair.
+  bool lift_only = false;
   SolveResult paper;                   ///< the paper's iterations that give the wanted top
   ValidStart start;                    ///< that top, pulled in where it is not valid
   /// The guarded iterations from the start. Its fields on the result (final_energy, active_tets,
