@@ -406,6 +406,11 @@ TEST(GuardedGeneration, LiftingAloneIsKeptWhereItEndsAtLowerEnergyThanTheRepair)
     EXPECT_TRUE(both.shell.top == (alone_lower ? alone : repaired).shell.top);
     EXPECT_EQ(both.guard.repaired_vertices, alone_lower ? 0 : repaired.guard.repaired_vertices);
     expect_valid(both);
+    // The report and the summary say which was kept.
+    const nlohmann::json report = generate_report(both, "bumpy sphere", 0.05)["guard"];
+    EXPECT_EQ(report["lift_only"], alone_lower);
+    EXPECT_EQ(report["held_vertices"], repaired.guard.held_vertices);
+    EXPECT_EQ(generate_summary(both, "bumpy sphere").find("lifting alone kept") != std::string::npos, alone_lower);
   }
   EXPECT_EQ(kept_alone, 1);
   EXPECT_EQ(kept_repaired, 1);
