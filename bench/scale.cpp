@@ -5,8 +5,9 @@
 // take the multigrid preconditioner; a ":jacobi" suffix, e.g. auto:jacobi, takes Jacobi's). Every
 // case runs in a fresh process (this executable with --case), so the peak memory (VmHWM) is that
 // case's own; times are medians over --runs processes. Prints per case: total, setup (assembly +
-// factor), solve, per-iteration time, CG iterations, the deformer's setup, CPU seconds, peak
-// memory of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up
+// factor), solve, per-iteration time, CG iterations, the deformer's setup, generation's CPU
+// seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the kernel backing
+// freshly touched memory) and minor page faults (faults_k, thousands), peak memory of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up
 // beside the generation result), the report's figures (to compare the solvers), and the growth
 // ratios per 4x vertices.
 #include <gshell/deform/shell_deformer.h>
@@ -32,12 +33,18 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-// User + system CPU seconds of all of this process's threads so far (getrusage).
-double process_cpu_seconds() {
+// CPU seconds of all of this process's threads so far and its minor page faults (getrusage).
+// System time is mostly the kernel backing freshly touched pages, which on a VM costs what the
+// host makes it cost; user time is the algorithm's own.
+struct ProcessTimes {
+  double user = 0, system = 0, minor_faults = 0;
+  double cpu() const { return user + system; }
+};
+ProcessTimes process_times() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
-  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+  return {seconds(usage.ru_utime), seconds(usage.ru_stime), static_cast<double>(usage.ru_minflt)};
 }
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -74,24 +81,26 @@ int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner prec
   options.thickness = thickness_from_ratio(mesh.V, ratio);
   options.linear.kind = linear;
   options.linear.preconditioner = preconditioner;
-  const double cpu0 = process_cpu_seconds();
+  const ProcessTimes before = process_times();
   const GenerateResult r = generate_shell(mesh.V, mesh.F, options);
-  const double generate_cpu = process_cpu_seconds() - cpu0;
+  const ProcessTimes after = process_times();
+  const double generate_cpu = after.cpu() - before.cpu();
   const double generate_peak = peak_megabytes(); // before the deformer, which runs beside the result
   const auto t0 = Clock::now();
-  const double deform_cpu0 = process_cpu_seconds();
+  const double deform_cpu0 = process_times().cpu();
   double deform_factor = 0;
   {
     const ShellDeformer deformer(r.shell);
     deform_factor = deformer.factor_seconds();
   }
-  const double deform_setup = seconds_since(t0), deform_cpu = process_cpu_seconds() - deform_cpu0;
+  const double deform_setup = seconds_since(t0), deform_cpu = process_times().cpu() - deform_cpu0;
   const int iterations = std::max(1, r.solve.iterations);
   std::printf("vertices=%d total=%.6g setup=%.6g solve=%.6g iterations=%d per_iteration=%.6g cg=%d "
-              "deform_setup=%.6g deform_factor=%.6g deform_cpu=%.6g cpu=%.6g generate_peak_mb=%.6g peak_mb=%.6g energy=%.10g stretch_mean=%.10g "
+              "deform_setup=%.6g deform_factor=%.6g deform_cpu=%.6g cpu=%.6g user=%.6g faults=%.6g generate_peak_mb=%.6g peak_mb=%.6g energy=%.10g stretch_mean=%.10g "
               "stretch_max=%.10g inverted=%d intersections=%d thickness_min=%.10g certificate=%.6g\n",
               static_cast<int>(mesh.V.rows()), r.seconds.total, r.seconds.factor, r.seconds.solve, r.solve.iterations,
               r.seconds.solve / iterations, r.solve.linear_iterations, deform_setup, deform_factor, deform_cpu, generate_cpu,
+              after.user - before.user, after.minor_faults - before.minor_faults,
               generate_peak, peak_megabytes(), r.solve.energy.back(), r.metrics.stretch.mean, r.metrics.stretch.max,
               r.metrics.certificate.inverted_tets,
               r.metrics.certificate.top_self_intersections + r.metrics.certificate.top_base_intersections,
@@ -192,9 +201,9 @@ int main(int argc, char** argv) {
   for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
   specs.insert(specs.end(), meshes.begin(), meshes.end());
   std::vector<Row> rows;
-  std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
+  std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
               "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "cert_s", "deform_s",
-              "dfm_cpu", "cpu_s", "gen_MB", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
+              "dfm_cpu", "cpu_s", "usr_s", "faults_k", "gen_MB", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
   for (const std::string& linear : linears)
     for (const std::string& spec : specs) {
       Row row{spec, linear, {}};
@@ -202,29 +211,29 @@ int main(int argc, char** argv) {
       for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, row);
       if (!ok) continue;
       const std::string name = spec.rfind("builtin:", 0) == 0 ? spec.substr(8) : std::filesystem::path(spec).stem().string();
-      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.2f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
+      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
                   "%4.0f "
                   "%4.0f\n",
                   name.c_str(), linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
                   row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("certificate"), row.get("deform_setup"), row.get("deform_cpu"), row.get("cpu"),
-                  row.get("generate_peak_mb"), row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
+                  row.get("user"), row.get("faults") / 1000, row.get("generate_peak_mb"), row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
                   row.get("stretch_mean"), row.get("stretch_max"), row.get("inverted"), row.get("intersections"));
       std::fflush(stdout);
       rows.push_back(row);
     }
 
   std::printf("\ngrowth per 4x vertices (consecutive sphere levels; target <= 4.6):\n");
-  std::printf("%-22s %-11s %8s %8s %8s %8s %8s %8s %8s %8s\n", "step", "linear", "total", "setup", "per_it", "deform",
-              "dfm_cpu", "cpu", "gen_MB", "peak_MB");
+  std::printf("%-22s %-11s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "step", "linear", "total", "setup", "per_it", "deform",
+              "dfm_cpu", "cpu", "usr", "gen_MB", "peak_MB");
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const Row &a = rows[i - 1], &b = rows[i];
     if (a.linear != b.linear || b.name.rfind("builtin:sphere:", 0) != 0 || a.name.rfind("builtin:sphere:", 0) != 0)
       continue;
     auto ratio_of = [&](const char* key) { return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0; };
     const std::string step = a.name.substr(8) + " -> " + b.name.substr(15);
-    std::printf("%-22s %-11s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(),
+    std::printf("%-22s %-11s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(),
                 ratio_of("total"), ratio_of("setup"), ratio_of("per_iteration"), ratio_of("deform_setup"),
-                ratio_of("deform_cpu"), ratio_of("cpu"), ratio_of("generate_peak_mb"), ratio_of("peak_mb"));
+                ratio_of("deform_cpu"), ratio_of("cpu"), ratio_of("user"), ratio_of("generate_peak_mb"), ratio_of("peak_mb"));
   }
   std::printf("load average at end %s\n", load_average().c_str());
   return 0;
