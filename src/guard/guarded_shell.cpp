@@ -71,11 +71,11 @@ struct Mended {
 // start.
 void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const GuardOptions& options,
            const RestTets& local, const std::vector<int>& held, const ShellBoundary& boundary,
-           const GuardedSolverParameters& repair, const GuardedSolveOptions& solve, Mended& g) {
-  Eigen::MatrixXd& X = g.X;
+           const GuardedSolverParameters& repair, const GuardedSolveOptions& solve, Mended& out) {
+  Eigen::MatrixXd& X = out.X;
   GuardOptions weak = options;
-  double energy = g.solve.final_energy;
-  g.relax.first_energy = energy;
+  double energy = out.solve.final_energy;
+  out.relax.first_energy = energy;
   for (int round = 0; round < options.relax_rounds; ++round) {
     weak.j_hat /= 3;
     weak.volume_weight /= 10;
@@ -85,19 +85,19 @@ void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const
     q.skip_tets = repair.skip_tets;
     q.excluded_triangles = repair.excluded_triangles;
     GuardedSolver relaxed(local, static_cast<int>(X.rows()), held, boundary, q);
-    g.factor_seconds += relaxed.shell_solver().factor_seconds();
+    out.factor_seconds += relaxed.shell_solver().factor_seconds();
     Eigen::MatrixXd Y = X;
     const GuardedSolveResult r = relaxed.solve(Y, solve);
-    g.relax.iterations += r.iterations;
-    g.relax.seconds += r.seconds;
+    out.relax.iterations += r.iterations;
+    out.relax.seconds += r.seconds;
     if (!(r.final_energy < energy)) break;
     X = std::move(Y);
     energy = r.final_energy;
-    ++g.relax.kept_rounds;
-    g.solve.final_energy = r.final_energy;
-    g.solve.active_tets = r.active_tets;
-    g.solve.min_relative_volume = r.min_relative_volume;
-    g.solve.active_contacts = r.active_contacts;
+    ++out.relax.kept_rounds;
+    out.solve.final_energy = r.final_energy;
+    out.solve.active_tets = r.active_tets;
+    out.solve.min_relative_volume = r.min_relative_volume;
+    out.solve.active_contacts = r.active_contacts;
   }
 }
 
