@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <string>
 
 namespace gshell {
@@ -113,9 +114,33 @@ struct MendInputs {
   const GuardOptions& options;
   const GuardedSolveOptions& solve;
   const ShellBoundary& boundary;
-  const GuardedShell& g;         // directions, start, paper, parameters, unprotected rows so far
+  const GuardedShell& g;         // directions, start, paper, parameters
   const Eigen::MatrixXd& wanted; // the paper's top where the lifting runs, else empty
+  // Where the lifting runs: its checker (a later check refits the tree of an earlier one to the
+  // positions it is given, so attempts share it) and the top vertices it may move.
+  const detail::StartChecker* lift_checker;
+  const std::vector<char>& movable;
 };
+
+// Top vertices the lifting may move: not those outside the guard's protection (unextrudable,
+// blocked rims, next to what it cannot keep clean), whose skipped tets and unprotected rows the
+// checker does not see.
+std::vector<char> liftable_vertices(const GuardedShell& g, const ShellBoundary& boundary,
+                                    const detail::StartChecker& checker, int n) {
+  std::vector<char> movable(n, 1);
+  for (int v : g.directions.unextrudable) movable[v] = 0;
+  for (int v : g.blocked_rim_vertices) movable[v] = 0;
+  const Eigen::MatrixXi& T = checker.tets();
+  for (int t = 0; t < T.rows(); ++t)
+    if (g.parameters.skip_tets[t])
+      for (int j = 0; j < 4; ++j)
+        if (T(t, j) >= n) movable[T(t, j) - n] = 0;
+  for (int r = 0; r < boundary.size(); ++r)
+    if (g.unprotected_triangles[r])
+      for (int k = 0; k < 3; ++k)
+        if (boundary.F(r, k) >= n) movable[boundary.F(r, k) - n] = 0;
+  return movable;
+}
 
 // The guarded solver over the top vertices flagged in `region` (the rest held) from the valid
 // start X, its relaxation rounds, then the lifting of thin tops.
@@ -166,26 +191,11 @@ Mended mend(const MendInputs& in, const std::vector<char>& region, const Eigen::
     out.solve = repair.solve(out.X, repair_options);
     relax(in.V, in.F, in.eta, in.options, local, held, in.boundary, q, repair_options, out);
   }
-  if (in.wanted.size() > 0) {
+  if (in.lift_checker) {
     const auto lift_start = Clock::now();
-    // Vertices outside the guard's protection (unextrudable, next to what it cannot keep clean)
-    // stay: the checker does not see their skipped tets and unprotected rows.
-    const detail::StartChecker checker(in.F, n, p.skip_tets, in.g.unprotected_triangles);
-    std::vector<char> movable(n, 1);
-    for (int v : in.g.directions.unextrudable) movable[v] = 0;
-    for (int v : in.g.blocked_rim_vertices) movable[v] = 0;
-    const Eigen::MatrixXi& T = checker.tets();
-    for (int t = 0; t < T.rows(); ++t)
-      if (p.skip_tets[t])
-        for (int j = 0; j < 4; ++j)
-          if (T(t, j) >= n) movable[T(t, j) - n] = 0;
-    for (int r = 0; r < in.boundary.size(); ++r)
-      if (in.g.unprotected_triangles[r])
-        for (int k = 0; k < 3; ++k)
-          if (in.boundary.F(r, k) >= n) movable[in.boundary.F(r, k) - n] = 0;
     Eigen::MatrixXd top = out.X.bottomRows(n);
     const detail::LiftResult lifted = detail::lift_thin_tops(in.V, in.F, ideal, in.wanted, in.g.directions.direction,
-                                                             movable, checker, in.options.lift_sweeps, top);
+                                                             in.movable, *in.lift_checker, in.options.lift_sweeps, top);
     out.X.bottomRows(n) = top;
     out.lift = {lifted.candidates, lifted.lifted, lifted.checks, lifted.energy_drop, seconds_since(lift_start)};
   }
@@ -370,22 +380,30 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
   // the base itself (two input sheets nearly touching).
   // Their neighbours are held too: a top edge from such a vertex to a moving one nearly meets
   // the base edges at its base vertex.
-  const std::vector<char> unheld = in_region;
   for (int f = 0; f < m; ++f)
     for (int k = 0; k < 3; ++k)
       if (g.start.scale[F(f, k)] < options.repair_min_scale)
-        for (int l = 0; l < 3; ++l) in_region[F(f, l)] = 0;
-  g.held_vertices = static_cast<int>(std::count(unheld.begin(), unheld.end(), 1) -
-                                     std::count(in_region.begin(), in_region.end(), 1));
+        for (int l = 0; l < 3; ++l)
+          if (in_region[F(f, l)]) {
+            in_region[F(f, l)] = 0;
+            ++g.held_vertices;
+          }
   Eigen::MatrixXd wanted; // the paper's top, kept for the lifting where the start thinned anything
-  if (options.lift_sweeps > 0 && (g.start.scale.array() < 1).any()) wanted = X.bottomRows(n);
+  std::optional<detail::StartChecker> lift_checker;
+  std::vector<char> movable;
+  if (options.lift_sweeps > 0 && (g.start.scale.array() < 1).any()) {
+    wanted = X.bottomRows(n);
+    lift_checker.emplace(F, n, p.skip_tets, g.unprotected_triangles);
+    movable = liftable_vertices(g, boundary, *lift_checker, n);
+  }
   X.bottomRows(n) = g.start.top;
-  const MendInputs inputs{V, F, ideal, eta, options, solve, boundary, g, wanted};
+  const MendInputs inputs{V,       F, ideal, eta, options, solve, boundary, g, wanted,
+                          lift_checker ? &*lift_checker : nullptr, movable};
   Mended mended = mend(inputs, in_region, X);
   g.factor_seconds += mended.factor_seconds;
   // Around held tops the repair can move their neighbours where they block them: the lifting
   // alone, from the start, is kept where it ends at the lower energy E.
-  if (g.held_vertices > 0 && options.try_lift_only && wanted.size() > 0) {
+  if (g.held_vertices > 0 && options.try_lift_only && lift_checker) {
     Mended lifted = mend(inputs, std::vector<char>(n, 0), X);
     g.lift_only = shell_energy(ideal, lifted.X) < shell_energy(ideal, mended.X);
     if (g.lift_only) mended = std::move(lifted);
