@@ -4,6 +4,7 @@
 // unguarded result is valid the guard leaves it alone; allow_invalid is the unguarded path bit for
 // bit.
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/guard/guarded_shell.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
@@ -288,6 +289,34 @@ TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {
   EXPECT_FALSE(u.guarded);
   EXPECT_FALSE(u.metrics.certificate.valid()); // this case inverts: the flag says so
   EXPECT_EQ(u.metrics.certificate.inverted_tets, recertify(u).inverted_tets);
+}
+
+TEST(GuardedGeneration, IdealTetsMadeOnDemandGiveTheSameShellBitForBit) {
+  // Given a function that makes the ideal tets, guarded_shell lets go of them through the start's
+  // certificate and makes them again only where the start thinned a top: the same shell as given
+  // the tets, with one call where nothing is thinned and two where the repair runs.
+  struct Case {
+    TriMesh mesh;
+    double ratio;
+    bool thinned;
+  };
+  for (const Case& c : {Case{make_sphere(3, 1.0), 0.02, false}, Case{bumpy_sphere(3, 0.25), 0.05, true}}) {
+    const Eigen::MatrixXd& V = c.mesh.V;
+    const Eigen::MatrixXi& F = c.mesh.F;
+    const double eta = thickness_from_ratio(V, c.ratio);
+    auto make = [&] { return prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, eta)); };
+    const GuardOptions options = generation_guard_options();
+    const RestTets rest = make();
+    const GuardedShell given = guarded_shell(V, F, rest, eta, options, {});
+    int calls = 0;
+    const GuardedShell made = guarded_shell(V, F, [&] { ++calls; return make(); }, eta, options, {});
+    EXPECT_EQ(given.repaired_vertices > 0, c.thinned);
+    EXPECT_EQ(calls, c.thinned ? 2 : 1);
+    EXPECT_TRUE(made.top == given.top);
+    EXPECT_EQ(made.repaired_vertices, given.repaired_vertices);
+    EXPECT_EQ(made.solve.iterations, given.solve.iterations);
+    EXPECT_EQ(made.lift.moves, given.lift.moves);
+  }
 }
 
 TEST(GuardedGeneration, SameBitsWithOneThreadAndMany) {

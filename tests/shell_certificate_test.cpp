@@ -9,6 +9,7 @@
 #include <gshell/quality/shell_metrics.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/generate_report.h>
+#include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -760,6 +761,30 @@ TEST(ShellMetricsCertificate, ThinnedVerticesAreThoseBelowNineTenthsOfEta) {
   const ShellMetrics metrics = shell_metrics(m.V, m.F, top, eta, false);
   EXPECT_EQ(metrics.thinned_vertices, 2);
   EXPECT_EQ(metrics_report(metrics, static_cast<int>(m.V.rows()), static_cast<int>(m.F.rows()), eta)["thinned_vertices"], 2);
+}
+
+TEST(ShellMetricsCertificate, StretchFromTetsMadeInBlocksIsThatOfTheWholeSet) {
+  // Without rest tets the metrics make the normal prisms' tets a block of faces at a time; with
+  // several blocks (81,920 faces) every per-tet figure and every statistic must be those measured
+  // against the whole set at once, bit for bit, on a top that stretches and inverts some tets.
+  const SimpleMesh m = test::icosphere(6);
+  const int n = static_cast<int>(m.V.rows());
+  const double eta = 0.01;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(-0.8 * eta, 0.8 * eta);
+  Eigen::MatrixXd top = offset_top(m.V, m.F, eta);
+  for (int i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) top(i, d) += jitter(rng);
+  const RestTets whole = prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, eta));
+  const ShellMetrics expected = shell_metrics(m.V, m.F, top, eta, false, whole);
+  const ShellMetrics blocks = shell_metrics(m.V, m.F, top, eta, false);
+  ASSERT_GT(expected.stretch.inverted, 0);
+  EXPECT_TRUE(blocks.tet_stretch == expected.tet_stretch);
+  EXPECT_TRUE(blocks.tet_determinant == expected.tet_determinant);
+  EXPECT_EQ(blocks.stretch.volume_mean, expected.stretch.volume_mean);
+  EXPECT_EQ(blocks.stretch.mean, expected.stretch.mean);
+  EXPECT_EQ(blocks.stretch.p99, expected.stretch.p99);
+  EXPECT_EQ(blocks.stretch.inverted, expected.stretch.inverted);
 }
 
 } // namespace

@@ -105,6 +105,30 @@ void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const
 // E, the shell energy the paper's iterations lower: rest volume times stretch, summed over tets.
 double shell_energy(const RestTets& ideal, const Eigen::MatrixXd& X) { return tet_stretch(ideal, X).dot(ideal.volume); }
 
+// The ideal rest tets, either the caller's or made on demand (and then let go of where the
+// generation peaks without them).
+class IdealTets {
+public:
+  explicit IdealTets(const RestTets& given) : given_(&given) {}
+  explicit IdealTets(const std::function<RestTets()>& make) : make_(make) {}
+  const RestTets& get() {
+    if (given_) return *given_;
+    if (!made_) {
+      const auto start = Clock::now();
+      made_ = make_();
+      seconds += seconds_since(start);
+    }
+    return *made_;
+  }
+  void release() { made_.reset(); }
+  double seconds = 0; // spent making them
+
+private:
+  const RestTets* given_ = nullptr;
+  std::function<RestTets()> make_;
+  std::optional<RestTets> made_;
+};
+
 // What the repair, the relaxation and the lifting read besides their region and start.
 struct MendInputs {
   const Eigen::MatrixXd& V;
@@ -260,48 +284,46 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   return p;
 }
 
-GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
+namespace {
+
+GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, IdealTets& ideal, double eta,
                            const GuardOptions& options, const GuardedSolveOptions& solve,
                            const LinearSolverOptions& linear) {
   const auto t0 = Clock::now();
   check_guard_options(options);
   if (!(eta > 0) || !std::isfinite(eta)) throw InputError("guarded_shell: thickness must be positive and finite");
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
-  if (ideal.size() != 3 * m) throw InputError("guarded_shell: expected 3 rest tets per face");
+  if (ideal.get().size() != 3 * m) throw InputError("guarded_shell: expected 3 rest tets per face");
   GuardedShell g;
-  const ShellBoundary boundary = shell_boundary(F, n);
   g.directions = extrusion_directions(V, F, options.normal_margin);
   g.base_self_intersections = surface_self_intersections(V, F);
 
-  // Faces around each vertex, for marking stars.
-  std::vector<int> start(n + 1, 0), star;
-  for (int f = 0; f < m; ++f)
-    for (int k = 0; k < 3; ++k) ++start[F(f, k) + 1];
-  std::partial_sum(start.begin(), start.end(), start.begin());
-  star.resize(start[n]);
-  {
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int f = 0; f < m; ++f)
-      for (int k = 0; k < 3; ++k) star[fill[F(f, k)]++] = f;
-  }
   // Prisms around unextrudable vertices cannot all be valid: their tets are not guarded and their
   // boundary triangles see no contacts. Around the crossings of a self-intersecting base no top
   // can be clean: the triangles of the faces touching a crossing face see no contacts.
   std::vector<char> unguarded_face(m, 0), excluded_face(m, 0);
-  for (int v : g.directions.unextrudable)
-    for (int s = start[v]; s < start[v + 1]; ++s) unguarded_face[star[s]] = excluded_face[star[s]] = 1;
-  for (const auto& [f1, f2] : g.base_self_intersections)
-    for (int f : {f1, f2})
-      for (int k = 0; k < 3; ++k)
-        for (int s = start[F(f, k)]; s < start[F(f, k) + 1]; ++s) excluded_face[star[s]] = 1;
+  {
+    // Faces around each vertex, for marking stars (freed before the paper's iterations).
+    std::vector<int> start(n + 1, 0), star;
+    for (int f = 0; f < m; ++f)
+      for (int k = 0; k < 3; ++k) ++start[F(f, k) + 1];
+    std::partial_sum(start.begin(), start.end(), start.begin());
+    star.resize(start[n]);
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int f = 0; f < m; ++f)
+      for (int k = 0; k < 3; ++k) star[fill[F(f, k)]++] = f;
+    for (int v : g.directions.unextrudable)
+      for (int s = start[v]; s < start[v + 1]; ++s) unguarded_face[star[s]] = excluded_face[star[s]] = 1;
+    for (const auto& [f1, f2] : g.base_self_intersections)
+      for (int f : {f1, f2})
+        for (int k = 0; k < 3; ++k)
+          for (int s = start[F(f, k)]; s < start[F(f, k) + 1]; ++s) excluded_face[star[s]] = 1;
+  }
   GuardedSolverParameters& p = g.parameters;
   p = absolute_guard_parameters(V, F, eta, options);
   p.skip_tets.assign(3 * static_cast<std::size_t>(m), 0);
   for (int f = 0; f < m; ++f)
     if (unguarded_face[f]) p.skip_tets[3 * f] = p.skip_tets[3 * f + 1] = p.skip_tets[3 * f + 2] = 1;
-  p.excluded_triangles.assign(boundary.size(), 0);
-  for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
-
   std::vector<int> fixed(n);
   std::iota(fixed.begin(), fixed.end(), 0);
   for (int v : g.directions.unextrudable) fixed.push_back(n + v);
@@ -315,8 +337,8 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     // Shares `ideal` (which outlives it) rather than copying it: at millions of faces a copy of
     // the rest tets is the largest allocation of the generation. Scoped: its matrix and factor
     // or multigrid are freed before the start's certificate, where the generation peaks.
-    const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal), 2 * n, fixed,
-                                   {}, linear);
+    const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal.get()), 2 * n,
+                                   fixed, {}, linear);
     g.factor_seconds = paper_solver.factor_seconds();
     SolveOptions paper;
     paper.max_iterations = solve.max_iterations;
@@ -324,6 +346,11 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
     paper.progress = solve.progress; // the guarded solve reports its own iterations after these
     g.paper = paper_solver.solve(X, paper);
   }
+  ideal.release(); // made again below only if the start thins a top
+  // Built after the paper's iterations, which do not need it, so as not to add to their peak.
+  const ShellBoundary boundary = shell_boundary(F, n);
+  p.excluded_triangles.assign(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
 
   // Valid start: that top, pulled towards the base only where it is not valid.
   ValidStartOptions start_options;
@@ -388,34 +415,56 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
             in_region[F(f, l)] = 0;
             ++g.held_vertices;
           }
-  Eigen::MatrixXd wanted; // the paper's top, kept for the lifting where the start thinned anything
-  std::optional<detail::StartChecker> lift_checker;
-  std::vector<char> movable;
-  if (options.lift_sweeps > 0 && (g.start.scale.array() < 1).any()) {
-    wanted = X.bottomRows(n);
-    lift_checker.emplace(F, n, p.skip_tets, g.unprotected_triangles);
-    movable = liftable_vertices(g, boundary, *lift_checker, n);
-  }
+  // Where the start thinned no top there is nothing to mend: no region, no lifting candidates.
+  const bool thinned = (g.start.scale.array() < 1).any();
+  Eigen::MatrixXd wanted; // the paper's top, kept for the lifting
+  if (thinned && options.lift_sweeps > 0) wanted = X.bottomRows(n);
   X.bottomRows(n) = g.start.top;
-  const MendInputs inputs{V,       F, ideal, eta, options, solve, boundary, g, wanted,
-                          lift_checker ? &*lift_checker : nullptr, movable};
-  Mended mended = mend(inputs, in_region, X);
-  g.factor_seconds += mended.factor_seconds;
-  // Around held tops the repair can move their neighbours where they block them: the lifting
-  // alone, from the start, is kept where it ends at the lower energy E.
-  if (g.held_vertices > 0 && options.try_lift_only && lift_checker) {
-    Mended lifted = mend(inputs, std::vector<char>(n, 0), X);
-    g.lift_only = shell_energy(ideal, lifted.X) < shell_energy(ideal, mended.X);
-    if (g.lift_only) mended = std::move(lifted);
+  if (thinned) {
+    const RestTets& ideal_tets = ideal.get();
+    std::optional<detail::StartChecker> lift_checker;
+    std::vector<char> movable;
+    if (options.lift_sweeps > 0) {
+      lift_checker.emplace(F, n, p.skip_tets, g.unprotected_triangles);
+      movable = liftable_vertices(g, boundary, *lift_checker, n);
+    }
+    const MendInputs inputs{V,       F, ideal_tets, eta, options, solve, boundary, g, wanted,
+                            lift_checker ? &*lift_checker : nullptr, movable};
+    Mended mended = mend(inputs, in_region, X);
+    g.factor_seconds += mended.factor_seconds;
+    // Around held tops the repair can move their neighbours where they block them: the lifting
+    // alone, from the start, is kept where it ends at the lower energy E.
+    if (g.held_vertices > 0 && options.try_lift_only && lift_checker) {
+      Mended lifted = mend(inputs, std::vector<char>(n, 0), X);
+      g.lift_only = shell_energy(ideal_tets, lifted.X) < shell_energy(ideal_tets, mended.X);
+      if (g.lift_only) mended = std::move(lifted);
+    }
+    X = std::move(mended.X);
+    g.repaired_vertices = mended.repaired_vertices;
+    g.solve = mended.solve;
+    g.relax = mended.relax;
+    g.lift = mended.lift;
   }
-  X = std::move(mended.X);
-  g.repaired_vertices = mended.repaired_vertices;
-  g.solve = mended.solve;
-  g.relax = mended.relax;
-  g.lift = mended.lift;
   g.top = X.bottomRows(n);
+  g.ideal_seconds = ideal.seconds;
   g.seconds = seconds_since(t0);
   return g;
+}
+
+} // namespace
+
+GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
+                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const LinearSolverOptions& linear) {
+  IdealTets tets(ideal);
+  return guarded_shell(V, F, tets, eta, options, solve, linear);
+}
+
+GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                           const std::function<RestTets()>& make_ideal, double eta, const GuardOptions& options,
+                           const GuardedSolveOptions& solve, const LinearSolverOptions& linear) {
+  IdealTets tets(make_ideal);
+  return guarded_shell(V, F, tets, eta, options, solve, linear);
 }
 
 } // namespace gshell

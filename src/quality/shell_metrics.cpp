@@ -5,6 +5,9 @@
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>
 
+#include "check_mesh_input.h"
+
+#include <algorithm>
 #include <cmath>
 
 namespace gshell {
@@ -17,26 +20,16 @@ void check_sizes(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, double
     throw InputError("shell_metrics: base and top must have the same number of vertices");
 }
 
-} // namespace
-
-ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                           double eta, bool count_intersections) {
-  check_sizes(base, top, eta);
-  const RestTets rest = prism_rest_tets(F, static_cast<int>(base.rows()), normal_prisms(base, F, eta));
-  return shell_metrics(base, F, top, eta, count_intersections, rest);
-}
-
-ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                           double eta, bool count_intersections, const RestTets& rest) {
-  check_sizes(base, top, eta);
-  if (rest.size() != 3 * F.rows()) throw InputError("shell_metrics: rest tets do not match the faces");
+// Everything but the stretch, which the callers measure against rest tets made in one piece or
+// in blocks.
+ShellMetrics metrics_from_stretch(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                                  double eta, bool count_intersections, Eigen::VectorXd tet_stretch,
+                                  Eigen::VectorXd tet_determinant, const Eigen::VectorXd& volume) {
   const int n = static_cast<int>(base.rows());
   ShellMetrics m;
-  Eigen::MatrixXd X(2 * n, 3);
-  X << base, top;
-  m.tet_stretch = tet_stretch(rest, X);
-  m.tet_determinant = tet_deformation_determinants(rest, X);
-  m.stretch = stretch_stats(m.tet_stretch, m.tet_determinant, rest.volume);
+  m.stretch = stretch_stats(tet_stretch, tet_determinant, volume);
+  m.tet_stretch = std::move(tet_stretch);
+  m.tet_determinant = std::move(tet_determinant);
   CertifyOptions certify;
   certify.test_intersections = count_intersections;
   m.certificate = certify_shell(base, top, F, certify);
@@ -47,6 +40,44 @@ ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F
     m.thinned_vertices = static_cast<int>((m.vertex_thickness.array() < kThinnedFraction).count());
   }
   return m;
+}
+
+} // namespace
+
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections) {
+  check_sizes(base, top, eta);
+  detail::check_face_indices(F, base.rows(), "shell_metrics");
+  // The normal prisms' rest tets are made a block of faces at a time (a face's three tets depend
+  // on that face alone): at millions of faces the whole set, 96 bytes per tet, would be the
+  // largest allocation of the metrics. Per tet the figures are those of the whole set, bit for bit.
+  constexpr Eigen::Index kBlockFaces = 1 << 15;
+  const int n = static_cast<int>(base.rows());
+  const Eigen::Index m = F.rows();
+  Eigen::MatrixXd X(2 * n, 3);
+  X << base, top;
+  Eigen::VectorXd stretch(3 * m), determinant(3 * m), volume(3 * m);
+  for (Eigen::Index f0 = 0; f0 < m; f0 += kBlockFaces) {
+    const Eigen::Index faces = std::min(kBlockFaces, m - f0);
+    const Eigen::MatrixXi block = F.middleRows(f0, faces);
+    const RestTets rest = prism_rest_tets(block, n, normal_prisms(base, block, eta));
+    stretch.segment(3 * f0, 3 * faces) = tet_stretch(rest, X);
+    determinant.segment(3 * f0, 3 * faces) = tet_deformation_determinants(rest, X);
+    volume.segment(3 * f0, 3 * faces) = rest.volume;
+  }
+  return metrics_from_stretch(base, F, top, eta, count_intersections, std::move(stretch), std::move(determinant),
+                              volume);
+}
+
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections, const RestTets& rest) {
+  check_sizes(base, top, eta);
+  if (rest.size() != 3 * F.rows()) throw InputError("shell_metrics: rest tets do not match the faces");
+  const int n = static_cast<int>(base.rows());
+  Eigen::MatrixXd X(2 * n, 3);
+  X << base, top;
+  return metrics_from_stretch(base, F, top, eta, count_intersections, tet_stretch(rest, X),
+                              tet_deformation_determinants(rest, X), rest.volume);
 }
 
 } // namespace gshell

@@ -50,11 +50,12 @@ void certify(GenerateResult& r, const GenerateOptions& options) {
   if (r.guarded) r.metrics.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
 }
 
-// Generation towards the ideal prisms' rest tets `rest`; `ideal_is_normal` lets the metrics reuse
-// them. Callers pass the rest tets rather than the prisms so that the prisms' corners (as large
-// as the rest tets) can be freed before the solve.
-GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& rest,
-                                const GenerateOptions& options, bool ideal_is_normal) {
+// Generation towards the ideal prisms' rest tets, made by `make_ideal` where they are needed (the
+// guard lets go of them through its certificate, where a big generation peaks); `ideal_is_normal`
+// lets the unguarded result's metrics reuse them.
+GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                const std::function<RestTets()>& make_ideal, const GenerateOptions& options,
+                                bool ideal_is_normal) {
   const auto t0 = Clock::now();
   options.check();
   check_shapes(V, F);
@@ -62,22 +63,27 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   GenerateResult r;
   r.method = options.method;
   if (options.allow_invalid) {
-    std::vector<int> base_vertices(n);
-    std::iota(base_vertices.begin(), base_vertices.end(), 0);
-    const ShellSolver solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &rest), 2 * n, base_vertices, {},
-                             options.linear); // shares `rest` (kept for the metrics) instead of copying it
-    r.seconds.factor = solver.factor_seconds();
-    Eigen::MatrixXd X(2 * n, 3);
-    X << V, offset_top(V, F, options.thickness);
-    r.solve = solver.solve(X, options.solve);
-    r.seconds.solve = r.solve.seconds;
-    r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
+    const RestTets rest = make_ideal();
+    {
+      std::vector<int> base_vertices(n);
+      std::iota(base_vertices.begin(), base_vertices.end(), 0);
+      const ShellSolver solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &rest), 2 * n, base_vertices,
+                               {}, options.linear); // shares `rest` (kept for the metrics) instead of copying it
+      r.seconds.factor = solver.factor_seconds();
+      Eigen::MatrixXd X(2 * n, 3);
+      X << V, offset_top(V, F, options.thickness);
+      r.solve = solver.solve(X, options.solve);
+      r.seconds.solve = r.solve.seconds;
+      r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
+    }
+    r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)
+                                : shell_metrics(V, F, r.shell.top, options.thickness, false);
   } else {
     GuardedSolveOptions solve;
     solve.max_iterations = options.solve.max_iterations;
     solve.tolerance = options.solve.tolerance;
     solve.progress = options.solve.progress;
-    r.guard = guarded_shell(V, F, rest, options.thickness, options.guard, solve, options.linear);
+    r.guard = guarded_shell(V, F, make_ideal, options.thickness, options.guard, solve, options.linear);
     r.guarded = true;
     r.unextrudable_vertices = r.guard.directions.unextrudable;
     r.unextrudable_vertices.insert(r.unextrudable_vertices.end(), r.guard.blocked_rim_vertices.begin(),
@@ -89,11 +95,10 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.solve.converged = r.guard.paper.converged && (r.guard.repaired_vertices == 0 || r.guard.solve.converged);
     r.seconds.factor = r.guard.factor_seconds;
     r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds + r.guard.relax.seconds;
-    r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve;
+    r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve - r.guard.ideal_seconds;
     r.shell = make_shell(V, F, r.guard.top, options.thickness);
+    r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, false);
   }
-  r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)
-                              : shell_metrics(V, F, r.shell.top, options.thickness, false);
   certify(r, options);
   r.seconds.total = seconds_since(t0);
   return r;
@@ -107,7 +112,8 @@ GenerateResult generate_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixX
   const PrismCorners ideal =
       curvature_prisms(V, F, face_curvature(V, F), options.thickness, options.s_min, options.s_max, &prisms);
   const double prism_seconds = seconds_since(t0);
-  GenerateResult r = generate_towards(V, F, prism_rest_tets(F, static_cast<int>(V.rows()), ideal), options, false);
+  const int n = static_cast<int>(V.rows());
+  GenerateResult r = generate_towards(V, F, [&] { return prism_rest_tets(F, n, ideal); }, options, false);
   r.seconds.total += prism_seconds;
   CurvatureGeneration& c = r.curvature.emplace();
   c.s_min = options.s_min;
@@ -115,7 +121,7 @@ GenerateResult generate_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixX
   c.prisms = prisms;
   c.prism_seconds = prism_seconds;
   // Against the prisms it was optimised towards.
-  c.own_stretch = stretch_stats(prism_rest_tets(F, static_cast<int>(V.rows()), ideal), r.shell.vertices());
+  c.own_stretch = stretch_stats(prism_rest_tets(F, n, ideal), r.shell.vertices());
   return r;
 }
 
@@ -159,7 +165,7 @@ GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen:
                                           const PrismCorners& ideal, const GenerateOptions& options) {
   options.check();
   check_shapes(V, F);
-  return generate_towards(V, F, prism_rest_tets(F, static_cast<int>(V.rows()), ideal), options, false);
+  return generate_towards(V, F, [&] { return prism_rest_tets(F, static_cast<int>(V.rows()), ideal); }, options, false);
 }
 
 GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
@@ -168,8 +174,9 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   if (options.method == ShellMethod::Curvature) return generate_curvature(V, F, options);
   if (options.method == ShellMethod::Rigid) {
     const auto t0 = Clock::now();
-    const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
-    GenerateResult r = generate_towards(V, F, rest, options, true);
+    GenerateResult r = generate_towards(
+        V, F, [&] { return prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness)); },
+        options, true);
     r.seconds.total = seconds_since(t0);
     return r;
   }

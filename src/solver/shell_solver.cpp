@@ -182,8 +182,18 @@ struct ShellSolver::Impl {
   // incoherently that too many colours would be needed (then solve() stores and gathers).
   std::vector<int> colour_start, colour_chunk;
   // Per free vertex: the (tet * 4 + corner) slots of the local step's RHS rows to sum (a gather,
-  // so the global step's right-hand side is built in parallel without atomics).
-  std::vector<int> gather_start, gather_slot;
+  // so the global step's right-hand side is built in parallel without atomics). The assembly
+  // reads it; with the colouring, solve() does not, so it is freed after the assembly (at 15.7M
+  // tets it is 0.26 GB at the generation's peak) and made again on the first use of the
+  // step-by-step API (global_step, half_gradient), which always gathers.
+  mutable std::vector<int> gather_start, gather_slot;
+  mutable std::once_flag gather_remade;
+  void build_gather() const;
+  void ensure_gather() const {
+    std::call_once(gather_remade, [this] {
+      if (gather_start.empty()) build_gather();
+    });
+  }
   // Every free row of the system matrix (L plus the soft springs' diagonal) over all columns
   // (vertex ids), CSR: the entries in free columns first, then from A_kept[j] on those in kept
   // columns, L_fc (the exact Dirichlet elimination term L_fc x_c). The gradient reads the first.
@@ -196,9 +206,8 @@ struct ShellSolver::Impl {
 
   LinearSolverOptions linear;
   mutable LinearSolver path = LinearSolver::Direct; // Direct or ConjugateGradient (Auto resolved)
-  // CG's iterate, residual, direction, product, preconditioned residual (multigrid), and (Auto)
-  // the right-hand side for a fallback.
-  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_z, cg_b;
+  // CG's iterate, residual, direction, product and preconditioned residual (multigrid).
+  mutable std::vector<double> cg_x, cg_r, cg_p, cg_q, cg_z;
 
   mutable double factor_seconds = 0;
   mutable std::mutex solve_mutex; // the factor's workspace is shared: one linear solve at a time
@@ -325,6 +334,13 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
   nf = static_cast<int>(free_vertices.size());
 
   colour_chunks();
+  build_gather();
+  soft_free.clear();
+  if (has_soft)
+    for (int v : soft.vertices) soft_free.push_back(free_index[v]);
+}
+
+void ShellSolver::Impl::build_gather() const {
   gather_start.assign(nf + 1, 0);
   for (int t = 0; t < K; ++t)
     for (int j = 0; j < 4; ++j)
@@ -343,10 +359,6 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
   };
   if (colour_chunk.empty()) add_slots(0, K);
   for (int chunk : colour_chunk) add_slots(chunk * kChunk, std::min(K, (chunk + 1) * kChunk));
-
-  soft_free.clear();
-  if (has_soft)
-    for (int v : soft.vertices) soft_free.push_back(free_index[v]);
 }
 
 void ShellSolver::Impl::assemble() {
@@ -438,6 +450,10 @@ void ShellSolver::Impl::assemble() {
     }
     in = RowBlock{}; // freed as soon as copied: the peak holds the matrix about twice, not more
   });
+  if (!colour_chunk.empty()) { // solve() adds the rotations without it (see gather_slot)
+    gather_start = {};
+    gather_slot = {};
+  }
   if (nf == 0) return;
   path = linear.kind == LinearSolver::ConjugateGradient ||
                  (linear.kind == LinearSolver::Auto && nf >= linear.cg_min_rows && anchored())
@@ -619,6 +635,7 @@ void ShellSolver::Impl::gather_rhs(int j, const double* Q, double b[3]) const {
 
 int ShellSolver::Impl::global_step(double* X, const double* Q, const std::vector<double>& rhs_const,
                                    std::vector<double>& rhs) const {
+  ensure_gather();
   tbb::parallel_for(0, nf, [&](int j) {
     double b[3];
     gather_rhs(j, Q, b);
@@ -644,11 +661,10 @@ int ShellSolver::Impl::linear_solve(const double* X, std::vector<double>& rhs) c
     direct_solve(rhs);
     return 0;
   }
-  if (linear.kind == LinearSolver::Auto) cg_b.assign(rhs.begin(), rhs.end());
   const auto [iterations, converged] = cg_solve(X, rhs);
   if (!converged && linear.kind == LinearSolver::Auto) { // CG does not pay here: factor once
     factorize();
-    rhs.swap(cg_b);
+    rhs.swap(cg_x); // cg_solve swapped its iterate into rhs: cg_x holds the right-hand side again
     direct_solve(rhs);
   }
   return iterations;
@@ -787,7 +803,7 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
           }
     });
   }
-  rhs.swap(x);
+  rhs.swap(x); // and x holds the right-hand side, which linear_solve's fallback reads
   return {it, !active[0] && !active[1] && !active[2]};
 }
 
@@ -1025,6 +1041,7 @@ Eigen::MatrixXd ShellSolver::half_gradient(const Eigen::MatrixXd& X, const Local
   // 1/2 dE/dx_f = A_ff x_f - (b(R) + rhs_constant): what the global step solves, as a residual.
   const std::vector<double> x = to_row_major(X);
   const std::vector<double> rhs_const = m.rhs_constant(x.data(), soft_targets);
+  m.ensure_gather();
   Eigen::MatrixXd g = Eigen::MatrixXd::Zero(m.N, 3);
   tbb::parallel_for(0, m.nf, [&](int j) {
     double b[3];

@@ -10,6 +10,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <Eigen/Core>
+#include <functional>
 #include <vector>
 
 namespace gshell {
@@ -159,7 +160,8 @@ struct GuardedShell {
   } lift;
   GuardedSolverParameters parameters;  ///< the absolute parameters used
   double factor_seconds = 0;           ///< matrix assembly + factorisation (both solvers)
-  double seconds = 0;                  ///< everything, factor and solve included
+  double ideal_seconds = 0;            ///< making the ideal rest tets (when given a function to make them)
+  double seconds = 0;                  ///< everything, factor, solve and ideal_seconds included
 };
 
 /// The guarded solver's absolute parameters for a shell of thickness eta over base (V, F), from
@@ -180,5 +182,15 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
                            const GuardOptions& options, const GuardedSolveOptions& solve,
                            const LinearSolverOptions& linear = {});
+
+/// The same with the rest tets made by `make_ideal` where they are needed: for the paper's
+/// iterations, and again only if the start thinned a top (the repair, the lifting). In between,
+/// through the valid start's certificate, they are not held: at millions of faces the rest tets
+/// and the certificate's face data are the two largest allocations, and holding both set the
+/// generation's peak memory. `make_ideal` is called once or twice and must give the same tets.
+/// \throws as the other overload, and whatever `make_ideal` throws.
+GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                           const std::function<RestTets()>& make_ideal, double eta, const GuardOptions& options,
+                           const GuardedSolveOptions& solve, const LinearSolverOptions& linear = {});
 
 } // namespace gshell
