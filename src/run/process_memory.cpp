@@ -11,7 +11,7 @@ namespace gshell {
 void reuse_freed_memory() {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_MAX, 0);
-  mallopt(M_TRIM_THRESHOLD, INT_MAX);
+  mallopt(M_TRIM_THRESHOLD, -1); // never trim: -1 turns trimming off
 #endif
 }
 

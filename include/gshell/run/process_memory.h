@@ -7,7 +7,8 @@ namespace gshell {
 /// it when freed, so each phase of a generation on millions of faces (rest tets, trees, face data:
 /// hundreds of MB each) faults in and zeroes every page of its buffers again; at builtin:sphere:9
 /// that was 4.9M page faults for a 6.4 GB peak (docs/scale.md). Afterwards no block is mapped on
-/// its own and the heap is trimmed only above 2 GB of free top.
+/// its own and the heap is never trimmed: the process keeps its peak footprint, and every later
+/// phase reuses pages it has already touched.
 /// Call once, early, in a process whose footprint may stay at its peak until it exits; not from
 /// a library inside a long-lived host. Does nothing where the C library is not glibc.
 void reuse_freed_memory();
