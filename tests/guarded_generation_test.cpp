@@ -445,6 +445,27 @@ TEST(GuardedGeneration, LiftingAloneIsKeptWhereItEndsAtLowerEnergyThanTheRepair)
   EXPECT_EQ(kept_repaired, 1);
 }
 
+TEST(GuardedGeneration, LargeLocalSystemsTakeTheSupernodalFactorWithTheSameOutcome) {
+  // Local systems of supernodal_rows rows and more are factored by CHOLMOD's supernodal
+  // Cholesky instead of the simplicial LDLT (it keeps large repairs from taking minutes per
+  // iteration). With the threshold at 0 every local system takes it: the repair must end valid at
+  // the same energy as with the LDLT (both solve the same systems; only rounding differs).
+  const TriMesh m = bumpy_sphere(3, 0.25);
+  GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.05));
+  const GenerateResult simplicial = generate_shell(m.V, m.F, o);
+  o.guard.supernodal_rows = 0;
+  const GenerateResult supernodal = generate_shell(m.V, m.F, o);
+  ASSERT_GT(simplicial.guard.repaired_vertices, 0);
+  EXPECT_EQ(simplicial.guard.solve.supernodal_solves, 0);
+  EXPECT_GT(supernodal.guard.solve.supernodal_solves, 0);
+  expect_valid(simplicial);
+  expect_valid(supernodal);
+  const double e_simplicial = simplicial.guard.solve.final_energy, e_supernodal = supernodal.guard.solve.final_energy;
+  EXPECT_NEAR(e_supernodal, e_simplicial, 1e-4 * e_simplicial);
+  EXPECT_NEAR(supernodal.metrics.stretch.volume_mean, simplicial.metrics.stretch.volume_mean,
+              1e-4 * simplicial.metrics.stretch.volume_mean);
+}
+
 TEST(GuardedGeneration, SmallRepairRunsPastTheSolvesIterationCap) {
   // The repair's cap is the solve's max_iterations, extended while iterations x repaired vertices
   // stay within repair_budget: a small repair stopped unconverged by the cap (CGAL's mpi_triang at

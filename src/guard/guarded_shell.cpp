@@ -236,6 +236,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
   require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
   require(o.local_rings >= -1, "local_rings", ">= -1");
+  require(o.supernodal_rows >= 0, "supernodal_rows", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
@@ -281,6 +282,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.projected_volume_hessian = options.projected_volume_hessian;
   p.projected_contact_hessian = options.projected_contact_hessian;
   p.local_rings = options.local_rings;
+  p.supernodal_rows = options.supernodal_rows;
   return p;
 }
 

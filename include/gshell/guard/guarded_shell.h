@@ -40,6 +40,8 @@ struct GuardOptions {
   /// whole repair region's coupling and the directions are the model's exact Newton steps:
   /// dino 44 -> 30 iterations; -1 skips it).
   int local_rings = 2;
+  /// GuardedSolverParameters::supernodal_rows (>= 0).
+  int supernodal_rows = 150000;
   /// GuardedSolverParameters::projected_volume_hessian (generation: true).
   bool projected_volume_hessian = false;
   /// GuardedSolverParameters::projected_contact_hessian (generation: false).

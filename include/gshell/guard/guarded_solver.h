@@ -62,6 +62,11 @@ struct GuardedSolverParameters {
   /// Before CG, the model is solved exactly on the vertices within this many rings of those the
   /// barriers act on (a small sparse factorisation); -1 skips it.
   int local_rings = 2;
+  /// Local systems of at least this many rows (3 per vertex) are factored by CHOLMOD's
+  /// supernodal Cholesky, its fill-reducing ordering chosen by CHOLMOD (AMD, or METIS where AMD
+  /// fills much), instead of Eigen's simplicial LDLT, whose fill outgrows it on large repairs
+  /// (docs/guarded-generation.md "Large repairs"). An indefinite system falls back to the LDLT.
+  int supernodal_rows = 150000;
   /// The volume barrier's Hessian in the directions: each tet's whole Hessian projected onto its
   /// positive eigenvalues (true) or its Gauss-Newton part (false; VolumeBarrier::add_hessian).
   bool projected_volume_hessian = false;
@@ -101,6 +106,7 @@ struct GuardedSolveResult {
   int active_tets = 0;         ///< tets inside the volume barrier at the result
   double min_relative_volume = 0; ///< smallest det F over the guarded tets at the result
   int active_contacts = 0;     ///< boundary pairs inside the contact barrier at the result
+  int supernodal_solves = 0;   ///< local systems factored by CHOLMOD (supernodal_rows and above)
 };
 
 class GuardedSolver {
