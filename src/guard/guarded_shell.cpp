@@ -116,17 +116,18 @@ public:
     if (!made_) {
       const auto start = Clock::now();
       made_ = make_();
-      seconds += seconds_since(start);
+      seconds_ += seconds_since(start);
     }
     return *made_;
   }
   void release() { made_.reset(); }
-  double seconds = 0; // spent making them
+  double seconds() const { return seconds_; } // spent making them
 
 private:
   const RestTets* given_ = nullptr;
   std::function<RestTets()> make_;
   std::optional<RestTets> made_;
+  double seconds_ = 0;
 };
 
 // What the repair, the relaxation and the lifting read besides their region and start.
@@ -448,7 +449,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     g.lift = mended.lift;
   }
   g.top = X.bottomRows(n);
-  g.ideal_seconds = ideal.seconds;
+  g.ideal_seconds = ideal.seconds();
   g.seconds = seconds_since(t0);
   return g;
 }

@@ -12,8 +12,8 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 #include <limits>
+#include <stdexcept>
 #include <string>
 
 namespace gshell {
@@ -185,7 +185,7 @@ struct GuardedSolver::Impl {
     if (A.rows() >= p.supernodal_rows) {
       try {
         detail::SpdSolver cholesky;
-        cholesky.factor(A);
+        cholesky.factor(A, /*many_solves=*/false);
         Eigen::MatrixXd B = b;
         cholesky.solve_in_place(B);
         x = B.col(0);

@@ -53,7 +53,7 @@ SpdSolver& SpdSolver::operator=(SpdSolver&&) noexcept = default;
 
 int SpdSolver::size() const { return impl_->n; }
 
-void SpdSolver::factor(const Eigen::SparseMatrix<double>& A) {
+void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves) {
   Impl& s = *impl_;
   s.n = static_cast<int>(A.rows());
   if (s.n <= kDenseLimit) {
@@ -87,7 +87,7 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A) {
     throw std::runtime_error("system matrix is not positive definite");
   // A simplicial LL^T solves three right-hand sides faster than the supernodal form (no BLAS
   // call per supernode): convert once.
-  if (!cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, s.factor, &s.cm))
+  if (many_solves && !cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, s.factor, &s.cm))
     throw std::runtime_error("CHOLMOD factor conversion failed");
 #else
   s.sparse.compute(A);
