@@ -4,6 +4,7 @@
 #include <gshell/seconds_since.h>
 #include <gshell/guard/tet_step_bound.h>
 
+#include "guard/reused_ordering.h"
 #include "solver/hierarchy_linear.h"
 
 #include <Eigen/SparseCholesky>
@@ -131,9 +132,11 @@ struct GuardedSolver::Impl {
 
   // Half the barriers' Hessian at X over all vertices (3 * vertex + axis), as triplets.
   std::vector<Eigen::Triplet<double>> half_barrier_triplets(const Eigen::MatrixXd& X, const State& s) {
+    // Contacts first: the volume barrier then sizes H for its (often far more numerous) tets in
+    // one go instead of growing it, and reallocates only the contacts' part.
     std::vector<Eigen::Triplet<double>> H;
-    volume.add_hessian(X, 0.5 * p.volume_weight, H, s.active_tets, p.projected_volume_hessian);
     if (contact) contact->add_hessian(X, 0.5 * p.contact_stiffness, H, p.projected_contact_hessian);
+    volume.add_hessian(X, 0.5 * p.volume_weight, H, s.active_tets, p.projected_volume_hessian);
     return H;
   }
 
@@ -181,15 +184,17 @@ struct GuardedSolver::Impl {
   // supernodal Cholesky with the ordering CHOLMOD picks (METIS there: 78M entries instead of
   // AMD's 115M). The system is indefinite only where the unprojected contact Hessian outweighs the
   // rest; Cholesky then fails and the LDLT takes over. Returns false when neither factors.
-  bool solve_local_system(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
+  bool solve_local_system(const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices,
+                          const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
     if (A.rows() >= p.supernodal_rows) {
       try {
         detail::SpdSolver cholesky;
-        cholesky.factor(A, /*many_solves=*/false);
+        ordering.factor(cholesky, A, vertices, N);
         Eigen::MatrixXd B = b;
         cholesky.solve_in_place(B);
         x = B.col(0);
         ++supernodal_solves;
+        reused_orderings += ordering.reused();
         return true;
       } catch (const std::runtime_error&) {
       }
@@ -199,6 +204,8 @@ struct GuardedSolver::Impl {
     x = ldlt.solve(b);
     return true;
   }
+  mutable detail::ReusedOrdering ordering; // of the large local systems, within one solve()
+  mutable int reused_orderings = 0;        // since the last solve() began
   mutable int supernodal_solves = 0; // since the last solve() began
 
   // The minimiser of the quadratic model over the free vertices within local_rings rings of those
@@ -241,7 +248,7 @@ struct GuardedSolver::Impl {
     for (int i = 0; i < nl; ++i)
       for (int d = 0; d < 3; ++d) b[3 * i + d] = r(free_index[vertices[i]], d);
     Eigen::VectorXd x;
-    if (!solve_local_system(A, b, x)) return delta;
+    if (!solve_local_system(A, vertices, b, x)) return delta;
     for (int i = 0; i < nl; ++i)
       for (int d = 0; d < 3; ++d) delta(free_index[vertices[i]], d) = x[3 * i + d];
     return delta;
@@ -338,6 +345,8 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     throw InputError("GuardedSolver::solve: fixed_targets must be " + std::to_string(m.N) + " x 3");
   GuardedSolveResult result;
   m.supernodal_solves = 0;
+  m.reused_orderings = 0;
+  m.ordering.clear();
   Impl::State state;
   if (!m.evaluate(X, state))
     throw InputError("GuardedSolver::solve: the start state is not valid (a guarded tet is flat or inverted, or "
@@ -450,6 +459,8 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
   result.min_relative_volume = m.volume.min_relative_volume(X);
   result.active_contacts = m.contact ? m.contact->active_pairs() : 0;
   result.supernodal_solves = m.supernodal_solves;
+  result.reused_orderings = m.reused_orderings;
+  m.ordering.clear();
   result.seconds = seconds_since(t0);
   return result;
 }

@@ -24,6 +24,7 @@ struct SpdSolver::Impl {
 #ifdef GSHELL_HAVE_CHOLMOD
   cholmod_common cm;
   cholmod_factor* factor = nullptr;
+  bool given_kept = false; // the last factor used the ordering it was given
   std::mutex mutex; // CHOLMOD's workspace is shared: one solve at a time
   // Solution and workspaces of cholmod_solve2, kept between solves (reallocating them costs more
   // than a small level's solve).
@@ -53,7 +54,8 @@ SpdSolver& SpdSolver::operator=(SpdSolver&&) noexcept = default;
 
 int SpdSolver::size() const { return impl_->n; }
 
-void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves) {
+void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, const std::vector<int>* ordering,
+                       double max_entries) {
   Impl& s = *impl_;
   s.n = static_cast<int>(A.rows());
   if (s.n <= kDenseLimit) {
@@ -81,7 +83,26 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves) {
   M.sorted = 1;
   M.packed = 1;
   if (s.factor) cholmod_free_factor(&s.factor, &s.cm);
-  s.factor = cholmod_analyze(&M, &s.cm);
+  s.cm.nmethods = 0; // CHOLMOD's default choice
+  s.given_kept = false;
+  if (ordering) {
+    if (static_cast<int>(ordering->size()) != s.n) throw std::invalid_argument("SpdSolver: ordering of the wrong size");
+    std::vector<int> given = *ordering; // cholmod_analyze_p takes a non-const pointer
+    s.cm.nmethods = 1;
+    s.cm.method[0].ordering = CHOLMOD_GIVEN;
+    s.factor = cholmod_analyze_p(&M, given.data(), nullptr, 0, &s.cm);
+    s.cm.nmethods = 0;
+    // The symbolic analysis already knows the fill: an ordering that fills far more than
+    // `max_entries` is dropped before the numeric work it would cost.
+    if (s.factor && max_entries > 0 && s.cm.lnz > max_entries) {
+      cholmod_free_factor(&s.factor, &s.cm);
+      s.factor = cholmod_analyze(&M, &s.cm);
+    } else {
+      s.given_kept = s.factor != nullptr;
+    }
+  } else {
+    s.factor = cholmod_analyze(&M, &s.cm);
+  }
   if (!s.factor) throw std::runtime_error("CHOLMOD analysis failed (status " + std::to_string(s.cm.status) + ")");
   if (!cholmod_factorize(&M, s.factor, &s.cm) || s.cm.status == CHOLMOD_NOT_POSDEF || s.factor->minor < s.factor->n)
     throw std::runtime_error("system matrix is not positive definite");
@@ -93,6 +114,33 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves) {
   s.sparse.compute(A);
   if (s.sparse.info() != Eigen::Success) throw std::runtime_error("system matrix is not positive definite");
 #endif
+}
+
+std::vector<int> SpdSolver::ordering() const {
+#ifdef GSHELL_HAVE_CHOLMOD
+  const Impl& s = *impl_;
+  if (s.kind == Impl::Kind::Sparse && s.factor && s.factor->Perm) {
+    const int* perm = static_cast<const int*>(s.factor->Perm);
+    return std::vector<int>(perm, perm + s.n);
+  }
+#endif
+  return {};
+}
+
+bool SpdSolver::used_given_ordering() const {
+#ifdef GSHELL_HAVE_CHOLMOD
+  return impl_->kind == Impl::Kind::Sparse && impl_->given_kept;
+#else
+  return false;
+#endif
+}
+
+double SpdSolver::factor_entries() const {
+#ifdef GSHELL_HAVE_CHOLMOD
+  const Impl& s = *impl_;
+  if (s.kind == Impl::Kind::Sparse && s.factor) return s.cm.lnz;
+#endif
+  return 0;
 }
 
 void SpdSolver::solve_in_place(Eigen::MatrixXd& B) const {

@@ -107,6 +107,7 @@ struct GuardedSolveResult {
   double min_relative_volume = 0; ///< smallest det F over the guarded tets at the result
   int active_contacts = 0;     ///< boundary pairs inside the contact barrier at the result
   int supernodal_solves = 0;   ///< local systems factored by CHOLMOD (supernodal_rows and above)
+  int reused_orderings = 0;    ///< of those, factored with the ordering found for an earlier one
 };
 
 class GuardedSolver {
