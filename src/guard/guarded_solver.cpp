@@ -182,19 +182,21 @@ struct GuardedSolver::Impl {
   // simplicial LDLT. Its fill outgrows it on large repairs: where the whole top of a 164K-vertex
   // shell needed repair (491,520 rows), one factorisation took 217 s, against 15 s for CHOLMOD's
   // supernodal Cholesky with the ordering CHOLMOD picks (METIS there: 78M entries instead of
-  // AMD's 115M). The system is indefinite only where the unprojected contact Hessian outweighs the
+  // AMD's 115M). About half of that was CHOLMOD's choice of ordering (4.5 of 9.2 s, idle machine),
+  // which `ordering` makes once per solve: the repair factors a system over nearly the same
+  // vertices each iteration. The system is indefinite only where the unprojected contact Hessian outweighs the
   // rest; Cholesky then fails and the LDLT takes over. Returns false when neither factors.
   bool solve_local_system(const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices,
                           const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
     if (A.rows() >= p.supernodal_rows) {
       try {
         detail::SpdSolver cholesky;
-        ordering.factor(cholesky, A, vertices, N);
+        const bool reused = ordering.factor(cholesky, A, vertices, N);
         Eigen::MatrixXd B = b;
         cholesky.solve_in_place(B);
         x = B.col(0);
         ++supernodal_solves;
-        reused_orderings += ordering.reused();
+        reused_orderings += reused;
         return true;
       } catch (const std::runtime_error&) {
       }
@@ -205,8 +207,8 @@ struct GuardedSolver::Impl {
     return true;
   }
   mutable detail::ReusedOrdering ordering; // of the large local systems, within one solve()
-  mutable int reused_orderings = 0;        // since the last solve() began
-  mutable int supernodal_solves = 0; // since the last solve() began
+  mutable int supernodal_solves = 0;       // since the last solve() began
+  mutable int reused_orderings = 0;        // of those, with `ordering`
 
   // The minimiser of the quadratic model over the free vertices within local_rings rings of those
   // the barrier Hessian touches, all others held: solves (A + H/2)_loc delta = r_loc.

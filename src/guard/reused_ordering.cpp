@@ -21,7 +21,6 @@ void ReusedOrdering::clear() {
   rank_.clear();
   remembered_ = 0;
   fresh_entries_ = 0;
-  reused_ = false;
 }
 
 // dofs: the ordering of A's rows, each (vertex, axis) where it was remembered. A row new to the
@@ -69,20 +68,20 @@ bool ReusedOrdering::order(const Eigen::SparseMatrix<double>& A, const std::vect
   return true;
 }
 
-void ReusedOrdering::factor(SpdSolver& solver, const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices,
+bool ReusedOrdering::factor(SpdSolver& solver, const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices,
                             int num_ids) {
   std::vector<int> dofs;
   const bool given = order(A, vertices, dofs);
   solver.factor(A, /*many_solves=*/false, given ? &dofs : nullptr, kMaxFillGrowth * fresh_entries_);
-  reused_ = solver.used_given_ordering();
-  if (reused_) return;
+  if (solver.used_given_ordering()) return true;
   clear();
   const std::vector<int> perm = solver.ordering();
-  if (perm.empty()) return;
+  if (perm.empty()) return false;
   rank_.assign(3 * static_cast<std::size_t>(num_ids), -1);
   for (std::size_t k = 0; k < perm.size(); ++k) rank_[3 * vertices[perm[k] / 3] + perm[k] % 3] = static_cast<int>(k);
   remembered_ = vertices.size();
   fresh_entries_ = solver.factor_entries();
+  return false;
 }
 
 } // namespace gshell::detail

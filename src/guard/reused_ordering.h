@@ -21,11 +21,9 @@ class ReusedOrdering {
 public:
   /// Factors A, the local system over `vertices` (rows 3k..3k+2 belong to vertices[k]; ids below
   /// num_ids), with the remembered ordering where it applies and fills at most a little more than
-  /// when it was found, else with one found for A (then remembered). Throws std::runtime_error if
-  /// A is not positive definite.
-  void factor(SpdSolver& solver, const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices, int num_ids);
-  /// Whether the last factor() used the remembered ordering.
-  bool reused() const { return reused_; }
+  /// when it was found, else with one found for A (then remembered). True when the remembered
+  /// ordering was used. Throws std::runtime_error if A is not positive definite.
+  bool factor(SpdSolver& solver, const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices, int num_ids);
   void clear();
 
 private:
@@ -33,7 +31,6 @@ private:
   std::vector<int> rank_;          // 3 * vertex id + axis -> position in the remembered ordering, -1 if not in it
   std::size_t remembered_ = 0;     // vertices in it
   double fresh_entries_ = 0;       // factor entries with the ordering when it was found
-  bool reused_ = false;
 };
 
 } // namespace gshell::detail

@@ -151,39 +151,28 @@ Matrix9d projected_det_barrier_hessian(const Eigen::Matrix3d& E, double a, doubl
 
 void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
                                 const std::vector<int>& active, bool projected) const {
-  // One 12 x 12 block per tet inside the barrier, written at its own place in H: chunks of tets
-  // run in parallel and the triplets keep the order of `active` (the assembled matrix does not
-  // depend on the schedule). A large repair has hundreds of thousands of active tets.
+  // One 12 x 12 block per tet of `active`, written at its own place in H: chunks of tets run in
+  // parallel and the triplets keep the order of `active` (the assembled matrix does not depend on
+  // the schedule). A large repair has hundreds of thousands of active tets.
   constexpr int kChunk = 1024;
   constexpr std::size_t kPerTet = 144;
   const int n = static_cast<int>(active.size());
   const int chunks = (n + kChunk - 1) / kChunk;
-  auto inside = [&](int t) {
-    const double u = relative_volume(X, t, nullptr) / j_hat_;
-    return u > 0 && u < 1;
-  };
-  std::vector<std::size_t> offset(chunks + 1, 0);
-  tbb::parallel_for(0, chunks, [&](int ci) {
-    std::size_t count = 0;
-    for (int k = ci * kChunk; k < std::min(n, (ci + 1) * kChunk); ++k) count += inside(active[k]);
-    offset[ci + 1] = count * kPerTet;
-  });
-  for (int ci = 0; ci < chunks; ++ci) offset[ci + 1] += offset[ci];
   const std::size_t base = H.size();
-  H.resize(base + offset[chunks]);
+  H.resize(base + kPerTet * active.size());
   tbb::parallel_for(0, chunks, [&](int ci) {
-    Eigen::Triplet<double>* out = H.data() + base + offset[ci];
+    Eigen::Triplet<double>* out = H.data() + base + kPerTet * static_cast<std::size_t>(ci) * kChunk;
     for (int k = ci * kChunk; k < std::min(n, (ci + 1) * kChunk); ++k) {
       const int t = active[k];
       Eigen::Vector3d g[4];
       const double u = relative_volume(X, t, g) / j_hat_;
-      if (!(u > 0) || u >= 1) continue;
-      const double s = scale * weight_[t] * psi2(u) / (j_hat_ * j_hat_);
-      Eigen::Matrix<double, 12, 12> hx;
-      if (!projected) {
+      Eigen::Matrix<double, 12, 12> hx = Eigen::Matrix<double, 12, 12>::Zero();
+      const bool inside = u > 0 && u < 1; // always, for the list energy() gave at this X
+      const double s = inside ? scale * weight_[t] * psi2(u) / (j_hat_ * j_hat_) : 0.0;
+      if (inside && !projected) {
         for (int a = 0; a < 4; ++a)
           for (int b = 0; b < 4; ++b) hx.block<3, 3>(3 * a, 3 * b) = s * g[a] * g[b].transpose();
-      } else {
+      } else if (inside) {
         // In the edges e_k = x_k - x_0: J = c det[e1 e2 e3], so the tet's Hessian in them is
         // s1 c d^2det + s grad J grad J^T with grad J = c grad det.
         const Eigen::Vector3d x0 = X.row(T_(t, 0)).transpose();

@@ -83,7 +83,6 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, c
   M.sorted = 1;
   M.packed = 1;
   if (s.factor) cholmod_free_factor(&s.factor, &s.cm);
-  s.cm.nmethods = 0; // CHOLMOD's default choice
   s.given_kept = false;
   if (ordering) {
     if (static_cast<int>(ordering->size()) != s.n) throw std::invalid_argument("SpdSolver: ordering of the wrong size");
@@ -91,7 +90,7 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, c
     s.cm.nmethods = 1;
     s.cm.method[0].ordering = CHOLMOD_GIVEN;
     s.factor = cholmod_analyze_p(&M, given.data(), nullptr, 0, &s.cm);
-    s.cm.nmethods = 0;
+    s.cm.nmethods = 0; // back to CHOLMOD's own choice (AMD, then METIS) for every other analysis
     // The symbolic analysis already knows the fill: an ordering that fills far more than
     // `max_entries` is dropped before the numeric work it would cost.
     if (s.factor && max_entries > 0 && s.cm.lnz > max_entries) {

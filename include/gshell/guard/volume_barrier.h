@@ -27,7 +27,9 @@ public:
   double energy(const Eigen::MatrixXd& X, std::vector<int>* active = nullptr) const;
   /// G += scale * dB/dX, summed over `active` (the list energy() gave at this X).
   void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G, const std::vector<int>& active) const;
-  /// Appends scale * H over `active` as triplets indexed 3 * vertex + axis, H positive
+  /// Appends scale * H over `active` (the list energy() gave at this X; a tet of it that is not
+  /// inside the barrier at X adds a block of zeros) as 144 triplets per tet, in the order of
+  /// `active`, indexed 3 * vertex + axis, H positive
   /// semi-definite: with `projected` false the Gauss-Newton part of d^2B/dX^2 (vol psi'' grad J
   /// grad J^T per tet); with `projected` true each tet's whole Hessian, psi'' grad J grad J^T +
   /// psi' d^2J, projected onto its positive eigenvalues (in the space of the tet's three edges).
