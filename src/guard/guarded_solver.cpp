@@ -206,7 +206,7 @@ struct GuardedSolver::Impl {
     x = ldlt.solve(b);
     return true;
   }
-  mutable detail::ReusedOrdering ordering; // of the large local systems, within one solve()
+  mutable detail::ReusedOrdering ordering; // of the large local systems, from the current solve()
   mutable int supernodal_solves = 0;       // since the last solve() began
   mutable int reused_orderings = 0;        // of those, with `ordering`
 
@@ -348,7 +348,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
   GuardedSolveResult result;
   m.supernodal_solves = 0;
   m.reused_orderings = 0;
-  m.ordering.clear();
+  m.ordering.clear(); // the previous solve's regions say nothing about this one's
   Impl::State state;
   if (!m.evaluate(X, state))
     throw InputError("GuardedSolver::solve: the start state is not valid (a guarded tet is flat or inverted, or "
@@ -462,7 +462,6 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
   result.active_contacts = m.contact ? m.contact->active_pairs() : 0;
   result.supernodal_solves = m.supernodal_solves;
   result.reused_orderings = m.reused_orderings;
-  m.ordering.clear();
   result.seconds = seconds_since(t0);
   return result;
 }

@@ -72,8 +72,7 @@ bool ReusedOrdering::factor(SpdSolver& solver, const Eigen::SparseMatrix<double>
                             int num_ids) {
   std::vector<int> dofs;
   const bool given = order(A, vertices, dofs);
-  solver.factor(A, /*many_solves=*/false, given ? &dofs : nullptr, kMaxFillGrowth * fresh_entries_);
-  if (solver.used_given_ordering()) return true;
+  if (solver.factor(A, /*many_solves=*/false, given ? &dofs : nullptr, kMaxFillGrowth * fresh_entries_)) return true;
   clear();
   const std::vector<int> perm = solver.ordering();
   if (perm.empty()) return false;

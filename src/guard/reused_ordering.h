@@ -7,9 +7,10 @@
 // METIS) took 4.5 s of each factorisation's 9.3 s, and an ordering found for one iteration fills
 // the next one's factor about as little. So the ordering is found once, remembered per vertex
 // and axis (the x, y and z copies of the ARAP matrix are coupled only by the barriers, and
-// METIS orders them apart: one order per vertex filled 1.9x more), and handed to the following factorisations; it is found afresh when the region has changed
-// much or when the factor it would give (known from the symbolic analysis, before the numeric
-// work) has grown well past the fresh one's.
+// METIS orders them apart: one order per vertex filled 1.9x more), and handed to the following
+// factorisations; it is found afresh when the region has changed much or when the factor it
+// would give (known from the symbolic analysis, before the numeric work) has grown well past
+// the fresh one's.
 #include <Eigen/SparseCore>
 #include <vector>
 

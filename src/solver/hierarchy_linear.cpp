@@ -24,7 +24,6 @@ struct SpdSolver::Impl {
 #ifdef GSHELL_HAVE_CHOLMOD
   cholmod_common cm;
   cholmod_factor* factor = nullptr;
-  bool given_kept = false; // the last factor used the ordering it was given
   std::mutex mutex; // CHOLMOD's workspace is shared: one solve at a time
   // Solution and workspaces of cholmod_solve2, kept between solves (reallocating them costs more
   // than a small level's solve).
@@ -54,7 +53,7 @@ SpdSolver& SpdSolver::operator=(SpdSolver&&) noexcept = default;
 
 int SpdSolver::size() const { return impl_->n; }
 
-void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, const std::vector<int>* ordering,
+bool SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, const std::vector<int>* ordering,
                        double max_entries) {
   Impl& s = *impl_;
   s.n = static_cast<int>(A.rows());
@@ -62,7 +61,7 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, c
     s.kind = Impl::Kind::Dense;
     s.dense.compute(Eigen::MatrixXd(A).selfadjointView<Eigen::Lower>());
     if (s.dense.info() != Eigen::Success) throw std::runtime_error("reduced matrix is not positive definite");
-    return;
+    return false;
   }
   s.kind = Impl::Kind::Sparse;
 #ifdef GSHELL_HAVE_CHOLMOD
@@ -83,7 +82,7 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, c
   M.sorted = 1;
   M.packed = 1;
   if (s.factor) cholmod_free_factor(&s.factor, &s.cm);
-  s.given_kept = false;
+  bool given_kept = false;
   if (ordering) {
     if (static_cast<int>(ordering->size()) != s.n) throw std::invalid_argument("SpdSolver: ordering of the wrong size");
     std::vector<int> given = *ordering; // cholmod_analyze_p takes a non-const pointer
@@ -97,7 +96,7 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, c
       cholmod_free_factor(&s.factor, &s.cm);
       s.factor = cholmod_analyze(&M, &s.cm);
     } else {
-      s.given_kept = s.factor != nullptr;
+      given_kept = s.factor != nullptr;
     }
   } else {
     s.factor = cholmod_analyze(&M, &s.cm);
@@ -109,9 +108,11 @@ void SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, c
   // call per supernode): convert once.
   if (many_solves && !cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, s.factor, &s.cm))
     throw std::runtime_error("CHOLMOD factor conversion failed");
+  return given_kept;
 #else
   s.sparse.compute(A);
   if (s.sparse.info() != Eigen::Success) throw std::runtime_error("system matrix is not positive definite");
+  return false;
 #endif
 }
 
@@ -124,14 +125,6 @@ std::vector<int> SpdSolver::ordering() const {
   }
 #endif
   return {};
-}
-
-bool SpdSolver::used_given_ordering() const {
-#ifdef GSHELL_HAVE_CHOLMOD
-  return impl_->kind == Impl::Kind::Sparse && impl_->given_kept;
-#else
-  return false;
-#endif
 }
 
 double SpdSolver::factor_entries() const {

@@ -24,11 +24,10 @@ public:
   /// choosing one (CHOLMOD: its analysis tries AMD, then METIS, which on a large system costs as
   /// much as the numeric factorisation; a caller factoring a slowly changing system can hand
   /// back an earlier `ordering()`). With `max_entries` > 0, a given ordering whose factor would
-  /// have more entries than that is dropped for one chosen afresh (see used_given_ordering()).
-  void factor(const Eigen::SparseMatrix<double>& A, bool many_solves = true, const std::vector<int>* ordering = nullptr,
+  /// have more entries than that is dropped for one chosen afresh. Returns whether the factor
+  /// uses the given ordering.
+  bool factor(const Eigen::SparseMatrix<double>& A, bool many_solves = true, const std::vector<int>* ordering = nullptr,
               double max_entries = 0);
-  /// Whether the last factor() kept the ordering it was given.
-  bool used_given_ordering() const;
   /// The fill-reducing permutation of the last sparse factor (row k of the factor is row
   /// ordering()[k] of A); empty for a dense factor or without CHOLMOD.
   std::vector<int> ordering() const;
