@@ -3,6 +3,7 @@
 #include <gshell/error.h>
 #include <gshell/seconds_since.h>
 
+#include "solver/blas_threads.h"
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
 
@@ -512,7 +513,12 @@ void ShellSolver::Impl::factorize() const {
     cholmod_free_sparse(&A, &cm);
     throw std::runtime_error("CHOLMOD analysis failed (status " + std::to_string(cm.status) + ")");
   }
-  const int ok = cholmod_factorize(A, factor, &cm);
+  int ok = 0;
+  {
+
+    const detail::SerialBlas serial(cm.fl < detail::kSerialBlasFlops);
+    ok = cholmod_factorize(A, factor, &cm);
+  }
   cholmod_free_sparse(&A, &cm);
   if (!ok || cm.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) throw InputError(singular);
   // The supernodal factorisation is the fast one, but the solve with three right-hand sides is
