@@ -127,6 +127,8 @@ struct HierarchicalSolver::Impl {
   HierarchyOptions options;
   ClusterTree tree;
   std::vector<int> depth_of_level;
+  /// parents[l][c]: the cluster of reduced level l-1 that holds cluster c of level l (l >= 1).
+  std::vector<std::vector<int>> parents;
   std::unique_ptr<ShellSolver> full; // the full level: hard constraints eliminated, soft ones as springs
   std::vector<ReducedLevel> reduced;
   std::vector<LocalCache> reduced_cache;
@@ -203,12 +205,20 @@ struct HierarchicalSolver::Impl {
     if (residual) {
       // Full approximation scheme: every level starts from the affine fit of the full state and
       // sees the full gradient through tau, so its fixed point is the full one's.
+      // B^T X and B^T g pass over the vertices once, at the finest reduced level; the coarser
+      // levels' come from summing its clusters' blocks up the tree.
       const Eigen::MatrixXd gradient = full->half_gradient(state.X, state.step, soft_targets(targets));
-      for (int l = 0; l < L; ++l) {
-        reduced[l].fit(state.X);
+      Eigen::MatrixXd restricted_x = reduced[L - 1].restrict_field(state.X);
+      Eigen::MatrixXd restricted_g = reduced[L - 1].restrict_field(gradient);
+      for (int l = L - 1; l >= 0; --l) {
+        if (l < L - 1) {
+          restricted_x = reduced[l].coarsen(restricted_x, reduced[l + 1], parents[l + 1]);
+          restricted_g = reduced[l].coarsen(restricted_g, reduced[l + 1], parents[l + 1]);
+        }
+        reduced[l].fit_restricted(restricted_x);
         reduced[l].local(reduced_cache[l]);
         before[l] = reduced[l].parameters();
-        tau[l] = reduced[l].half_gradient(targets, reduced_cache[l]) - reduced[l].restrict_field(gradient);
+        tau[l] = reduced[l].half_gradient(targets, reduced_cache[l]) - restricted_g;
       }
     } else {
       for (int l = 0; l < L; ++l) {
@@ -222,8 +232,8 @@ struct HierarchicalSolver::Impl {
         ReducedLevel& level = reduced[l];
         const double objective = reduced_objective(l, targets, reduced_cache[l]);
         const Eigen::MatrixXd kept = level.parameters();
-        if (residual) level.apply_change(reduced[l - 1], before[l - 1]);
-        else level.apply(reduced[l - 1].changes_since(before[l - 1]), parent_of(l));
+        if (residual) level.apply_change(reduced[l - 1], before[l - 1], parents[l]);
+        else level.apply(reduced[l - 1].changes_since(before[l - 1]), parents[l]);
         LocalCache candidate;
         level.local(candidate);
         if (reduced_objective(l, targets, candidate) <= objective) {
@@ -361,6 +371,8 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
     s.reduced.emplace_back(s.rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
                            options.cluster_rotations);
   }
+  s.parents.resize(reduced_levels);
+  for (int l = 1; l < reduced_levels; ++l) s.parents[l] = s.parent_of(l);
   s.reduced_cache.resize(reduced_levels);
   s.tau.resize(reduced_levels);
   s.factor_seconds = seconds_since(start);

@@ -253,9 +253,25 @@ Eigen::MatrixXd ReducedLevel::half_gradient(const Eigen::MatrixXd& targets, cons
   return A_ * Z_ - rhs(targets, cache);
 }
 
-void ReducedLevel::fit(const Eigen::MatrixXd& X) {
-  Z_ = restrict_field(X);
+void ReducedLevel::fit(const Eigen::MatrixXd& X) { fit_restricted(restrict_field(X)); }
+
+void ReducedLevel::fit_restricted(const Eigen::MatrixXd& restricted) {
+  Z_ = restricted;
   fit_solver_.solve_in_place(Z_);
+}
+
+Eigen::MatrixXd ReducedLevel::coarsen(const Eigen::MatrixXd& finer_restricted, const ReducedLevel& finer,
+                                      const std::vector<int>& parent_of) const {
+  // Finer cluster c's block is sum_u [u - c_c; 1] g_u^T; about this level's centroid c_p it is
+  // that plus [c_c - c_p; 0] times its last row (sum_u g_u^T).
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(4 * m_, 3);
+  for (int c = 0; c < finer.m_; ++c) {
+    const int p = parent_of[c];
+    const auto block = finer_restricted.middleRows<4>(4 * c);
+    out.middleRows<4>(4 * p) += block;
+    out.middleRows<3>(4 * p).noalias() += (finer.centroid_.row(c) - centroid_.row(p)).transpose() * block.row(3);
+  }
+  return out;
 }
 
 Eigen::MatrixXd ReducedLevel::restrict_field(const Eigen::MatrixXd& g) const { return Bt_ * g; }
@@ -271,10 +287,15 @@ std::vector<RigidChange> ReducedLevel::changes_since(const Eigen::MatrixXd& befo
   return out;
 }
 
-void ReducedLevel::apply_change(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before) {
-  Eigen::MatrixXd change = restrict_field(parent.positions(parent.Z_ - parent_before)); // B is linear in z
-  fit_solver_.solve_in_place(change);
-  Z_ += change;
+void ReducedLevel::apply_change(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before,
+                                const std::vector<int>& parent_of) {
+  // Parent p moves u by dM (u - c_p) + dt = dM (u - c_c) + (dM (c_c - c_p) + dt) for u in cluster c.
+  for (int c = 0; c < m_; ++c) {
+    const int p = parent_of[c];
+    const Eigen::Matrix<double, 4, 3> d = parent.Z_.middleRows<4>(4 * p) - parent_before.middleRows<4>(4 * p);
+    Z_.middleRows<3>(4 * c) += d.topRows<3>();
+    Z_.row(4 * c + 3) += d.row(3) + (centroid_.row(c) - parent.centroid_.row(p)) * d.topRows<3>();
+  }
 }
 
 void ReducedLevel::apply(const std::vector<RigidChange>& parent_change, const std::vector<int>& parent_of) {

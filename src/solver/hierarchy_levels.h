@@ -77,12 +77,22 @@ public:
   /// B^T g for a per-vertex field g (2n x 3): how a fine-level force acts on the affine maps.
   Eigen::MatrixXd restrict_field(const Eigen::MatrixXd& g) const;
 
+  /// B^T g of this level from B_f^T g of a finer level whose clusters nest in these
+  /// (parent_of[c] = this level's cluster holding the finer cluster c, as the levels of one
+  /// cluster tree with piecewise weights): O(clusters) instead of a pass over the vertices, since
+  /// [u - c_p; 1] = [u - c_c; 1] + [c_c - c_p; 0] for every vertex u of a finer cluster c in p.
+  Eigen::MatrixXd coarsen(const Eigen::MatrixXd& finer_restricted, const ReducedLevel& finer,
+                          const std::vector<int>& parent_of) const;
+  /// Parameters <- the least-squares fit to positions X, given B^T X (fit(X) is fit_restricted(B^T X)).
+  void fit_restricted(const Eigen::MatrixXd& restricted);
+
   /// Per-cluster rigid change from parameters `before` to the current ones.
   std::vector<RigidChange> changes_since(const Eigen::MatrixXd& before) const;
-  /// Adds the parent level's change since `parent_before`, fitted in the least-squares sense to
-  /// this level's subspace (exact when the parent's subspace lies inside this one, as with
-  /// piecewise maps on nested clusters).
-  void apply_change(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before);
+  /// Adds the parent level's change since `parent_before`, whose clusters hold these
+  /// (parent_of[c] = the parent's cluster holding cluster c): every cluster takes its parent's
+  /// affine change re-expressed about its own centroid, so the vertices move exactly as the
+  /// parent moves them (piecewise maps on nested clusters; O(clusters)).
+  void apply_change(const ReducedLevel& parent, const Eigen::MatrixXd& parent_before, const std::vector<int>& parent_of);
   /// Applies each parent's rigid change to this level's clusters (parent_of[c] = parent cluster).
   void apply(const std::vector<RigidChange>& parent_change, const std::vector<int>& parent_of);
 
