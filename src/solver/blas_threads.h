@@ -3,11 +3,10 @@
 //
 // Once a threaded BLAS call wakes them, OpenBLAS's workers busy-wait (sched_yield in a loop) for
 // about 2^28 cycles, some 0.1 s, before they sleep again. After a factorisation whose BLAS work
-// takes a few milliseconds that spin is all the other cores do: it doubled the CPU time of a
-// 0.13 s hierarchical pose solve of the bowl (0.27 against 0.19 CPU s) and took cores from TBB's
-// workers in the local steps that follow (bunny00 generation: 15 against 13 ms per iteration).
-// With one BLAS thread OpenBLAS runs the call in the caller and never wakes them (docs/design.md,
-// "Speed").
+// takes a few milliseconds that spin is most of what the other cores do during the solve that
+// follows (a 0.13 s hierarchical pose solve of the bowl: 0.27 against 0.19 CPU s), and it competes
+// with TBB's workers for them. With one BLAS thread OpenBLAS runs the call in the caller and never
+// wakes them (docs/design.md, "Speed").
 namespace gshell::detail {
 
 /// Factorisations estimated below this many flops (CHOLMOD's analysis, `cholmod_common::fl`) run
