@@ -104,13 +104,8 @@ bool SpdSolver::factor(const Eigen::SparseMatrix<double>& A, bool many_solves, c
     s.factor = cholmod_analyze(&M, &s.cm);
   }
   if (!s.factor) throw std::runtime_error("CHOLMOD analysis failed (status " + std::to_string(s.cm.status) + ")");
-  bool factored = false;
-  {
-
-    const SerialBlas serial(s.cm.fl < kSerialBlasFlops);
-    factored = cholmod_factorize(&M, s.factor, &s.cm);
-  }
-  if (!factored || s.cm.status == CHOLMOD_NOT_POSDEF || s.factor->minor < s.factor->n)
+  if (!cholmod_factorize_small_serially(&M, s.factor, &s.cm) || s.cm.status == CHOLMOD_NOT_POSDEF ||
+      s.factor->minor < s.factor->n)
     throw std::runtime_error("system matrix is not positive definite");
   // A simplicial LL^T solves three right-hand sides faster than the supernodal form (no BLAS
   // call per supernode): convert once.

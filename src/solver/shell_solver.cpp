@@ -513,12 +513,7 @@ void ShellSolver::Impl::factorize() const {
     cholmod_free_sparse(&A, &cm);
     throw std::runtime_error("CHOLMOD analysis failed (status " + std::to_string(cm.status) + ")");
   }
-  int ok = 0;
-  {
-
-    const detail::SerialBlas serial(cm.fl < detail::kSerialBlasFlops);
-    ok = cholmod_factorize(A, factor, &cm);
-  }
+  const int ok = detail::cholmod_factorize_small_serially(A, factor, &cm);
   cholmod_free_sparse(&A, &cm);
   if (!ok || cm.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) throw InputError(singular);
   // The supernodal factorisation is the fast one, but the solve with three right-hand sides is
