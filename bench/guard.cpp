@@ -65,7 +65,7 @@ usage: bench_guard [options] MODEL...
   --iters N                  cap on the paper's and the repair's iterations
   guard parameters (GuardOptions; defaults are generation_guard_options()):
   --dhat X --kv X --kc X --jhat X --rings N --spread X --margin X --thinning X --refine N
-  --backoff X --min-scale X --local-rings N --supernodal-rows N --gn-volume --projected-contact
+  --backoff X --min-scale X --local-rings N --hold-rounds N --supernodal-rows N --gn-volume --projected-contact
 Example (the issue's table over CGAL's closed models):
   bench_guard --closed --ratio 0.01 --ratio 0.03 --ratio 0.05 models/*.off
 )";
@@ -137,6 +137,7 @@ int main(int argc, char** argv) {
     else if (a == "--relax") guard.relax_rounds = std::stoi(argv[++i]);
     else if (a == "--lift") guard.lift_sweeps = std::stoi(argv[++i]);
     else if (a == "--local-rings") guard.local_rings = std::stoi(argv[++i]);
+    else if (a == "--hold-rounds") guard.hold_rounds = std::stoi(argv[++i]);
     else if (a == "--supernodal-rows") guard.supernodal_rows = std::stoi(argv[++i]);
     else if (a == "--min-scale") guard.repair_min_scale = std::stod(argv[++i]);
     else if (a.rfind("--", 0) == 0) {
@@ -201,14 +202,14 @@ int main(int argc, char** argv) {
       if (detail) {
         const GuardedShell& d = g.guard;
         std::printf("  guarded: paper %d it %.3f s | start %d rounds %.3f s | repair %d vertices, %d it (%s), "
-                    "E_guard %.6g, %d cg, %d supernodal (%d reordered), %d backtracks, %d clamped, %d active tets, "
+                    "E_guard %.6g, %d cg, %d supernodal (%d reordered), %d backtracks, %d clamped (%d held), %d active tets, "
                     "%d active contacts, %.3f s | relax %d it %.3f s | factor %.3f s | certificate %.3f s | total %.3f s\n",
                     d.paper.iterations, d.paper.seconds, d.start.rounds, d.start.seconds, d.repaired_vertices,
                     d.solve.iterations,
                     d.repaired_vertices == 0 ? "none to run" : d.solve.converged ? "converged" : "not converged",
                     d.solve.energy.empty() ? 0.0 : d.solve.energy.back(), d.solve.cg_iterations, d.solve.supernodal_solves,
                     d.solve.supernodal_solves - d.solve.reused_orderings,
-                    d.solve.backtracks, d.solve.clamped_steps, d.solve.active_tets, d.solve.active_contacts,
+                    d.solve.backtracks, d.solve.clamped_steps, d.solve.held_steps, d.solve.active_tets, d.solve.active_contacts,
                     d.solve.seconds, d.relax.iterations, d.relax.seconds, d.factor_seconds, g.metrics.certificate.seconds,
                     g.seconds.total);
         if (std::getenv("GUARD_PROBE")) {

@@ -729,6 +729,42 @@ TEST(ContactGuard, ShellsSteppedAlongCollidingMotionsNeverIntersect) {
   }
 }
 
+TEST(ContactGuard, PairsCuttingAStepAreThoseWhoseOwnBoundIsBelowIt) {
+  // The guarded solver holds the vertices of every pair that would cut a step of tau: the list is
+  // every pair of the module's rules (brute force over all of them) whose own CCD bound over
+  // [0, tau] is below tau, and the bound returned with it is the plain one.
+  test::SimpleMesh fold = test::plane(6, 0);
+  for (Eigen::Index i = 0; i < fold.V.rows(); ++i) fold.V(i, 2) = 1.5 * std::abs(fold.V(i, 0));
+  ShellCase s = make_shell(fold, 0.02);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(2 * s.n, 3);
+  D.bottomRows(s.n) = offset_top(fold.V, fold.F, 0.8) - s.X.bottomRows(s.n);
+  ContactOptions o;
+  o.dhat = 0.02;
+  ContactGuard guard(s.boundary, 2 * s.n, s.movable, o);
+  const PairCcdOptions ccd{o.keep_fraction, o.dhat};
+  const std::set<std::vector<int>> all = brute_force_pairs(s, s.X, 1e9);
+  const double plain = guard.step_bound(s.X, D, 1.0);
+  ASSERT_LT(plain, 0.5);
+  for (double tau : {1.0, 0.5, 2 * plain, plain}) {
+    SCOPED_TRACE(tau);
+    std::vector<ContactPair> cutting;
+    EXPECT_EQ(guard.step_bound(s.X, D, tau, &cutting), guard.step_bound(s.X, D, tau));
+    std::set<std::vector<int>> expected;
+    for (const std::vector<int>& k : all) {
+      PairPoints x, dx;
+      for (int i = 0; i < 4; ++i) {
+        x[i] = s.X.row(k[1 + i]).transpose();
+        dx[i] = D.row(k[1 + i]).transpose();
+      }
+      if (pair_step_bound(k[0] == 0 ? PairKind::PointTriangle : PairKind::EdgeEdge, x, dx, tau, ccd) < tau)
+        expected.insert(k);
+    }
+    EXPECT_EQ(keys(cutting), expected);
+    EXPECT_EQ(cutting.size(), expected.size()); // no pair twice
+    EXPECT_EQ(expected.empty(), tau <= plain);
+  }
+}
+
 TEST(ContactGuard, RandomWildMotionsNeverIntersect) {
   // Thin shells shaken by random smooth displacement fields much larger than the thickness (base
   // vertices moved too, as a prescribed base motion): every clamped step stays clean by exact tests.

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -107,6 +108,49 @@ TEST(TetStepBound, SkippedAndTranslatedTetsDoNotLimit) {
   EXPECT_EQ(tet_step_bound(one_tet(), unit_tet(), D, 0.0, 3.0, &skip).step, 3.0);
   const Eigen::MatrixXd shift = Eigen::MatrixXd::Constant(4, 3, -5.0);
   EXPECT_EQ(tet_step_bound(one_tet(), unit_tet(), shift, 0.0, 3.0).step, 3.0);
+}
+
+TEST(TetStepBound, TetsCuttingAStepAreThoseWhoseOwnRootIsBelowIt) {
+  // The guarded solver holds the vertices of every tet that would cut a step of tau: exactly
+  // the tets whose own bound is below tau, none skipped or merely translated, and the least of
+  // their bounds is tet_step_bound's.
+  std::mt19937 rng(4);
+  std::normal_distribution<double> g(0, 1);
+  const int K = 2000;
+  Eigen::MatrixXd X(4 * K, 3), D(4 * K, 3);
+  Eigen::MatrixXi T(K, 4);
+  std::vector<char> skip(K, 0);
+  for (int t = 0; t < K; ++t) {
+    Eigen::MatrixXd x = unit_tet();
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 3; ++k) {
+        x(i, k) += 0.2 * g(rng);
+        D(4 * t + i, k) = 0.4 * g(rng);
+      }
+    if (volume6(x) < 0) x.row(0).swap(x.row(1));
+    if (t % 7 == 0) D.middleRows(4 * t, 4).rowwise() = D.row(4 * t); // translated: never cuts
+    skip[t] = t % 11 == 0;
+    X.middleRows(4 * t, 4) = x;
+    T.row(t) << 4 * t, 4 * t + 1, 4 * t + 2, 4 * t + 3;
+  }
+  for (double tau : {0.05, 0.3, 1.0, 4.0}) {
+    SCOPED_TRACE(tau);
+    std::vector<int> expected;
+    for (int t = 0; t < K; ++t) {
+      Eigen::Vector3d p[4], d[4];
+      for (int i = 0; i < 4; ++i) {
+        p[i] = X.row(4 * t + i).transpose();
+        d[i] = D.row(4 * t + i).transpose();
+      }
+      if (!skip[t] && t % 7 != 0 && cubic_step_bound(tet_volume_cubic(p, d), 0.1, tau) < tau) expected.push_back(t);
+    }
+    const std::vector<int> cutting = tets_cutting_step(T, X, D, 0.1, tau, &skip);
+    EXPECT_EQ(cutting, expected);
+    EXPECT_FALSE(expected.empty());
+    const TetStepBound least = tet_step_bound(T, X, D, 0.1, tau, &skip);
+    EXPECT_TRUE(std::binary_search(cutting.begin(), cutting.end(), least.tet));
+  }
+  EXPECT_THROW(tets_cutting_step(T, X.topRows(8), D.topRows(8), 0.1, 1.0), InputError);
 }
 
 RestTets unit_rest() { return rest_tets_from_positions(unit_tet(), one_tet()); }

@@ -16,7 +16,9 @@
 #include <cstdint>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <string>
+#include <tuple>
 
 namespace gshell {
 namespace {
@@ -302,8 +304,10 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
   for (const auto& out : block_triplets) H.insert(H.end(), out.begin(), out.end()); // list order
 }
 
-double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step) {
+double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
+                                std::vector<ContactPair>* cutting) {
   Impl& m = *impl_;
+  if (cutting) cutting->clear();
   m.set_positions(X);
   m.check_shape(D, "D");
   if (!(max_step > 0)) return 0;
@@ -323,7 +327,10 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   if (rho == 0) return max_step;
 
   const PairCcdOptions ccd{m.options.keep_fraction, m.options.dhat};
-  std::atomic<double> alpha(max_step);
+  // alpha culls the pairs that cannot cut the step further; collecting every cutting pair, it
+  // stays at max_step and `least` keeps the bound.
+  std::atomic<double> alpha(max_step), least(max_step);
+  std::mutex cutting_mutex;
   // Each pair's bound over a fixed range (max_step, then the listed pairs' bound), not below the
   // running minimum: the CCD's rounding allowance depends on its range and the running minimum on
   // the thread schedule, so the result would not be the same bits run to run.
@@ -331,7 +338,23 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   auto bound_pair = [&](PairKind kind, const Ids& ids) {
     const PairPoints p = m.points(ids), d = {dx[ids[0]], dx[ids[1]], dx[ids[2]], dx[ids[3]]};
     const double pb = pair_step_bound(kind, p, d, ccd_range, ccd);
-    lower_to(alpha, pb);
+    if (!cutting) {
+      lower_to(alpha, pb);
+    } else if (pb < max_step) {
+      lower_to(least, pb);
+      const std::lock_guard<std::mutex> lock(cutting_mutex);
+      cutting->push_back({kind, ids});
+    }
+  };
+  auto result = [&] {
+    if (!cutting) return alpha.load();
+    // A pair can be visited by both passes below.
+    auto order = [](const ContactPair& a, const ContactPair& b) {
+      return std::tie(a.kind, a.vertices) < std::tie(b.kind, b.vertices);
+    };
+    std::sort(cutting->begin(), cutting->end(), order);
+    cutting->erase(std::unique(cutting->begin(), cutting->end()), cutting->end());
+    return least.load();
   };
   // A listed pair at d_b at the build is at least d_b - 2 drift - 2 rho alpha apart along the
   // step, never below its floor while that exceeds keep_fraction * dhat: no CCD needed.
@@ -349,7 +372,7 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   // alpha_far.
   const double alpha_far = (m.radius - 2 * m.drift - floor_max) / (2 * rho);
   const double listed = alpha.load();
-  if (alpha_far >= listed) return listed;
+  if (alpha_far >= listed) return result();
   ccd_range = listed;
 
   // A longer step: every pair whose boxes, swept over [0, listed] and grown by half the largest
@@ -371,7 +394,7 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   auto visit = [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); };
   if (fixed_still) m.primitives.for_each_pair(m.primitives.patch(true, box), m.fixed_patch, visit);
   else m.primitives.for_each_pair(box, visit);
-  return alpha.load();
+  return result();
 }
 
 int ContactGuard::active_pairs() const { return impl_->last_active; }

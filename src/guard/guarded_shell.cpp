@@ -85,6 +85,9 @@ void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const
     GuardedSolverParameters q = absolute_guard_parameters(V, F, eta, weak);
     q.skip_tets = repair.skip_tets;
     q.excluded_triangles = repair.excluded_triangles;
+    // Its weaker barriers let every step run close to the limits, so most are cut; holding what
+    // cuts them cost cheese at 0.05 1.6 -> 9.5 s here for 1.035 -> 1.030 stretch ratio.
+    q.hold_rounds = 0;
     GuardedSolver relaxed(local, static_cast<int>(X.rows()), held, boundary, q);
     out.factor_seconds += relaxed.shell_solver().factor_seconds();
     Eigen::MatrixXd Y = X;
@@ -237,6 +240,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
   require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
   require(o.local_rings >= -1, "local_rings", ">= -1");
+  require(o.hold_rounds >= 0, "hold_rounds", ">= 0");
   require(o.supernodal_rows >= 0, "supernodal_rows", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
@@ -260,6 +264,7 @@ GuardOptions generation_guard_options() {
   o.projected_volume_hessian = true;
   o.projected_contact_hessian = false;
   o.local_rings = 4;
+  o.hold_rounds = 4;
   o.repair_budget = 1e5;
   o.relax_rounds = 1;
   o.lift_sweeps = 4;
@@ -284,6 +289,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.projected_contact_hessian = options.projected_contact_hessian;
   p.local_rings = options.local_rings;
   p.supernodal_rows = options.supernodal_rows;
+  p.hold_rounds = options.hold_rounds;
   return p;
 }
 

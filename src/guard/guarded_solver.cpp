@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -60,6 +61,8 @@ struct GuardedSolver::Impl {
     if (!(p.contact_distance >= 0) || !std::isfinite(p.contact_distance))
       throw InputError("GuardedSolver: contact_distance must be >= 0");
     if (p.cg_iterations < 0 || !(p.cg_tolerance > 0)) throw InputError("GuardedSolver: bad CG parameters");
+    if (p.hold_rounds < 0 || !(p.hold_below > 0 && p.hold_below <= 1))
+      throw InputError("GuardedSolver: hold_rounds must be >= 0 and hold_below in (0, 1]");
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
     if (p.contact_distance > 0) {
       if (!(p.contact_stiffness > 0)) throw InputError("GuardedSolver: contact_stiffness must be positive");
@@ -314,6 +317,52 @@ struct GuardedSolver::Impl {
     if (contact && a > 0) a = std::min(a, contact->step_bound(X, D, a));
     return a;
   }
+
+  // The free vertices moving along D of every tet and boundary pair that would cut a step of tau.
+  std::vector<int> vertices_cutting(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double tau) {
+    std::vector<int> out;
+    auto add = [&](int v) {
+      if (v >= 0 && free_index[v] >= 0 && !D.row(v).isZero(0)) out.push_back(v);
+    };
+    for (int t : tets_cutting_step(T, X, D, p.keep_fraction, tau, &volume.skip()))
+      for (int k = 0; k < 4; ++k) add(T(t, k));
+    if (contact) {
+      std::vector<ContactPair> pairs;
+      contact->step_bound(X, D, tau, &pairs);
+      for (const ContactPair& pair : pairs)
+        for (int v : pair.vertices) add(v);
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+
+  struct HeldStep {
+    Eigen::MatrixXd d; // free rows, zero on the held vertices
+    double bound = 0;
+    double slope = 0;  // dE_guard/dalpha at 0 along d
+  };
+
+  // The direction d (free rows) with the vertices of every tet and pair that would cut a step of
+  // tau = min(0.5, 64 x its bound) held still, and again for those the holding makes cut it (up
+  // to hold_rounds rounds), if its first-order decrease (bound x slope) beats d's. On CGAL's man
+  // the plain bound was 5e-4..5e-3 on every repair iteration; held, 0.1-0.3 (a few hundred of its
+  // 10,000 vertices held), and 64 gained more than 8 on every step probed.
+  std::optional<HeldStep> held_step(const Eigen::MatrixXd& X, const Eigen::MatrixXd& g, const Eigen::MatrixXd& d,
+                                    double bound, double slope) {
+    if (p.hold_rounds <= 0 || !(bound < p.hold_below) || !(bound > 0)) return std::nullopt;
+    const double tau = std::min(0.5, 64 * bound);
+    Eigen::MatrixXd held = d;
+    for (int round = 0; round < p.hold_rounds; ++round) {
+      const std::vector<int> cut = vertices_cutting(X, scatter(held), tau);
+      if (cut.empty()) break;
+      for (int v : cut) held.row(free_index[v]).setZero();
+    }
+    const double a = step_bound(X, scatter(held));
+    const double s = 2 * dot(g, held);
+    if (!(s < 0 && a * s < bound * slope)) return std::nullopt;
+    return HeldStep{std::move(held), a, s};
+  }
 };
 
 GuardedSolver::GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
@@ -419,10 +468,18 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
       }
       predicted = -0.5 * slope; // decrease of the full step in the quadratic model
       if (slope < 0) {
-        const Eigen::MatrixXd D = m.scatter(d);
+        Eigen::MatrixXd D = m.scatter(d);
         double a = m.step_bound(X, D);
         clamped = a < 1;
         result.clamped_steps += clamped;
+        // The held direction is still bounded by its own bound and searched below like any other.
+        if (auto held = m.held_step(X, g, d, a, slope)) {
+          D = m.scatter(held->d);
+          a = held->bound;
+          slope = held->slope;
+          predicted = -0.5 * slope;
+          ++result.held_steps;
+        }
         Impl::State trial;
         for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
           Eigen::MatrixXd Xt = X + a * D;

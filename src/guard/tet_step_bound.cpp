@@ -211,4 +211,32 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
       });
 }
 
+std::vector<int> tets_cutting_step(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
+                                   double keep_fraction, double max_step, const std::vector<char>* skip) {
+  const int K = static_cast<int>(T.rows()), N = static_cast<int>(X.rows());
+  if (X.cols() != 3 || D.rows() != X.rows() || D.cols() != 3)
+    throw InputError("tets_cutting_step: X and D must both be N x 3");
+  if (K > 0 && (T.cols() != 4 || T.minCoeff() < 0 || T.maxCoeff() >= N))
+    throw InputError("tets_cutting_step: T must be K x 4 with vertex ids in 0..N-1");
+  if (skip && static_cast<int>(skip->size()) != K) throw InputError("tets_cutting_step: skip needs one flag per tet");
+  constexpr int kBlock = 4096;
+  std::vector<std::vector<int>> found((K + kBlock - 1) / kBlock);
+  tbb::parallel_for(0, static_cast<int>(found.size()), [&](int b) {
+    for (int t = b * kBlock; t < std::min(K, (b + 1) * kBlock); ++t) {
+      if (skip && (*skip)[t]) continue;
+      Eigen::Vector3d x[4], d[4];
+      for (int j = 0; j < 4; ++j) {
+        x[j] = X.row(T(t, j)).transpose();
+        d[j] = D.row(T(t, j)).transpose();
+      }
+      if (d[0] == d[1] && d[0] == d[2] && d[0] == d[3]) continue; // a translation keeps the volume
+      const std::array<double, 4> a = tet_volume_cubic(x, d);
+      if (a[0] > 0 && cubic_step_bound(a, keep_fraction, max_step) < max_step) found[b].push_back(t);
+    }
+  });
+  std::vector<int> out;
+  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
+  return out;
+}
+
 } // namespace gshell

@@ -90,7 +90,10 @@ public:
   /// step to 0 if it moves relative to itself. D has the shape of X; it may move fixed vertices
   /// too (a prescribed motion of the base, as when a deformed base drags its shell along), but
   /// pairs among fixed vertices only stay out (the caller answers for the base's own motion).
-  double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step = 1);
+  /// `cutting`, if given, receives every pair whose own bound is below max_step, in (kind,
+  /// vertices) order (slower: no pair is culled by a bound found earlier in the pass).
+  double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step = 1,
+                    std::vector<ContactPair>* cutting = nullptr);
 
   /// Pairs closer than dhat at the last energy, gradient or Hessian evaluation.
   int active_pairs() const;

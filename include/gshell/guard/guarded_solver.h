@@ -57,6 +57,14 @@ struct GuardedSolverParameters {
   /// A step keeps every tet above this fraction of its volume and every boundary pair above this
   /// fraction of its distance at the start of the step, in (0, 1).
   double keep_fraction = 0.1;
+  /// A step bound set by a few tets or pairs holds back the whole step. When a step is cut below
+  /// hold_below, the free vertices of every tet and pair that would cut a step of min(0.5, 64 x
+  /// the bound) are held still for it, again for those the holding makes cut it, up to
+  /// hold_rounds rounds; that step is taken when its first-order decrease is larger. 0 rounds:
+  /// every step is the cut one (generation: 4, docs/guarded-generation.md "Holding what cuts the
+  /// step").
+  int hold_rounds = 0;
+  double hold_below = 0.05;
   int cg_iterations = 20;      ///< cap on CG iterations per direction (0: the plain A^-1 step)
   double cg_tolerance = 0.1;   ///< relative residual (A^-1 norm) at which CG stops
   /// Before CG, the model is solved exactly on the vertices within this many rings of those the
@@ -102,6 +110,7 @@ struct GuardedSolveResult {
   int cg_iterations = 0;       ///< total over all directions
   int backtracks = 0;          ///< total line search halvings
   int clamped_steps = 0;       ///< iterations whose step the tet or contact bound cut below 1
+  int held_steps = 0;          ///< of those, taken with the vertices that cut them held (hold_rounds)
   double final_energy = 0;     ///< E alone (the shell energy, no barriers) at the result
   int active_tets = 0;         ///< tets inside the volume barrier at the result
   double min_relative_volume = 0; ///< smallest det F over the guarded tets at the result
@@ -114,7 +123,7 @@ class GuardedSolver {
 public:
   /// `rest` over `num_vertices` (2n: base i is i, top i is n + i); `fixed` as in ShellSolver;
   /// `boundary` the layer's boundary surface (shell_boundary(F, n)).
-  /// \throws InputError on bad parameters (keep_fraction, volume_weight, contact_distance, CG,
+  /// \throws InputError on bad parameters (keep_fraction, volume_weight, contact_distance, CG, holding,
   ///         contact_stiffness), or as the ShellSolver, VolumeBarrier and ContactGuard built here
   ///         (bad ids or sizes, a free part); std::runtime_error when CHOLMOD fails.
   GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed, const ShellBoundary& boundary,

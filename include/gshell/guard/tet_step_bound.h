@@ -32,4 +32,9 @@ struct TetStepBound {
 TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                             double keep_fraction, double max_step, const std::vector<char>* skip = nullptr);
 
+/// The tets whose own bound (as in tet_step_bound) is below max_step, in increasing order: those
+/// that would cut a step of max_step. Same preconditions and errors as tet_step_bound.
+std::vector<int> tets_cutting_step(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
+                                   double keep_fraction, double max_step, const std::vector<char>* skip = nullptr);
+
 } // namespace gshell
