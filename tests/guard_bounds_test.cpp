@@ -34,6 +34,40 @@ double volume6(const Eigen::MatrixXd& X) {
   return a.dot(b.cross(c));
 }
 
+// K separate tets, each the unit tet jittered by 0.2 (positively oriented), moving by `scale`
+// times normal noise; tet t is vertices 4t..4t+3.
+struct TetSoup {
+  Eigen::MatrixXd X, D;
+  Eigen::MatrixXi T;
+};
+
+TetSoup random_tets(int K, double scale, std::mt19937& rng) {
+  std::normal_distribution<double> g(0, 1);
+  TetSoup s{Eigen::MatrixXd(4 * K, 3), Eigen::MatrixXd(4 * K, 3), Eigen::MatrixXi(K, 4)};
+  for (int t = 0; t < K; ++t) {
+    Eigen::MatrixXd x = unit_tet();
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 3; ++k) {
+        x(i, k) += 0.2 * g(rng);
+        s.D(4 * t + i, k) = scale * g(rng);
+      }
+    if (volume6(x) < 0) x.row(0).swap(x.row(1));
+    s.X.middleRows(4 * t, 4) = x;
+    s.T.row(t) << 4 * t, 4 * t + 1, 4 * t + 2, 4 * t + 3;
+  }
+  return s;
+}
+
+// Tet t's own bound, from its cubic alone.
+double own_bound(const TetSoup& s, int t, double keep, double max_step) {
+  Eigen::Vector3d p[4], d[4];
+  for (int i = 0; i < 4; ++i) {
+    p[i] = s.X.row(4 * t + i).transpose();
+    d[i] = s.D.row(4 * t + i).transpose();
+  }
+  return cubic_step_bound(tet_volume_cubic(p, d), keep, max_step);
+}
+
 TEST(TetStepBound, ApexPushedThroughTheBaseStopsBeforeTheCollapse) {
   // The apex reaches the base plane at s = 1/speed: volume (1 - speed s).
   for (double speed : {0.6, 1.0, 3.0, 1e3}) {
@@ -112,45 +146,28 @@ TEST(TetStepBound, SkippedAndTranslatedTetsDoNotLimit) {
 
 TEST(TetStepBound, TetsCuttingAStepAreThoseWhoseOwnRootIsBelowIt) {
   // The guarded solver holds the vertices of every tet that would cut a step of tau: exactly
-  // the tets whose own bound is below tau, none skipped or merely translated, and the least of
-  // their bounds is tet_step_bound's.
+  // the tets whose own bound is below tau, none skipped or merely translated, and among them the
+  // one tet_step_bound names.
   std::mt19937 rng(4);
-  std::normal_distribution<double> g(0, 1);
   const int K = 2000;
-  Eigen::MatrixXd X(4 * K, 3), D(4 * K, 3);
-  Eigen::MatrixXi T(K, 4);
+  TetSoup s = random_tets(K, 0.4, rng);
   std::vector<char> skip(K, 0);
   for (int t = 0; t < K; ++t) {
-    Eigen::MatrixXd x = unit_tet();
-    for (int i = 0; i < 4; ++i)
-      for (int k = 0; k < 3; ++k) {
-        x(i, k) += 0.2 * g(rng);
-        D(4 * t + i, k) = 0.4 * g(rng);
-      }
-    if (volume6(x) < 0) x.row(0).swap(x.row(1));
-    if (t % 7 == 0) D.middleRows(4 * t, 4).rowwise() = D.row(4 * t); // translated: never cuts
+    if (t % 7 == 0) s.D.middleRows(4 * t, 4).rowwise() = s.D.row(4 * t); // translated: never cuts
     skip[t] = t % 11 == 0;
-    X.middleRows(4 * t, 4) = x;
-    T.row(t) << 4 * t, 4 * t + 1, 4 * t + 2, 4 * t + 3;
   }
   for (double tau : {0.05, 0.3, 1.0, 4.0}) {
     SCOPED_TRACE(tau);
     std::vector<int> expected;
-    for (int t = 0; t < K; ++t) {
-      Eigen::Vector3d p[4], d[4];
-      for (int i = 0; i < 4; ++i) {
-        p[i] = X.row(4 * t + i).transpose();
-        d[i] = D.row(4 * t + i).transpose();
-      }
-      if (!skip[t] && t % 7 != 0 && cubic_step_bound(tet_volume_cubic(p, d), 0.1, tau) < tau) expected.push_back(t);
-    }
-    const std::vector<int> cutting = tets_cutting_step(T, X, D, 0.1, tau, &skip);
+    for (int t = 0; t < K; ++t)
+      if (!skip[t] && t % 7 != 0 && own_bound(s, t, 0.1, tau) < tau) expected.push_back(t);
+    const std::vector<int> cutting = tets_cutting_step(s.T, s.X, s.D, 0.1, tau, &skip);
     EXPECT_EQ(cutting, expected);
     EXPECT_FALSE(expected.empty());
-    const TetStepBound least = tet_step_bound(T, X, D, 0.1, tau, &skip);
+    const TetStepBound least = tet_step_bound(s.T, s.X, s.D, 0.1, tau, &skip);
     EXPECT_TRUE(std::binary_search(cutting.begin(), cutting.end(), least.tet));
   }
-  EXPECT_THROW(tets_cutting_step(T, X.topRows(8), D.topRows(8), 0.1, 1.0), InputError);
+  EXPECT_THROW(tets_cutting_step(s.T, s.X.topRows(8), s.D.topRows(8), 0.1, 1.0), InputError);
 }
 
 RestTets unit_rest() { return rest_tets_from_positions(unit_tet(), one_tet()); }
@@ -352,21 +369,7 @@ TEST(TetStepBound, SameBitsWithOneThreadAndMany) {
   // The bound of each tet does not depend on which tets were looked at before it (the thread
   // schedule), so the minimum is the same bits however the tets are split among threads.
   std::mt19937 rng(11);
-  std::normal_distribution<double> g(0, 1);
-  const int K = 20000;
-  Eigen::MatrixXd X(4 * K, 3), D(4 * K, 3);
-  Eigen::MatrixXi T(K, 4);
-  for (int t = 0; t < K; ++t) {
-    Eigen::MatrixXd x = unit_tet();
-    for (int i = 0; i < 4; ++i)
-      for (int k = 0; k < 3; ++k) {
-        x(i, k) += 0.2 * g(rng);
-        D(4 * t + i, k) = g(rng);
-      }
-    if (volume6(x) < 0) x.row(0).swap(x.row(1));
-    X.middleRows(4 * t, 4) = x;
-    T.row(t) << 4 * t, 4 * t + 1, 4 * t + 2, 4 * t + 3;
-  }
+  const auto [X, D, T] = random_tets(20000, 1.0, rng);
   const TetStepBound many = tet_step_bound(T, X, D, 0.1, 1.0);
   TetStepBound one;
   tbb::task_arena(1).execute([&] { one = tet_step_bound(T, X, D, 0.1, 1.0); });
@@ -413,29 +416,14 @@ TEST(TetStepBound, ManyTetsAtOnceGiveTheLeastOfTheirCubicsRoots) {
   // The same through the lanes in which tet_step_bound settles tets in batches: the bound over
   // many tets is the least per-tet root, and it names the first tet that has it.
   std::mt19937 rng(9);
-  std::normal_distribution<double> g(0, 1);
   for (double scale : {0.05, 0.3, 1.0}) {
     const int K = 3000;
-    Eigen::MatrixXd X(4 * K, 3), D(4 * K, 3);
-    Eigen::MatrixXi T(K, 4);
+    const TetSoup soup = random_tets(K, scale, rng);
+    const auto& [X, D, T] = soup;
     double least = 0.8;
     int first = -1;
     for (int t = 0; t < K; ++t) {
-      Eigen::MatrixXd x = unit_tet();
-      for (int i = 0; i < 4; ++i)
-        for (int k = 0; k < 3; ++k) {
-          x(i, k) += 0.2 * g(rng);
-          D(4 * t + i, k) = scale * g(rng);
-        }
-      if (volume6(x) < 0) x.row(0).swap(x.row(1));
-      X.middleRows(4 * t, 4) = x;
-      T.row(t) << 4 * t, 4 * t + 1, 4 * t + 2, 4 * t + 3;
-      Eigen::Vector3d p[4], d[4];
-      for (int i = 0; i < 4; ++i) {
-        p[i] = x.row(i).transpose();
-        d[i] = D.row(4 * t + i).transpose();
-      }
-      const double s = cubic_step_bound(tet_volume_cubic(p, d), 0.1, 0.8);
+      const double s = own_bound(soup, t, 0.1, 0.8);
       if (s < least) {
         least = s;
         first = t;
