@@ -322,7 +322,7 @@ struct GuardedSolver::Impl {
   std::vector<int> vertices_cutting(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double tau) {
     std::vector<int> out;
     auto add = [&](int v) {
-      if (v >= 0 && free_index[v] >= 0 && !D.row(v).isZero(0)) out.push_back(v);
+      if (free_index[v] >= 0 && !D.row(v).isZero(0)) out.push_back(v);
     };
     for (int t : tets_cutting_step(T, X, D, p.keep_fraction, tau, &volume.skip()))
       for (int k = 0; k < 4; ++k) add(T(t, k));

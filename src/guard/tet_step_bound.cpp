@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace gshell {
 
@@ -20,6 +21,17 @@ namespace {
 double det3(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) { return a.dot(b.cross(c)); }
 
 double horner(const std::array<double, 4>& a, double c0, double s) { return ((a[3] * s + a[2]) * s + a[1]) * s + c0; }
+
+// The shape checks of tet_step_bound and tets_cutting_step (`who` names the caller); the vertex ids
+// are checked by each where it reads them.
+void check_shapes(const char* who, const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
+                  const std::vector<char>* skip) {
+  const std::string name(who);
+  if (X.cols() != 3 || D.rows() != X.rows() || D.cols() != 3) throw InputError(name + ": X and D must both be N x 3");
+  if (T.rows() > 0 && T.cols() != 4) throw InputError(name + ": T must be K x 4 with vertex ids in 0..N-1");
+  if (skip && static_cast<Eigen::Index>(skip->size()) != T.rows())
+    throw InputError(name + ": skip needs one flag per tet");
+}
 
 } // namespace
 
@@ -139,11 +151,8 @@ GSHELL_SIMD_DISPATCH(void, settle_lanes, settle_lanes_body,
 
 TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                             double keep_fraction, double max_step, const std::vector<char>* skip) {
+  check_shapes("tet_step_bound", T, X, D, skip);
   const int K = static_cast<int>(T.rows());
-  if (X.cols() != 3 || D.rows() != X.rows() || D.cols() != 3)
-    throw InputError("tet_step_bound: X and D must both be N x 3");
-  if (K > 0 && T.cols() != 4) throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
-  if (skip && static_cast<int>(skip->size()) != K) throw InputError("tet_step_bound: skip needs one flag per tet");
   // A vertex's position and motion side by side (48 bytes, one cache line at most two): every
   // vertex is read by a dozen tets.
   const int N = static_cast<int>(X.rows());
@@ -213,12 +222,10 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
 
 std::vector<int> tets_cutting_step(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                                    double keep_fraction, double max_step, const std::vector<char>* skip) {
+  check_shapes("tets_cutting_step", T, X, D, skip);
   const int K = static_cast<int>(T.rows()), N = static_cast<int>(X.rows());
-  if (X.cols() != 3 || D.rows() != X.rows() || D.cols() != 3)
-    throw InputError("tets_cutting_step: X and D must both be N x 3");
-  if (K > 0 && (T.cols() != 4 || T.minCoeff() < 0 || T.maxCoeff() >= N))
+  if (K > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= N))
     throw InputError("tets_cutting_step: T must be K x 4 with vertex ids in 0..N-1");
-  if (skip && static_cast<int>(skip->size()) != K) throw InputError("tets_cutting_step: skip needs one flag per tet");
   constexpr int kBlock = 4096;
   std::vector<std::vector<int>> found((K + kBlock - 1) / kBlock);
   tbb::parallel_for(0, static_cast<int>(found.size()), [&](int b) {

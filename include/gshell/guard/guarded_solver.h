@@ -16,7 +16,9 @@
 //     clamp the step of the whole shell);
 //  2. step bound: the largest step keeping every tet above keep_fraction of its volume (per-tet
 //     cubic, tet_step_bound) and every boundary pair farther apart than keep_fraction of its
-//     distance (conservative CCD, ContactGuard::step_bound), capped at 1;
+//     distance (conservative CCD, ContactGuard::step_bound), capped at 1; when a few tets or
+//     pairs cut it short, the step with their vertices held still may go further
+//     (GuardedSolverParameters::hold_rounds);
 //  3. backtracking line search from that step until E_guard decreases (Armijo), so the guarded
 //     energy never rises;
 // until the relative decrease of E_guard falls below the tolerance.
