@@ -65,7 +65,7 @@ std::vector<Eigen::Matrix3d> shell_gradients(const RestTets& rest, const Eigen::
   tbb::parallel_for(0, rest.size(), [&](int t) {
     Eigen::Matrix3d D;
     for (int j = 0; j < 3; ++j) D.col(j) = (X.row(rest.T(t, j + 1)) - X.row(rest.T(t, 0))).transpose();
-    F[t] = D * rest.Dm_inv[t];
+    F[t] = D * rest.dm_inv(t);
   });
   return F;
 }

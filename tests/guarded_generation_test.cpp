@@ -275,7 +275,7 @@ TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {
   const TriMesh m = bumpy_sphere(3, 0.25);
   const double eta = thickness_from_ratio(m.V, 0.05);
   const int n = static_cast<int>(m.V.rows());
-  const RestTets rest = prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, eta));
+  const RestTets rest = normal_prism_rest_tets(m.V, m.F, eta);
   std::vector<int> base(n);
   std::iota(base.begin(), base.end(), 0);
   const ShellSolver solver(rest, 2 * n, base);

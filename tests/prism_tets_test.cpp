@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <array>
+#include <cmath>
 #include <map>
 #include <set>
 
@@ -133,4 +135,50 @@ TEST(PrismTets, InvertedRestPrismIsRejected) {
   const SimpleMesh m = test::icosphere(1);
   const Eigen::MatrixXd inward = normal_prisms(m.V, m.F, -0.05);
   EXPECT_THROW(prism_rest_tets(m.F, static_cast<int>(m.V.rows()), inward), InputError);
+}
+
+TEST(PrismTets, UnitPrismTetsHaveExactIntegerInverses) {
+  // Every ordered set of four unit-prism corners: C^-1 C = I exactly where the corners span a tet,
+  // det C in {-1, 0, 1}, and the tets every face order is cut into are positive.
+  for (int code = 0; code < 6 * 6 * 6 * 6; ++code) {
+    const std::array<int, 4> corners{code % 6, code / 6 % 6, code / 36 % 6, code / 216};
+    ASSERT_EQ(unit_corner_code(corners), code);
+    auto corner = [](int c) { return Eigen::Vector3d(c % 3 == 1, c % 3 == 2, c >= 3); };
+    Eigen::Matrix3d C;
+    C << corner(corners[1]) - corner(corners[0]), corner(corners[2]) - corner(corners[0]),
+        corner(corners[3]) - corner(corners[0]);
+    const double det = unit_corner_determinant(static_cast<std::uint16_t>(code));
+    EXPECT_EQ(det, C.determinant()) << "code " << code;
+    EXPECT_TRUE(det == 0 || det == 1 || det == -1) << "code " << code;
+    if (det != 0) EXPECT_TRUE(unit_corner_inverses()[code] * C == Eigen::Matrix3d::Identity()) << "code " << code;
+  }
+  for (const std::array<int, 3>& ids : std::vector<std::array<int, 3>>{{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}})
+    for (const auto& tet : prism_corner_tets(ids[0], ids[1], ids[2])) EXPECT_EQ(unit_corner_determinant(unit_corner_code(tet)), 1);
+  EXPECT_THROW(unit_corner_code({0, 1, 2, 6}), InputError);
+}
+
+TEST(PrismTets, NormalPrismRestTetsInTheAffineFormAreThePerTetOnes) {
+  // The affine-prism form of the normal prisms' rest tets: the same tets and, to rounding, the
+  // same rest shapes and volumes as the per-tet form made from the prisms' corners.
+  for (const auto& [name, m] : meshes()) {
+    SCOPED_TRACE(name);
+    const int n = static_cast<int>(m.V.rows());
+    const double eta = 0.05;
+    const RestTets per_tet = prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, eta));
+    const RestTets affine = normal_prism_rest_tets(m.V, m.F, eta);
+    EXPECT_TRUE(affine.Dm_inv.empty());
+    EXPECT_TRUE(affine.complete());
+    ASSERT_TRUE(affine.T == per_tet.T);
+    for (int t = 0; t < affine.size(); ++t) {
+      const Eigen::Matrix3d want = per_tet.dm_inv(t);
+      EXPECT_LE((affine.dm_inv(t) - want).norm(), 1e-12 * want.norm()) << "tet " << t;
+      EXPECT_NEAR(affine.volume[t], per_tet.volume[t], 1e-12 * per_tet.volume[t]) << "tet " << t;
+    }
+  }
+  const SimpleMesh m = test::icosphere(1);
+  EXPECT_THROW(normal_prism_rest_tets(m.V, m.F, -0.05), InputError); // turned inside out
+  EXPECT_THROW(normal_prism_rest_tets(m.V, m.F, std::nan("")), InputError);
+  SimpleMesh flat = m;
+  flat.V.row(flat.F(0, 2)) = flat.V.row(flat.F(0, 0)); // face 0 has no area
+  EXPECT_THROW(normal_prism_rest_tets(flat.V, flat.F, 0.05), InputError);
 }

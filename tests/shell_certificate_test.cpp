@@ -775,7 +775,7 @@ TEST(ShellMetricsCertificate, StretchFromTetsMadeInBlocksIsThatOfTheWholeSet) {
   Eigen::MatrixXd top = offset_top(m.V, m.F, eta);
   for (int i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d) top(i, d) += jitter(rng);
-  const RestTets whole = prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, eta));
+  const RestTets whole = normal_prism_rest_tets(m.V, m.F, eta);
   const ShellMetrics expected = shell_metrics(m.V, m.F, top, eta, false, whole);
   const ShellMetrics blocks = shell_metrics(m.V, m.F, top, eta, false);
   ASSERT_GT(expected.stretch.inverted, 0);

@@ -199,7 +199,7 @@ Mended mend(const MendInputs& in, const std::vector<char>& region, const Eigen::
     q.skip_tets.clear();
     for (std::size_t k = 0; k < tets.size(); ++k) {
       local.T.row(static_cast<int>(k)) = ideal.T.row(tets[k]);
-      local.Dm_inv.push_back(ideal.Dm_inv[tets[k]]);
+      local.Dm_inv.push_back(ideal.dm_inv(tets[k]));
       local.volume[static_cast<int>(k)] = ideal.volume[tets[k]];
       q.skip_tets.push_back(p.skip_tets[tets[k]]);
     }

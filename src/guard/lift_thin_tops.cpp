@@ -80,7 +80,7 @@ LiftResult lift_thin_tops(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, co
       const Eigen::Vector3d x0 = corner(0);
       Eigen::Matrix3d Ds;
       for (int j = 0; j < 3; ++j) Ds.col(j) = corner(j + 1) - x0;
-      const Eigen::Matrix3d Fd = Ds * ideal.Dm_inv[t];
+      const Eigen::Matrix3d Fd = Ds * ideal.dm_inv(t);
       e += ideal.volume[t] * (Fd - closest_rotation(Fd)).squaredNorm();
     }
     return e;

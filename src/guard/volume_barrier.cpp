@@ -35,7 +35,7 @@ VolumeBarrier::VolumeBarrier(const RestTets& rest, double j_hat, std::vector<cha
     throw InputError("VolumeBarrier: expected one skip flag per tet");
   if (skip_.empty()) skip_.assign(rest.size(), 0);
   for (int t = 0; t < rest.size(); ++t) {
-    inv_det_rest_[t] = rest.Dm_inv[t].determinant();
+    inv_det_rest_[t] = rest.dm_inv(t).determinant();
     weight_[t] = rest.volume[t];
   }
 }

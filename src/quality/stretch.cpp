@@ -21,7 +21,7 @@ Eigen::Matrix3d deformation_gradient(const RestTets& rest, const Eigen::MatrixXd
   Eigen::Matrix3d D;
   D << X.row(rest.T(t, 1)).transpose() - x0, X.row(rest.T(t, 2)).transpose() - x0,
       X.row(rest.T(t, 3)).transpose() - x0;
-  return D * rest.Dm_inv[t];
+  return D * rest.dm_inv(t);
 }
 
 // Stretch of tets [t_begin, t_end), kPolarLanes at a time through the batched polar decomposition.
@@ -50,7 +50,7 @@ GSHELL_SIMD_DISPATCH(void, tet_stretch_block, tet_stretch_body,
 
 // The positions are the caller's: every tet must find its four vertices among the rows of X.
 void check_positions(const RestTets& rest, const Eigen::MatrixXd& X, const char* what) {
-  if (rest.Dm_inv.size() != static_cast<std::size_t>(rest.size()) || rest.volume.size() != rest.size())
+  if (!rest.complete())
     throw InputError(std::string(what) + ": rest tets are incomplete (Dm_inv or volume missing)");
   if (X.cols() != 3)
     throw InputError(std::string(what) + ": positions must be N x 3 (got " + std::to_string(X.cols()) + " columns)");

@@ -175,7 +175,7 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   if (options.method == ShellMethod::Rigid) {
     const auto t0 = Clock::now();
     GenerateResult r = generate_towards(
-        V, F, [&] { return prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness)); },
+        V, F, [&] { return normal_prism_rest_tets(V, F, options.thickness); },
         options, true);
     r.seconds.total = seconds_since(t0);
     return r;
@@ -185,7 +185,7 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   r.method = ShellMethod::Offset;
   r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
   // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
-  const RestTets rest = prism_rest_tets(F, static_cast<int>(V.rows()), normal_prisms(V, F, options.thickness));
+  const RestTets rest = normal_prism_rest_tets(V, F, options.thickness);
   r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, false, rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
   certify(r, options);

@@ -4,11 +4,14 @@
 
 #include <gshell/error.h>
 
+#include <Eigen/Dense>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 
 namespace gshell {
@@ -67,6 +70,38 @@ RestTets prism_rest_tets(const Eigen::MatrixXi& F, int n, const Eigen::MatrixXd&
     const auto corners = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2))[t % 3];
     for (int j = 0; j < 4; ++j) U.row(j) = prisms.row(6 * f + corners[j]);
   });
+}
+
+RestTets normal_prism_rest_tets(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta) {
+  if (V.rows() > 0 && V.cols() != 3) throw InputError("normal_prism_rest_tets: V must be n x 3");
+  detail::check_face_indices(F, V.rows(), "normal_prism_rest_tets");
+  if (!std::isfinite(eta)) throw InputError("normal_prism_rest_tets: eta must be finite");
+  RestTets rest;
+  rest.T = build_prism_tets(F, static_cast<int>(V.rows()));
+  const Eigen::Index m = F.rows();
+  rest.volume.resize(3 * m);
+  rest.prism_inverse.resize(m);
+  rest.unit_corners.resize(3 * m);
+  // TBB rethrows a tet's InputError in this thread.
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, m, 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    for (Eigen::Index f = r.begin(); f < r.end(); ++f) {
+      const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+      Eigen::Matrix3d B;
+      B << b - a, c - a, eta * (b - a).cross(c - a).normalized(); // the normal prism, as normal_prisms
+      const double det = B.determinant();
+      rest.prism_inverse[f] = B.inverse();
+      const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
+      for (int i = 0; i < 3; ++i) {
+        const Eigen::Index t = 3 * f + i;
+        rest.unit_corners[t] = unit_corner_code(tets[i]);
+        const double volume = det * unit_corner_determinant(rest.unit_corners[t]) / 6;
+        if (!(volume > 0) || !std::isfinite(volume) || !rest.prism_inverse[f].allFinite())
+          throw InputError("rest tet " + std::to_string(t) + " has non-positive volume (" + std::to_string(volume) + ")");
+        rest.volume[t] = volume;
+      }
+    }
+  });
+  return rest;
 }
 
 } // namespace gshell

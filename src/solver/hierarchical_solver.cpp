@@ -31,7 +31,7 @@ void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
   for (int t = 0; t < rest.size(); ++t) {
     Eigen::Matrix3d D;
     for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest.T(t, k + 1)) - X.row(rest.T(t, 0))).transpose();
-    if (((D * rest.Dm_inv[t]) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6)
+    if (((D * rest.dm_inv(t)) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6)
       throw InputError("HierarchicalSolver: rest (the rest shapes) do not match rest_vertices at tet " +
                                   std::to_string(t));
   }

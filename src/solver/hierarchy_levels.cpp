@@ -38,7 +38,7 @@ Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_verti
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(16 * static_cast<size_t>(rest.size()));
   for (int t = 0; t < rest.size(); ++t) {
-    const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest.Dm_inv[t]);
+    const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest.dm_inv(t));
     const Eigen::Matrix4d K = rest.volume(t) * G * G.transpose();
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) entries.emplace_back(rest.T(t, a), rest.T(t, b), K(a, b));
@@ -134,7 +134,7 @@ void ReducedLevel::build_pairs() {
   };
   for (int t = 0; t < rest_.size(); ++t) {
     const int j = home_[rest_.T(t, 0)];
-    const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest_.Dm_inv[t]);
+    const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest_.dm_inv(t));
     const double vol = rest_.volume(t);
     total_volume_ += vol;
     for (int k = 0; k < 4; ++k) {
@@ -196,13 +196,13 @@ void ReducedLevel::local(LocalCache& cache, bool with_energy) const {
         const int t = border_[b0 + i];
         Eigen::Matrix3d D;
         for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest_.T(t, k + 1)) - X.row(rest_.T(t, 0))).transpose();
-        F[i] = D * rest_.Dm_inv[t];
+        F[i] = D * rest_.dm_inv(t);
       }
       closest_rotations(F, Rb, count);
       for (int i = 0; i < count; ++i) {
         const int t = border_[b0 + i];
         energy[m_ + b0 + i] = rest_.volume(t) * (F[i] - Rb[i]).squaredNorm();
-        cache.Q[m_ + b0 + i] = rest_.volume(t) * rest_.Dm_inv[t] * Rb[i].transpose();
+        cache.Q[m_ + b0 + i] = rest_.volume(t) * rest_.dm_inv(t) * Rb[i].transpose();
       }
     }
   });

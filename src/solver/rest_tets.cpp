@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Dense>
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -27,7 +28,62 @@ void set_rest_shape(RestTets& rest, Eigen::Index t, const Eigen::Vector3d& u0, c
   rest.volume[t] = det / 6;
 }
 
+// Corner c of the unit prism: base (0,0,0), (1,0,0), (0,1,0), tops those + (0,0,1).
+Eigen::Vector3d unit_prism_corner(int c) { return {c % 3 == 1 ? 1.0 : 0.0, c % 3 == 2 ? 1.0 : 0.0, c >= 3 ? 1.0 : 0.0}; }
+
+constexpr int kUnitCornerCodes = 6 * 6 * 6 * 6;
+
+struct UnitCornerTable {
+  std::array<Eigen::Matrix3d, kUnitCornerCodes> inverse;
+  std::array<double, kUnitCornerCodes> determinant;
+  UnitCornerTable() {
+    for (int code = 0; code < kUnitCornerCodes; ++code) {
+      const int c0 = code % 6, c1 = code / 6 % 6, c2 = code / 36 % 6, c3 = code / 216;
+      Eigen::Matrix3d C;
+      C << unit_prism_corner(c1) - unit_prism_corner(c0), unit_prism_corner(c2) - unit_prism_corner(c0),
+          unit_prism_corner(c3) - unit_prism_corner(c0);
+      determinant[code] = C.determinant(); // integer entries: exact
+      // |det C| is 0 or 1 (no tet of the unit prism is bigger than a sixth of a unit cube), so the
+      // inverse has integer entries and is exact too.
+      inverse[code] = determinant[code] != 0 ? Eigen::Matrix3d(C.inverse()) : Eigen::Matrix3d::Zero();
+    }
+  }
+};
+
+const UnitCornerTable& unit_corner_table() {
+  static const UnitCornerTable table;
+  return table;
+}
+
 } // namespace
+
+bool RestTets::complete() const {
+  const std::size_t K = static_cast<std::size_t>(size());
+  if (static_cast<std::size_t>(volume.size()) != K) return false;
+  if (Dm_inv.size() == K) return true;
+  return Dm_inv.empty() && unit_corners.size() == K && 3 * prism_inverse.size() == K;
+}
+
+Eigen::Matrix3d RestTets::dm_inv(Eigen::Index t) const {
+  if (!Dm_inv.empty()) return Dm_inv[t];
+  Eigen::Matrix3d D;
+  detail::multiply_3x3(unit_corner_inverses()[unit_corners[t]].data(), prism_inverse[t / 3].data(), D.data());
+  return D;
+}
+
+std::uint16_t unit_corner_code(const std::array<int, 4>& corners) {
+  int code = 0;
+  for (int j = 3; j >= 0; --j) {
+    if (corners[j] < 0 || corners[j] >= 6)
+      throw InputError("unit_corner_code: prism corner " + std::to_string(corners[j]) + " is outside [0, 6)");
+    code = 6 * code + corners[j];
+  }
+  return static_cast<std::uint16_t>(code);
+}
+
+const Eigen::Matrix3d* unit_corner_inverses() { return unit_corner_table().inverse.data(); }
+
+double unit_corner_determinant(std::uint16_t code) { return unit_corner_table().determinant.at(code); }
 
 RestTets rest_tets_from_positions(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T) {
   if (X.cols() != 3 || T.cols() != 4)

@@ -52,11 +52,22 @@ constexpr int kCgChunk = 4096;
 // What the local step reads per tet, straight from RestTets (no copy: at millions of faces the
 // tets are the solver's largest data): vertex j of tet t at T[t + j K] (column-major K x 4),
 // Dm_inv(k, c) at Dinv[9 t + k + 3 c] (column-major 3x3 matrices, stored contiguously), volume.
+// In the affine-prism form (Dinv null), Dm_inv = unit_inverse[unit_corners[t]] * prism_inverse[t / 3].
 struct LocalStepTets {
   const int* T;
   std::size_t K;
   const double* Dinv;
   const double* vol;
+  const double* prism_inverse = nullptr;
+  const std::uint16_t* unit_corners = nullptr;
+  const double* unit_inverse = nullptr;
+
+  // Tet t's Dm_inv(k, c) at d[k + 3 c]: a pointer into Dinv, or `scratch` filled.
+  const double* dm_inv(std::size_t t, double* scratch) const {
+    if (Dinv) return Dinv + 9 * t;
+    detail::multiply_3x3(unit_inverse + 9 * static_cast<std::size_t>(unit_corners[t]), prism_inverse + 9 * (t / 3), scratch);
+    return scratch;
+  }
 };
 static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double), "Dm_inv matrices must be contiguous");
 
@@ -95,7 +106,8 @@ GSHELL_SIMD_KERNEL double local_step_body(const LocalStepTets& tets, const doubl
       // F_t = D_t Dm_inv_t with D = the current edge vectors x_{j+1} - x_0 as columns.
       const int t = t0 + l;
       const int* v = tets.T + t;
-      const double* di = &tets.Dinv[9 * static_cast<std::size_t>(t)]; // Dm_inv(k, c) = di[k + 3 c]
+      double di_scratch[9];
+      const double* di = tets.dm_inv(static_cast<std::size_t>(t), di_scratch); // Dm_inv(k, c) = di[k + 3 c]
       const double* x0 = X + 3 * static_cast<std::size_t>(v[0]);
       double D[3][3];
       for (int j = 0; j < 3; ++j) {
@@ -167,10 +179,17 @@ struct ShellSolver::Impl {
   // The gradient operator is G_t = E Dm_inv with E = [-1 -1 -1; I] (4x3): F_t = X_t^T G_t for
   // the 4x3 stacked corner positions X_t. The tets are read from *rest in place (LocalStepTets).
   int tet(int t, int j) const { return rest->T(t, j); }
-  double dinv(int t, int k, int c) const { return rest->Dm_inv[t](k, c); }
   double vol(int t) const { return rest->volume[t]; }
   LocalStepTets local_step_tets() const {
-    return {rest->T.data(), static_cast<std::size_t>(K), K > 0 ? rest->Dm_inv[0].data() : nullptr, rest->volume.data()};
+    LocalStepTets tets{rest->T.data(), static_cast<std::size_t>(K), nullptr, rest->volume.data()};
+    if (!rest->Dm_inv.empty())
+      tets.Dinv = rest->Dm_inv[0].data();
+    else if (K > 0) {
+      tets.prism_inverse = rest->prism_inverse[0].data();
+      tets.unit_corners = rest->unit_corners.data();
+      tets.unit_inverse = unit_corner_inverses()[0].data();
+    }
+    return tets;
   }
 
   std::vector<int> free_vertices; // free index -> vertex
@@ -378,6 +397,7 @@ void ShellSolver::Impl::assemble() {
     std::vector<double> val;
   };
   std::vector<RowBlock> row_blocks(blocks);
+  const LocalStepTets tets = local_step_tets();
   tbb::parallel_for(0, blocks, [&](int b) {
     RowBlock& out = row_blocks[b];
     std::vector<std::pair<int, double>> row; // (column, sum) in order of first touch
@@ -396,16 +416,19 @@ void ShellSolver::Impl::assemble() {
       // come from memory, and waiting for each in turn took most of the assembly.
       if (j + 1 < nf)
         for (int s = gather_start[j + 1]; s < gather_start[j + 2]; ++s) {
-          const double* d = rest->Dm_inv[gather_slot[s] / 4].data();
+          const std::size_t t = gather_slot[s] / 4;
+          const double* d = tets.Dinv ? tets.Dinv + 9 * t : tets.prism_inverse + 9 * (t / 3);
           __builtin_prefetch(d);
           __builtin_prefetch(d + 8);
         }
       for (int s = gather_start[j]; s < gather_start[j + 1]; ++s) {
         const int t = gather_slot[s] / 4, k = gather_slot[s] % 4;
+        double scratch[9];
+        const double* di = tets.dm_inv(t, scratch); // Dm_inv(i, c) = di[i + 3 c]
         double g[12]; // G_t = E Dm_inv, row-major 4x3
         for (int c = 0; c < 3; ++c) {
-          g[c] = -(dinv(t, 0, c) + dinv(t, 1, c) + dinv(t, 2, c));
-          for (int i = 0; i < 3; ++i) g[3 * (i + 1) + c] = dinv(t, i, c);
+          g[c] = -(di[3 * c] + di[1 + 3 * c] + di[2 + 3 * c]);
+          for (int i = 0; i < 3; ++i) g[3 * (i + 1) + c] = di[i + 3 * c];
         }
         for (int a = 0; a < 4; ++a)
           add(tet(t, a), vol(t) * (g[3 * k] * g[3 * a] + g[3 * k + 1] * g[3 * a + 1] + g[3 * k + 2] * g[3 * a + 2]));
@@ -854,7 +877,7 @@ ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices,
   if (!(linear.cg_tolerance > 0) || !std::isfinite(linear.cg_tolerance))
     throw InputError("ShellSolver: the CG tolerance must be positive and finite");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
-  if (static_cast<int>(impl_->rest->Dm_inv.size()) != impl_->rest->size() || impl_->rest->volume.size() != impl_->rest->size())
+  if (!impl_->rest->complete())
     throw InputError("ShellSolver: rest tets are incomplete");
   impl_->setup(fixed);
   impl_->assemble();

@@ -30,4 +30,13 @@ Eigen::MatrixXi prism_tet_corners(const Eigen::MatrixXi& F);
 ///         has non-positive volume (a prism turned inside out).
 RestTets prism_rest_tets(const Eigen::MatrixXi& F, int n, const Eigen::MatrixXd& prisms);
 
+/// The rest tets of prism_rest_tets(F, n, normal_prisms(V, F, eta)) (n = V.rows()) in RestTets'
+/// affine-prism form: per face the inverse of [b - a, c - a, eta n] and per tet its corners in
+/// the unit prism, no per-tet matrices and no 6m x 3 corner matrix. dm_inv(t) agrees with the
+/// per-tet form to rounding (not bit for bit: the inverse is taken once per prism); the volumes
+/// are the prism's third, det [b - a, c - a, eta n] / 6.
+/// \throws InputError when V is not n x 3, F not m x 3 with ids in [0, n), eta is not finite, or
+///         a rest tet has non-positive volume (a face of zero area, or eta <= 0).
+RestTets normal_prism_rest_tets(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta);
+
 } // namespace gshell
