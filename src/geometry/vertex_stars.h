@@ -3,6 +3,7 @@
 // Validation and mesh statistics visit each vertex's star instead of a global edge table, because
 // on real models (vertex ids in no spatial order) random face access is what costs the time.
 #include "geometry/disjoint_sets.h"
+#include "geometry/first_touch.h"
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -39,7 +40,7 @@ public:
       for (int k = 0; k < 3; ++k) ++start_[T(f, k) + 1];
     }
     std::partial_sum(start_.begin(), start_.end(), start_.begin());
-    corners_.resize(start_.back());
+    assign_populated(corners_, static_cast<std::size_t>(start_.back())); // filled serially below
     std::vector<int> fill(start_.begin(), start_.end() - 1);
     for (int f = 0; f < m; ++f)
       if (usable_[f])

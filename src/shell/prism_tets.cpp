@@ -1,5 +1,6 @@
 #include <gshell/shell/prism_tets.h>
 
+#include "geometry/first_touch.h"
 #include "quality/check_mesh_input.h"
 
 #include <gshell/error.h>
@@ -81,7 +82,7 @@ RestTets normal_prism_rest_tets(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   const Eigen::Index m = F.rows();
   rest.volume.resize(3 * m);
   rest.prism_inverse.resize(m);
-  rest.unit_corners.resize(3 * m);
+  detail::assign_populated(rest.unit_corners, 3 * m);
   // TBB rethrows a tet's InputError in this thread.
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, m, 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
     for (Eigen::Index f = r.begin(); f < r.end(); ++f) {

@@ -4,6 +4,7 @@
 #include <gshell/seconds_since.h>
 
 #include "solver/blas_threads.h"
+#include "geometry/first_touch.h"
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
 
@@ -344,7 +345,7 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
     if (v < 0 || v >= N) throw InputError("fixed vertex " + std::to_string(v) + " out of range");
     used[v] = 0;
   }
-  free_index.assign(N, -1);
+  detail::assign_populated(free_index, N, -1);
   free_vertices.clear();
   for (int v = 0; v < N; ++v)
     if (used[v]) {
@@ -366,7 +367,7 @@ void ShellSolver::Impl::build_gather() const {
     for (int j = 0; j < 4; ++j)
       if (free_index[tet(t, j)] >= 0) ++gather_start[free_index[tet(t, j)] + 1];
   for (int j = 0; j < nf; ++j) gather_start[j + 1] += gather_start[j];
-  gather_slot.resize(gather_start[nf]);
+  detail::assign_populated(gather_slot, gather_start[nf]);
   std::vector<int> fill(gather_start.begin(), gather_start.end() - 1);
   // Each row's slots in the order the coloured local step adds them (colour by colour, chunks and
   // tets ascending), so that the gather and the fused step give the same bits.
@@ -453,10 +454,10 @@ void ShellSolver::Impl::assemble() {
     A_start[j + 1] = A_start[j] + b.len[j % kAssembleBlock];
     A_kept[j] = A_start[j] + b.nfree[j % kAssembleBlock];
   }
-  A_col.resize(A_start[nf]);
-  A_val.resize(A_start[nf]);
-  A_free_col.resize(A_start[nf]);
-  jacobi.assign(nf, 0.0);
+  detail::assign_populated(A_col, A_start[nf]);
+  detail::assign_populated(A_val, A_start[nf]);
+  detail::assign_populated(A_free_col, A_start[nf]);
+  detail::assign_populated(jacobi, nf);
   tbb::parallel_for(0, blocks, [&](int b) {
     RowBlock& in = row_blocks[b];
     int e = 0;
@@ -698,8 +699,9 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
   const std::size_t n = nf;
   const int chunks = static_cast<int>((n + kCgChunk - 1) / kCgChunk);
   // Kept between solves: fresh vectors would cost a page fault per 4 KB at every global step.
-  for (auto* v : {&cg_x, &cg_r, &cg_p, &cg_q}) v->resize(3 * n);
-  if (multigrid) cg_z.resize(3 * n);
+  for (auto* v : {&cg_x, &cg_r, &cg_p, &cg_q})
+    if (v->size() != 3 * n) detail::assign_populated(*v, 3 * n);
+  if (multigrid && cg_z.size() != 3 * n) detail::assign_populated(cg_z, 3 * n);
   std::vector<double>&x = cg_x, &r = cg_r, &p = cg_p, &q = cg_q, &z = cg_z;
   std::vector<std::array<double, 9>> partial(chunks); // per chunk: up to three sums per column
   // sums <- the chunk-ordered totals of partial.

@@ -31,15 +31,18 @@ struct MultigridLevelInfo {
 
 class AggregationMultigrid {
 public:
-  /// `A`: symmetric positive definite, both triangles stored (kept as the finest level: move it
-  /// in to avoid a copy). Each level aggregates the strongly
+  /// `A`: symmetric positive definite, both triangles stored, kept as the finest level: the
+  /// rvalue overload takes its storage over (swapped out, `A` is left empty), the other copies it.
+  /// (Eigen 3.4's SparseMatrix has no move constructor: std::move alone would copy it.) Each
+  /// level aggregates the strongly
   /// connected neighbourhoods of the previous one's matrix graph; the prolongation is the
   /// piecewise-constant one smoothed by a damped Jacobi step, (I - 4/3 rho^-1 D^-1 A) P_tent, and
   /// the coarse matrix is the Galerkin product P^T A P.
   /// \throws InputError when A is not square or has a non-positive diagonal entry, or the options
   ///         are out of range (coarsest_rows < 1, strength outside [0, 1), degree < 1);
   ///         std::runtime_error when the coarsest matrix is not positive definite.
-  explicit AggregationMultigrid(Eigen::SparseMatrix<double, Eigen::RowMajor> A,
+  explicit AggregationMultigrid(Eigen::SparseMatrix<double, Eigen::RowMajor>&& A, const MultigridOptions& options = {});
+  explicit AggregationMultigrid(const Eigen::SparseMatrix<double, Eigen::RowMajor>& A,
                                 const MultigridOptions& options = {});
   ~AggregationMultigrid();
   AggregationMultigrid(AggregationMultigrid&&) noexcept;
