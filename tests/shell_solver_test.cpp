@@ -44,6 +44,14 @@ Generation generation(const SimpleMesh& m, double eta) {
   return g;
 }
 
+// Exactly k iterations (no stop on tolerance), so that two solvers' energies compare step by step.
+SolveOptions exactly(int k) {
+  SolveOptions o;
+  o.max_iterations = k;
+  o.tolerance = 0;
+  return o;
+}
+
 void expect_monotone(const std::vector<double>& E) {
   // Round-off of an energy sum is relative to its largest value, the start energy.
   for (std::size_t k = 1; k < E.size(); ++k) EXPECT_LE(E[k], E[k - 1] + 1e-12 * E[0]) << "iteration " << k;
@@ -291,9 +299,7 @@ TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
       const ShellSolver cg(g.rest, 2 * g.n, range(g.n), {}, cg_options);
       EXPECT_EQ(direct.linear_solver(), LinearSolver::Direct);
       EXPECT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient);
-      SolveOptions options;
-      options.max_iterations = 15;
-      options.tolerance = 0;
+      const SolveOptions options = exactly(15);
       Eigen::MatrixXd X_direct = g.X, X_cg = g.X;
       const SolveResult r_direct = direct.solve(X_direct, options);
       const SolveResult r_cg = cg.solve(X_cg, options);
@@ -405,9 +411,7 @@ TEST(ShellSolver, TheAffinePrismFormGivesThePerTetShell) {
       const ShellSolver per_tet(g.rest, 2 * g.n, range(g.n), {}, linear_solver(kind));
       const ShellSolver affine(normal_prism_rest_tets(m.V, m.F, eta), 2 * g.n, range(g.n), {}, linear_solver(kind));
       ASSERT_TRUE(affine.rest().Dm_inv.empty());
-      SolveOptions options;
-      options.max_iterations = 15;
-      options.tolerance = 0;
+      const SolveOptions options = exactly(15);
       Eigen::MatrixXd X_per_tet = g.X, X_affine = g.X;
       const SolveResult r_per_tet = per_tet.solve(X_per_tet, options);
       const SolveResult r_affine = affine.solve(X_affine, options);
