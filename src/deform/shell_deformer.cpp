@@ -7,6 +7,7 @@
 #include <gshell/shell/offset_shell.h>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/generate_shell.h>
+#include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>
 
 #include <Eigen/Geometry>
@@ -57,7 +58,7 @@ RestTets deformation_rest_tets(const Shell& shell, int* replaced) {
       build_prism_tets(shell.F, n), [&](Eigen::Index t, const std::array<int, 4>& ids, TetCorners& U) {
         const Eigen::Index f = t / 3;
         const Eigen::RowVector3d a = base.row(shell.F(f, 0)), b = base.row(shell.F(f, 1)), c = base.row(shell.F(f, 2));
-        const Eigen::RowVector3d lift = eta * (b - a).cross(c - a).normalized();
+        const Eigen::RowVector3d lift = normal_prism_lift(a.transpose(), b.transpose(), c.transpose(), eta).transpose();
         TetCorners ideal;
         for (int k = 0; k < 4; ++k) {
           const int v = ids[k];

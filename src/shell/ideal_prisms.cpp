@@ -21,11 +21,11 @@ PrismCorners normal_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, d
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, F.rows(), 4096), [&](const tbb::blocked_range<Eigen::Index>& r) {
     for (Eigen::Index f = r.begin(); f < r.end(); ++f) {
       const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-      const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+      const Eigen::Vector3d lift = normal_prism_lift(a, b, c, eta);
       for (int k = 0; k < 3; ++k) {
         const Eigen::Vector3d p = V.row(F(f, k));
         P.row(6 * f + k) = p;
-        P.row(6 * f + 3 + k) = p + eta * n;
+        P.row(6 * f + 3 + k) = p + lift;
       }
     }
   });

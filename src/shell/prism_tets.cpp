@@ -4,6 +4,7 @@
 #include "quality/check_mesh_input.h"
 
 #include <gshell/error.h>
+#include <gshell/shell/ideal_prisms.h>
 
 #include <Eigen/Dense>
 
@@ -88,15 +89,16 @@ RestTets normal_prism_rest_tets(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     for (Eigen::Index f = r.begin(); f < r.end(); ++f) {
       const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
       Eigen::Matrix3d B;
-      B << b - a, c - a, eta * (b - a).cross(c - a).normalized(); // the normal prism, as normal_prisms
+      B << b - a, c - a, normal_prism_lift(a, b, c, eta);
       const double det = B.determinant();
       rest.prism_inverse[f] = B.inverse();
+      const bool invertible = rest.prism_inverse[f].allFinite();
       const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
       for (int i = 0; i < 3; ++i) {
         const Eigen::Index t = 3 * f + i;
         rest.unit_corners[t] = unit_corner_code(tets[i]);
         const double volume = det * unit_corner_determinant(rest.unit_corners[t]) / 6;
-        if (!(volume > 0) || !std::isfinite(volume) || !rest.prism_inverse[f].allFinite())
+        if (!(volume > 0) || !std::isfinite(volume) || !invertible)
           throw InputError("rest tet " + std::to_string(t) + " has non-positive volume (" + std::to_string(volume) + ")");
         rest.volume[t] = volume;
       }

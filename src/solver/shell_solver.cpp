@@ -3,8 +3,8 @@
 #include <gshell/error.h>
 #include <gshell/seconds_since.h>
 
-#include "solver/blas_threads.h"
 #include "geometry/first_touch.h"
+#include "solver/blas_threads.h"
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
 

@@ -41,7 +41,8 @@ public:
   /// \throws InputError when A is not square or has a non-positive diagonal entry, or the options
   ///         are out of range (coarsest_rows < 1, strength outside [0, 1), degree < 1);
   ///         std::runtime_error when the coarsest matrix is not positive definite.
-  explicit AggregationMultigrid(Eigen::SparseMatrix<double, Eigen::RowMajor>&& A, const MultigridOptions& options = {});
+  explicit AggregationMultigrid(Eigen::SparseMatrix<double, Eigen::RowMajor>&& A,
+                                const MultigridOptions& options = {});
   explicit AggregationMultigrid(const Eigen::SparseMatrix<double, Eigen::RowMajor>& A,
                                 const MultigridOptions& options = {});
   ~AggregationMultigrid();
