@@ -127,6 +127,7 @@ TEST(ShellDeformer, RestTetsAreTheShellsOwnOrTheirNormalPrismsTet) {
   const RestTets ideal = prism_rest_tets(rest.F, n, normal_prisms(rest.base, rest.F, rest.thickness));
   const Eigen::MatrixXd X = rest.vertices();
   ASSERT_EQ(tets.T, T);
+  EXPECT_TRUE(tets.Dm_inv.empty()); // the positions form: a matrix only for the replaced tets
   int expected = 0;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
     Eigen::Matrix3d D;
@@ -134,12 +135,13 @@ TEST(ShellDeformer, RestTetsAreTheShellsOwnOrTheirNormalPrismsTet) {
     const double own_volume = D.determinant() / 6;
     const bool replace = own_volume < kMinRestVolumeRatio * ideal.volume[t];
     expected += replace;
-    const Eigen::Matrix3d want = replace ? ideal.Dm_inv[t] : Eigen::Matrix3d(D.inverse());
+    const Eigen::Matrix3d want = replace ? ideal.dm_inv(t) : Eigen::Matrix3d(D.inverse());
     EXPECT_NEAR(tets.volume[t], replace ? ideal.volume[t] : own_volume, 1e-12) << "tet " << t;
-    EXPECT_LT((tets.Dm_inv[t] - want).cwiseAbs().maxCoeff(), 1e-9 * want.cwiseAbs().maxCoeff()) << "tet " << t;
+    EXPECT_LT((tets.dm_inv(t) - want).cwiseAbs().maxCoeff(), 1e-9 * want.cwiseAbs().maxCoeff()) << "tet " << t;
   }
   EXPECT_GT(expected, 0);
   EXPECT_EQ(replaced, expected);
+  EXPECT_EQ(tets.override_tets.size(), static_cast<std::size_t>(expected));
 }
 
 TEST(ShellDeformer, VertexRingsAreTheSortedEdgeNeighbours) {

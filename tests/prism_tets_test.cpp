@@ -11,7 +11,9 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cmath>
+#include <algorithm>
 #include <map>
+#include <random>
 #include <set>
 
 using namespace gshell;
@@ -181,4 +183,80 @@ TEST(PrismTets, NormalPrismRestTetsInTheAffineFormAreThePerTetOnes) {
   SimpleMesh flat = m;
   flat.V.row(flat.F(0, 2)) = flat.V.row(flat.F(0, 0)); // face 0 has no area
   EXPECT_THROW(normal_prism_rest_tets(flat.V, flat.F, 0.05), InputError);
+}
+
+TEST(PrismTets, InverseEdgeMatrixIsEigensInverse) {
+  // One 3x3 inverse for every form of rest tets and the solver's kernel: Eigen's, bit for bit (so
+  // the per-tet form kept its bits when it moved to it), with the edge matrix's determinant.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-2, 2);
+  for (int k = 0; k < 1000; ++k) {
+    double x[4][3];
+    for (auto& p : x)
+      for (double& c : p) c = u(rng);
+    Eigen::Matrix3d D;
+    for (int j = 0; j < 3; ++j)
+      for (int r = 0; r < 3; ++r) D(r, j) = x[j + 1][r] - x[0][r];
+    Eigen::Matrix3d mine;
+    const double det = detail::inverse_edge_matrix(x[0], x[1], x[2], x[3], mine.data());
+    const Eigen::Matrix3d eigen = D.inverse();
+    for (int i = 0; i < 9; ++i) EXPECT_EQ(mine.data()[i], eigen.data()[i]) << "case " << k << " entry " << i;
+    EXPECT_NEAR(det, D.determinant(), 1e-12 * D.cwiseAbs().maxCoeff() * D.cwiseAbs().maxCoeff() * D.cwiseAbs().maxCoeff());
+  }
+}
+
+TEST(PrismTets, RestTetsInThePositionsFormAreThePerTetOnes) {
+  // A shell's own tets in the positions form (no matrix per tet, the inverse made where it is
+  // read): the same bits as the per-tet form; replaced tets keep their own matrix, listed in order.
+  for (const auto& [name, m] : meshes()) {
+    SCOPED_TRACE(name);
+    const int n = static_cast<int>(m.V.rows());
+    Eigen::MatrixXd X(2 * n, 3);
+    X << m.V, offset_top(m.V, m.F, 0.05);
+    const Eigen::MatrixXi T = build_prism_tets(m.F, n);
+    const RestTets per_tet = rest_tets_from_positions(X, T);
+    // Every seventh tet replaced by its corners scaled by 2 about the first.
+    const auto replace = [&](Eigen::Index t, const std::array<int, 4>&, TetCorners& U) {
+      if (t % 7 != 3) return false;
+      for (int j = 1; j < 4; ++j) U.row(j) = 2 * U.row(j) - U.row(0);
+      return true;
+    };
+    const RestTets positions = rest_tets_in_positions_form(X, T, replace);
+    EXPECT_TRUE(positions.Dm_inv.empty());
+    EXPECT_TRUE(positions.complete());
+    ASSERT_TRUE(positions.T == T);
+    ASSERT_EQ(positions.override_tets.size(), static_cast<std::size_t>((T.rows() + 3) / 7));
+    EXPECT_TRUE(std::is_sorted(positions.override_tets.begin(), positions.override_tets.end()));
+    for (int t = 0; t < positions.size(); ++t) {
+      const double scale = t % 7 == 3 ? 2 : 1;
+      const Eigen::Matrix3d got = positions.dm_inv(t), want = per_tet.dm_inv(t) / scale;
+      EXPECT_LE((got - want).norm(), 1e-12 * want.norm()) << "tet " << t;
+      EXPECT_NEAR(positions.volume[t], scale * scale * scale * per_tet.volume[t], 1e-12 * positions.volume[t]);
+      if (scale == 1) EXPECT_TRUE(got == per_tet.dm_inv(t)) << "tet " << t; // bit for bit
+    }
+    EXPECT_TRUE(rest_tets_in_positions_form(X, T).override_tets.empty());
+  }
+  const SimpleMesh m = test::icosphere(1);
+  const int n = static_cast<int>(m.V.rows());
+  Eigen::MatrixXd X(2 * n, 3);
+  X << m.V, offset_top(m.V, m.F, 0.05);
+  const Eigen::MatrixXi T = build_prism_tets(m.F, n);
+  Eigen::MatrixXd inside_out(2 * n, 3);
+  inside_out << m.V, offset_top(m.V, m.F, -0.05);
+  EXPECT_THROW(rest_tets_in_positions_form(inside_out, T), InputError);
+  Eigen::MatrixXd nan = X;
+  nan(n + 2, 1) = std::nan("");
+  EXPECT_THROW(rest_tets_in_positions_form(nan, T), InputError);
+  Eigen::MatrixXi out_of_range = T;
+  out_of_range(4, 2) = 2 * n;
+  EXPECT_THROW(rest_tets_in_positions_form(X, out_of_range), InputError);
+  EXPECT_THROW(rest_tets_in_positions_form(X.leftCols(2), T), InputError);
+  // A replacement that turns a tet inside out is refused like any other rest shape.
+  EXPECT_THROW(rest_tets_in_positions_form(X, T,
+                                           [](Eigen::Index t, const std::array<int, 4>&, TetCorners& U) {
+                                             if (t != 5) return false;
+                                             U.row(1).swap(U.row(2));
+                                             return true;
+                                           }),
+               InputError);
 }

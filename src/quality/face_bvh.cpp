@@ -3,6 +3,7 @@
 #include <gshell/geometry/closest_point.h>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -46,12 +47,17 @@ float float_at_least(double x) { return -float_at_most(-x); }
 
 } // namespace
 
-std::vector<std::pair<std::uint64_t, int>> FaceBvh::morton_order(const std::vector<Eigen::Vector3d>& centroids) {
+template <class Centroid> FaceBvh::Keyed FaceBvh::morton_order(int m, const Centroid& centroid) {
   // Sort faces along a Morton (Z-order) curve of their centroids: spatial neighbours become
-  // slot neighbours, and the code bits give spatial split planes.
-  const int m = static_cast<int>(centroids.size());
-  Eigen::AlignedBox3d extent;
-  for (const Eigen::Vector3d& c : centroids) extent.extend(c);
+  // slot neighbours, and the code bits give spatial split planes. The extent is a min / max,
+  // exact in any order, so reducing it in parallel gives the serial loop's codes.
+  const Eigen::AlignedBox3d extent = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, m, 4096), Eigen::AlignedBox3d(),
+      [&](const tbb::blocked_range<int>& r, Eigen::AlignedBox3d box) {
+        for (int f = r.begin(); f < r.end(); ++f) box.extend(centroid(f));
+        return box;
+      },
+      [](Eigen::AlignedBox3d a, const Eigen::AlignedBox3d& b) { return a.extend(b); });
   const Eigen::Vector3d origin = extent.min();
   constexpr double kCells = (1 << 21) - 1;
   const Eigen::Vector3d scale =
@@ -60,10 +66,10 @@ std::vector<std::pair<std::uint64_t, int>> FaceBvh::morton_order(const std::vect
     const double x = (c[d] - origin[d]) * scale[d];
     return static_cast<std::uint64_t>(x > 0 ? std::min(x, kCells) : 0.0); // NaN (overflow) -> 0
   };
-  std::vector<std::pair<std::uint64_t, int>> keyed(m);
+  Keyed keyed(m);
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
     for (int f = r.begin(); f < r.end(); ++f) {
-      const Eigen::Vector3d& c = centroids[f];
+      const Eigen::Vector3d c = centroid(f);
       keyed[f] = {spread_bits(cell(c, 0)) | spread_bits(cell(c, 1)) << 1 |
                       spread_bits(cell(c, 2)) << 2,
                   f};
@@ -73,40 +79,36 @@ std::vector<std::pair<std::uint64_t, int>> FaceBvh::morton_order(const std::vect
   return keyed;
 }
 
-void FaceBvh::build_nodes(const std::vector<std::pair<std::uint64_t, int>>& keyed, int leaf_size) {
+void FaceBvh::build_nodes(const Keyed& keyed, int leaf_size) {
   const int m = static_cast<int>(keyed.size());
-  std::vector<std::uint64_t> codes(m);
-  for (int s = 0; s < m; ++s) codes[s] = keyed[s].first;
   // Counted first and allocated once: reserving the worst case (2m - 1 nodes, one face per leaf)
   // and shrinking afterwards held 72 bytes per face at the build, about 4x what is used, and
   // the certificate builds its two trees at once where generation peaks.
-  nodes_.reserve(static_cast<std::size_t>(count_nodes(codes, 0, m, leaf_size)));
-  build(codes, 0, m, leaf_size);
+  nodes_.reserve(static_cast<std::size_t>(count_nodes(keyed, 0, m, leaf_size)));
+  build(keyed, 0, m, leaf_size);
 }
 
-int FaceBvh::split(const std::vector<std::uint64_t>& codes, int begin, int end) {
-  const std::uint64_t first = codes[begin], last = codes[end - 1];
+int FaceBvh::split(const Keyed& keyed, int begin, int end) {
+  const std::uint64_t first = keyed[begin].first, last = keyed[end - 1].first;
   if (first == last) return begin + (end - begin) / 2;
   const std::uint64_t bit = std::uint64_t{1} << (63 - std::countl_zero(first ^ last));
   // Codes are sorted and share the bits above `bit`: the ones with `bit` set come last.
-  return static_cast<int>(std::partition_point(codes.begin() + begin, codes.begin() + end,
-                                               [&](std::uint64_t c) { return !(c & bit); }) -
-                          codes.begin());
+  return static_cast<int>(std::partition_point(keyed.begin() + begin, keyed.begin() + end,
+                                               [&](const std::pair<std::uint64_t, int>& k) { return !(k.first & bit); }) -
+                          keyed.begin());
 }
 
-int FaceBvh::count_nodes(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size) {
+int FaceBvh::count_nodes(const Keyed& keyed, int begin, int end, int leaf_size) {
   if (end - begin <= leaf_size) return 1;
-  const int mid = split(codes, begin, end);
-  return 1 + count_nodes(codes, begin, mid, leaf_size) + count_nodes(codes, mid, end, leaf_size);
+  const int mid = split(keyed, begin, end);
+  return 1 + count_nodes(keyed, begin, mid, leaf_size) + count_nodes(keyed, mid, end, leaf_size);
 }
 
 FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
   const int m = static_cast<int>(F.rows());
   if (m == 0) return;
   auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
-  std::vector<Eigen::Vector3d> centroids(m);
-  for (int f = 0; f < m; ++f) centroids[f] = (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0;
-  const std::vector<std::pair<std::uint64_t, int>> keyed = morton_order(centroids);
+  const Keyed keyed = morton_order(m, [&](int f) -> Eigen::Vector3d { return (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0; });
 
   slot_face_.resize(m);
   if (use != Use::float_pairs) slot_box_.resize(m);
@@ -205,9 +207,7 @@ double FaceBvh::oriented_squared_distance(int node, const Eigen::Vector3d& q) co
 FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {
   const int m = static_cast<int>(boxes.size());
   if (m == 0) return;
-  std::vector<Eigen::Vector3d> centroids(m);
-  for (int f = 0; f < m; ++f) centroids[f] = boxes[f].center();
-  const std::vector<std::pair<std::uint64_t, int>> keyed = morton_order(centroids);
+  const Keyed keyed = morton_order(m, [&](int f) -> Eigen::Vector3d { return boxes[f].center(); });
   slot_face_.resize(m);
   slot_box_.resize(m);
   slot_float_box_.resize(m);
@@ -266,7 +266,7 @@ void FaceBvh::refit_nodes() {
 
 // Splits a slot range where its Morton codes first differ (an octree-like spatial split, so
 // every node covers one compact region); equal codes are split in the middle.
-int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size) {
+int FaceBvh::build(const Keyed& keyed, int begin, int end, int leaf_size) {
   const int node = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
   nodes_[node].begin = begin;
@@ -275,9 +275,9 @@ int FaceBvh::build(const std::vector<std::uint64_t>& codes, int begin, int end, 
     set_leaf_box(nodes_[node]);
     return node;
   }
-  const int mid = split(codes, begin, end);
-  build(codes, begin, mid, leaf_size);
-  const int right = build(codes, mid, end, leaf_size);
+  const int mid = split(keyed, begin, end);
+  build(keyed, begin, mid, leaf_size);
+  const int right = build(keyed, mid, end, leaf_size);
   Node& n = nodes_[node];
   const Node &l = nodes_[node + 1], &r = nodes_[right];
   n.right = right;

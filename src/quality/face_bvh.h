@@ -103,13 +103,16 @@ private:
     bool flat = false; // triangle_is_flat (geometry/closest_point.h), decided once per face
   };
 
-  /// (Morton code, face) of every face by its centroid, sorted along the curve.
-  static std::vector<std::pair<std::uint64_t, int>> morton_order(const std::vector<Eigen::Vector3d>& centroids);
-  void build_nodes(const std::vector<std::pair<std::uint64_t, int>>& keyed, int leaf_size);
-  int build(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
+  using Keyed = std::vector<std::pair<std::uint64_t, int>>; // (Morton code, face), sorted
+  /// (Morton code, face) of faces 0..m-1 by their centroids centroid(f), sorted along the curve.
+  /// The centroids are made where they are needed, twice, rather than held (24 bytes per face of
+  /// fresh memory at every tree build).
+  template <class Centroid> static Keyed morton_order(int m, const Centroid& centroid);
+  void build_nodes(const Keyed& keyed, int leaf_size);
+  int build(const Keyed& keyed, int begin, int end, int leaf_size);
   // Where build splits slots [begin, end) (sorted codes), and how many nodes it makes there.
-  static int split(const std::vector<std::uint64_t>& codes, int begin, int end);
-  static int count_nodes(const std::vector<std::uint64_t>& codes, int begin, int end, int leaf_size);
+  static int split(const Keyed& keyed, int begin, int end);
+  static int count_nodes(const Keyed& keyed, int begin, int end, int leaf_size);
   static double face_squared_distance(const Triangle& t, const Eigen::Vector3d& q);
   static bool nodes_meet(const Node& a, const Node& b);
   static Eigen::AlignedBox3d face_box(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f);

@@ -14,18 +14,29 @@ namespace gshell {
 
 namespace {
 
-// Fills tet t's rest data from its four rest corners; rejects flat or inverted rest shapes
-// because the energy divides by them.
-void set_rest_shape(RestTets& rest, Eigen::Index t, const Eigen::Vector3d& u0, const Eigen::Vector3d& u1,
-                    const Eigen::Vector3d& u2, const Eigen::Vector3d& u3) {
+// Tet t's inverse edge matrix into out (column-major) from its four rest corners, and its
+// volume; rejects flat or inverted rest shapes because the energy divides by them. The volume is
+// Eigen's determinant, as before the positions form existed (the inverse's own determinant may
+// differ from it in the last bit).
+double checked_rest_shape(Eigen::Index t, const double* u0, const double* u1, const double* u2, const double* u3,
+                          double* out) {
+  detail::inverse_edge_matrix(u0, u1, u2, u3, out);
   Eigen::Matrix3d Dm;
-  Dm << u1 - u0, u2 - u0, u3 - u0;
+  for (int r = 0; r < 3; ++r) {
+    Dm(r, 0) = u1[r] - u0[r];
+    Dm(r, 1) = u2[r] - u0[r];
+    Dm(r, 2) = u3[r] - u0[r];
+  }
   const double det = Dm.determinant();
   if (!(det > 0) || !std::isfinite(det))
     throw InputError("rest tet " + std::to_string(t) + " has non-positive volume (" + std::to_string(det / 6) +
                      ")");
-  rest.Dm_inv[t] = Dm.inverse();
-  rest.volume[t] = det / 6;
+  return det / 6;
+}
+
+void set_rest_shape(RestTets& rest, Eigen::Index t, const TetCorners& U) {
+  rest.volume[t] = checked_rest_shape(t, U.row(0).data(), U.row(1).data(), U.row(2).data(), U.row(3).data(),
+                                      rest.Dm_inv[t].data());
 }
 
 // Corner c of the unit prism: base (0,0,0), (1,0,0), (0,1,0), tops those + (0,0,1).
@@ -61,12 +72,19 @@ bool RestTets::complete() const {
   const std::size_t K = static_cast<std::size_t>(size());
   if (static_cast<std::size_t>(volume.size()) != K) return false;
   if (Dm_inv.size() == K) return true;
-  return Dm_inv.empty() && unit_corners.size() == K && 3 * prism_inverse.size() == K;
+  if (!Dm_inv.empty()) return false;
+  if (!rest_points.empty()) return override_tets.size() == override_Dm_inv.size() && rest_points.size() % 3 == 0;
+  return unit_corners.size() == K && 3 * prism_inverse.size() == K;
 }
 
 Eigen::Matrix3d RestTets::dm_inv(Eigen::Index t) const {
   if (!Dm_inv.empty()) return Dm_inv[t];
   Eigen::Matrix3d D;
+  if (!rest_points.empty()) {
+    detail::positions_form_dm_inv(rest_points.data(), T.data(), T.rows(), override_tets.data(), override_tets.size(),
+                                  override_Dm_inv.empty() ? nullptr : override_Dm_inv[0].data(), t, D.data());
+    return D;
+  }
   detail::multiply_3x3(unit_corner_inverses()[unit_corners[t]].data(), prism_inverse[t / 3].data(), D.data());
   return D;
 }
@@ -99,8 +117,57 @@ RestTets rest_tets_from_positions(const Eigen::MatrixXd& X, const Eigen::MatrixX
       if (T(t, j) < 0 || T(t, j) >= X.rows())
         throw InputError("tet " + std::to_string(t) + " has vertex id " + std::to_string(T(t, j)) +
                          " out of range");
-    set_rest_shape(rest, t, X.row(T(t, 0)).transpose(), X.row(T(t, 1)).transpose(), X.row(T(t, 2)).transpose(),
-                   X.row(T(t, 3)).transpose());
+    TetCorners U;
+    for (int j = 0; j < 4; ++j) U.row(j) = X.row(T(t, j));
+    set_rest_shape(rest, t, U);
+  }
+  return rest;
+}
+
+RestTets rest_tets_in_positions_form(const Eigen::MatrixXd& X, Eigen::MatrixXi T,
+                                     const std::function<bool(Eigen::Index, const std::array<int, 4>&, TetCorners&)>& replace) {
+  if (X.cols() != 3 || T.cols() != 4)
+    throw InputError("rest_tets_in_positions_form: expected N x 3 positions and K x 4 tets (got " +
+                     std::to_string(X.rows()) + " x " + std::to_string(X.cols()) + " and " + std::to_string(T.rows()) +
+                     " x " + std::to_string(T.cols()) + ")");
+  if (!X.allFinite()) throw InputError("rest_tets_in_positions_form: a rest position is not finite");
+  RestTets rest;
+  rest.T = std::move(T);
+  const Eigen::Index K = rest.T.rows(), N = X.rows();
+  rest.rest_points.resize(3 * static_cast<std::size_t>(N));
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(rest.rest_points.data(), N, 3) = X;
+  rest.volume.resize(K);
+  // Whether each tet was replaced: its matrix is made again afterwards, in order, so that the
+  // override list comes out sorted without a concurrent container.
+  std::vector<std::uint8_t> replaced(replace ? K : 0, 0);
+  const auto corners_of = [&](Eigen::Index t, std::array<int, 4>& ids, TetCorners& U) {
+    for (int j = 0; j < 4; ++j) {
+      ids[j] = rest.T(t, j);
+      if (ids[j] < 0 || ids[j] >= N)
+        throw InputError("tet " + std::to_string(t) + " has vertex id " + std::to_string(ids[j]) + " out of range");
+      U.row(j) = X.row(ids[j]);
+    }
+    return replace && replace(t, ids, U);
+  };
+  // TBB rethrows a tet's InputError in this thread.
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, K, 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
+    TetCorners U;
+    std::array<int, 4> ids;
+    double inverse[9];
+    for (Eigen::Index t = r.begin(); t != r.end(); ++t) {
+      if (corners_of(t, ids, U)) replaced[t] = 1;
+      rest.volume[t] = checked_rest_shape(t, U.row(0).data(), U.row(1).data(), U.row(2).data(), U.row(3).data(), inverse);
+    }
+  });
+  for (Eigen::Index t = 0; t < static_cast<Eigen::Index>(replaced.size()); ++t) {
+    if (!replaced[t]) continue;
+    TetCorners U;
+    std::array<int, 4> ids;
+    corners_of(t, ids, U);
+    rest.override_tets.push_back(static_cast<int>(t));
+    rest.override_Dm_inv.emplace_back();
+    checked_rest_shape(t, U.row(0).data(), U.row(1).data(), U.row(2).data(), U.row(3).data(),
+                       rest.override_Dm_inv.back().data());
   }
   return rest;
 }
@@ -126,7 +193,7 @@ RestTets rest_tets_from_corner_function(Eigen::MatrixXi T,
     for (Eigen::Index t = r.begin(); t != r.end(); ++t) {
       for (int j = 0; j < 4; ++j) ids[j] = rest.T(t, j);
       corners(t, ids, U);
-      set_rest_shape(rest, t, U.row(0).transpose(), U.row(1).transpose(), U.row(2).transpose(), U.row(3).transpose());
+      set_rest_shape(rest, t, U);
     }
   });
   return rest;

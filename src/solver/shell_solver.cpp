@@ -53,7 +53,8 @@ constexpr int kCgChunk = 4096;
 // What the local step reads per tet, straight from RestTets (no copy: at millions of faces the
 // tets are the solver's largest data): vertex j of tet t at T[t + j K] (column-major K x 4),
 // Dm_inv(k, c) at Dinv[9 t + k + 3 c] (column-major 3x3 matrices, stored contiguously), volume.
-// In the affine-prism form (Dinv null), Dm_inv = unit_inverse[unit_corners[t]] * prism_inverse[t / 3].
+// In the affine-prism form (Dinv null), Dm_inv = unit_inverse[unit_corners[t]] * prism_inverse[t / 3];
+// in the positions form (points set), it is made from the tet's rest points (RestTets::dm_inv).
 struct LocalStepTets {
   const int* T;
   std::size_t K;
@@ -62,10 +63,19 @@ struct LocalStepTets {
   const double* prism_inverse = nullptr;
   const std::uint16_t* unit_corners = nullptr;
   const double* unit_inverse = nullptr;
+  const double* points = nullptr;
+  const int* override_tets = nullptr;
+  std::size_t overrides = 0;
+  const double* override_inv = nullptr;
 
   // Tet t's Dm_inv(k, c) at d[k + 3 c]: a pointer into Dinv, or `scratch` filled.
   const double* dm_inv(std::size_t t, double* scratch) const {
     if (Dinv) return Dinv + 9 * t;
+    if (points) {
+      detail::positions_form_dm_inv(points, T, static_cast<std::ptrdiff_t>(K), override_tets, overrides, override_inv,
+                                    static_cast<std::ptrdiff_t>(t), scratch);
+      return scratch;
+    }
     detail::multiply_3x3(unit_inverse + 9 * static_cast<std::size_t>(unit_corners[t]), prism_inverse + 9 * (t / 3), scratch);
     return scratch;
   }
@@ -185,7 +195,12 @@ struct ShellSolver::Impl {
     LocalStepTets tets{rest->T.data(), static_cast<std::size_t>(K), nullptr, rest->volume.data()};
     if (!rest->Dm_inv.empty())
       tets.Dinv = rest->Dm_inv[0].data();
-    else if (K > 0) {
+    else if (!rest->rest_points.empty()) {
+      tets.points = rest->rest_points.data();
+      tets.override_tets = rest->override_tets.data();
+      tets.overrides = rest->override_tets.size();
+      tets.override_inv = rest->override_Dm_inv.empty() ? nullptr : rest->override_Dm_inv[0].data();
+    } else if (K > 0) {
       tets.prism_inverse = rest->prism_inverse[0].data();
       tets.unit_corners = rest->unit_corners.data();
       tets.unit_inverse = unit_corner_inverses()[0].data();
@@ -418,6 +433,7 @@ void ShellSolver::Impl::assemble() {
       if (j + 1 < nf)
         for (int s = gather_start[j + 1]; s < gather_start[j + 2]; ++s) {
           const std::size_t t = gather_slot[s] / 4;
+          if (tets.points) break; // its tets' points are this row's neighbours', mostly cached
           const double* d = tets.Dinv ? tets.Dinv + 9 * t : tets.prism_inverse + 9 * (t / 3);
           __builtin_prefetch(d);
           __builtin_prefetch(d + 8);
