@@ -32,6 +32,13 @@ std::vector<std::pair<std::string, SimpleMesh>> meshes() {
   return list;
 }
 
+// An offset shell's positions: the base, then the top eta along the vertex normals (2n x 3).
+Eigen::MatrixXd offset_shell_positions(const SimpleMesh& m, double eta) {
+  Eigen::MatrixXd X(2 * m.V.rows(), 3);
+  X << m.V, offset_top(m.V, m.F, eta);
+  return X;
+}
+
 double signed_volume(const Eigen::MatrixXd& X, const Eigen::RowVector4i& t) {
   Eigen::Matrix3d D;
   D << (X.row(t[1]) - X.row(t[0])).transpose(), (X.row(t[2]) - X.row(t[0])).transpose(),
@@ -123,8 +130,7 @@ TEST(PrismTets, OffsetShellTetsArePositivelyOriented) {
   for (const auto& [name, m] : meshes()) {
     SCOPED_TRACE(name);
     const int n = static_cast<int>(m.V.rows());
-    Eigen::MatrixXd X(2 * n, 3);
-    X << m.V, offset_top(m.V, m.F, 0.02);
+    const Eigen::MatrixXd X = offset_shell_positions(m, 0.02);
     const Eigen::MatrixXi T = build_prism_tets(m.F, n);
     for (Eigen::Index t = 0; t < T.rows(); ++t) EXPECT_GT(signed_volume(X, T.row(t)), 0) << "tet " << t;
     // The same positions as rest shapes: accepted, with the same volumes.
@@ -211,8 +217,7 @@ TEST(PrismTets, RestTetsInThePositionsFormAreThePerTetOnes) {
   for (const auto& [name, m] : meshes()) {
     SCOPED_TRACE(name);
     const int n = static_cast<int>(m.V.rows());
-    Eigen::MatrixXd X(2 * n, 3);
-    X << m.V, offset_top(m.V, m.F, 0.05);
+    const Eigen::MatrixXd X = offset_shell_positions(m, 0.05);
     const Eigen::MatrixXi T = build_prism_tets(m.F, n);
     const RestTets per_tet = rest_tets_from_positions(X, T);
     // Every seventh tet replaced by its corners scaled by 2 about the first.
@@ -238,12 +243,9 @@ TEST(PrismTets, RestTetsInThePositionsFormAreThePerTetOnes) {
   }
   const SimpleMesh m = test::icosphere(1);
   const int n = static_cast<int>(m.V.rows());
-  Eigen::MatrixXd X(2 * n, 3);
-  X << m.V, offset_top(m.V, m.F, 0.05);
+  const Eigen::MatrixXd X = offset_shell_positions(m, 0.05);
   const Eigen::MatrixXi T = build_prism_tets(m.F, n);
-  Eigen::MatrixXd inside_out(2 * n, 3);
-  inside_out << m.V, offset_top(m.V, m.F, -0.05);
-  EXPECT_THROW(rest_tets_in_positions_form(inside_out, T), InputError);
+  EXPECT_THROW(rest_tets_in_positions_form(offset_shell_positions(m, -0.05), T), InputError); // inside out
   Eigen::MatrixXd nan = X;
   nan(n + 2, 1) = std::nan("");
   EXPECT_THROW(rest_tets_in_positions_form(nan, T), InputError);
