@@ -253,6 +253,26 @@ TEST(PrismTets, RestTetsInThePositionsFormAreThePerTetOnes) {
   out_of_range(4, 2) = 2 * n;
   EXPECT_THROW(rest_tets_in_positions_form(X, out_of_range), InputError);
   EXPECT_THROW(rest_tets_in_positions_form(X.leftCols(2), T), InputError);
+  // complete() sees what the local step would read wrongly: too few rest points, overrides out
+  // of order or out of range.
+  const auto swap_every_other = [](Eigen::Index t, const std::array<int, 4>&, TetCorners& U) {
+    if (t % 2 != 0) return false;
+    U.row(1).swap(U.row(2));
+    U.row(1).swap(U.row(3));
+    return true;
+  };
+  RestTets shapes = rest_tets_in_positions_form(X, T, swap_every_other);
+  ASSERT_TRUE(shapes.complete());
+  ASSERT_GE(shapes.override_tets.size(), 2u);
+  RestTets unsorted = shapes;
+  std::swap(unsorted.override_tets[0], unsorted.override_tets[1]);
+  EXPECT_FALSE(unsorted.complete());
+  RestTets beyond = shapes;
+  beyond.override_tets.back() = shapes.size();
+  EXPECT_FALSE(beyond.complete());
+  RestTets few_points = shapes;
+  few_points.rest_points.resize(few_points.rest_points.size() - 3);
+  EXPECT_FALSE(few_points.complete());
   // A replacement that turns a tet inside out is refused like any other rest shape.
   EXPECT_THROW(rest_tets_in_positions_form(X, T,
                                            [](Eigen::Index t, const std::array<int, 4>&, TetCorners& U) {

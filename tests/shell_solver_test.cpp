@@ -400,7 +400,7 @@ TEST(ShellSolver, SolveGivesTheStepsBitsOnManyChunksInMeshAndShuffledOrder) {
 TEST(ShellSolver, TheAffinePrismFormGivesThePerTetShell) {
   // The normal prisms' rest tets in the affine-prism form (one inverse per prism) and per tet:
   // to rounding the same energies, steps and shell, on the direct and the CG path; a RestTets with
-  // neither form is refused.
+  // no form is refused.
   const std::vector<std::pair<std::string, SimpleMesh>> cases = {
       {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
   for (const auto& [name, m] : cases)

@@ -51,7 +51,7 @@ GSHELL_SIMD_DISPATCH(void, tet_stretch_block, tet_stretch_body,
 // The positions are the caller's: every tet must find its four vertices among the rows of X.
 void check_positions(const RestTets& rest, const Eigen::MatrixXd& X, const char* what) {
   if (!rest.complete())
-    throw InputError(std::string(what) + ": rest tets are incomplete (no Dm_inv in either form, or volumes missing)");
+    throw InputError(std::string(what) + ": rest tets are incomplete (no Dm_inv in any form, or volumes missing)");
   if (X.cols() != 3)
     throw InputError(std::string(what) + ": positions must be N x 3 (got " + std::to_string(X.cols()) + " columns)");
   if (rest.size() > 0 && (rest.T.minCoeff() < 0 || rest.T.maxCoeff() >= X.rows()))

@@ -14,13 +14,10 @@ namespace gshell {
 
 namespace {
 
-// Tet t's inverse edge matrix into out (column-major) from its four rest corners, and its
-// volume; rejects flat or inverted rest shapes because the energy divides by them. The volume is
-// Eigen's determinant, as before the positions form existed (the inverse's own determinant may
-// differ from it in the last bit).
-double checked_rest_shape(Eigen::Index t, const double* u0, const double* u1, const double* u2, const double* u3,
-                          double* out) {
-  detail::inverse_edge_matrix(u0, u1, u2, u3, out);
+// Tet t's rest volume from its four rest corners; rejects flat or inverted rest shapes because
+// the energy divides by them. Eigen's determinant, as before the positions form existed (the
+// inverse's own determinant may differ from it in the last bit).
+double checked_rest_volume(Eigen::Index t, const double* u0, const double* u1, const double* u2, const double* u3) {
   Eigen::Matrix3d Dm;
   for (int r = 0; r < 3; ++r) {
     Dm(r, 0) = u1[r] - u0[r];
@@ -32,6 +29,14 @@ double checked_rest_shape(Eigen::Index t, const double* u0, const double* u1, co
     throw InputError("rest tet " + std::to_string(t) + " has non-positive volume (" + std::to_string(det / 6) +
                      ")");
   return det / 6;
+}
+
+// The same, and the tet's inverse edge matrix into out (column-major).
+double checked_rest_shape(Eigen::Index t, const double* u0, const double* u1, const double* u2, const double* u3,
+                          double* out) {
+  const double volume = checked_rest_volume(t, u0, u1, u2, u3);
+  detail::inverse_edge_matrix(u0, u1, u2, u3, out);
+  return volume;
 }
 
 void set_rest_shape(RestTets& rest, Eigen::Index t, const TetCorners& U) {
@@ -73,7 +78,14 @@ bool RestTets::complete() const {
   if (static_cast<std::size_t>(volume.size()) != K) return false;
   if (Dm_inv.size() == K) return true;
   if (!Dm_inv.empty()) return false;
-  if (!rest_points.empty()) return override_tets.size() == override_Dm_inv.size() && rest_points.size() % 3 == 0;
+  if (!rest_points.empty()) {
+    // The local step reads points by tet id and finds overrides by binary search: check both.
+    const std::size_t points = rest_points.size() / 3;
+    return rest_points.size() % 3 == 0 && (K == 0 || (T.minCoeff() >= 0 && static_cast<std::size_t>(T.maxCoeff()) < points)) &&
+           override_tets.size() == override_Dm_inv.size() &&
+           std::is_sorted(override_tets.begin(), override_tets.end()) &&
+           (override_tets.empty() || (override_tets.front() >= 0 && static_cast<std::size_t>(override_tets.back()) < K));
+  }
   return unit_corners.size() == K && 3 * prism_inverse.size() == K;
 }
 
@@ -153,10 +165,9 @@ RestTets rest_tets_in_positions_form(const Eigen::MatrixXd& X, Eigen::MatrixXi T
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, K, 1024), [&](const tbb::blocked_range<Eigen::Index>& r) {
     TetCorners U;
     std::array<int, 4> ids;
-    double inverse[9];
-    for (Eigen::Index t = r.begin(); t != r.end(); ++t) {
+    for (Eigen::Index t = r.begin(); t != r.end(); ++t) { // the inverses are made where they are read
       if (corners_of(t, ids, U)) replaced[t] = 1;
-      rest.volume[t] = checked_rest_shape(t, U.row(0).data(), U.row(1).data(), U.row(2).data(), U.row(3).data(), inverse);
+      rest.volume[t] = checked_rest_volume(t, U.row(0).data(), U.row(1).data(), U.row(2).data(), U.row(3).data());
     }
   });
   for (Eigen::Index t = 0; t < static_cast<Eigen::Index>(replaced.size()); ++t) {

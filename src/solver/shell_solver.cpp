@@ -430,10 +430,10 @@ void ShellSolver::Impl::assemble() {
       add(free_vertices[j], soft_diag[j]);
       // The next row's tets are fetched while this row sums: at millions of tets their Dm_inv
       // come from memory, and waiting for each in turn took most of the assembly.
-      if (j + 1 < nf)
+      // (Not in the positions form: a tet's rest points are its neighbours', mostly cached.)
+      if (j + 1 < nf && !tets.points)
         for (int s = gather_start[j + 1]; s < gather_start[j + 2]; ++s) {
           const std::size_t t = gather_slot[s] / 4;
-          if (tets.points) break; // its tets' points are this row's neighbours', mostly cached
           const double* d = tets.Dinv ? tets.Dinv + 9 * t : tets.prism_inverse + 9 * (t / 3);
           __builtin_prefetch(d);
           __builtin_prefetch(d + 8);

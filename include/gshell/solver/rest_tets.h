@@ -31,15 +31,16 @@ using TetCorners = Eigen::Matrix<double, 4, 3, Eigen::RowMajor>;
 ///   at 15.7M tets, where the per-tet matrices were the largest buffer of a generation).
 struct RestTets {
   Eigen::MatrixXi T;                       ///< K x 4 global vertex ids
-  std::vector<Eigen::Matrix3d> Dm_inv;     ///< per tet [u1-u0, u2-u0, u3-u0]^-1, or empty (prism form)
-  Eigen::VectorXd volume;                  ///< rest volumes (> 0), per tet in both forms
+  std::vector<Eigen::Matrix3d> Dm_inv;     ///< per tet [u1-u0, u2-u0, u3-u0]^-1, or empty (other forms)
+  Eigen::VectorXd volume;                  ///< rest volumes (> 0), per tet in every form
   std::vector<Eigen::Matrix3d> prism_inverse; ///< prism form: per prism, B_p^-1
   std::vector<std::uint16_t> unit_corners; ///< prism form: per tet, unit_corner_code of its corners
   std::vector<double> rest_points;         ///< positions form: N x 3 rest positions, row-major
   std::vector<int> override_tets;          ///< positions form: tets with a rest shape of their own, ascending
   std::vector<Eigen::Matrix3d> override_Dm_inv; ///< positions form: their inverse edge matrices
   int size() const { return static_cast<int>(T.rows()); }
-  /// Whether every tet has its rest shape (in either form) and its volume.
+  /// Whether every tet has its rest shape (in one of the forms) and its volume; in the positions
+  /// form also that every tet's vertices have rest points and the overrides are ascending.
   bool complete() const;
   /// Tet t's inverse rest edge matrix (0 <= t < size(); no check).
   Eigen::Matrix3d dm_inv(Eigen::Index t) const;

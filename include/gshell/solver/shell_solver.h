@@ -84,7 +84,7 @@ struct SoftConstraints {
 
 class ShellSolver {
 public:
-  /// \throws InputError when `rest` is incomplete (no Dm_inv in either form, or volumes missing),
+  /// \throws InputError when `rest` is incomplete (no Dm_inv in any form, or volumes missing),
   ///         a tet, fixed or soft vertex id is outside [0, num_vertices), or the system is singular (a connected part
   ///         of the tets has no fixed or constrained vertex). std::runtime_error when CHOLMOD
   ///         fails otherwise (out of memory).
