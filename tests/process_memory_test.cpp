@@ -5,8 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <thread>
 #include <utility>
 
 #if defined(__GLIBC__)
@@ -36,6 +38,30 @@ TEST(ProcessMemory, AFreedLargeBlockStaysInTheHeap) {
   const auto [unmapped, free_in_heap] = free_a_block();
   EXPECT_EQ(unmapped, 0u);
   EXPECT_GE(free_in_heap, kBlock);
+}
+
+// A block another thread asks for after the main thread freed a larger one comes from the freed
+// one's place (with glibc's default that thread gets an arena of its own, elsewhere, and touches
+// fresh pages). Threads started before reuse_freed_memory keep their arenas: none is here.
+TEST(ProcessMemory, AnotherThreadReusesAFreedBlock) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer has its own allocator";
+#endif
+  gshell::reuse_freed_memory();
+  constexpr std::size_t kFreed = std::size_t{32} << 20, kAsked = std::size_t{16} << 20;
+  void* freed = std::malloc(kFreed);
+  ASSERT_NE(freed, nullptr);
+  std::memset(freed, 1, kFreed);
+  const auto begin = reinterpret_cast<std::uintptr_t>(freed);
+  std::free(freed);
+  std::uintptr_t asked = 0;
+  std::thread([&] {
+    void* block = std::malloc(kAsked);
+    asked = reinterpret_cast<std::uintptr_t>(block);
+    std::free(block);
+  }).join();
+  EXPECT_GE(asked, begin);
+  EXPECT_LE(asked + kAsked, begin + kFreed);
 }
 #endif
 

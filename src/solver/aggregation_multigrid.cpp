@@ -427,6 +427,7 @@ void AggregationMultigrid::apply(const Eigen::Ref<const Eigen::MatrixXd>& R, Eig
 }
 
 int AggregationMultigrid::rows() const { return static_cast<int>(impl_->levels[0].A.rows()); }
+const Eigen::SparseMatrix<double, Eigen::RowMajor>& AggregationMultigrid::matrix() const { return impl_->levels[0].A; }
 
 std::vector<MultigridLevelInfo> AggregationMultigrid::levels() const {
   std::vector<MultigridLevelInfo> out;

@@ -56,6 +56,9 @@ public:
   void apply(const Eigen::Ref<const Eigen::MatrixXd>& R, Eigen::Ref<Eigen::MatrixXd> Z) const;
 
   int rows() const;
+  /// The finest level's matrix: A as given (compressed). A caller that handed its matrix over
+  /// reads it here rather than keeping a copy.
+  const Eigen::SparseMatrix<double, Eigen::RowMajor>& matrix() const;
   std::vector<MultigridLevelInfo> levels() const;
   double setup_seconds() const; ///< wall time of the constructor
 
