@@ -34,6 +34,7 @@ namespace gshell {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>; // L_ff: rows by free index
 
 // Tets per energy chunk: chunks are summed in a fixed order so the energy does not depend on
 // how TBB happened to split the work (the monotonicity test compares energies to round-off).
@@ -234,10 +235,10 @@ struct ShellSolver::Impl {
   // columns (by free index, CSR, ascending), and L_fc, their kept columns (by vertex id; L_fc x_c
   // is the exact Dirichlet elimination term). With the multigrid, L_ff is its finest level's
   // matrix, handed over rather than copied (0.2 GB at 2.6M rows); lff() reads it where it is.
-  Eigen::SparseMatrix<double, Eigen::RowMajor> ff;
+  RowMatrix ff;
   std::vector<int> fc_start, fc_col;
   std::vector<double> fc_val;
-  const Eigen::SparseMatrix<double, Eigen::RowMajor>& lff() const { return multigrid ? multigrid->matrix() : ff; }
+  const RowMatrix& lff() const { return multigrid ? multigrid->matrix() : ff; }
   std::vector<int> soft_free; // free index of every soft vertex, -1 if that vertex is kept
   std::vector<double> jacobi; // 1 / diagonal of L_ff (CG's preconditioner)
   std::unique_ptr<AggregationMultigrid> multigrid; // CG's preconditioner unless Jacobi was asked for
@@ -475,6 +476,8 @@ void ShellSolver::Impl::assemble() {
     fc_start[j + 1] = fc_start[j] + len - nfree;
   }
   ff.resizeNonZeros(ff_start[nf]); // not written yet: its pages are first touched in parallel below
+  int* ff_col = ff.innerIndexPtr();
+  double* ff_val = ff.valuePtr();
   detail::assign_populated(fc_col, fc_start[nf]);
   detail::assign_populated(fc_val, fc_start[nf]);
   detail::assign_populated(jacobi, nf);
@@ -491,8 +494,8 @@ void ShellSolver::Impl::assemble() {
           fc_val[kept_out++] = in.val[e];
           continue;
         }
-        ff.innerIndexPtr()[free_out] = i;
-        ff.valuePtr()[free_out++] = in.val[e];
+        ff_col[free_out] = i;
+        ff_val[free_out++] = in.val[e];
         if (i == j) jacobi[j] = in.val[e] > 0 ? 1.0 / in.val[e] : 0.0;
       }
     }
@@ -525,7 +528,7 @@ void ShellSolver::Impl::build_multigrid() {
 void ShellSolver::Impl::factorize() const {
   const auto t0 = Clock::now();
   // The upper triangle of L_ff in CSC (= the lower triangle of its rows: L_ff is symmetric).
-  const Eigen::SparseMatrix<double, Eigen::RowMajor>& L = lff();
+  const RowMatrix& L = lff();
   const int* L_start = L.outerIndexPtr();
   const int* L_col = L.innerIndexPtr();
   const double* L_val = L.valuePtr();
@@ -939,7 +942,7 @@ Eigen::MatrixXd ShellSolver::multiply_free(const Eigen::MatrixXd& P) const {
   tbb::parallel_for(tbb::blocked_range<int>(0, m.nf, 1024), [&](const tbb::blocked_range<int>& r) {
     for (int j = r.begin(); j < r.end(); ++j) {
       double s[3] = {0, 0, 0};
-      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator e(L, j); e; ++e)
+      for (RowMatrix::InnerIterator e(L, j); e; ++e)
         for (int d = 0; d < 3; ++d) s[d] += e.value() * P(e.index(), d);
       for (int d = 0; d < 3; ++d) out(j, d) = s[d];
     }
@@ -953,7 +956,7 @@ Eigen::SparseMatrix<double, Eigen::RowMajor> ShellSolver::system_rows(const std:
   for (std::size_t r = 0; r < vertices.size(); ++r) {
     const int v = vertices[r];
     if (v < 0 || v >= m.N || m.free_index[v] < 0) throw InputError("ShellSolver::system_rows: vertex is not free");
-    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator e(m.lff(), m.free_index[v]); e; ++e)
+    for (RowMatrix::InnerIterator e(m.lff(), m.free_index[v]); e; ++e)
       entries.emplace_back(static_cast<int>(r), m.free_vertices[e.index()], e.value());
   }
   Eigen::SparseMatrix<double, Eigen::RowMajor> rows(static_cast<Eigen::Index>(vertices.size()), m.N);
@@ -1094,7 +1097,7 @@ Eigen::MatrixXd ShellSolver::half_gradient(const Eigen::MatrixXd& X, const Local
     m.gather_rhs(j, step.Q.data(), b);
     for (int d = 0; d < 3; ++d) {
       double ax = 0;
-      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator e(L, j); e; ++e)
+      for (RowMatrix::InnerIterator e(L, j); e; ++e)
         ax += e.value() * x[3 * static_cast<std::size_t>(m.free_vertices[e.index()]) + d];
       g(m.free_vertices[j], d) = ax - b[d] - rhs_const[j + static_cast<std::size_t>(d) * m.nf];
     }
