@@ -50,9 +50,11 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   const PoseResult result = run_pose(session, a.options);
   for (size_t k = 0; k < result.steps.size(); ++k) {
     const PoseStepReport& s = result.steps[k];
-    char text[160];
-    std::snprintf(text, sizeof text, "step %zu/%zu: %d iterations, energy %g, %.3f s%s%s", k + 1, result.steps.size(),
-                  s.iterations, s.energy, s.seconds, s.converged ? "" : " (not converged)",
+    char text[200], dragged[48] = "";
+    if (s.guarded_iterations > 0) // the solver's result was not valid: the guard dragged the handles there
+      std::snprintf(dragged, sizeof dragged, " + %d guarded", s.guarded_iterations);
+    std::snprintf(text, sizeof text, "step %zu/%zu: %d iterations%s, energy %g, %.3f s%s%s", k + 1, result.steps.size(),
+                  s.iterations, dragged, s.energy, s.seconds, s.converged ? "" : " (not converged)",
                   !s.guarded ? "" : s.valid ? ", valid" : ", INVALID");
     progress.line(text);
     if (s.blocked_by_contact) // a warning even with --quiet: the pose is not where the handles asked

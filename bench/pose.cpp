@@ -459,12 +459,22 @@ int run_table(const std::vector<std::string>& args) {
     }
     for (size_t k = first_ratio; k < row.cells.size(); ++k) {
       const TableCell& h = row.cells[k];
-      auto ratio = [&](const TableCell& base) {
-        return base.reach.reached && h.reach.reached ? base.reach.cpu / h.reach.cpu
-                                                     : std::numeric_limits<double>::quiet_NaN();
+      // A run still moving at its cap took at least its CPU time so far: the speed-up is then a
+      // bound. A run that settled in another minimum never gets there: no speed-up.
+      auto ratio = [&](const TableCell& base) -> std::string {
+        char text[32];
+        const bool base_capped = !base.reach.reached && !base.trajectory.converged;
+        const bool h_capped = !h.reach.reached && !h.trajectory.converged;
+        if (base.reach.reached && h.reach.reached) std::snprintf(text, sizeof text, "%.1fx", base.reach.cpu / h.reach.cpu);
+        else if (base_capped && h.reach.reached) std::snprintf(text, sizeof text, ">%.1fx", base.reach.cpu / h.reach.cpu);
+        else if (h_capped && base.reach.reached) std::snprintf(text, sizeof text, "<%.1fx", base.reach.cpu / h.reach.cpu);
+        else std::snprintf(text, sizeof text, "-");
+        return text;
       };
       if (only_extra) std::printf(" |");
-      else std::printf(" %.1fx / %.1fx / %.1fx |", ratio(row.cells[0]), ratio(row.cells[1]), ratio(row.cells[2]));
+      else
+        std::printf(" %s / %s / %s |", ratio(row.cells[0]).c_str(), ratio(row.cells[1]).c_str(),
+                    ratio(row.cells[2]).c_str());
     }
     std::printf(" ");
     for (const TableCell& cell : row.cells)
@@ -476,7 +486,8 @@ int run_table(const std::vector<std::string>& args) {
     std::printf("|\n");
   }
   std::printf("\n(E/E* in parentheses: where the run settled; above 1.001 and settled = another local minimum; "
-              "'cap' = still moving at the cap. Coarse passes kept: accepted/run (ms per pass / per full iteration / "
+              "'cap' = still moving at the cap. Speed-ups: '>x' / '<x' = a bound, one of the two runs still moving at its cap; "
+              "'-' = one of them settled in another minimum. Coarse passes kept: accepted/run (ms per pass / per full iteration / "
               "per path search), over the whole run.)\n");
   std::printf("setup (s) of the last configuration (tree, assembly, factorisations):");
   for (const Row& row : rows) std::printf(" %s %.3f;", row.label.c_str(), row.cells.back().setup);

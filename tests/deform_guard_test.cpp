@@ -4,6 +4,7 @@
 // allow_invalid reproduces the unguarded frames bit for bit; pose steps stay valid and stop at
 // contact when the handles force a collision.
 #include <gshell/deform/handles.h>
+#include <gshell/deform/pose.h>
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
@@ -111,6 +112,11 @@ TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {
   expect_valid_frame(deformer, r, base);
   EXPECT_EQ(r.method, FrameMethod::Guarded);
   EXPECT_GT(r.substeps, 1);
+  // The reported energy is that of the frame returned, not of the solve the guard replaced.
+  std::vector<int> base_ids(rest.num_base_vertices());
+  std::iota(base_ids.begin(), base_ids.end(), 0);
+  const double returned = ShellSolver(deformer.rest_tets(), 2 * rest.num_base_vertices(), base_ids).energy(deformer.current());
+  EXPECT_NEAR(r.energy.back(), returned, 1e-9 * returned);
 }
 
 // Folds a plane (thickness 0.2) by `degrees` in a band whose arc radius R = 0.6 / angle is below
@@ -232,7 +238,8 @@ HandleSet squeeze_handles(const Shell& rest) {
 }
 
 // A bowl squeezed shut: two handles at opposite sides of the rim driven through each other.
-PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
+// `progress_calls[step - 1]`: how often the step reported progress.
+PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid, std::vector<int>* progress_calls = nullptr) {
   const Shell rest = offset_shell(make_bowl(8), 0.08);
   const HandleSet handles = squeeze_handles(rest);
   PoseOptions options;
@@ -241,6 +248,10 @@ PoseResult squeeze_bowl(PoseSolverKind kind, bool allow_invalid) {
   options.allow_invalid = allow_invalid;
   options.solve.max_iterations = 100;
   options.solve.tolerance = 1e-5;
+  if (progress_calls) {
+    progress_calls->assign(options.steps, 0);
+    options.step_progress = [progress_calls](int step, int, double, double) { ++(*progress_calls)[step - 1]; };
+  }
   return run_pose(rest, handles, options);
 }
 
@@ -274,10 +285,15 @@ TEST(PoseGuard, UnguardedDragPreviewsSettleIntoAValidState) {
 }
 
 void expect_squeeze_stops_at_contact(PoseSolverKind kind) {
-  const PoseResult guarded = squeeze_bowl(kind, false);
+  std::vector<int> progress_calls;
+  const PoseResult guarded = squeeze_bowl(kind, false, &progress_calls);
   bool blocked = false;
-  for (const PoseStepReport& s : guarded.steps) {
+  ASSERT_EQ(guarded.steps.size(), progress_calls.size());
+  for (std::size_t k = 0; k < guarded.steps.size(); ++k) {
+    const PoseStepReport& s = guarded.steps[k];
     SCOPED_TRACE("step at fraction " + std::to_string(s.fraction));
+    // Progress goes on while the guard drags: one report per solver and per guarded iteration.
+    EXPECT_EQ(progress_calls[k], s.iterations + s.guarded_iterations);
     EXPECT_TRUE(s.guarded);
     EXPECT_TRUE(s.valid);
     EXPECT_EQ(s.inverted_tets, 0);
@@ -290,6 +306,11 @@ void expect_squeeze_stops_at_contact(PoseSolverKind kind) {
   const ShellCertificate c = certify_shell(guarded.X.topRows(n), guarded.X.bottomRows(n), F);
   EXPECT_TRUE(c.valid());
   EXPECT_EQ(c.base_self_intersections, 0);
+  // The step's reported energy is that of the state it returned, not of the solver's rejected one.
+  const Shell rest = offset_shell(make_bowl(8), 0.08);
+  const PoseSolver solver(rest, squeeze_handles(rest), kind);
+  const double returned = solver.energy(guarded.X, 1.0);
+  EXPECT_NEAR(guarded.steps.back().energy, returned, 1e-9 * returned);
   // Unguarded, the same squeeze passes the shell through itself.
   const PoseResult loose = squeeze_bowl(kind, true);
   const ShellCertificate l = certify_shell(loose.X.topRows(n), loose.X.bottomRows(n), F);

@@ -145,6 +145,14 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     GuardedSolveOptions solve;
     solve.max_iterations = options.max_iterations;
     solve.tolerance = options.tolerance;
+    // A drag can take many times the solve's iterations: its iterations are reported as the
+    // solve's continued (energy: E with the barriers), so progress does not stop during it.
+    int dragged = 0;
+    const auto drag_start = std::chrono::steady_clock::now();
+    if (options.progress)
+      solve.progress = [&](int, double e, double) {
+        options.progress(result.iterations + ++dragged, e, result.seconds + seconds_since(drag_start));
+      };
     const int substeps = std::clamp(static_cast<int>(std::ceil(max_edge_change(start.topRows(n), X.topRows(n), s.rest_shell.F) /
                                                                DeformOptions{}.substep_edge_change)),
                                     1, DeformOptions{}.max_substeps);
@@ -171,6 +179,12 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   }
   if (out.method != FrameMethod::Bounded) out.certificate = s.guard->certify(X);
   out.valid = out.certificate.valid() && out.certificate.base_self_intersections == 0;
+  // The result describes the state returned: where the guard replaced the solver's state, its
+  // last energy is that of the valid state, and a step short of its targets has not converged.
+  if (out.method != FrameMethod::Bounded || out.blocked_by_contact) {
+    result.energy.push_back(energy(X, P));
+    result.converged = result.converged && !out.blocked_by_contact && out.method != FrameMethod::Failed;
+  }
   return result;
 }
 

@@ -401,7 +401,10 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     if (!resumed) resume_ = last;
     current_clean_ = false;
   }
-  if (outcome.method != FrameMethod::Failed) X = std::move(Y); // Failed: the paper's solve stands
+  if (outcome.method != FrameMethod::Failed) { // Failed: the paper's solve stands
+    X = std::move(Y);
+    result.energy.push_back(solver_.energy(X)); // the frame's energy is the returned state's
+  }
 }
 
 } // namespace gshell

@@ -66,6 +66,9 @@ public:
   /// handles there from X, stopping at contact when they force a collision
   /// (step->blocked_by_contact); with soft handles, the straight path is halved until its end is
   /// valid (blocked_by_contact if it had to be). Never leaves X invalid when it started valid.
+  /// Returns the solver's result; where X is not the solver's state, its energy gets one more
+  /// entry, the energy of X (so energy.back() is the returned state's), and a step short of its
+  /// targets or left where it was is not `converged`.
   /// \throws InputError when `from`, X or targets have the wrong shape, or as GuardedSolver.
   SolveResult solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd& X, const Eigen::MatrixXd& targets,
                           const SolveOptions& options, const GuardOptions& guard, ValidStep* step);

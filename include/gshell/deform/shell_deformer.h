@@ -93,7 +93,9 @@ const char* frame_method_name(FrameMethod m);
 struct FrameResult {
   Eigen::MatrixXd top;         ///< n x 3 deformed top (top vertex i over base vertex i)
   int iterations = 0;
-  std::vector<double> energy;  ///< energy[0] at the warm start, then one per iteration
+  /// energy[0] at the warm start, then one per iteration; where the guard replaced the solve's
+  /// state (method Guarded or TetsOnly), one more: the returned state's, so back() is always the frame's.
+  std::vector<double> energy;
   bool converged = false;      ///< stopped by the tolerance
   StretchStats stretch;        ///< per-tet stretch against the rest shell (incl. inverted tets)
   double seconds = 0;          ///< warm start + solve (excludes the stretch measurement)
