@@ -4,6 +4,7 @@
 // allow_invalid reproduces the unguarded frames bit for bit; pose steps stay valid and stop at
 // contact when the handles force a collision.
 #include <gshell/deform/handles.h>
+#include <gshell/error.h>
 #include <gshell/deform/pose.h>
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/run/drag_session.h>
@@ -117,6 +118,35 @@ TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {
   std::iota(base_ids.begin(), base_ids.end(), 0);
   const double returned = ShellSolver(deformer.rest_tets(), 2 * rest.num_base_vertices(), base_ids).energy(deformer.current());
   EXPECT_NEAR(r.energy.back(), returned, 1e-9 * returned);
+}
+
+// The sub-steps before the last only keep the drag near the path of minima: solved to 1e-3 rather
+// than the frame's 1e-6, the frame ends at the same energy (both run until converged).
+TEST(DeformGuard, SubStepsSolvedLooselyEndWhereTightOnesDoInFewerIterations) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  const Eigen::MatrixXd base = bend(rest.base, motion_frame(rest.base), 150.0, 0.3);
+  DeformOptions tight, loose;
+  tight.tolerance = loose.tolerance = 1e-6;
+  tight.max_iterations = loose.max_iterations = 1000;
+  tight.substep_tolerance = tight.tolerance; // every sub-step to the frame's tolerance
+  ShellDeformer a(rest), b(rest);
+  const FrameResult t = a.solve(base, tight), l = b.solve(base, loose);
+  ASSERT_EQ(t.method, FrameMethod::Guarded);
+  ASSERT_EQ(l.method, FrameMethod::Guarded);
+  EXPECT_EQ(l.substeps, t.substeps);
+  expect_valid_frame(b, l, base);
+  EXPECT_LT(l.guarded_iterations, t.guarded_iterations);
+  EXPECT_NEAR(l.energy.back(), t.energy.back(), 1e-5 * t.energy.back());
+}
+
+TEST(DeformGuard, SubStepToleranceOutsideZeroToOneIsAnInputError) {
+  const Shell rest = flat_plane_shell(4, 0.2);
+  ShellDeformer deformer(rest);
+  for (double bad : {0.0, 1.0, -1e-3, std::nan("")}) {
+    DeformOptions options;
+    options.substep_tolerance = bad;
+    EXPECT_THROW(deformer.solve(rest.base, options), InputError) << bad;
+  }
 }
 
 // Folds a plane (thickness 0.2) by `degrees` in a band whose arc radius R = 0.6 / angle is below

@@ -133,7 +133,8 @@ ShellCertificate FrameGuard::certify(const Eigen::MatrixXd& X) {
 }
 
 FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts,
-                                     bool fall_back_to_tets, const GuardedSolveOptions& solve) {
+                                     bool fall_back_to_tets, const GuardedSolveOptions& solve,
+                                     double substep_tolerance) {
   Outcome out;
   GuardedSolver* solver = nullptr;
   if (contacts && contact_ && std::isfinite(contact_->energy(X))) solver = contact_.get();
@@ -150,12 +151,18 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
   // A stalled drag is retried once (the energy iterations in between may make room), then
   // continued with the tets alone, or stopped there (blocked).
   constexpr int kRetries = 2;
+  // The sub-steps before the last only keep the drag near the path of minima (loosely solved);
+  // the last is solved to the tolerance, with the iterations the others left of their share.
+  GuardedSolveOptions on_the_way = solve, last = solve;
+  on_the_way.tolerance = std::max(solve.tolerance, substep_tolerance);
   for (int k = 1; k <= substeps; ++k) {
     const double t = static_cast<double>(k) / substeps;
     for (int v : fixed_) step_targets.row(v) = from.row(v) + t * (targets.row(v) - from.row(v));
     ++out.substeps;
     for (int attempt = 0;; ++attempt) {
-      const GuardedSolveResult r = solver->solve(X, solve, step_targets);
+      if (k == substeps)
+        last.max_iterations = std::max(solve.max_iterations, substeps * solve.max_iterations - out.iterations);
+      const GuardedSolveResult r = solver->solve(X, k < substeps ? on_the_way : last, step_targets);
       out.iterations += r.iterations;
       if (r.path_done >= 1) break;
       // The drag moves the free vertices with the fixed ones by the model's linear response,

@@ -53,13 +53,16 @@ public:
     bool blocked = false; ///< stopped at contact (no fall-back to the tets): X valid, short of the targets
   };
   /// Drags X (2n x 3, a frame made by this guard) until its fixed vertices reach their rows of
-  /// `targets`, in `substeps` straight pieces, each solved to the tolerance by the guarded solver.
+  /// `targets`, in `substeps` straight pieces, each solved by the guarded solver: those before the
+  /// last to the looser of `solve.tolerance` and `substep_tolerance`, the last to
+  /// `solve.tolerance` with what the others left of substeps x `solve.max_iterations` (at least
+  /// `solve.max_iterations`).
   /// Contacts are kept apart while the fixed vertices' motion allows it; when it forces one, only
   /// the tets are guarded from there on (TetsOnly) with `fall_back_to_tets`, else the drag stops
   /// where it is (blocked). Failed: X is left somewhere on the way. `contacts`: X is free of
   /// contacts (else only the tets can be guarded).
   Outcome drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts, bool fall_back_to_tets,
-               const GuardedSolveOptions& solve);
+               const GuardedSolveOptions& solve, double substep_tolerance);
 
 private:
   GuardedSolver& tets_only();

@@ -156,7 +156,8 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     const int substeps = std::clamp(static_cast<int>(std::ceil(max_edge_change(start.topRows(n), X.topRows(n), s.rest_shell.F) /
                                                                DeformOptions{}.substep_edge_change)),
                                     1, DeformOptions{}.max_substeps);
-    const FrameGuard::Outcome outcome = s.guard->drag(Y, targets, substeps, s.guard->guards_contacts(), false, solve);
+    const FrameGuard::Outcome outcome =
+        s.guard->drag(Y, targets, substeps, s.guard->guards_contacts(), false, solve, DeformOptions{}.substep_tolerance);
     out.method = outcome.method;
     out.blocked_by_contact = outcome.blocked;
     out.guarded_iterations = outcome.iterations;

@@ -105,6 +105,7 @@ void DeformOptions::check() const {
   if (!(substep_edge_change > 0 && substep_edge_change <= 2))
     throw InputError("substep_edge_change must be in (0, 2]");
   if (max_substeps < 1) throw InputError("max_substeps must be >= 1");
+  if (!(substep_tolerance > 0 && substep_tolerance < 1)) throw InputError("substep_tolerance must be in (0, 1)");
   check_guard_options(guard);
 }
 
@@ -381,7 +382,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   GuardedSolveOptions solve;
   solve.max_iterations = options.max_iterations;
   solve.tolerance = options.tolerance;
-  FrameGuard::Outcome outcome = guard_->drag(Y, X, substeps, contacts, true, solve);
+  FrameGuard::Outcome outcome = guard_->drag(Y, X, substeps, contacts, true, solve, options.substep_tolerance);
   // Not even the tets could follow the drag: the paper's solve is still taken as tets-only when the
   // straight path to it keeps every guarded tet positive (it then inverts none of them).
   if (outcome.method == FrameMethod::Failed && guard_->accepts(previous, X, false, nullptr)) {

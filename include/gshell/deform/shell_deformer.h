@@ -66,6 +66,12 @@ struct DeformOptions {
   /// this fraction of the edge's length (about this many radians of turn), in (0, 2].
   double substep_edge_change = 0.1;
   int max_substeps = 64; ///< cap on sub-steps per frame (>= 1)
+  /// Every sub-step but the last ends at this relative energy decrease per iteration (or
+  /// `tolerance`, when looser); the last is solved to `tolerance`, with the iterations the others
+  /// left of their share (sub-steps x max_iterations in all). The sub-steps only keep the drag
+  /// near the path of minima, which needs no tight solve (docs/valid-deformation.md, "Sub-steps
+  /// solved loosely"). In (0, 1).
+  double substep_tolerance = 1e-3;
   /// Fill FrameResult::certificate by the exact certificate (certify_shell, with the base's own
   /// crossings): not counted in FrameResult::seconds.
   bool certify = true;
