@@ -460,7 +460,8 @@ int run_table(const std::vector<std::string>& args) {
     for (size_t k = first_ratio; k < row.cells.size(); ++k) {
       const TableCell& h = row.cells[k];
       // A run still moving at its cap took at least its CPU time so far: the speed-up is then a
-      // bound. A run that settled in another minimum never gets there: no speed-up.
+      // bound. A run that settled in another minimum never gets there: no speed-up (nor when both
+      // are still moving).
       auto ratio = [&](const TableCell& base) -> std::string {
         char text[32];
         const bool base_capped = !base.reach.reached && !base.trajectory.converged;
@@ -487,7 +488,7 @@ int run_table(const std::vector<std::string>& args) {
   }
   std::printf("\n(E/E* in parentheses: where the run settled; above 1.001 and settled = another local minimum; "
               "'cap' = still moving at the cap. Speed-ups: '>x' / '<x' = a bound, one of the two runs still moving at its cap; "
-              "'-' = one of them settled in another minimum. Coarse passes kept: accepted/run (ms per pass / per full iteration / "
+              "'-' = no bound (one of them settled in another minimum, or both still moving). Coarse passes kept: accepted/run (ms per pass / per full iteration / "
               "per path search), over the whole run.)\n");
   std::printf("setup (s) of the last configuration (tree, assembly, factorisations):");
   for (const Row& row : rows) std::printf(" %s %.3f;", row.label.c_str(), row.cells.back().setup);

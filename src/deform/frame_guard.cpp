@@ -9,6 +9,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -160,8 +161,10 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
     for (int v : fixed_) step_targets.row(v) = from.row(v) + t * (targets.row(v) - from.row(v));
     ++out.substeps;
     for (int attempt = 0;; ++attempt) {
-      if (k == substeps)
-        last.max_iterations = std::max(solve.max_iterations, substeps * solve.max_iterations - out.iterations);
+      if (k == substeps) {
+        const long long share = static_cast<long long>(substeps) * solve.max_iterations - out.iterations;
+        last.max_iterations = static_cast<int>(std::clamp<long long>(share, solve.max_iterations, INT_MAX));
+      }
       const GuardedSolveResult r = solver->solve(X, k < substeps ? on_the_way : last, step_targets);
       out.iterations += r.iterations;
       if (r.path_done >= 1) break;
