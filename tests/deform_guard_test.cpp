@@ -4,8 +4,8 @@
 // allow_invalid reproduces the unguarded frames bit for bit; pose steps stay valid and stop at
 // contact when the handles force a collision.
 #include <gshell/deform/handles.h>
-#include <gshell/error.h>
 #include <gshell/deform/pose.h>
+#include <gshell/error.h>
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
@@ -30,6 +30,13 @@ namespace {
 
 using test::flat_plane_shell;
 using test::offset_shell;
+
+// The deformer's system: the n base vertices of a 2n-vertex shell kept, the tops free.
+ShellSolver base_fixed_solver(const RestTets& rest_tets, int n) {
+  std::vector<int> base_ids(n);
+  std::iota(base_ids.begin(), base_ids.end(), 0);
+  return ShellSolver(rest_tets, 2 * n, base_ids);
+}
 
 StretchStats offset_stretch(const ShellDeformer& deformer, const Eigen::MatrixXd& base) {
   const Shell& rest = deformer.rest_shell();
@@ -114,9 +121,7 @@ TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {
   EXPECT_EQ(r.method, FrameMethod::Guarded);
   EXPECT_GT(r.substeps, 1);
   // The reported energy is that of the frame returned, not of the solve the guard replaced.
-  std::vector<int> base_ids(rest.num_base_vertices());
-  std::iota(base_ids.begin(), base_ids.end(), 0);
-  const double returned = ShellSolver(deformer.rest_tets(), 2 * rest.num_base_vertices(), base_ids).energy(deformer.current());
+  const double returned = base_fixed_solver(deformer.rest_tets(), rest.num_base_vertices()).energy(deformer.current());
   EXPECT_NEAR(r.energy.back(), returned, 1e-9 * returned);
 }
 
@@ -224,9 +229,7 @@ TEST(DeformGuard, AllowInvalidReproducesTheUnguardedFramesBitForBit) {
   const int n = rest.num_base_vertices();
   const MotionFrame frame = motion_frame(rest.base);
   ShellDeformer deformer(rest);
-  std::vector<int> base_ids(n);
-  std::iota(base_ids.begin(), base_ids.end(), 0);
-  const ShellSolver solver(deformation_rest_tets(rest), 2 * n, base_ids);
+  const ShellSolver solver = base_fixed_solver(deformation_rest_tets(rest), n);
   const VertexRings rings = vertex_rings(rest.F, n);
   DeformOptions options;
   options.allow_invalid = true;

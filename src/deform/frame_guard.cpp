@@ -16,6 +16,10 @@
 
 namespace gshell {
 
+namespace {
+
+/// Largest relative change of a base edge vector from `from` to `to`: max over edges (i, j) of
+/// |(to_j - to_i) - (from_j - from_i)| / |from_j - from_i|.
 double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const Eigen::MatrixXi& F) {
   double worst = 0;
   for (int f = 0; f < F.rows(); ++f)
@@ -27,6 +31,8 @@ double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, c
     }
   return worst;
 }
+
+} // namespace
 
 FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options,
                        std::vector<int> fixed, bool moving_base)
@@ -131,6 +137,12 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
 
 ShellCertificate FrameGuard::certify(const Eigen::MatrixXd& X) {
   return certifier_.certify(X.topRows(n_), X.bottomRows(n_), CertifyOptions{});
+}
+
+int FrameGuard::substeps_between(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to,
+                                 const DeformOptions& schedule) const {
+  const double change = max_edge_change(from.topRows(n_), to.topRows(n_), F_);
+  return std::clamp(static_cast<int>(std::ceil(change / schedule.substep_edge_change)), 1, schedule.max_substeps);
 }
 
 FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts,

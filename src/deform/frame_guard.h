@@ -15,10 +15,6 @@
 
 namespace gshell {
 
-/// Largest relative change of a base edge vector from `from` to `to`: max over edges (i, j) of
-/// |(to_j - to_i) - (from_j - from_i)| / |from_j - from_i|.
-double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const Eigen::MatrixXi& F);
-
 class FrameGuard {
 public:
   /// `rest`: the rest shell (the first frame starts from it), `rest_tets` the solver's rest
@@ -52,6 +48,10 @@ public:
     int iterations = 0;
     bool blocked = false; ///< stopped at contact (no fall-back to the tets): X valid, short of the targets
   };
+  /// Sub-steps for a drag from the state `from` to `to` (2n x 3): as many as keep every base edge
+  /// vector's change per sub-step within schedule.substep_edge_change of its length, at least 1,
+  /// at most schedule.max_substeps.
+  int substeps_between(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, const DeformOptions& schedule) const;
   /// Drags X (2n x 3, a frame made by this guard) until its fixed vertices reach their rows of
   /// `targets`, in `substeps` straight pieces, each solved by the guarded solver: those before the
   /// last to the looser of `solve.tolerance` and `substep_tolerance`, the last to

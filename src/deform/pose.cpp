@@ -133,7 +133,6 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   if (!s.guard || !s.guard->built_with(guard))
     s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard,
                                            hard ? s.constrained : std::vector<int>{}, true);
-  const int n = static_cast<int>(X.rows()) / 2;
   const Eigen::MatrixXd start = from;
   SolveResult result = solve(X, P, options);
   if (s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate)) {
@@ -153,11 +152,9 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
       solve.progress = [&](int, double e, double) {
         options.progress(result.iterations + ++dragged, e, result.seconds + seconds_since(drag_start));
       };
-    const int substeps = std::clamp(static_cast<int>(std::ceil(max_edge_change(start.topRows(n), X.topRows(n), s.rest_shell.F) /
-                                                               DeformOptions{}.substep_edge_change)),
-                                    1, DeformOptions{}.max_substeps);
-    const FrameGuard::Outcome outcome =
-        s.guard->drag(Y, targets, substeps, s.guard->guards_contacts(), false, solve, DeformOptions{}.substep_tolerance);
+    const DeformOptions schedule; // the deformation frames' sub-steps
+    const FrameGuard::Outcome outcome = s.guard->drag(Y, targets, s.guard->substeps_between(start, X, schedule),
+                                                      s.guard->guards_contacts(), false, solve, schedule.substep_tolerance);
     out.method = outcome.method;
     out.blocked_by_contact = outcome.blocked;
     out.guarded_iterations = outcome.iterations;

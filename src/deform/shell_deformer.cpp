@@ -374,10 +374,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     resume_.resize(0, 3);
     return;
   }
-  const int n = rest_.num_base_vertices();
-  const double change = max_edge_change(previous.topRows(n), X.topRows(n), rest_.F);
-  const int substeps = std::clamp(static_cast<int>(std::ceil(change / options.substep_edge_change)), 1,
-                                  options.max_substeps);
+  const int substeps = guard_->substeps_between(previous, X, options);
   Eigen::MatrixXd Y = previous;
   GuardedSolveOptions solve;
   solve.max_iterations = options.max_iterations;
