@@ -42,8 +42,7 @@ TEST(BlasThreads, ASmallFactorisationLeavesNoBlasThreadSpinning) {
   const int n = static_cast<int>(shell.base.rows());
   Eigen::MatrixXd X(2 * n, 3);
   X << shell.base, shell.top;
-  std::vector<int> fixed(n);
-  std::iota(fixed.begin(), fixed.end(), 0);
+  const std::vector<int> fixed = test::vertex_range(0, n);
   const ShellSolver solver(rest_tets_from_positions(X, build_prism_tets(shell.F, n)), 2 * n, fixed);
   EXPECT_EQ(openblas_threads(), threads) << "the BLAS thread count is restored";
 

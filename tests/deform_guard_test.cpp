@@ -33,9 +33,7 @@ using test::offset_shell;
 
 // The deformer's system: the n base vertices of a 2n-vertex shell kept, the tops free.
 ShellSolver base_fixed_solver(const RestTets& rest_tets, int n) {
-  std::vector<int> base_ids(n);
-  std::iota(base_ids.begin(), base_ids.end(), 0);
-  return ShellSolver(rest_tets, 2 * n, base_ids);
+  return ShellSolver(rest_tets, 2 * n, test::vertex_range(0, n));
 }
 
 StretchStats offset_stretch(const ShellDeformer& deformer, const Eigen::MatrixXd& base) {

@@ -13,6 +13,8 @@
 #include <gshell/shell/prism_tets.h>
 #include <gshell/solver/shell_solver.h>
 
+#include "shell_fixtures.h"
+
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
@@ -276,9 +278,7 @@ TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {
   const double eta = thickness_from_ratio(m.V, 0.05);
   const int n = static_cast<int>(m.V.rows());
   const RestTets rest = normal_prism_rest_tets(m.V, m.F, eta);
-  std::vector<int> base(n);
-  std::iota(base.begin(), base.end(), 0);
-  const ShellSolver solver(rest, 2 * n, base);
+  const ShellSolver solver(rest, 2 * n, test::vertex_range(0, n));
   Eigen::MatrixXd X(2 * n, 3);
   X << m.V, offset_top(m.V, m.F, eta);
   const GenerateOptions o = options_for(ShellMethod::Rigid, eta, true);
@@ -372,8 +372,7 @@ TEST(GuardedGeneration, LiftingRaisesHeldTopsByValidMovesThatLowerTheEnergy) {
   ASSERT_GT(lifted.guard.lift.moves, 0);
   expect_valid(lifted);
   const RestTets rest = prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, o.thickness));
-  std::vector<int> base(n);
-  std::iota(base.begin(), base.end(), 0);
+  const std::vector<int> base = test::vertex_range(0, n);
   const ShellSolver energy(rest, 2 * n, base);
   Eigen::MatrixXd before(2 * n, 3), after(2 * n, 3);
   before << m.V, held.shell.top;
@@ -403,8 +402,7 @@ TEST(GuardedGeneration, LiftingAloneIsKeptWhereItEndsAtLowerEnergyThanTheRepair)
   // nearly all of it held.
   const TriMesh m = bumpy_sphere(3, 0.25);
   const int n = static_cast<int>(m.V.rows());
-  std::vector<int> base(n);
-  std::iota(base.begin(), base.end(), 0);
+  const std::vector<int> base = test::vertex_range(0, n);
   GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.05));
   ASSERT_TRUE(o.guard.try_lift_only) << "generation tries the lifting alone by default";
   const ShellSolver energy(prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, o.thickness)), 2 * n, base);
@@ -532,8 +530,7 @@ TEST(GuardedGeneration, RelaxingTheBarriersLowersTheEnergyOfTheRepairedRegionOnl
   expect_valid(repaired);
   // The shell energy E of each returned top, computed here from the shells themselves.
   const int n = static_cast<int>(m.V.rows());
-  std::vector<int> base(n);
-  std::iota(base.begin(), base.end(), 0);
+  const std::vector<int> base = test::vertex_range(0, n);
   const ShellSolver energy(prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, o.thickness)), 2 * n, base);
   auto E = [&](const GenerateResult& r) {
     Eigen::MatrixXd X(2 * m.V.rows(), 3);

@@ -8,6 +8,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include "core_test_meshes.h"
+#include "shell_fixtures.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -25,12 +26,6 @@ using SpMat = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
 namespace {
 
-std::vector<int> range(int first, int count) {
-  std::vector<int> v(count);
-  std::iota(v.begin(), v.end(), first);
-  return v;
-}
-
 LinearSolverOptions cg_options(CgPreconditioner preconditioner, int coarsest_rows = 2000) {
   LinearSolverOptions o;
   o.kind = LinearSolver::ConjugateGradient;
@@ -43,9 +38,9 @@ LinearSolverOptions cg_options(CgPreconditioner preconditioner, int coarsest_row
 // rest shapes, base kept; top vertices in vertex order), read back from the solver.
 SpMat generation_matrix(const SimpleMesh& m, double eta) {
   const int n = static_cast<int>(m.V.rows());
-  const ShellSolver solver(prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, eta)), 2 * n, range(0, n), {},
+  const ShellSolver solver(prism_rest_tets(m.F, n, normal_prisms(m.V, m.F, eta)), 2 * n, test::vertex_range(0, n), {},
                            cg_options(CgPreconditioner::Jacobi));
-  const Eigen::SparseMatrix<double, Eigen::RowMajor> rows = solver.system_rows(range(n, n));
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> rows = solver.system_rows(test::vertex_range(n, n));
   return rows.rightCols(n);
 }
 

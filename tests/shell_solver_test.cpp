@@ -6,6 +6,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include "core_test_meshes.h"
+#include "shell_fixtures.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -19,14 +20,9 @@
 
 using namespace gshell;
 using gshell::test::SimpleMesh;
+using gshell::test::vertex_range;
 
 namespace {
-
-std::vector<int> range(int n) {
-  std::vector<int> v(n);
-  std::iota(v.begin(), v.end(), 0);
-  return v;
-}
 
 // A generation problem: normal prisms as rest shapes, base fixed, start = offset top.
 struct Generation {
@@ -70,7 +66,7 @@ TEST(ShellSolver, EnergyNeverIncreasesAndBaseStaysExact) {
       SCOPED_TRACE(name + " eta " + std::to_string(eta));
       Generation g = generation(m, eta);
       const Eigen::MatrixXd start = g.X;
-      const ShellSolver solver(g.rest, 2 * g.n, range(g.n));
+      const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n));
       SolveOptions options;
       options.max_iterations = 40;
       options.tolerance = 0;
@@ -91,7 +87,7 @@ TEST(ShellSolver, EnergyNeverIncreasesAndBaseStaysExact) {
 
 TEST(ShellSolver, StopsOnTolerance) {
   Generation g = generation(test::icosphere(2), 0.05);
-  const ShellSolver solver(g.rest, 2 * g.n, range(g.n));
+  const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n));
   SolveOptions options;
   options.max_iterations = 500;
   options.tolerance = 1e-4;
@@ -117,7 +113,7 @@ TEST(ShellSolver, RigidlyMovedBaseCarriesTheTopAlong) {
   Eigen::MatrixXd rest_X(2 * n, 3);
   rest_X << m.V, offset_top(m.V, m.F, 0.1);
   const RestTets rest = rest_tets_from_positions(rest_X, build_prism_tets(m.F, n));
-  const ShellSolver solver(rest, 2 * n, range(n));
+  const ShellSolver solver(rest, 2 * n, vertex_range(0, n));
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, 1, 0.2).normalized()).toRotationMatrix();
   const Eigen::RowVector3d t(0.5, -1, 2);
   const Eigen::MatrixXd target = (rest_X * R.transpose()).rowwise() + t;
@@ -166,7 +162,7 @@ TEST(ShellSolver, SoftAndFixedTogether) {
   SoftConstraints soft;
   soft.vertices = {g.n + 0, g.n + 40, g.n + 100};
   soft.weight = 1.0;
-  const ShellSolver solver(g.rest, 2 * g.n, range(g.n), soft);
+  const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n), soft);
   Eigen::MatrixXd P(3, 3);
   for (int c = 0; c < 3; ++c) P.row(c) = g.X.row(soft.vertices[c]) + Eigen::RowVector3d(0, 0, 0.05);
   const Eigen::MatrixXd start = g.X;
@@ -177,7 +173,7 @@ TEST(ShellSolver, SoftAndFixedTogether) {
   expect_monotone(r.energy);
   EXPECT_TRUE(g.X.topRows(g.n) == start.topRows(g.n));
   Generation free_run = generation(test::plane(12, 0.1), 0.1);
-  const ShellSolver plain(free_run.rest, 2 * free_run.n, range(free_run.n));
+  const ShellSolver plain(free_run.rest, 2 * free_run.n, vertex_range(0, free_run.n));
   plain.solve(free_run.X, options);
   for (int c = 0; c < 3; ++c) EXPECT_GT(g.X(soft.vertices[c], 2), free_run.X(soft.vertices[c], 2));
 }
@@ -189,7 +185,7 @@ TEST(ShellSolver, StepsReproduceSolveAndGradientMatchesFiniteDifferences) {
   SoftConstraints soft;
   soft.vertices = {g.n + 3, g.n + 50};
   soft.weight = 2.0;
-  const ShellSolver solver(g.rest, 2 * g.n, range(g.n), soft);
+  const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n), soft);
   Eigen::MatrixXd P(2, 3);
   for (int c = 0; c < 2; ++c) P.row(c) = g.X.row(soft.vertices[c]) + Eigen::RowVector3d(0.03, 0, 0.05);
 
@@ -228,12 +224,11 @@ TEST(ShellSolver, AssemblyIsTheSumOfTheTetsAndDoesNotDependOnTheThreadCount) {
   // blocks with one thread and with all of them (same bits).
   const Generation g = generation(gshell::test::icosphere(4), 0.1); // 2,562 free rows: several blocks
   const int n = g.n;
-  std::vector<int> free_rows(n);
-  std::iota(free_rows.begin(), free_rows.end(), n);
+  const std::vector<int> free_rows = vertex_range(n, n);
   using Rows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
   auto rows_with = [&](int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    const ShellSolver solver(g.rest, 2 * n, range(n));
+    const ShellSolver solver(g.rest, 2 * n, vertex_range(0, n));
     return solver.system_rows(free_rows);
   };
   const Rows one = rows_with(1);
@@ -292,11 +287,11 @@ TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
       SCOPED_TRACE(name + " eta " + std::to_string(eta) +
                    (preconditioner == CgPreconditioner::Jacobi ? " jacobi" : " multigrid"));
       Generation g = generation(m, eta);
-      const ShellSolver direct(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::Direct));
+      const ShellSolver direct(g.rest, 2 * g.n, vertex_range(0, g.n), {}, linear_solver(LinearSolver::Direct));
       LinearSolverOptions cg_options = linear_solver(LinearSolver::ConjugateGradient);
       cg_options.preconditioner = preconditioner;
       cg_options.multigrid.coarsest_rows = 20;
-      const ShellSolver cg(g.rest, 2 * g.n, range(g.n), {}, cg_options);
+      const ShellSolver cg(g.rest, 2 * g.n, vertex_range(0, g.n), {}, cg_options);
       EXPECT_EQ(direct.linear_solver(), LinearSolver::Direct);
       EXPECT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient);
       const SolveOptions options = exactly(15);
@@ -320,15 +315,15 @@ TEST(ShellSolver, AutoTakesConjugateGradientOnlyForLargeAnchoredSystems) {
   LinearSolverOptions any_size;
   any_size.cg_min_rows = 0;
   // Generation: every top vertex shares a tet with the fixed base.
-  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, range(g.n), {}, any_size).linear_solver(), LinearSolver::ConjugateGradient);
-  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, range(g.n)).linear_solver(), LinearSolver::Direct) << "small system";
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, any_size).linear_solver(), LinearSolver::ConjugateGradient);
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n)).linear_solver(), LinearSolver::Direct) << "small system";
   // Held at three vertices only (a pose by handles): CG would need many iterations; factor.
   EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, {0, 7, 300}, {}, any_size).linear_solver(), LinearSolver::Direct);
 }
 
 TEST(ShellSolver, AutoFallsBackToTheFactorWhenConjugateGradientStalls) {
   Generation g = generation(test::icosphere(3), 0.2);
-  const ShellSolver direct(g.rest, 2 * g.n, range(g.n), {}, linear_solver(LinearSolver::Direct));
+  const ShellSolver direct(g.rest, 2 * g.n, vertex_range(0, g.n), {}, linear_solver(LinearSolver::Direct));
   SolveOptions options;
   options.max_iterations = 5;
   options.tolerance = 0;
@@ -342,7 +337,7 @@ TEST(ShellSolver, AutoFallsBackToTheFactorWhenConjugateGradientStalls) {
     starved.cg_max_iterations = 1; // never enough: the first global step factors instead
     starved.preconditioner = preconditioner;
     starved.multigrid.coarsest_rows = 8;
-    const ShellSolver fallback(g.rest, 2 * g.n, range(g.n), {}, starved);
+    const ShellSolver fallback(g.rest, 2 * g.n, vertex_range(0, g.n), {}, starved);
     ASSERT_EQ(fallback.linear_solver(), LinearSolver::ConjugateGradient);
     Eigen::MatrixXd X_fallback = g.X;
     fallback.solve(X_fallback, options);
@@ -358,10 +353,10 @@ TEST(ShellSolver, LinearSolverNamesAndBadOptions) {
   Generation g = generation(test::icosphere(1), 0.1);
   LinearSolverOptions bad;
   bad.cg_tolerance = 0;
-  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, range(g.n), {}, bad), InputError);
+  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, bad), InputError);
   bad = {};
   bad.cg_max_iterations = 0;
-  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, range(g.n), {}, bad), InputError);
+  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, bad), InputError);
 }
 
 TEST(ShellSolver, SolveGivesTheStepsBitsOnManyChunksInMeshAndShuffledOrder) {
@@ -382,7 +377,7 @@ TEST(ShellSolver, SolveGivesTheStepsBitsOnManyChunksInMeshAndShuffledOrder) {
     Generation g = generation(*m, 0.05);
     // A wavy start, so that every iteration has work to do.
     for (int i = g.n; i < 2 * g.n; ++i) g.X.row(i) *= 1 + 0.02 * std::sin(7 * g.X(i, 0));
-    const ShellSolver solver(g.rest, 2 * g.n, range(g.n));
+    const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n));
     Eigen::MatrixXd by_solve = g.X, by_steps = g.X;
     SolveOptions options;
     options.max_iterations = 4;
@@ -414,8 +409,8 @@ TEST(ShellSolver, TheAffinePrismFormGivesThePerTetShell) {
       SCOPED_TRACE(name + (kind == LinearSolver::Direct ? " direct" : " cg"));
       const double eta = 0.05;
       Generation g = generation(m, eta);
-      const ShellSolver per_tet(g.rest, 2 * g.n, range(g.n), {}, linear_solver(kind));
-      const ShellSolver affine(normal_prism_rest_tets(m.V, m.F, eta), 2 * g.n, range(g.n), {}, linear_solver(kind));
+      const ShellSolver per_tet(g.rest, 2 * g.n, vertex_range(0, g.n), {}, linear_solver(kind));
+      const ShellSolver affine(normal_prism_rest_tets(m.V, m.F, eta), 2 * g.n, vertex_range(0, g.n), {}, linear_solver(kind));
       ASSERT_TRUE(affine.rest().Dm_inv.empty());
       const SolveOptions options = exactly(15);
       Eigen::MatrixXd X_per_tet = g.X, X_affine = g.X;
@@ -436,7 +431,7 @@ TEST(ShellSolver, TheAffinePrismFormGivesThePerTetShell) {
     }
   Generation g = generation(test::icosphere(1), 0.05);
   g.rest.Dm_inv.clear();
-  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, range(g.n)), InputError);
+  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n)), InputError);
 }
 
 TEST(ShellSolver, ThePositionsFormGivesThePerTetShell) {
@@ -462,8 +457,8 @@ TEST(ShellSolver, ThePositionsFormGivesThePerTetShell) {
         for (int j = 0; j < 4; ++j) U.row(j) = rest_X.row(ids[j]);
         replace(t, ids, U);
       });
-      const ShellSolver a(per_tet, 2 * n, range(n), {}, linear_solver(kind));
-      const ShellSolver b(positions, 2 * n, range(n), {}, linear_solver(kind));
+      const ShellSolver a(per_tet, 2 * n, vertex_range(0, n), {}, linear_solver(kind));
+      const ShellSolver b(positions, 2 * n, vertex_range(0, n), {}, linear_solver(kind));
       // The base bent: the top follows.
       Eigen::MatrixXd X = rest_X;
       for (int i = 0; i < n; ++i) X(i, 2) += 0.3 * X(i, 0) * X(i, 0);

@@ -86,8 +86,7 @@ TEST(SimdLevel, SolverAndStretchAgreeAcrossLevels) {
   const int n = sphere.num_vertices();
   const double eta = 0.1;
   const RestTets rest = prism_rest_tets(sphere.F, n, normal_prisms(sphere.V, sphere.F, eta));
-  std::vector<int> base(n);
-  std::iota(base.begin(), base.end(), 0);
+  const std::vector<int> base = test::vertex_range(0, n);
   const ShellSolver solver(rest, 2 * n, base);
   const Eigen::MatrixXd X0 = test::sphere_shell(3, eta).vertices();
   SolveOptions five;

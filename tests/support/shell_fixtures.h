@@ -1,11 +1,23 @@
 #pragma once
-// Small analytic shells shared by the deformation, embedding, texture, pose and hierarchy tests.
+// Small analytic shells and vertex-id ranges shared by the solver, generation, deformation, embedding,
+// texture, pose and hierarchy tests.
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/shell/generate_shell.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/shell.h>
 
+#include <numeric>
+#include <vector>
+
 namespace gshell::test {
+
+/// Vertex ids first .. first + count - 1; the base rows of a 2n-vertex shell are
+/// vertex_range(0, n), what generation and deformation hold fixed.
+inline std::vector<int> vertex_range(int first, int count) {
+  std::vector<int> ids(count);
+  std::iota(ids.begin(), ids.end(), first);
+  return ids;
+}
 
 /// Shell over `surface` whose top is the base shifted by eta along +z (exact for a z=0 plane).
 inline Shell lifted_shell(const TriMesh& surface, double eta) {
