@@ -1,4 +1,5 @@
 // bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--linear auto,direct,auto:jacobi] [--ratio 0.02] [--runs 3]
+//             [--anderson K] [--cg-relative T]
 // How shell generation and the deformer's setup grow with the mesh: builtin:sphere at the given
 // subdivision levels (4x the vertices per level) plus models/bunny00.off when it is there (or
 // the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named (CG paths
@@ -9,7 +10,8 @@
 // seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the kernel backing
 // freshly touched memory) and minor page faults (faults_k, thousands), peak memory of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up
 // beside the generation result), the report's figures (to compare the solvers), and the growth
-// ratios per 4x vertices.
+// ratios per 4x vertices. --anderson and --cg-relative override generation's Anderson history and
+// the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21).
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/run/process_memory.h>
@@ -75,12 +77,24 @@ std::vector<std::string> split(const std::string& s, char sep) {
 }
 
 // One case in this process; prints "key=value" pairs on one line.
-int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner preconditioner, double ratio) {
+// `tuning`: the solver settings other than the linear solver (negative: the default).
+struct Tuning {
+  int anderson = -1;         ///< SolveOptions::anderson_history
+  double cg_relative = -1;   ///< LinearSolverOptions::cg_relative_tolerance
+  std::string arguments() const {
+    return " --anderson " + std::to_string(anderson) + " --cg-relative " + std::to_string(cg_relative);
+  }
+};
+
+int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner preconditioner, double ratio,
+             const Tuning& tuning) {
   const TriMesh mesh = load_mesh(spec);
   GenerateOptions options;
   options.thickness = thickness_from_ratio(mesh.V, ratio);
   options.linear.kind = linear;
   options.linear.preconditioner = preconditioner;
+  if (tuning.anderson >= 0) options.solve.anderson_history = tuning.anderson;
+  if (tuning.cg_relative >= 0) options.linear.cg_relative_tolerance = tuning.cg_relative;
   const ProcessTimes before = process_times();
   const GenerateResult r = generate_shell(mesh.V, mesh.F, options);
   const ProcessTimes after = process_times();
@@ -120,8 +134,10 @@ struct Row {
   }
 };
 
-bool run_child(const std::string& self, const std::string& spec, const std::string& linear, double ratio, Row& row) {
-  const std::string command = "'" + self + "' --case '" + spec + "' --linear " + linear + " --ratio " + std::to_string(ratio);
+bool run_child(const std::string& self, const std::string& spec, const std::string& linear, double ratio,
+               const Tuning& tuning, Row& row) {
+  const std::string command =
+      "'" + self + "' --case '" + spec + "' --linear " + linear + " --ratio " + std::to_string(ratio) + tuning.arguments();
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return false;
   std::string out;
@@ -147,6 +163,7 @@ int main(int argc, char** argv) {
   int runs = 1;
   std::string case_spec;
   bool meshes_given = false;
+  Tuning tuning;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -172,10 +189,14 @@ int main(int argc, char** argv) {
       runs = std::max(1, std::stoi(next()));
     } else if (a == "--case") {
       case_spec = next();
+    } else if (a == "--anderson") {
+      tuning.anderson = std::stoi(next());
+    } else if (a == "--cg-relative") {
+      tuning.cg_relative = std::stod(next());
     } else {
       std::fprintf(stderr,
                    "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
-                   "[--ratio 0.02] [--runs N]\n");
+                   "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T]\n");
       return 1;
     }
   }
@@ -189,14 +210,15 @@ int main(int argc, char** argv) {
       return 1;
     }
     return run_case(case_spec, parse_linear_solver(parts[0]), jacobi ? CgPreconditioner::Jacobi : CgPreconditioner::Multigrid,
-                    ratio);
+                    ratio, tuning);
   }
   if (!meshes_given && std::filesystem::exists("models/bunny00.off")) meshes.push_back("models/bunny00.off");
 
   const std::string self = std::filesystem::canonical("/proc/self/exe").string();
   std::printf("bench_scale: rigid generation at thickness ratio %g, medians of %d fresh processes each; "
-              "load average at start %s\n",
-              ratio, runs, load_average().c_str());
+              "Anderson history %s, relative CG tolerance %s; load average at start %s\n",
+              ratio, runs, tuning.anderson >= 0 ? std::to_string(tuning.anderson).c_str() : "default",
+              tuning.cg_relative >= 0 ? std::to_string(tuning.cg_relative).c_str() : "default", load_average().c_str());
   std::vector<std::string> specs;
   for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
   specs.insert(specs.end(), meshes.begin(), meshes.end());
@@ -208,7 +230,7 @@ int main(int argc, char** argv) {
     for (const std::string& spec : specs) {
       Row row{spec, linear, {}};
       bool ok = true;
-      for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, row);
+      for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, tuning, row);
       if (!ok) continue;
       const std::string name = spec.rfind("builtin:", 0) == 0 ? spec.substr(8) : std::filesystem::path(spec).stem().string();
       std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "

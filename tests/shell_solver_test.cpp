@@ -278,7 +278,8 @@ LinearSolverOptions linear_solver(LinearSolver kind) {
 TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
   // The same iterations solved by a factor and by CG from the current iterate, preconditioned by
   // the diagonal or by the multigrid V-cycle (with a coarsest level small enough for 3-4 levels
-  // here): the energies and the tops agree to CG's tolerance, and CG's energies never rise either.
+  // here), CG run to its absolute tolerance alone: the energies and the tops agree to that
+  // tolerance, and CG's energies never rise either.
   const std::vector<std::pair<std::string, SimpleMesh>> cases = {
       {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
   for (const auto& [name, m] : cases)
@@ -291,6 +292,7 @@ TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
       LinearSolverOptions cg_options = linear_solver(LinearSolver::ConjugateGradient);
       cg_options.preconditioner = preconditioner;
       cg_options.multigrid.coarsest_rows = 20;
+      cg_options.cg_relative_tolerance = 0;
       const ShellSolver cg(g.rest, 2 * g.n, vertex_range(0, g.n), {}, cg_options);
       EXPECT_EQ(direct.linear_solver(), LinearSolver::Direct);
       EXPECT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient);
@@ -307,6 +309,71 @@ TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
       EXPECT_LT((X_cg - X_direct).cwiseAbs().maxCoeff(), 1e-6 * eta);
       EXPECT_TRUE(X_cg.topRows(g.n) == g.X.topRows(g.n)) << "fixed base moved";
     }
+}
+
+TEST(ShellSolver, InexactConjugateGradientStepsReachTheDirectFixedPoint) {
+  // CG stopped once each column's residual has fallen to cg_relative_tolerance of its warm
+  // start (the default) takes other iterates than the factor, but every one lowers the energy,
+  // and run to convergence they end at the same fixed point: the warm start's residual vanishes
+  // there. The loosest tolerance (0.5) as well as the default.
+  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
+      {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+  for (const auto& [name, m] : cases)
+    for (double eta : {0.02, 0.2})
+      for (double relative : {LinearSolverOptions{}.cg_relative_tolerance, 0.5}) {
+        SCOPED_TRACE(name + " eta " + std::to_string(eta) + " relative " + std::to_string(relative));
+        Generation g = generation(m, eta);
+        const ShellSolver direct(g.rest, 2 * g.n, vertex_range(0, g.n), {}, linear_solver(LinearSolver::Direct));
+        LinearSolverOptions cg_options = linear_solver(LinearSolver::ConjugateGradient);
+        cg_options.multigrid.coarsest_rows = 20;
+        cg_options.cg_relative_tolerance = relative;
+        const ShellSolver cg(g.rest, 2 * g.n, vertex_range(0, g.n), {}, cg_options);
+        SolveOptions options;
+        options.max_iterations = 2000;
+        options.tolerance = 1e-13;
+        Eigen::MatrixXd X_direct = g.X, X_cg = g.X;
+        const SolveResult r_direct = direct.solve(X_direct, options);
+        const SolveResult r_cg = cg.solve(X_cg, options);
+        expect_monotone(r_cg.energy);
+        EXPECT_TRUE(r_direct.converged);
+        EXPECT_TRUE(r_cg.converged);
+        EXPECT_NEAR(r_cg.energy.back(), r_direct.energy.back(), 1e-9 * r_direct.energy.front());
+        EXPECT_LT((X_cg - X_direct).cwiseAbs().maxCoeff(), 1e-5 * eta);
+      }
+}
+
+TEST(ShellSolver, AndersonAccelerationKeepsTheEnergyFallingToTheSameMinimum) {
+  // Combined iterates are kept only when they lower the energy, so the energy never rises, and
+  // the accelerated iteration ends at the plain iteration's fixed point (both paths).
+  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
+      {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+  for (const auto& [name, m] : cases)
+    for (double eta : {0.02, 0.2})
+      for (LinearSolver kind : {LinearSolver::Direct, LinearSolver::ConjugateGradient}) {
+        SCOPED_TRACE(name + " eta " + std::to_string(eta) + (kind == LinearSolver::Direct ? " direct" : " cg"));
+        Generation g = generation(m, eta);
+        LinearSolverOptions linear = linear_solver(kind);
+        linear.multigrid.coarsest_rows = 20;
+        const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, linear);
+        SolveOptions plain;
+        plain.max_iterations = 2000;
+        plain.tolerance = 1e-13;
+        SolveOptions accelerated = plain;
+        accelerated.anderson_history = 5;
+        Eigen::MatrixXd X_plain = g.X, X_accelerated = g.X;
+        const SolveResult r_plain = solver.solve(X_plain, plain);
+        const SolveResult r_accelerated = solver.solve(X_accelerated, accelerated);
+        expect_monotone(r_accelerated.energy);
+        EXPECT_TRUE(r_accelerated.converged);
+        EXPECT_NEAR(r_accelerated.energy.back(), r_plain.energy.back(), 1e-9 * r_plain.energy.front());
+        EXPECT_LT((X_accelerated - X_plain).cwiseAbs().maxCoeff(), 1e-5 * eta);
+        EXPECT_TRUE(X_accelerated.topRows(g.n) == g.X.topRows(g.n)) << "fixed base moved";
+      }
+  Generation g = generation(test::icosphere(2), 0.1);
+  const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n));
+  SolveOptions negative;
+  negative.anderson_history = -1;
+  EXPECT_THROW(solver.solve(g.X, negative), InputError);
 }
 
 TEST(ShellSolver, AutoTakesConjugateGradientOnlyForLargeAnchoredSystems) {

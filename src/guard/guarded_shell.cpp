@@ -352,6 +352,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     SolveOptions paper;
     paper.max_iterations = solve.max_iterations;
     paper.tolerance = solve.tolerance;
+    paper.anderson_history = solve.paper_anderson_history;
     paper.progress = solve.progress; // the guarded solve reports its own iterations after these
     g.paper = paper_solver.solve(X, paper);
   }

@@ -83,6 +83,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     solve.max_iterations = options.solve.max_iterations;
     solve.tolerance = options.solve.tolerance;
     solve.progress = options.solve.progress;
+    solve.paper_anderson_history = options.solve.anderson_history;
     r.guard = guarded_shell(V, F, make_ideal, options.thickness, options.guard, solve, options.linear);
     r.guarded = true;
     r.unextrudable_vertices = r.guard.directions.unextrudable;
@@ -147,6 +148,7 @@ void GenerateOptions::check() const {
     throw InputError("thickness must be positive and finite (got " + std::to_string(thickness) + ")");
   if (solve.max_iterations < 0) throw InputError("iterations must not be negative");
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a non-negative number");
+  if (solve.anderson_history < 0) throw InputError("the Anderson history must not be negative");
   check_curvature_clamp(s_min, s_max);
   if (!allow_invalid && method != ShellMethod::Offset) check_guard_options(guard);
 }

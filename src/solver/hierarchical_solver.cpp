@@ -1,5 +1,6 @@
 #include <gshell/solver/hierarchical_solver.h>
 
+#include "anderson_history.h"
 #include "hierarchy_levels.h"
 
 #include <gshell/error.h>
@@ -13,6 +14,7 @@
 
 namespace gshell {
 
+using AndersonHistory = detail::AndersonHistory<double>;
 using detail::LocalCache;
 using detail::ReducedLevel;
 using detail::RigidChange;
@@ -47,63 +49,6 @@ struct FullState {
 };
 
 constexpr int kPathDoublings = 10; // a path extrapolation goes at most 2^10 - 1 times the path further
-
-/// Anderson acceleration of the local/global fixed-point map x -> G(x) (type II, as in Peng et
-/// al. 2018): the next iterate combines the last few images so that the combined residual
-/// G(x) - x is smallest. The caller keeps it only if it lowers the energy.
-class AndersonHistory {
-public:
-  explicit AndersonHistory(int depth) : depth_(depth) {}
-  void clear() {
-    dF_.clear();
-    dG_.clear();
-    has_last_ = false;
-  }
-  /// Forgets the last iterate only: the next pair would span a jump that is not a step of the map.
-  void restart() { has_last_ = false; }
-  /// Records (x, G(x)); returns true and the extrapolated iterate when there is history.
-  bool extrapolate(const Eigen::MatrixXd& x, const Eigen::MatrixXd& image, Eigen::MatrixXd& out) {
-    if (depth_ <= 0) return false;
-    const Eigen::Map<const Eigen::VectorXd> u(x.data(), x.size()), g(image.data(), image.size());
-    f_ = g - u;
-    const Eigen::VectorXd& f = f_;
-    if (has_last_) {
-      if (static_cast<int>(dF_.size()) == depth_) { // oldest pair out; its storage is reused
-        std::rotate(dF_.begin(), dF_.begin() + 1, dF_.end());
-        std::rotate(dG_.begin(), dG_.begin() + 1, dG_.end());
-      } else {
-        dF_.emplace_back();
-        dG_.emplace_back();
-      }
-      dF_.back() = f - last_f_;
-      dG_.back() = g - last_g_;
-    }
-    last_f_ = f;
-    last_g_ = g;
-    has_last_ = true;
-    if (dF_.empty()) return false;
-    const int m = static_cast<int>(dF_.size());
-    Eigen::MatrixXd normal(m, m);
-    Eigen::VectorXd rhs(m);
-    for (int i = 0; i < m; ++i) {
-      rhs(i) = dF_[i].dot(f);
-      for (int j = 0; j <= i; ++j) normal(i, j) = normal(j, i) = dF_[i].dot(dF_[j]);
-    }
-    normal.diagonal().array() += 1e-12 * std::max(1e-300, normal.diagonal().maxCoeff());
-    const Eigen::VectorXd gamma = normal.ldlt().solve(rhs);
-    out.resize(x.rows(), x.cols());
-    Eigen::Map<Eigen::VectorXd> o(out.data(), out.size());
-    o = g;
-    for (int i = 0; i < m; ++i) o -= gamma(i) * dG_[i];
-    return gamma.allFinite();
-  }
-
-private:
-  int depth_;
-  std::vector<Eigen::VectorXd> dF_, dG_;
-  Eigen::VectorXd f_, last_f_, last_g_;
-  bool has_last_ = false;
-};
 
 } // namespace
 

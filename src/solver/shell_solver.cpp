@@ -4,6 +4,7 @@
 #include <gshell/seconds_since.h>
 
 #include "geometry/first_touch.h"
+#include "solver/anderson_history.h"
 #include "solver/blas_threads.h"
 #include "solver/polar_3x3.h"
 #include "solver/simd_dispatch.h"
@@ -793,8 +794,12 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
   double limit[3], rz[3];
   bool active[3]; // a column stays active until its residual meets the tolerance
   const double tol2 = linear.cg_tolerance * linear.cg_tolerance;
+  // Each column stops at the absolute limit, or once its residual has fallen by the relative
+  // factor from the warm start: the local/global iteration needs only a good step, not the
+  // step's exact minimiser (docs/scale.md, "Inexact global steps").
+  const double relative2 = linear.cg_relative_tolerance * linear.cg_relative_tolerance;
   for (int d = 0; d < 3; ++d) {
-    limit[d] = tol2 * sums[d];
+    limit[d] = std::max(tol2 * sums[d], relative2 * sums[6 + d]);
     rz[d] = sums[3 + d];
     active[d] = sums[6 + d] > limit[d] && rz[d] > 0;
   }
@@ -901,6 +906,8 @@ ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices,
   impl_->linear = linear;
   if (!(linear.cg_tolerance > 0) || !std::isfinite(linear.cg_tolerance))
     throw InputError("ShellSolver: the CG tolerance must be positive and finite");
+  if (!(linear.cg_relative_tolerance >= 0 && linear.cg_relative_tolerance < 1))
+    throw InputError("ShellSolver: the relative CG tolerance must be in [0, 1)");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
   if (!impl_->rest->complete())
     throw InputError("ShellSolver: rest tets are incomplete");
@@ -1011,6 +1018,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   m.check_positions(Xio, "solve");
   m.check_soft_targets(soft_targets, "solve");
   if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
+  if (options.anderson_history < 0) throw InputError("ShellSolver::solve: negative Anderson history");
   std::vector<double> X = to_row_major(Xio);
   const std::vector<double> rhs_const = m.rhs_constant(X.data(), soft_targets);
   // With the colouring the local step adds the rotations straight into b; otherwise they are
@@ -1037,12 +1045,42 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   double E = local_step() + m.soft_energy(X.data(), soft_targets);
   result.local_seconds += seconds_since(t_local);
   result.energy.push_back(E);
+  // Anderson on the free rows (the kept ones never move): `before` holds them as the global step
+  // starts, `image` as it ends while the combination is tried in X.
+  detail::AndersonHistory<float> anderson(options.anderson_history);
+  std::vector<double> before, image, combination;
+  const std::size_t free_values = 3 * static_cast<std::size_t>(m.nf);
+  auto free_rows = [&](auto&& copy) { // copy(index in X, index in a free-row buffer)
+    tbb::parallel_for(tbb::blocked_range<int>(0, m.nf, 1 << 12), [&](const auto& r) {
+      for (int j = r.begin(); j < r.end(); ++j)
+        for (int d = 0; d < 3; ++d) copy(3 * static_cast<std::size_t>(m.free_vertices[j]) + d, 3 * static_cast<std::size_t>(j) + d);
+    });
+  };
+  auto gather_free = [&](std::vector<double>& out) { free_rows([&](std::size_t x, std::size_t f) { out[f] = X[x]; }); };
+  auto scatter_free = [&](const std::vector<double>& in) { free_rows([&](std::size_t x, std::size_t f) { X[x] = in[f]; }); };
+  if (options.anderson_history > 0)
+    for (auto* v : {&before, &image, &combination}) v->resize(free_values);
   for (int it = 1; it <= options.max_iterations && m.nf > 0; ++it) {
+    if (!before.empty()) gather_free(before);
     const auto t_global = Clock::now();
     result.linear_iterations += global_step();
     result.global_seconds += seconds_since(t_global);
     t_local = Clock::now();
-    const double E_new = local_step() + m.soft_energy(X.data(), soft_targets);
+    double E_new = 0;
+    bool combined = false;
+    if (!before.empty()) {
+      gather_free(image);
+      if (anderson.extrapolate(before.data(), image.data(), static_cast<Eigen::Index>(free_values), combination.data())) {
+        scatter_free(combination);
+        E_new = local_step() + m.soft_energy(X.data(), soft_targets);
+        combined = E_new < E;
+        if (!combined) {
+          anderson.clear(); // fall back on the plain step, which cannot go up
+          scatter_free(image);
+        }
+      }
+    }
+    if (!combined) E_new = local_step() + m.soft_energy(X.data(), soft_targets);
     result.local_seconds += seconds_since(t_local);
     result.energy.push_back(E_new);
     result.iterations = it;
