@@ -1,5 +1,5 @@
-// bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--linear auto,direct,auto:jacobi] [--ratio 0.02] [--runs 3]
-//             [--anderson K] [--cg-relative T]
+// bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--linear auto,direct,auto:jacobi] [--ratio 0.02]
+//             [--runs 3] [--anderson K] [--cg-relative T]
 // How shell generation and the deformer's setup grow with the mesh: builtin:sphere at the given
 // subdivision levels (4x the vertices per level) plus models/bunny00.off when it is there (or
 // the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named (CG paths
@@ -10,7 +10,9 @@
 // seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the kernel backing
 // freshly touched memory) and minor page faults (faults_k, thousands), peak memory of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up
 // beside the generation result), the report's figures (to compare the solvers), and the growth
-// ratios per 4x vertices. --anderson and --cg-relative override generation's Anderson history and
+// ratios per 4x vertices. --subdivide K also runs every --mesh split K times (each triangle into
+// four at its edge midpoints, case FILE@k: the same surface, finer against the same layer; growth
+// per split printed as for the sphere levels). --anderson and --cg-relative override generation's Anderson history and
 // the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21).
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/io/load_mesh.h>
@@ -19,6 +21,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <sys/resource.h>
@@ -28,6 +31,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 using namespace gshell;
@@ -76,6 +80,59 @@ std::vector<std::string> split(const std::string& s, char sep) {
   return out;
 }
 
+/// The mesh split `times` times, each triangle into four at its edges' midpoints (flat: the surface
+/// stays the same, only finer).
+TriMesh midpoint_subdivision(TriMesh mesh, int times) {
+  for (int t = 0; t < times; ++t) {
+    std::vector<Eigen::RowVector3d> V(mesh.V.rows());
+    for (int i = 0; i < mesh.V.rows(); ++i) V[i] = mesh.V.row(i);
+    std::unordered_map<std::uint64_t, int> midpoint;
+    auto mid = [&](int a, int b) {
+      const auto key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
+      auto [it, inserted] = midpoint.try_emplace(key, static_cast<int>(V.size()));
+      if (inserted) V.push_back(0.5 * (V[a] + V[b]));
+      return it->second;
+    };
+    Eigen::MatrixXi F(4 * mesh.F.rows(), 3);
+    for (int f = 0; f < mesh.F.rows(); ++f) {
+      const int a = mesh.F(f, 0), b = mesh.F(f, 1), c = mesh.F(f, 2);
+      const int ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+      F.row(4 * f) << a, ab, ca;
+      F.row(4 * f + 1) << b, bc, ab;
+      F.row(4 * f + 2) << c, ca, bc;
+      F.row(4 * f + 3) << ab, bc, ca;
+    }
+    TriMesh finer;
+    finer.V.resize(static_cast<Eigen::Index>(V.size()), 3);
+    for (std::size_t i = 0; i < V.size(); ++i) finer.V.row(static_cast<Eigen::Index>(i)) = V[i];
+    finer.F = std::move(F);
+    mesh = std::move(finer);
+  }
+  return mesh;
+}
+
+/// "FILE@k": FILE split k times; otherwise a mesh file or builtin spec.
+TriMesh load_case_mesh(const std::string& spec) {
+  const auto at = spec.rfind('@');
+  if (at == std::string::npos || spec.rfind("builtin:", 0) == 0) return load_mesh(spec);
+  return midpoint_subdivision(load_mesh(spec.substr(0, at)), std::stoi(spec.substr(at + 1)));
+}
+
+/// The family of a case (consecutive cases of one family are 4x apart): "sphere" for the sphere
+/// levels, FILE for FILE and FILE@k.
+std::string family(const std::string& spec) {
+  if (spec.rfind("builtin:sphere:", 0) == 0) return "sphere";
+  return spec.substr(0, spec.rfind('@'));
+}
+
+/// "sphere:7", "bunny00", "bunny00@2".
+std::string display_name(const std::string& spec) {
+  if (spec.rfind("builtin:", 0) == 0) return spec.substr(8);
+  const auto at = spec.rfind('@');
+  if (at == std::string::npos) return std::filesystem::path(spec).stem().string();
+  return std::filesystem::path(spec.substr(0, at)).stem().string() + spec.substr(at);
+}
+
 // One case in this process; prints "key=value" pairs on one line.
 // `tuning`: the solver settings other than the linear solver (negative: the default).
 struct Tuning {
@@ -88,7 +145,7 @@ struct Tuning {
 
 int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner preconditioner, double ratio,
              const Tuning& tuning) {
-  const TriMesh mesh = load_mesh(spec);
+  const TriMesh mesh = load_case_mesh(spec);
   GenerateOptions options;
   options.thickness = thickness_from_ratio(mesh.V, ratio);
   options.linear.kind = linear;
@@ -163,6 +220,7 @@ int main(int argc, char** argv) {
   int runs = 1;
   std::string case_spec;
   bool meshes_given = false;
+  int subdivisions = 0;
   Tuning tuning;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -189,13 +247,15 @@ int main(int argc, char** argv) {
       runs = std::max(1, std::stoi(next()));
     } else if (a == "--case") {
       case_spec = next();
+    } else if (a == "--subdivide") {
+      subdivisions = std::max(0, std::stoi(next()));
     } else if (a == "--anderson") {
       tuning.anderson = std::stoi(next());
     } else if (a == "--cg-relative") {
       tuning.cg_relative = std::stod(next());
     } else {
       std::fprintf(stderr,
-                   "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
+                   "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
                    "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T]\n");
       return 1;
     }
@@ -221,7 +281,10 @@ int main(int argc, char** argv) {
               tuning.cg_relative >= 0 ? std::to_string(tuning.cg_relative).c_str() : "default", load_average().c_str());
   std::vector<std::string> specs;
   for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
-  specs.insert(specs.end(), meshes.begin(), meshes.end());
+  for (const std::string& mesh : meshes) {
+    specs.push_back(mesh);
+    for (int k = 1; k <= subdivisions; ++k) specs.push_back(mesh + "@" + std::to_string(k));
+  }
   std::vector<Row> rows;
   std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
               "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "cert_s", "deform_s",
@@ -232,7 +295,7 @@ int main(int argc, char** argv) {
       bool ok = true;
       for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, tuning, row);
       if (!ok) continue;
-      const std::string name = spec.rfind("builtin:", 0) == 0 ? spec.substr(8) : std::filesystem::path(spec).stem().string();
+      const std::string name = display_name(spec);
       std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
                   "%4.0f "
                   "%4.0f\n",
@@ -244,15 +307,14 @@ int main(int argc, char** argv) {
       rows.push_back(row);
     }
 
-  std::printf("\ngrowth per 4x vertices (consecutive sphere levels; target <= 4.6):\n");
+  std::printf("\ngrowth per 4x vertices (consecutive sphere levels and midpoint splits; target <= 4.6):\n");
   std::printf("%-22s %-11s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "step", "linear", "total", "setup", "per_it", "deform",
               "dfm_cpu", "cpu", "usr", "gen_MB", "peak_MB");
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const Row &a = rows[i - 1], &b = rows[i];
-    if (a.linear != b.linear || b.name.rfind("builtin:sphere:", 0) != 0 || a.name.rfind("builtin:sphere:", 0) != 0)
-      continue;
+    if (a.linear != b.linear || family(a.name) != family(b.name)) continue;
     auto ratio_of = [&](const char* key) { return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0; };
-    const std::string step = a.name.substr(8) + " -> " + b.name.substr(15);
+    const std::string step = display_name(a.name) + " -> " + display_name(b.name);
     std::printf("%-22s %-11s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(),
                 ratio_of("total"), ratio_of("setup"), ratio_of("per_iteration"), ratio_of("deform_setup"),
                 ratio_of("deform_cpu"), ratio_of("cpu"), ratio_of("user"), ratio_of("generate_peak_mb"), ratio_of("peak_mb"));

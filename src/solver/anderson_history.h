@@ -34,7 +34,7 @@ public:
   void restart() { has_last_ = false; }
 
   /// Records (x, G(x)), both `size` values; returns true and the combined iterate in `out` (`size`
-  /// values, may not alias x or image) when there is history to combine.
+  /// values; may be x, which is read first, but not image) when there is history to combine.
   bool extrapolate(const double* x, const double* image, Eigen::Index size, double* out) {
     if (depth_ <= 0) return false;
     const Eigen::Map<const Eigen::VectorXd> u(x, size), g(image, size);

@@ -1046,9 +1046,9 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   result.local_seconds += seconds_since(t_local);
   result.energy.push_back(E);
   // Anderson on the free rows (the kept ones never move): `before` holds them as the global step
-  // starts, `image` as it ends while the combination is tried in X.
+  // starts (and then the combination), `image` as it ends while the combination is tried in X.
   detail::AndersonHistory<float> anderson(options.anderson_history);
-  std::vector<double> before, image, combination;
+  std::vector<double> before, image;
   const std::size_t free_values = 3 * static_cast<std::size_t>(m.nf);
   auto free_rows = [&](auto&& copy) { // copy(index in X, index in a free-row buffer)
     tbb::parallel_for(tbb::blocked_range<int>(0, m.nf, 1 << 12), [&](const auto& r) {
@@ -1059,7 +1059,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   auto gather_free = [&](std::vector<double>& out) { free_rows([&](std::size_t x, std::size_t f) { out[f] = X[x]; }); };
   auto scatter_free = [&](const std::vector<double>& in) { free_rows([&](std::size_t x, std::size_t f) { X[x] = in[f]; }); };
   if (options.anderson_history > 0)
-    for (auto* v : {&before, &image, &combination}) v->resize(free_values);
+    for (auto* v : {&before, &image}) v->resize(free_values);
   for (int it = 1; it <= options.max_iterations && m.nf > 0; ++it) {
     if (!before.empty()) gather_free(before);
     const auto t_global = Clock::now();
@@ -1070,8 +1070,8 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
     bool combined = false;
     if (!before.empty()) {
       gather_free(image);
-      if (anderson.extrapolate(before.data(), image.data(), static_cast<Eigen::Index>(free_values), combination.data())) {
-        scatter_free(combination);
+      if (anderson.extrapolate(before.data(), image.data(), static_cast<Eigen::Index>(free_values), before.data())) {
+        scatter_free(before);
         E_new = local_step() + m.soft_energy(X.data(), soft_targets);
         combined = E_new < E;
         if (!combined) {
