@@ -72,7 +72,7 @@ void add_generate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--anderson", a->options.generate.solve.anderson_history,
                   "Anderson acceleration of the local/global iterations: iterates combined (0: the paper's plain "
-                  "iteration)")
+                  "iteration; --allow-invalid always runs the plain iteration)")
       ->capture_default_str();
   cmd->add_flag("--allow-invalid", a->options.generate.allow_invalid,
                 "Rigid and curvature: skip the guard and keep the paper's unguarded result, which may have inverted "

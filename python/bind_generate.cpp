@@ -176,7 +176,7 @@ Args:
     iterations: maximum local/global iterations (>= 0).
     tolerance: stop when the relative energy change is below this.
     anderson: Anderson acceleration of the local/global iterations, iterates combined (>= 0; 0:
-        the paper's plain iteration).
+        the paper's plain iteration; allow_invalid always runs the plain iteration).
     s_min, s_max: curvature method: the clamp of the in-plane scales of the top triangles
         (0 < s_min <= 1 <= s_max).
     count_intersections: run the certificate's exact pair tests (top/top, top/base, side

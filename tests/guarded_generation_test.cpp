@@ -187,9 +187,13 @@ TEST(GuardedGeneration, SphereAtHalfItsRadiusIsValid) {
   const double eta = thickness_from_ratio(m.V, 0.5);
   for (ShellMethod method : {ShellMethod::Rigid, ShellMethod::Curvature}) {
     SCOPED_TRACE(to_string(method));
-    const GenerateResult g = generate_shell(m.V, m.F, options_for(method, eta));
+    expect_valid(generate_shell(m.V, m.F, options_for(method, eta)));
+    // Nothing collides on a convex surface: the guard keeps the paper's result (compared with the
+    // paper's plain iteration, which the unguarded path runs).
+    GenerateOptions plain = options_for(method, eta);
+    plain.solve.anderson_history = 0;
+    const GenerateResult g = generate_shell(m.V, m.F, plain);
     expect_valid(g);
-    // Nothing collides on a convex surface: the guard keeps the paper's result.
     const GenerateResult u = generate_shell(m.V, m.F, options_for(method, eta, true));
     // (Not bit for bit: under load the two runs have differed in the last bits; a guard that
     // acted would move tops by a fraction of eta.)
@@ -273,19 +277,32 @@ TEST(GuardedGeneration, TopNeedingNoMendingCarriesTheCertificateOfItsFirstCheck)
 
 TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {
   // The unguarded path written out: rest tets of the normal prisms, base held, top from the
-  // offset surface, the local/global solver.
+  // offset surface, the paper's plain local/global iterations (generation's Anderson default
+  // and the early CG stop are for the guarded path), on both linear paths.
   const TriMesh m = bumpy_sphere(3, 0.25);
   const double eta = thickness_from_ratio(m.V, 0.05);
   const int n = static_cast<int>(m.V.rows());
   const RestTets rest = normal_prism_rest_tets(m.V, m.F, eta);
-  const ShellSolver solver(rest, 2 * n, test::vertex_range(0, n));
-  Eigen::MatrixXd X(2 * n, 3);
-  X << m.V, offset_top(m.V, m.F, eta);
-  const GenerateOptions o = options_for(ShellMethod::Rigid, eta, true);
-  const SolveResult s = solver.solve(X, o.solve);
+  GenerateOptions o = options_for(ShellMethod::Rigid, eta, true);
+  ASSERT_GT(o.solve.anderson_history, 0); // the default the unguarded path must not take
+  for (const LinearSolver kind : {LinearSolver::Direct, LinearSolver::ConjugateGradient}) {
+    LinearSolverOptions exact;
+    exact.kind = kind;
+    exact.cg_relative_tolerance = 0;
+    const ShellSolver solver(rest, 2 * n, test::vertex_range(0, n), {}, exact);
+    Eigen::MatrixXd X(2 * n, 3);
+    X << m.V, offset_top(m.V, m.F, eta);
+    SolveOptions plain;
+    plain.max_iterations = o.solve.max_iterations;
+    plain.tolerance = o.solve.tolerance;
+    const SolveResult s = solver.solve(X, plain);
+    o.linear.kind = kind;
+    const GenerateResult u = generate_shell(m.V, m.F, o);
+    EXPECT_TRUE(u.shell.top == X.bottomRows(n)) << (kind == LinearSolver::Direct ? "direct" : "cg");
+    EXPECT_EQ(u.solve.energy, s.energy);
+  }
+  o.linear.kind = LinearSolver::Auto;
   const GenerateResult u = generate_shell(m.V, m.F, o);
-  EXPECT_TRUE(u.shell.top == X.bottomRows(n));
-  EXPECT_EQ(u.solve.energy, s.energy);
   EXPECT_FALSE(u.guarded);
   EXPECT_FALSE(u.metrics.certificate.valid()); // this case inverts: the flag says so
   EXPECT_EQ(u.metrics.certificate.inverted_tets, recertify(u).inverted_tets);

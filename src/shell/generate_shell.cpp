@@ -67,12 +67,18 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     {
       std::vector<int> base_vertices(n);
       std::iota(base_vertices.begin(), base_vertices.end(), 0);
+      // The paper's iteration as it was before the guard, bit for bit: plain local/global, each
+      // global step solved to the absolute tolerance (no Anderson, no early CG stop).
+      LinearSolverOptions linear = options.linear;
+      linear.cg_relative_tolerance = 0;
+      SolveOptions paper = options.solve;
+      paper.anderson_history = 0;
       const ShellSolver solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &rest), 2 * n, base_vertices,
-                               {}, options.linear); // shares `rest` (kept for the metrics) instead of copying it
+                               {}, linear); // shares `rest` (kept for the metrics) instead of copying it
       r.seconds.factor = solver.factor_seconds();
       Eigen::MatrixXd X(2 * n, 3);
       X << V, offset_top(V, F, options.thickness);
-      r.solve = solver.solve(X, options.solve);
+      r.solve = solver.solve(X, paper);
       r.seconds.solve = r.solve.seconds;
       r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
     }

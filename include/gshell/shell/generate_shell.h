@@ -33,9 +33,11 @@ ShellMethod parse_shell_method(const std::string& name);
 struct GenerateOptions {
   ShellMethod method = ShellMethod::Rigid;
   double thickness = 0; ///< eta, model units (> 0)
-  /// The paper's local/global iterations, Anderson-accelerated (5 iterates) by default: the same
-  /// minimum in about two thirds of the iterations on fine meshes (docs/scale.md, "Inexact global
-  /// steps"); 0 gives the paper's plain iteration.
+  /// The paper's local/global iterations, Anderson-accelerated (5 iterates) by default in the
+  /// guarded generation: the same minimum in about two thirds of the iterations on fine meshes
+  /// (docs/scale.md, "Inexact global steps"); 0 gives the paper's plain iteration. allow_invalid
+  /// always runs the plain iteration (anderson_history and linear.cg_relative_tolerance are not
+  /// used there).
   SolveOptions solve = {50, 1e-5, {}, 5};
   /// Clamp of the curvature method's in-plane scales (curvature_prisms.h explains the defaults).
   double s_min = kDefaultCurvatureSMin, s_max = kDefaultCurvatureSMax;
@@ -44,7 +46,8 @@ struct GenerateOptions {
   /// result is always certified in full: the certificate is the guard's last step.
   bool count_intersections = true;
   /// Rigid and curvature: skip the guard and return the paper's unguarded result (bit for bit
-  /// what these methods gave before the guard), valid or not. Offset is never guarded.
+  /// what these methods gave before the guard: plain local/global iterations with exact global
+  /// steps), valid or not. Offset is never guarded.
   bool allow_invalid = false;
   GuardOptions guard = generation_guard_options(); ///< parameters of the guarded generation (guarded_shell.h)
   LinearSolverOptions linear; ///< how the global steps are solved (Auto: CG on large meshes)
