@@ -273,6 +273,19 @@ LinearSolverOptions linear_solver(LinearSolver kind) {
   return o;
 }
 
+/// Closed, genus 1 and open meshes for comparing the linear paths and accelerations.
+std::vector<std::pair<std::string, SimpleMesh>> linear_solver_cases() {
+  return {{"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+}
+
+/// Iterations until the energy stops changing (to the last digits).
+SolveOptions to_convergence() {
+  SolveOptions o;
+  o.max_iterations = 2000;
+  o.tolerance = 1e-13;
+  return o;
+}
+
 } // namespace
 
 TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
@@ -280,8 +293,7 @@ TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
   // the diagonal or by the multigrid V-cycle (with a coarsest level small enough for 3-4 levels
   // here), CG run to its absolute tolerance alone: the energies and the tops agree to that
   // tolerance, and CG's energies never rise either.
-  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
-      {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+  const auto cases = linear_solver_cases();
   for (const auto& [name, m] : cases)
     for (double eta : {0.02, 0.2})
     for (CgPreconditioner preconditioner : {CgPreconditioner::Jacobi, CgPreconditioner::Multigrid}) {
@@ -316,8 +328,7 @@ TEST(ShellSolver, InexactConjugateGradientStepsReachTheDirectFixedPoint) {
   // start (the default) takes other iterates than the factor, but every one lowers the energy,
   // and run to convergence they end at the same fixed point: the warm start's residual vanishes
   // there. The loosest tolerance (0.5) as well as the default.
-  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
-      {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+  const auto cases = linear_solver_cases();
   for (const auto& [name, m] : cases)
     for (double eta : {0.02, 0.2})
       for (double relative : {LinearSolverOptions{}.cg_relative_tolerance, 0.5}) {
@@ -328,9 +339,7 @@ TEST(ShellSolver, InexactConjugateGradientStepsReachTheDirectFixedPoint) {
         cg_options.multigrid.coarsest_rows = 20;
         cg_options.cg_relative_tolerance = relative;
         const ShellSolver cg(g.rest, 2 * g.n, vertex_range(0, g.n), {}, cg_options);
-        SolveOptions options;
-        options.max_iterations = 2000;
-        options.tolerance = 1e-13;
+        const SolveOptions options = to_convergence();
         Eigen::MatrixXd X_direct = g.X, X_cg = g.X;
         const SolveResult r_direct = direct.solve(X_direct, options);
         const SolveResult r_cg = cg.solve(X_cg, options);
@@ -345,8 +354,7 @@ TEST(ShellSolver, InexactConjugateGradientStepsReachTheDirectFixedPoint) {
 TEST(ShellSolver, AndersonAccelerationKeepsTheEnergyFallingToTheSameMinimum) {
   // Combined iterates are kept only when they lower the energy, so the energy never rises, and
   // the accelerated iteration ends at the plain iteration's fixed point (both paths).
-  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
-      {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+  const auto cases = linear_solver_cases();
   for (const auto& [name, m] : cases)
     for (double eta : {0.02, 0.2})
       for (LinearSolver kind : {LinearSolver::Direct, LinearSolver::ConjugateGradient}) {
@@ -355,9 +363,7 @@ TEST(ShellSolver, AndersonAccelerationKeepsTheEnergyFallingToTheSameMinimum) {
         LinearSolverOptions linear = linear_solver(kind);
         linear.multigrid.coarsest_rows = 20;
         const ShellSolver solver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, linear);
-        SolveOptions plain;
-        plain.max_iterations = 2000;
-        plain.tolerance = 1e-13;
+        const SolveOptions plain = to_convergence();
         SolveOptions accelerated = plain;
         accelerated.anderson_history = 5;
         Eigen::MatrixXd X_plain = g.X, X_accelerated = g.X;
@@ -469,8 +475,7 @@ TEST(ShellSolver, TheAffinePrismFormGivesThePerTetShell) {
   // The normal prisms' rest tets in the affine-prism form (one inverse per prism) and per tet:
   // to rounding the same energies, steps and shell, on the direct and the CG path; a RestTets with
   // no form is refused.
-  const std::vector<std::pair<std::string, SimpleMesh>> cases = {
-      {"sphere", test::icosphere(3)}, {"torus", test::torus(40, 16)}, {"open wavy plane", test::plane(20, 0.3)}};
+  const auto cases = linear_solver_cases();
   for (const auto& [name, m] : cases)
     for (LinearSolver kind : {LinearSolver::Direct, LinearSolver::ConjugateGradient}) {
       SCOPED_TRACE(name + (kind == LinearSolver::Direct ? " direct" : " cg"));
