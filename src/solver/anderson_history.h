@@ -22,12 +22,10 @@ class AndersonHistory {
   using StoredVector = Eigen::Matrix<Stored, Eigen::Dynamic, 1>;
 
 public:
-  explicit AndersonHistory(int depth) : depth_(depth) {}
+  explicit AndersonHistory(int depth) : depth_(depth), gram_(std::max(depth, 0), std::max(depth, 0)) {}
   void clear() {
     dF_.clear();
     dG_.clear();
-    scale_F_.clear();
-    scale_G_.clear();
     has_last_ = false;
   }
   /// Forgets the last iterate only: the next pair would span a jump that is not a step of the map.
@@ -49,19 +47,12 @@ public:
         dF_.emplace_back();
         dG_.emplace_back();
       }
-      scale_F_.push_back(store(f_ - last_f_, dF_.back()));
-      scale_G_.push_back(store(g - last_g_, dG_.back()));
-      if (static_cast<int>(scale_F_.size()) > static_cast<int>(dF_.size())) { // the oldest's scales out
-        scale_F_.erase(scale_F_.begin());
-        scale_G_.erase(scale_G_.begin());
-      }
+      dF_.back().store(f_ - last_f_);
+      dG_.back().store(g - last_g_);
       // Only the new difference's products are new: each iteration reads the history once for
       // them and once for the right-hand side, not m^2 / 2 times.
       const int last = static_cast<int>(dF_.size()) - 1;
-      if (gram_.rows() < depth_) gram_.resize(depth_, depth_);
-      for (int i = 0; i <= last; ++i)
-        gram_(i, last) = gram_(last, i) =
-            scale_F_[i] * scale_F_[last] * dF_[i].template cast<double>().dot(dF_[last].template cast<double>());
+      for (int i = 0; i <= last; ++i) gram_(i, last) = gram_(last, i) = dF_[i].dot(dF_[last]);
     }
     last_f_ = f_;
     last_g_ = g;
@@ -70,12 +61,12 @@ public:
     const int m = static_cast<int>(dF_.size());
     Eigen::MatrixXd normal = gram_.topLeftCorner(m, m);
     Eigen::VectorXd rhs(m);
-    for (int i = 0; i < m; ++i) rhs(i) = scale_F_[i] * dF_[i].template cast<double>().dot(f_);
+    for (int i = 0; i < m; ++i) rhs(i) = dF_[i].dot(f_);
     normal.diagonal().array() += 1e-12 * std::max(1e-300, normal.diagonal().maxCoeff());
     const Eigen::VectorXd gamma = normal.ldlt().solve(rhs);
     Eigen::Map<Eigen::VectorXd> o(out, size);
     o = g;
-    for (int i = 0; i < m; ++i) o -= (gamma(i) * scale_G_[i]) * dG_[i].template cast<double>();
+    for (int i = 0; i < m; ++i) o -= (gamma(i) * dG_[i].scale) * dG_[i].values.template cast<double>();
     return gamma.allFinite();
   }
 
@@ -86,28 +77,34 @@ public:
   }
 
 private:
-  /// stored <- v / p with p a power of two near max |v| (returned): float keeps 8 digits of each
-  /// difference at any model scale (a raw cast overflows above 3e38 and flushes below 1e-38),
-  /// and dividing by a power of two rounds nothing. Double is stored as it is (p = 1).
-  template <typename Expression>
-  static double store(const Expression& v, StoredVector& stored) {
-    if constexpr (std::is_same_v<Stored, double>) {
-      stored = v;
-      return 1.0;
-    } else {
-      const double largest = v.cwiseAbs().maxCoeff();
-      int exponent = 0;
-      std::frexp(largest, &exponent);
-      const double p = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, exponent) : 1.0;
-      stored = (v / p).template cast<Stored>();
-      return p;
+  /// A difference of iterates or images, as values * scale. Float keeps 8 digits of each at any
+  /// model scale because scale is a power of two near its largest entry (a raw cast overflows
+  /// above 3e38 and flushes below 1e-38, and dividing by a power of two rounds nothing). Double
+  /// is kept as it is (scale 1).
+  struct Difference {
+    StoredVector values;
+    double scale = 1;
+    template <typename Expression>
+    void store(const Expression& v) {
+      if constexpr (std::is_same_v<Stored, double>) {
+        values = v;
+      } else {
+        const double largest = v.cwiseAbs().maxCoeff();
+        int exponent = 0;
+        std::frexp(largest, &exponent);
+        scale = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, exponent) : 1.0;
+        values = (v / scale).template cast<Stored>();
+      }
     }
-  }
+    double dot(const Difference& other) const {
+      return scale * other.scale * values.template cast<double>().dot(other.values.template cast<double>());
+    }
+    double dot(const Eigen::VectorXd& v) const { return scale * values.template cast<double>().dot(v); }
+  };
 
   int depth_;
-  std::vector<StoredVector> dF_, dG_;
-  std::vector<double> scale_F_, scale_G_; // dF_i = scale_F_[i] * dF_[i], the same for dG
-  Eigen::MatrixXd gram_;                   // dF_i . dF_j of the kept differences
+  std::vector<Difference> dF_, dG_;
+  Eigen::MatrixXd gram_; // dF_i . dF_j of the kept differences
   Eigen::VectorXd f_, last_f_, last_g_;
   bool has_last_ = false;
 };
