@@ -15,13 +15,13 @@
 // per split printed as for the sphere levels). --anderson and --cg-relative override generation's Anderson history and
 // the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21).
 #include <gshell/deform/shell_deformer.h>
+#include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/run/process_memory.h>
 #include <gshell/shell/generate_shell.h>
 
 #include <algorithm>
 #include <chrono>
-#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <sys/resource.h>
@@ -31,7 +31,6 @@
 #include <map>
 #include <sstream>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 using namespace gshell;
@@ -78,37 +77,6 @@ std::vector<std::string> split(const std::string& s, char sep) {
   while (std::getline(ss, item, sep))
     if (!item.empty()) out.push_back(item);
   return out;
-}
-
-/// The mesh split `times` times, each triangle into four at its edges' midpoints (flat: the surface
-/// stays the same, only finer).
-TriMesh midpoint_subdivision(TriMesh mesh, int times) {
-  for (int t = 0; t < times; ++t) {
-    std::vector<Eigen::RowVector3d> V(mesh.V.rows());
-    for (int i = 0; i < mesh.V.rows(); ++i) V[i] = mesh.V.row(i);
-    std::unordered_map<std::uint64_t, int> midpoint;
-    auto mid = [&](int a, int b) {
-      const auto key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
-      auto [it, inserted] = midpoint.try_emplace(key, static_cast<int>(V.size()));
-      if (inserted) V.push_back(0.5 * (V[a] + V[b]));
-      return it->second;
-    };
-    Eigen::MatrixXi F(4 * mesh.F.rows(), 3);
-    for (int f = 0; f < mesh.F.rows(); ++f) {
-      const int a = mesh.F(f, 0), b = mesh.F(f, 1), c = mesh.F(f, 2);
-      const int ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
-      F.row(4 * f) << a, ab, ca;
-      F.row(4 * f + 1) << b, bc, ab;
-      F.row(4 * f + 2) << c, ca, bc;
-      F.row(4 * f + 3) << ab, bc, ca;
-    }
-    TriMesh finer;
-    finer.V.resize(static_cast<Eigen::Index>(V.size()), 3);
-    for (std::size_t i = 0; i < V.size(); ++i) finer.V.row(static_cast<Eigen::Index>(i)) = V[i];
-    finer.F = std::move(F);
-    mesh = std::move(finer);
-  }
-  return mesh;
 }
 
 /// "FILE@k": FILE split k times; otherwise a mesh file or builtin spec.

@@ -247,3 +247,29 @@ TEST(BuiltinMesh, BadSpecsThrowInputErrorNamingTheSpec) {
     }
   }
 }
+
+TEST(BuiltinMesh, MidpointSubdivisionKeepsTheSurfaceAndSplitsEveryFaceInFour) {
+  // A torus (closed, genus 1) split twice: 16x the faces, V + E vertices per split (E = 3F/2 on a
+  // closed mesh), the first V vertices where they were, the same area and enclosed volume (the
+  // split is flat), and a valid mesh.
+  const TriMesh torus = make_torus(16);
+  const TriMesh twice = midpoint_subdivision(torus, 2);
+  const int V = torus.num_vertices(), F = torus.num_faces();
+  EXPECT_EQ(twice.num_faces(), 16 * F);
+  const int once_vertices = V + 3 * F / 2;
+  EXPECT_EQ(twice.num_vertices(), once_vertices + 3 * (4 * F) / 2);
+  EXPECT_TRUE(twice.V.topRows(V) == torus.V);
+  auto area = [](const TriMesh& m) {
+    double sum = 0;
+    for (int f = 0; f < m.num_faces(); ++f) {
+      const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+      sum += 0.5 * (b - a).cross(c - a).norm();
+    }
+    return sum;
+  };
+  EXPECT_NEAR(area(twice), area(torus), 1e-12 * area(torus));
+  EXPECT_NEAR(signed_volume(twice), signed_volume(torus), 1e-12 * signed_volume(torus));
+  EXPECT_TRUE(validate_mesh(twice).empty());
+  EXPECT_TRUE(midpoint_subdivision(torus, 0).V == torus.V);
+  EXPECT_THROW(midpoint_subdivision(torus, -1), InputError);
+}

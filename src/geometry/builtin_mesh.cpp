@@ -74,6 +74,31 @@ void set_wrapped_grid_faces(TriMesh& mesh, int nu, int rows, bool wrap_rows) {
   mesh.FUV = to_matrix(uv_faces);
 }
 
+/// Splits every face of (v, f) into four at its edges' midpoints, one new vertex per edge shared
+/// by the edge's faces, placed by `place(a, b)` (a, b: the edge's vertex ids).
+template <typename Place>
+void split_at_edge_midpoints(Rows3d& v, Rows3i& f, Place&& place) {
+  std::unordered_map<std::uint64_t, int> midpoint;
+  midpoint.reserve(f.size() * 2);
+  auto mid = [&](int a, int b) {
+    const auto key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
+    auto [it, inserted] = midpoint.try_emplace(key, static_cast<int>(v.size()));
+    if (inserted) v.push_back(place(a, b));
+    return it->second;
+  };
+  Rows3i next;
+  next.reserve(f.size() * 4);
+  for (const auto& tri : f) {
+    const int a = tri[0], b = tri[1], c = tri[2];
+    const int ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+    next.emplace_back(a, ab, ca);
+    next.emplace_back(b, bc, ab);
+    next.emplace_back(c, ca, bc);
+    next.emplace_back(ab, bc, ca);
+  }
+  f = std::move(next);
+}
+
 } // namespace
 
 TriMesh make_sphere(int level, double radius) {
@@ -85,28 +110,8 @@ TriMesh make_sphere(int level, double radius) {
               {11, 10, 2}, {10, 7, 6}, {7, 1, 8},   {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
               {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (auto& p : v) p.normalize();
-  for (int l = 0; l < level; ++l) {
-    // One new vertex per edge, shared by the two faces of the edge.
-    std::unordered_map<std::uint64_t, int> midpoint;
-    midpoint.reserve(f.size() * 2);
-    auto mid = [&](int a, int b) {
-      const auto key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
-      auto [it, inserted] = midpoint.try_emplace(key, static_cast<int>(v.size()));
-      if (inserted) v.push_back((v[a] + v[b]).normalized());
-      return it->second;
-    };
-    Rows3i next;
-    next.reserve(f.size() * 4);
-    for (const auto& tri : f) {
-      const int a = tri[0], b = tri[1], c = tri[2];
-      const int ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
-      next.emplace_back(a, ab, ca);
-      next.emplace_back(b, bc, ab);
-      next.emplace_back(c, ca, bc);
-      next.emplace_back(ab, bc, ca);
-    }
-    f = std::move(next);
-  }
+  for (int l = 0; l < level; ++l)
+    split_at_edge_midpoints(v, f, [&](int a, int b) -> Eigen::Vector3d { return (v[a] + v[b]).normalized(); });
   // The icosahedron list above is trusted for nothing: orient every face away from the centre.
   for (auto& tri : f) {
     const Eigen::Vector3d n = (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]);
@@ -280,6 +285,20 @@ TriMesh make_builtin(const std::string& spec) {
   if (name == "plane") return res < 0 ? make_plane() : make_plane(res);
   if (name == "cylinder") return res < 0 ? make_cylinder() : make_cylinder(res);
   return res < 0 ? make_bowl() : make_bowl(res);
+}
+
+TriMesh midpoint_subdivision(const TriMesh& mesh, int times) {
+  if (times < 0) throw InputError("midpoint_subdivision: times must be >= 0 (got " + std::to_string(times) + ")");
+  Rows3d v(mesh.V.rows());
+  for (int i = 0; i < mesh.V.rows(); ++i) v[i] = mesh.V.row(i).transpose();
+  Rows3i f(mesh.F.rows());
+  for (int i = 0; i < mesh.F.rows(); ++i) f[i] = mesh.F.row(i).transpose();
+  for (int t = 0; t < times; ++t)
+    split_at_edge_midpoints(v, f, [&](int a, int b) -> Eigen::Vector3d { return 0.5 * (v[a] + v[b]); });
+  TriMesh out;
+  out.V = to_matrix(v);
+  out.F = to_matrix(f);
+  return out;
 }
 
 } // namespace gshell

@@ -23,6 +23,12 @@ namespace gshell {
 ///         radius is not a positive finite number.
 TriMesh make_sphere(int level = 4, double radius = 1.0);
 
+/// `mesh` with every face split into four at its edges' midpoints, `times` times over (the surface
+/// unchanged, 4x the faces each time; texture coordinates are dropped). The split make_sphere
+/// uses, without its projection onto the sphere.
+/// \throws InputError when times < 0.
+TriMesh midpoint_subdivision(const TriMesh& mesh, int times);
+
 /// Torus around the z axis with `res` segments around the big circle and res/2 (integer division)
 /// around the tube: res*(res/2) vertices. Radii R=1, r=0.4 by default. Closed, genus 1.
 /// UV = (angle around z / 2pi, angle around the tube / 2pi), with seams (UV grid (res+1) x (res/2+1)).
