@@ -228,35 +228,50 @@ int main(int argc, char** argv) {
             }
             std::printf("  %s: J<=0 %d, 0<J<0.1 %d, 0<J<0.03 %d\n", r == &u ? "unguarded" : "guarded", neg, low, low3);
           }
-          // Stretch away from what the guard must leave: faces with an unprotected boundary
-          // triangle (base crossings, unextrudable vertices) and two rings of faces around them.
           const ShellBoundary boundary = shell_boundary(mesh.F, nv);
-          std::vector<char> near(nv, 0);
-          for (int row = 0; row < boundary.size(); ++row)
-            if (g.guard.unprotected_triangles[row])
-              for (int k = 0; k < 3; ++k) near[mesh.F(boundary.face[row], k)] = 1;
-          for (int ring = 0; ring < 2; ++ring) {
-            std::vector<char> grown = near;
-            for (int f = 0; f < mesh.F.rows(); ++f)
-              if (near[mesh.F(f, 0)] || near[mesh.F(f, 1)] || near[mesh.F(f, 2)])
-                for (int k = 0; k < 3; ++k) grown[mesh.F(f, k)] = 1;
-            near = grown;
-          }
-          double su = 0, sg = 0, w = 0;
           Eigen::MatrixXd Xu(2 * nv, 3), Xg(2 * nv, 3);
           Xu << mesh.V, u.shell.top;
           Xg << mesh.V, g.shell.top;
           const Eigen::VectorXd tu = tet_stretch(rest, Xu), tg = tet_stretch(rest, Xg);
-          for (int f = 0; f < mesh.F.rows(); ++f) {
-            if (near[mesh.F(f, 0)] || near[mesh.F(f, 1)] || near[mesh.F(f, 2)]) continue;
-            for (int k = 0; k < 3; ++k) {
-              su += rest.volume[3 * f + k] * tu[3 * f + k];
-              sg += rest.volume[3 * f + k] * tg[3 * f + k];
-              w += rest.volume[3 * f + k];
+          // Stretch over the faces at least `rings` rings of faces away from every marked vertex.
+          auto stretch_away = [&](std::vector<char> near, int rings, const char* from) {
+            for (int ring = 0; ring < rings; ++ring) {
+              std::vector<char> grown = near;
+              for (int f = 0; f < mesh.F.rows(); ++f)
+                if (near[mesh.F(f, 0)] || near[mesh.F(f, 1)] || near[mesh.F(f, 2)])
+                  for (int k = 0; k < 3; ++k) grown[mesh.F(f, k)] = 1;
+              near = grown;
             }
-          }
-          std::printf("  stretch away from the unavoidable (+2 rings): unguarded %.4f guarded %.4f ratio %.3f\n", su / w,
-                      sg / w, sg / su);
+            double su = 0, sg = 0, w = 0;
+            int faces = 0;
+            for (int f = 0; f < mesh.F.rows(); ++f) {
+              if (near[mesh.F(f, 0)] || near[mesh.F(f, 1)] || near[mesh.F(f, 2)]) continue;
+              ++faces;
+              for (int k = 0; k < 3; ++k) {
+                su += rest.volume[3 * f + k] * tu[3 * f + k];
+                sg += rest.volume[3 * f + k] * tg[3 * f + k];
+                w += rest.volume[3 * f + k];
+              }
+            }
+            std::printf("  stretch away from %s (+%d rings, %d faces): unguarded %.4f guarded %.4f ratio %.3f\n", from,
+                        rings, faces, su / w, sg / w, sg / su);
+          };
+          // What the guard must leave: faces with an unprotected boundary triangle (base
+          // crossings, unextrudable vertices).
+          std::vector<char> near(nv, 0);
+          for (int row = 0; row < boundary.size(); ++row)
+            if (g.guard.unprotected_triangles[row])
+              for (int k = 0; k < 3; ++k) near[mesh.F(boundary.face[row], k)] = 1;
+          stretch_away(near, 2, "the unavoidable");
+          // What the guard must mend: the unguarded shell's inverted tets and intersecting
+          // triangles. Where the excess lies within a few rings of them, it is the price of
+          // mending, not a worse shell elsewhere.
+          std::fill(near.begin(), near.end(), 0);
+          for (int t : cu.inverted_tet_ids) near[mesh.F(t / 3, 0)] = near[mesh.F(t / 3, 1)] = near[mesh.F(t / 3, 2)] = 1;
+          for (const BoundaryIntersection& x : cu.intersections)
+            for (int row : {x.a, x.b})
+              for (int k = 0; k < 3; ++k) near[mesh.F(boundary.face[row], k)] = 1;
+          for (int rings : {0, 1, 2, 3}) stretch_away(near, rings, "the unguarded shell's violations");
           // Where the guarded stretch comes from: prisms by their least start scale (held below
           // repair_min_scale, pulled in, untouched) and by their least final relative thickness.
           const Eigen::VectorXd& sc = g.guard.start.scale;
