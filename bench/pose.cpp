@@ -9,15 +9,17 @@
 // --config runs an extra hierarchical configuration given as key=value pairs (see parse_config).
 //
 //   bench_pose --table [--runs R] [--cap N] [--cache-dir DIR] [--case LABEL]... [--config SPEC]...
-//                      [--only-extra] [--model PATH]... [--bunny PATH] [--examples DIR]
+//                      [--only-extra] [--model PATH]... [--bunny PATH] [--no-bowl] [--no-bunny]
+//                      [--examples DIR]
 //                      [--model-cap N] [--model-reference-iterations N] [--settle-tolerance T]
 //                      [--explain-stalls]
 //
 // --table: one table of time to 1.001 E* from rest for single, single+Anderson, single+Anderson+
 // path search and hierarchical (and any --config) on the bowl at thickness ratios 0.02 and 0.05
 // under the pulls examples/bowl_{pull,twist,half_pull,squeeze_soft}.json, and on bunny00 (and any
-// --model) with the generic pull. E* of a case is the lowest minimum any solver reaches from rest
-// (a pull can have several: the twist does): every run goes on past 1.001 E* until it settles, and
+// --model) with the generic pull (--no-bowl, --no-bunny: leave those cases out). E* of a case is
+// the lowest minimum any solver reaches from rest (a pull can have several: the twist does):
+// every run goes on past 1.001 E* until it settles, and
 // the table says where each settled and which solver found E*. Prints shell sizes, iterations /
 // median seconds, speed-ups and the coarse passes kept (ms per pass / per full iteration / per
 // path search).
@@ -299,7 +301,7 @@ int run_table(const std::vector<std::string>& args) {
   std::vector<Config> extra;
   bool only_extra = false; // development: only the --config columns, no speed-ups
   bool explain_stalls = false;
-  bool bowl_cases = true;
+  bool bowl_cases = true, bunny_case = true;
   std::vector<std::string> models; // more meshes with the generic pull, ratio 0.01
   for (size_t i = 0; i < args.size(); ++i) {
     auto next = [&] { return i + 1 < args.size() ? args[++i] : std::string(); };
@@ -318,6 +320,7 @@ int run_table(const std::vector<std::string>& args) {
     else if (args[i] == "--explain-stalls") explain_stalls = true;
     else if (args[i] == "--model") models.push_back(next());
     else if (args[i] == "--no-bowl") bowl_cases = false;
+    else if (args[i] == "--no-bunny") bunny_case = false;
     else {
       std::fprintf(stderr, "bench_pose --table: unknown argument %s\n", args[i].c_str());
       return 1;
@@ -328,8 +331,8 @@ int run_table(const std::vector<std::string>& args) {
     for (const char* pull : {"bowl_pull", "bowl_twist", "bowl_half_pull", "bowl_squeeze_soft"})
       if (bowl_cases) cases.push_back({pull, "bowl", ratio});
   for (const std::string& m : models) cases.push_back({"pull", m, 0.01});
-  if (std::ifstream(bunny)) cases.push_back({"pull", bunny, 0.01});
-  else std::printf("(%s not found: bunny case skipped; scripts/fetch-models)\n", bunny.c_str());
+  if (bunny_case && std::ifstream(bunny)) cases.push_back({"pull", bunny, 0.01});
+  else if (bunny_case) std::printf("(%s not found: bunny case skipped; scripts/fetch-models)\n", bunny.c_str());
 
   std::vector<Config> configs;
   if (!only_extra) {
