@@ -134,11 +134,13 @@ int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner prec
   }
   const double deform_setup = seconds_since(t0), deform_cpu = process_times().cpu() - deform_cpu0;
   const int iterations = std::max(1, r.solve.iterations);
-  std::printf("vertices=%d total=%.6g setup=%.6g solve=%.6g iterations=%d per_iteration=%.6g cg=%d "
+  std::printf("vertices=%d total=%.6g setup=%.6g solve=%.6g iterations=%d per_iteration=%.6g cg=%d local=%.6g "
+              "global=%.6g guard=%.6g "
               "deform_setup=%.6g deform_factor=%.6g deform_cpu=%.6g cpu=%.6g user=%.6g faults=%.6g generate_peak_mb=%.6g peak_mb=%.6g energy=%.10g stretch_mean=%.10g "
               "stretch_max=%.10g inverted=%d intersections=%d thickness_min=%.10g certificate=%.6g\n",
               static_cast<int>(mesh.V.rows()), r.seconds.total, r.seconds.factor, r.seconds.solve, r.solve.iterations,
-              r.seconds.solve / iterations, r.solve.linear_iterations, deform_setup, deform_factor, deform_cpu, generate_cpu,
+              r.seconds.solve / iterations, r.solve.linear_iterations, r.solve.local_seconds, r.solve.global_seconds,
+              r.seconds.guard, deform_setup, deform_factor, deform_cpu, generate_cpu,
               after.user - before.user, after.minor_faults - before.minor_faults,
               generate_peak, peak_megabytes(), r.solve.energy.back(), r.metrics.stretch.mean, r.metrics.stretch.max,
               r.metrics.certificate.inverted_tets,
@@ -254,8 +256,10 @@ int main(int argc, char** argv) {
     for (int k = 1; k <= subdivisions; ++k) specs.push_back(mesh + "@" + std::to_string(k));
   }
   std::vector<Row> rows;
-  std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s %4s\n", "mesh",
-              "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "cert_s", "deform_s",
+  std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s "
+              "%4s\n",
+              "mesh", "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "local_s", "global_s",
+              "guard_s", "cert_s", "deform_s",
               "dfm_cpu", "cpu_s", "usr_s", "faults_k", "gen_MB", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
   for (const std::string& linear : linears)
     for (const std::string& spec : specs) {
@@ -264,11 +268,12 @@ int main(int argc, char** argv) {
       for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, tuning, row);
       if (!ok) continue;
       const std::string name = display_name(spec);
-      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
+      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.3f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
                   "%4.0f "
                   "%4.0f\n",
                   name.c_str(), linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
-                  row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("certificate"), row.get("deform_setup"), row.get("deform_cpu"), row.get("cpu"),
+                  row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("local"),
+                  row.get("global"), row.get("guard"), row.get("certificate"), row.get("deform_setup"), row.get("deform_cpu"), row.get("cpu"),
                   row.get("user"), row.get("faults") / 1000, row.get("generate_peak_mb"), row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
                   row.get("stretch_mean"), row.get("stretch_max"), row.get("inverted"), row.get("intersections"));
       std::fflush(stdout);
