@@ -19,10 +19,9 @@
 // under the pulls examples/bowl_{pull,twist,half_pull,squeeze_soft}.json, and on bunny00 (and any
 // --model) with the generic pull (--no-bowl, --no-bunny: leave those cases out). E* of a case is
 // the lowest minimum any solver reaches from rest (a pull can have several: the twist does):
-// every run goes on past 1.001 E* until it settles, and
-// the table says where each settled and which solver found E*. Prints shell sizes, iterations /
-// median seconds, speed-ups and the coarse passes kept (ms per pass / per full iteration / per
-// path search).
+// every run goes on past 1.001 E* until it settles, and the table says where each settled and
+// which solver found E*. Prints shell sizes, iterations / median seconds, speed-ups and the
+// coarse passes kept (ms per pass / per full iteration / per path search).
 // --explain-stalls: for every run that misses 1.001 E* (and kept its state: all but those stopped
 // near the reference), continue single-level from its state to convergence and print where that
 // settles and how far it lies from the E* state.
