@@ -296,7 +296,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
 namespace {
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, IdealTets& ideal, double eta,
-                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const GuardOptions& options, const SolveOptions& solve,
                            const LinearSolverOptions& linear) {
   const auto t0 = Clock::now();
   check_guard_options(options);
@@ -349,12 +349,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal.get()), 2 * n,
                                    fixed, {}, linear);
     g.factor_seconds = paper_solver.factor_seconds();
-    SolveOptions paper;
-    paper.max_iterations = solve.max_iterations;
-    paper.tolerance = solve.tolerance;
-    paper.anderson_history = solve.paper_anderson_history;
-    paper.progress = solve.progress; // the guarded solve reports its own iterations after these
-    g.paper = paper_solver.solve(X, paper);
+    g.paper = paper_solver.solve(X, solve); // the guarded solve reports its own iterations after these
   }
   ideal.release(); // made again below only if the start thins a top
   // Built after the paper's iterations, which do not need it, so as not to add to their peak.
@@ -438,7 +433,11 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
       lift_checker.emplace(F, n, p.skip_tets, g.unprotected_triangles);
       movable = liftable_vertices(g, boundary, *lift_checker, n);
     }
-    const MendInputs inputs{V,       F, ideal_tets, eta, options, solve, boundary, g, wanted,
+    GuardedSolveOptions mend_solve; // the repair's and the relaxation's: the paper's caps and progress
+    mend_solve.max_iterations = solve.max_iterations;
+    mend_solve.tolerance = solve.tolerance;
+    mend_solve.progress = solve.progress;
+    const MendInputs inputs{V, F, ideal_tets, eta, options, mend_solve, boundary, g, wanted,
                             lift_checker ? &*lift_checker : nullptr, movable};
     Mended mended = mend(inputs, in_region, X);
     g.factor_seconds += mended.factor_seconds;
@@ -464,7 +463,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
 } // namespace
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
-                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const GuardOptions& options, const SolveOptions& solve,
                            const LinearSolverOptions& linear) {
   IdealTets tets(ideal);
   return guarded_shell(V, F, tets, eta, options, solve, linear);
@@ -472,7 +471,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                            const std::function<RestTets()>& make_ideal, double eta, const GuardOptions& options,
-                           const GuardedSolveOptions& solve, const LinearSolverOptions& linear) {
+                           const SolveOptions& solve, const LinearSolverOptions& linear) {
   IdealTets tets(make_ideal);
   return guarded_shell(V, F, tets, eta, options, solve, linear);
 }

@@ -85,12 +85,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)
                                 : shell_metrics(V, F, r.shell.top, options.thickness, false);
   } else {
-    GuardedSolveOptions solve;
-    solve.max_iterations = options.solve.max_iterations;
-    solve.tolerance = options.solve.tolerance;
-    solve.progress = options.solve.progress;
-    solve.paper_anderson_history = options.solve.anderson_history;
-    r.guard = guarded_shell(V, F, make_ideal, options.thickness, options.guard, solve, options.linear);
+    r.guard = guarded_shell(V, F, make_ideal, options.thickness, options.guard, options.solve, options.linear);
     r.guarded = true;
     r.unextrudable_vertices = r.guard.directions.unextrudable;
     r.unextrudable_vertices.insert(r.unextrudable_vertices.end(), r.guard.blocked_rim_vertices.begin(),

@@ -178,13 +178,15 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
 /// The guarded top over base (V, F) towards the rest tets `ideal` (prism_rest_tets of the ideal
 /// prisms: normal or curvature), thickness eta (model units): the paper's local/global iterations
 /// from the offset surface (the unguarded result), a valid start made from it (valid_start), and
-/// the guarded solver from there. solve.max_iterations and tolerance apply to both solves;
-/// `linear` chooses how the paper's iterations solve their global steps (the guarded solver, on
-/// the region it repairs, always factors).
+/// the guarded solver from there. `solve` are the paper's iterations' options; its
+/// max_iterations, tolerance and progress apply to the guarded solver's too (which combines no
+/// iterates: anderson_history is the paper's iterations' only); `linear` chooses how the paper's
+/// iterations solve their global steps (the guarded solver, on the region it repairs, always
+/// factors).
 /// \throws InputError on bad options, thickness eta not positive and finite, or `ideal` not
 ///         3 tets per face, or as extrusion_directions (V, F shapes and ids).
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
-                           const GuardOptions& options, const GuardedSolveOptions& solve,
+                           const GuardOptions& options, const SolveOptions& solve,
                            const LinearSolverOptions& linear = {});
 
 /// The same with the rest tets made by `make_ideal` where they are needed: for the paper's
@@ -195,6 +197,6 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, c
 /// \throws as the other overload, and whatever `make_ideal` throws.
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                            const std::function<RestTets()>& make_ideal, double eta, const GuardOptions& options,
-                           const GuardedSolveOptions& solve, const LinearSolverOptions& linear = {});
+                           const SolveOptions& solve, const LinearSolverOptions& linear = {});
 
 } // namespace gshell

@@ -99,9 +99,6 @@ struct GuardedSolveOptions {
   double energy_scale = 0;
   /// Called after every iteration with (iteration, E_guard, seconds since the solve started).
   std::function<void(int, double, double)> progress;
-  /// guarded_shell only: SolveOptions::anderson_history of the paper's (unguarded) iterations
-  /// it starts from; the guarded solver itself does not combine iterates.
-  int paper_anderson_history = 0;
 };
 
 struct GuardedSolveResult {
