@@ -2,7 +2,9 @@
 // Exact validity checks for the guarded start's rounds, by the certificate's predicates: the first
 // round certifies the whole shell (certify_shell); later ones test only the tets and boundary
 // triangle pairs that touch the vertices moved since (pairs and tets among unmoved vertices were
-// decided already), so a round costs little more than its moved vertices.
+// decided already). The tests are few, but each such check still refits the tree over every
+// boundary row and passes over every tet, an O(shell) cost per check that dominates when a caller
+// checks many times (lift_thin_tops on large meshes; docs/scale.md, session 23).
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 
