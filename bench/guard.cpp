@@ -203,14 +203,16 @@ int main(int argc, char** argv) {
         const GuardedShell& d = g.guard;
         std::printf("  guarded: paper %d it %.3f s | start %d rounds %.3f s | repair %d vertices, %d it (%s), "
                     "E_guard %.6g, %d cg, %d supernodal (%d reordered), %d backtracks, %d clamped (%d held), %d active tets, "
-                    "%d active contacts, %.3f s | relax %d it %.3f s | factor %.3f s | certificate %.3f s | total %.3f s\n",
+                    "%d active contacts, %.3f s | relax %d it %.3f s | lift %d of %d candidates, %d checks, %.3f s | "
+                    "factor %.3f s | certificate %.3f s | total %.3f s\n",
                     d.paper.iterations, d.paper.seconds, d.start.rounds, d.start.seconds, d.repaired_vertices,
                     d.solve.iterations,
                     d.repaired_vertices == 0 ? "none to run" : d.solve.converged ? "converged" : "not converged",
                     d.solve.energy.empty() ? 0.0 : d.solve.energy.back(), d.solve.cg_iterations, d.solve.supernodal_solves,
                     d.solve.supernodal_solves - d.solve.reused_orderings,
                     d.solve.backtracks, d.solve.clamped_steps, d.solve.held_steps, d.solve.active_tets, d.solve.active_contacts,
-                    d.solve.seconds, d.relax.iterations, d.relax.seconds, d.factor_seconds, g.metrics.certificate.seconds,
+                    d.solve.seconds, d.relax.iterations, d.relax.seconds, d.lift.moves, d.lift.candidates, d.lift.checks,
+                    d.lift.seconds, d.factor_seconds, g.metrics.certificate.seconds,
                     g.seconds.total);
         if (std::getenv("GUARD_PROBE")) {
           const int nv = mesh.num_vertices();
