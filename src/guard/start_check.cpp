@@ -21,6 +21,53 @@ Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids) {
 
 } // namespace
 
+StartChecker::TopIncidence StartChecker::top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids, int n) {
+  TopIncidence in;
+  in.start.assign(n + 1, 0);
+  for (int id : ids)
+    for (int k = 0; k < M.cols(); ++k)
+      if (M(id, k) >= n) ++in.start[M(id, k) - n + 1];
+  for (int i = 0; i < n; ++i) in.start[i + 1] += in.start[i];
+  in.item.resize(in.start.back());
+  std::vector<int> next(in.start.begin(), in.start.end() - 1);
+  for (int id : ids)
+    for (int k = 0; k < M.cols(); ++k)
+      if (M(id, k) >= n) in.item[next[M(id, k) - n]++] = id;
+  return in;
+}
+
+std::vector<int> StartChecker::TopIncidence::items_of(const std::vector<int>& vertices) const {
+  std::vector<int> found;
+  for (int i : vertices) found.insert(found.end(), item.begin() + start[i], item.begin() + start[i + 1]);
+  std::sort(found.begin(), found.end());
+  found.erase(std::unique(found.begin(), found.end()), found.end());
+  return found;
+}
+
+void StartChecker::place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) const {
+  if (!all_) {
+    X_.resize(2 * n_, 3);
+    X_ << base, top;
+    all_ = std::make_unique<FaceSet>(X_, rows_of(boundary_.F, rows_));
+    return;
+  }
+  // Every vertex that moved since the last check, flagged or not, so the tree is exact for the
+  // positions whoever moved them: a pass down the columns (contiguous), cheap beside the tests.
+  std::vector<char> differs(2 * n_, 0);
+  for (int c = 0; c < 3; ++c)
+    for (int i = 0; i < n_; ++i) {
+      differs[i] |= base(i, c) != X_(i, c);
+      differs[n_ + i] |= top(i, c) != X_(n_ + i, c);
+    }
+  std::vector<int> changed;
+  for (int i = 0; i < 2 * n_; ++i)
+    if (differs[i]) {
+      X_.row(i) = i < n_ ? base.row(i) : top.row(i - n_);
+      changed.push_back(i);
+    }
+  all_->move_vertices(X_, changed);
+}
+
 StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets,
                            std::vector<char> excluded_triangles)
     : F_(F), n_(n), boundary_(shell_boundary(F, n)), skip_(std::move(skip_tets)),
@@ -52,15 +99,28 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
     return v;
   }
 
+  if (top_tets_.start.empty()) { // the incidences of the checks after the first, made once
+    const Eigen::MatrixXi& T = tets();
+    std::vector<int> tets;
+    for (int t = 0; t < T.rows(); ++t)
+      if (!skip_[t]) tets.push_back(t);
+    top_tets_ = top_incidence(T, tets, n_);
+    top_rows_ = top_incidence(boundary_.F, rows_, n_);
+  }
+  std::vector<int> moved_ids;
+  for (int i = 0; i < n_; ++i)
+    if ((*moved)[i]) moved_ids.push_back(i);
+
   const Eigen::MatrixXi& T = tets();
-  Eigen::MatrixXd X(2 * n_, 3);
-  X << base, top;
-  auto is_moved = [&](int vertex) { return vertex >= n_ && (*moved)[vertex - n_]; };
+  const std::vector<int> tets = top_tets_.items_of(moved_ids);
+  auto point = [&](int i) {
+    const auto p = i < n_ ? base.row(i) : top.row(i - n_);
+    return ExactPoint(p(0), p(1), p(2));
+  };
   tbb::enumerable_thread_specific<std::vector<int>> inverted;
-  tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(T.rows()), 8192), [&](const tbb::blocked_range<int>& r) {
-    auto point = [&](int i) { return ExactPoint(X(i, 0), X(i, 1), X(i, 2)); };
-    for (int t = r.begin(); t < r.end(); ++t) {
-      if (skip_[t] || !(is_moved(T(t, 1)) || is_moved(T(t, 2)) || is_moved(T(t, 3)) || is_moved(T(t, 0)))) continue;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tets.size(), 1024), [&](const auto& r) {
+    for (std::size_t k = r.begin(); k < r.end(); ++k) {
+      const int t = tets[k];
       if (CGAL::orientation(point(T(t, 0)), point(T(t, 1)), point(T(t, 2)), point(T(t, 3))) != CGAL::POSITIVE)
         inverted.local().push_back(t);
     }
@@ -69,28 +129,20 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   std::sort(v.inverted_tets.begin(), v.inverted_tets.end());
 
   // Pairs of (a row with a moved vertex) x (any row); base/base pairs cannot have one. The tree
-  // over all rows is refit between rounds: a round moves few vertices, and rebuilding it (the
-  // Morton sort) was most of a round's cost on big meshes.
-  const Eigen::MatrixXi& B = boundary_.F;
-  std::vector<int> changed;
-  for (int r : rows_)
-    if (is_moved(B(r, 0)) || is_moved(B(r, 1)) || is_moved(B(r, 2))) changed.push_back(r);
+  // over all rows follows the positions vertex by vertex (FaceSet::move_vertices): a check moves
+  // few vertices, and rebuilding the tree (the Morton sort), or refitting all of it, was most of
+  // a check's cost on big meshes.
+  const std::vector<int> changed = top_rows_.items_of(moved_ids);
   if (changed.empty()) return v;
-  std::vector<char> is_changed(boundary_.size(), 0);
-  for (int r : changed) is_changed[r] = 1;
-  if (all_) {
-    all_->move_to(X, rows_F_);
-  } else {
-    rows_F_ = rows_of(B, rows_);
-    all_ = std::make_unique<FaceSet>(X, rows_F_);
-  }
-  const FaceSet some(X, rows_of(B, changed));
-  const FaceSet& all = *all_;
+  place(base, top);
+  const Eigen::MatrixXi& B = boundary_.F;
+  const FaceSet some(X_, rows_of(B, changed));
   const std::vector<int>& rows = rows_;
+  auto is_changed = [&](int row) { return std::binary_search(changed.begin(), changed.end(), row); };
   PairCollector found;
-  some.for_each_pair_meeting_beyond_shared(all, [&](int s, int t) {
+  some.for_each_pair_meeting_beyond_shared(*all_, [&](int s, int t) {
     const int a = changed[s], b = rows[t];
-    if (a == b || (is_changed[b] && b < a)) return; // each pair of changed rows once
+    if (a == b || (b < a && is_changed(b))) return; // each pair of changed rows once
     found.add(std::min(a, b), std::max(a, b));
   });
   v.intersections = found.sorted();

@@ -2,9 +2,10 @@
 // Exact validity checks for the guarded start's rounds, by the certificate's predicates: the first
 // round certifies the whole shell (certify_shell); later ones test only the tets and boundary
 // triangle pairs that touch the vertices moved since (pairs and tets among unmoved vertices were
-// decided already). The tests are few, but each such check still refits the tree over every
-// boundary row and passes over every tet, an O(shell) cost per check that dominates when a caller
-// checks many times (lift_thin_tops on large meshes; docs/scale.md, session 23).
+// decided already). Such a check finds those tets and rows from the moved vertices' incidences
+// and moves only their faces in the tree over all rows, so its cost follows the moved vertices,
+// not the shell, apart from two byte-cheap passes over the vertices (lift_thin_tops checks
+// hundreds of times on large meshes; docs/scale.md).
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 
@@ -90,8 +91,18 @@ private:
   ShellBoundary boundary_;
   std::vector<char> skip_, excluded_;
   std::vector<int> rows_;            // boundary rows not excluded
-  mutable Eigen::MatrixXi rows_F_;   // their faces
-  mutable std::unique_ptr<FaceSet> all_; // over rows_F_, at the last checked positions
+  // Which items (tets of T_ not skipped, or rows_) have top vertex n + i: item[start[i], start[i + 1]).
+  struct TopIncidence {
+    std::vector<int> start, item;
+    std::vector<int> items_of(const std::vector<int>& top_vertices) const; // sorted, each once
+  };
+  static TopIncidence top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids, int n);
+  // X_ = (base, top), and all_ at these positions.
+  void place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) const;
+
+  mutable TopIncidence top_tets_, top_rows_;
+  mutable Eigen::MatrixXd X_;            // the positions all_ is at (base rows, then top rows)
+  mutable std::unique_ptr<FaceSet> all_; // over the faces of rows_
 };
 
 } // namespace gshell::detail

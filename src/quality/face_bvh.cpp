@@ -253,14 +253,36 @@ void FaceBvh::refit_nodes() {
       if (nodes_[i].leaf()) set_leaf_box(nodes_[i]);
   });
   // Children come after their parent (depth-first), so a backward pass sees them first.
-  for (int i = count - 1; i >= 0; --i) {
-    Node& n = nodes_[i];
-    if (n.leaf()) continue;
-    const Node &l = nodes_[i + 1], &r = nodes_[n.right];
-    for (int d = 0; d < 3; ++d) {
-      n.lo[d] = std::min(l.lo[d], r.lo[d]);
-      n.hi[d] = std::max(l.hi[d], r.hi[d]);
-    }
+  for (int i = count - 1; i >= 0; --i)
+    if (!nodes_[i].leaf()) merge_child_boxes(i);
+}
+
+void FaceBvh::refit_nodes_over(const std::vector<int>& sorted_slots) {
+  assert(slot_triangle_.empty() && "FaceBvh::refit_nodes_over needs Use::pairs");
+  assert(std::is_sorted(sorted_slots.begin(), sorted_slots.end()));
+  if (!nodes_.empty() && !sorted_slots.empty())
+    refit_subtree(0, sorted_slots.data(), sorted_slots.data() + sorted_slots.size());
+}
+
+// [first, last): the sorted slots under node i that moved, not empty.
+void FaceBvh::refit_subtree(int i, const int* first, const int* last) {
+  Node& n = nodes_[i];
+  if (n.leaf()) {
+    set_leaf_box(n);
+    return;
+  }
+  const int* mid = std::lower_bound(first, last, nodes_[i + 1].end); // the left child's slots end there
+  if (first != mid) refit_subtree(i + 1, first, mid);
+  if (mid != last) refit_subtree(n.right, mid, last);
+  merge_child_boxes(i);
+}
+
+void FaceBvh::merge_child_boxes(int i) {
+  Node& n = nodes_[i];
+  const Node &l = nodes_[i + 1], &r = nodes_[n.right];
+  for (int d = 0; d < 3; ++d) {
+    n.lo[d] = std::min(l.lo[d], r.lo[d]);
+    n.hi[d] = std::max(l.hi[d], r.hi[d]);
   }
 }
 
@@ -278,13 +300,8 @@ int FaceBvh::build(const Keyed& keyed, int begin, int end, int leaf_size) {
   const int mid = split(keyed, begin, end);
   build(keyed, begin, mid, leaf_size);
   const int right = build(keyed, mid, end, leaf_size);
-  Node& n = nodes_[node];
-  const Node &l = nodes_[node + 1], &r = nodes_[right];
-  n.right = right;
-  for (int d = 0; d < 3; ++d) {
-    n.lo[d] = std::min(l.lo[d], r.lo[d]);
-    n.hi[d] = std::max(l.hi[d], r.hi[d]);
-  }
+  nodes_[node].right = right;
+  merge_child_boxes(node);
   return node;
 }
 

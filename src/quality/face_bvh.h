@@ -49,6 +49,9 @@ public:
     set_float_box(slot, box);
   }
   void refit_nodes();
+  /// refit_nodes after set_slot_box for the given slots alone (sorted, each once): only the nodes
+  /// above them are refit, O(k log faces) for k slots where refit_nodes passes over every node.
+  void refit_nodes_over(const std::vector<int>& sorted_slots);
 
   /// Face ids in the tree's leaf order: consecutive faces are close in space, so work done in
   /// this order stays cache-friendly.
@@ -118,6 +121,9 @@ private:
   static Eigen::AlignedBox3d face_box(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int f);
   // Node boxes from the slot boxes below them, rounded outwards to floats.
   void set_leaf_box(Node& node) const;
+  // Inner node i's box from its two children's.
+  void merge_child_boxes(int i);
+  void refit_subtree(int i, const int* first, const int* last);
   static double node_squared_distance(const Node& n, const Eigen::Vector3d& q);
 
   // Use::distances: every node also has a box in a frame of its own, its third axis the node's

@@ -63,6 +63,31 @@ public:
     bvh_.refit_nodes();
   }
 
+  /// The same faces after the vertices `vertices` (rows of V; repeats allowed) moved to their rows
+  /// of V, every other vertex where the last construction or move put it: only the faces around
+  /// them get new shapes and boxes and only the tree nodes above those faces are refit, so moving
+  /// k vertices costs about k log(faces) where move_to passes over every face. The star flags
+  /// stay those of the last construction or move_to.
+  void move_vertices(const Eigen::MatrixXd& V, const std::vector<int>& vertices) {
+    if (slots_of_point_start_.empty()) index_points_by_vertex(static_cast<int>(V.rows()));
+    std::vector<int> slots;
+    for (int v : vertices) {
+      const int l = v < static_cast<int>(point_of_vertex_.size()) ? point_of_vertex_[v] : -1;
+      if (l < 0) continue; // no face of this set uses v
+      points_[l] = ExactPoint(V(v, 0), V(v, 1), V(v, 2));
+      slots.insert(slots.end(), slots_of_point_.begin() + slots_of_point_start_[l],
+                   slots_of_point_.begin() + slots_of_point_start_[l + 1]);
+    }
+    std::sort(slots.begin(), slots.end());
+    slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
+    double largest = 0;
+    for (int s : slots) largest = std::max(largest, place_slot(s));
+    // The margin only has to cover the largest coordinate; one that covers a larger one than is
+    // left after the move costs a few exact tests, never a wrong answer.
+    margin_ = std::max(margin_, slab_margin(largest));
+    bvh_.refit_nodes_over(slots);
+  }
+
   /// Calls found(f, g), f < g faces of this set, concurrently for every pair that meets beyond
   /// the vertices and edges it shares (faces_intersect_beyond_shared).
   template <class Found> void for_each_pair_meeting_beyond_shared(Found&& found) const {
@@ -145,23 +170,43 @@ private:
         tbb::blocked_range<int>(0, count, 4096), 0.0,
         [&](const tbb::blocked_range<int>& r, double largest) {
           for (int s = r.begin(); s < r.end(); ++s) {
-            Shape& shape = shapes_[s];
             const std::array<int, 3>& id = ids_[s].id;
             ids_[s].stars_embedded = star_ && star_[id[0]] && star_[id[1]] && star_[id[2]];
-            const std::array<ExactPoint, 3> p{points_[shape.corner[0]], points_[shape.corner[1]],
-                                              points_[shape.corner[2]]};
-            const ExactFace f = exact_face(id, p);
-            shape.dim = f.dim;
-            shape.end = f.end;
-            Eigen::AlignedBox3d box;
-            for (const ExactPoint& q : p) box.extend(Eigen::Vector3d(q.x(), q.y(), q.z()));
-            bvh_.set_slot_box(s, box);
-            largest = std::max({largest, box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff()});
+            largest = std::max(largest, place_slot(s));
           }
           return largest;
         },
         [](double a, double b) { return std::max(a, b); });
     margin_ = slab_margin(max_abs);
+  }
+
+  // Slot s's exact shape and tree box from points_; returns its largest coordinate magnitude.
+  double place_slot(int s) {
+    Shape& shape = shapes_[s];
+    const std::array<ExactPoint, 3> p{points_[shape.corner[0]], points_[shape.corner[1]], points_[shape.corner[2]]};
+    const ExactFace f = exact_face(ids_[s].id, p);
+    shape.dim = f.dim;
+    shape.end = f.end;
+    Eigen::AlignedBox3d box;
+    for (const ExactPoint& q : p) box.extend(Eigen::Vector3d(q.x(), q.y(), q.z()));
+    bvh_.set_slot_box(s, box);
+    return std::max(box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff());
+  }
+
+  // point_of_vertex_ and the slots of every point, for move_vertices. Made at its first call
+  // rather than with the set: the certificate's sets never need them (4 bytes per vertex and
+  // 16 per face at millions of faces).
+  void index_points_by_vertex(int num_vertices) {
+    point_of_vertex_.assign(num_vertices, -1);
+    for (std::size_t l = 0; l < point_id_.size(); ++l) point_of_vertex_[point_id_[l]] = static_cast<int>(l);
+    slots_of_point_start_.assign(points_.size() + 1, 0);
+    for (const Shape& shape : shapes_)
+      for (int l : shape.corner) ++slots_of_point_start_[l + 1];
+    for (std::size_t l = 0; l < points_.size(); ++l) slots_of_point_start_[l + 1] += slots_of_point_start_[l];
+    slots_of_point_.resize(slots_of_point_start_.back());
+    std::vector<int> next(slots_of_point_start_.begin(), slots_of_point_start_.end() - 1);
+    for (int s = 0; s < static_cast<int>(shapes_.size()); ++s)
+      for (int l : shapes_[s].corner) slots_of_point_[next[l]++] = s;
   }
 
   static bool share_id(const std::array<int, 3>& a, const std::array<int, 3>& b) {
@@ -183,7 +228,10 @@ private:
   std::vector<Shape> shapes_;            // in slot order
   std::vector<ExactPoint> points_;       // the faces' vertices at the current positions
   std::vector<int> point_id_;            // the vertex id (row of V) of each of points_
-  double margin_ = 0;            // slab_margin of these faces' coordinates
+  double margin_ = 0;            // slab_margin of these faces' coordinates (at least)
+  std::vector<int> point_of_vertex_;      // index of each vertex (row of V) in points_, or -1
+  std::vector<int> slots_of_point_start_; // slots_of_point_[start[l], start[l + 1]): slots using point l
+  std::vector<int> slots_of_point_;
   const char* star_ = nullptr;
 };
 
