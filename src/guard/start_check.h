@@ -4,8 +4,8 @@
 // triangle pairs that touch the vertices moved since (pairs and tets among unmoved vertices were
 // decided already). Such a check finds those tets and rows from the moved vertices' incidences
 // and moves only their faces in the tree over all rows, so its cost follows the moved vertices,
-// not the shell, apart from two byte-cheap passes over the vertices (lift_thin_tops checks
-// hundreds of times on large meshes; docs/scale.md).
+// not the shell, apart from a pass over the flags and one comparing positions with the last
+// check's (lift_thin_tops checks hundreds of times on large meshes; docs/scale.md).
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 

@@ -194,8 +194,8 @@ private:
   }
 
   // point_of_vertex_ and the slots of every point, for move_vertices. Made at its first call
-  // rather than with the set: the certificate's sets never need them (4 bytes per vertex and
-  // 16 per face at millions of faces).
+  // rather than with the set: the certificate's sets never need them (4 bytes per vertex and 12
+  // per face, at millions of faces).
   void index_points_by_vertex(int num_vertices) {
     point_of_vertex_.assign(num_vertices, -1);
     for (std::size_t l = 0; l < point_id_.size(); ++l) point_of_vertex_[point_id_[l]] = static_cast<int>(l);
