@@ -1,7 +1,7 @@
 // Buffers faulted in from all threads (src/geometry/first_touch.h, internal to the library): the
 // pages are backed without changing what they hold, and assign_populated is std::vector's assign.
 // The sizes are above the threshold from which the pages are populated by madvise.
-#include "../src/geometry/first_touch.h"
+#include "geometry/first_touch.h"
 
 #include <gtest/gtest.h>
 

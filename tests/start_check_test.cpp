@@ -4,7 +4,7 @@
 // faces in its tree. Motions here are random, large enough to invert tets and cross triangles,
 // with vertices put back as the guard does and some moved without being flagged (the tree must
 // follow them too).
-#include "../src/guard/start_check.h"
+#include "guard/start_check.h"
 
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/shell_certificate.h>

@@ -64,18 +64,14 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
       if (triangle_flags_[incidence.halfedges[i] / 3] & kExcluded) edge_flags_[e] |= kExcluded;
   }
 
-  auto group = [m](const std::vector<int>& owner, std::vector<int>& offsets, std::vector<int>& owned) {
-    offsets.assign(m + 1, 0);
-    for (int o : owner)
-      if (o >= 0) ++offsets[o + 1];
-    for (int t = 0; t < m; ++t) offsets[t + 1] += offsets[t];
-    owned.resize(offsets[m]);
-    std::vector<int> next(offsets.begin(), offsets.end() - 1);
-    for (int i = 0; i < static_cast<int>(owner.size()); ++i)
-      if (owner[i] >= 0) owned[next[owner[i]]++] = i;
+  auto owned_by_triangle = [m](const std::vector<int>& owner) {
+    return group_items(m, [&](auto&& add) {
+      for (int i = 0; i < static_cast<int>(owner.size()); ++i)
+        if (owner[i] >= 0) add(owner[i], i);
+    });
   };
-  group(vertex_owner, vertex_owner_offsets_, owned_vertices_);
-  group(edge_owner, edge_owner_offsets_, owned_edges_);
+  owned_vertices_ = owned_by_triangle(vertex_owner);
+  owned_edges_ = owned_by_triangle(edge_owner);
 
   std::vector<char> in_fixed_patch(num_vertices, 0);
   for (int t = 0; t < m; ++t) {
@@ -111,8 +107,8 @@ ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::Ali
   p.edge_begin.assign(m + 1, 0);
   for (int s = 0; s < m; ++s) {
     const int f = p.triangle[s] = tris[local[s]];
-    p.vertex_begin[s + 1] = p.vertex_begin[s] + vertex_owner_offsets_[f + 1] - vertex_owner_offsets_[f];
-    p.edge_begin[s + 1] = p.edge_begin[s] + edge_owner_offsets_[f + 1] - edge_owner_offsets_[f];
+    p.vertex_begin[s + 1] = p.vertex_begin[s] + owned_vertices_.start[f + 1] - owned_vertices_.start[f];
+    p.edge_begin[s + 1] = p.edge_begin[s] + owned_edges_.start[f + 1] - owned_edges_.start[f];
   }
   const int nv = p.vertex_begin[m], ne = p.edge_begin[m];
   p.tri_box.resize(m);
@@ -132,15 +128,15 @@ ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::Ali
       p.tri_corner[s] = triangles_[f];
       p.tri_flags[s] = triangle_flags_[f];
       int out = p.vertex_begin[s];
-      for (int i = vertex_owner_offsets_[f]; i < vertex_owner_offsets_[f + 1]; ++i, ++out) {
-        const int v = owned_vertices_[i];
+      for (int i = owned_vertices_.start[f]; i < owned_vertices_.start[f + 1]; ++i, ++out) {
+        const int v = owned_vertices_.item[i];
         p.vert_id[out] = v;
         p.vert_flags[out] = vertex_flags_[v];
         p.vert_box.set(out, vertex_box[v]);
       }
       out = p.edge_begin[s];
-      for (int i = edge_owner_offsets_[f]; i < edge_owner_offsets_[f + 1]; ++i, ++out) {
-        const int e = owned_edges_[i];
+      for (int i = owned_edges_.start[f]; i < owned_edges_.start[f + 1]; ++i, ++out) {
+        const int e = owned_edges_.item[i];
         p.edge_id[out] = e;
         p.edge_end[out] = edges_[e];
         p.edge_flags[out] = edge_flags_[e];

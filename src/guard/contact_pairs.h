@@ -15,6 +15,7 @@
 // movable and one fixed: the movable patch is joined with itself and with the fixed patch, never
 // the fixed patch with itself. The fixed patch can be kept while the fixed vertices stay put
 // (a solver that moves a small region joins only that region against it).
+#include "geometry/item_groups.h"
 #include "quality/face_bvh.h"
 
 #include <gshell/guard/primitive_distance.h>
@@ -169,8 +170,7 @@ private:
   std::vector<int> boundary_vertices_, fixed_patch_vertices_;
   std::vector<unsigned char> vertex_flags_, triangle_flags_, edge_flags_;
   std::vector<int> patch_triangles_[2]; // [0] fixed, [1] movable, ascending
-  // Per triangle, the vertices and edges it owns: owned_*[offsets[t] .. offsets[t + 1]).
-  std::vector<int> vertex_owner_offsets_, owned_vertices_, edge_owner_offsets_, owned_edges_;
+  ItemGroups owned_vertices_, owned_edges_; // group t: the vertices and edges triangle t owns
 };
 
 template <class Visit>

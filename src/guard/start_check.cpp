@@ -21,27 +21,12 @@ Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids) {
 
 } // namespace
 
-StartChecker::TopIncidence StartChecker::top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids, int n) {
-  TopIncidence in;
-  in.start.assign(n + 1, 0);
-  for (int id : ids)
-    for (int k = 0; k < M.cols(); ++k)
-      if (M(id, k) >= n) ++in.start[M(id, k) - n + 1];
-  for (int i = 0; i < n; ++i) in.start[i + 1] += in.start[i];
-  in.item.resize(in.start.back());
-  std::vector<int> next(in.start.begin(), in.start.end() - 1);
-  for (int id : ids)
-    for (int k = 0; k < M.cols(); ++k)
-      if (M(id, k) >= n) in.item[next[M(id, k) - n]++] = id;
-  return in;
-}
-
-std::vector<int> StartChecker::TopIncidence::items_of(const std::vector<int>& vertices) const {
-  std::vector<int> found;
-  for (int i : vertices) found.insert(found.end(), item.begin() + start[i], item.begin() + start[i + 1]);
-  std::sort(found.begin(), found.end());
-  found.erase(std::unique(found.begin(), found.end()), found.end());
-  return found;
+ItemGroups StartChecker::top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids) const {
+  return group_items(n_, [&](auto&& add) {
+    for (int id : ids)
+      for (int k = 0; k < M.cols(); ++k)
+        if (M(id, k) >= n_) add(M(id, k) - n_, id);
+  });
 }
 
 void StartChecker::place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) const {
@@ -104,8 +89,8 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
     std::vector<int> tets;
     for (int t = 0; t < T.rows(); ++t)
       if (!skip_[t]) tets.push_back(t);
-    top_tets_ = top_incidence(T, tets, n_);
-    top_rows_ = top_incidence(boundary_.F, rows_, n_);
+    top_tets_ = top_incidence(T, tets);
+    top_rows_ = top_incidence(boundary_.F, rows_);
   }
   std::vector<int> moved_ids;
   for (int i = 0; i < n_; ++i)

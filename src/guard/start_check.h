@@ -9,6 +9,8 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 
+#include "geometry/item_groups.h"
+
 #include <Eigen/Core>
 #include <algorithm>
 #include <memory>
@@ -91,16 +93,12 @@ private:
   ShellBoundary boundary_;
   std::vector<char> skip_, excluded_;
   std::vector<int> rows_;            // boundary rows not excluded
-  // Which items (tets of T_ not skipped, or rows_) have top vertex n + i: item[start[i], start[i + 1]).
-  struct TopIncidence {
-    std::vector<int> start, item;
-    std::vector<int> items_of(const std::vector<int>& top_vertices) const; // sorted, each once
-  };
-  static TopIncidence top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids, int n);
+  // Group i: the rows `ids` of M (tets of T_ not skipped, or rows_) with top vertex n + i.
+  ItemGroups top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids) const;
   // X_ = (base, top), and all_ at these positions.
   void place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) const;
 
-  mutable TopIncidence top_tets_, top_rows_;
+  mutable ItemGroups top_tets_, top_rows_;
   mutable Eigen::MatrixXd X_;            // the positions all_ is at (base rows, then top rows)
   mutable std::unique_ptr<FaceSet> all_; // over the faces of rows_
 };

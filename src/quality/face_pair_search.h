@@ -1,6 +1,7 @@
 #pragma once
 // Exact pair searches over the faces of one or two meshes: the bounding-volume hierarchy finds
 // the pairs whose boxes meet, an exact test (exact_faces.h) decides each, in parallel.
+#include "geometry/item_groups.h"
 #include "quality/exact_faces.h"
 #include "quality/face_bvh.h"
 
@@ -69,17 +70,15 @@ public:
   /// k vertices costs about k log(faces) where move_to passes over every face. The star flags
   /// stay those of the last construction or move_to.
   void move_vertices(const Eigen::MatrixXd& V, const std::vector<int>& vertices) {
-    if (slots_of_point_start_.empty()) index_points_by_vertex(static_cast<int>(V.rows()));
-    std::vector<int> slots;
+    if (slots_of_point_.start.empty()) index_points_by_vertex(static_cast<int>(V.rows()));
+    std::vector<int> moved_points;
     for (int v : vertices) {
       const int l = v < static_cast<int>(point_of_vertex_.size()) ? point_of_vertex_[v] : -1;
       if (l < 0) continue; // no face of this set uses v
       points_[l] = ExactPoint(V(v, 0), V(v, 1), V(v, 2));
-      slots.insert(slots.end(), slots_of_point_.begin() + slots_of_point_start_[l],
-                   slots_of_point_.begin() + slots_of_point_start_[l + 1]);
+      moved_points.push_back(l);
     }
-    std::sort(slots.begin(), slots.end());
-    slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
+    const std::vector<int> slots = slots_of_point_.items_of(moved_points);
     double largest = 0;
     for (int s : slots) largest = std::max(largest, place_slot(s));
     // The margin only has to cover the largest coordinate; one that covers a larger one than is
@@ -199,14 +198,10 @@ private:
   void index_points_by_vertex(int num_vertices) {
     point_of_vertex_.assign(num_vertices, -1);
     for (std::size_t l = 0; l < point_id_.size(); ++l) point_of_vertex_[point_id_[l]] = static_cast<int>(l);
-    slots_of_point_start_.assign(points_.size() + 1, 0);
-    for (const Shape& shape : shapes_)
-      for (int l : shape.corner) ++slots_of_point_start_[l + 1];
-    for (std::size_t l = 0; l < points_.size(); ++l) slots_of_point_start_[l + 1] += slots_of_point_start_[l];
-    slots_of_point_.resize(slots_of_point_start_.back());
-    std::vector<int> next(slots_of_point_start_.begin(), slots_of_point_start_.end() - 1);
-    for (int s = 0; s < static_cast<int>(shapes_.size()); ++s)
-      for (int l : shapes_[s].corner) slots_of_point_[next[l]++] = s;
+    slots_of_point_ = group_items(static_cast<int>(points_.size()), [&](auto&& add) {
+      for (int s = 0; s < static_cast<int>(shapes_.size()); ++s)
+        for (int l : shapes_[s].corner) add(l, s);
+    });
   }
 
   static bool share_id(const std::array<int, 3>& a, const std::array<int, 3>& b) {
@@ -229,9 +224,8 @@ private:
   std::vector<ExactPoint> points_;       // the faces' vertices at the current positions
   std::vector<int> point_id_;            // the vertex id (row of V) of each of points_
   double margin_ = 0;            // slab_margin of these faces' coordinates (at least)
-  std::vector<int> point_of_vertex_;      // index of each vertex (row of V) in points_, or -1
-  std::vector<int> slots_of_point_start_; // slots_of_point_[start[l], start[l + 1]): slots using point l
-  std::vector<int> slots_of_point_;
+  std::vector<int> point_of_vertex_; // index of each vertex (row of V) in points_, or -1
+  ItemGroups slots_of_point_;        // group l: the slots whose faces use point l
   const char* star_ = nullptr;
 };
 
