@@ -323,6 +323,57 @@ TEST(ShellSolver, ConjugateGradientGivesTheDirectShell) {
     }
 }
 
+TEST(ShellSolver, ConjugateGradientRenumbersItsRowsWithoutChangingTheShell) {
+  // The CG path orders its rows breadth first. On a mesh whose vertex and face orders are
+  // shuffled (tets too incoherent for the colouring, so the rotations are gathered by row), with
+  // soft springs on three top vertices, it still takes the factor's iterations and gives the
+  // factor's steps, gradient and system rows, all in the caller's vertex order.
+  const Generation g = generation(test::permuted(test::torus(40, 16), 7), 0.05);
+  for (CgPreconditioner preconditioner : {CgPreconditioner::Jacobi, CgPreconditioner::Multigrid}) {
+  SCOPED_TRACE(preconditioner == CgPreconditioner::Jacobi ? "jacobi" : "multigrid");
+  SoftConstraints soft;
+  soft.vertices = {g.n + 3, g.n + 200, 2 * g.n - 1};
+  soft.weight = 2.0;
+  Eigen::MatrixXd P(3, 3);
+  for (int c = 0; c < 3; ++c) P.row(c) = g.X.row(soft.vertices[c]) + Eigen::RowVector3d(0.02, 0, 0.03);
+  LinearSolverOptions cg_options = linear_solver(LinearSolver::ConjugateGradient);
+  cg_options.preconditioner = preconditioner;
+  cg_options.multigrid.coarsest_rows = 20;
+  cg_options.cg_relative_tolerance = 0;
+  const ShellSolver direct(g.rest, 2 * g.n, vertex_range(0, g.n), soft, linear_solver(LinearSolver::Direct));
+  const ShellSolver cg(g.rest, 2 * g.n, vertex_range(0, g.n), soft, cg_options);
+  ASSERT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient);
+  std::vector<int> rows = cg.free_vertices();
+  EXPECT_NE(rows, direct.free_vertices()) << "the CG rows kept the input's order: nothing tested";
+  std::sort(rows.begin(), rows.end());
+  EXPECT_EQ(rows, direct.free_vertices());
+
+  const std::vector<int> some = {g.n, g.n + 200, 2 * g.n - 1, g.n + 3};
+  EXPECT_LT((Eigen::MatrixXd(cg.system_rows(some)) - Eigen::MatrixXd(direct.system_rows(some))).cwiseAbs().maxCoeff(),
+            1e-12 * Eigen::MatrixXd(direct.system_rows(some)).cwiseAbs().maxCoeff());
+
+  Eigen::MatrixXd X_direct = g.X, X_cg = g.X;
+  const SolveResult r_direct = direct.solve(X_direct, exactly(10), P);
+  const SolveResult r_cg = cg.solve(X_cg, exactly(10), P);
+  expect_monotone(r_cg.energy);
+  ASSERT_EQ(r_cg.energy.size(), r_direct.energy.size());
+  for (std::size_t k = 0; k < r_cg.energy.size(); ++k)
+    EXPECT_NEAR(r_cg.energy[k], r_direct.energy[k], 1e-7 * r_direct.energy[0]) << "iteration " << k;
+  EXPECT_LT((X_cg - X_direct).cwiseAbs().maxCoeff(), 1e-6 * 0.05);
+
+  LocalStep s_direct, s_cg;
+  direct.local_step(g.X, s_direct, P);
+  cg.local_step(g.X, s_cg, P);
+  const Eigen::MatrixXd gradient = direct.half_gradient(g.X, s_direct, P);
+  EXPECT_LT((cg.half_gradient(g.X, s_cg, P) - gradient).cwiseAbs().maxCoeff(), 1e-12 * gradient.cwiseAbs().maxCoeff());
+  Eigen::MatrixXd step_direct = g.X, step_cg = g.X;
+  direct.global_step(step_direct, s_direct, P);
+  cg.global_step(step_cg, s_cg, P);
+  EXPECT_LT((step_cg - step_direct).cwiseAbs().maxCoeff(), 1e-6 * 0.05);
+  EXPECT_TRUE(step_cg.topRows(g.n) == g.X.topRows(g.n)) << "fixed base moved";
+  }
+}
+
 TEST(ShellSolver, InexactConjugateGradientStepsReachTheDirectFixedPoint) {
   // CG stopped once each column's residual has fallen to cg_relative_tolerance of its warm
   // start (the default) takes other iterates than the factor, but every one lowers the energy,
