@@ -139,7 +139,9 @@ public:
 
   /// The system matrix A (the energy's Hessian for fixed rotations, halved: E's quadratic part is
   /// x^T A x), for drivers that build their own steps (the guarded solver's Newton directions).
-  /// They work on the free rows only, in the order of free_vertices() (nf x 3 arrays).
+  /// They work on the free rows only, in the order of free_vertices() (nf x 3 arrays): ascending
+  /// vertex ids on the direct path, breadth first over the system's graph on the CG path (rows
+  /// whose neighbours lie close in memory, whatever the input's vertex order).
   const std::vector<int>& free_vertices() const;
   /// B <- A_ff^-1 B (nf x 3): one back-substitution with the factor (a solver on the CG path
   /// factors at its first call).
