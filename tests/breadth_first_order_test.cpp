@@ -42,6 +42,14 @@ RowMajorMatrix grid_matrix(int k, const std::vector<int>& label) {
   return A;
 }
 
+// 0..n-1 in a random order.
+std::vector<int> shuffled(int n, unsigned seed) {
+  std::vector<int> label(n);
+  std::iota(label.begin(), label.end(), 0);
+  std::shuffle(label.begin(), label.end(), std::mt19937(seed));
+  return label;
+}
+
 int bandwidth(const RowMajorMatrix& A) {
   int b = 0;
   for (int r = 0; r < A.outerSize(); ++r)
@@ -56,10 +64,7 @@ TEST(BreadthFirstOrder, BringsAShuffledGridsNeighboursTogether) {
   // order a row's neighbours are in its own or an adjacent level set of the search, and a grid's
   // level sets hold at most 2k points, so no neighbour is more than 4k rows away.
   const int k = 40, n = k * k;
-  std::vector<int> label(n);
-  std::iota(label.begin(), label.end(), 0);
-  std::shuffle(label.begin(), label.end(), std::mt19937(3));
-  const RowMajorMatrix A = grid_matrix(k, label);
+  const RowMajorMatrix A = grid_matrix(k, shuffled(n, 3));
   ASSERT_GT(bandwidth(A), n / 2);
 
   const std::vector<int> order = breadth_first_order(A);
@@ -77,10 +82,7 @@ TEST(BreadthFirstOrder, PermutesSymmetricallyEntryByEntry) {
   // Row and column `new` of P A P^T are row and column order[new] of A, every entry in place,
   // columns ascending; two separate grids (two connected parts) are both ordered.
   const int k = 12, n = k * k;
-  std::vector<int> label(n);
-  std::iota(label.begin(), label.end(), 0);
-  std::shuffle(label.begin(), label.end(), std::mt19937(5));
-  const RowMajorMatrix one = grid_matrix(k, label);
+  const RowMajorMatrix one = grid_matrix(k, shuffled(n, 5));
   std::vector<Eigen::Triplet<double>> entries;
   for (int r = 0; r < n; ++r)
     for (RowMajorMatrix::InnerIterator it(one, r); it; ++it) {

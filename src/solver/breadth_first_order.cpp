@@ -6,9 +6,6 @@ namespace gshell::detail {
 
 std::vector<int> breadth_first_order(const RowMajorMatrix& A) {
   const int n = static_cast<int>(A.rows());
-  const int* start = A.outerIndexPtr();
-  const int* end = A.innerNonZeroPtr(); // null when compressed
-  const int* col = A.innerIndexPtr();
   std::vector<char> reached(n, 0);
   std::vector<int> order;
   order.reserve(n);
@@ -17,14 +14,12 @@ std::vector<int> breadth_first_order(const RowMajorMatrix& A) {
     reached[seed] = 1;
     order.push_back(seed);
     // order grows while it is read: it is the search's queue.
-    for (std::size_t head = order.size() - 1; head < order.size(); ++head) {
-      const int r = order[head];
-      for (int e = start[r], e_end = end ? start[r] + end[r] : start[r + 1]; e < e_end; ++e)
-        if (const int c = col[e]; !reached[c]) {
+    for (std::size_t head = order.size() - 1; head < order.size(); ++head)
+      for (RowMajorMatrix::InnerIterator it(A, order[head]); it; ++it)
+        if (const int c = static_cast<int>(it.index()); !reached[c]) {
           reached[c] = 1;
           order.push_back(c);
         }
-    }
   }
   return order;
 }

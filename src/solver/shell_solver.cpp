@@ -539,18 +539,16 @@ void ShellSolver::Impl::order_rows_breadth_first() {
   };
   move_rows(fc_start, fc_col, fc_val);
   if (!gather_start.empty()) move_rows(gather_start, gather_slot); // kept only without the colouring
-  std::vector<int> new_row(nf), vertices(nf);
+  std::vector<int> vertices(nf);
   std::vector<double> diag(nf);
   for (int j = 0; j < nf; ++j) {
-    new_row[old_row[j]] = j;
     vertices[j] = free_vertices[old_row[j]];
     free_index[vertices[j]] = j;
     diag[j] = jacobi[old_row[j]];
   }
   free_vertices.swap(vertices);
   jacobi.swap(diag);
-  for (int& j : soft_free)
-    if (j >= 0) j = new_row[j];
+  for (std::size_t c = 0; c < soft_free.size(); ++c) soft_free[c] = free_index[soft.vertices[c]]; // as in setup
 }
 
 bool ShellSolver::Impl::anchored() const {
