@@ -602,6 +602,90 @@ TEST(ContactGuard, CandidateListOfAPartlyMovableTopFollowsItsMoves) {
   EXPECT_EQ(keys(guard.candidate_pairs()), expected);
 }
 
+TEST(ContactGuard, ASmallRegionTravellingAcrossALargeShellMeetsEveryPair) {
+  // A solver repairing one small spot of a large shell: the fixed triangles' search structure
+  // holds only those within reach of the spot, and is made again as the spot travels out of that
+  // reach, also for one long swept step; the candidate lists and the pairs cutting the step are
+  // those of brute force over the whole shell all the same.
+  ShellCase s = make_shell(test::plane(12, 0.2), 0.15);
+  int spot = 0;
+  for (int i = s.n; i < 2 * s.n; ++i) {
+    s.movable[i] = (s.X.row(i).head<2>() - Eigen::RowVector2d(-0.6, -0.6)).norm() < 0.2;
+    spot += s.movable[i];
+  }
+  ASSERT_GE(spot, 3);
+  ContactOptions o;
+  o.dhat = 0.04;
+  o.slack = 0.04;
+  ContactGuard guard(s.boundary, 2 * s.n, s.movable, o);
+  Eigen::MatrixXd X = s.X;
+  for (int step = 0; step < 8; ++step) {
+    SCOPED_TRACE(step);
+    guard.energy(X);
+    EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(s, X, o.dhat + o.slack));
+    for (int i = 0; i < 2 * s.n; ++i)
+      if (s.movable[i]) X.row(i) += Eigen::RowVector3d(0.13, 0.1, step % 2 ? -0.05 : 0.03);
+  }
+  EXPECT_GE(guard.fixed_patch_builds(), 2);
+
+  // From the start, one long step across the sheet, through the wavy top and the base.
+  ContactGuard fresh(s.boundary, 2 * s.n, s.movable, o);
+  X = s.X;
+  fresh.energy(X);
+  ASSERT_EQ(fresh.fixed_patch_builds(), 1);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(2 * s.n, 3);
+  for (int i = 0; i < 2 * s.n; ++i)
+    if (s.movable[i]) D.row(i) << 1.3, 1.1, 0.0;
+  std::vector<ContactPair> cutting;
+  fresh.step_bound(X, D, 1.0, &cutting);
+  EXPECT_EQ(fresh.fixed_patch_builds(), 2);
+  const PairCcdOptions ccd{o.keep_fraction, o.dhat};
+  std::set<std::vector<int>> expected;
+  for (const std::vector<int>& k : brute_force_pairs(s, X, 1e9)) {
+    PairPoints x, dx;
+    for (int i = 0; i < 4; ++i) {
+      x[i] = X.row(k[1 + i]).transpose();
+      dx[i] = D.row(k[1 + i]).transpose();
+    }
+    if (pair_step_bound(k[0] == 0 ? PairKind::PointTriangle : PairKind::EdgeEdge, x, dx, 1.0, ccd) < 1.0)
+      expected.insert(k);
+  }
+  EXPECT_FALSE(expected.empty());
+  EXPECT_EQ(keys(cutting), expected);
+}
+
+TEST(ContactGuard, OtherOptionsActAsAGuardMadeWithThem) {
+  // A solver weakening its barrier keeps its guard and sets a smaller dhat: every answer is then
+  // the one a guard made with those options gives, bit for bit, at the positions it had and at new ones.
+  ShellCase s = make_shell(test::plane(10, 0.3), 0.1);
+  for (int i = s.n; i < 2 * s.n; ++i) s.movable[i] = s.X(i, 0) < -0.5; // few movable: the fixed patch is cut
+  const Eigen::MatrixXd X0 = jitter(s.X, 0.03, 31), X1 = jitter(s.X, 0.03, 32);
+  ContactOptions strong, weak;
+  strong.dhat = 0.08;
+  weak.dhat = 0.03;
+  weak.keep_fraction = 0.2;
+  ContactGuard guard(s.boundary, 2 * s.n, s.movable, strong);
+  guard.energy(X0);
+  ContactGuard made(s.boundary, 2 * s.n, s.movable, weak);
+  guard.set_options(weak);
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(2 * s.n, 3);
+  for (int i = 0; i < 2 * s.n; ++i)
+    if (s.movable[i]) D.row(i) << 0.6, 0.1, -0.15;
+  for (const Eigen::MatrixXd* X : {&X0, &X1}) {
+    EXPECT_EQ(guard.energy(*X), made.energy(*X));
+    EXPECT_EQ(keys(guard.candidate_pairs()), keys(made.candidate_pairs()));
+    EXPECT_EQ(guard.min_distance(*X), made.min_distance(*X));
+    EXPECT_EQ(guard.step_bound(*X, D), made.step_bound(*X, D));
+    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(2 * s.n, 3), h = g;
+    guard.add_gradient(*X, 1.0, g);
+    made.add_gradient(*X, 1.0, h);
+    EXPECT_EQ(g, h);
+  }
+  ContactOptions bad = weak;
+  bad.dhat = -1;
+  EXPECT_THROW(guard.set_options(bad), InputError);
+}
+
 TEST(ContactGuard, SkipsFixedOnlyPairsAndExcludedTriangles) {
   // A base folded so tightly that base triangles come close to each other, and a jittered top.
   test::SimpleMesh base = test::plane(6, 0);

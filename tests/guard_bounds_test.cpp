@@ -214,6 +214,21 @@ TEST(VolumeBarrier, ZeroAboveTheThresholdInfiniteWhenFlat) {
   EXPECT_TRUE(std::isinf(barrier.energy(X)));
 }
 
+TEST(VolumeBarrier, AnotherThresholdActsAsABarrierMadeWithIt) {
+  VolumeBarrier barrier(unit_rest(), 0.2);
+  const VolumeBarrier made(unit_rest(), 0.05);
+  Eigen::MatrixXd X = unit_tet();
+  X(3, 2) = 0.03;
+  barrier.set_j_hat(0.05);
+  EXPECT_EQ(barrier.j_hat(), 0.05);
+  EXPECT_EQ(barrier.energy(X), made.energy(X));
+  X(3, 2) = 0.1; // above the new threshold, below the old one
+  EXPECT_EQ(barrier.energy(X), 0.0);
+  EXPECT_THROW(barrier.set_j_hat(0), InputError);
+  EXPECT_THROW(barrier.set_j_hat(1.5), InputError);
+  EXPECT_EQ(barrier.j_hat(), 0.05);
+}
+
 TEST(VolumeBarrier, GradientMatchesFiniteDifferences) {
   std::mt19937 rng(3);
   const VolumeBarrier barrier(unit_rest(), 0.5);

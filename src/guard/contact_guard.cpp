@@ -58,10 +58,23 @@ struct ContactGuard::Impl {
   // The fixed patch of the broad phase, kept while its vertices stay where they were.
   detail::ContactPatch fixed_patch;
   std::vector<Vec3> fixed_patch_at; // positions of fixed_patch_vertices() when it was made
+  bool have_fixed_patch = false;
+  // A solver that moves a small region of a large shell (the repair of a few thin spots) would
+  // spend most of a build on the fixed patch's tree over the whole shell. Where the movable
+  // triangles are few the fixed patch holds only the fixed triangles within `reach` of them: those
+  // whose boxes meet a movable triangle's box grown by `reach` around the corners' positions
+  // `reach_at` when it was cut. It serves every search whose movable boxes stay inside those
+  // grown boxes, and is cut again (reach doubled) when one would leave them.
+  bool cut_to_reach = false;
+  double reach = std::numeric_limits<double>::infinity();
+  std::vector<int> reach_vertices; // corners of the movable triangles, ascending
+  std::vector<Vec3> reach_at;      // their positions at the cut, in that order
+  int fixed_patch_cuts = 0;
   double drift = 0; // largest displacement of a boundary vertex from built_at, at x
 
   std::vector<Vec3> x; // the last X seen, packed (a pair's point is one cache line)
   bool have_x = false;
+  bool stale = true; // the candidate list must be made at the next positions (new options)
   std::vector<char> on_boundary; // per vertex: used by a boundary triangle
 
   // The last pass over the list, at x: pairs closer than dhat in list order.
@@ -78,17 +91,82 @@ struct ContactGuard::Impl {
 
   Impl(const ShellBoundary& boundary, int num_vertices, const std::vector<char>& movable, const ContactOptions& o,
        const std::vector<char>& excluded)
-      : primitives(boundary, num_vertices, movable, excluded), options(o) {
+      : primitives(boundary, num_vertices, movable, excluded) {
+    on_boundary.assign(num_vertices, 0);
+    for (int v : primitives.boundary_vertices()) on_boundary[v] = 1;
+    // Cutting costs a box test per fixed triangle and pays when it leaves most of them out.
+    cut_to_reach = 8 * primitives.movable_triangles().size() <= primitives.fixed_triangles().size();
+    if (cut_to_reach) {
+      std::vector<char> corner(num_vertices, 0);
+      for (int t : primitives.movable_triangles())
+        for (int v : primitives.triangle(t)) corner[v] = 1;
+      for (int v = 0; v < num_vertices; ++v)
+        if (corner[v]) reach_vertices.push_back(v);
+    }
+    set_options(o);
+  }
+
+  // Checks and takes the options; the candidate list and the fixed patch are made afresh at the
+  // next positions (their reach depends on the radius).
+  void set_options(const ContactOptions& o) {
     if (!(o.dhat > 0) || !std::isfinite(o.dhat))
       throw InputError("ContactGuard: dhat must be positive and finite (got " + std::to_string(o.dhat) + ")");
     if (!(o.slack >= 0) || !std::isfinite(o.slack))
       throw InputError("ContactGuard: slack must be >= 0 and finite (got " + std::to_string(o.slack) + ")");
     if (!(o.keep_fraction > 0 && o.keep_fraction < 1))
       throw InputError("ContactGuard: keep_fraction must be in (0, 1) (got " + std::to_string(o.keep_fraction) + ")");
+    options = o;
     if (options.slack == 0) options.slack = options.dhat;
     radius = options.dhat + options.slack;
-    on_boundary.assign(num_vertices, 0);
-    for (int v : primitives.boundary_vertices()) on_boundary[v] = 1;
+    reach = cut_to_reach ? 4 * radius : std::numeric_limits<double>::infinity();
+    have_fixed_patch = false;
+    stale = true;
+  }
+
+  // Whether the fixed patch holds every fixed triangle a movable triangle can meet when each
+  // reach vertex k, at x, grows its box by at most extent(k) beyond radius / 2 (0 at a build; a
+  // swept step's motion in step_bound).
+  template <class Extent> bool fixed_patch_covers(Extent&& extent) const {
+    if (!have_fixed_patch) return false;
+    if (!cut_to_reach) return true;
+    for (std::size_t k = 0; k < reach_vertices.size(); ++k)
+      if ((x[reach_vertices[k]] - reach_at[k]).lpNorm<Eigen::Infinity>() + extent(k) > reach) return false;
+    return true;
+  }
+
+  // The fixed patch, grown by radius / 2 around x; cut to the reach vertices' boxes grown by
+  // radius / 2 + reach (reach raised to at least twice the largest extent) where cut_to_reach.
+  template <class Extent> void make_fixed_patch(const std::vector<Eigen::AlignedBox3d>& box, Extent&& extent) {
+    const std::vector<int>& fixed_vertices = primitives.fixed_patch_vertices();
+    if (!cut_to_reach) {
+      fixed_patch = primitives.patch(false, box);
+    } else {
+      double largest = 0;
+      for (std::size_t k = 0; k < reach_vertices.size(); ++k) largest = std::max(largest, extent(k));
+      if (have_fixed_patch) reach *= 2; // the region moved out of it: cut wider, less often
+      reach = std::max(reach, 2 * largest);
+      reach_at.resize(reach_vertices.size());
+      std::vector<Eigen::AlignedBox3d> grown = box;
+      const Vec3 grow = Vec3::Constant(radius / 2 + reach);
+      for (std::size_t k = 0; k < reach_vertices.size(); ++k) {
+        const int v = reach_vertices[k];
+        reach_at[k] = x[v];
+        grown[v] = Eigen::AlignedBox3d(x[v] - grow, x[v] + grow);
+      }
+      const std::vector<int>& movable = primitives.movable_triangles();
+      std::vector<Eigen::AlignedBox3d> reach_box(movable.size());
+      for (std::size_t i = 0; i < movable.size(); ++i) {
+        const auto& c = primitives.triangle(movable[i]);
+        reach_box[i] = grown[c[0]];
+        reach_box[i].extend(grown[c[1]]).extend(grown[c[2]]);
+      }
+      const detail::FaceBvh reach_tree(reach_box);
+      fixed_patch = primitives.patch(false, box, &reach_tree);
+    }
+    fixed_patch_at.resize(fixed_vertices.size());
+    for (std::size_t i = 0; i < fixed_vertices.size(); ++i) fixed_patch_at[i] = x[fixed_vertices[i]];
+    have_fixed_patch = true;
+    ++fixed_patch_cuts;
   }
 
   PairPoints points(const Ids& ids) const { return {x[ids[0]], x[ids[1]], x[ids[2]], x[ids[3]]}; }
@@ -136,11 +214,11 @@ struct ContactGuard::Impl {
           a.drift2 = larger(a.drift2, b.drift2);
           return a;
         });
-    if (have_x && !change.changed) return;
+    if (have_x && !change.changed && !stale) return;
     have_x = true;
     scanned = false;
     drift = std::sqrt(change.drift2);
-    if (built && drift <= options.slack / 2) return;
+    if (built && !stale && drift <= options.slack / 2) return;
     build();
   }
 
@@ -159,11 +237,9 @@ struct ContactGuard::Impl {
     bool fixed_moved = fixed_patch_at.size() != fixed_vertices.size();
     for (std::size_t i = 0; i < fixed_vertices.size() && !fixed_moved; ++i)
       fixed_moved = x[fixed_vertices[i]] != fixed_patch_at[i];
-    if (fixed_moved) {
-      fixed_patch = primitives.patch(false, box);
-      fixed_patch_at.resize(fixed_vertices.size());
-      for (std::size_t i = 0; i < fixed_vertices.size(); ++i) fixed_patch_at[i] = x[fixed_vertices[i]];
-    }
+    auto at_rest = [](std::size_t) { return 0.0; };
+    if (fixed_moved) have_fixed_patch = false;
+    if (!fixed_patch_covers(at_rest)) make_fixed_patch(box, at_rest);
     tbb::enumerable_thread_specific<std::array<std::vector<Found>, 2>> found;
     const double radius2 = radius * radius;
     primitives.for_each_pair(primitives.patch(true, box), fixed_patch, [&](PairKind kind, int a, int b, const Ids& ids) {
@@ -187,6 +263,7 @@ struct ContactGuard::Impl {
     built_at = x;
     drift = 0;
     ++builds;
+    stale = false;
     scanned = false;
   }
 
@@ -392,8 +469,19 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
     box[v].max() += grow;
   }
   auto visit = [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); };
-  if (fixed_still) m.primitives.for_each_pair(m.primitives.patch(true, box), m.fixed_patch, visit);
-  else m.primitives.for_each_pair(box, visit);
+  if (fixed_still) {
+    // The swept boxes stay within the fixed patch's reach, or it is cut again around them.
+    auto sweep = [&](std::size_t k) { return listed * (dx[m.reach_vertices[k]]).lpNorm<Eigen::Infinity>(); };
+    if (!m.fixed_patch_covers(sweep)) {
+      std::vector<Eigen::AlignedBox3d> at_rest(m.primitives.num_vertices());
+      const Vec3 half = Vec3::Constant(m.radius / 2);
+      for (int v : verts) at_rest[v] = Eigen::AlignedBox3d(m.x[v] - half, m.x[v] + half);
+      m.make_fixed_patch(at_rest, sweep);
+    }
+    m.primitives.for_each_pair(m.primitives.patch(true, box), m.fixed_patch, visit);
+  } else {
+    m.primitives.for_each_pair(box, visit);
+  }
   return result();
 }
 
@@ -411,6 +499,10 @@ std::vector<ContactPair> ContactGuard::candidate_pairs() const {
   return out;
 }
 
+void ContactGuard::set_options(const ContactOptions& options) { impl_->set_options(options); }
+
 int ContactGuard::candidate_builds() const { return impl_->builds; }
+
+int ContactGuard::fixed_patch_builds() const { return impl_->fixed_patch_cuts; }
 
 } // namespace gshell

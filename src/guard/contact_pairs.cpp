@@ -84,18 +84,30 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
     if (in_fixed_patch[v]) fixed_patch_vertices_.push_back(v);
 }
 
-ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box) const {
-  const std::vector<int>& tris = patch_triangles_[movable ? 1 : 0];
+ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box,
+                                      const FaceBvh* reach) const {
+  const std::vector<int>& all = patch_triangles_[movable ? 1 : 0];
+  auto triangle_box = [&](int t) {
+    const auto& c = triangles_[t];
+    Eigen::AlignedBox3d b = vertex_box[c[0]];
+    return b.extend(vertex_box[c[1]]).extend(vertex_box[c[2]]);
+  };
+  std::vector<int> kept;
+  if (reach) {
+    std::vector<char> meets(all.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 4096), [&](const auto& r) {
+      for (std::size_t i = r.begin(); i < r.end(); ++i) meets[i] = reach->some_face_box_meets(triangle_box(all[i]));
+    });
+    for (std::size_t i = 0; i < all.size(); ++i)
+      if (meets[i]) kept.push_back(all[i]);
+  }
+  const std::vector<int>& tris = reach ? kept : all;
   const int m = static_cast<int>(tris.size());
   ContactPatch p;
   if (m == 0) return p;
   std::vector<Eigen::AlignedBox3d> box(m);
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
-    for (int i = r.begin(); i < r.end(); ++i) {
-      const auto& c = triangles_[tris[i]];
-      box[i] = vertex_box[c[0]];
-      box[i].extend(vertex_box[c[1]]).extend(vertex_box[c[2]]);
-    }
+    for (int i = r.begin(); i < r.end(); ++i) box[i] = triangle_box(tris[i]);
   });
   p.tree = FaceBvh(box, kLeafFaces);
   const std::vector<int>& local = p.tree.faces_in_leaf_order();

@@ -14,7 +14,8 @@
 // fixed ones. A pair of the module has a movable vertex, so its owners are both movable or one
 // movable and one fixed: the movable patch is joined with itself and with the fixed patch, never
 // the fixed patch with itself. The fixed patch can be kept while the fixed vertices stay put
-// (a solver that moves a small region joins only that region against it).
+// (a solver that moves a small region joins only that region against it), and cut down to the
+// fixed triangles within reach of a small region (patch's `reach`; docs/contact.md).
 #include "geometry/item_groups.h"
 #include "quality/face_bvh.h"
 
@@ -131,10 +132,20 @@ public:
     return {edges_[e][0], edges_[e][1], edges_[f][0], edges_[f][1]};
   }
 
+  /// Triangles with a movable corner (the movable patch's), ascending.
+  const std::vector<int>& movable_triangles() const { return patch_triangles_[1]; }
+  /// Triangles with no movable corner (the fixed patch's), ascending.
+  const std::vector<int>& fixed_triangles() const { return patch_triangles_[0]; }
+  /// Corners of triangle t.
+  const std::array<int, 3>& triangle(int t) const { return triangles_[t]; }
+
   /// The movable or the fixed patch, its primitives' boxes from vertex_box (a vertex's box is
   /// vertex_box[v], an edge's or a triangle's the union of its vertices' boxes; only the
-  /// patch's vertices are read).
-  ContactPatch patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box) const;
+  /// patch's vertices are read). With `reach` (a tree over boxes), only the patch's triangles
+  /// whose boxes meet one of reach's: a fixed patch cut down to what a small movable region can
+  /// meet.
+  ContactPatch patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box,
+                     const FaceBvh* reach = nullptr) const;
 
   /// Calls visit(kind, a, b, vertices) for every pair of the module (no shared vertex, not all
   /// four vertices fixed, nothing excluded: contact_guard.h) whose boxes meet: (vertex a,

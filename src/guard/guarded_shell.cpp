@@ -71,8 +71,7 @@ struct Mended {
 // the barriers' strength, only on the step bounds, so every round's result is as valid as its
 // start.
 void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const GuardOptions& options,
-           const RestTets& local, const std::vector<int>& held, const ShellBoundary& boundary,
-           const GuardedSolverParameters& repair, const GuardedSolveOptions& solve, Mended& out) {
+           GuardedSolver& solver, const GuardedSolveOptions& solve, Mended& out) {
   Eigen::MatrixXd& X = out.X;
   GuardOptions weak = options;
   double energy = out.solve.final_energy;
@@ -83,15 +82,16 @@ void relax(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double eta, const
     weak.contact_weight /= 10;
     weak.contact_distance /= 2;
     GuardedSolverParameters q = absolute_guard_parameters(V, F, eta, weak);
-    q.skip_tets = repair.skip_tets;
-    q.excluded_triangles = repair.excluded_triangles;
+    q.skip_tets = solver.parameters().skip_tets;
+    q.excluded_triangles = solver.parameters().excluded_triangles;
     // Its weaker barriers let every step run close to the limits, so most are cut; holding what
     // cuts them cost cheese at 0.05 1.6 -> 9.5 s here for 1.035 -> 1.030 stretch ratio.
     q.hold_rounds = 0;
-    GuardedSolver relaxed(local, static_cast<int>(X.rows()), held, boundary, q);
-    out.factor_seconds += relaxed.shell_solver().factor_seconds();
+    // The repair's solver with the weaker barriers: its system and contact primitives serve as
+    // they are (a new solver spent 0.1 s per 150K vertices making the primitives again).
+    solver.set_parameters(std::move(q));
     Eigen::MatrixXd Y = X;
-    const GuardedSolveResult r = relaxed.solve(Y, solve);
+    const GuardedSolveResult r = solver.solve(Y, solve);
     out.relax.iterations += r.iterations;
     out.relax.seconds += r.seconds;
     if (!(r.final_energy < energy)) break;
@@ -217,7 +217,7 @@ Mended mend(const MendInputs& in, const std::vector<char>& region, const Eigen::
       repair_options.max_iterations = std::max(in.solve.max_iterations, static_cast<int>(affordable));
     }
     out.solve = repair.solve(out.X, repair_options);
-    relax(in.V, in.F, in.eta, in.options, local, held, in.boundary, q, repair_options, out);
+    relax(in.V, in.F, in.eta, in.options, repair, repair_options, out);
   }
   if (in.lift_checker) {
     const auto lift_start = Clock::now();

@@ -53,8 +53,17 @@ struct GuardedSolver::Impl {
   Impl(const RestTets& rest, int num_vertices, const std::vector<int>& fixed_vertices, const ShellBoundary& boundary,
        GuardedSolverParameters parameters)
       : arap(rest, num_vertices, fixed_vertices), volume(rest, parameters.j_hat, parameters.skip_tets),
-        p(std::move(parameters)), T(rest.T), N(num_vertices), fixed(fixed_vertices), free(arap.free_vertices()),
-        free_index(num_vertices, -1) {
+        p(checked(std::move(parameters))), T(rest.T), N(num_vertices), fixed(fixed_vertices),
+        free(arap.free_vertices()), free_index(num_vertices, -1) {
+    for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
+    if (p.contact_distance > 0) {
+      std::vector<char> movable(N, 0);
+      for (int v : free) movable[v] = 1;
+      contact = std::make_unique<ContactGuard>(boundary, N, std::move(movable), contact_options(p), p.excluded_triangles);
+    }
+  }
+
+  static GuardedSolverParameters checked(GuardedSolverParameters p) {
     if (!(p.keep_fraction > 0 && p.keep_fraction < 1))
       throw InputError("GuardedSolver: keep_fraction must be in (0, 1)");
     if (!(p.volume_weight > 0)) throw InputError("GuardedSolver: volume_weight must be positive");
@@ -63,16 +72,16 @@ struct GuardedSolver::Impl {
     if (p.cg_iterations < 0 || !(p.cg_tolerance > 0)) throw InputError("GuardedSolver: bad CG parameters");
     if (p.hold_rounds < 0 || !(p.hold_below > 0 && p.hold_below <= 1))
       throw InputError("GuardedSolver: hold_rounds must be >= 0 and hold_below in (0, 1]");
-    for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
-    if (p.contact_distance > 0) {
-      if (!(p.contact_stiffness > 0)) throw InputError("GuardedSolver: contact_stiffness must be positive");
-      std::vector<char> movable(N, 0);
-      for (int v : free) movable[v] = 1;
-      ContactOptions options;
-      options.dhat = p.contact_distance;
-      options.keep_fraction = p.keep_fraction;
-      contact = std::make_unique<ContactGuard>(boundary, N, std::move(movable), options, p.excluded_triangles);
-    }
+    if (p.contact_distance > 0 && !(p.contact_stiffness > 0))
+      throw InputError("GuardedSolver: contact_stiffness must be positive");
+    return p;
+  }
+
+  static ContactOptions contact_options(const GuardedSolverParameters& p) {
+    ContactOptions options;
+    options.dhat = p.contact_distance;
+    options.keep_fraction = p.keep_fraction;
+    return options;
   }
 
   int nf() const { return static_cast<int>(free.size()); }
@@ -372,6 +381,18 @@ GuardedSolver::GuardedSolver(const RestTets& rest, int num_vertices, const std::
 GuardedSolver::~GuardedSolver() = default;
 GuardedSolver::GuardedSolver(GuardedSolver&&) noexcept = default;
 GuardedSolver& GuardedSolver::operator=(GuardedSolver&&) noexcept = default;
+
+void GuardedSolver::set_parameters(GuardedSolverParameters parameters) {
+  Impl& m = *impl_;
+  parameters = Impl::checked(std::move(parameters));
+  if (parameters.skip_tets != m.p.skip_tets || parameters.excluded_triangles != m.p.excluded_triangles)
+    throw InputError("GuardedSolver::set_parameters: skip_tets and excluded_triangles must stay as at construction");
+  if ((parameters.contact_distance > 0) != (m.contact != nullptr))
+    throw InputError("GuardedSolver::set_parameters: contact_distance must stay positive, or zero, as at construction");
+  m.volume.set_j_hat(parameters.j_hat);
+  if (m.contact) m.contact->set_options(Impl::contact_options(parameters));
+  m.p = std::move(parameters);
+}
 
 const ShellSolver& GuardedSolver::shell_solver() const { return impl_->arap; }
 const VolumeBarrier& GuardedSolver::volume_barrier() const { return impl_->volume; }

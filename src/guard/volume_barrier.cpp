@@ -30,7 +30,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 VolumeBarrier::VolumeBarrier(const RestTets& rest, double j_hat, std::vector<char> skip)
     : T_(rest.T), inv_det_rest_(rest.size()), weight_(rest.size()), skip_(std::move(skip)), j_hat_(j_hat) {
-  if (!(j_hat > 0 && j_hat <= 1)) throw InputError("VolumeBarrier: j_hat must be in (0, 1] (got " + std::to_string(j_hat) + ")");
+  set_j_hat(j_hat);
   if (!skip_.empty() && static_cast<int>(skip_.size()) != rest.size())
     throw InputError("VolumeBarrier: expected one skip flag per tet");
   if (skip_.empty()) skip_.assign(rest.size(), 0);
@@ -38,6 +38,11 @@ VolumeBarrier::VolumeBarrier(const RestTets& rest, double j_hat, std::vector<cha
     inv_det_rest_[t] = rest.dm_inv(t).determinant();
     weight_[t] = rest.volume[t];
   }
+}
+
+void VolumeBarrier::set_j_hat(double j_hat) {
+  if (!(j_hat > 0 && j_hat <= 1)) throw InputError("VolumeBarrier: j_hat must be in (0, 1] (got " + std::to_string(j_hat) + ")");
+  j_hat_ = j_hat;
 }
 
 double VolumeBarrier::relative_volume(const Eigen::MatrixXd& X, int t, Eigen::Vector3d* grad) const {

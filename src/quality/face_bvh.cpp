@@ -224,6 +224,37 @@ Eigen::AlignedBox3d FaceBvh::face_box(const Eigen::MatrixXd& V, const Eigen::Mat
   return box;
 }
 
+bool FaceBvh::some_face_box_meets(const Eigen::AlignedBox3d& box) const {
+  if (nodes_.empty()) return false;
+  FloatBox b;
+  for (int d = 0; d < 3; ++d) {
+    b.lo[d] = float_at_most(box.min()[d]);
+    b.hi[d] = float_at_least(box.max()[d]);
+  }
+  // Depth first; a path holds one pending right child per level. A tree deeper than the stack
+  // (none is: Morton splits end within 64 levels and leaves' slot splits within 32 more) would
+  // only make the answer a conservative true.
+  constexpr int kStack = 128;
+  int stack[kStack];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const int i = stack[--top];
+    const Node& node = nodes_[i];
+    if (!float_boxes_meet(FloatBox{{node.lo[0], node.lo[1], node.lo[2]}, {node.hi[0], node.hi[1], node.hi[2]}}, b))
+      continue;
+    if (!node.leaf()) {
+      if (top + 2 > kStack) return true;
+      stack[top++] = node.right;
+      stack[top++] = i + 1; // the left child
+      continue;
+    }
+    for (int s = node.begin; s < node.end; ++s)
+      if (float_boxes_meet(slot_float_box_[s], b)) return true;
+  }
+  return false;
+}
+
 void FaceBvh::set_float_box(int slot, const Eigen::AlignedBox3d& box) {
   for (int d = 0; d < 3; ++d) {
     slot_float_box_[slot].lo[d] = float_at_most(box.min()[d]);

@@ -88,6 +88,11 @@ public:
   /// whose boxes meet. visit runs concurrently from several threads.
   template <class Visit> void for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const;
 
+  /// Whether some face's box meets `box` (closed boxes), by the float covers of the boxes: true
+  /// also for a few boxes that only come within float rounding of a face's, never false for one
+  /// that meets. Any tree but an empty one.
+  bool some_face_box_meets(const Eigen::AlignedBox3d& box) const;
+
   /// Squared distance from q to the surface (model units squared), or bound2 if that is smaller.
   /// Needs Use::distances.
   /// A good bound2 (e.g. the squared distance to a known point of the surface) prunes the search.

@@ -61,6 +61,10 @@ public:
   ContactGuard(const ShellBoundary& boundary, int num_vertices, std::vector<char> movable,
                const ContactOptions& options, std::vector<char> excluded_triangles = {});
   ~ContactGuard();
+  /// Other options for the following calls (a solver weakening its barrier after a first solve):
+  /// the primitives are kept, the candidate list is made afresh. \throws InputError as the
+  /// constructor on bad options.
+  void set_options(const ContactOptions& options);
   ContactGuard(ContactGuard&&) noexcept;
   ContactGuard& operator=(ContactGuard&&) noexcept;
 
@@ -105,6 +109,10 @@ public:
   std::vector<ContactPair> candidate_pairs() const;
   /// How often the candidate list was built so far.
   int candidate_builds() const;
+  /// How often the search structure of the fixed triangles was made so far: at the first build,
+  /// when a fixed vertex has moved, and, where the movable triangles are few and it holds only
+  /// the fixed triangles within reach of them, when they move out of that reach.
+  int fixed_patch_builds() const;
 
 private:
   struct Impl;

@@ -145,6 +145,13 @@ public:
   GuardedSolveResult solve(Eigen::MatrixXd& X, const GuardedSolveOptions& options = {},
                            const Eigen::MatrixXd& fixed_targets = {});
 
+  /// Other parameters for the following solves, e.g. weaker barriers after a first solve (as
+  /// generation's relaxation rounds do): the ARAP system and the contact primitives are kept, a
+  /// fraction of the cost of a new solver on a large shell. skip_tets and excluded_triangles must
+  /// be those of the construction, and contact_distance positive exactly when it was.
+  /// \throws InputError on bad parameters (as the constructor) or on a change of those three.
+  void set_parameters(GuardedSolverParameters parameters);
+
   /// E_guard at X (+infinity when X is not valid for the barriers).
   /// \throws InputError when X is not num_vertices x 3.
   double energy(const Eigen::MatrixXd& X);

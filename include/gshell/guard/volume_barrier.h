@@ -52,6 +52,8 @@ public:
 
   const std::vector<char>& skip() const { return skip_; }
   double j_hat() const { return j_hat_; }
+  /// Another j_hat (in (0, 1], else InputError) for the following evaluations.
+  void set_j_hat(double j_hat);
 
 private:
   // J of tet t at X and, if wanted, dJ/dx of its 4 corners.

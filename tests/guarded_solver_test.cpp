@@ -1,0 +1,97 @@
+// The guarded solver (guard/guarded_solver.h) given other parameters after a solve, as
+// generation's relaxation rounds do: it must solve exactly as a solver made with them.
+#include <gshell/error.h>
+#include <gshell/geometry/builtin_mesh.h>
+#include <gshell/guard/guarded_solver.h>
+#include <gshell/quality/shell_boundary.h>
+#include <gshell/shell/ideal_prisms.h>
+#include <gshell/shell/offset_shell.h>
+#include <gshell/shell/prism_tets.h>
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+using namespace gshell;
+
+namespace {
+
+// A sphere's shell started at a twentieth of its thickness (valid, every tet inside the volume
+// barrier), with the tops of a cap around +z free and everything else held (a repaired region).
+struct CapRepair {
+  TriMesh base = make_sphere(3);
+  int n = static_cast<int>(base.V.rows());
+  double eta = 0.2;
+  RestTets rest = prism_rest_tets(base.F, n, normal_prisms(base.V, base.F, eta));
+  ShellBoundary boundary = shell_boundary(base.F, n);
+  std::vector<int> fixed;
+  Eigen::MatrixXd X;
+
+  CapRepair() {
+    for (int i = 0; i < n; ++i) fixed.push_back(i);
+    for (int i = 0; i < n; ++i)
+      if (base.V(i, 2) < 0.8) fixed.push_back(n + i);
+    X.resize(2 * n, 3);
+    X << base.V, offset_top(base.V, base.F, eta / 20);
+  }
+
+  GuardedSolverParameters parameters(double j_hat, double weight, double distance) const {
+    GuardedSolverParameters p;
+    p.j_hat = j_hat;
+    p.volume_weight = weight;
+    p.contact_distance = distance;
+    p.contact_stiffness = weight;
+    p.local_rings = 2;
+    return p;
+  }
+};
+
+} // namespace
+
+TEST(GuardedSolver, OtherParametersSolveAsASolverMadeWithThem) {
+  const CapRepair c;
+  const GuardedSolverParameters strong = c.parameters(0.1, 1.0, 0.02), weak = c.parameters(0.03, 0.1, 0.01);
+  GuardedSolveOptions options;
+  options.max_iterations = 8;
+  GuardedSolver solver(c.rest, 2 * c.n, c.fixed, c.boundary, strong);
+  Eigen::MatrixXd X = c.X;
+  const GuardedSolveResult first = solver.solve(X, options);
+  ASSERT_GT(first.iterations, 0);
+  ASSERT_GT(first.active_tets, 0);
+  ASSERT_GT(first.active_contacts, 0);
+  ASSERT_NE(X, c.X);
+
+  solver.set_parameters(weak);
+  EXPECT_EQ(solver.volume_barrier().j_hat(), weak.j_hat);
+  GuardedSolver made(c.rest, 2 * c.n, c.fixed, c.boundary, weak);
+  Eigen::MatrixXd Y = X, Z = X;
+  const GuardedSolveResult kept = solver.solve(Y, options), fresh = made.solve(Z, options);
+  EXPECT_GT(kept.iterations, 0);
+  EXPECT_EQ(kept.energy, fresh.energy);
+  EXPECT_EQ(Y, Z);
+  EXPECT_EQ(solver.energy(Y), made.energy(Z));
+}
+
+TEST(GuardedSolver, ParametersThatChangeWhatIsKeptAreInputErrors) {
+  const CapRepair c;
+  const GuardedSolverParameters p = c.parameters(0.1, 1.0, 0.02);
+  GuardedSolver solver(c.rest, 2 * c.n, c.fixed, c.boundary, p);
+  GuardedSolverParameters q = p;
+  q.skip_tets.assign(c.rest.size(), 0);
+  q.skip_tets[0] = 1;
+  EXPECT_THROW(solver.set_parameters(q), InputError);
+  q = p;
+  q.excluded_triangles.assign(c.boundary.size(), 0);
+  EXPECT_THROW(solver.set_parameters(q), InputError);
+  q = p;
+  q.contact_distance = 0;
+  EXPECT_THROW(solver.set_parameters(q), InputError);
+  q = p;
+  q.j_hat = 2;
+  EXPECT_THROW(solver.set_parameters(q), InputError);
+  q = p;
+  q.keep_fraction = 1;
+  EXPECT_THROW(solver.set_parameters(q), InputError);
+  EXPECT_EQ(solver.parameters().j_hat, p.j_hat); // left as it was
+  EXPECT_EQ(solver.parameters().keep_fraction, p.keep_fraction);
+}
