@@ -146,19 +146,17 @@ struct ContactGuard::Impl {
       if (have_fixed_patch) reach *= 2; // the region moved out of it: cut wider, less often
       reach = std::max(reach, 2 * largest);
       reach_at.resize(reach_vertices.size());
-      std::vector<Eigen::AlignedBox3d> grown = box;
+      for (std::size_t k = 0; k < reach_vertices.size(); ++k) reach_at[k] = x[reach_vertices[k]];
+      // Every corner of a movable triangle is a reach vertex: its box grown by reach around x.
       const Vec3 grow = Vec3::Constant(radius / 2 + reach);
-      for (std::size_t k = 0; k < reach_vertices.size(); ++k) {
-        const int v = reach_vertices[k];
-        reach_at[k] = x[v];
-        grown[v] = Eigen::AlignedBox3d(x[v] - grow, x[v] + grow);
-      }
       const std::vector<int>& movable = primitives.movable_triangles();
       std::vector<Eigen::AlignedBox3d> reach_box(movable.size());
       for (std::size_t i = 0; i < movable.size(); ++i) {
         const auto& c = primitives.triangle(movable[i]);
-        reach_box[i] = grown[c[0]];
-        reach_box[i].extend(grown[c[1]]).extend(grown[c[2]]);
+        reach_box[i] = Eigen::AlignedBox3d(x[c[0]]);
+        reach_box[i].extend(x[c[1]]).extend(x[c[2]]);
+        reach_box[i].min() -= grow;
+        reach_box[i].max() += grow;
       }
       const detail::FaceBvh reach_tree(reach_box);
       fixed_patch = primitives.patch(false, box, &reach_tree);
