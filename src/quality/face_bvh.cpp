@@ -231,9 +231,9 @@ bool FaceBvh::some_face_box_meets(const Eigen::AlignedBox3d& box) const {
     b.lo[d] = float_at_most(box.min()[d]);
     b.hi[d] = float_at_least(box.max()[d]);
   }
-  // Depth first; a path holds one pending right child per level. A tree deeper than the stack
-  // (none is: Morton splits end within 64 levels and leaves' slot splits within 32 more) would
-  // only make the answer a conservative true.
+  // Depth first, one pending right child per level of the path. A path splits at most 64 times
+  // by a bit of the 64-bit codes and 31 times by halving equal codes, so the stack never fills;
+  // if it did, the answer would only be a conservative true.
   constexpr int kStack = 128;
   int stack[kStack];
   int top = 0;

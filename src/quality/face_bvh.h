@@ -90,7 +90,7 @@ public:
 
   /// Whether some face's box meets `box` (closed boxes), by the float covers of the boxes: true
   /// also for a few boxes that only come within float rounding of a face's, never false for one
-  /// that meets. Any tree but an empty one.
+  /// that meets. An empty tree meets nothing.
   bool some_face_box_meets(const Eigen::AlignedBox3d& box) const;
 
   /// Squared distance from q to the surface (model units squared), or bound2 if that is smaller.
