@@ -450,6 +450,24 @@ TEST(TetStepBound, ManyTetsAtOnceGiveTheLeastOfTheirCubicsRoots) {
   }
 }
 
+TEST(TetStepBound, FewTetsAmongManyVerticesGiveTheSameBound) {
+  // A guard repairing a small region of a large shell bounds a few tets over many vertices; they
+  // then read X and D where they are instead of an interleaved copy: same bound, same tet.
+  std::mt19937 rng(10);
+  const int K = 200;
+  const TetSoup soup = random_tets(K, 0.3, rng);
+  const TetStepBound compact = tet_step_bound(soup.T, soup.X, soup.D, 0.1, 0.8);
+  ASSERT_LT(compact.step, 0.8);
+  const int extra = 10 * static_cast<int>(soup.X.rows()); // vertices no tet uses, first
+  Eigen::MatrixXd X = Eigen::MatrixXd::Random(extra + soup.X.rows(), 3), D = X;
+  X.bottomRows(soup.X.rows()) = soup.X;
+  D.bottomRows(soup.D.rows()) = soup.D;
+  const Eigen::MatrixXi T = soup.T.array() + extra;
+  const TetStepBound spread = tet_step_bound(T, X, D, 0.1, 0.8);
+  EXPECT_EQ(spread.step, compact.step);
+  EXPECT_EQ(spread.tet, compact.tet);
+}
+
 TEST(ExtrusionDirections, ConvexSurfacesKeepTheirNormals) {
   const TriMesh sphere = make_sphere(2);
   const ExtrusionDirections d = extrusion_directions(sphere.V, sphere.F);

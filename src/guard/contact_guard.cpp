@@ -70,6 +70,10 @@ struct ContactGuard::Impl {
   std::vector<int> reach_vertices; // corners of the movable triangles, ascending
   std::vector<Vec3> reach_at;      // their positions at the cut, in that order
   int fixed_patch_cuts = 0;
+  std::vector<char> in_fixed_patch; // per vertex: a corner of a fixed triangle
+  // step_bound's per-vertex motions (zero between calls) and swept boxes (read only where written).
+  std::vector<Vec3> step_dx;
+  std::vector<Eigen::AlignedBox3d> step_box;
   double drift = 0; // largest displacement of a boundary vertex from built_at, at x
 
   std::vector<Vec3> x; // the last X seen, packed (a pair's point is one cache line)
@@ -94,6 +98,8 @@ struct ContactGuard::Impl {
       : primitives(boundary, num_vertices, movable, excluded) {
     on_boundary.assign(num_vertices, 0);
     for (int v : primitives.boundary_vertices()) on_boundary[v] = 1;
+    in_fixed_patch.assign(num_vertices, 0);
+    for (int v : primitives.fixed_patch_vertices()) in_fixed_patch[v] = 1;
     // Cutting costs a box test per fixed triangle and pays when it leaves most of them out.
     cut_to_reach = 8 * primitives.movable_triangles().size() <= primitives.fixed_triangles().size();
     if (cut_to_reach) {
@@ -387,18 +393,36 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   m.check_shape(D, "D");
   if (!(max_step > 0)) return 0;
   const std::vector<int>& verts = m.primitives.boundary_vertices();
-  std::vector<Vec3> dx(m.primitives.num_vertices(), Vec3::Zero());
-  for (int v : verts) dx[v] = D.row(v).transpose();
-  m.check_finite(dx, "D");
+  // The boundary vertices D moves, ascending, and their motions in dx (zero elsewhere, kept between
+  // calls): a guard repairing a small region of a large shell visits that region, not every vertex.
+  std::vector<int> moving;
+  for (int v : verts)
+    if (!D.row(v).isZero(0)) moving.push_back(v);
+  std::vector<Vec3>& dx = m.step_dx;
+  dx.resize(m.primitives.num_vertices(), Vec3::Zero());
+  struct Clear { // back to zero however this returns
+    std::vector<Vec3>& dx;
+    const std::vector<int>& moving;
+    ~Clear() {
+      for (int v : moving) dx[v].setZero();
+    }
+  } clear{dx, moving};
+  for (int v : moving) {
+    dx[v] = D.row(v).transpose();
+    if (!dx[v].allFinite())
+      throw InputError("ContactGuard: D has a non-finite coordinate at vertex " + std::to_string(v));
+  }
+  const bool some_still = moving.size() < verts.size();
 
   // Distances are invariant under a common translation: measure displacements from the centre c
   // of their bounding box, at most rho from it. A pair's distance then falls at most at 2 rho.
   Eigen::AlignedBox3d range;
-  for (int v : verts) range.extend(dx[v]);
+  if (some_still) range.extend(Vec3::Zero());
+  for (int v : moving) range.extend(dx[v]);
   if (verts.empty()) return max_step;
   const Vec3 c = range.center();
-  double rho = 0;
-  for (int v : verts) rho = std::max(rho, (dx[v] - c).norm());
+  double rho = some_still ? c.norm() : 0;
+  for (int v : moving) rho = std::max(rho, (dx[v] - c).norm());
   if (rho == 0) return max_step;
 
   const PairCcdOptions ccd{m.options.keep_fraction, m.options.dhat};
@@ -455,17 +479,23 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   // do not move, its cached tree serves as it is: its boxes, grown by (dhat + slack) / 2 around
   // positions at most slack / 2 away, hold those vertices grown by the floor. Only the movable
   // patch is swept then (at rest); otherwise all is, in the frame moving with c.
-  const std::vector<int>& fixed_vertices = m.primitives.fixed_patch_vertices();
-  const bool fixed_still = std::all_of(fixed_vertices.begin(), fixed_vertices.end(), [&](int v) { return dx[v].isZero(0); });
+  const bool fixed_still = std::none_of(moving.begin(), moving.end(), [&](int v) { return m.in_fixed_patch[v]; });
   const Vec3 frame = fixed_still ? Vec3::Zero() : c;
-  std::vector<Eigen::AlignedBox3d> box(m.primitives.num_vertices());
   const Vec3 grow = Vec3::Constant(floor_max / 2);
-  for (int v : verts) {
-    box[v] = Eigen::AlignedBox3d(m.x[v]);
-    box[v].extend(m.x[v] + listed * (dx[v] - frame));
-    box[v].min() -= grow;
-    box[v].max() += grow;
-  }
+  auto swept = [&](int v) {
+    Eigen::AlignedBox3d b(m.x[v]);
+    b.extend(m.x[v] + listed * (dx[v] - frame));
+    b.min() -= grow;
+    b.max() += grow;
+    return b;
+  };
+  // The fixed patch kept, a cut one at that, reads only the movable triangles' corners' boxes.
+  const bool region_only = fixed_still && m.cut_to_reach;
+  std::vector<Eigen::AlignedBox3d> all_boxes;
+  if (region_only) m.step_box.resize(m.primitives.num_vertices());
+  else all_boxes.resize(m.primitives.num_vertices());
+  std::vector<Eigen::AlignedBox3d>& box = region_only ? m.step_box : all_boxes;
+  for (int v : region_only ? m.reach_vertices : verts) box[v] = swept(v);
   auto visit = [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); };
   if (fixed_still) {
     // The swept boxes stay within the fixed patch's reach, or it is cut again around them.

@@ -153,71 +153,80 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
                             double keep_fraction, double max_step, const std::vector<char>* skip) {
   check_shapes("tet_step_bound", T, X, D, skip);
   const int K = static_cast<int>(T.rows());
-  // A vertex's position and motion side by side (48 bytes, one cache line at most two): every
-  // vertex is read by a dozen tets.
+  // A vertex's position and motion side by side (48 bytes, one cache line at most two): in a
+  // whole shell every vertex is read by a dozen tets. Where the tets are few beside the vertices
+  // (a guard repairing a small region of a large shell) the copy would cost more than the tets:
+  // they read X and D where they are.
   const int N = static_cast<int>(X.rows());
-  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> PM(N, 6);
-  tbb::parallel_for(tbb::blocked_range<int>(0, N, 8192), [&](const tbb::blocked_range<int>& r) {
-    for (int i = r.begin(); i < r.end(); ++i) PM.row(i) << X.row(i), D.row(i);
-  });
+  const bool interleave = 4 * static_cast<long long>(K) >= N;
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> PM(interleave ? N : 0, 6);
+  if (interleave)
+    tbb::parallel_for(tbb::blocked_range<int>(0, N, 8192), [&](const tbb::blocked_range<int>& r) {
+      for (int i = r.begin(); i < r.end(); ++i) PM.row(i) << X.row(i), D.row(i);
+    });
   TetStepBound init;
   init.step = max_step;
-  return tbb::parallel_reduce(
-      tbb::blocked_range<int>(0, K, 4096), init,
-      [&](const tbb::blocked_range<int>& r, TetStepBound best) {
-        TetLanes lanes;
-        int tet_in_lane[kLanes];
-        unsigned char settled[kLanes];
-        int used = 0;
-        // The tets not settled in their lanes, each alone, in tet order.
-        auto finish_lanes = [&] {
-          settle_lanes(lanes, keep_fraction, max_step, settled);
-          for (int l = 0; l < used; ++l) {
-            if (settled[l]) continue;
-            const int t = tet_in_lane[l];
-            Eigen::Vector3d x[4], d[4];
+  // position(v, a), motion(v, a): coordinate a of vertex v's position and motion.
+  auto least_bound = [&](auto&& position, auto&& motion) {
+    return tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, K, 4096), init,
+        [&](const tbb::blocked_range<int>& r, TetStepBound best) {
+          TetLanes lanes;
+          int tet_in_lane[kLanes];
+          unsigned char settled[kLanes];
+          int used = 0;
+          // The tets not settled in their lanes, each alone, in tet order.
+          auto finish_lanes = [&] {
+            settle_lanes(lanes, keep_fraction, max_step, settled);
+            for (int l = 0; l < used; ++l) {
+              if (settled[l]) continue;
+              const int t = tet_in_lane[l];
+              Eigen::Vector3d x[4], d[4];
+              for (int j = 0; j < 4; ++j) {
+                x[j] = Eigen::Vector3d(lanes.x[j][0][l], lanes.x[j][1][l], lanes.x[j][2][l]);
+                d[j] = Eigen::Vector3d(lanes.d[j][0][l], lanes.d[j][1][l], lanes.d[j][2][l]);
+              }
+              const std::array<double, 4> a = tet_volume_cubic(x, d);
+              if (!(a[0] > 0)) continue;
+              // Each tet's bound on the whole [0, max_step], not below the running best: the
+              // bisection's last bits depend on its interval, and the running best on the thread
+              // schedule.
+              const double s = cubic_step_bound(a, keep_fraction, max_step);
+              if (s < best.step || (s == best.step && best.tet >= 0 && t < best.tet)) {
+                best.step = s;
+                best.tet = t;
+              }
+            }
+            used = 0;
+          };
+          for (int t = r.begin(); t < r.end(); ++t) {
+            for (int j = 0; j < 4; ++j)
+              if (T(t, j) < 0 || T(t, j) >= N) // a bad id would read past X or D
+                throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
+            if (skip && (*skip)[t]) continue;
+            bool moves = false;
             for (int j = 0; j < 4; ++j) {
-              x[j] = Eigen::Vector3d(lanes.x[j][0][l], lanes.x[j][1][l], lanes.x[j][2][l]);
-              d[j] = Eigen::Vector3d(lanes.d[j][0][l], lanes.d[j][1][l], lanes.d[j][2][l]);
+              const int v = T(t, j);
+              for (int a = 0; a < 3; ++a) {
+                lanes.x[j][a][used] = position(v, a);
+                lanes.d[j][a][used] = motion(v, a);
+                moves = moves || lanes.d[j][a][used] != lanes.d[0][a][used];
+              }
             }
-            const std::array<double, 4> a = tet_volume_cubic(x, d);
-            if (!(a[0] > 0)) continue;
-            // Each tet's bound on the whole [0, max_step], not below the running best: the
-            // bisection's last bits depend on its interval, and the running best on the thread
-            // schedule.
-            const double s = cubic_step_bound(a, keep_fraction, max_step);
-            if (s < best.step || (s == best.step && best.tet >= 0 && t < best.tet)) {
-              best.step = s;
-              best.tet = t;
-            }
+            if (!moves) continue; // a translation keeps the volume
+            tet_in_lane[used] = t;
+            if (++used == kLanes) finish_lanes();
           }
-          used = 0;
-        };
-        for (int t = r.begin(); t < r.end(); ++t) {
-          for (int j = 0; j < 4; ++j)
-            if (T(t, j) < 0 || T(t, j) >= N) // a bad id would read past X or D
-              throw InputError("tet_step_bound: T must be K x 4 with vertex ids in 0..N-1");
-          if (skip && (*skip)[t]) continue;
-          bool moves = false;
-          const double* d0 = PM.row(T(t, 0)).data() + 3;
-          for (int j = 0; j < 4; ++j) {
-            const double* row = PM.row(T(t, j)).data();
-            for (int a = 0; a < 3; ++a) {
-              lanes.x[j][a][used] = row[a];
-              lanes.d[j][a][used] = row[3 + a];
-              moves = moves || row[3 + a] != d0[a];
-            }
-          }
-          if (!moves) continue; // a translation keeps the volume
-          tet_in_lane[used] = t;
-          if (++used == kLanes) finish_lanes();
-        }
-        finish_lanes();
-        return best;
-      },
-      [](const TetStepBound& a, const TetStepBound& b) {
-        return a.step < b.step || (a.step == b.step && a.tet < b.tet) ? a : b;
-      });
+          finish_lanes();
+          return best;
+        },
+        [](const TetStepBound& a, const TetStepBound& b) {
+          return a.step < b.step || (a.step == b.step && a.tet < b.tet) ? a : b;
+        });
+  };
+  if (interleave)
+    return least_bound([&](int v, int a) { return PM(v, a); }, [&](int v, int a) { return PM(v, 3 + a); });
+  return least_bound([&](int v, int a) { return X(v, a); }, [&](int v, int a) { return D(v, a); });
 }
 
 std::vector<int> tets_cutting_step(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
