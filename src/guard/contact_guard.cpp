@@ -67,10 +67,8 @@ struct ContactGuard::Impl {
   // grown boxes, and is cut again (reach doubled) when one would leave them.
   bool cut_to_reach = false;
   double reach = std::numeric_limits<double>::infinity();
-  std::vector<int> reach_vertices; // corners of the movable triangles, ascending
-  std::vector<Vec3> reach_at;      // their positions at the cut, in that order
+  std::vector<Vec3> reach_at; // positions of movable_patch_vertices() at the cut, in that order
   int fixed_patch_cuts = 0;
-  std::vector<char> in_fixed_patch; // per vertex: a corner of a fixed triangle
   // step_bound's per-vertex motions (zero between calls) and swept boxes (read only where written).
   std::vector<Vec3> step_dx;
   std::vector<Eigen::AlignedBox3d> step_box;
@@ -98,17 +96,8 @@ struct ContactGuard::Impl {
       : primitives(boundary, num_vertices, movable, excluded) {
     on_boundary.assign(num_vertices, 0);
     for (int v : primitives.boundary_vertices()) on_boundary[v] = 1;
-    in_fixed_patch.assign(num_vertices, 0);
-    for (int v : primitives.fixed_patch_vertices()) in_fixed_patch[v] = 1;
     // Cutting costs a box test per fixed triangle and pays when it leaves most of them out.
     cut_to_reach = 8 * primitives.movable_triangles().size() <= primitives.fixed_triangles().size();
-    if (cut_to_reach) {
-      std::vector<char> corner(num_vertices, 0);
-      for (int t : primitives.movable_triangles())
-        for (int v : primitives.triangle(t)) corner[v] = 1;
-      for (int v = 0; v < num_vertices; ++v)
-        if (corner[v]) reach_vertices.push_back(v);
-    }
     set_options(o);
   }
 
@@ -129,14 +118,24 @@ struct ContactGuard::Impl {
     stale = true;
   }
 
+  // Every boundary vertex's box at x grown by radius / 2: what the candidate list and the fixed
+  // patch are searched with.
+  std::vector<Eigen::AlignedBox3d> search_boxes() const {
+    const Vec3 grow = Vec3::Constant(radius / 2);
+    std::vector<Eigen::AlignedBox3d> box(primitives.num_vertices());
+    for (int v : primitives.boundary_vertices()) box[v] = Eigen::AlignedBox3d(x[v] - grow, x[v] + grow);
+    return box;
+  }
+
   // Whether the fixed patch holds every fixed triangle a movable triangle can meet when each
-  // reach vertex k, at x, grows its box by at most extent(k) beyond radius / 2 (0 at a build; a
-  // swept step's motion in step_bound).
+  // movable patch vertex k, at x, grows its box by at most extent(k) beyond radius / 2 (0 at a
+  // build; a swept step's motion in step_bound).
   template <class Extent> bool fixed_patch_covers(Extent&& extent) const {
     if (!have_fixed_patch) return false;
     if (!cut_to_reach) return true;
-    for (std::size_t k = 0; k < reach_vertices.size(); ++k)
-      if ((x[reach_vertices[k]] - reach_at[k]).lpNorm<Eigen::Infinity>() + extent(k) > reach) return false;
+    const std::vector<int>& corners = primitives.movable_patch_vertices();
+    for (std::size_t k = 0; k < corners.size(); ++k)
+      if ((x[corners[k]] - reach_at[k]).lpNorm<Eigen::Infinity>() + extent(k) > reach) return false;
     return true;
   }
 
@@ -147,13 +146,14 @@ struct ContactGuard::Impl {
     if (!cut_to_reach) {
       fixed_patch = primitives.patch(false, box);
     } else {
+      const std::vector<int>& corners = primitives.movable_patch_vertices();
       double largest = 0;
-      for (std::size_t k = 0; k < reach_vertices.size(); ++k) largest = std::max(largest, extent(k));
+      for (std::size_t k = 0; k < corners.size(); ++k) largest = std::max(largest, extent(k));
       if (have_fixed_patch) reach *= 2; // the region moved out of it: cut wider, less often
       reach = std::max(reach, 2 * largest);
-      reach_at.resize(reach_vertices.size());
-      for (std::size_t k = 0; k < reach_vertices.size(); ++k) reach_at[k] = x[reach_vertices[k]];
-      // Every corner of a movable triangle is a reach vertex: its box grown by reach around x.
+      reach_at.resize(corners.size());
+      for (std::size_t k = 0; k < corners.size(); ++k) reach_at[k] = x[corners[k]];
+      // Each movable triangle's corners' boxes grown by reach around x.
       const Vec3 grow = Vec3::Constant(radius / 2 + reach);
       const std::vector<int>& movable = primitives.movable_triangles();
       std::vector<Eigen::AlignedBox3d> reach_box(movable.size());
@@ -228,10 +228,7 @@ struct ContactGuard::Impl {
 
   void build() {
     check_finite(x, "X");
-    const int n = primitives.num_vertices();
-    const Vec3 grow = Vec3::Constant(radius / 2);
-    std::vector<Eigen::AlignedBox3d> box(n);
-    for (int v : primitives.boundary_vertices()) box[v] = Eigen::AlignedBox3d(x[v] - grow, x[v] + grow);
+    const std::vector<Eigen::AlignedBox3d> box = search_boxes();
     struct Found {
       std::uint64_t key; // primitive ids a, b
       Ids ids;
@@ -479,7 +476,8 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   // do not move, its cached tree serves as it is: its boxes, grown by (dhat + slack) / 2 around
   // positions at most slack / 2 away, hold those vertices grown by the floor. Only the movable
   // patch is swept then (at rest); otherwise all is, in the frame moving with c.
-  const bool fixed_still = std::none_of(moving.begin(), moving.end(), [&](int v) { return m.in_fixed_patch[v]; });
+  const bool fixed_still =
+      std::none_of(moving.begin(), moving.end(), [&](int v) { return m.primitives.in_fixed_patch(v); });
   const Vec3 frame = fixed_still ? Vec3::Zero() : c;
   const Vec3 grow = Vec3::Constant(floor_max / 2);
   auto swept = [&](int v) {
@@ -495,17 +493,13 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   if (region_only) m.step_box.resize(m.primitives.num_vertices());
   else all_boxes.resize(m.primitives.num_vertices());
   std::vector<Eigen::AlignedBox3d>& box = region_only ? m.step_box : all_boxes;
-  for (int v : region_only ? m.reach_vertices : verts) box[v] = swept(v);
+  for (int v : region_only ? m.primitives.movable_patch_vertices() : verts) box[v] = swept(v);
   auto visit = [&](PairKind kind, int, int, const Ids& ids) { bound_pair(kind, ids); };
   if (fixed_still) {
     // The swept boxes stay within the fixed patch's reach, or it is cut again around them.
-    auto sweep = [&](std::size_t k) { return listed * (dx[m.reach_vertices[k]]).lpNorm<Eigen::Infinity>(); };
-    if (!m.fixed_patch_covers(sweep)) {
-      std::vector<Eigen::AlignedBox3d> at_rest(m.primitives.num_vertices());
-      const Vec3 half = Vec3::Constant(m.radius / 2);
-      for (int v : verts) at_rest[v] = Eigen::AlignedBox3d(m.x[v] - half, m.x[v] + half);
-      m.make_fixed_patch(at_rest, sweep);
-    }
+    const std::vector<int>& corners = m.primitives.movable_patch_vertices();
+    auto sweep = [&](std::size_t k) { return listed * dx[corners[k]].lpNorm<Eigen::Infinity>(); };
+    if (!m.fixed_patch_covers(sweep)) m.make_fixed_patch(m.search_boxes(), sweep);
     m.primitives.for_each_pair(m.primitives.patch(true, box), m.fixed_patch, visit);
   } else {
     m.primitives.for_each_pair(box, visit);

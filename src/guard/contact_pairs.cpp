@@ -73,15 +73,17 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
   owned_vertices_ = owned_by_triangle(vertex_owner);
   owned_edges_ = owned_by_triangle(edge_owner);
 
-  std::vector<char> in_fixed_patch(num_vertices, 0);
+  // Per vertex, bit 0: a corner of a fixed triangle, bit 1: of a movable one.
+  patch_corner_.assign(num_vertices, 0);
   for (int t = 0; t < m; ++t) {
     const bool fixed = triangle_flags_[t] & kFixed;
     patch_triangles_[fixed ? 0 : 1].push_back(t);
-    if (fixed)
-      for (int v : triangles_[t]) in_fixed_patch[v] = 1;
+    for (int v : triangles_[t]) patch_corner_[v] |= fixed ? 1 : 2;
   }
-  for (int v = 0; v < num_vertices; ++v)
-    if (in_fixed_patch[v]) fixed_patch_vertices_.push_back(v);
+  for (int v = 0; v < num_vertices; ++v) {
+    if (patch_corner_[v] & 1) fixed_patch_vertices_.push_back(v);
+    if (patch_corner_[v] & 2) movable_patch_vertices_.push_back(v);
+  }
 }
 
 ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box,

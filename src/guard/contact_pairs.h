@@ -123,6 +123,10 @@ public:
   const std::vector<int>& boundary_vertices() const { return boundary_vertices_; }
   /// Corners of triangles that have no movable corner (the fixed patch's vertices), ascending.
   const std::vector<int>& fixed_patch_vertices() const { return fixed_patch_vertices_; }
+  /// Whether vertex v is a corner of a triangle without a movable corner.
+  bool in_fixed_patch(int v) const { return patch_corner_[v] & 1; }
+  /// Corners of triangles that have a movable corner (the movable patch's vertices), ascending.
+  const std::vector<int>& movable_patch_vertices() const { return movable_patch_vertices_; }
 
   /// The pair's four vertex ids in PairPoints order (vertex v and triangle t, or edges e and f).
   std::array<int, 4> point_triangle(int v, int t) const {
@@ -178,7 +182,8 @@ private:
   int num_vertices_ = 0;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
-  std::vector<int> boundary_vertices_, fixed_patch_vertices_;
+  std::vector<int> boundary_vertices_, fixed_patch_vertices_, movable_patch_vertices_;
+  std::vector<unsigned char> patch_corner_; // per vertex: bit 0 fixed patch corner, bit 1 movable
   std::vector<unsigned char> vertex_flags_, triangle_flags_, edge_flags_;
   std::vector<int> patch_triangles_[2]; // [0] fixed, [1] movable, ascending
   ItemGroups owned_vertices_, owned_edges_; // group t: the vertices and edges triangle t owns

@@ -241,7 +241,8 @@ bool FaceBvh::some_face_box_meets(const Eigen::AlignedBox3d& box) const {
   while (top > 0) {
     const int i = stack[--top];
     const Node& node = nodes_[i];
-    if (!float_boxes_meet(FloatBox{{node.lo[0], node.lo[1], node.lo[2]}, {node.hi[0], node.hi[1], node.hi[2]}}, b))
+    if (!(node.lo[0] <= b.hi[0] && b.lo[0] <= node.hi[0] && node.lo[1] <= b.hi[1] && b.lo[1] <= node.hi[1] &&
+          node.lo[2] <= b.hi[2] && b.lo[2] <= node.hi[2]))
       continue;
     if (!node.leaf()) {
       if (top + 2 > kStack) return true;
