@@ -322,3 +322,34 @@ TEST(ViewServer, APageThatSaysWhatItDrewGetsOnePositionsFrameAtATime) {
   page.send(R"({"type":"save_handles"})"); // answered to this page only
   EXPECT_EQ(page.positions_until([](const json& j) { return j["type"] == "handles_file"; }), 0);
 }
+
+TEST(ViewServer, APageHearsNothingOfTheSessionBeforeItsWelcome) {
+  // Pages join while another page keeps the solver busy with drags: whatever the session broadcasts
+  // meanwhile is in the newcomer's welcome, so before "hello" it may hear only the page count (a
+  // values frame or status ahead of it would reach a page that has no shell yet).
+  RunningServer s;
+  Client tool(s.server->port(), s.host(), "");
+  tool.next("stats");
+  tool.send(R"({"type":"add_handle","name":"all","vertices":[0,1,2,3,4,5,6,49,50,51]})");
+  tool.next("handles", [](const json& j) { return !j["handles"]["handles"].empty(); });
+  for (int k = 1; k <= 30; ++k) {
+    for (int d = 0; d < 3; ++d)
+      tool.send(R"({"type":"drag","seq":)" + std::to_string(3 * k + d) + R"(,"handle":0,"translate":[)" +
+                std::to_string(0.01 * (3 * k + d)) + ",0,0]}");
+    Client page(s.server->port(), s.host(), "");
+    std::vector<std::string> before_hello;
+    for (;;) {
+      beast::flat_buffer buffer;
+      page.ws.read(buffer);
+      if (!page.ws.got_text()) {
+        before_hello.push_back("a binary frame");
+        continue;
+      }
+      const json j = json::parse(beast::buffers_to_string(buffer.data()));
+      if (j["type"] == "hello") break;
+      if (j["type"] != "pages") before_hello.push_back(j["type"]);
+    }
+    EXPECT_TRUE(before_hello.empty()) << "page " << k << " first heard: " << before_hello.front();
+    page.ws.close(websocket::close_code::normal);
+  }
+}

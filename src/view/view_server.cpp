@@ -133,7 +133,9 @@ struct ServerCore {
   void page_opened(const std::shared_ptr<Page>& page);
   void page_closed(int id);
   void broadcast_pages();
-  void route(int target, const Outgoing& out);
+  /// `from_session`: a message of the shared session (the solver thread's), which a page hears
+  /// only after its own welcome; the network thread's own notices (the page count) go to all.
+  void route(int target, const Outgoing& out, bool from_session = false);
 
   /// Any thread: hands a message to the network thread for one page (target > 0) or all (0).
   void deliver(int target, ViewOutgoing message) {
@@ -142,7 +144,7 @@ struct ServerCore {
     out.frame_kind = message.binary ? frame_kind_of(message.bytes) : 0;
     out.snapshot = message.snapshot;
     out.bytes = std::make_shared<const std::string>(std::move(message.bytes));
-    net::post(ioc, [this, target, out] { route(target, out); });
+    net::post(ioc, [this, target, out] { route(target, out, true); });
   }
 
   ViewSink sink(int sender) {
@@ -192,6 +194,7 @@ public:
   Page(beast::tcp_stream stream, ServerCore& server, int id) : ws_(std::move(stream)), server_(server), id_(id) {}
 
   int id() const { return id_; }
+  bool welcomed = false; ///< has had the start of its welcome (ServerCore::route)
 
   void start(http::request<http::string_body> request) {
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
@@ -470,10 +473,15 @@ void ServerCore::broadcast_pages() {
   route(0, out);
 }
 
-void ServerCore::route(int target, const Outgoing& out) {
+void ServerCore::route(int target, const Outgoing& out, bool from_session) {
+  // A page joins the session's broadcasts with the first message addressed to it, its welcome's
+  // "hello": what was broadcast before is already in the welcome, and a values frame or status
+  // ahead of "hello" would reach a page that has no shell yet.
   if (target == 0) {
-    for (auto& [id, page] : pages) page->send(out);
+    for (auto& [id, page] : pages)
+      if (!from_session || page->welcomed) page->send(out);
   } else if (const auto it = pages.find(target); it != pages.end()) {
+    if (from_session) it->second->welcomed = true;
     it->second->send(out);
   }
 }
