@@ -177,7 +177,12 @@ struct ServerCore {
   }
 
   void request_stop() {
-    stopping = true;
+    // Set under both mutexes: a thread between testing its wait's predicate and blocking would
+    // otherwise miss the notification and sleep on (a server that never stops).
+    {
+      std::scoped_lock lock(mutex, check_mutex);
+      stopping = true;
+    }
     wake.notify_all();
     check_wake.notify_all();
   }
