@@ -133,9 +133,9 @@ struct ServerCore {
   void page_opened(const std::shared_ptr<Page>& page);
   void page_closed(int id);
   void broadcast_pages();
-  /// `from_session`: a message of the shared session (the solver thread's), which a page hears
-  /// only after its own welcome; the network thread's own notices (the page count) go to all.
-  void route(int target, const Outgoing& out, bool from_session = false);
+  /// A message of the shared session (the solver thread's) on to its page(s): a page hears the
+  /// broadcasts only after its own welcome has started.
+  void route(int target, const Outgoing& out);
 
   /// Any thread: hands a message to the network thread for one page (target > 0) or all (0).
   void deliver(int target, ViewOutgoing message) {
@@ -144,7 +144,7 @@ struct ServerCore {
     out.frame_kind = message.binary ? frame_kind_of(message.bytes) : 0;
     out.snapshot = message.snapshot;
     out.bytes = std::make_shared<const std::string>(std::move(message.bytes));
-    net::post(ioc, [this, target, out] { route(target, out, true); });
+    net::post(ioc, [this, target, out] { route(target, out); });
   }
 
   ViewSink sink(int sender) {
@@ -475,18 +475,18 @@ void ServerCore::broadcast_pages() {
   Outgoing out;
   out.bytes = std::make_shared<const std::string>(
       nlohmann::json{{"type", "pages"}, {"count", pages.size()}, {"max", options.max_pages}}.dump());
-  route(0, out);
+  for (auto& [id, page] : pages) page->send(out); // welcomed or not: the count is no session state
 }
 
-void ServerCore::route(int target, const Outgoing& out, bool from_session) {
+void ServerCore::route(int target, const Outgoing& out) {
   // A page joins the session's broadcasts with the first message addressed to it, its welcome's
   // "hello": what was broadcast before is already in the welcome, and a values frame or status
   // ahead of "hello" would reach a page that has no shell yet.
   if (target == 0) {
     for (auto& [id, page] : pages)
-      if (!from_session || page->welcomed) page->send(out);
+      if (page->welcomed) page->send(out);
   } else if (const auto it = pages.find(target); it != pages.end()) {
-    if (from_session) it->second->welcomed = true;
+    it->second->welcomed = true;
     it->second->send(out);
   }
 }
