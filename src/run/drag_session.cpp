@@ -1,5 +1,6 @@
 #include <gshell/run/drag_session.h>
 
+#include <gshell/deform/shell_deformer.h>
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/quality/stretch.h>
@@ -84,7 +85,7 @@ struct DragSession::Impl {
   const RestTets& tets() const {
     if (solver) return solver->rest_tets();
     if (!rest_tets)
-      rest_tets = rest_tets_from_positions(rest_vertices, build_prism_tets(rest.F, rest.num_base_vertices()));
+      rest_tets = deformation_rest_tets(rest); // the solver's, which it stands in for
     return *rest_tets;
   }
 

@@ -28,9 +28,12 @@ double seconds_since(Clock::time_point start) {
 }
 
 /// The reduced levels rely on the rest shapes being the tets of `rest_vertices` (then a tet inside
-/// a cluster has F = M exactly); a mismatch would silently solve another problem.
+/// a cluster has F = M exactly); a mismatch would silently solve another problem. Tets with a rest
+/// shape of their own (RestTets::override_tets: a generated shell's flat or inverted tets, which
+/// take their ideal shape) are the exception the levels treat as border tets.
 void require_matching_rest(const RestTets& rest, const Eigen::MatrixXd& X) {
   for (int t = 0; t < rest.size(); ++t) {
+    if (std::binary_search(rest.override_tets.begin(), rest.override_tets.end(), t)) continue;
     Eigen::Matrix3d D;
     for (int k = 0; k < 3; ++k) D.col(k) = (X.row(rest.T(t, k + 1)) - X.row(rest.T(t, 0))).transpose();
     if (((D * rest.dm_inv(t)) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6)

@@ -70,11 +70,12 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
       coords_.row(2 * e + 1) = rest_vertices.row(n_ + i) - centroid_.row(weights_.cluster[e]);
     }
 
-  // Exact rotations: tets whose corners all move with one cluster alone have F = M_j.
+  // Exact rotations: tets whose corners all move with one cluster alone have F = M_j, unless
+  // their rest shape is not their rest corners' (an override), which makes them border tets.
   interior_volume_ = Eigen::VectorXd::Zero(m_);
   for (int t = 0; t < rest.size() && !cluster_rotations_; ++t) {
     int c = -1;
-    bool inside = true;
+    bool inside = !std::binary_search(rest.override_tets.begin(), rest.override_tets.end(), static_cast<int>(t));
     for (int k = 0; k < 4 && inside; ++k) {
       const int i = base_of(rest.T(t, k));
       inside = weights_.start[i + 1] - weights_.start[i] == 1 && (c < 0 || weights_.cluster[weights_.start[i]] == c);

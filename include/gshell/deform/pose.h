@@ -39,8 +39,10 @@ struct ValidStep {
 
 class PoseSolver {
 public:
-  /// Builds the rest tets of `rest` and the chosen solver (tree, assembly, factorisations). Only
-  /// the handles' vertex sets, mode and weight matter here; their motions only give targets(fraction).
+  /// Builds the rest tets of `rest` and the chosen solver (tree, assembly, factorisations). The
+  /// rest tets are the deformer's (deformation_rest_tets): a generated shell's few flat or
+  /// inverted tets take their ideal shape. Only the handles' vertex sets, mode and weight matter
+  /// here; their motions only give targets(fraction).
   /// \throws InputError when there is no handle vertex or a connected part of the shell carries
   ///         no handle (it could float away).
   PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKind kind,
