@@ -58,8 +58,8 @@ void run(const CLI::App& cmd, PoseArgs& a) {
                   !s.guarded ? "" : s.valid ? ", valid" : ", INVALID");
     progress.line(text);
     if (s.blocked_by_contact) // a warning even with --quiet: the pose is not where the handles asked
-      std::fprintf(stderr, "warning: step %zu: the handles force the shell into itself; stopped at contact "
-                           "(blocked_by_contact in report.json)\n", k + 1);
+      std::fprintf(stderr, "warning: step %zu: the handles force the shell into itself or squeeze a tet between "
+                           "them flat; stopped short of them (blocked_by_contact in report.json)\n", k + 1);
   }
   session.write(a.output, 0, cli::preview_writer(a.render, a.output, view));
   progress.line("wrote " + a.output + " (top.obj, base.obj, shell.vtu, report.json" + (a.render ? ", preview.png" : "") +

@@ -7,6 +7,7 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/solver/rest_tets.h>
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SparseCore>
@@ -212,6 +213,31 @@ TEST(VolumeBarrier, ZeroAboveTheThresholdInfiniteWhenFlat) {
   EXPECT_TRUE(std::isinf(barrier.energy(X)));
   X(3, 2) = -0.1;
   EXPECT_TRUE(std::isinf(barrier.energy(X)));
+}
+
+TEST(VolumeBarrier, ATetFlatInExactArithmeticIsInfiniteWhateverRoundingSays) {
+  // Corners on a tilted plane, the fourth one made from the first three in doubles: exactly flat
+  // or inverted tets whose rounded determinant still comes out positive exist (a pose once ended
+  // on one: its handles squeezed a tet between them flat). The barrier's domain is the exact
+  // sign's, as the certificate's, so such a tet is outside it.
+  const VolumeBarrier barrier(unit_rest(), 0.2);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> coordinate(-1, 1), weight(0.1, 0.9);
+  using Point = CGAL::Exact_predicates_inexact_constructions_kernel::Point_3;
+  int found = 0;
+  for (int trial = 0; trial < 100000 && found < 20; ++trial) {
+    Eigen::MatrixXd X(4, 3);
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c) X(k, c) = coordinate(rng);
+    const double a = weight(rng), b = weight(rng);
+    X.row(3) = X.row(0) + a * (X.row(1) - X.row(0)) + b * (X.row(2) - X.row(0));
+    if (!(barrier.relative_volume_of(X, 0) > 0)) continue;
+    auto point = [&](int k) { return Point(X(k, 0), X(k, 1), X(k, 2)); };
+    if (CGAL::orientation(point(0), point(1), point(2), point(3)) == CGAL::POSITIVE) continue;
+    ++found;
+    EXPECT_TRUE(std::isinf(barrier.energy(X))) << "trial " << trial << ": J rounds to " << barrier.relative_volume_of(X, 0);
+  }
+  EXPECT_GT(found, 0); // the case this test is about occurred
 }
 
 TEST(VolumeBarrier, AnotherThresholdActsAsABarrierMadeWithIt) {

@@ -2,6 +2,8 @@
 
 #include <gshell/error.h>
 
+#include "quality/filtered_orientation.h"
+
 #include <Eigen/Geometry>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -61,6 +63,13 @@ double VolumeBarrier::relative_volume(const Eigen::MatrixXd& X, int t, Eigen::Ve
   return c * e1.dot(c1);
 }
 
+bool VolumeBarrier::positively_oriented(const Eigen::MatrixXd& X, int t) const {
+  double p[4][3];
+  for (int k = 0; k < 4; ++k)
+    for (int c = 0; c < 3; ++c) p[k][c] = X(T_(t, k), c);
+  return detail::orientation_sign(p[0], p[1], p[2], p[3]) > 0;
+}
+
 double VolumeBarrier::energy(const Eigen::MatrixXd& X, std::vector<int>* active) const {
   const int K = static_cast<int>(T_.rows());
   // Fixed-size chunks summed in order: the value does not depend on the thread schedule.
@@ -73,7 +82,9 @@ double VolumeBarrier::energy(const Eigen::MatrixXd& X, std::vector<int>* active)
     for (int t = ci * kChunk; t < std::min(K, (ci + 1) * kChunk); ++t) {
       if (skip_[t]) continue;
       const double u = relative_volume(X, t, nullptr) / j_hat_;
-      if (!(u > 0)) {
+      // Near zero the rounded determinant can be positive for a tet that is flat or inverted: the
+      // barrier's domain is the exact sign's (the certificate's), checked where it is active.
+      if (!(u > 0) || (u < 1 && !positively_oriented(X, t))) {
         e = kInf;
         break;
       }

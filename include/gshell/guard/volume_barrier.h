@@ -22,7 +22,9 @@ public:
   /// row the tets use.
   VolumeBarrier(const RestTets& rest, double j_hat, std::vector<char> skip = {});
 
-  /// B at X (2n x 3 shell positions); +infinity if a guarded tet is flat or inverted. With
+  /// B at X (2n x 3 shell positions); +infinity if a guarded tet is flat or inverted (by the exact
+  /// orientation sign wherever the barrier acts, so a tet that rounding shows with a tiny positive
+  /// J but that the certificate finds flat or inverted is outside the domain too). With
   /// `active`, also the tets where the barrier acts (0 < J < j_hat), ascending.
   double energy(const Eigen::MatrixXd& X, std::vector<int>* active = nullptr) const;
   /// G += scale * dB/dX, summed over `active` (the list energy() gave at this X).
@@ -58,6 +60,8 @@ public:
 private:
   // J of tet t at X and, if wanted, dJ/dx of its 4 corners.
   double relative_volume(const Eigen::MatrixXd& X, int t, Eigen::Vector3d* grad) const;
+  // Whether tet t's exact orientation at X is positive (the certificate's test).
+  bool positively_oriented(const Eigen::MatrixXd& X, int t) const;
 
   Eigen::MatrixXi T_;
   std::vector<double> inv_det_rest_; // det Dm_inv: J = det(D) * inv_det_rest
