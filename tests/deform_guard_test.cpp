@@ -30,6 +30,7 @@ namespace {
 
 using test::flat_plane_shell;
 using test::offset_shell;
+using test::lifted_shell;
 
 // The deformer's system: the n base vertices of a 2n-vertex shell kept, the tops free.
 ShellSolver base_fixed_solver(const RestTets& rest_tets, int n) {
@@ -200,6 +201,34 @@ TEST(DeformGuard, FoldingAPlaneNearlyShutThinsTheTopAndKeepsItClean) { fold_plan
 TEST(DeformGuard, FoldingAPlaneShutThinsTheTopAndKeepsItClean) { fold_plane(180.0, 8); }
 
 TEST(DeformGuard, AJumpFromRestToAShutFoldIsValid) { fold_plane(180.0, 1); }
+
+// A sliver base face (CGAL's triceratops has two) turns its normal sideways under a base motion
+// far smaller than the shell, and the top over it must swing across to keep its tets positive:
+// the drag from the previous frame stalls there, but the frame itself has valid shells. Here a
+// plane's interior vertex sits 1e-6 from the opposite edge of one of its faces, then rises 1e-5
+// and moves 1.1e-5 across that edge's line: that face turns by 135 degrees (never flat on the
+// way), every other face by less than 0.01; the tops (0.1 above) must tilt by at least 45 degrees.
+TEST(DeformGuard, ASliverWhoseNormalTurnsSidewaysStillGivesAValidFrame) {
+  TriMesh plane = make_plane(6);
+  int face = -1, apex = -1;
+  for (int f = 0; f < plane.F.rows() && face < 0; ++f)
+    for (int k = 0; k < 3 && face < 0; ++k) {
+      const Eigen::RowVector3d v = plane.V.row(plane.F(f, k));
+      if (std::abs(v(0)) < 0.5 && std::abs(v(1)) < 0.5) face = f, apex = k; // an interior vertex
+    }
+  ASSERT_GE(face, 0);
+  const int v = plane.F(face, apex), a = plane.F(face, (apex + 1) % 3), b = plane.F(face, (apex + 2) % 3);
+  const Eigen::RowVector3d mid = 0.5 * (plane.V.row(a) + plane.V.row(b));
+  const Eigen::RowVector3d inward = (plane.V.row(v) - mid).normalized();
+  plane.V.row(v) = mid + 1e-6 * inward; // the face (v, a, b) is now a sliver of height 1e-6
+  const Shell rest = lifted_shell(plane, 0.1);
+  ASSERT_TRUE(certify_shell(rest.base, rest.top, rest.F).valid());
+  Eigen::MatrixXd base = rest.base;
+  base.row(v) += -1.1e-5 * inward + Eigen::RowVector3d(0, 0, 1e-5);
+  ShellDeformer deformer(rest);
+  const FrameResult r = deformer.solve(base);
+  expect_valid_frame(deformer, r, base);
+}
 
 TEST(DeformGuard, AFrameAfterAnInvalidOneStartsFromTheLastValidState) {
   // Folded on to 240 degrees, the plane's base crosses itself: no valid frame exists, the guard

@@ -115,6 +115,7 @@ const char* frame_method_name(FrameMethod m) {
   case FrameMethod::Bounded: return "bounded";
   case FrameMethod::Guarded: return "guarded";
   case FrameMethod::TetsOnly: return "tets_only";
+  case FrameMethod::Regenerated: return "regenerated";
   case FrameMethod::Failed: return "failed";
   }
   return "?";
@@ -348,6 +349,23 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   return result;
 }
 
+bool ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options,
+                               FrameResult& result) {
+  const int n = rest_.num_base_vertices();
+  SolveOptions paper;
+  paper.max_iterations = options.max_iterations;
+  const GuardedShell fresh =
+      guarded_shell(X.topRows(n), rest_.F, solver_.rest(), rest_.thickness, generation_guard_options(), paper);
+  Eigen::MatrixXd Z(2 * n, 3);
+  Z << X.topRows(n), fresh.top;
+  ShellCertificate certificate = guard_->certify(Z);
+  if (!certificate.valid() || certificate.base_self_intersections > 0) return false;
+  Y = std::move(Z);
+  result.certificate = std::move(certificate);
+  result.certified = true;
+  return true;
+}
+
 void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X, const DeformOptions& options,
                                 FrameResult& result) {
   if (!guard_ || !guard_->built_with(options.guard))
@@ -386,10 +404,17 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     outcome.method = FrameMethod::TetsOnly;
     Y = X;
   }
+  // The straight path from the previous frame is not the only way to a valid frame: a sliver face
+  // (CGAL's triceratops has two) turns its normal by 90 degrees under a base motion far smaller
+  // than the shell, the top over it must swing across to keep its tets positive, and the drag,
+  // whose steps may each cost a tet 90% of its volume while an energy step restores about half,
+  // stalls. A top made afresh over the new base, as guarded generation makes one (valid start,
+  // then the barriers) towards the same rest shapes, does not have to follow that path.
+  if (outcome.method == FrameMethod::Failed && regenerate(X, Y, options, result)) outcome.method = FrameMethod::Regenerated;
   result.method = outcome.method;
   result.substeps = outcome.substeps;
   result.guarded_iterations = outcome.iterations;
-  result.valid = outcome.method == FrameMethod::Guarded;
+  result.valid = outcome.method == FrameMethod::Guarded || outcome.method == FrameMethod::Regenerated;
   if (result.valid) {
     current_clean_ = true;
     resume_.resize(0, 3);
