@@ -372,5 +372,6 @@ TEST(PoseCli, AShellPartWithoutHandlesIsAnInputError) {
                          tmp.file("out") + "'");
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("free"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(tmp.file("h.json") + ": "), std::string::npos) << r.err; // names the handle file
   EXPECT_FALSE(fs::exists(tmp.file("out")));
 }

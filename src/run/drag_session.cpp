@@ -115,7 +115,13 @@ struct DragSession::Impl {
     if (solver && key == solver_key) return;
     preview_anchored = false;
     solver.reset(); // free the old factorisations before building new ones
-    solver = std::make_unique<PoseSolver>(rest, state.handles, options.solver, options.hierarchy);
+    try {
+      solver = std::make_unique<PoseSolver>(rest, state.handles, options.solver, options.hierarchy);
+    } catch (const InputError& e) {
+      // What PoseSolver refuses is the handles on this shell (none, or a part left free): name their file.
+      if (handles_name.empty()) throw;
+      throw InputError(handles_name + ": " + e.what());
+    }
     solver_key = key;
     ++builds;
   }
