@@ -94,7 +94,7 @@ enum class FrameMethod {
   TetsOnly,  ///< guarded against inverted tets only: the base forced a contact (e.g. it crosses itself)
   /// The drag stalled (a sliver base face whose normal swings faster than its top can follow):
   /// the frame's top made afresh over the new base as guarded generation makes one, towards the
-  /// same rest shapes, and certified
+  /// same rest shapes, and certified.
   Regenerated,
   Failed,    ///< not even that: the paper's solve, reported invalid
 };
