@@ -142,6 +142,15 @@ TEST(ShellDeformer, RestTetsAreTheShellsOwnOrTheirNormalPrismsTet) {
   EXPECT_GT(expected, 0);
   EXPECT_EQ(replaced, expected);
   EXPECT_EQ(tets.override_tets.size(), static_cast<std::size_t>(expected));
+  // The per-tet form of the same shapes (pose's): every matrix and volume to the bit, the record
+  // of which tets have shapes of their own kept.
+  const RestTets per_tet = with_matrix_per_tet(tets);
+  ASSERT_EQ(per_tet.Dm_inv.size(), static_cast<std::size_t>(T.rows()));
+  EXPECT_TRUE(per_tet.rest_points.empty());
+  EXPECT_TRUE(per_tet.complete());
+  EXPECT_EQ(per_tet.override_tets, tets.override_tets);
+  EXPECT_EQ(per_tet.volume, tets.volume);
+  for (Eigen::Index t = 0; t < T.rows(); ++t) EXPECT_EQ(per_tet.dm_inv(t), tets.dm_inv(t)) << "tet " << t;
 }
 
 TEST(ShellDeformer, VertexRingsAreTheSortedEdgeNeighbours) {

@@ -132,6 +132,22 @@ void expect_balanced_siblings(const ClusterTree& tree) {
   }
 }
 
+/// The rotation closest to M (independent of the solver's polar decomposition: an SVD).
+Eigen::Matrix3d closest_rotation(const Eigen::Matrix3d& M) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU();
+  if ((U * svd.matrixV().transpose()).determinant() < 0) U.col(2) *= -1;
+  return U * svd.matrixV().transpose();
+}
+
+/// Pushes the top vertex over the bowl's bottom (no handle there) below its base: the tets around
+/// it invert, as a generated shell's can next to an unextrudable vertex.
+void invert_tets_at_the_bottom(Shell& shell) {
+  int lowest = 0;
+  shell.base.col(2).minCoeff(&lowest);
+  shell.top.row(lowest) = shell.base.row(lowest) - 0.5 * (shell.top.row(lowest) - shell.base.row(lowest));
+}
+
 } // namespace
 
 TEST(ClusterTree, EveryDepthPartitionsTheVerticesIntoNestedClusters) {
@@ -371,12 +387,7 @@ TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {
       S[cluster[p.rest.T(t, 0) % n]] += p.rest.volume(t) * F[t];
     }
     std::vector<Eigen::Matrix3d> R(S.size());
-    for (size_t j = 0; j < S.size(); ++j) {
-      Eigen::JacobiSVD<Eigen::Matrix3d> svd(S[j], Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix3d U = svd.matrixU();
-      if ((U * svd.matrixV().transpose()).determinant() < 0) U.col(2) *= -1;
-      R[j] = U * svd.matrixV().transpose();
-    }
+    for (size_t j = 0; j < S.size(); ++j) R[j] = closest_rotation(S[j]);
     double expected = 0;
     for (int t = 0; t < p.rest.size(); ++t)
       expected += p.rest.volume(t) * (F[t] - R[cluster[p.rest.T(t, 0) % n]]).squaredNorm();
@@ -539,9 +550,7 @@ TEST(HierarchicalSolver, RestVerticesThatTheTetsOrFacesOverrunAreInputErrors) {
 // shell can be posed, every solver reaches the same minimum, and at rest the inversion is undone.
 TEST(PoseSolvers, AShellWithInvertedTetsIsPosedFromTheirIdealShapes) {
   Shell shell = offset_shell(make_bowl(8), 0.08);
-  int lowest = 0;
-  shell.base.col(2).minCoeff(&lowest); // the bowl's bottom: no handle there
-  shell.top.row(lowest) = shell.base.row(lowest) - 0.5 * (shell.top.row(lowest) - shell.base.row(lowest));
+  invert_tets_at_the_bottom(shell);
   int replaced = 0;
   deformation_rest_tets(shell, &replaced);
   ASSERT_GT(replaced, 0);
@@ -581,9 +590,7 @@ TEST(HierarchicalSolver, ExactLevelEnergyHoldsForTetsWithRestShapesOfTheirOwn) {
   // its rest corners' (an inverted tet replaced by its ideal shape) must not be taken for one that
   // moves with its cluster (F = M_j): recomputed here tet by tet from the level's positions.
   Problem p = bowl_problem(10, {0.5, 0.1, 0.3}, /*hard=*/false);
-  int lowest = 0;
-  p.shell.base.col(2).minCoeff(&lowest);
-  p.shell.top.row(lowest) = p.shell.base.row(lowest) - 0.5 * (p.shell.top.row(lowest) - p.shell.base.row(lowest));
+  invert_tets_at_the_bottom(p.shell);
   p.X = p.shell.vertices();
   p.rest = deformation_rest_tets(p.shell);
   ASSERT_FALSE(p.rest.override_tets.empty());
@@ -597,10 +604,7 @@ TEST(HierarchicalSolver, ExactLevelEnergyHoldsForTetsWithRestShapesOfTheirOwn) {
       Eigen::Matrix3d D;
       for (int k = 0; k < 3; ++k) D.col(k) = (Y.row(p.rest.T(t, k + 1)) - Y.row(p.rest.T(t, 0))).transpose();
       const Eigen::Matrix3d F = D * p.rest.dm_inv(t);
-      Eigen::JacobiSVD<Eigen::Matrix3d> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix3d U = svd.matrixU();
-      if ((U * svd.matrixV().transpose()).determinant() < 0) U.col(2) *= -1;
-      expected += p.rest.volume(t) * (F - U * svd.matrixV().transpose()).squaredNorm();
+      expected += p.rest.volume(t) * (F - closest_rotation(F)).squaredNorm();
     }
     for (size_t r = 0; r < p.constraints.vertices.size(); ++r)
       expected += p.constraints.weight * (Y.row(p.constraints.vertices[r]) - p.targets.row(r)).squaredNorm();

@@ -6,7 +6,6 @@
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/error.h>
 #include <gshell/seconds_since.h>
-#include <gshell/shell/prism_tets.h>
 
 #include <algorithm>
 #include <chrono>
@@ -66,12 +65,9 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
   const int n = rest.num_base_vertices();
   require_anchored_components(rest.F, n, s.constrained);
   // As the deformer's: a generated shell's few flat or inverted tets (next to unextrudable vertices
-  // or base crossings) take their ideal shape, so such shells can be posed too. Without any, one
-  // matrix per tet: the local step reads it faster than it remakes it from the positions (about
-  // 10% of a pose on the bench_pose bowl), and a pose is not the millions of tets that form is for.
-  int replaced = 0;
-  s.rest = deformation_rest_tets(rest, &replaced);
-  if (replaced == 0) s.rest = rest_tets_from_positions(s.rest_vertices, build_prism_tets(rest.F, n));
+  // or base crossings) take their ideal shape, so such shells can be posed too. One matrix per
+  // tet, not the deformer's positions form: a pose is not the millions of tets that form is for.
+  s.rest = with_matrix_per_tet(deformation_rest_tets(rest));
   const bool hard = handles.mode == ConstraintMode::Hard;
   if (!hard) s.soft_weight = handles.weight * mean_stiffness(s.rest, 2 * n);
 

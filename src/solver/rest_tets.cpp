@@ -183,6 +183,20 @@ RestTets rest_tets_in_positions_form(const Eigen::MatrixXd& X, Eigen::MatrixXi T
   return rest;
 }
 
+RestTets with_matrix_per_tet(RestTets rest) {
+  if (static_cast<Eigen::Index>(rest.Dm_inv.size()) == rest.size()) return rest;
+  std::vector<Eigen::Matrix3d> matrices(static_cast<std::size_t>(rest.size()));
+  tbb::parallel_for(tbb::blocked_range<int>(0, rest.size(), 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int t = r.begin(); t != r.end(); ++t) matrices[t] = rest.dm_inv(t);
+  });
+  rest.Dm_inv = std::move(matrices);
+  rest.rest_points = {};
+  rest.override_Dm_inv = {};
+  rest.prism_inverse = {};
+  rest.unit_corners = {};
+  return rest;
+}
+
 RestTets rest_tets_from_corners(const Eigen::MatrixXi& T, const Eigen::MatrixXd& corners) {
   if (T.cols() != 4) throw InputError("rest_tets_from_corners: expected K x 4 tets");
   if (corners.rows() != 4 * T.rows() || corners.cols() != 3)

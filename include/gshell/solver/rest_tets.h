@@ -36,7 +36,10 @@ struct RestTets {
   std::vector<Eigen::Matrix3d> prism_inverse; ///< prism form: per prism, B_p^-1
   std::vector<std::uint16_t> unit_corners; ///< prism form: per tet, unit_corner_code of its corners
   std::vector<double> rest_points;         ///< positions form: N x 3 rest positions, row-major
-  std::vector<int> override_tets;          ///< positions form: tets with a rest shape of their own, ascending
+  /// Tets whose rest shape is not their vertices' rest positions', ascending: in the positions
+  /// form those with a matrix in override_Dm_inv; kept by with_matrix_per_tet as a record (the
+  /// hierarchical solver's levels read it).
+  std::vector<int> override_tets;
   std::vector<Eigen::Matrix3d> override_Dm_inv; ///< positions form: their inverse edge matrices
   int size() const { return static_cast<int>(T.rows()); }
   /// Whether every tet has its rest shape (in one of the forms) and its volume; in the positions
@@ -125,6 +128,11 @@ RestTets rest_tets_from_positions(const Eigen::MatrixXd& X, const Eigen::MatrixX
 RestTets rest_tets_in_positions_form(
     const Eigen::MatrixXd& X, Eigen::MatrixXi T,
     const std::function<bool(Eigen::Index t, const std::array<int, 4>& ids, TetCorners& U)>& replace = {});
+
+/// The same shapes in the per-tet form (one inverse matrix per tet, the same bits as dm_inv(t)),
+/// override_tets kept: 72 bytes per tet, and the local step reads a matrix faster than it remakes
+/// it from the positions (about 10% of a pose on the bench_pose bowl). Any form in.
+RestTets with_matrix_per_tet(RestTets rest);
 
 /// Rest shapes given per tet corner: corners is 4K x 3, rows 4t..4t+3 the rest positions of tet
 /// t's vertices T(t,0..3).
