@@ -4,6 +4,7 @@
 // unguarded result is valid the guard leaves it alone; allow_invalid is the unguarded path bit for
 // bit.
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/error.h>
 #include <gshell/guard/guarded_shell.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/shell/generate_report.h>
@@ -334,6 +335,31 @@ TEST(GuardedGeneration, IdealTetsMadeOnDemandGiveTheSameShellBitForBit) {
     EXPECT_EQ(made.solve.iterations, given.solve.iterations);
     EXPECT_EQ(made.lift.moves, given.lift.moves);
   }
+}
+
+TEST(GuardedGeneration, AFirstTopAtThePapersMinimumLeavesItNothingToDo) {
+  // The deformer regenerates a frame from that frame's own solve: started at the paper's minimum,
+  // the paper's iterations stop at once, and the guard mends the top as it does from the offset.
+  const TriMesh m = bumpy_sphere(3, 0.25);
+  const int n = static_cast<int>(m.V.rows());
+  const double eta = thickness_from_ratio(m.V, 0.05);
+  const RestTets rest = normal_prism_rest_tets(m.V, m.F, eta);
+  SolveOptions solve;
+  solve.tolerance = 1e-8;
+  solve.max_iterations = 1000;
+  const ShellSolver paper(rest, 2 * n, test::vertex_range(0, n));
+  Eigen::MatrixXd X(2 * n, 3);
+  X << m.V, offset_top(m.V, m.F, eta);
+  const SolveResult minimum = paper.solve(X, solve);
+  ASSERT_GT(minimum.iterations, 5);
+  const GuardOptions options = generation_guard_options();
+  const GuardedShell from_offset = guarded_shell(m.V, m.F, rest, eta, options, solve);
+  const GuardedShell from_minimum = guarded_shell(m.V, m.F, rest, eta, options, solve, {}, X.bottomRows(n));
+  EXPECT_GT(from_offset.paper.iterations, 5);
+  EXPECT_LE(from_minimum.paper.iterations, 2);
+  EXPECT_GT(from_minimum.repaired_vertices, 0); // this case inverts unguarded
+  EXPECT_TRUE(certify_shell(m.V, from_minimum.top, m.F).valid());
+  EXPECT_THROW(guarded_shell(m.V, m.F, rest, eta, options, solve, {}, Eigen::MatrixXd::Zero(n - 1, 3)), InputError);
 }
 
 TEST(GuardedGeneration, SameBitsWithOneThreadAndMany) {

@@ -127,12 +127,17 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   else bound();
   if (tets.step < 1) return false;
   if (!certify) return true;
-  bool ok = true;
-  for (int t : c.inverted_tet_ids) ok = ok && parameters_.skip_tets[t];
-  for (const BoundaryIntersection& pair : c.intersections)
-    ok = ok && (parameters_.excluded_triangles[pair.a] || parameters_.excluded_triangles[pair.b]);
+  const bool ok = only_unguarded_faults(c);
   if (certificate) *certificate = std::move(c);
   return ok;
+}
+
+bool FrameGuard::only_unguarded_faults(const ShellCertificate& c) const {
+  for (int t : c.inverted_tet_ids)
+    if (!parameters_.skip_tets[t]) return false;
+  for (const BoundaryIntersection& pair : c.intersections)
+    if (!parameters_.excluded_triangles[pair.a] && !parameters_.excluded_triangles[pair.b]) return false;
+  return true;
 }
 
 ShellCertificate FrameGuard::certify(const Eigen::MatrixXd& X) {
@@ -147,7 +152,7 @@ int FrameGuard::substeps_between(const Eigen::MatrixXd& from, const Eigen::Matri
 
 FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts,
                                      bool fall_back_to_tets, const GuardedSolveOptions& solve,
-                                     double substep_tolerance) {
+                                     double substep_tolerance, const std::function<bool()>& other_way) {
   Outcome out;
   GuardedSolver* solver = nullptr;
   if (contacts && contact_ && std::isfinite(contact_->energy(X))) solver = contact_.get();
@@ -161,6 +166,7 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
   }
   const Eigen::MatrixXd from = X;
   Eigen::MatrixXd step_targets = X;
+  bool asked = false; // other_way
   // A stalled drag is retried once (the energy iterations in between may make room), then
   // continued with the tets alone, or stopped there (blocked).
   constexpr int kRetries = 2;
@@ -180,6 +186,13 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
       const GuardedSolveResult r = solver->solve(X, k < substeps ? on_the_way : last, step_targets);
       out.iterations += r.iterations;
       if (r.path_done >= 1) break;
+      if (attempt == 0 && solver == contact_.get() && other_way && !asked) {
+        asked = true;
+        if (other_way()) {
+          out.superseded = true;
+          return out;
+        }
+      }
       // The drag moves the free vertices with the fixed ones by the model's linear response,
       // which knows nothing of the barriers: two tops pressed against each other over a wide
       // area can stop it for good (docs/valid-deformation.md), hence only one retry.

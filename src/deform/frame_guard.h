@@ -10,6 +10,7 @@
 #include <gshell/quality/shell_certificate.h>
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -39,6 +40,10 @@ public:
   /// The exact certificate of X (2n x 3), base/base pairs included: certify_shell's answer, by
   /// the guard's certifier (trees refit, not rebuilt).
   ShellCertificate certify(const Eigen::MatrixXd& X);
+  /// Whether a certificate finds nothing wrong that this guard keeps right: every inverted tet is
+  /// one it leaves out (flat at rest, or at an unextrudable vertex), every intersecting pair
+  /// touches a triangle it leaves out (around the rest's own intersections).
+  bool only_unguarded_faults(const ShellCertificate& certificate) const;
   /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
   bool guards_contacts() const { return contact_ != nullptr; }
 
@@ -47,6 +52,7 @@ public:
     int substeps = 0;
     int iterations = 0;
     bool blocked = false; ///< stopped at contact (no fall-back to the tets): X valid, short of the targets
+    bool superseded = false; ///< ended by `other_way` (see drag)
   };
   /// Sub-steps for a drag from the state `from` to `to` (2n x 3): as many as keep every base edge
   /// vector's change per sub-step within schedule.substep_edge_change of its length, at least 1,
@@ -61,8 +67,12 @@ public:
   /// the tets are guarded from there on (TetsOnly) with `fall_back_to_tets`, else the drag stops
   /// where it is (blocked). Failed: X is left somewhere on the way. `contacts`: X is free of
   /// contacts (else only the tets can be guarded).
+  /// `other_way` (optional) is asked once, when the contact-guarded drag first stalls, before it is
+  /// retried: true means the caller has the frame by other means, and the drag ends there
+  /// (`superseded`, X left where it stopped).
   Outcome drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts, bool fall_back_to_tets,
-               const GuardedSolveOptions& solve, double substep_tolerance);
+               const GuardedSolveOptions& solve, double substep_tolerance,
+               const std::function<bool()>& other_way = {});
 
 private:
   GuardedSolver& tets_only();

@@ -297,12 +297,14 @@ namespace {
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, IdealTets& ideal, double eta,
                            const GuardOptions& options, const SolveOptions& solve,
-                           const LinearSolverOptions& linear) {
+                           const LinearSolverOptions& linear, const Eigen::MatrixXd& first_top = {}) {
   const auto t0 = Clock::now();
   check_guard_options(options);
   if (!(eta > 0) || !std::isfinite(eta)) throw InputError("guarded_shell: thickness must be positive and finite");
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
   if (ideal.get().size() != 3 * m) throw InputError("guarded_shell: expected 3 rest tets per face");
+  if (first_top.size() > 0 && (first_top.rows() != n || first_top.cols() != 3))
+    throw InputError("guarded_shell: the first top must be " + std::to_string(n) + " x 3");
   GuardedShell g;
   g.directions = extrusion_directions(V, F, options.normal_margin);
   g.base_self_intersections = surface_self_intersections(V, F);
@@ -336,10 +338,11 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   std::vector<int> fixed(n);
   std::iota(fixed.begin(), fixed.end(), 0);
   for (int v : g.directions.unextrudable) fixed.push_back(n + v);
-  // The paper's iterations from the offset surface give the top wanted everywhere; the tops of
-  // unextrudable vertices are held low along their best direction.
+  // The paper's iterations from the offset surface (or the caller's first top) give the top
+  // wanted everywhere; the tops of unextrudable vertices are held low along their best direction.
   Eigen::MatrixXd X(2 * n, 3);
-  X << V, offset_top(V, F, eta);
+  if (first_top.size() > 0) X << V, first_top;
+  else X << V, offset_top(V, F, eta);
   for (int v : g.directions.unextrudable)
     X.row(n + v) = V.row(v) + options.unextrudable_thickness * eta * g.directions.direction.row(v);
   {
@@ -464,9 +467,9 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
                            const GuardOptions& options, const SolveOptions& solve,
-                           const LinearSolverOptions& linear) {
+                           const LinearSolverOptions& linear, const Eigen::MatrixXd& first_top) {
   IdealTets tets(ideal);
-  return guarded_shell(V, F, tets, eta, options, solve, linear);
+  return guarded_shell(V, F, tets, eta, options, solve, linear, first_top);
 }
 
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,

@@ -91,10 +91,11 @@ enum class FrameMethod {
   Unguarded, ///< allow_invalid: the paper's solve only
   Bounded,   ///< the paper's solve, taken: the tet step bound passes on the way and its certificate holds
   Guarded,   ///< the guarded solver from the previous frame (sub-steps), boundary contacts kept apart
-  TetsOnly,  ///< guarded against inverted tets only: the base forced a contact (e.g. it crosses itself)
-  /// The drag stalled (a sliver base face whose normal swings faster than its top can follow):
-  /// the frame's top made afresh over the new base as guarded generation makes one, towards the
-  /// same rest shapes, and certified.
+  TetsOnly,  ///< guarded against inverted tets only: the base forced a contact and no fresh top was clean
+  /// The drag stalled (e.g. a sliver base face whose normal swings faster than its top can
+  /// follow): the frame's top made afresh over the new base as guarded generation makes one,
+  /// towards the same rest shapes, certified, then brought to a minimum of the guarded energy
+  /// the dragged frames minimise.
   Regenerated,
   Failed,    ///< not even that: the paper's solve, reported invalid
 };
@@ -175,9 +176,10 @@ private:
   // passes the step bounds, else replaced by the guarded drag.
   void guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
                    FrameResult& result);
-  // After a failed drag: the top over X's base made afresh (guarded_shell towards the solver's
-  // rest shapes); true and Y = that shell, certified into `result`, if it is valid.
-  bool regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options, FrameResult& result);
+  // After a stalled drag: the top over X's base made afresh (guarded_shell towards the solver's
+  // rest shapes, its paper iterations started from X's top, the frame's own solve); true and
+  // Y = that shell if its exact certificate finds nothing the guard keeps right.
+  bool regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options);
 
   std::unique_ptr<FrameGuard> guard_; ///< built at the first guarded frame
   bool current_clean_ = true; ///< current_ is valid for the guard (not after TetsOnly or Failed)

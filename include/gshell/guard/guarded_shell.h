@@ -182,12 +182,14 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
 /// max_iterations, tolerance and progress apply to the guarded solver's too (which combines no
 /// iterates: anderson_history is the paper's iterations' only); `linear` chooses how the paper's
 /// iterations solve their global steps (the guarded solver, on the region it repairs, always
-/// factors).
-/// \throws InputError on bad options, thickness eta not positive and finite, or `ideal` not
-///         3 tets per face, or as extrusion_directions (V, F shapes and ids).
+/// factors). `first_top` (n x 3, optional): the top the paper's iterations start from instead of
+/// the offset surface (a deformer's solve of a frame: the same minimum, found in fewer iterations).
+/// \throws InputError on bad options, thickness eta not positive and finite, `ideal` not 3 tets
+///         per face, `first_top` neither empty nor n x 3, or as extrusion_directions (V, F shapes
+///         and ids).
 GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const RestTets& ideal, double eta,
                            const GuardOptions& options, const SolveOptions& solve,
-                           const LinearSolverOptions& linear = {});
+                           const LinearSolverOptions& linear = {}, const Eigen::MatrixXd& first_top = {});
 
 /// The same with the rest tets made by `make_ideal` where they are needed: for the paper's
 /// iterations, and again only if the start thinned a top (the repair, the lifting). In between,
