@@ -186,7 +186,7 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
       const GuardedSolveResult r = solver->solve(X, k < substeps ? on_the_way : last, step_targets);
       out.iterations += r.iterations;
       if (r.path_done >= 1) break;
-      if (attempt == 0 && solver == contact_.get() && other_way && !asked) {
+      if (solver == contact_.get() && other_way && !asked) { // the contact drag's first stall
         asked = true;
         if (other_way()) {
           out.superseded = true;
