@@ -904,3 +904,64 @@ TEST(ContactGuard, BadInputThrows) {
   D(2, 0) = std::numeric_limits<double>::infinity();
   EXPECT_THROW(guard.step_bound(s.X, D), InputError);
 }
+
+TEST(ContactGuard, CappedSupportsAreQuietAtTheirRestAndWeightedBeyondIt) {
+  // A rest state whose top lies closer to its base than dhat: uncapped, the barrier pushes there.
+  const ShellCase s = make_shell(test::plane(6, 0.3), 0.1);
+  ContactOptions o;
+  o.dhat = 0.15;
+  const double fraction = 0.5;
+  ContactGuard plain(s.boundary, 2 * s.n, s.movable, o), capped(s.boundary, 2 * s.n, s.movable, o);
+  ASSERT_GT(plain.energy(s.X), 0);
+  capped.cap_support(s.X, fraction);
+  EXPECT_EQ(capped.energy(s.X), 0.0);
+  EXPECT_EQ(capped.active_pairs(), 0);
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(2 * s.n, 3);
+  capped.add_gradient(s.X, 1.0, g);
+  EXPECT_EQ(g.norm(), 0.0);
+
+  // The caps again, by brute force: fraction x the distance at rest of each vertex's closest pair
+  // within the candidate radius (dhat + slack = 2 dhat).
+  auto kind_of = [](const std::vector<int>& key) { return key[0] == 0 ? PairKind::PointTriangle : PairKind::EdgeEdge; };
+  auto points_of = [](const std::vector<int>& key, const Eigen::MatrixXd& X) {
+    PairPoints p;
+    for (int i = 0; i < 4; ++i) p[i] = X.row(key[1 + i]).transpose();
+    return p;
+  };
+  std::vector<double> cap(2 * s.n, std::numeric_limits<double>::infinity());
+  for (const std::vector<int>& key : brute_force_pairs(s, s.X, 2 * o.dhat)) {
+    const double d = std::sqrt(pair_squared_distance(kind_of(key), points_of(key, s.X)));
+    for (int i = 1; i <= 4; ++i) cap[key[i]] = std::min(cap[key[i]], fraction * d);
+  }
+  // Pressed: the top at a third of its height, jittered. Each pair's barrier has its own support
+  // (its vertices' smallest cap) and the weight (dhat / support)^3.
+  Eigen::MatrixXd Y = s.X;
+  for (int i = 0; i < s.n; ++i) Y.row(s.n + i) = s.X.row(i) + (s.X.row(s.n + i) - s.X.row(i)) / 3;
+  Y.bottomRows(s.n) = jitter(Y.bottomRows(s.n), 0.005, 41);
+  double expected = 0;
+  for (const std::vector<int>& key : brute_force_pairs(s, Y, o.dhat)) {
+    double support = o.dhat;
+    for (int i = 1; i <= 4; ++i) support = std::min(support, std::max(cap[key[i]], 1e-2 * o.dhat));
+    expected += std::pow(o.dhat / support, 3) * pair_barrier(kind_of(key), points_of(key, Y), support);
+  }
+  ASSERT_GT(expected, 0);
+  const double energy = capped.energy(Y);
+  EXPECT_NEAR(energy, expected, 1e-12 * expected);
+  EXPECT_GT(std::abs(energy - plain.energy(Y)), 1e-6 * expected); // the caps change it
+  // Its gradient against central differences, on top coordinates where the barrier acts.
+  g.setZero();
+  capped.add_gradient(Y, 1.0, g);
+  int checked = 0;
+  for (int v = s.n; v < 2 * s.n && checked < 12; ++v)
+    for (int a = 0; a < 3 && g.row(v).norm() > 1e-3 * g.norm(); ++a, ++checked) {
+      const double h = 1e-7;
+      Eigen::MatrixXd P = Y, M = Y;
+      P(v, a) += h;
+      M(v, a) -= h;
+      const double fd = (capped.energy(P) - capped.energy(M)) / (2 * h);
+      EXPECT_NEAR(g(v, a), fd, 1e-5 * g.row(v).norm()) << "vertex " << v << " axis " << a;
+    }
+  EXPECT_GT(checked, 0);
+  EXPECT_THROW(capped.cap_support(s.X, 0), InputError);
+  EXPECT_THROW(capped.cap_support(s.X, 1.5), InputError);
+}

@@ -78,8 +78,10 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   for (int r = 0; r < boundary_.size(); ++r) parameters_.excluded_triangles[r] = excluded_face[boundary_.face[r]];
 
-  if (parameters_.contact_distance > 0)
+  if (parameters_.contact_distance > 0) {
     contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed_, boundary_, parameters_);
+    if (options.contact_rest_fraction > 0) contact_->cap_contact_support(X, options.contact_rest_fraction);
+  }
 }
 
 FrameGuard::~FrameGuard() = default;
@@ -87,6 +89,7 @@ FrameGuard::~FrameGuard() = default;
 bool FrameGuard::built_with(const GuardOptions& o) const {
   const GuardOptions& p = options_;
   return p.j_hat == o.j_hat && p.volume_weight == o.volume_weight && p.contact_distance == o.contact_distance &&
+         p.contact_rest_fraction == o.contact_rest_fraction &&
          p.contact_weight == o.contact_weight && p.keep_fraction == o.keep_fraction &&
          p.cg_iterations == o.cg_iterations && p.cg_tolerance == o.cg_tolerance && p.local_rings == o.local_rings &&
          p.hold_rounds == o.hold_rounds &&

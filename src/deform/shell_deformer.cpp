@@ -90,7 +90,8 @@ WarmStart parse_warm_start(const std::string& name) {
 GuardOptions frame_guard_options() {
   // Generation's Hessians and local solve; its contact support (0.03) is not taken: a frame that
   // presses the top against itself (a plane folded shut) then lets one side bulge past the middle
-  // of the gap while the other side thins for both, where 0.1 thins both sides alike.
+  // of the gap while the other side thins for both, where 0.1 thins both sides alike. Where the
+  // rest shell's parts lie closer than that, GuardOptions' contact_rest_fraction caps the support.
   const GuardOptions generation = generation_guard_options();
   GuardOptions o;
   o.projected_volume_hessian = generation.projected_volume_hessian;

@@ -29,6 +29,8 @@ using Ids = std::array<int, 4>;
 // Pairs per parallel block of a pass over the candidate list. Blocks are fixed, not chosen by
 // the scheduler, so per-block results concatenate to the same list whatever the thread count.
 constexpr int kBlock = 1024;
+// cap_support's smallest support, relative to dhat.
+constexpr double kSupportFloor = 1e-2;
 
 void lower_to(std::atomic<double>& bound, double value) {
   double current = bound.load(std::memory_order_relaxed);
@@ -78,13 +80,16 @@ struct ContactGuard::Impl {
   bool have_x = false;
   bool stale = true; // the candidate list must be made at the next positions (new options)
   std::vector<char> on_boundary; // per vertex: used by a boundary triangle
+  // cap_support's per-vertex caps on the support (model units); empty: every pair's is dhat.
+  std::vector<double> support_cap;
 
   // The last pass over the list, at x: pairs closer than dhat in list order.
   bool scanned = false;
   struct Active {
     PairKind kind;
     int index;
-    double energy; // its barrier
+    double support; // the pair's dhat (support())
+    double energy;  // its barrier, weighted
   };
   std::vector<Active> active;
   int last_active = 0; // active.size() at the last pass (kept when x moves on)
@@ -171,6 +176,19 @@ struct ContactGuard::Impl {
     for (std::size_t i = 0; i < fixed_vertices.size(); ++i) fixed_patch_at[i] = x[fixed_vertices[i]];
     have_fixed_patch = true;
     ++fixed_patch_cuts;
+  }
+
+  // A pair's support: dhat, or less where cap_support capped one of its vertices.
+  double support(const Ids& ids) const {
+    double s = options.dhat;
+    if (!support_cap.empty())
+      for (int v : ids) s = std::min(s, support_cap[v]);
+    return s;
+  }
+  // A pair's barrier weight, (dhat / support)^3: every pair pushes as hard at half its support.
+  double weight(double support) const {
+    const double r = options.dhat / support;
+    return r * r * r;
   }
 
   PairPoints points(const Ids& ids) const { return {x[ids[0]], x[ids[1]], x[ids[2]], x[ids[3]]}; }
@@ -272,7 +290,6 @@ struct ContactGuard::Impl {
   void scan(const Eigen::MatrixXd& X) {
     set_positions(X);
     if (scanned) return;
-    const double s_hat = options.dhat * options.dhat;
     active.clear();
     min_squared = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 2; ++k) {
@@ -289,8 +306,10 @@ struct ContactGuard::Impl {
           if (built[i] >= cut) continue;
           const double d2 = pair_squared_distance(kind, points(list[i]));
           m = std::min(m, d2);
-          if (d2 < s_hat)
-            block_active[b].push_back({kind, i, pair_barrier_energy(kind, points(list[i]), d2, options.dhat)});
+          const double support = this->support(list[i]);
+          if (d2 < support * support)
+            block_active[b].push_back(
+                {kind, i, support, weight(support) * pair_barrier_energy(kind, points(list[i]), d2, support)});
         }
         block_min[b] = m;
       });
@@ -346,7 +365,9 @@ void ContactGuard::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::M
   std::vector<Vector12d> g(m.active.size());
   tbb::parallel_for(0, static_cast<int>(g.size()), [&](int i) {
     g[i].setZero(); // stays zero for a touching pair (no gradient there)
-    pair_barrier(m.active[i].kind, m.points(m.ids(m.active[i])), m.options.dhat, &g[i]);
+    const Impl::Active& a = m.active[i];
+    pair_barrier(a.kind, m.points(m.ids(a)), a.support, &g[i]);
+    g[i] *= m.weight(a.support);
   });
   for (std::size_t i = 0; i < g.size(); ++i) {
     const Ids& ids = m.ids(m.active[i]);
@@ -364,14 +385,16 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
     std::vector<Eigen::Triplet<double>>& out = block_triplets[b];
     Matrix12d h;
     for (int i = begin; i < end; ++i) {
-      const Ids& ids = m.ids(m.active[i]);
+      const Impl::Active& active = m.active[i];
+      const Ids& ids = m.ids(active);
       if (projected) {
         h.setZero(); // stays zero for a touching pair
-        pair_barrier(m.active[i].kind, m.points(ids), m.options.dhat, nullptr, &h);
+        pair_barrier(active.kind, m.points(ids), active.support, nullptr, &h);
         project_to_psd(h);
       } else {
-        h = pair_barrier_gauss_newton(m.active[i].kind, m.points(ids), m.options.dhat);
+        h = pair_barrier_gauss_newton(active.kind, m.points(ids), active.support);
       }
+      h *= m.weight(active.support);
       for (int k = 0; k < 4; ++k)
         for (int l = 0; l < 4; ++l)
           for (int a = 0; a < 3; ++a)
@@ -508,6 +531,24 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
 }
 
 int ContactGuard::active_pairs() const { return impl_->last_active; }
+
+void ContactGuard::cap_support(const Eigen::MatrixXd& X, double fraction) {
+  Impl& m = *impl_;
+  if (!(fraction > 0 && fraction <= 1))
+    throw InputError("ContactGuard::cap_support: fraction must be in (0, 1] (got " + std::to_string(fraction) + ")");
+  m.support_cap.clear();
+  m.set_positions(X);
+  std::vector<double> cap(m.primitives.num_vertices(), std::numeric_limits<double>::infinity());
+  for (int k = 0; k < 2; ++k)
+    for (const Ids& ids : m.pairs[k]) {
+      const double d = std::sqrt(pair_squared_distance(static_cast<PairKind>(k), m.points(ids)));
+      for (int v : ids) cap[v] = std::min(cap[v], fraction * d);
+    }
+  // A pair touching at X would get no support at all; a floor keeps its barrier finite to build.
+  for (double& c : cap) c = std::max(c, kSupportFloor * m.options.dhat);
+  m.support_cap = std::move(cap);
+  m.scanned = false;
+}
 
 double ContactGuard::min_distance(const Eigen::MatrixXd& X) {
   impl_->set_positions(X);

@@ -236,6 +236,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.j_hat > 0 && o.j_hat <= 1, "j_hat", "in (0, 1]");
   require(o.volume_weight > 0 && std::isfinite(o.volume_weight), "volume_weight", "positive");
   require(o.contact_distance >= 0 && std::isfinite(o.contact_distance), "contact_distance", ">= 0");
+  require(o.contact_rest_fraction >= 0 && o.contact_rest_fraction <= 1, "contact_rest_fraction", "in [0, 1]");
   require(o.contact_weight > 0 && std::isfinite(o.contact_weight), "contact_weight", "positive");
   require(o.keep_fraction > 0 && o.keep_fraction < 1, "keep_fraction", "in (0, 1)");
   require(o.cg_iterations >= 0, "cg_iterations", ">= 0");

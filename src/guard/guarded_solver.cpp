@@ -394,6 +394,10 @@ void GuardedSolver::set_parameters(GuardedSolverParameters parameters) {
   m.p = std::move(parameters);
 }
 
+void GuardedSolver::cap_contact_support(const Eigen::MatrixXd& X, double fraction) {
+  if (impl_->contact) impl_->contact->cap_support(X, fraction);
+}
+
 const ShellSolver& GuardedSolver::shell_solver() const { return impl_->arap; }
 const VolumeBarrier& GuardedSolver::volume_barrier() const { return impl_->volume; }
 const GuardedSolverParameters& GuardedSolver::parameters() const { return impl_->p; }

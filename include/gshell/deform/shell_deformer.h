@@ -40,9 +40,10 @@ WarmStart parse_warm_start(const std::string& name);
 
 /// The guard options of deformation frames: GuardOptions{} with generation's directions
 /// (generation_guard_options: the volume barrier's Hessian projected per tet, the contact
-/// barrier's Gauss-Newton Hessian, a 4-ring local solve); the contact support stays 0.1. On hard
-/// models a dragged frame meets near-flat tets and wide contacts, as a repair does
-/// (docs/valid-deformation.md has the measurements).
+/// barrier's Gauss-Newton Hessian, a 4-ring local solve); the contact support stays 0.1, capped
+/// per pair at half of how close the rest shell holds its vertices to other parts of the boundary
+/// (contact_rest_fraction). On hard models a dragged frame meets near-flat tets and wide contacts,
+/// as a repair does (docs/valid-deformation.md has the measurements).
 GuardOptions frame_guard_options();
 
 /// The only source of the per-frame defaults (the CLI's help and Python's keywords read DeformOptions{}).
@@ -59,8 +60,8 @@ struct DeformOptions {
   /// frame in sub-steps.
   bool allow_invalid = false;
   /// Barrier and step parameters of the guard (relative to the shell's scales, as in generation;
-  /// only j_hat, volume_weight, contact_distance, contact_weight, keep_fraction, cg_iterations,
-  /// cg_tolerance, local_rings and the two Hessian choices are read).
+  /// only j_hat, volume_weight, contact_distance, contact_rest_fraction, contact_weight,
+  /// keep_fraction, cg_iterations, cg_tolerance, local_rings and the two Hessian choices are read).
   GuardOptions guard = frame_guard_options();
   /// A guarded frame moves its base in sub-steps, each changing no base edge vector by more than
   /// this fraction of the edge's length (about this many radians of turn), in (0, 2].

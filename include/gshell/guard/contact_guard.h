@@ -71,7 +71,7 @@ public:
   // Calls at the same X (exactly equal) share one pass over the candidate list.
 
   /// Barrier B(X) = sum over pairs of b(d^2), b(s) = -(s - dhat^2)^2 log(s / dhat^2) for
-  /// s < dhat^2 and 0 beyond (d: the distance of the pair); edge-edge pairs of nearly parallel
+  /// s < dhat^2 and 0 beyond (each pair's own support and weight after cap_support) (d: the distance of the pair); edge-edge pairs of nearly parallel
   /// edges are mollified (contact_barrier.h). +infinity if a pair touches. Deterministic: the
   /// same X gives the same bits whatever the thread count.
   /// \throws InputError when X (D, G) is not num_vertices x 3 or X has a non-finite coordinate at a
@@ -99,7 +99,17 @@ public:
   double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step = 1,
                     std::vector<ContactPair>* cutting = nullptr);
 
-  /// Pairs closer than dhat at the last energy, gradient or Hessian evaluation.
+  /// Caps each pair's support below dhat by the distances at X: a vertex's cap is `fraction` (in
+  /// (0, 1]) times the distance at X of the closest candidate pair it belongs to, a pair's support
+  /// the smallest cap of its four vertices, at least 1e-2 dhat (pairs farther apart at X than the
+  /// candidate radius cap nothing). Each pair's barrier is b with its own support in place of
+  /// dhat, times (dhat / support)^3, so that it pushes as hard at half its support as an uncapped
+  /// pair at dhat / 2. A solver whose start is a rest state (a deformation's rest shell) then sees
+  /// no barrier at rest where parts of the surface lie close together there. The caps stay (in
+  /// model units) through set_options; a second call replaces them.
+  /// \throws InputError for a fraction outside (0, 1] or as energy for X.
+  void cap_support(const Eigen::MatrixXd& X, double fraction);
+  /// Pairs closer than their support at the last energy, gradient or Hessian evaluation.
   int active_pairs() const;
   /// Smallest pair distance at X over the candidate list, dhat + slack if no pair there is that
   /// close (always exact when below dhat: pairs off the list are at least dhat apart).

@@ -30,6 +30,11 @@ struct GuardOptions {
   /// contact_weight * A / dhat^3, A the mean base area per vertex, so that at dhat / 2 its push
   /// is about contact_weight * 4 A, comparable with what squashing a prism costs the shell energy.
   double contact_weight = 0.5;
+  /// Deformation and pose only (their frame guard): each pair's support is capped at this fraction
+  /// of how close its vertices lie to other parts of the boundary in the rest shell
+  /// (ContactGuard::cap_support), so that parts of the rest shell closer together than the support
+  /// do not push each other apart in every frame (in [0, 1]; 0: the support is the same everywhere).
+  double contact_rest_fraction = 0.5;
   /// Each step keeps every tet above this fraction of its volume and every boundary pair above
   /// this fraction of its distance, in (0, 1).
   double keep_fraction = 0.1;

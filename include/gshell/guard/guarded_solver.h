@@ -152,6 +152,10 @@ public:
   /// \throws InputError on bad parameters (as the constructor) or on a change of those three.
   void set_parameters(GuardedSolverParameters parameters);
 
+  /// ContactGuard::cap_support on the contact barrier (no-op without contacts): pairs close at X
+  /// (a rest state) get a support below that closeness. \throws InputError as cap_support.
+  void cap_contact_support(const Eigen::MatrixXd& X, double fraction);
+
   /// E_guard at X (+infinity when X is not valid for the barriers).
   /// \throws InputError when X is not num_vertices x 3.
   double energy(const Eigen::MatrixXd& X);
