@@ -83,7 +83,7 @@ struct ContactGuard::Impl {
   // cap_support's per-vertex caps on the support (model units); empty: every pair's is dhat.
   std::vector<double> support_cap;
 
-  // The last pass over the list, at x: pairs closer than dhat in list order.
+  // The last pass over the list, at x: pairs closer than their support, in list order.
   bool scanned = false;
   struct Active {
     PairKind kind;
@@ -544,7 +544,7 @@ void ContactGuard::cap_support(const Eigen::MatrixXd& X, double fraction) {
       const double d = std::sqrt(pair_squared_distance(static_cast<PairKind>(k), m.points(ids)));
       for (int v : ids) cap[v] = std::min(cap[v], fraction * d);
     }
-  // A pair touching at X would get no support at all; a floor keeps its barrier finite to build.
+  // A pair (nearly) touching at X would get (nearly) no support; the floor bounds its weight.
   for (double& c : cap) c = std::max(c, kSupportFloor * m.options.dhat);
   m.support_cap = std::move(cap);
   m.scanned = false;

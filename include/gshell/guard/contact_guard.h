@@ -71,8 +71,9 @@ public:
   // Calls at the same X (exactly equal) share one pass over the candidate list.
 
   /// Barrier B(X) = sum over pairs of b(d^2), b(s) = -(s - dhat^2)^2 log(s / dhat^2) for
-  /// s < dhat^2 and 0 beyond (each pair's own support and weight after cap_support) (d: the distance of the pair); edge-edge pairs of nearly parallel
-  /// edges are mollified (contact_barrier.h). +infinity if a pair touches. Deterministic: the
+  /// s < dhat^2 and 0 beyond (d: the distance of the pair; after cap_support, each pair's own
+  /// support in place of dhat, and its weight); edge-edge pairs of nearly parallel edges are
+  /// mollified (contact_barrier.h). +infinity if a pair touches. Deterministic: the
   /// same X gives the same bits whatever the thread count.
   /// \throws InputError when X (D, G) is not num_vertices x 3 or X has a non-finite coordinate at a
   ///         boundary vertex (this, add_gradient, add_hessian, step_bound and min_distance).
