@@ -512,14 +512,18 @@ std::set<std::vector<int>> keys(const std::vector<ContactPair>& pairs) {
   return out;
 }
 
+// A brute-force key's kind and points at X.
+PairKind key_kind(const std::vector<int>& key) { return key[0] == 0 ? PairKind::PointTriangle : PairKind::EdgeEdge; }
+PairPoints key_points(const std::vector<int>& key, const Eigen::MatrixXd& X) {
+  PairPoints p;
+  for (int i = 0; i < 4; ++i) p[i] = X.row(key[1 + i]).transpose();
+  return p;
+}
+
 // Brute-force barrier over the pairs closer than dhat.
 double brute_force_energy(const ShellCase& s, const Eigen::MatrixXd& X, double dhat) {
   double e = 0;
-  for (const std::vector<int>& k : brute_force_pairs(s, X, dhat)) {
-    PairPoints p;
-    for (int i = 0; i < 4; ++i) p[i] = X.row(k[1 + i]).transpose();
-    e += pair_barrier(k[0] == 0 ? PairKind::PointTriangle : PairKind::EdgeEdge, p, dhat);
-  }
+  for (const std::vector<int>& k : brute_force_pairs(s, X, dhat)) e += pair_barrier(key_kind(k), key_points(k, X), dhat);
   return e;
 }
 
@@ -922,15 +926,9 @@ TEST(ContactGuard, CappedSupportsAreQuietAtTheirRestAndWeightedBeyondIt) {
 
   // The caps again, by brute force: fraction x the distance at rest of each vertex's closest pair
   // within the candidate radius (dhat + slack = 2 dhat).
-  auto kind_of = [](const std::vector<int>& key) { return key[0] == 0 ? PairKind::PointTriangle : PairKind::EdgeEdge; };
-  auto points_of = [](const std::vector<int>& key, const Eigen::MatrixXd& X) {
-    PairPoints p;
-    for (int i = 0; i < 4; ++i) p[i] = X.row(key[1 + i]).transpose();
-    return p;
-  };
   std::vector<double> cap(2 * s.n, std::numeric_limits<double>::infinity());
   for (const std::vector<int>& key : brute_force_pairs(s, s.X, 2 * o.dhat)) {
-    const double d = std::sqrt(pair_squared_distance(kind_of(key), points_of(key, s.X)));
+    const double d = std::sqrt(pair_squared_distance(key_kind(key), key_points(key, s.X)));
     for (int i = 1; i <= 4; ++i) cap[key[i]] = std::min(cap[key[i]], fraction * d);
   }
   // Pressed: the top at a third of its height, jittered. Each pair's barrier has its own support
@@ -942,7 +940,7 @@ TEST(ContactGuard, CappedSupportsAreQuietAtTheirRestAndWeightedBeyondIt) {
   for (const std::vector<int>& key : brute_force_pairs(s, Y, o.dhat)) {
     double support = o.dhat;
     for (int i = 1; i <= 4; ++i) support = std::min(support, std::max(cap[key[i]], 1e-2 * o.dhat));
-    expected += std::pow(o.dhat / support, 3) * pair_barrier(kind_of(key), points_of(key, Y), support);
+    expected += std::pow(o.dhat / support, 3) * pair_barrier(key_kind(key), key_points(key, Y), support);
   }
   ASSERT_GT(expected, 0);
   const double energy = capped.energy(Y);

@@ -68,20 +68,6 @@ TriMesh folded_plane(int res, double degrees) {
   return m;
 }
 
-// Two parallel grids `gap` apart with normals facing each other.
-TriMesh facing_sheets(int res, double gap) {
-  const TriMesh a = make_plane(res);
-  TriMesh m;
-  const int n = static_cast<int>(a.V.rows());
-  m.V.resize(2 * n, 3);
-  m.F.resize(2 * a.F.rows(), 3);
-  m.V << a.V, a.V;
-  m.V.bottomRows(n).col(2).setConstant(gap);
-  m.F.topRows(a.F.rows()) = a.F;
-  for (int f = 0; f < a.F.rows(); ++f) m.F.row(a.F.rows() + f) << a.F(f, 0) + n, a.F(f, 2) + n, a.F(f, 1) + n;
-  return m;
-}
-
 // A sphere with random radial bumps of up to `amplitude` (relative), fixed seed: still star-shaped,
 // so the base does not intersect itself.
 TriMesh bumpy_sphere(int level, double amplitude) {
@@ -122,7 +108,7 @@ TEST(GuardedGeneration, TightVFoldIsValidAndThickWhereTheVOpens) {
 
 TEST(GuardedGeneration, SheetsCloserThanTwiceTheThicknessMeetHalfway) {
   const double eta = 0.2, gap = 0.3;
-  const TriMesh m = facing_sheets(10, gap);
+  const TriMesh m = test::facing_sheets(10, gap);
   ASSERT_TRUE(invalid(generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta, true))));
   const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta));
   expect_valid(g);
@@ -383,7 +369,7 @@ TEST(GuardedGeneration, TopsPulledOntoTheBaseAreHeldThere) {
   // the start put them; here that is all of them, and the result is valid.
   // (Generation then also tries the lifting alone, try_lift_only: off here.)
   const double eta = 0.2;
-  const TriMesh m = facing_sheets(6, 0.01 * eta);
+  const TriMesh m = test::facing_sheets(6, 0.01 * eta);
   GenerateOptions o = options_for(ShellMethod::Rigid, eta);
   o.guard.try_lift_only = false;
   const GenerateResult g = generate_shell(m.V, m.F, o);
@@ -537,7 +523,7 @@ TEST(GuardedGeneration, HoldingWhatCutsTheRepairsStepsKeepsItValidAndItsEnergyFa
   // that step and moves the rest further (GuardOptions::hold_rounds). Two sheets closer than
   // twice the layer: such steps happen (about two in three of the cut ones), the repair's E_guard
   // still never rises, and the result certifies, as does the repair whose steps are all cut.
-  const TriMesh m = facing_sheets(8, 0.15);
+  const TriMesh m = test::facing_sheets(8, 0.15);
   GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.1));
   ASSERT_GT(o.guard.hold_rounds, 0) << "generation holds";
   o.guard.relax_rounds = 0;

@@ -11,7 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include <numeric>
+#include "shell_fixtures.h"
+
 #include <vector>
 
 using namespace gshell;
@@ -101,21 +102,16 @@ TEST(GuardedSolver, ParametersThatChangeWhatIsKeptAreInputErrors) {
 TEST(GuardedSolver, ARestStateWithCloseContactsStaysPutWithCappedSupports) {
   // Two facing sheets 0.3 apart, each with its top 0.14 above it: the tops are 0.02 apart, within
   // the contact support 0.05. The shell is its own rest (the ARAP energy is zero there).
-  const TriMesh sheet = make_plane(8);
-  const int half = static_cast<int>(sheet.V.rows()), n = 2 * half;
-  Eigen::MatrixXd base(n, 3), top(n, 3);
-  Eigen::MatrixXi F(2 * sheet.F.rows(), 3);
-  base << sheet.V, sheet.V;
-  base.bottomRows(half).col(2).setConstant(0.3);
-  F << sheet.F, sheet.F.rowwise().reverse().array() + half;
-  top = base;
+  const TriMesh sheets = test::facing_sheets(8, 0.3);
+  const int n = static_cast<int>(sheets.V.rows()), half = n / 2;
+  const Eigen::MatrixXi& F = sheets.F;
+  Eigen::MatrixXd top = sheets.V;
   top.topRows(half).col(2).array() += 0.14;
   top.bottomRows(half).col(2).array() -= 0.14;
   Eigen::MatrixXd rest(2 * n, 3);
-  rest << base, top;
+  rest << sheets.V, top;
   const RestTets tets = rest_tets_from_positions(rest, build_prism_tets(F, n));
-  std::vector<int> fixed(n);
-  std::iota(fixed.begin(), fixed.end(), 0);
+  const std::vector<int> fixed = test::vertex_range(0, n);
   GuardedSolverParameters p;
   p.contact_distance = 0.05;
   p.contact_stiffness = 1;

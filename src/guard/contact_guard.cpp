@@ -290,6 +290,7 @@ struct ContactGuard::Impl {
   void scan(const Eigen::MatrixXd& X) {
     set_positions(X);
     if (scanned) return;
+    const double s_hat = options.dhat * options.dhat;
     active.clear();
     min_squared = std::numeric_limits<double>::infinity();
     for (int k = 0; k < 2; ++k) {
@@ -306,6 +307,7 @@ struct ContactGuard::Impl {
           if (built[i] >= cut) continue;
           const double d2 = pair_squared_distance(kind, points(list[i]));
           m = std::min(m, d2);
+          if (!(d2 < s_hat)) continue; // beyond every support
           const double support = this->support(list[i]);
           if (d2 < support * support)
             block_active[b].push_back(

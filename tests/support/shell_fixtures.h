@@ -30,6 +30,21 @@ inline Shell lifted_shell(const TriMesh& surface, double eta) {
   return s;
 }
 
+/// Two builtin:plane:RES grids `gap` apart in z with normals facing each other (the first at z = 0,
+/// normals +z; the second's vertices are the first's shifted by n).
+inline TriMesh facing_sheets(int res, double gap) {
+  const TriMesh a = make_plane(res);
+  TriMesh m;
+  const int n = static_cast<int>(a.V.rows());
+  m.V.resize(2 * n, 3);
+  m.F.resize(2 * a.F.rows(), 3);
+  m.V << a.V, a.V;
+  m.V.bottomRows(n).col(2).setConstant(gap);
+  m.F.topRows(a.F.rows()) = a.F;
+  for (int f = 0; f < a.F.rows(); ++f) m.F.row(a.F.rows() + f) << a.F(f, 0) + n, a.F(f, 2) + n, a.F(f, 1) + n;
+  return m;
+}
+
 /// Flat shell of thickness eta over builtin:plane:RES.
 inline Shell flat_plane_shell(int res, double eta) { return lifted_shell(make_plane(res), eta); }
 
