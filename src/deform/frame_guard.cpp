@@ -6,6 +6,7 @@
 #include <gshell/quality/shell_certificate.h>
 
 #include <Eigen/Geometry>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
@@ -32,12 +33,26 @@ double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, c
   return worst;
 }
 
+// Tets at or below this relative volume are left out of the guard: no step bound computed in
+// floating point keeps their sign.
+constexpr double kFlat = 1e-8;
+
+/// Flags in `skip` the three tets of every prism touching a vertex of (V, F) that no direction
+/// extrudes (one of them must be inverted, and which one may change as the base moves).
+void skip_prisms_at_unextrudable_vertices(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::vector<char>& skip) {
+  std::vector<char> unextrudable(V.rows(), 0);
+  for (int v : extrusion_directions(V, F).unextrudable) unextrudable[v] = 1;
+  for (int f = 0; f < F.rows(); ++f)
+    if (unextrudable[F(f, 0)] || unextrudable[F(f, 1)] || unextrudable[F(f, 2)])
+      for (int k = 0; k < 3; ++k) skip[3 * f + k] = 1;
+}
+
 } // namespace
 
 FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options,
                        std::vector<int> fixed, bool moving_base)
-    : options_(options), rest_tets_(rest_tets), n_(rest.num_base_vertices()), F_(rest.F), fixed_(std::move(fixed)),
-      moving_base_(moving_base),
+    : options_(options), rest_tets_(rest_tets), probe_(rest_tets, options.j_hat), n_(rest.num_base_vertices()),
+      F_(rest.F), fixed_(std::move(fixed)), moving_base_(moving_base),
       boundary_(shell_boundary(rest.F, rest.num_base_vertices())), certifier_(rest.F, rest.num_base_vertices()) {
   const int n = n_, m = static_cast<int>(rest.F.rows());
   double eta = rest.thickness;
@@ -49,26 +64,21 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // crosses itself leaves no clean top near the crossing).
   const ShellCertificate rest_certificate = certifier_.certify(rest.base, rest.top);
   const Eigen::MatrixXd X = rest.vertices();
-  const VolumeBarrier probe(rest_tets, options.j_hat);
   parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
   for (int t : rest_certificate.inverted_tet_ids) parameters_.skip_tets[t] = 1;
-  // So do tets flat to rounding error (J below kFlat): no step bound computed in floating point
-  // keeps their sign, and a drag guarding them crawls at steps of 1e-10 (CGAL's man: minutes per
-  // frame, then a step that rounded one of them inverted). The certificate still counts them.
-  constexpr double kFlat = 1e-8;
+  // So do tets flat to rounding error (J below kFlat): a drag guarding them crawls at steps of
+  // 1e-10 (CGAL's man: minutes per frame, then a step that rounded one of them inverted). The
+  // certificate still counts them.
   for (int t = 0; t < rest_tets.size(); ++t)
-    if (!(probe.relative_volume_of(X, t) > kFlat)) parameters_.skip_tets[t] = 1;
+    if (!(probe_.relative_volume_of(X, t) > kFlat)) parameters_.skip_tets[t] = 1;
   // And every tet of a prism at an unextrudable vertex of the base (no direction sees all its faces
   // from their positive side): one of them must be inverted, and which one may change as the base
   // moves, so guarding the others would hold the frame still.
+  skip_prisms_at_unextrudable_vertices(rest.base, rest.F, parameters_.skip_tets);
+  rest_skip_ = parameters_.skip_tets;
   const auto touches = [&](const std::vector<char>& flagged, int f) {
     return flagged[rest.F(f, 0)] || flagged[rest.F(f, 1)] || flagged[rest.F(f, 2)];
   };
-  std::vector<char> unextrudable(n, 0);
-  for (int v : extrusion_directions(rest.base, rest.F).unextrudable) unextrudable[v] = 1;
-  for (int f = 0; f < m; ++f)
-    if (touches(unextrudable, f))
-      for (int k = 0; k < 3; ++k) parameters_.skip_tets[3 * f + k] = 1;
   std::vector<char> touched(n, 0), excluded_face(m, 0);
   for (const BoundaryIntersection& pair : rest_certificate.intersections)
     for (int row : {pair.a, pair.b})
@@ -85,6 +95,19 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
 }
 
 FrameGuard::~FrameGuard() = default;
+
+bool FrameGuard::leave_out(const Eigen::MatrixXd& from, const Eigen::MatrixXd* to) {
+  std::vector<char> skip = rest_skip_;
+  if (to) skip_prisms_at_unextrudable_vertices(to->topRows(n_), F_, skip);
+  tbb::parallel_for(0, static_cast<int>(skip.size()), [&](int t) {
+    if (!skip[t] && !(probe_.relative_volume_of(from, t) > kFlat)) skip[t] = 1;
+  });
+  if (skip == parameters_.skip_tets) return false;
+  if (contact_) contact_->set_skipped_tets(skip);
+  if (tets_) tets_->set_skipped_tets(skip);
+  parameters_.skip_tets = std::move(skip);
+  return true;
+}
 
 bool FrameGuard::built_with(const GuardOptions& o) const {
   const GuardOptions& p = options_;
@@ -169,7 +192,6 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
   }
   const Eigen::MatrixXd from = X;
   Eigen::MatrixXd step_targets = X;
-  bool asked = false; // other_way
   // A stalled drag is retried once (the energy iterations in between may make room), then
   // continued with the tets alone, or stopped there (blocked).
   constexpr int kRetries = 2;
@@ -189,12 +211,9 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
       const GuardedSolveResult r = solver->solve(X, k < substeps ? on_the_way : last, step_targets);
       out.iterations += r.iterations;
       if (r.path_done >= 1) break;
-      if (solver == contact_.get() && other_way && !asked) { // the contact drag's first stall
-        asked = true;
-        if (other_way()) {
-          out.superseded = true;
-          return out;
-        }
+      if (other_way && other_way()) {
+        out.superseded = true;
+        return out;
       }
       // The drag moves the free vertices with the fixed ones by the model's linear response,
       // which knows nothing of the barriers: two tops pressed against each other over a wide

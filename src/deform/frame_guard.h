@@ -44,6 +44,17 @@ public:
   /// one it leaves out (flat at rest, or at an unextrudable vertex), every intersecting pair
   /// touches a triangle it leaves out (around the rest's own intersections).
   bool only_unguarded_faults(const ShellCertificate& certificate) const;
+  /// Chooses the tets left out of the guard from the state `from` (2n x 3, a frame made by this
+  /// guard) on: the rest shell's (above), those not positive at `from` (left inverted by an
+  /// earlier choice) and, with `to` (2n x 3), those of the prisms at vertices of `to`'s base that
+  /// are unextrudable (extrusion_directions); every other tet is guarded. A moving base can make
+  /// a vertex unextrudable that was not at rest (CGAL's anchor twisted by 90 degrees): one tet of
+  /// its prisms must then invert (with a thin enough layer), and guarding them all holds the frame
+  /// back. The acceptance, the drags and only_unguarded_faults use the choice until the next call.
+  /// Returns whether the choice changed.
+  bool leave_out(const Eigen::MatrixXd& from, const Eigen::MatrixXd* to = nullptr);
+  /// Whether the last leave_out left out more tets than the rest shell's.
+  bool leaves_out_beyond_rest() const { return parameters_.skip_tets != rest_skip_; }
   /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
   bool guards_contacts() const { return contact_ != nullptr; }
 
@@ -67,9 +78,10 @@ public:
   /// the tets are guarded from there on (TetsOnly) with `fall_back_to_tets`, else the drag stops
   /// where it is (blocked). Failed: X is left somewhere on the way. `contacts`: X is free of
   /// contacts (else only the tets can be guarded).
-  /// `other_way` (optional) is asked once, when the contact-guarded drag first stalls, before it is
-  /// retried: true means the caller has the frame by other means, and the drag ends there
-  /// (`superseded`, X left where it stopped).
+  /// `other_way` (optional) is asked at every stall, before the drag is retried or falls back to
+  /// the tets: true means the caller has the frame by other means, and the drag ends there
+  /// (`superseded`, X left where it stopped); false lets the drag go on (the caller may have
+  /// changed the guard's choice of tets, leave_out, from X as it stands).
   Outcome drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts, bool fall_back_to_tets,
                const GuardedSolveOptions& solve, double substep_tolerance,
                const std::function<bool()>& other_way = {});
@@ -80,13 +92,15 @@ private:
 
   GuardOptions options_;
   RestTets rest_tets_;
+  VolumeBarrier probe_; // the rest tets' relative volumes
   int n_ = 0;
   Eigen::MatrixXi F_;
   std::vector<int> fixed_;
   bool moving_base_ = false;
   ShellBoundary boundary_;
   ShellCertifier certifier_; // the rest shell's, then every frame's (its trees refit, not rebuilt)
-  GuardedSolverParameters parameters_;
+  GuardedSolverParameters parameters_; // skip_tets: those of the last leave_out
+  std::vector<char> rest_skip_;        // the tets the rest shell leaves out
   std::unique_ptr<GuardedSolver> contact_, tets_;
 };
 

@@ -383,6 +383,9 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   const Eigen::MatrixXd& previous = resumed ? resume_ : last;
   result.resumed = resumed;
   const bool contacts = guard_->guards_contacts() && (current_clean_ || resumed);
+  // A frame after one that left tets inverted (at a vertex its base made unextrudable) guards
+  // every tet positive at its start again.
+  if (resumed || guard_->leaves_out_beyond_rest()) guard_->leave_out(previous);
   ShellCertificate certificate;
   if (guard_->accepts(previous, X, contacts, &certificate)) {
     result.method = FrameMethod::Bounded;
@@ -410,15 +413,27 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   // the contact support (lion-head's) every stalled drag iteration costs a few hundred ms, and
   // the retries and the tets-only drag that followed took 10-50 s a frame where the regeneration
   // and its polish take a few.
+  // When that fresh top is not clean, the tets of prisms at the vertices the new base makes
+  // unextrudable (if any) are left out and the drag goes on: guarding them all can hold it still
+  // (CGAL's anchor, frame 8 of a twist: 84 inverted tets after a failed drag, 6 with them left
+  // out). Not before: such a vertex forces an inversion only in a thin enough layer, and a frame
+  // made with its tets guarded may have none (the anchor's frame 7; the sliver of
+  // tests/deform_guard_test.cpp).
   Eigen::MatrixXd fresh;
-  bool regeneration_tried = false;
+  bool left_out = false, regeneration_tried = false;
   const auto regenerate_once = [&] {
     regeneration_tried = true;
     return regenerate(X, fresh, options);
   };
+  const auto other_way = [&] {
+    if (!regeneration_tried && regenerate_once()) return true;
+    if (!left_out) guard_->leave_out(Y, &X);
+    left_out = true;
+    return false;
+  };
   FrameGuard::Outcome outcome =
-      guard_->drag(Y, X, substeps, contacts, true, solve, options.substep_tolerance, regenerate_once);
-  // A drag that never stalled with contacts guarded (they were not) may still fail with the tets.
+      guard_->drag(Y, X, substeps, contacts, true, solve, options.substep_tolerance, other_way);
+  // A drag that failed without a stall (no guarded solver takes its start) has not tried it yet.
   if (!outcome.superseded && outcome.method == FrameMethod::Failed && !regeneration_tried &&
       regenerate_once())
     outcome.superseded = true;

@@ -386,12 +386,17 @@ void GuardedSolver::set_parameters(GuardedSolverParameters parameters) {
   Impl& m = *impl_;
   parameters = Impl::checked(std::move(parameters));
   if (parameters.skip_tets != m.p.skip_tets || parameters.excluded_triangles != m.p.excluded_triangles)
-    throw InputError("GuardedSolver::set_parameters: skip_tets and excluded_triangles must stay as at construction");
+    throw InputError("GuardedSolver::set_parameters: skip_tets and excluded_triangles must stay as they are");
   if ((parameters.contact_distance > 0) != (m.contact != nullptr))
     throw InputError("GuardedSolver::set_parameters: contact_distance must stay positive, or zero, as at construction");
   m.volume.set_j_hat(parameters.j_hat);
   if (m.contact) m.contact->set_options(Impl::contact_options(parameters));
   m.p = std::move(parameters);
+}
+
+void GuardedSolver::set_skipped_tets(std::vector<char> skip) {
+  impl_->volume.set_skip(std::move(skip));
+  impl_->p.skip_tets = impl_->volume.skip();
 }
 
 void GuardedSolver::cap_contact_support(const Eigen::MatrixXd& X, double fraction) {

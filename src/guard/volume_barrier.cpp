@@ -31,15 +31,20 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 } // namespace
 
 VolumeBarrier::VolumeBarrier(const RestTets& rest, double j_hat, std::vector<char> skip)
-    : T_(rest.T), inv_det_rest_(rest.size()), weight_(rest.size()), skip_(std::move(skip)), j_hat_(j_hat) {
+    : T_(rest.T), inv_det_rest_(rest.size()), weight_(rest.size()), j_hat_(j_hat) {
   set_j_hat(j_hat);
-  if (!skip_.empty() && static_cast<int>(skip_.size()) != rest.size())
-    throw InputError("VolumeBarrier: expected one skip flag per tet");
-  if (skip_.empty()) skip_.assign(rest.size(), 0);
+  set_skip(std::move(skip));
   for (int t = 0; t < rest.size(); ++t) {
     inv_det_rest_[t] = rest.dm_inv(t).determinant();
     weight_[t] = rest.volume[t];
   }
+}
+
+void VolumeBarrier::set_skip(std::vector<char> skip) {
+  const auto tets = static_cast<std::size_t>(T_.rows());
+  if (!skip.empty() && skip.size() != tets) throw InputError("VolumeBarrier: expected one skip flag per tet");
+  if (skip.empty()) skip.assign(tets, 0);
+  skip_ = std::move(skip);
 }
 
 void VolumeBarrier::set_j_hat(double j_hat) {

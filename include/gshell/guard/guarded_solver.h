@@ -148,9 +148,16 @@ public:
   /// Other parameters for the following solves, e.g. weaker barriers after a first solve (as
   /// generation's relaxation rounds do): the ARAP system and the contact primitives are kept, a
   /// fraction of the cost of a new solver on a large shell. skip_tets and excluded_triangles must
-  /// be those of the construction, and contact_distance positive exactly when it was.
+  /// be those in effect (set_skipped_tets changes the first), and contact_distance positive
+  /// exactly when it was at construction.
   /// \throws InputError on bad parameters (as the constructor) or on a change of those three.
   void set_parameters(GuardedSolverParameters parameters);
+
+  /// Other tets left out of the volume barrier and the step bound for the following solves (as
+  /// GuardedSolverParameters::skip_tets; e.g. the prisms at the vertices a moving base makes
+  /// unextrudable). Every tet guarded from then on must be positive in the states solved from.
+  /// \throws InputError when skip has neither 0 nor one flag per tet.
+  void set_skipped_tets(std::vector<char> skip);
 
   /// ContactGuard::cap_support on the contact barrier (no-op without contacts): pairs close at X
   /// (a rest state) get a support below that closeness. \throws InputError as cap_support.

@@ -53,6 +53,10 @@ public:
   double min_relative_volume(const Eigen::MatrixXd& X) const;
 
   const std::vector<char>& skip() const { return skip_; }
+  /// Other tets left out for the following evaluations (as `skip` of the constructor; e.g. a moving
+  /// base whose unextrudable vertices change). \throws InputError when skip has neither 0 nor one
+  /// flag per tet.
+  void set_skip(std::vector<char> skip);
   double j_hat() const { return j_hat_; }
   /// Another j_hat (in (0, 1], else InputError) for the following evaluations.
   void set_j_hat(double j_hat);
