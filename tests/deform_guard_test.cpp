@@ -15,6 +15,8 @@
 #include <gshell/shell/prism_tets.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/quality/shell_boundary.h>
+#include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/solver/shell_solver.h>
 
@@ -287,6 +289,43 @@ TEST(DeformGuard, AVertexTheMotionMakesUnextrudableKeepsTheFramesGuarded) {
       EXPECT_EQ(corners, 4) << "frame " << i << ": tet " << t << " inverted";
     }
   }
+}
+
+// A base that crosses itself has no clean top near its crossings, but everywhere else it has
+// (as guarded generation keeps it): of two facing sheets 0.1 apart, the upper one is dented
+// through the lower one at one vertex. The frame is one the guard stands by (guarded or made
+// afresh: every tet positive, and each intersecting pair of its certificate has a triangle over
+// a face next to the base's crossings). Before, the drag stalled against the crossing, the fresh
+// top was refused for the pairs there, and the frame was the tets-only drag's.
+TEST(DeformGuard, ABaseCrossingItselfLeavesTheTopCleanAwayFromItsCrossings) {
+  const Shell rest = offset_shell(test::facing_sheets(8, 0.1), 0.03);
+  const int n = rest.num_base_vertices();
+  int dent = -1;
+  for (int v = n / 2; v < n && dent < 0; ++v)
+    if (rest.base.row(v).head<2>().norm() < 1e-9) dent = v; // the upper sheet's centre
+  ASSERT_GE(dent, 0);
+  Eigen::MatrixXd crossed = rest.base;
+  crossed(dent, 2) = -0.05;
+  ShellDeformer deformer(rest);
+  const FrameResult r = deformer.solve(crossed);
+  const ShellCertificate c = certify_shell(crossed, r.top, rest.F);
+  ASSERT_GT(c.base_self_intersections, 0);
+  EXPECT_FALSE(r.valid);
+  EXPECT_TRUE(r.method == FrameMethod::Guarded || r.method == FrameMethod::Regenerated)
+      << frame_method_name(r.method);
+  EXPECT_EQ(c.inverted_tets, 0);
+  std::vector<char> near(n, 0);
+  for (const auto& [f, g] : surface_self_intersections(crossed, rest.F))
+    for (int k = 0; k < 3; ++k) near[rest.F(f, k)] = near[rest.F(g, k)] = 1;
+  const ShellBoundary boundary = shell_boundary(rest.F, n);
+  const auto next_to_crossing = [&](int row) {
+    const int f = boundary.face[row];
+    return near[rest.F(f, 0)] || near[rest.F(f, 1)] || near[rest.F(f, 2)];
+  };
+  int away = 0;
+  for (const BoundaryIntersection& pair : c.intersections)
+    away += !next_to_crossing(pair.a) && !next_to_crossing(pair.b);
+  EXPECT_EQ(away, 0) << "of " << c.intersections.size() << " intersecting pairs";
 }
 
 TEST(DeformGuard, AFrameAfterAnInvalidOneStartsFromTheLastValidState) {

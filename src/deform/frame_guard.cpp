@@ -4,6 +4,7 @@
 #include <gshell/guard/extrusion_directions.h>
 #include <gshell/guard/tet_step_bound.h>
 #include <gshell/quality/shell_certificate.h>
+#include <gshell/quality/triangle_intersections.h>
 
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
@@ -47,14 +48,37 @@ void skip_prisms_at_unextrudable_vertices(const Eigen::MatrixXd& V, const Eigen:
       for (int k = 0; k < 3; ++k) skip[3 * f + k] = 1;
 }
 
+/// Flags in `excluded` (one per row of `boundary`) the boundary triangles of every face of F with a
+/// corner flagged in `touched` (one per base vertex).
+void exclude_faces_touching(const std::vector<char>& touched, const Eigen::MatrixXi& F, const ShellBoundary& boundary,
+                            std::vector<char>& excluded) {
+  for (int r = 0; r < boundary.size(); ++r) {
+    const int f = boundary.face[r];
+    if (touched[F(f, 0)] || touched[F(f, 1)] || touched[F(f, 2)]) excluded[r] = 1;
+  }
+}
+
+/// Flags in `excluded` the boundary triangles around the crossings of the base (V, F) with itself:
+/// over every face sharing a vertex with a face that crosses another (no top there is clean).
+void exclude_around_base_crossings(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const ShellBoundary& boundary,
+                                   std::vector<char>& excluded) {
+  const std::vector<std::pair<int, int>> crossings = surface_self_intersections(V, F);
+  if (crossings.empty()) return;
+  std::vector<char> touched(V.rows(), 0);
+  for (const auto& [f, g] : crossings)
+    for (int k = 0; k < 3; ++k) touched[F(f, k)] = touched[F(g, k)] = 1;
+  exclude_faces_touching(touched, F, boundary, excluded);
+}
+
 } // namespace
 
 FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options,
                        std::vector<int> fixed, bool moving_base)
-    : options_(options), rest_tets_(rest_tets), probe_(rest_tets, options.j_hat), n_(rest.num_base_vertices()),
+    : options_(options), rest_tets_(rest_tets), rest_vertices_(rest.vertices()), probe_(rest_tets, options.j_hat),
+      n_(rest.num_base_vertices()),
       F_(rest.F), fixed_(std::move(fixed)), moving_base_(moving_base),
       boundary_(shell_boundary(rest.F, rest.num_base_vertices())), certifier_(rest.F, rest.num_base_vertices()) {
-  const int n = n_, m = static_cast<int>(rest.F.rows());
+  const int n = n_;
   double eta = rest.thickness;
   if (!(eta > 0) && n > 0) eta = (rest.top - rest.base).rowwise().norm().mean();
   parameters_ = absolute_guard_parameters(rest.base, rest.F, eta, options);
@@ -63,7 +87,7 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // of its intersecting triangle pairs with every face sharing a vertex with them (a base that
   // crosses itself leaves no clean top near the crossing).
   const ShellCertificate rest_certificate = certifier_.certify(rest.base, rest.top);
-  const Eigen::MatrixXd X = rest.vertices();
+  const Eigen::MatrixXd& X = rest_vertices_;
   parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
   for (int t : rest_certificate.inverted_tet_ids) parameters_.skip_tets[t] = 1;
   // So do tets flat to rounding error (J below kFlat): a drag guarding them crawls at steps of
@@ -76,37 +100,53 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // moves, so guarding the others would hold the frame still.
   skip_prisms_at_unextrudable_vertices(rest.base, rest.F, parameters_.skip_tets);
   rest_skip_ = parameters_.skip_tets;
-  const auto touches = [&](const std::vector<char>& flagged, int f) {
-    return flagged[rest.F(f, 0)] || flagged[rest.F(f, 1)] || flagged[rest.F(f, 2)];
-  };
-  std::vector<char> touched(n, 0), excluded_face(m, 0);
+  std::vector<char> touched(n, 0);
   for (const BoundaryIntersection& pair : rest_certificate.intersections)
     for (int row : {pair.a, pair.b})
       for (int k = 0; k < 3; ++k) touched[boundary_.F(row, k) % n] = 1;
-  for (int f = 0; f < m; ++f)
-    excluded_face[f] = touches(touched, f);
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
-  for (int r = 0; r < boundary_.size(); ++r) parameters_.excluded_triangles[r] = excluded_face[boundary_.face[r]];
+  exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
+  rest_excluded_ = parameters_.excluded_triangles;
 
   if (parameters_.contact_distance > 0) {
     contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed_, boundary_, parameters_);
-    if (options.contact_rest_fraction > 0) contact_->cap_contact_support(X, options.contact_rest_fraction);
+    cap_contact_supports();
   }
+}
+
+void FrameGuard::cap_contact_supports() {
+  if (contact_ && options_.contact_rest_fraction > 0)
+    contact_->cap_contact_support(rest_vertices_, options_.contact_rest_fraction);
 }
 
 FrameGuard::~FrameGuard() = default;
 
 bool FrameGuard::leave_out(const Eigen::MatrixXd& from, const Eigen::MatrixXd* to) {
-  std::vector<char> skip = rest_skip_;
-  if (to) skip_prisms_at_unextrudable_vertices(to->topRows(n_), F_, skip);
+  std::vector<char> skip = rest_skip_, excluded = rest_excluded_;
+  if (to) {
+    skip_prisms_at_unextrudable_vertices(to->topRows(n_), F_, skip);
+    exclude_around_base_crossings(to->topRows(n_), F_, boundary_, excluded);
+  }
   tbb::parallel_for(0, static_cast<int>(skip.size()), [&](int t) {
     if (!skip[t] && !(probe_.relative_volume_of(from, t) > kFlat)) skip[t] = 1;
   });
-  if (skip == parameters_.skip_tets) return false;
-  if (contact_) contact_->set_skipped_tets(skip);
-  if (tets_) tets_->set_skipped_tets(skip);
-  parameters_.skip_tets = std::move(skip);
-  return true;
+  // A state made with triangles left out around its base's crossings may have intersections
+  // there: they stay left out while its base crosses itself.
+  if (parameters_.excluded_triangles != rest_excluded_)
+    exclude_around_base_crossings(from.topRows(n_), F_, boundary_, excluded);
+  const bool new_skip = skip != parameters_.skip_tets, new_excluded = excluded != parameters_.excluded_triangles;
+  if (new_skip) {
+    if (contact_) contact_->set_skipped_tets(skip);
+    if (tets_) tets_->set_skipped_tets(skip);
+    parameters_.skip_tets = std::move(skip);
+  }
+  if (new_excluded) {
+    if (contact_) contact_->set_excluded_triangles(excluded);
+    if (tets_) tets_->set_excluded_triangles(excluded);
+    parameters_.excluded_triangles = std::move(excluded);
+    cap_contact_supports();
+  }
+  return new_skip || new_excluded;
 }
 
 bool FrameGuard::built_with(const GuardOptions& o) const {

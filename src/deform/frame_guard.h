@@ -44,17 +44,22 @@ public:
   /// one it leaves out (flat at rest, or at an unextrudable vertex), every intersecting pair
   /// touches a triangle it leaves out (around the rest's own intersections).
   bool only_unguarded_faults(const ShellCertificate& certificate) const;
-  /// Chooses the tets left out of the guard from the state `from` (2n x 3, a frame made by this
-  /// guard) on: the rest shell's (above), those not positive at `from` (left inverted by an
-  /// earlier choice) and, with `to` (2n x 3), those of the prisms at vertices of `to`'s base that
-  /// are unextrudable (extrusion_directions); every other tet is guarded. A moving base can make
-  /// a vertex unextrudable that was not at rest (CGAL's anchor twisted by 90 degrees): one tet of
-  /// its prisms must then invert (with a thin enough layer), and guarding them all holds the frame
-  /// back. The acceptance, the drags and only_unguarded_faults use the choice until the next call.
+  /// Chooses what the guard leaves out from the state `from` (2n x 3, a frame made by this guard)
+  /// on: what the rest shell leaves out (above); the tets not positive at `from` (left inverted
+  /// by an earlier choice) and, where the last choice left out more triangles than the rest's,
+  /// the triangles around the crossings of `from`'s base; with `to` (2n x 3), also the tets of the
+  /// prisms at vertices of `to`'s base that are unextrudable (extrusion_directions) and the
+  /// triangles around its base's crossings with itself. A moving base can make a vertex
+  /// unextrudable that was not at rest (CGAL's anchor twisted by 90 degrees), where one tet of
+  /// its prisms must invert in a thin enough layer, or make the base cross itself (CGAL's
+  /// triceratops bent by 90 degrees), where no top is clean: guarding them holds the frame back.
+  /// The acceptance, the drags and only_unguarded_faults use the choice until the next call.
   /// Returns whether the choice changed.
   bool leave_out(const Eigen::MatrixXd& from, const Eigen::MatrixXd* to = nullptr);
-  /// Whether the last leave_out left out more tets than the rest shell's.
-  bool leaves_out_beyond_rest() const { return parameters_.skip_tets != rest_skip_; }
+  /// Whether the last leave_out left out more than the rest shell's choice.
+  bool leaves_out_beyond_rest() const {
+    return parameters_.skip_tets != rest_skip_ || parameters_.excluded_triangles != rest_excluded_;
+  }
   /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
   bool guards_contacts() const { return contact_ != nullptr; }
 
@@ -88,10 +93,13 @@ public:
 
 private:
   GuardedSolver& tets_only();
+  // The contact solver's supports capped at the rest shell (GuardOptions::contact_rest_fraction).
+  void cap_contact_supports();
 
 
   GuardOptions options_;
   RestTets rest_tets_;
+  Eigen::MatrixXd rest_vertices_; // 2n x 3
   VolumeBarrier probe_; // the rest tets' relative volumes
   int n_ = 0;
   Eigen::MatrixXi F_;
@@ -99,8 +107,8 @@ private:
   bool moving_base_ = false;
   ShellBoundary boundary_;
   ShellCertifier certifier_; // the rest shell's, then every frame's (its trees refit, not rebuilt)
-  GuardedSolverParameters parameters_; // skip_tets: those of the last leave_out
-  std::vector<char> rest_skip_;        // the tets the rest shell leaves out
+  GuardedSolverParameters parameters_; // skip_tets, excluded_triangles: the last leave_out's
+  std::vector<char> rest_skip_, rest_excluded_; // what the rest shell leaves out
   std::unique_ptr<GuardedSolver> contact_, tets_;
 };
 

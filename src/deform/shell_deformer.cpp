@@ -350,7 +350,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   return result;
 }
 
-bool ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options) {
+ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options) {
   const int n = rest_.num_base_vertices();
   SolveOptions paper;
   paper.max_iterations = options.max_iterations;
@@ -358,15 +358,9 @@ bool ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, con
   // fresh top's stretch came out 0.0042 instead of 0.0048, before the polish in guard_frame.
   const GuardedShell fresh = guarded_shell(X.topRows(n), rest_.F, solver_.rest(), rest_.thickness,
                                            generation_guard_options(), paper, {}, X.bottomRows(n));
-  Eigen::MatrixXd Z(2 * n, 3);
-  Z << X.topRows(n), fresh.top;
-  // Kept on the terms a dragged frame is: only what the guard leaves out may be wrong (the tets at
-  // an unextrudable vertex, the triangles around the rest base's own crossings; CGAL's bull has
-  // both). A base that crosses itself is the caller's, as in the drag's acceptance; the frame's
-  // certificate still counts it.
-  if (!guard_->only_unguarded_faults(guard_->certify(Z))) return false;
-  Y = std::move(Z);
-  return true;
+  Y.resize(2 * n, 3);
+  Y << X.topRows(n), fresh.top;
+  return guard_->certify(Y);
 }
 
 void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X, const DeformOptions& options,
@@ -413,20 +407,27 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   // the contact support (lion-head's) every stalled drag iteration costs a few hundred ms, and
   // the retries and the tets-only drag that followed took 10-50 s a frame where the regeneration
   // and its polish take a few.
-  // When that fresh top is not clean, the tets of prisms at the vertices the new base makes
-  // unextrudable (if any) are left out and the drag goes on: guarding them all can hold it still
-  // (CGAL's anchor, frame 8 of a twist: 84 inverted tets after a failed drag, 6 with them left
-  // out). Not before: such a vertex forces an inversion only in a thin enough layer, and a frame
-  // made with its tets guarded may have none (the anchor's frame 7; the sliver of
-  // tests/deform_guard_test.cpp).
+  // It is kept on the terms a dragged frame is: only what the guard leaves out may be wrong (the
+  // tets at an unextrudable vertex, the triangles around the base's crossings; CGAL's bull has
+  // both). A base that crosses itself is the caller's, as in the drag's acceptance; the frame's
+  // certificate still counts it.
+  // When the fresh top is not clean, the guard leaves out what the new base itself breaks (the
+  // tets of the prisms at the vertices it makes unextrudable, the triangles around its crossings
+  // with itself) and the drag goes on: guarding them can hold it still (CGAL's anchor, frame 8 of
+  // a twist: 84 inverted tets after a failed drag, 6 with them left out). Not before: such a
+  // vertex forces an inversion only in a thin enough layer, and a frame made with its tets guarded
+  // may have none (the anchor's frame 7; the sliver of tests/deform_guard_test.cpp). If the drag
+  // still fails, the fresh top is taken when it is clean on the new terms.
   Eigen::MatrixXd fresh;
+  ShellCertificate fresh_certificate;
   bool left_out = false, regeneration_tried = false;
-  const auto regenerate_once = [&] {
+  const auto regenerated = [&] {
+    if (!regeneration_tried) fresh_certificate = regenerate(X, fresh, options);
     regeneration_tried = true;
-    return regenerate(X, fresh, options);
+    return guard_->only_unguarded_faults(fresh_certificate);
   };
   const auto other_way = [&] {
-    if (!regeneration_tried && regenerate_once()) return true;
+    if (!regeneration_tried && regenerated()) return true;
     if (!left_out) guard_->leave_out(Y, &X);
     left_out = true;
     return false;
@@ -434,8 +435,8 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   FrameGuard::Outcome outcome =
       guard_->drag(Y, X, substeps, contacts, true, solve, options.substep_tolerance, other_way);
   // A drag that failed without a stall (no guarded solver takes its start) has not tried it yet.
-  if (!outcome.superseded && outcome.method == FrameMethod::Failed && !regeneration_tried &&
-      regenerate_once())
+  if (!outcome.superseded && (outcome.method == FrameMethod::Failed || outcome.method == FrameMethod::TetsOnly) &&
+      regenerated())
     outcome.superseded = true;
   if (outcome.superseded) {
     outcome.method = FrameMethod::Regenerated;

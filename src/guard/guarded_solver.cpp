@@ -42,6 +42,7 @@ struct GuardedSolver::Impl {
   ShellSolver arap;
   VolumeBarrier volume;
   std::unique_ptr<ContactGuard> contact;
+  ShellBoundary boundary; // kept to build the contact guard again (set_excluded_triangles)
   GuardedSolverParameters p;
   Eigen::MatrixXi T;
   int N = 0;
@@ -53,14 +54,16 @@ struct GuardedSolver::Impl {
   Impl(const RestTets& rest, int num_vertices, const std::vector<int>& fixed_vertices, const ShellBoundary& boundary,
        GuardedSolverParameters parameters)
       : arap(rest, num_vertices, fixed_vertices), volume(rest, parameters.j_hat, parameters.skip_tets),
-        p(checked(std::move(parameters))), T(rest.T), N(num_vertices), fixed(fixed_vertices),
+        boundary(boundary), p(checked(std::move(parameters))), T(rest.T), N(num_vertices), fixed(fixed_vertices),
         free(arap.free_vertices()), free_index(num_vertices, -1) {
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
-    if (p.contact_distance > 0) {
-      std::vector<char> movable(N, 0);
-      for (int v : free) movable[v] = 1;
-      contact = std::make_unique<ContactGuard>(boundary, N, std::move(movable), contact_options(p), p.excluded_triangles);
-    }
+    if (p.contact_distance > 0) make_contact_guard();
+  }
+
+  void make_contact_guard() {
+    std::vector<char> movable(N, 0);
+    for (int v : free) movable[v] = 1;
+    contact = std::make_unique<ContactGuard>(boundary, N, std::move(movable), contact_options(p), p.excluded_triangles);
   }
 
   static GuardedSolverParameters checked(GuardedSolverParameters p) {
@@ -397,6 +400,14 @@ void GuardedSolver::set_parameters(GuardedSolverParameters parameters) {
 void GuardedSolver::set_skipped_tets(std::vector<char> skip) {
   impl_->volume.set_skip(std::move(skip));
   impl_->p.skip_tets = impl_->volume.skip();
+}
+
+void GuardedSolver::set_excluded_triangles(std::vector<char> excluded) {
+  Impl& m = *impl_;
+  if (!excluded.empty() && static_cast<int>(excluded.size()) != m.boundary.size())
+    throw InputError("GuardedSolver::set_excluded_triangles: expected one flag per boundary triangle");
+  m.p.excluded_triangles = std::move(excluded);
+  if (m.contact) m.make_contact_guard();
 }
 
 void GuardedSolver::cap_contact_support(const Eigen::MatrixXd& X, double fraction) {

@@ -177,10 +177,10 @@ private:
   // passes the step bounds, else replaced by the guarded drag.
   void guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
                    FrameResult& result);
-  // After a stalled drag: the top over X's base made afresh (guarded_shell towards the solver's
-  // rest shapes, its paper iterations started from X's top, the frame's own solve); true and
-  // Y = that shell if its exact certificate finds nothing the guard keeps right.
-  bool regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options);
+  // After a stalled drag: Y = the top over X's base made afresh (guarded_shell towards the
+  // solver's rest shapes, its paper iterations started from X's top, the frame's own solve), and
+  // its exact certificate.
+  ShellCertificate regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options);
 
   std::unique_ptr<FrameGuard> guard_; ///< built at the first guarded frame
   bool current_clean_ = true; ///< current_ is valid for the guard (not after TetsOnly or Failed)

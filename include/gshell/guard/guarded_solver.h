@@ -148,8 +148,8 @@ public:
   /// Other parameters for the following solves, e.g. weaker barriers after a first solve (as
   /// generation's relaxation rounds do): the ARAP system and the contact primitives are kept, a
   /// fraction of the cost of a new solver on a large shell. skip_tets and excluded_triangles must
-  /// be those in effect (set_skipped_tets changes the first), and contact_distance positive
-  /// exactly when it was at construction.
+  /// be those in effect (set_skipped_tets and set_excluded_triangles change them), and
+  /// contact_distance positive exactly when it was at construction.
   /// \throws InputError on bad parameters (as the constructor) or on a change of those three.
   void set_parameters(GuardedSolverParameters parameters);
 
@@ -158,6 +158,12 @@ public:
   /// unextrudable). Every tet guarded from then on must be positive in the states solved from.
   /// \throws InputError when skip has neither 0 nor one flag per tet.
   void set_skipped_tets(std::vector<char> skip);
+
+  /// Other boundary triangles left out of contacts for the following solves (as
+  /// GuardedSolverParameters::excluded_triangles; e.g. around the crossings a moving base makes).
+  /// The contact guard is built again (its support caps dropped: cap_contact_support again).
+  /// \throws InputError when excluded has neither 0 nor one flag per boundary triangle.
+  void set_excluded_triangles(std::vector<char> excluded);
 
   /// ContactGuard::cap_support on the contact barrier (no-op without contacts): pairs close at X
   /// (a rest state) get a support below that closeness. \throws InputError as cap_support.
