@@ -377,8 +377,8 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   const Eigen::MatrixXd& previous = resumed ? resume_ : last;
   result.resumed = resumed;
   const bool contacts = guard_->guards_contacts() && (current_clean_ || resumed);
-  // A frame after one that left tets inverted (at a vertex its base made unextrudable) guards
-  // every tet positive at its start again.
+  // A frame after one that left out more than the rest shell's choice (below) guards again every
+  // tet positive at its start and every triangle away from its start's base crossings.
   if (resumed || guard_->leaves_out_beyond_rest()) guard_->leave_out(previous);
   ShellCertificate certificate;
   if (guard_->accepts(previous, X, contacts, &certificate)) {
@@ -434,7 +434,8 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   };
   FrameGuard::Outcome outcome =
       guard_->drag(Y, X, substeps, contacts, true, solve, options.substep_tolerance, other_way);
-  // A drag that failed without a stall (no guarded solver takes its start) has not tried it yet.
+  // A drag that ends invalid takes the fresh top if it is clean on the terms now in effect (made at
+  // the first stall, or here when the drag failed before any stall).
   if (!outcome.superseded && (outcome.method == FrameMethod::Failed || outcome.method == FrameMethod::TetsOnly) &&
       regenerated())
     outcome.superseded = true;
