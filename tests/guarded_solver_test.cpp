@@ -125,13 +125,13 @@ TEST(GuardedSolver, OtherExcludedTrianglesSolveAsASolverMadeWithThem) {
     const int f = c.boundary.face[r];
     p.excluded_triangles[r] = c.base.V(c.base.F(f, 0), 2) > 0.8;
   }
-  solver.set_excluded_triangles(p.excluded_triangles);
+  solver.set_excluded_triangles(c.boundary, p.excluded_triangles);
   EXPECT_EQ(solver.parameters().excluded_triangles, p.excluded_triangles);
   GuardedSolver made(c.rest, 2 * c.n, c.fixed, c.boundary, p);
   EXPECT_LT(solver.energy(c.X), before); // the tops sit 0.01 off the base, inside the 0.02 support
   EXPECT_EQ(solver.energy(c.X), made.energy(c.X));
   expect_solves_alike(solver, made, c.X);
-  EXPECT_THROW(solver.set_excluded_triangles(std::vector<char>(3, 0)), InputError);
+  EXPECT_THROW(solver.set_excluded_triangles(c.boundary, std::vector<char>(3, 0)), InputError);
 }
 
 TEST(GuardedSolver, ParametersThatChangeWhatIsKeptAreInputErrors) {

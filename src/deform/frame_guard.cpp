@@ -141,8 +141,8 @@ bool FrameGuard::leave_out(const Eigen::MatrixXd& from, const Eigen::MatrixXd* t
     parameters_.skip_tets = std::move(skip);
   }
   if (new_excluded) {
-    if (contact_) contact_->set_excluded_triangles(excluded);
-    if (tets_) tets_->set_excluded_triangles(excluded);
+    if (contact_) contact_->set_excluded_triangles(boundary_, excluded);
+    if (tets_) tets_->set_excluded_triangles(boundary_, excluded);
     parameters_.excluded_triangles = std::move(excluded);
     cap_contact_supports();
   }

@@ -42,7 +42,6 @@ struct GuardedSolver::Impl {
   ShellSolver arap;
   VolumeBarrier volume;
   std::unique_ptr<ContactGuard> contact;
-  ShellBoundary boundary; // kept to build the contact guard again (set_excluded_triangles)
   GuardedSolverParameters p;
   Eigen::MatrixXi T;
   int N = 0;
@@ -54,13 +53,13 @@ struct GuardedSolver::Impl {
   Impl(const RestTets& rest, int num_vertices, const std::vector<int>& fixed_vertices, const ShellBoundary& boundary,
        GuardedSolverParameters parameters)
       : arap(rest, num_vertices, fixed_vertices), volume(rest, parameters.j_hat, parameters.skip_tets),
-        boundary(boundary), p(checked(std::move(parameters))), T(rest.T), N(num_vertices), fixed(fixed_vertices),
+        p(checked(std::move(parameters))), T(rest.T), N(num_vertices), fixed(fixed_vertices),
         free(arap.free_vertices()), free_index(num_vertices, -1) {
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
-    if (p.contact_distance > 0) make_contact_guard();
+    if (p.contact_distance > 0) make_contact_guard(boundary);
   }
 
-  void make_contact_guard() {
+  void make_contact_guard(const ShellBoundary& boundary) {
     std::vector<char> movable(N, 0);
     for (int v : free) movable[v] = 1;
     contact = std::make_unique<ContactGuard>(boundary, N, std::move(movable), contact_options(p), p.excluded_triangles);
@@ -402,12 +401,12 @@ void GuardedSolver::set_skipped_tets(std::vector<char> skip) {
   impl_->p.skip_tets = impl_->volume.skip();
 }
 
-void GuardedSolver::set_excluded_triangles(std::vector<char> excluded) {
+void GuardedSolver::set_excluded_triangles(const ShellBoundary& boundary, std::vector<char> excluded) {
   Impl& m = *impl_;
-  if (!excluded.empty() && static_cast<int>(excluded.size()) != m.boundary.size())
+  if (!excluded.empty() && static_cast<int>(excluded.size()) != boundary.size())
     throw InputError("GuardedSolver::set_excluded_triangles: expected one flag per boundary triangle");
   m.p.excluded_triangles = std::move(excluded);
-  if (m.contact) m.make_contact_guard();
+  if (m.contact) m.make_contact_guard(boundary);
 }
 
 void GuardedSolver::cap_contact_support(const Eigen::MatrixXd& X, double fraction) {

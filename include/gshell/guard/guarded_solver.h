@@ -161,9 +161,11 @@ public:
 
   /// Other boundary triangles left out of contacts for the following solves (as
   /// GuardedSolverParameters::excluded_triangles; e.g. around the crossings a moving base makes).
-  /// The contact guard is built again (its support caps dropped: cap_contact_support again).
+  /// `boundary` must be the construction's (not kept: generation's solvers never need it again,
+  /// and on millions of faces it is a sizeable copy). The contact guard is built again, its
+  /// support caps dropped: cap_contact_support again.
   /// \throws InputError when excluded has neither 0 nor one flag per boundary triangle.
-  void set_excluded_triangles(std::vector<char> excluded);
+  void set_excluded_triangles(const ShellBoundary& boundary, std::vector<char> excluded);
 
   /// ContactGuard::cap_support on the contact barrier (no-op without contacts): pairs close at X
   /// (a rest state) get a support below that closeness. \throws InputError as cap_support.
