@@ -3,6 +3,7 @@
 // a rigid shell (base fixed, top movable), slack = dhat. Medians of 5 on all cores, wall ms (CPU ms summed over threads: robust to a
 // loaded machine). Speed goals (issue 13: guarded generation of bunny00 within 3x of the
 // unguarded run): candidate build <= ~50 ms, energy+gradient and step bound <= ~10-30 ms.
+#include "bench_main.h"
 #include <gshell/guard/contact_guard.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/quality/shell_boundary.h>
@@ -114,7 +115,11 @@ void run(const ShellBoundary& boundary, const std::vector<char>& movable, const 
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_contact [MESH] [RATIO=0.03] [DHAT ...]\n"
+    "(default MESH models/bunny00.off if present, else builtin:sphere:6; DHAT in units of the thickness, default 0.1 0.03)\n";
+
+int bench_main(int argc, char** argv) {
   std::string input = argc > 1 ? argv[1] : "";
   if (input.empty()) input = std::filesystem::exists("models/bunny00.off") ? "models/bunny00.off" : "builtin:sphere:6";
   const double ratio = argc > 2 ? std::stod(argv[2]) : 0.03;
@@ -156,4 +161,7 @@ int main(int argc, char** argv) {
     std::printf("dhat %.3g eta, %d movable top vertices (a region)\n", dhat, n / 50);
     run(boundary, region, options, X, offset, eta);
   }
+  return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

@@ -4,6 +4,7 @@
 // curvature the per-vertex thickness / eta (min, 1st percentile, and the same over the 5% of
 // vertices with the largest |kappa_1|), stretch against the normal prisms (and the own prisms),
 // inverted tets, intersections, clamp counts and generation time; then a sweep of the clamps.
+#include "bench_main.h"
 #include <gshell/geometry/curvature.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/shell/generate_shell.h>
@@ -96,7 +97,10 @@ void print_row(double ratio, const char* method, double s_min, double s_max, con
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_curvature [MESH=models/bunny00.off] [RUNS=5] [--no-sweep | --timing-only]\n";
+
+int bench_main(int argc, char** argv) {
   const std::string path = argc > 1 ? argv[1] : "models/bunny00.off";
   const int runs = argc > 2 ? std::max(1, std::atoi(argv[2])) : 5;
   const std::string mode = argc > 3 ? argv[3] : "";
@@ -163,3 +167,5 @@ int main(int argc, char** argv) {
     }
   return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

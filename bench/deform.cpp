@@ -7,6 +7,7 @@
 // then (unless --validity-only) for each warm start the unguarded per-frame time and iterations
 // (medians over frames, then median over runs) to a relative energy tolerance of 1e-4, and the
 // stretch against the rest shell compared with offset re-extrusion.
+#include "bench_main.h"
 #include "bench_common.h"
 
 #include <gshell/deform/shell_deformer.h>
@@ -113,13 +114,14 @@ void print_list(const char* name, const std::vector<int>& v) {
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage = "usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60] "
+                                "[--ratio R=0.01] [--validity-only]\n";
+
+int bench_main(int argc, char** argv) {
   std::string path = "models/bunny00.off";
   int runs = 5, frame_count = 30;
   double degrees = 60, ratio = 0.01;
   bool validity_only = false;
-  const char* usage = "usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60] "
-                      "[--ratio R=0.01] [--validity-only]\n";
   // A bad option is one line and exit 1, not a load_mesh exception for a "mesh" named --help.
   const auto bad = [&](const char* what, const char* arg) {
     std::fprintf(stderr, "bench_deform: %s '%s' (see --help)\n", what, arg);
@@ -134,10 +136,6 @@ int main(int argc, char** argv) {
   };
   for (int i = 1; i < argc; ++i) {
     const char* a = argv[i];
-    if (!std::strcmp(a, "--help") || !std::strcmp(a, "-h")) {
-      std::fputs(usage, stdout);
-      return 0;
-    }
     if (!std::strcmp(a, "--runs")) runs = static_cast<int>(number(i));
     else if (!std::strcmp(a, "--frames")) frame_count = static_cast<int>(number(i));
     else if (!std::strcmp(a, "--bend")) degrees = number(i);
@@ -262,3 +260,5 @@ int main(int argc, char** argv) {
               *std::max_element(s.offset_max.begin(), s.offset_max.end()), s.inverted, s.offset_inverted);
   return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

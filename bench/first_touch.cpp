@@ -5,16 +5,21 @@
 // builtin:sphere:9 (a 6.7 GB peak) grow faster than sphere:8 (1.7 GB) in bench_scale
 // (docs/scale.md). On an ordinary machine every gigabyte costs the same, well under 0.5 s.
 //   bench_first_touch [GB]      (default 8)
+#include "bench_main.h"
 #include <sys/mman.h>
 
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_first_touch [GB=8]\n"
+    "(seconds to touch each further gigabyte of fresh memory for the first time)\n";
+
+int bench_main(int argc, char** argv) {
   const long gigabytes = argc > 1 ? std::atol(argv[1]) : 8;
   if (gigabytes <= 0) {
-    std::fprintf(stderr, "usage: bench_first_touch [GB > 0]\n");
+    std::fputs(kUsage, stderr);
     return 1;
   }
   constexpr std::size_t kGigabyte = std::size_t{1} << 30, kPage = 4096;
@@ -33,3 +38,5 @@ int main(int argc, char** argv) {
   }
   return 0; // the mappings are the process's until it exits, as a generation's peak is
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

@@ -1,6 +1,7 @@
 // bench_generate [MESH] (default models/bunny00.off; get it with scripts/fetch-models):
 // times of the shell generation pieces on all cores (medians of 5) and every report figure for
 // the offset and rigid methods at thickness ratios 0.01 and 0.03.
+#include "bench_main.h"
 #include <gshell/io/load_mesh.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
@@ -86,7 +87,11 @@ double polar_rate(const std::vector<Eigen::Matrix3d>& F, double* per_cpu_second 
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_generate [MESH=models/bunny00.off]\n"
+    "(times of the generation pieces, medians of 5, and the report figures of offset and rigid at ratios 0.01 and 0.03)\n";
+
+int bench_main(int argc, char** argv) {
   const std::string path = argc > 1 ? argv[1] : "models/bunny00.off";
   if (path.rfind("builtin:", 0) != 0 && !std::filesystem::exists(path)) {
     std::cerr << "bench_generate: " << path << " not found (run scripts/fetch-models, or pass a mesh)\n";
@@ -198,4 +203,7 @@ int main(int argc, char** argv) {
                   generate_summary(r, path).c_str(), report.dump().c_str());
     }
   }
+  return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

@@ -8,6 +8,7 @@
 // base crossings, start rounds, repaired vertices, the unguarded volume-weighted stretch against the
 // normal prisms and guarded / unguarded, the median seconds of N runs of each (interleaved) and
 // their ratio. A summary line closes the table.
+#include "bench_main.h"
 #include "bench_common.h"
 
 #include <gshell/geometry/mesh_topology.h>
@@ -85,7 +86,7 @@ std::string not_closed(const std::string& file) {
 
 } // namespace
 
-int main(int argc, char** argv) {
+int bench_main(int argc, char** argv) {
   std::vector<std::string> files;
   std::vector<double> ratios;
   std::string method = "rigid";
@@ -97,10 +98,6 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
-    if (a == "--help" || a == "-h") {
-      std::fputs(kHelp, stdout);
-      return 0;
-    }
     if (a.rfind("--", 0) == 0 && a != "--detail" && a != "--closed" && a != "--gn-volume" &&
         a != "--projected-contact" && !has_value) {
       std::fprintf(stderr, "bench_guard: option %s needs a value (bench_guard --help)\n", a.c_str());
@@ -331,4 +328,7 @@ int main(int argc, char** argv) {
               method.c_str(), repeat, rows, valid_u, valid_g, clean_g, median(stretch_ratios),
               stretch_ratios.empty() ? 0.0 : *std::max_element(stretch_ratios.begin(), stretch_ratios.end()),
               median(time_ratios), *std::max_element(time_ratios.begin(), time_ratios.end()));
+  return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kHelp, bench_main); }

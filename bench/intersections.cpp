@@ -2,6 +2,7 @@
 // top self-intersections, top/base intersections and per-vertex thickness. Medians of 5 runs.
 // Usage: bench_intersections [MESH ...]   (MESH = builtin spec or mesh file; default
 //        builtin:sphere:6 and :7 and models/bunny00.off if present). Thickness ratios 0.01, 0.03.
+#include "bench_main.h"
 #include <gshell/io/load_mesh.h>
 #include <gshell/quality/thickness.h>
 #include <gshell/quality/triangle_intersections.h>
@@ -68,7 +69,11 @@ Timing time_runs(const std::function<void()>& run, int repeats = 5) {
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_intersections [MESH ...]\n"
+    "(default builtin:sphere:6, builtin:sphere:7 and models/bunny00.off if present; thickness ratios 0.01, 0.03)\n";
+
+int bench_main(int argc, char** argv) {
   std::vector<std::string> inputs(argv + 1, argv + argc);
   if (inputs.empty()) {
     inputs.push_back("builtin:sphere:6");
@@ -96,4 +101,7 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
     }
   }
+  return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

@@ -12,7 +12,7 @@
 //                      [--only-extra] [--model PATH]... [--bunny PATH] [--no-bowl] [--no-bunny]
 //                      [--examples DIR]
 //                      [--model-cap N] [--model-reference-iterations N] [--settle-tolerance T]
-//                      [--explain-stalls]
+//                      [--explain-stalls] [--trace N]
 //
 // --table: one table of time to 1.001 E* from rest for single, single+Anderson, single+Anderson+
 // path search and hierarchical (and any --config) on the bowl at thickness ratios 0.02 and 0.05
@@ -25,6 +25,8 @@
 // --explain-stalls: for every run that misses 1.001 E* (and kept its state: all but those stopped
 // near the reference), continue single-level from its state to convergence and print where that
 // settles and how far it lies from the E* state.
+// --trace N: print every N-th iterate's E / E_ref of every run on stderr (and of the continuation
+// --explain-stalls runs), to see where a run creeps.
 //
 // The reference is the single-level fixed point computed with Anderson acceleration (the same
 // minimum as plain local/global, reached much sooner), to relative change < 1e-10 or N
@@ -39,6 +41,7 @@
 // Drag protocol: step k starts every solver from the reference states of steps k-1 and k-2 (their
 // motion continued, PoseSolver::predict_start, timed; --no-extrapolate: from step k-1's state),
 // so all solvers are timed on the same problems; the hierarchical solver's levels carry over.
+#include "bench_main.h"
 #include "bench_common.h"
 
 #include <gshell/deform/handles.h>
@@ -167,6 +170,8 @@ struct TableCase {
   double ratio;         ///< thickness / bounding radius
 };
 
+int trace_every = 0; // --trace N: print every N-th iterate's E / E_ref on stderr (0: none)
+
 /// Single level + Anderson(5) from X (from rest when `from_rest`) to relative change < 1e-10 or
 /// `iterations`: how the references are computed.
 SolveResult settle_single_level(const Shell& shell, const HandleSet& handles, Eigen::MatrixXd& X, int iterations,
@@ -191,6 +196,8 @@ void explain_stall(const Shell& shell, const HandleSet& handles, const std::stri
                    Eigen::MatrixXd X, int iterations) {
   const double stalled = PoseSolver(shell, handles, PoseSolverKind::Single).energy(X, 1.0);
   const SolveResult on = settle_single_level(shell, handles, X, iterations, false);
+  for (size_t k = 0; trace_every > 0 && k < on.energy.size(); k += trace_every)
+    std::fprintf(stderr, "trace-on %zu %.6f\n", k, on.energy[k] / Estar);
   Eigen::MatrixXd Xstar;
   settle_single_level(shell, handles, Xstar, iterations, true);
   const double distance = (X - Xstar).rowwise().norm().maxCoeff() / shell.thickness;
@@ -260,6 +267,8 @@ Trajectory run_trajectory(PoseSolver& solver, double reference, int cap, double 
   so.tolerance = tolerance;
   so.progress = [&](int, double e, double sec) {
     const double previous = t.energy.back();
+    if (trace_every > 0 && static_cast<int>(t.energy.size()) % trace_every == 0)
+      std::fprintf(stderr, "trace %zu %.6f\n", t.energy.size(), e / reference);
     t.energy.push_back(e);
     t.seconds.push_back(sec);
     t.cpu.push_back(process_cpu_seconds() - cpu0);
@@ -320,6 +329,7 @@ int run_table(const std::vector<std::string>& args) {
     else if (args[i] == "--model") models.push_back(next());
     else if (args[i] == "--no-bowl") bowl_cases = false;
     else if (args[i] == "--no-bunny") bunny_case = false;
+    else if (args[i] == "--trace") trace_every = std::atoi(next().c_str());
     else {
       std::fprintf(stderr, "bench_pose --table: unknown argument %s\n", args[i].c_str());
       return 1;
@@ -505,7 +515,16 @@ int run_table(const std::vector<std::string>& args) {
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_pose [bowl | MESH] [--steps K=30] [--runs R=3] [--drag-runs R=1] [--thickness-ratio r=0.02] [--cap N] [--drag-cap N]\n"
+    "                  [--drag-every N] [--no-extrapolate] [--no-drag] [--no-big] [--only NAME]... [--config SPEC]...\n"
+    "                  [--reference-iterations N] [--reference-cache FILE]\n"
+    "       bench_pose --table [--runs R] [--cap N] [--cache-dir DIR] [--case LABEL]... [--config SPEC]... [--only-extra]\n"
+    "                  [--model MESH]... [--bunny MESH] [--no-bowl] [--no-bunny] [--examples DIR] [--model-cap N]\n"
+    "                  [--model-reference-iterations N] [--settle-tolerance T] [--explain-stalls] [--trace N]\n"
+    "(SPEC: key=value,... of HierarchyOptions; the comment at the top of bench/pose.cpp explains each)\n";
+
+int bench_main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   if (argc > 1 && std::string(argv[1]) == "--table") return run_table(std::vector<std::string>(argv + 2, argv + argc));
   std::string model = "bowl";
@@ -532,7 +551,10 @@ int main(int argc, char** argv) {
     else if (a == "--cap") cap = std::atoi(next().c_str());
     else if (a == "--only") only.push_back(next());
     else if (a == "--config") extra.push_back(parse_config(next()));
-    else model = a;
+    else if (a.rfind("--", 0) == 0) {
+      std::fprintf(stderr, "bench_pose: unknown argument %s (bench_pose --help)\n", a.c_str());
+      return 1;
+    } else model = a;
   }
   const bool bowl = model == "bowl";
   std::printf("drag steps start %s\n", extrapolate ? "from the previous motion continued" : "from the previous state");
@@ -691,3 +713,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

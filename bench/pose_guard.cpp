@@ -19,6 +19,7 @@
 // Also printed: the largest vertex motion per drag step (against the mean base edge and the
 // thickness), the CPU time of the median step (all threads, steadier than wall time on a loaded
 // machine) and the certificate's median wall time inside the guarded step.
+#include "bench_main.h"
 #include "bench_common.h"
 
 #include <gshell/deform/pose.h>
@@ -182,7 +183,10 @@ void references(const Shell& shell, const HandleSet& handles, int steps, std::ve
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_pose_guard [--steps K=20] [--runs R=3] [--solver hierarchical|single] [--goal]\n";
+
+int bench_main(int argc, char** argv) {
   int steps = 20, runs = 3;
   std::string solver = "hierarchical";
   bool goal = false;
@@ -191,6 +195,10 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--solver") && i + 1 < argc) solver = argv[++i];
     else if (!std::strcmp(argv[i], "--goal")) goal = true;
+    else {
+      std::fprintf(stderr, "bench_pose_guard: unknown argument %s\n%s", argv[i], kUsage);
+      return 1;
+    }
   }
   const TriMesh mesh = make_bowl();
   GenerateOptions generate;
@@ -244,3 +252,5 @@ int main(int argc, char** argv) {
   std::printf("\n");
   return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

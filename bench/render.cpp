@@ -2,6 +2,7 @@
 // `gshell generate models/bunny00.off -o DIR --thickness-ratio 0.03` into a temp folder if no DIR
 // is given), phase by phase: load, render (OSMesa), PNG encoding, and the end-to-end CLI.
 // Usage: bench_render [SHELL_DIR] [RUNS]; prints medians (wall clock; the machine may be shared).
+#include "bench_main.h"
 #include <gshell/render/image.h>
 #include <gshell/render/shell_render.h>
 
@@ -49,7 +50,11 @@ Timing median_seconds(int runs, F&& f) {
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_render [SHELL_DIR] [RUNS=5]\n"
+    "(default: the bunny00 shell at ratio 0.03, generated into a temporary folder)\n";
+
+int bench_main(int argc, char** argv) {
   namespace fs = std::filesystem;
   const int runs = argc > 2 ? std::atoi(argv[2]) : 5;
   const fs::path cli = fs::path(argv[0]).parent_path() / "gshell";
@@ -95,3 +100,5 @@ int main(int argc, char** argv) {
   fs::remove_all(scratch, ec);
   return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

@@ -14,6 +14,7 @@
 // four at its edge midpoints, case FILE@k: the same surface, finer against the same layer; growth
 // per split printed as for the sphere levels). --anderson and --cg-relative override generation's Anderson history and
 // the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21).
+#include "bench_main.h"
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/load_mesh.h>
@@ -183,7 +184,11 @@ bool run_child(const std::string& self, const std::string& spec, const std::stri
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
+    "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T]\n";
+
+int bench_main(int argc, char** argv) {
   std::vector<int> levels{6, 7, 8, 9};
   std::vector<std::string> meshes, linears{"auto"};
   double ratio = 0.02;
@@ -224,9 +229,7 @@ int main(int argc, char** argv) {
     } else if (a == "--cg-relative") {
       tuning.cg_relative = std::stod(next());
     } else {
-      std::fprintf(stderr,
-                   "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
-                   "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T]\n");
+      std::fprintf(stderr, "bench_scale: unknown argument %s\n%s", a.c_str(), kUsage);
       return 1;
     }
   }
@@ -295,3 +298,5 @@ int main(int argc, char** argv) {
   std::printf("load average at end %s\n", load_average().c_str());
   return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }

@@ -11,6 +11,7 @@
 // Per run and event: message in -> positions frame handed to the sink (what the server's frame
 // header reports), of which DragSession::drag (prediction + solve) and the positions encoding;
 // the settle's iterations, time and energy; then medians over the runs.
+#include "bench_main.h"
 #include "bench_common.h"
 
 #include <gshell/quality/stretch.h>
@@ -52,9 +53,12 @@ std::string ids_json(const std::vector<int>& ids) {
 
 } // namespace
 
-int main(int argc, char** argv) {
+constexpr const char* kUsage =
+    "usage: bench_view_session SHELL_DIR [--bowl] [--events N] [--runs R] [--event-iterations K] [--full-events] [--energy] [--no-settle]\n";
+
+int bench_main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_view_session SHELL_DIR [--bowl] [--events N] [--runs R] [--event-iterations K] [--full-events] [--energy] [--no-settle]\n");
+    std::fputs(kUsage, stderr);
     return 1;
   }
   const std::string dir = argv[1];
@@ -157,3 +161,5 @@ int main(int argc, char** argv) {
               runs, median(in_out_runs), median(drag_runs), median(cpu_runs), median(settle_it_runs), median(settle_ms_runs));
   return 0;
 }
+
+int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }
