@@ -133,7 +133,7 @@ void goal_drag(const Shell& shell, const HandleSet& handles, PoseSolverKind kind
       Eigen::MatrixXd Y = k >= 2 ? guarded.predict_start(Xref[k - 2], (k - 2.0) / steps, Xref[k - 1], (k - 1.0) / steps, f)
                                  : Xref[k - 1];
       ValidStep step;
-      guarded.solve_valid(Xref[k - 1], Y, P, options, GuardOptions{}, &step);
+      guarded.solve_valid(Xref[k - 1], Y, P, options, frame_guard_options(), &step);
       guarded_ms.push_back(1e3 * seconds_since(t0));
       guarded_cpu.push_back(1e3 * (cpu_seconds() - c0));
       certificate_ms.push_back(1e3 * step.certificate.seconds);

@@ -7,6 +7,7 @@
 // stretch and det_F against the rest shell, and report.json (PoseResult::to_json).
 #include <gshell/deform/handles.h>
 #include <gshell/deform/pose.h>
+#include <gshell/deform/shell_deformer.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/shell.h>
 #include <gshell/solver/hierarchical_solver.h>
@@ -45,7 +46,10 @@ struct PoseOptions {
   /// a drag event must answer within a frame): a drag step is an unguarded preview, and settle()
   /// solves guarded from the last valid state, so the state a drag comes to rest in is valid.
   bool guard_drag_steps = true;
-  GuardOptions guard; ///< the guard's barriers and bounds (as for generation and deformation)
+  /// The guard's barriers, bounds and directions: the deformation frames' (frame_guard_options:
+  /// generation's Hessians and 4-ring local solve). GuardOptions{}'s plainer directions made a
+  /// dragged step creep, every iteration cut by its bounds (docs/valid-deformation.md).
+  GuardOptions guard = frame_guard_options();
   /// Called after every iteration with (step 1..steps, iteration, energy, seconds in this step);
   /// replaces solve.progress.
   std::function<void(int, int, double, double)> step_progress;
