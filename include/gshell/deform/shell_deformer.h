@@ -39,12 +39,12 @@ const char* warm_start_name(WarmStart w);
 WarmStart parse_warm_start(const std::string& name);
 
 /// The guard options of deformation frames and pose steps (PoseOptions::guard): GuardOptions{}
-/// with generation's directions
-/// (generation_guard_options: the volume barrier's Hessian projected per tet, the contact
-/// barrier's Gauss-Newton Hessian, a 4-ring local solve); the contact support stays 0.1, capped
-/// per pair at half of how close the rest shell holds its vertices to other parts of the boundary
-/// (contact_rest_fraction). On hard models a dragged frame or pose step meets near-flat tets and
-/// wide contacts, as a repair does (docs/valid-deformation.md has the measurements).
+/// with generation's directions (generation_guard_options: the volume barrier's Hessian projected
+/// per tet, the contact barrier's Gauss-Newton Hessian, a 4-ring local solve); the contact
+/// support stays 0.1, capped per pair at half of how close the rest shell holds its vertices to
+/// other parts of the boundary (contact_rest_fraction). On hard models a dragged frame or pose
+/// step meets near-flat tets and wide contacts, as a repair does (docs/valid-deformation.md has
+/// the measurements).
 GuardOptions frame_guard_options();
 
 /// The only source of the per-frame defaults (the CLI's help and Python's keywords read DeformOptions{}).
