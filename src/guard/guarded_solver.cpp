@@ -5,6 +5,7 @@
 #include <gshell/guard/tet_step_bound.h>
 
 #include "guard/reused_ordering.h"
+#include "solver/anderson_history.h"
 #include "solver/hierarchy_linear.h"
 
 #include <Eigen/SparseCholesky>
@@ -74,6 +75,7 @@ struct GuardedSolver::Impl {
     if (p.cg_iterations < 0 || !(p.cg_tolerance > 0)) throw InputError("GuardedSolver: bad CG parameters");
     if (p.hold_rounds < 0 || !(p.hold_below > 0 && p.hold_below <= 1))
       throw InputError("GuardedSolver: hold_rounds must be >= 0 and hold_below in (0, 1]");
+    if (p.anderson_history < 0) throw InputError("GuardedSolver: anderson_history must be >= 0");
     if (p.contact_distance > 0 && !(p.contact_stiffness > 0))
       throw InputError("GuardedSolver: contact_stiffness must be positive");
     return p;
@@ -453,6 +455,10 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
   }
 
   std::vector<double> tau_history{tau}; // tau_history[k]: path done after iteration k
+  // Samples (X, X + D) of the local/global map, recorded only while no barrier acts and the path
+  // is done (the map is then the model's alone, the same from one iteration to the next).
+  detail::AndersonHistory<double> anderson(m.p.anderson_history);
+  Eigen::MatrixXd accelerated;
   for (int it = 1; it <= options.max_iterations && (m.nf() > 0 || tau < 1); ++it) {
     if (tau < 1) {
       // Drag: the rest of the path, the free vertices following by the linear response of the
@@ -521,6 +527,23 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
           ++result.held_steps;
         }
         Impl::State trial;
+        const bool idle = tau >= 1 && state.active_tets.empty() && state.contact == 0;
+        if (!idle) {
+          anderson.clear();
+        } else if (a >= 1 && anderson.extrapolate(X, X + D, accelerated)) {
+          // The combined iterate, bounded along its own segment like any step, in place of the
+          // plain one when it decreases E_guard at least as much as the plain step must.
+          const Eigen::MatrixXd Da = accelerated - X;
+          if (m.step_bound(X, Da) >= 1 && m.evaluate(accelerated, trial) && trial.total <= E + kArmijo * slope) {
+            X.swap(accelerated);
+            state = std::move(trial);
+            E_new = state.total;
+            moved = true;
+            a = 0; // the plain step is not searched
+          } else {
+            anderson.clear();
+          }
+        }
         for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
           Eigen::MatrixXd Xt = X + a * D;
           if (m.evaluate(Xt, trial) && trial.total <= E + kArmijo * a * slope) {

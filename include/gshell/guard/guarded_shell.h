@@ -42,6 +42,8 @@ struct GuardOptions {
   double cg_tolerance = 0.1;  ///< relative CG residual
   /// GuardedSolverParameters::hold_rounds (>= 0; generation: 4, in the repair only).
   int hold_rounds = 0;
+  /// GuardedSolverParameters::anderson_history (>= 0; deformation and pose: 5, frame_guard_options).
+  int anderson_history = 0;
   /// GuardedSolverParameters::local_rings: the direction's exact local solve covers the vertices
   /// within this many rings of those the barriers act on (generation: 4, where it reaches the
   /// whole repair region's coupling and the directions are the model's exact Newton steps:
