@@ -527,21 +527,23 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
           ++result.held_steps;
         }
         Impl::State trial;
-        const bool idle = tau >= 1 && state.active_tets.empty() && state.contact == 0;
-        if (!idle) {
-          anderson.clear();
-        } else if (a >= 1 && anderson.extrapolate(X, X + D, accelerated)) {
-          // The combined iterate, bounded along its own segment like any step, in place of the
-          // plain one when it decreases E_guard at least as much as the plain step must.
-          const Eigen::MatrixXd Da = accelerated - X;
-          if (m.step_bound(X, Da) >= 1 && m.evaluate(accelerated, trial) && trial.total <= E + kArmijo * slope) {
-            X.swap(accelerated);
-            state = std::move(trial);
-            E_new = state.total;
-            moved = true;
-            a = 0; // the plain step is not searched
-          } else {
+        if (m.p.anderson_history > 0) { // off (generation): nothing formed on its hot path
+          const bool idle = tau >= 1 && state.active_tets.empty() && state.contact == 0;
+          if (!idle) {
             anderson.clear();
+          } else if (a >= 1 && anderson.extrapolate(X, X + D, accelerated)) {
+            // The combined iterate, bounded along its own segment like any step, in place of the
+            // plain one when it decreases E_guard at least as much as the plain step must.
+            const Eigen::MatrixXd Da = accelerated - X;
+            if (m.step_bound(X, Da) >= 1 && m.evaluate(accelerated, trial) && trial.total <= E + kArmijo * slope) {
+              X.swap(accelerated);
+              state = std::move(trial);
+              E_new = state.total;
+              moved = true;
+              a = 0; // the plain step is not searched
+            } else {
+              anderson.clear();
+            }
           }
         }
         for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
