@@ -74,6 +74,11 @@ void add_generate_command(CLI::App& app) {
                   "Anderson acceleration of the local/global iterations: iterates combined (0: the paper's plain "
                   "iteration; --allow-invalid always runs the plain iteration)")
       ->capture_default_str();
+  cmd->add_option("--start-smoothing", a->options.generate.guard.start_smoothing,
+                  "Start the local/global iterations from the offset along vertex normals smoothed over this "
+                  "fraction of the thickness (0: the raw normals, the paper's offset surface; --allow-invalid "
+                  "always starts there)")
+      ->capture_default_str();
   cmd->add_flag("--allow-invalid", a->options.generate.allow_invalid,
                 "Rigid and curvature: skip the guard and keep the paper's unguarded result, which may have inverted "
                 "tets and intersections (the report certifies it either way)");

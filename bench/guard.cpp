@@ -66,7 +66,8 @@ usage: bench_guard [options] MODEL...
   --iters N                  cap on the paper's and the repair's iterations
   guard parameters (GuardOptions; defaults are generation_guard_options()):
   --dhat X --kv X --kc X --jhat X --rings N --spread X --margin X --thinning X --refine N
-  --backoff X --min-scale X --local-rings N --hold-rounds N --supernodal-rows N --gn-volume --projected-contact
+  --backoff X --min-scale X --local-rings N --hold-rounds N --supernodal-rows N --start-smoothing X
+  --gn-volume --projected-contact
 Example (the issue's table over CGAL's closed models):
   bench_guard --closed --ratio 0.01 --ratio 0.03 --ratio 0.05 models/*.off
 )";
@@ -123,6 +124,7 @@ int bench_main(int argc, char** argv) {
     else if (a == "--spread") guard.start_spread = std::stod(argv[++i]);
     else if (a == "--margin") guard.start_margin = std::stod(argv[++i]);
     else if (a == "--thinning") guard.start_thinning = std::stod(argv[++i]);
+    else if (a == "--start-smoothing") guard.start_smoothing = std::stod(argv[++i]);
     else if (a == "--detail") detail = true;
     else if (a == "--gn-volume") guard.projected_volume_hessian = false;
     else if (a == "--projected-contact") guard.projected_contact_hessian = true;

@@ -1,5 +1,5 @@
 // bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--linear auto,direct,auto:jacobi] [--ratio 0.02]
-//             [--runs 3] [--anderson K] [--cg-relative T]
+//             [--runs 3] [--anderson K] [--cg-relative T] [--start-smoothing S]
 // How shell generation and the deformer's setup grow with the mesh: builtin:sphere at the given
 // subdivision levels (4x the vertices per level) plus models/bunny00.off when it is there (or
 // the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named (CG paths
@@ -13,7 +13,8 @@
 // ratios per 4x vertices. --subdivide K also runs every --mesh split K times (each triangle into
 // four at its edge midpoints, case FILE@k: the same surface, finer against the same layer; growth
 // per split printed as for the sphere levels). --anderson and --cg-relative override generation's Anderson history and
-// the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21).
+// the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21);
+// --start-smoothing the radius of the start's normal smoothing (0: the offset surface, before session 34).
 #include "bench_main.h"
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/geometry/builtin_mesh.h>
@@ -107,8 +108,10 @@ std::string display_name(const std::string& spec) {
 struct Tuning {
   int anderson = -1;         ///< SolveOptions::anderson_history
   double cg_relative = -1;   ///< LinearSolverOptions::cg_relative_tolerance
+  double start_smoothing = -1; ///< GuardOptions::start_smoothing
   std::string arguments() const {
-    return " --anderson " + std::to_string(anderson) + " --cg-relative " + std::to_string(cg_relative);
+    return " --anderson " + std::to_string(anderson) + " --cg-relative " + std::to_string(cg_relative) +
+           " --start-smoothing " + std::to_string(start_smoothing);
   }
 };
 
@@ -121,6 +124,7 @@ int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner prec
   options.linear.preconditioner = preconditioner;
   if (tuning.anderson >= 0) options.solve.anderson_history = tuning.anderson;
   if (tuning.cg_relative >= 0) options.linear.cg_relative_tolerance = tuning.cg_relative;
+  if (tuning.start_smoothing >= 0) options.guard.start_smoothing = tuning.start_smoothing;
   const ProcessTimes before = process_times();
   const GenerateResult r = generate_shell(mesh.V, mesh.F, options);
   const ProcessTimes after = process_times();
@@ -186,7 +190,7 @@ bool run_child(const std::string& self, const std::string& spec, const std::stri
 
 constexpr const char* kUsage =
     "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
-    "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T]\n";
+    "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T] [--start-smoothing S]\n";
 
 int bench_main(int argc, char** argv) {
   std::vector<int> levels{6, 7, 8, 9};
@@ -228,6 +232,8 @@ int bench_main(int argc, char** argv) {
       tuning.anderson = std::stoi(next());
     } else if (a == "--cg-relative") {
       tuning.cg_relative = std::stod(next());
+    } else if (a == "--start-smoothing") {
+      tuning.start_smoothing = std::stod(next());
     } else {
       std::fprintf(stderr, "bench_scale: unknown argument %s\n%s", a.c_str(), kUsage);
       return 1;
@@ -249,9 +255,11 @@ int bench_main(int argc, char** argv) {
 
   const std::string self = std::filesystem::canonical("/proc/self/exe").string();
   std::printf("bench_scale: rigid generation at thickness ratio %g, medians of %d fresh processes each; "
-              "Anderson history %s, relative CG tolerance %s; load average at start %s\n",
+              "Anderson history %s, relative CG tolerance %s, start smoothing %s; load average at start %s\n",
               ratio, runs, tuning.anderson >= 0 ? std::to_string(tuning.anderson).c_str() : "default",
-              tuning.cg_relative >= 0 ? std::to_string(tuning.cg_relative).c_str() : "default", load_average().c_str());
+              tuning.cg_relative >= 0 ? std::to_string(tuning.cg_relative).c_str() : "default",
+              tuning.start_smoothing >= 0 ? std::to_string(tuning.start_smoothing).c_str() : "default",
+              load_average().c_str());
   std::vector<std::string> specs;
   for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
   for (const std::string& mesh : meshes) {

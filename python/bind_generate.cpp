@@ -65,8 +65,8 @@ ShellObject load_shell_py(const std::filesystem::path& dir) {
 
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
                         std::optional<double> thickness_ratio, const std::string& method, int iterations,
-                        double tolerance, int anderson, double s_min, double s_max, bool count_intersections,
-                        bool allow_invalid) {
+                        double tolerance, int anderson, double start_smoothing, double s_min, double s_max,
+                        bool count_intersections, bool allow_invalid) {
   TriMesh mesh = checked_mesh(V, F);
   GenerateRunOptions options;
   options.thickness = {thickness, thickness_ratio};
@@ -74,6 +74,7 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   options.generate.solve.max_iterations = iterations;
   options.generate.solve.tolerance = tolerance;
   options.generate.solve.anderson_history = anderson;
+  options.generate.guard.start_smoothing = start_smoothing;
   options.generate.s_min = s_min;
   options.generate.s_max = s_max;
   options.generate.count_intersections = count_intersections;
@@ -160,6 +161,7 @@ stretch and report are measured as by metrics() without intersection counts.)")
         py::arg("thickness_ratio") = py::none(), py::arg("method") = to_string(defaults.method),
         py::arg("iterations") = defaults.solve.max_iterations, py::arg("tolerance") = defaults.solve.tolerance,
         py::arg("anderson") = defaults.solve.anderson_history,
+        py::arg("start_smoothing") = defaults.guard.start_smoothing,
         py::arg("s_min") = defaults.s_min, py::arg("s_max") = defaults.s_max,
         py::arg("count_intersections") = defaults.count_intersections,
         py::arg("allow_invalid") = defaults.allow_invalid,
@@ -177,6 +179,9 @@ Args:
     tolerance: stop when the relative energy change is below this.
     anderson: Anderson acceleration of the local/global iterations, iterates combined (>= 0; 0:
         the paper's plain iteration; allow_invalid always runs the plain iteration).
+    start_smoothing: start the iterations from the offset along vertex normals smoothed over
+        this fraction of the thickness (>= 0; 0: the raw normals, the paper's offset surface;
+        allow_invalid always starts there).
     s_min, s_max: curvature method: the clamp of the in-plane scales of the top triangles
         (0 < s_min <= 1 <= s_max).
     count_intersections: run the certificate's exact pair tests (top/top, top/base, side

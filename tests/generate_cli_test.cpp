@@ -106,6 +106,19 @@ TEST(GenerateCli, OffsetMethodAndExistingFolder) {
   }
   const nlohmann::json report = nlohmann::json::parse(read_text(out + "/report.json"));
   EXPECT_EQ(report["iterations"], 0);
+  // The rigid method's iterations start from the offset method's surface with --start-smoothing 0,
+  // and from another (along smoothed normals) by default.
+  auto report_of = [&](const std::string& args) {
+    const CliResult r = run_cli("generate builtin:torus:32 -o '" + out + "' --thickness 0.2 --quiet " + args);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(read_text(out + "/report.json"));
+  };
+  const double offset_energy = report_of("--method offset")["energy"][0].get<double>();
+  const nlohmann::json raw = report_of("--start-smoothing 0"), smoothed = report_of("");
+  EXPECT_NEAR(raw["energy"][0].get<double>(), offset_energy, 1e-12 * offset_energy);
+  EXPECT_EQ(raw["guard"]["start_smoothing_iterations"], 0);
+  EXPECT_GT(smoothed["guard"]["start_smoothing_iterations"].get<int>(), 0);
+  EXPECT_NE(smoothed["energy"][0].get<double>(), offset_energy);
   EXPECT_EQ(count_entries(out), 4);          // base.obj, top.obj, shell.vtu, report.json
   EXPECT_EQ(count_entries(tmp.path()), 1);   // no staging folder left beside it
 }
@@ -117,7 +130,8 @@ TEST(GenerateCli, BadParametersExitOneWithoutOutput) {
                                  "--thickness 0.1 --thickness-ratio 0.1", "", "--thickness 0.1 --iterations -1",
                                  "--thickness 0.1 --tolerance -1", "--thickness 0.1 --method fancy",
                                  "--thickness 0.1 --method curvature --s-min 0",
-                                 "--thickness 0.1 --method curvature --s-max 0.9"}) {
+                                 "--thickness 0.1 --method curvature --s-max 0.9", "--thickness 0.1 --start-smoothing -1",
+                                 "--thickness 0.1 --start-smoothing inf"}) {
     const CliResult r = run_cli("generate builtin:sphere:1 -o '" + out + "' " + args);
     EXPECT_EQ(r.exit_code, 1) << args << "\n" << r.err;
     EXPECT_FALSE(r.err.empty()) << args;

@@ -5,7 +5,6 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/quality/triangle_intersections.h>
-#include <gshell/shell/offset_shell.h>
 
 #include "guard/lift_thin_tops.h"
 
@@ -246,6 +245,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.supernodal_rows >= 0, "supernodal_rows", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
+  require(o.start_smoothing >= 0 && std::isfinite(o.start_smoothing), "start_smoothing", ">= 0");
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
   require(o.start_refine >= 0, "start_refine", ">= 0");
   require(o.start_backoff > 0 && o.start_backoff <= 1, "start_backoff", "in (0, 1]");
@@ -271,6 +271,7 @@ GuardOptions generation_guard_options() {
   o.relax_rounds = 1;
   o.lift_sweeps = 4;
   o.try_lift_only = true;
+  o.start_smoothing = 0.3;
   return o;
 }
 
@@ -345,7 +346,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   // wanted everywhere; the tops of unextrudable vertices are held low along their best direction.
   Eigen::MatrixXd X(2 * n, 3);
   if (first_top.size() > 0) X << V, first_top;
-  else X << V, offset_top(V, F, eta);
+  else X << V, V + eta * smoothed_vertex_normals(V, F, options.start_smoothing * eta, &g.smoothing);
   for (int v : g.directions.unextrudable)
     X.row(n + v) = V.row(v) + options.unextrudable_thickness * eta * g.directions.direction.row(v);
   {

@@ -66,6 +66,7 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
   if (r.guarded) {
     const GuardedShell& g = r.guard;
     j["guard"] = {{"paper_iterations", g.paper.iterations},
+                  {"start_smoothing_iterations", g.smoothing.iterations},
                   {"start_rounds", g.start.rounds},
                   {"pulled_in_vertices", (g.start.scale.array() < 1).count()},
                   {"repaired_vertices", g.repaired_vertices},

@@ -6,6 +6,7 @@
 #include <gshell/guard/extrusion_directions.h>
 #include <gshell/guard/guarded_solver.h>
 #include <gshell/guard/valid_start.h>
+#include <gshell/shell/smoothed_normals.h>
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
@@ -58,6 +59,14 @@ struct GuardOptions {
   /// The vertex normal is the extrusion direction where it sees every incident face with at least
   /// this cosine margin (extrusion_directions), in [-1, 1].
   double normal_margin = 0.5;
+  /// The paper's iterations start from the offset along the vertex normals smoothed over this
+  /// fraction of eta (smoothed_vertex_normals; 0: the raw normals, the paper's offset surface;
+  /// >= 0). The optimum averages the base's normals over about the thickness, which local/global
+  /// iterations spread by about a face per iteration: bunny00 split twice at ratio 0.02, 16 -> 6
+  /// iterations; on CGAL's models at 0.01-0.05 as many or fewer in total, to the same energy
+  /// within the solver's tolerance (docs/scale.md, "A start smoothed at the layer's scale").
+  /// Not used when the caller gives the first top. Generation: 0.3.
+  double start_smoothing = 0;
   double start_thinning = 0.5; ///< ValidStartOptions::thinning
   double start_spread = 0;     ///< ValidStartOptions::spread
   int start_refine = 6;        ///< ValidStartOptions::refine_passes (>= 0)
@@ -148,6 +157,7 @@ struct GuardedShell {
   /// The top is the start lifted with no repair before (GuardOptions::try_lift_only): it ended
   /// at the lower energy. repaired_vertices, solve and relax are then those of no repair.
   bool lift_only = false;
+  NormalSmoothing smoothing;           ///< of the start's normals (GuardOptions::start_smoothing)
   SolveResult paper;                   ///< the paper's iterations that give the wanted top
   ValidStart start;                    ///< that top, pulled in where it is not valid
   /// The guarded iterations from the start. Its fields on the result (final_energy, active_tets,
@@ -184,13 +194,13 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
 
 /// The guarded top over base (V, F) towards the rest tets `ideal` (prism_rest_tets of the ideal
 /// prisms: normal or curvature), thickness eta (model units): the paper's local/global iterations
-/// from the offset surface (the unguarded result), a valid start made from it (valid_start), and
+/// from an offset surface (the unguarded result), a valid start made from it (valid_start), and
 /// the guarded solver from there. `solve` are the paper's iterations' options; its
 /// max_iterations, tolerance and progress apply to the guarded solver's too (which combines no
 /// iterates: anderson_history is the paper's iterations' only); `linear` chooses how the paper's
 /// iterations solve their global steps (the guarded solver, on the region it repairs, always
 /// factors). `first_top` (n x 3, optional): the top the paper's iterations start from instead of
-/// the offset surface (a deformer's solve of a frame: the same minimum, found in fewer iterations).
+/// the (smoothed, GuardOptions::start_smoothing) offset surface (a deformer's solve of a frame: the same minimum, found in fewer iterations).
 /// \throws InputError on bad options, thickness eta not positive and finite, `ideal` not 3 tets
 ///         per face, `first_top` neither empty nor n x 3, or as extrusion_directions (V, F shapes
 ///         and ids).
