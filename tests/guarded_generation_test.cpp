@@ -55,19 +55,6 @@ void expect_valid(const GenerateResult& r) {
 
 bool invalid(const GenerateResult& r) { return !recertify(r).valid(); }
 
-// A z = 0 grid over [-1, 1]^2 (normals +z) folded about the y axis into a V of opening angle
-// `degrees`, both halves' normals facing into the V.
-TriMesh folded_plane(int res, double degrees) {
-  TriMesh m = make_plane(res);
-  const double half = 0.5 * degrees * M_PI / 180;
-  for (int i = 0; i < m.V.rows(); ++i) {
-    const double x = m.V(i, 0);
-    m.V(i, 0) = x * std::sin(half);
-    m.V(i, 2) = std::abs(x) * std::cos(half);
-  }
-  return m;
-}
-
 // A sphere with random radial bumps of up to `amplitude` (relative), fixed seed: still star-shaped,
 // so the base does not intersect itself.
 TriMesh bumpy_sphere(int level, double amplitude) {
@@ -88,7 +75,7 @@ TEST(GuardedGeneration, MakePlaneFacesUp) {
 }
 
 TEST(GuardedGeneration, TightVFoldIsValidAndThickWhereTheVOpens) {
-  const TriMesh m = folded_plane(12, 30);
+  const TriMesh m = test::folded_plane(12, 30);
   const double eta = 0.1;
   for (ShellMethod method : {ShellMethod::Rigid, ShellMethod::Curvature}) {
     SCOPED_TRACE(to_string(method));

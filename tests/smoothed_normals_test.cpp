@@ -4,6 +4,8 @@
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/smoothed_normals.h>
 
+#include "shell_fixtures.h"
+
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -17,18 +19,6 @@ namespace {
 
 double angle(const Eigen::RowVector3d& a, const Eigen::RowVector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
-// The plane [-1,1]^2 bent along x = 0 into two half-planes meeting at `degrees` (a ridge).
-TriMesh ridge(int res, double degrees) {
-  TriMesh m = make_plane(res);
-  const double half = 0.5 * degrees * M_PI / 180;
-  for (int i = 0; i < m.V.rows(); ++i) {
-    const double x = m.V(i, 0);
-    m.V(i, 0) = x * std::sin(half);
-    m.V(i, 2) = -std::abs(x) * std::cos(half);
-  }
-  return m;
 }
 
 } // namespace
@@ -61,26 +51,26 @@ TEST(SmoothedNormals, SphereNormalsStayRadial) {
   EXPECT_LT(worst, 2e-2);
 }
 
-TEST(SmoothedNormals, ARidgeIsAveragedOverAboutTheRadiusOnly) {
+TEST(SmoothedNormals, AFoldIsAveragedOverAboutTheRadiusOnly) {
   const int res = 80;      // edge 0.025 along x
   const double r = 0.1;    // in model units; the half-planes are about 1 wide
-  const TriMesh m = ridge(res, 90);
+  const TriMesh m = test::folded_plane(res, 90);
   const Eigen::MatrixXd N = smoothed_vertex_normals(m.V, m.F, r);
-  // Tilt of each vertex's smoothed normal from its own half-plane's normal, by distance to the ridge.
+  // Tilt of each vertex's smoothed normal from its own half-plane's normal, by distance to the fold.
   const double s = std::sin(M_PI / 4), c = std::cos(M_PI / 4);
   auto tilt_at = [&](double d_lo, double d_hi) {
     double lo = 1e9, hi = 0;
     for (int i = 0; i < m.V.rows(); ++i) {
-      const double d = std::abs(m.V(i, 0)) / s; // distance along the half-plane to the ridge
+      const double d = std::abs(m.V(i, 0)) / s; // distance along the half-plane to the fold
       if (d < d_lo || d > d_hi || std::abs(m.V(i, 1)) > 0.5) continue; // away from the open sides
-      const Eigen::RowVector3d own = m.V(i, 0) > 0 ? Eigen::RowVector3d(c, 0, s) : Eigen::RowVector3d(-c, 0, s);
+      const Eigen::RowVector3d own = m.V(i, 0) > 0 ? Eigen::RowVector3d(-c, 0, s) : Eigen::RowVector3d(c, 0, s);
       const double a = angle(N.row(i), own) * 180 / M_PI;
       lo = std::min(lo, a);
       hi = std::max(hi, a);
     }
     return std::make_pair(lo, hi);
   };
-  // On the ridge: the bisector (+z), by symmetry.
+  // On the fold: the bisector (+z), by symmetry.
   for (int i = 0; i < m.V.rows(); ++i)
     if (std::abs(m.V(i, 0)) < 1e-12 && std::abs(m.V(i, 1)) < 0.5)
       EXPECT_LT(angle(N.row(i), Eigen::RowVector3d(0, 0, 1)) * 180 / M_PI, 2.0) << i;

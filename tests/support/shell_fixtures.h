@@ -6,6 +6,7 @@
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/shell.h>
 
+#include <cmath>
 #include <numeric>
 #include <vector>
 
@@ -42,6 +43,19 @@ inline TriMesh facing_sheets(int res, double gap) {
   m.V.bottomRows(n).col(2).setConstant(gap);
   m.F.topRows(a.F.rows()) = a.F;
   for (int f = 0; f < a.F.rows(); ++f) m.F.row(a.F.rows() + f) << a.F(f, 0) + n, a.F(f, 2) + n, a.F(f, 1) + n;
+  return m;
+}
+
+/// A z = 0 grid over [-1, 1]^2 (builtin:plane:RES, normals +z) folded about the y axis into a V
+/// of opening angle `degrees`, both halves' normals facing into the V.
+inline TriMesh folded_plane(int res, double degrees) {
+  TriMesh m = make_plane(res);
+  const double half = 0.5 * degrees * M_PI / 180;
+  for (int i = 0; i < m.V.rows(); ++i) {
+    const double x = m.V(i, 0);
+    m.V(i, 0) = x * std::sin(half);
+    m.V(i, 2) = std::abs(x) * std::cos(half);
+  }
   return m;
 }
 
