@@ -62,10 +62,10 @@ struct GuardOptions {
   /// The paper's iterations start from the offset along the vertex normals smoothed over this
   /// fraction of eta (smoothed_vertex_normals; 0: the raw normals, the paper's offset surface;
   /// >= 0). The optimum averages the base's normals over about the thickness, which local/global
-  /// iterations spread by about a face per iteration: bunny00 split twice at ratio 0.02, 16 -> 6
-  /// iterations; on CGAL's models at 0.01-0.05 as many or fewer in total, to the same energy
-  /// within the solver's tolerance (docs/scale.md, "A start smoothed at the layer's scale").
-  /// Not used when the caller gives the first top. Generation: 0.3.
+  /// iterations spread by about a face per iteration: bunny00 split twice at ratio 0.02, 16 -> 7
+  /// iterations to the same energy; on CGAL's coarser models at 0.01-0.05 about as many in total
+  /// (-2 %, -9 %, +1 %), ending within 0.3 % of the energy either way (docs/scale.md, "A start
+  /// smoothed at the layer's scale"). Not used when the caller gives the first top. Generation: 0.3.
   double start_smoothing = 0;
   double start_thinning = 0.5; ///< ValidStartOptions::thinning
   double start_spread = 0;     ///< ValidStartOptions::spread
@@ -200,7 +200,8 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
 /// iterates: anderson_history is the paper's iterations' only); `linear` chooses how the paper's
 /// iterations solve their global steps (the guarded solver, on the region it repairs, always
 /// factors). `first_top` (n x 3, optional): the top the paper's iterations start from instead of
-/// the (smoothed, GuardOptions::start_smoothing) offset surface (a deformer's solve of a frame: the same minimum, found in fewer iterations).
+/// the (smoothed, GuardOptions::start_smoothing) offset surface (a deformer's solve of a frame:
+/// the same minimum, found in fewer iterations).
 /// \throws InputError on bad options, thickness eta not positive and finite, `ideal` not 3 tets
 ///         per face, `first_top` neither empty nor n x 3, or as extrusion_directions (V, F shapes
 ///         and ids).
