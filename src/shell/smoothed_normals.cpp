@@ -4,7 +4,6 @@
 #include "quality/check_mesh_input.h"
 
 #include <gshell/error.h>
-#include <gshell/seconds_since.h>
 #include <gshell/shell/offset_shell.h>
 
 #include <Eigen/Geometry>
@@ -12,7 +11,6 @@
 #include <tbb/parallel_for.h>
 
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <vector>
 
@@ -27,13 +25,30 @@ constexpr int kMaxIterations = 200;
 // Below this length the average of the unit normals around a vertex has (nearly) cancelled.
 constexpr double kCancelled = 0.1;
 
+// t (2/3) area / length^2 of an edge of a face: the cotangent weight on an equilateral mesh,
+// positive on any (a zero-length edge only on a zero-area face, which weighs nothing).
+double edge_weight(double t, double area, double squared_length) {
+  return squared_length > 0 ? t * (2.0 / 3.0) * area / squared_length : 0.0;
+}
+
+Eigen::VectorXd face_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::VectorXd area(F.rows());
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, F.rows(), 1 << 14), [&](const auto& r) {
+    for (Eigen::Index f = r.begin(); f < r.end(); ++f) {
+      const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+      area[f] = 0.5 * (b - a).cross(c - a).norm();
+    }
+  });
+  return area;
+}
+
 // M + t L applied matrix-free over the vertex stars. The edge weights are computed once per
-// corner from a row-major copy of the positions and each face's area (computed once, so the
+// corner from a row-major copy of the positions and each face's area (one value per face, so the
 // operator is exactly symmetric) and stored in star order: an application then reads only its
 // argument at the neighbours, the one access it cannot make in order.
 class DiffusionStep {
 public:
-  DiffusionStep(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double t)
+  DiffusionStep(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXd& area, double t)
       : stars_(detail::RowMajorFaces(F), static_cast<int>(V.rows())), first_(V.rows() + 1, 0), mass_(V.rows()),
         diagonal_(V.rows()) {
     const int n = static_cast<int>(V.rows());
@@ -41,19 +56,7 @@ public:
     detail::assign_populated(weights_, static_cast<std::size_t>(first_[n]));
     Rows3 P(n, 3);
     for_each_vertex([&](int i) { P.row(i) = V.row(i); });
-    Eigen::VectorXd area(F.rows());
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, F.rows(), 1 << 14), [&](const auto& r) {
-      for (Eigen::Index f = r.begin(); f < r.end(); ++f) {
-        const Eigen::Vector3d a = P.row(F(f, 0)), b = P.row(F(f, 1)), c = P.row(F(f, 2));
-        area[f] = 0.5 * (b - a).cross(c - a).norm();
-      }
-    });
-    // t (2/3) area / length^2 of edge (i, j) in face f: the cotangent weight on an equilateral
-    // mesh, positive on any (a zero-length edge only on a zero-area face, which weighs nothing).
-    auto weight = [&](int f, int i, int j) {
-      const double l2 = (P.row(i) - P.row(j)).squaredNorm();
-      return l2 > 0 ? t * (2.0 / 3.0) * area[f] / l2 : 0.0;
-    };
+    auto weight = [&](int f, int i, int j) { return edge_weight(t, area[f], (P.row(i) - P.row(j)).squaredNorm()); };
     for_each_vertex([&](int i) {
       double m = 0, w = 0;
       for (int k = 0; k < stars_.degree(i); ++k) { // usable faces only
@@ -102,20 +105,17 @@ private:
 // this radius: a sphere, a cylinder, a fine mesh of a smooth surface), found by one serial pass over
 // the faces, without the vertex stars and stored weights the iteration needs (at 2.6M vertices
 // those take longer to build than this whole test).
-bool already_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& N0, double t) {
+bool already_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::VectorXd& area,
+                    const Eigen::MatrixXd& N0, double t) {
   Rows3 LN = Rows3::Zero(V.rows(), 3);
   Eigen::VectorXd mass = Eigen::VectorXd::Zero(V.rows());
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     const int v[3] = {F(f, 0), F(f, 1), F(f, 2)};
     if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue; // not a usable face (as the stars)
-    const Eigen::Vector3d a = V.row(v[0]), b = V.row(v[1]), c = V.row(v[2]);
-    const double area = 0.5 * (b - a).cross(c - a).norm();
     for (int k = 0; k < 3; ++k) {
       const int i = v[k], j = v[(k + 1) % 3];
-      mass[i] += area / 3;
-      const double l2 = (V.row(i) - V.row(j)).squaredNorm();
-      if (!(l2 > 0)) continue;
-      const Eigen::RowVector3d d = (t * (2.0 / 3.0) * area / l2) * (N0.row(i) - N0.row(j));
+      mass[i] += area[f] / 3;
+      const Eigen::RowVector3d d = edge_weight(t, area[f], (V.row(i) - V.row(j)).squaredNorm()) * (N0.row(i) - N0.row(j));
       LN.row(i) += d;
       LN.row(j) -= d;
     }
@@ -127,7 +127,6 @@ bool already_smooth(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Ei
 
 Eigen::MatrixXd smoothed_vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double radius,
                                         NormalSmoothing* stats) {
-  const auto t0 = std::chrono::steady_clock::now();
   detail::check_triangle_mesh(V, F, "smoothed_vertex_normals");
   if (!(radius >= 0) || !std::isfinite(radius))
     throw InputError("smoothed_vertex_normals: radius must be >= 0 and finite");
@@ -135,12 +134,12 @@ Eigen::MatrixXd smoothed_vertex_normals(const Eigen::MatrixXd& V, const Eigen::M
   NormalSmoothing& s = stats ? *stats : local;
   s = {};
   const Eigen::MatrixXd N0 = vertex_normals(V, F);
-  if (radius == 0 || V.rows() == 0 || already_smooth(V, F, N0, radius * radius)) {
-    s.seconds = seconds_since(t0);
-    return N0;
-  }
+  if (radius == 0 || V.rows() == 0) return N0;
+  const double t = radius * radius;
+  const Eigen::VectorXd area = face_areas(V, F);
+  if (already_smooth(V, F, area, N0, t)) return N0;
 
-  const DiffusionStep K(V, F, radius * radius);
+  const DiffusionStep K(V, F, area, t);
   const int n = K.size();
   // Jacobi-preconditioned CG from x = N0 on (M + t L) x = M N0: the first residual is -t L N0.
   // z = r / diagonal is formed where it is used. Isolated vertices (no usable face: zero
@@ -173,7 +172,6 @@ Eigen::MatrixXd smoothed_vertex_normals(const Eigen::MatrixXd& V, const Eigen::M
     const double len = x.row(i).norm();
     if (len > kCancelled && std::isfinite(len)) N.row(i) = x.row(i) / len;
   }
-  s.seconds = seconds_since(t0);
   return N;
 }
 

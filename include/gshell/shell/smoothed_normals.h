@@ -14,8 +14,7 @@
 namespace gshell {
 
 struct NormalSmoothing {
-  int iterations = 0;  ///< conjugate-gradient iterations taken
-  double seconds = 0;
+  int iterations = 0;  ///< conjugate-gradient iterations taken (0 where the normals were smooth already)
 };
 
 /// Unit vertex normals after one implicit diffusion step of time radius^2 from the area-weighted
