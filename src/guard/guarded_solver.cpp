@@ -217,11 +217,25 @@ struct GuardedSolver::Impl {
       } catch (const std::runtime_error&) {
       }
     }
-    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
+    // Consecutive iterations often build the same pattern (the same region and active pairs):
+    // the analysis (AMD ordering, elimination tree; on a pose step of CGAL's bull about as long
+    // as the numeric factorisation) is then kept, and the factor is the one a fresh LDLT gives.
+    if (!same_pattern(A, ldlt_pattern)) {
+      ldlt.analyzePattern(A);
+      ldlt_pattern = A;
+    }
+    ldlt.factorize(A);
     if (ldlt.info() != Eigen::Success) return false;
     x = ldlt.solve(b);
     return true;
   }
+  static bool same_pattern(const Eigen::SparseMatrix<double>& A, const Eigen::SparseMatrix<double>& B) {
+    return A.rows() == B.rows() && A.cols() == B.cols() && A.nonZeros() == B.nonZeros() && A.isCompressed() &&
+           B.isCompressed() && std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1, B.outerIndexPtr()) &&
+           std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), B.innerIndexPtr());
+  }
+  mutable Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt; // of the small local systems
+  mutable Eigen::SparseMatrix<double> ldlt_pattern;                // the matrix ldlt was analysed for
   mutable detail::ReusedOrdering ordering; // of the large local systems, from the current solve()
   mutable int supernodal_solves = 0;       // since the last solve() began
   mutable int reused_orderings = 0;        // of those, with `ordering`
