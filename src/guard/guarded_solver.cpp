@@ -220,23 +220,28 @@ struct GuardedSolver::Impl {
     // Consecutive iterations often build the same pattern (the same region and active pairs):
     // the analysis (AMD ordering, elimination tree; on a pose step of CGAL's bull about as long
     // as the numeric factorisation) is then kept, and the factor is the one a fresh LDLT gives.
-    if (!same_pattern(A, ldlt_pattern)) {
+    if (!analysed_for(A)) {
       ldlt.analyzePattern(A);
-      ldlt_pattern = A;
+      ldlt_outer.clear();
+      ldlt_inner.clear();
+      if (A.isCompressed()) {
+        ldlt_outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+        ldlt_inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+      }
     }
     ldlt.factorize(A);
     if (ldlt.info() != Eigen::Success) return false;
     x = ldlt.solve(b);
     return true;
   }
-  // False for an empty B, so that the first system is always analysed.
-  static bool same_pattern(const Eigen::SparseMatrix<double>& A, const Eigen::SparseMatrix<double>& B) {
-    return B.rows() > 0 && A.rows() == B.rows() && A.cols() == B.cols() && A.nonZeros() == B.nonZeros() && A.isCompressed() &&
-           B.isCompressed() && std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1, B.outerIndexPtr()) &&
-           std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), B.innerIndexPtr());
+  // Whether ldlt was analysed for A's pattern (A square, as every local system).
+  bool analysed_for(const Eigen::SparseMatrix<double>& A) const {
+    return !ldlt_outer.empty() && A.isCompressed() &&
+           std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1, ldlt_outer.begin(), ldlt_outer.end()) &&
+           std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), ldlt_inner.begin(), ldlt_inner.end());
   }
   mutable Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt; // of the small local systems
-  mutable Eigen::SparseMatrix<double> ldlt_pattern;                // the matrix ldlt was analysed for
+  mutable std::vector<int> ldlt_outer, ldlt_inner;                 // the pattern it was analysed for (empty: none)
   mutable detail::ReusedOrdering ordering; // of the large local systems, from the current solve()
   mutable int supernodal_solves = 0;       // since the last solve() began
   mutable int reused_orderings = 0;        // of those, with `ordering`
