@@ -475,8 +475,10 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
   }
 
   std::vector<double> tau_history{tau}; // tau_history[k]: path done after iteration k
-  // Samples (X, X + D) of the local/global map, recorded only while no barrier acts and the path
-  // is done (the map is then the model's alone, the same from one iteration to the next).
+  // Samples (X, X + D) of the iteration's map, recorded once the path is done. Where barriers act
+  // the map (the local/global step corrected near them) changes a little as they move, so a
+  // combined iterate is a guess: it is bounded and tested like any step, and kept only when it
+  // lowers E_guard as much as the plain step must.
   detail::AndersonHistory<double> anderson(m.p.anderson_history);
   Eigen::MatrixXd accelerated;
   for (int it = 1; it <= options.max_iterations && (m.nf() > 0 || tau < 1); ++it) {
@@ -521,7 +523,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
       }
     }
     const double E = state.total;
-    bool moved = false, clamped = false;
+    bool moved = false, clamped = false, combined = false;
     double E_new = E, predicted = 0;
     if (m.nf() > 0) {
       const Eigen::MatrixXd g = m.half_gradient(X, state);
@@ -548,8 +550,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
         }
         Impl::State trial;
         if (m.p.anderson_history > 0) { // off (generation): nothing formed on its hot path
-          const bool idle = tau >= 1 && state.active_tets.empty() && state.contact == 0;
-          if (!idle) {
+          if (tau < 1) {
             anderson.clear();
           } else if (a >= 1 && anderson.extrapolate(X, X + D, accelerated)) {
             // The combined iterate, bounded along its own segment like any step, in place of the
@@ -560,6 +561,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
               state = std::move(trial);
               E_new = state.total;
               moved = true;
+              combined = true;
               a = 0; // the plain step is not searched
             } else {
               anderson.clear();
@@ -582,11 +584,12 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     result.iterations = it;
     result.energy.push_back(E_new);
     if (options.progress) options.progress(it, E_new, seconds_since(t0));
-    // Converged when the decrease is small and no bound held the step back (a clamped step with a
-    // large predicted decrease is progress still to be made).
+    // Converged when the decrease is small and neither a bound held the step back nor a combined
+    // iterate replaced it (a clamped step, or a combined iterate that lowered E_guard little, with
+    // a large predicted decrease of the plain step is progress still to be made).
     const double scale = std::max(options.energy_scale, E);
     const bool small = E <= 0 || ((E - E_new) < options.tolerance * scale &&
-                                  (!clamped || predicted < options.tolerance * scale));
+                                  ((!clamped && !combined) || predicted < options.tolerance * scale));
     // A contact-guarded drag the bounds hold still (the fixed vertices' motion forces a contact)
     // is given up early: its iterations would only shuffle the free vertices against the
     // barriers, and the caller falls back to the tets or stops at contact.

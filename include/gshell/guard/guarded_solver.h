@@ -67,10 +67,12 @@ struct GuardedSolverParameters {
   /// step").
   int hold_rounds = 0;
   double hold_below = 0.05;
-  /// Anderson acceleration (history length; 0 = off) of the iterations in which no barrier acts
-  /// and the step is not cut: there a step is the model's local/global iteration, which creeps
-  /// along soft modes, and the combined iterate is taken only when the bounds let all of it
-  /// through and it lowers E_guard at least as the Armijo test asks of the plain step.
+  /// Anderson acceleration (history length; 0 = off) of the iterations after the drag's path is
+  /// done whose step is not cut: a step is the model's local/global iteration (corrected near the
+  /// barriers that act), which creeps along soft modes, and the combined iterate is taken only
+  /// when the bounds let all of it through and it lowers E_guard at least as the Armijo test asks
+  /// of the plain step. A solve that takes one converges only once the plain step's predicted
+  /// decrease is below the tolerance as well.
   int anderson_history = 0;
   int cg_iterations = 20;      ///< cap on CG iterations per direction (0: the plain A^-1 step)
   double cg_tolerance = 0.1;   ///< relative residual (A^-1 norm) at which CG stops
