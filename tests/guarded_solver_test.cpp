@@ -193,6 +193,37 @@ TEST(GuardedSolver, ARestStateWithCloseContactsStaysPutWithCappedSupports) {
   }
 }
 
+namespace {
+
+// With contacts guarded within contact_distance (stiffness 1) and the given Anderson history:
+// drags the fixed vertices from X to `targets` (to tolerance 1e-3, within drag_iterations), then
+// settles the shell to 1e-10: the settling's result, Y its state. The drag must complete, the
+// settling converge without E_guard ever rising and leave every guarded tet positive.
+GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>& fixed, const ShellBoundary& boundary,
+                                    double contact_distance, int anderson_history, int drag_iterations,
+                                    const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, Eigen::MatrixXd& Y) {
+  GuardedSolverParameters p;
+  p.contact_distance = contact_distance;
+  p.contact_stiffness = 1;
+  p.anderson_history = anderson_history;
+  GuardedSolver solver(rest, static_cast<int>(X.rows()), fixed, boundary, p);
+  GuardedSolveOptions drag;
+  drag.max_iterations = drag_iterations;
+  drag.tolerance = 1e-3;
+  Y = X;
+  EXPECT_EQ(solver.solve(Y, drag, targets).path_done, 1.0);
+  GuardedSolveOptions settle;
+  settle.max_iterations = 5000;
+  settle.tolerance = 1e-10;
+  const GuardedSolveResult r = solver.solve(Y, settle);
+  EXPECT_TRUE(r.converged);
+  for (std::size_t k = 1; k < r.energy.size(); ++k) EXPECT_LE(r.energy[k], r.energy[k - 1]) << "iteration " << k;
+  EXPECT_GT(r.min_relative_volume, 0);
+  return r;
+}
+
+} // namespace
+
 // A plane's shell bent by dragging one edge's prisms up and over while the opposite edge's are
 // held, the drag far from every barrier: the minimisation after it runs the model's plain
 // local/global iterations, which Anderson acceleration (anderson_history) combines. The combined
@@ -218,24 +249,8 @@ TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereNoBarrie
   std::sort(fixed.begin(), fixed.end());
 
   auto solve = [&](int history, Eigen::MatrixXd& Y) {
-    GuardedSolverParameters p;
-    p.contact_distance = 0.01;
-    p.contact_stiffness = 1;
-    p.anderson_history = history;
-    GuardedSolver solver(rest, 2 * n, fixed, boundary, p);
-    GuardedSolveOptions drag;
-    drag.max_iterations = 50;
-    drag.tolerance = 1e-3;
-    Y = X;
-    const GuardedSolveResult dragged = solver.solve(Y, drag, targets);
-    EXPECT_EQ(dragged.path_done, 1.0);
-    GuardedSolveOptions settle;
-    settle.max_iterations = 5000;
-    settle.tolerance = 1e-10;
-    const GuardedSolveResult r = solver.solve(Y, settle);
-    EXPECT_TRUE(r.converged);
-    for (std::size_t k = 1; k < r.energy.size(); ++k) EXPECT_LE(r.energy[k], r.energy[k - 1]) << "iteration " << k;
-    EXPECT_EQ(r.active_tets, 0); // the case is the one the option is for: no barrier acting
+    const GuardedSolveResult r = drag_then_settle(rest, fixed, boundary, 0.01, history, 50, X, targets, Y);
+    EXPECT_EQ(r.active_tets, 0); // the case: no barrier acting
     EXPECT_EQ(r.active_contacts, 0);
     EXPECT_GT(r.min_relative_volume, 0.1);
     return r;
@@ -274,25 +289,8 @@ TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereTheConta
   std::sort(fixed.begin(), fixed.end());
 
   auto solve = [&](int history, Eigen::MatrixXd& Y) {
-    GuardedSolverParameters p;
-    p.contact_distance = 0.05;
-    p.contact_stiffness = 1;
-    p.anderson_history = history;
-    GuardedSolver solver(rest, 2 * n, fixed, boundary, p);
-    GuardedSolveOptions drag;
-    drag.max_iterations = 200;
-    drag.tolerance = 1e-3;
-    Y = X;
-    const GuardedSolveResult dragged = solver.solve(Y, drag, targets);
-    EXPECT_EQ(dragged.path_done, 1.0);
-    GuardedSolveOptions settle;
-    settle.max_iterations = 5000;
-    settle.tolerance = 1e-10;
-    const GuardedSolveResult r = solver.solve(Y, settle);
-    EXPECT_TRUE(r.converged);
-    for (std::size_t k = 1; k < r.energy.size(); ++k) EXPECT_LE(r.energy[k], r.energy[k - 1]) << "iteration " << k;
+    const GuardedSolveResult r = drag_then_settle(rest, fixed, boundary, 0.05, history, 200, X, targets, Y);
     EXPECT_GT(r.active_contacts, 0); // the case: the tops pressed together
-    EXPECT_GT(r.min_relative_volume, 0);
     return r;
   };
   Eigen::MatrixXd plain_state, combined_state;
