@@ -199,13 +199,17 @@ namespace {
 // drags the fixed vertices from X to `targets` (to tolerance 1e-3, within drag_iterations), then
 // settles the shell to 1e-10: the settling's result, Y its state. The drag must complete, the
 // settling converge without E_guard ever rising and leave every guarded tet positive.
-GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>& fixed, const ShellBoundary& boundary,
-                                    double contact_distance, int anderson_history, int drag_iterations,
-                                    const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, Eigen::MatrixXd& Y) {
+GuardedSolverParameters contact_parameters(double contact_distance, int anderson_history) {
   GuardedSolverParameters p;
   p.contact_distance = contact_distance;
   p.contact_stiffness = 1;
   p.anderson_history = anderson_history;
+  return p;
+}
+
+GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>& fixed, const ShellBoundary& boundary,
+                                    const GuardedSolverParameters& p, int drag_iterations,
+                                    const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, Eigen::MatrixXd& Y) {
   GuardedSolver solver(rest, static_cast<int>(X.rows()), fixed, boundary, p);
   GuardedSolveOptions drag;
   drag.max_iterations = drag_iterations;
@@ -249,7 +253,7 @@ TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereNoBarrie
   std::sort(fixed.begin(), fixed.end());
 
   auto solve = [&](int history, Eigen::MatrixXd& Y) {
-    const GuardedSolveResult r = drag_then_settle(rest, fixed, boundary, 0.01, history, 50, X, targets, Y);
+    const GuardedSolveResult r = drag_then_settle(rest, fixed, boundary, contact_parameters(0.01, history), 50, X, targets, Y);
     EXPECT_EQ(r.active_tets, 0); // the case: no barrier acting
     EXPECT_EQ(r.active_contacts, 0);
     EXPECT_GT(r.min_relative_volume, 0.1);
@@ -264,38 +268,68 @@ TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereNoBarrie
 
 // Two facing sheets, each held at its left edge only; the lower one's right edge is lifted into
 // the upper one, which is pushed up and bends: the minimum has the two tops pressed together, the
-// contact barrier acting. Anderson acceleration also combines these iterations (the map is the
+// contact barrier acting.
+struct PressedSheets {
+  TriMesh sheets = test::facing_sheets(10, 0.3);
+  int n = static_cast<int>(sheets.V.rows());
+  double eta = 0.1;
+  Eigen::MatrixXd X, targets;
+  RestTets rest;
+  ShellBoundary boundary = shell_boundary(sheets.F, n);
+  std::vector<int> fixed;
+
+  PressedSheets() {
+    const int half = n / 2;
+    X.resize(2 * n, 3);
+    X << sheets.V, sheets.V;
+    X.block(n, 2, half, 1).array() += eta;        // lower sheet's top, up
+    X.block(n + half, 2, half, 1).array() -= eta; // upper sheet's top, down: the tops 0.1 apart
+    rest = rest_tets_from_positions(X, build_prism_tets(sheets.F, n));
+    targets = X;
+    for (int i = 0; i < n; ++i) {
+      if (sheets.V(i, 0) < -0.9) fixed.insert(fixed.end(), {i, n + i});
+      if (i < half && sheets.V(i, 0) > 0.9) {
+        fixed.insert(fixed.end(), {i, n + i});
+        for (int v : {i, n + i}) targets(v, 2) += 0.2;
+      }
+    }
+    std::sort(fixed.begin(), fixed.end());
+  }
+
+  GuardedSolveResult solve(const GuardedSolverParameters& p, Eigen::MatrixXd& Y) const {
+    const GuardedSolveResult r = drag_then_settle(rest, fixed, boundary, p, 200, X, targets, Y);
+    EXPECT_GT(r.active_contacts, 0); // the case: the tops pressed together
+    return r;
+  }
+};
+
+// Anderson acceleration also combines the iterations where barriers act (the map is the
 // local/global step corrected near the barriers): the combined iterates must settle where the
 // plain ones do, never raise E_guard, keep the layer apart and need fewer iterations.
 TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereTheContactBarrierActs) {
-  const TriMesh sheets = test::facing_sheets(10, 0.3);
-  const int n = static_cast<int>(sheets.V.rows()), half = n / 2;
-  const double eta = 0.1;
-  Eigen::MatrixXd X(2 * n, 3);
-  X << sheets.V, sheets.V;
-  X.block(n, 2, half, 1).array() += eta;        // lower sheet's top, up
-  X.block(n + half, 2, half, 1).array() -= eta; // upper sheet's top, down: the tops 0.1 apart
-  const RestTets rest = rest_tets_from_positions(X, build_prism_tets(sheets.F, n));
-  const ShellBoundary boundary = shell_boundary(sheets.F, n);
-  std::vector<int> fixed;
-  Eigen::MatrixXd targets = X;
-  for (int i = 0; i < n; ++i) {
-    if (sheets.V(i, 0) < -0.9) fixed.insert(fixed.end(), {i, n + i});
-    if (i < half && sheets.V(i, 0) > 0.9) {
-      fixed.insert(fixed.end(), {i, n + i});
-      for (int v : {i, n + i}) targets(v, 2) += 0.2;
-    }
-  }
-  std::sort(fixed.begin(), fixed.end());
-
-  auto solve = [&](int history, Eigen::MatrixXd& Y) {
-    const GuardedSolveResult r = drag_then_settle(rest, fixed, boundary, 0.05, history, 200, X, targets, Y);
-    EXPECT_GT(r.active_contacts, 0); // the case: the tops pressed together
-    return r;
-  };
+  const PressedSheets sheets;
   Eigen::MatrixXd plain_state, combined_state;
-  const GuardedSolveResult plain = solve(0, plain_state), combined = solve(5, combined_state);
+  const GuardedSolveResult plain = sheets.solve(contact_parameters(0.05, 0), plain_state);
+  const GuardedSolveResult combined = sheets.solve(contact_parameters(0.05, 5), combined_state);
   EXPECT_NEAR(combined.energy.back(), plain.energy.back(), 1e-5 * plain.energy.back());
-  EXPECT_LT((combined_state - plain_state).cwiseAbs().maxCoeff(), 0.01 * eta);
+  EXPECT_LT((combined_state - plain_state).cwiseAbs().maxCoeff(), 0.01 * sheets.eta);
   EXPECT_LT(combined.iterations, plain.iterations / 2) << "plain " << plain.iterations << ", combined " << combined.iterations;
+}
+
+// The exact directions (exact_direction_vertices, the Woodbury solve) are the Newton steps the CG
+// directions approximate (here CG alone, no local solve first, so that CG has work to do): the
+// same minimum, E_guard never rising, the layer kept apart, and no CG iteration (each one a solve
+// with the whole shell's factor) once the path is done.
+TEST(GuardedSolver, ExactDirectionsReachTheMinimumOfTheCgDirectionsWithoutCg) {
+  const PressedSheets sheets;
+  GuardedSolverParameters p = contact_parameters(0.05, 0);
+  p.local_rings = -1;
+  Eigen::MatrixXd cg_state, exact_state;
+  const GuardedSolveResult cg = sheets.solve(p, cg_state);
+  p.exact_direction_vertices = 256;
+  const GuardedSolveResult exact = sheets.solve(p, exact_state);
+  EXPECT_GT(cg.cg_iterations, 0);
+  EXPECT_EQ(exact.cg_iterations, 0); // the settling solve: its path is done from the start
+  EXPECT_NEAR(exact.energy.back(), cg.energy.back(), 1e-5 * cg.energy.back());
+  EXPECT_LT((exact_state - cg_state).cwiseAbs().maxCoeff(), 0.01 * sheets.eta);
 }

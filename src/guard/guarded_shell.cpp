@@ -242,6 +242,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.local_rings >= -1, "local_rings", ">= -1");
   require(o.hold_rounds >= 0, "hold_rounds", ">= 0");
   require(o.anderson_history >= 0, "anderson_history", ">= 0");
+  require(o.exact_direction_vertices >= 0, "exact_direction_vertices", ">= 0");
   require(o.supernodal_rows >= 0, "supernodal_rows", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
@@ -294,6 +295,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.supernodal_rows = options.supernodal_rows;
   p.hold_rounds = options.hold_rounds;
   p.anderson_history = options.anderson_history;
+  p.exact_direction_vertices = options.exact_direction_vertices;
   return p;
 }
 

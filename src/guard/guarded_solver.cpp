@@ -4,6 +4,7 @@
 #include <gshell/seconds_since.h>
 #include <gshell/guard/tet_step_bound.h>
 
+#include "guard/low_rank_inverse.h"
 #include "guard/reused_ordering.h"
 #include "solver/anderson_history.h"
 #include "solver/hierarchy_linear.h"
@@ -50,12 +51,14 @@ struct GuardedSolver::Impl {
   // Free (solved-for) vertices in the order of the ShellSolver's arrays, and vertex -> that order.
   std::vector<int> free;
   std::vector<int> free_index;
+  // The exact directions where the barriers act on few vertices (p.exact_direction_vertices).
+  detail::LowRankInverse low_rank;
 
   Impl(const RestTets& rest, int num_vertices, const std::vector<int>& fixed_vertices, const ShellBoundary& boundary,
        GuardedSolverParameters parameters)
       : arap(rest, num_vertices, fixed_vertices), volume(rest, parameters.j_hat, parameters.skip_tets),
         p(checked(std::move(parameters))), T(rest.T), N(num_vertices), fixed(fixed_vertices),
-        free(arap.free_vertices()), free_index(num_vertices, -1) {
+        free(arap.free_vertices()), free_index(num_vertices, -1), low_rank(p.exact_direction_vertices) {
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
     if (p.contact_distance > 0) make_contact_guard(boundary);
   }
@@ -76,6 +79,7 @@ struct GuardedSolver::Impl {
     if (p.hold_rounds < 0 || !(p.hold_below > 0 && p.hold_below <= 1))
       throw InputError("GuardedSolver: hold_rounds must be >= 0 and hold_below in (0, 1]");
     if (p.anderson_history < 0) throw InputError("GuardedSolver: anderson_history must be >= 0");
+    if (p.exact_direction_vertices < 0) throw InputError("GuardedSolver: exact_direction_vertices must be >= 0");
     if (p.contact_distance > 0 && !(p.contact_stiffness > 0))
       throw InputError("GuardedSolver: contact_stiffness must be positive");
     return p;
@@ -294,20 +298,22 @@ struct GuardedSolver::Impl {
 
   // The Newton direction of the quadratic model A + H/2 (see the header): the plain step
   // -A^-1 g, corrected on the neighbourhood of the barriers, then CG preconditioned with A^-1.
-  Eigen::MatrixXd direction(const Eigen::MatrixXd& X, const State& state, const Eigen::MatrixXd& g,
+  // With `exact`, the model's exact Newton step where the barriers touch few enough vertices
+  // (p.exact_direction_vertices).
+  Eigen::MatrixXd direction(const Eigen::MatrixXd& X, const State& state, const Eigen::MatrixXd& g, bool exact,
                             int& cg_iterations) {
     if (p.cg_iterations == 0 && p.local_rings < 0) {
       Eigen::MatrixXd d = -g;
       arap.apply_inverse(d);
       return d;
     }
-    return direction(half_barrier_hessian(X, state), g, cg_iterations);
+    return direction(half_barrier_hessian(X, state), g, exact, cg_iterations);
   }
 
-  Eigen::MatrixXd direction(const LocalHessian& Hl, const Eigen::MatrixXd& g, int& cg_iterations) {
+  Eigen::MatrixXd direction(const LocalHessian& Hl, const Eigen::MatrixXd& g, bool exact, int& cg_iterations) {
     Eigen::MatrixXd d = -g;
     arap.apply_inverse(d);
-    if (Hl.empty()) return d;
+    if (Hl.empty() || (exact && low_rank.solve(arap, Hl.vertices, Hl.H, d, d))) return d;
     auto apply = [&](const Eigen::MatrixXd& v) {
       Eigen::MatrixXd y = arap.multiply_free(v);
       Hl.apply_add(v, y);
@@ -413,6 +419,8 @@ void GuardedSolver::set_parameters(GuardedSolverParameters parameters) {
     throw InputError("GuardedSolver::set_parameters: skip_tets and excluded_triangles must stay as they are");
   if ((parameters.contact_distance > 0) != (m.contact != nullptr))
     throw InputError("GuardedSolver::set_parameters: contact_distance must stay positive, or zero, as at construction");
+  if (parameters.exact_direction_vertices != m.p.exact_direction_vertices)
+    m.low_rank = detail::LowRankInverse(parameters.exact_direction_vertices);
   m.volume.set_j_hat(parameters.j_hat);
   if (m.contact) m.contact->set_options(Impl::contact_options(parameters));
   m.p = std::move(parameters);
@@ -501,7 +509,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
           D -= m.scatter(coupling);
         } else {
           coupling += m.barrier_coupling(H, D);
-          D += m.scatter(m.direction(m.local_hessian(H), coupling, result.cg_iterations));
+          D += m.scatter(m.direction(m.local_hessian(H), coupling, false, result.cg_iterations));
         }
       }
       // The bounds keep every guarded tet and pair apart in exact arithmetic; a tet already flat to
@@ -527,7 +535,8 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     double E_new = E, predicted = 0;
     if (m.nf() > 0) {
       const Eigen::MatrixXd g = m.half_gradient(X, state);
-      Eigen::MatrixXd d = m.direction(X, state, g, result.cg_iterations);
+      // Exact directions only once the path is done (GuardedSolverParameters::exact_direction_vertices).
+      Eigen::MatrixXd d = m.direction(X, state, g, tau >= 1, result.cg_iterations);
       double slope = 2 * dot(g, d); // dE_guard/dalpha at 0
       if (!(slope < 0)) { // CG round-off: fall back to the preconditioned gradient, always descent
         d = -g;

@@ -313,7 +313,8 @@ struct ShellSolver::Impl {
   // rhs: nf x 3 column-major, overwritten with the solution; X (row-major, all vertices) gives
   // CG its start. Returns the CG iterations taken (0 on the direct path).
   int linear_solve(const double* X, std::vector<double>& rhs) const;
-  void direct_solve(std::vector<double>& rhs) const;
+  // rhs (nf x columns, column-major) <- A_ff^-1 rhs.
+  void direct_solve(double* rhs, int columns = 3) const;
   // Jacobi-preconditioned CG on the three columns at once (each with its own step sizes), from
   // X's free rows; returns the iterations and whether every column met the tolerance.
   std::pair<int, bool> cg_solve(const double* X, std::vector<double>& rhs) const;
@@ -742,14 +743,14 @@ int ShellSolver::Impl::solve_free_rows(double* X, std::vector<double>& rhs) cons
 int ShellSolver::Impl::linear_solve(const double* X, std::vector<double>& rhs) const {
   std::lock_guard<std::mutex> lock(solve_mutex);
   if (path == LinearSolver::Direct) {
-    direct_solve(rhs);
+    direct_solve(rhs.data());
     return 0;
   }
   const auto [iterations, converged] = cg_solve(X, rhs);
   if (!converged && linear.kind == LinearSolver::Auto) { // CG does not pay here: factor once
     factorize();
     rhs.swap(cg_x); // cg_solve swapped its iterate into rhs: cg_x holds the right-hand side again
-    direct_solve(rhs);
+    direct_solve(rhs.data());
   }
   return iterations;
 }
@@ -899,7 +900,7 @@ std::pair<int, bool> ShellSolver::Impl::cg_solve(const double* X, std::vector<do
   return {it, !active[0] && !active[1] && !active[2]};
 }
 
-void ShellSolver::Impl::direct_solve(std::vector<double>& rhs) const {
+void ShellSolver::Impl::direct_solve(double* rhs, int columns) const {
 #ifdef GSHELL_HAVE_CHOLMOD
   // Column groups solved concurrently, each through its own CHOLMOD common and workspaces (the
   // factor is only read): the triangular solves are memory-bound and single-threaded in CHOLMOD.
@@ -909,7 +910,7 @@ void ShellSolver::Impl::direct_solve(std::vector<double>& rhs) const {
     B.ncol = count;
     B.nzmax = static_cast<std::size_t>(count) * nf;
     B.d = nf;
-    B.x = rhs.data() + static_cast<std::size_t>(first) * nf;
+    B.x = rhs + static_cast<std::size_t>(first) * nf;
     B.z = nullptr;
     B.xtype = CHOLMOD_REAL;
     B.dtype = CHOLMOD_DOUBLE;
@@ -919,12 +920,13 @@ void ShellSolver::Impl::direct_solve(std::vector<double>& rhs) const {
     std::copy(x, x + static_cast<std::size_t>(count) * nf, static_cast<double*>(B.x));
   };
   // Small systems solve faster in one sweep than with a second thread joining in.
-  if (nf < kParallelSolveRows)
-    solve_columns(lanes[0], 0, 3);
+  if (nf < kParallelSolveRows || columns < 2)
+    solve_columns(lanes[0], 0, columns);
   else
-    tbb::parallel_invoke([&] { solve_columns(lanes[0], 0, 1); }, [&] { solve_columns(lanes[1], 1, 2); });
+    tbb::parallel_invoke([&] { solve_columns(lanes[0], 0, columns / 2); },
+                         [&] { solve_columns(lanes[1], columns / 2, columns - columns / 2); });
 #else
-  Eigen::Map<Eigen::MatrixXd> B(rhs.data(), nf, 3);
+  Eigen::Map<Eigen::MatrixXd> B(rhs, nf, columns);
   B = ldlt.solve(Eigen::MatrixXd(B));
 #endif
 }
@@ -966,16 +968,14 @@ const std::vector<int>& ShellSolver::free_vertices() const { return impl_->free_
 
 void ShellSolver::apply_inverse(Eigen::MatrixXd& B) const {
   const Impl& m = *impl_;
-  if (B.rows() != m.nf || B.cols() != 3)
-    throw InputError("ShellSolver::apply_inverse: expected " + std::to_string(m.nf) + " x 3 free rows");
+  if (B.rows() != m.nf || B.cols() < 1)
+    throw InputError("ShellSolver::apply_inverse: expected " + std::to_string(m.nf) + " free rows and a column or more");
   if (m.nf == 0) return;
-  std::vector<double> rhs(B.data(), B.data() + B.size()); // column-major nf x 3, as direct_solve wants
   // Callers use the inverse inside their own iterations (the guard's preconditioner): it must be
   // exact, so a solver on the CG path factors here once.
   std::lock_guard<std::mutex> lock(m.solve_mutex);
   if (m.path != LinearSolver::Direct) m.factorize();
-  m.direct_solve(rhs);
-  std::copy(rhs.begin(), rhs.end(), B.data());
+  m.direct_solve(B.data(), static_cast<int>(B.cols()));
 }
 
 Eigen::MatrixXd ShellSolver::multiply_free(const Eigen::MatrixXd& P) const {

@@ -45,6 +45,9 @@ struct GuardOptions {
   int hold_rounds = 0;
   /// GuardedSolverParameters::anderson_history (>= 0; deformation and pose: 5, frame_guard_options).
   int anderson_history = 0;
+  /// GuardedSolverParameters::exact_direction_vertices (>= 0; deformation and pose: 256,
+  /// frame_guard_options).
+  int exact_direction_vertices = 0;
   /// GuardedSolverParameters::local_rings: the direction's exact local solve covers the vertices
   /// within this many rings of those the barriers act on (generation: 4, where it reaches the
   /// whole repair region's coupling and the directions are the model's exact Newton steps:

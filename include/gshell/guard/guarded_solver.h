@@ -74,6 +74,15 @@ struct GuardedSolverParameters {
   /// of the plain step. A solve that takes one converges only once the plain step's predicted
   /// decrease is below the tolerance as well.
   int anderson_history = 0;
+  /// Once a drag's path is done, where the barriers' Hessian touches at most this many free
+  /// vertices, the direction is the model's exact Newton step, by the Woodbury identity from A's
+  /// factor and the block of A^-1 on those vertices (kept between iterations and solves: one
+  /// solve with the factor per vertex new to it, and two per direction), instead of the local
+  /// solve and CG below (one solve per CG iteration; on a pose of CGAL's refined_elephant 10 to 14
+  /// of them, with 50 to 120 vertices touched). Not during a drag: there the exact directions let
+  /// a sliver whose normal turns sideways creep on where CG's stall it and the caller tries
+  /// another way at once. 0: never (generation: its repairs touch thousands of vertices).
+  int exact_direction_vertices = 0;
   int cg_iterations = 20;      ///< cap on CG iterations per direction (0: the plain A^-1 step)
   double cg_tolerance = 0.1;   ///< relative residual (A^-1 norm) at which CG stops
   /// Before CG, the model is solved exactly on the vertices within this many rings of those the

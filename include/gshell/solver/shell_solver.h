@@ -143,8 +143,9 @@ public:
   /// vertex ids on the direct path, breadth first over the system's graph on the CG path (rows
   /// whose neighbours lie close in memory, whatever the input's vertex order).
   const std::vector<int>& free_vertices() const;
-  /// B <- A_ff^-1 B (nf x 3): one back-substitution with the factor (a solver on the CG path
-  /// factors at its first call).
+  /// B <- A_ff^-1 B (nf x k, k >= 1; A_ff is the same for the three axes, so any columns, e.g.
+  /// columns of A_ff^-1 itself): one back-substitution with the factor (a solver on the CG path
+  /// factors at its first call). \throws InputError when B does not have nf rows.
   void apply_inverse(Eigen::MatrixXd& B) const;
   /// A_ff P (P: nf x 3).
   Eigen::MatrixXd multiply_free(const Eigen::MatrixXd& P) const;
