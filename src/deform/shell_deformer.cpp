@@ -102,8 +102,9 @@ GuardOptions frame_guard_options() {
   // 1,577 of 2,368, 24 pairs active; docs/valid-deformation.md).
   o.anderson_history = 5;
   // A frame's barriers act on a few spots (tens to hundreds of vertices), where CG spent ten and
-  // more solves with the whole shell's factor per direction (CGAL's refined_elephant: 1 s per
-  // guarded iteration, 84 % of it in those solves).
+  // more solves with the whole shell's factor per direction (a pose of CGAL's refined_elephant:
+  // 0.35-0.45 s per guarded iteration, 82 % of the run in those solves; 50 s instead of over 25
+  // minutes with the exact directions, docs/valid-deformation.md).
   o.exact_direction_vertices = 256;
   return o;
 }
