@@ -195,10 +195,7 @@ TEST(GuardedSolver, ARestStateWithCloseContactsStaysPutWithCappedSupports) {
 
 namespace {
 
-// With contacts guarded within contact_distance (stiffness 1) and the given Anderson history:
-// drags the fixed vertices from X to `targets` (to tolerance 1e-3, within drag_iterations), then
-// settles the shell to 1e-10: the settling's result, Y its state. The drag must complete, the
-// settling converge without E_guard ever rising and leave every guarded tet positive.
+// Contacts guarded within contact_distance (stiffness 1), the given Anderson history.
 GuardedSolverParameters contact_parameters(double contact_distance, int anderson_history) {
   GuardedSolverParameters p;
   p.contact_distance = contact_distance;
@@ -206,6 +203,11 @@ GuardedSolverParameters contact_parameters(double contact_distance, int anderson
   p.anderson_history = anderson_history;
   return p;
 }
+
+// With parameters p: drags the fixed vertices from X to `targets` (to tolerance 1e-3, within
+// drag_iterations), then settles the shell to 1e-10: the settling's result, Y its state. The drag
+// must complete, the settling converge without E_guard ever rising and leave every guarded tet
+// positive.
 
 GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>& fixed, const ShellBoundary& boundary,
                                     const GuardedSolverParameters& p, int drag_iterations,
