@@ -72,7 +72,7 @@ TEST(LowRankInverse, SolvesWithAPlusHExactlyAsTheVertexSetChanges) {
       const Eigen::SparseMatrix<double> H = low_rank_psd(static_cast<int>(vertices->size()), scale, rng);
       Eigen::MatrixXd x;
       ASSERT_TRUE(inverse.solve(s.A, *vertices, H, y, x));
-      // Stiff H (entries up to 1e6 here) loses digits in the small system; the CG
+      // Stiff H (scaled by 1e6) loses digits in the small system; the CG
       // directions this replaces stop at a relative residual of 0.1.
       EXPECT_LT(relative_residual(s, *vertices, H, x, b), scale > 1 ? 1e-2 : 1e-9) << "scale " << scale;
       EXPECT_EQ(inverse.columns_solved(), solved);
