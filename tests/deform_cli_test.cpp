@@ -63,6 +63,21 @@ TEST(AnimateCli, ProgressInALogIsOneLinePerFrame) {
                    "gshell animate: wrote 3 frames of a twist to 30 degrees to " + tmp.file("twist") + "\n");
 }
 
+// A strip bent isometrically past a full turn lies on itself: the frame that does so is written
+// and named in a warning (even with --quiet); one short of a full turn is not.
+TEST(AnimateCli, WarnsWhenAFrameMakesTheBaseCrossItself) {
+  TempDir tmp;
+  const auto past = run_cli("animate builtin:plane:6 --bend 450 --frames 2 -o '" + tmp.file("past") + "' -q");
+  ASSERT_EQ(past.exit_code, 0) << past.err;
+  EXPECT_EQ(test::count_entries(tmp.file("past")), 2);
+  EXPECT_NE(past.err.find("warning: 1 of 2 frames (the first frame_0002.obj) make the base cross itself"),
+            std::string::npos)
+      << past.err;
+  const auto short_of = run_cli("animate builtin:plane:6 --bend 300 --frames 2 -o '" + tmp.file("short") + "' -q");
+  ASSERT_EQ(short_of.exit_code, 0) << short_of.err;
+  EXPECT_EQ(short_of.err, "");
+}
+
 TEST(AnimateCli, RejectsBadArguments) {
   TempDir tmp;
   const std::string out = tmp.file("out");
