@@ -208,7 +208,6 @@ GuardedSolverParameters contact_parameters(double contact_distance, int anderson
 // drag_iterations), then settles the shell to 1e-10: the settling's result, Y its state. The drag
 // must complete, the settling converge without E_guard ever rising and leave every guarded tet
 // positive.
-
 GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>& fixed, const ShellBoundary& boundary,
                                     const GuardedSolverParameters& p, int drag_iterations,
                                     const Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, Eigen::MatrixXd& Y) {
