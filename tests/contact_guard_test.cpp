@@ -817,6 +817,47 @@ TEST(ContactGuard, ShellsSteppedAlongCollidingMotionsNeverIntersect) {
   }
 }
 
+TEST(ContactGuard, TreesRefitThroughARollGiveTheListsAndBoundsOfFreshOnes) {
+  // A guard keeps its trees' shapes from the first positions and refits them: a sheet rolled up
+  // step by step until its ends come round towards each other must still get the candidate lists
+  // of brute force and, for each next step, the bound and cutting pairs of a guard made afresh
+  // there. Once with every vertex movable, once with the base fixed but moved by the caller.
+  ShellCase s = make_shell(test::plane(10, 0), 0.08);
+  auto rolled = [&](double curvature) { // about an axis along y, the top on the inside
+    Eigen::MatrixXd X = s.X;
+    if (curvature == 0) return X;
+    for (int i = 0; i < 2 * s.n; ++i) {
+      const double phi = curvature * s.X(i, 0), r = 1 / curvature - s.X(i, 2);
+      X(i, 0) = std::sin(phi) * r;
+      X(i, 2) = 1 / curvature - std::cos(phi) * r;
+    }
+    return X;
+  };
+  for (bool base_movable : {true, false}) {
+    SCOPED_TRACE(base_movable ? "all movable" : "base fixed");
+    std::vector<char> movable = s.movable;
+    if (base_movable) movable.assign(2 * s.n, 1);
+    ShellCase c = s;
+    c.movable = movable;
+    ContactOptions o;
+    o.dhat = 0.05;
+    o.slack = 0.04;
+    ContactGuard guard(s.boundary, 2 * s.n, movable, o);
+    for (int k = 0; k < 7; ++k) {
+      SCOPED_TRACE(k);
+      const Eigen::MatrixXd X = rolled(0.45 * k), next = rolled(0.45 * (k + 1));
+      guard.energy(X);
+      EXPECT_EQ(guard.candidate_builds(), k + 1);
+      EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(c, X, o.dhat + o.slack));
+      ContactGuard fresh(s.boundary, 2 * s.n, movable, o);
+      std::vector<ContactPair> cutting, fresh_cutting;
+      EXPECT_EQ(guard.step_bound(X, next - X, 1.0, &cutting), fresh.step_bound(X, next - X, 1.0, &fresh_cutting));
+      EXPECT_EQ(cutting, fresh_cutting);
+      if (k == 6) EXPECT_FALSE(cutting.empty()); // the ends meet in the last step
+    }
+  }
+}
+
 TEST(ContactGuard, PairsCuttingAStepAreThoseWhoseOwnBoundIsBelowIt) {
   // The guarded solver holds the vertices of every pair that would cut a step of tau: the list is
   // every pair of the module's rules (brute force over all of them) whose own CCD bound over

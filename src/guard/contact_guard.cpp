@@ -57,6 +57,15 @@ struct ContactGuard::Impl {
   std::vector<float> built_distance[2];
   std::vector<Vec3> built_at; // positions at the last build
   int builds = 0;
+  // The movable patch of the broad phase: made at the first build after new options, refit at the
+  // next ones (a deforming shell keeps neighbouring triangles near each other, so the tree stays
+  // compact, and a refit costs a pass over the boxes where a new tree sorts them).
+  detail::ContactPatch movable_patch;
+  bool have_movable_patch = false;
+  // step_bound's patches of swept boxes (movable, fixed), made at its first long step after new
+  // options and refit at the next ones.
+  detail::ContactPatch swept[2];
+  bool have_swept[2] = {false, false};
   // The fixed patch of the broad phase, kept while its vertices stay where they were.
   detail::ContactPatch fixed_patch;
   std::vector<Vec3> fixed_patch_at; // positions of fixed_patch_vertices() when it was made
@@ -120,6 +129,7 @@ struct ContactGuard::Impl {
     radius = options.dhat + options.slack;
     reach = cut_to_reach ? 4 * radius : std::numeric_limits<double>::infinity();
     have_fixed_patch = false;
+    have_movable_patch = have_swept[0] = have_swept[1] = false;
     stale = true;
   }
 
@@ -176,6 +186,17 @@ struct ContactGuard::Impl {
     for (std::size_t i = 0; i < fixed_vertices.size(); ++i) fixed_patch_at[i] = x[fixed_vertices[i]];
     have_fixed_patch = true;
     ++fixed_patch_cuts;
+  }
+
+  // step_bound's movable or fixed patch over the swept boxes `box`.
+  const detail::ContactPatch& swept_patch(bool movable, const std::vector<Eigen::AlignedBox3d>& box) {
+    if (have_swept[movable]) {
+      primitives.refit(swept[movable], box);
+    } else {
+      swept[movable] = primitives.patch(movable, box);
+      have_swept[movable] = true;
+    }
+    return swept[movable];
   }
 
   // A pair's support: dhat, or less where cap_support capped one of its vertices.
@@ -261,7 +282,13 @@ struct ContactGuard::Impl {
     if (!fixed_patch_covers(at_rest)) make_fixed_patch(box, at_rest);
     tbb::enumerable_thread_specific<std::array<std::vector<Found>, 2>> found;
     const double radius2 = radius * radius;
-    primitives.for_each_pair(primitives.patch(true, box), fixed_patch, [&](PairKind kind, int a, int b, const Ids& ids) {
+    if (have_movable_patch) {
+      primitives.refit(movable_patch, box);
+    } else {
+      movable_patch = primitives.patch(true, box);
+      have_movable_patch = true;
+    }
+    primitives.for_each_pair(movable_patch, fixed_patch, [&](PairKind kind, int a, int b, const Ids& ids) {
       const double d2 = pair_squared_distance(kind, points(ids));
       if (!(d2 < radius2)) return;
       const float d = std::nextafter(static_cast<float>(std::sqrt(d2)), 0.0f); // <= the distance
@@ -525,9 +552,9 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
     const std::vector<int>& corners = m.primitives.movable_patch_vertices();
     auto sweep = [&](std::size_t k) { return listed * dx[corners[k]].lpNorm<Eigen::Infinity>(); };
     if (!m.fixed_patch_covers(sweep)) m.make_fixed_patch(m.search_boxes(), sweep);
-    m.primitives.for_each_pair(m.primitives.patch(true, box), m.fixed_patch, visit);
+    m.primitives.for_each_pair(m.swept_patch(true, box), m.fixed_patch, visit);
   } else {
-    m.primitives.for_each_pair(box, visit);
+    m.primitives.for_each_pair(m.swept_patch(true, box), m.swept_patch(false, box), visit);
   }
   return result();
 }

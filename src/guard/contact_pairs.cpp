@@ -89,11 +89,7 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
 ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box,
                                       const FaceBvh* reach) const {
   const std::vector<int>& all = patch_triangles_[movable ? 1 : 0];
-  auto triangle_box = [&](int t) {
-    const auto& c = triangles_[t];
-    Eigen::AlignedBox3d b = vertex_box[c[0]];
-    return b.extend(vertex_box[c[1]]).extend(vertex_box[c[2]]);
-  };
+  auto triangle_box = [&](int t) { return this->triangle_box(t, vertex_box); };
   std::vector<int> kept;
   if (reach) {
     std::vector<char> meets(all.size(), 0);
@@ -138,7 +134,6 @@ ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::Ali
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 2048), [&](const tbb::blocked_range<int>& r) {
     for (int s = r.begin(); s < r.end(); ++s) {
       const int f = p.triangle[s];
-      p.tri_box.set(s, box[local[s]]);
       p.tri_corner[s] = triangles_[f];
       p.tri_flags[s] = triangle_flags_[f];
       int out = p.vertex_begin[s];
@@ -146,7 +141,6 @@ ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::Ali
         const int v = owned_vertices_.item[i];
         p.vert_id[out] = v;
         p.vert_flags[out] = vertex_flags_[v];
-        p.vert_box.set(out, vertex_box[v]);
       }
       out = p.edge_begin[s];
       for (int i = owned_edges_.start[f]; i < owned_edges_.start[f + 1]; ++i, ++out) {
@@ -154,11 +148,36 @@ ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::Ali
         p.edge_id[out] = e;
         p.edge_end[out] = edges_[e];
         p.edge_flags[out] = edge_flags_[e];
-        p.edge_box.set(out, vertex_box[edges_[e][0]].merged(vertex_box[edges_[e][1]]));
       }
+      set_slot_boxes(p, s, box[local[s]], vertex_box);
     }
   });
   return p;
+}
+
+Eigen::AlignedBox3d ContactPrimitives::triangle_box(int t, const std::vector<Eigen::AlignedBox3d>& vertex_box) const {
+  const auto& c = triangles_[t];
+  Eigen::AlignedBox3d b = vertex_box[c[0]];
+  return b.extend(vertex_box[c[1]]).extend(vertex_box[c[2]]);
+}
+
+void ContactPrimitives::set_slot_boxes(ContactPatch& p, int s, const Eigen::AlignedBox3d& triangle_box,
+                                       const std::vector<Eigen::AlignedBox3d>& vertex_box) {
+  p.tri_box.set(s, triangle_box);
+  for (int i = p.vertex_begin[s]; i < p.vertex_begin[s + 1]; ++i) p.vert_box.set(i, vertex_box[p.vert_id[i]]);
+  for (int i = p.edge_begin[s]; i < p.edge_begin[s + 1]; ++i)
+    p.edge_box.set(i, vertex_box[p.edge_end[i][0]].merged(vertex_box[p.edge_end[i][1]]));
+}
+
+void ContactPrimitives::refit(ContactPatch& p, const std::vector<Eigen::AlignedBox3d>& vertex_box) const {
+  tbb::parallel_for(tbb::blocked_range<int>(0, p.size(), 2048), [&](const tbb::blocked_range<int>& r) {
+    for (int s = r.begin(); s < r.end(); ++s) {
+      const Eigen::AlignedBox3d box = triangle_box(p.triangle[s], vertex_box);
+      p.tree.set_slot_box(s, box);
+      set_slot_boxes(p, s, box, vertex_box);
+    }
+  });
+  p.tree.refit_nodes();
 }
 
 } // namespace gshell::detail

@@ -150,6 +150,9 @@ public:
   /// meet.
   ContactPatch patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box,
                      const FaceBvh* reach = nullptr) const;
+  /// The same patch (made by patch() over the same triangles) with every box set anew from
+  /// vertex_box: its tree keeps its shape and leaf order and is refit (no sort, no allocation).
+  void refit(ContactPatch& patch, const std::vector<Eigen::AlignedBox3d>& vertex_box) const;
 
   /// Calls visit(kind, a, b, vertices) for every pair of the module (no shared vertex, not all
   /// four vertices fixed, nothing excluded: contact_guard.h) whose boxes meet: (vertex a,
@@ -159,12 +162,6 @@ public:
   template <class Visit>
   void for_each_pair(const ContactPatch& movable, const ContactPatch& fixed, Visit&& visit) const;
 
-  /// The same with both patches made from vertex_box.
-  template <class Visit>
-  void for_each_pair(const std::vector<Eigen::AlignedBox3d>& vertex_box, Visit&& visit) const {
-    for_each_pair(patch(true, vertex_box), patch(false, vertex_box), visit);
-  }
-
   /// Faces per leaf of the patches' trees: a leaf pair tests all its primitives' boxes in
   /// vectorised runs, so leaves hold more faces than a face-by-face search would want. A leaf
   /// owns at most 3 kLeafFaces edges: runs fit FloatBoxes::meets' 32 bits.
@@ -173,6 +170,11 @@ public:
   static constexpr unsigned char kExcluded = 1, kFixed = 2;
 
 private:
+  // The box around triangle t's corners' boxes.
+  Eigen::AlignedBox3d triangle_box(int t, const std::vector<Eigen::AlignedBox3d>& vertex_box) const;
+  // Slot s's boxes of its triangle (given), owned vertices and owned edges (from vertex_box).
+  static void set_slot_boxes(ContactPatch& p, int s, const Eigen::AlignedBox3d& triangle_box,
+                             const std::vector<Eigen::AlignedBox3d>& vertex_box);
   // The pairs between leaf [a0, a1) of patch A and leaf [b0, b1) of patch B (the same leaf of
   // one patch when self).
   template <class Visit>
