@@ -57,15 +57,15 @@ struct ContactGuard::Impl {
   std::vector<float> built_distance[2];
   std::vector<Vec3> built_at; // positions at the last build
   int builds = 0;
-  // The movable patch of the broad phase: made at the first build after new options, refit at the
-  // next ones (a deforming shell keeps neighbouring triangles near each other, so the tree stays
-  // compact, and a refit costs a pass over the boxes where a new tree sorts them).
-  detail::ContactPatch movable_patch;
-  bool have_movable_patch = false;
-  // step_bound's patches of swept boxes (movable, fixed), made at its first long step after new
-  // options and refit at the next ones.
-  detail::ContactPatch swept[2];
-  bool have_swept[2] = {false, false};
+  // A patch made at its first use after new options and refit at the next ones: a deforming shell
+  // keeps neighbouring triangles near each other, so the tree stays compact, and a refit costs a
+  // pass over the boxes where a new tree sorts them and takes fresh memory.
+  struct KeptPatch {
+    detail::ContactPatch patch;
+    bool made = false;
+  };
+  KeptPatch movable_patch; // the candidate search's movable patch
+  KeptPatch swept[2];      // step_bound's patches of swept boxes: fixed, movable
   // The fixed patch of the broad phase, kept while its vertices stay where they were.
   detail::ContactPatch fixed_patch;
   std::vector<Vec3> fixed_patch_at; // positions of fixed_patch_vertices() when it was made
@@ -129,7 +129,7 @@ struct ContactGuard::Impl {
     radius = options.dhat + options.slack;
     reach = cut_to_reach ? 4 * radius : std::numeric_limits<double>::infinity();
     have_fixed_patch = false;
-    have_movable_patch = have_swept[0] = have_swept[1] = false;
+    movable_patch.made = swept[0].made = swept[1].made = false;
     stale = true;
   }
 
@@ -188,15 +188,15 @@ struct ContactGuard::Impl {
     ++fixed_patch_cuts;
   }
 
-  // step_bound's movable or fixed patch over the swept boxes `box`.
-  const detail::ContactPatch& swept_patch(bool movable, const std::vector<Eigen::AlignedBox3d>& box) {
-    if (have_swept[movable]) {
-      primitives.refit(swept[movable], box);
+  // The movable or fixed patch over `box`, kept in `kept`.
+  const detail::ContactPatch& kept_patch(KeptPatch& kept, bool movable, const std::vector<Eigen::AlignedBox3d>& box) {
+    if (kept.made) {
+      primitives.refit(kept.patch, box);
     } else {
-      swept[movable] = primitives.patch(movable, box);
-      have_swept[movable] = true;
+      kept.patch = primitives.patch(movable, box);
+      kept.made = true;
     }
-    return swept[movable];
+    return kept.patch;
   }
 
   // A pair's support: dhat, or less where cap_support capped one of its vertices.
@@ -282,13 +282,7 @@ struct ContactGuard::Impl {
     if (!fixed_patch_covers(at_rest)) make_fixed_patch(box, at_rest);
     tbb::enumerable_thread_specific<std::array<std::vector<Found>, 2>> found;
     const double radius2 = radius * radius;
-    if (have_movable_patch) {
-      primitives.refit(movable_patch, box);
-    } else {
-      movable_patch = primitives.patch(true, box);
-      have_movable_patch = true;
-    }
-    primitives.for_each_pair(movable_patch, fixed_patch, [&](PairKind kind, int a, int b, const Ids& ids) {
+    primitives.for_each_pair(kept_patch(movable_patch, true, box), fixed_patch, [&](PairKind kind, int a, int b, const Ids& ids) {
       const double d2 = pair_squared_distance(kind, points(ids));
       if (!(d2 < radius2)) return;
       const float d = std::nextafter(static_cast<float>(std::sqrt(d2)), 0.0f); // <= the distance
@@ -552,9 +546,9 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
     const std::vector<int>& corners = m.primitives.movable_patch_vertices();
     auto sweep = [&](std::size_t k) { return listed * dx[corners[k]].lpNorm<Eigen::Infinity>(); };
     if (!m.fixed_patch_covers(sweep)) m.make_fixed_patch(m.search_boxes(), sweep);
-    m.primitives.for_each_pair(m.swept_patch(true, box), m.fixed_patch, visit);
+    m.primitives.for_each_pair(m.kept_patch(m.swept[1], true, box), m.fixed_patch, visit);
   } else {
-    m.primitives.for_each_pair(m.swept_patch(true, box), m.swept_patch(false, box), visit);
+    m.primitives.for_each_pair(m.kept_patch(m.swept[1], true, box), m.kept_patch(m.swept[0], false, box), visit);
   }
   return result();
 }
