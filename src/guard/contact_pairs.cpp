@@ -89,12 +89,11 @@ ContactPrimitives::ContactPrimitives(const ShellBoundary& boundary, int num_vert
 ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::AlignedBox3d>& vertex_box,
                                       const FaceBvh* reach) const {
   const std::vector<int>& all = patch_triangles_[movable ? 1 : 0];
-  auto triangle_box = [&](int t) { return this->triangle_box(t, vertex_box); };
   std::vector<int> kept;
   if (reach) {
     std::vector<char> meets(all.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, all.size(), 4096), [&](const auto& r) {
-      for (std::size_t i = r.begin(); i < r.end(); ++i) meets[i] = reach->some_face_box_meets(triangle_box(all[i]));
+      for (std::size_t i = r.begin(); i < r.end(); ++i) meets[i] = reach->some_face_box_meets(triangle_box(all[i], vertex_box));
     });
     for (std::size_t i = 0; i < all.size(); ++i)
       if (meets[i]) kept.push_back(all[i]);
@@ -105,7 +104,7 @@ ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::Ali
   if (m == 0) return p;
   std::vector<Eigen::AlignedBox3d> box(m);
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
-    for (int i = r.begin(); i < r.end(); ++i) box[i] = triangle_box(tris[i]);
+    for (int i = r.begin(); i < r.end(); ++i) box[i] = triangle_box(tris[i], vertex_box);
   });
   p.tree = FaceBvh(box, kLeafFaces);
   const std::vector<int>& local = p.tree.faces_in_leaf_order();
