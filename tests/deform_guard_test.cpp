@@ -328,6 +328,27 @@ TEST(DeformGuard, ABaseCrossingItselfLeavesTheTopCleanAwayFromItsCrossings) {
   EXPECT_EQ(away, 0) << "of " << c.intersections.size() << " intersecting pairs";
 }
 
+// Rolled up by 900 degrees in one frame within a band of 0.3, the plane's base winds through
+// itself two and a half times: no drag reaches it, not even with the tets alone, and the paper's
+// solve inverts tets on the straight path to it. The frame fails either way; what it returns is
+// the one of the paper's solve and the top made afresh over the new base that has fewer inverted
+// tets (here the fresh top, with none).
+TEST(DeformGuard, AFrameNothingValidReachesReturnsTheStateWithFewerInvertedTets) {
+  const Shell rest = flat_plane_shell(12, 0.2);
+  const Eigen::MatrixXd rolled = bend(rest.base, motion_frame(rest.base), 900.0, 0.3);
+  ShellDeformer guarded(rest), unguarded(rest);
+  DeformOptions loose;
+  loose.allow_invalid = true;
+  const FrameResult r = guarded.solve(rolled), paper = unguarded.solve(rolled, loose);
+  ASSERT_EQ(r.method, FrameMethod::Failed);
+  EXPECT_FALSE(r.valid);
+  const ShellCertificate returned = certify_shell(rolled, r.top, rest.F), solved = certify_shell(rolled, paper.top, rest.F);
+  EXPECT_GT(solved.inverted_tets, 0);
+  EXPECT_LT(returned.inverted_tets, solved.inverted_tets);
+  EXPECT_EQ(returned.inverted_tets, r.certificate.inverted_tets) // the report describes what is returned
+      << "paper's solve: " << solved.inverted_tets;
+}
+
 TEST(DeformGuard, AFrameAfterAnInvalidOneStartsFromTheLastValidState) {
   // Folded on to 240 degrees, the plane's base crosses itself: no valid frame exists, the guard
   // keeps the tets alone. Folded back to 180 degrees (shut, the base clear of itself, the top

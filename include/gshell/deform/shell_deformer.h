@@ -99,7 +99,9 @@ enum class FrameMethod {
   /// towards the same rest shapes, certified, then brought to a minimum of the guarded energy
   /// the dragged frames minimise.
   Regenerated,
-  Failed,    ///< not even that: the paper's solve, reported invalid
+  /// Not even that, reported invalid: the paper's solve, or the top made afresh where its exact
+  /// certificate finds fewer inverted tets (as many: fewer intersecting pairs).
+  Failed,
 };
 const char* frame_method_name(FrameMethod m);
 
