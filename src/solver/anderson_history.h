@@ -9,6 +9,7 @@
 // hierarchical solver's iterates as they were.
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,7 +23,9 @@ class AndersonHistory {
   using StoredVector = Eigen::Matrix<Stored, Eigen::Dynamic, 1>;
 
 public:
-  explicit AndersonHistory(int depth) : depth_(depth), gram_(std::max(depth, 0), std::max(depth, 0)) {}
+  /// Iterates of `blocked_from` values or more are passed over in parallel blocks (below).
+  explicit AndersonHistory(int depth, Eigen::Index blocked_from = kBlockedFrom)
+      : depth_(depth), blocked_from_(blocked_from), gram_(std::max(depth, 0), std::max(depth, 0)) {}
   void clear() {
     dF_.clear();
     dG_.clear();
@@ -36,7 +39,9 @@ public:
   bool extrapolate(const double* x, const double* image, Eigen::Index size, double* out) {
     if (depth_ <= 0) return false;
     const Eigen::Map<const Eigen::VectorXd> u(x, size), g(image, size);
-    f_ = g - u;
+    const bool blocked = size >= blocked_from_;
+    if (blocked) subtract_blocked(g, u, f_);
+    else f_ = g - u;
     if (has_last_) {
       if (static_cast<int>(dF_.size()) == depth_) { // oldest pair out; its storage is reused
         std::rotate(dF_.begin(), dF_.begin() + 1, dF_.end());
@@ -47,26 +52,45 @@ public:
         dF_.emplace_back();
         dG_.emplace_back();
       }
-      dF_.back().store(f_ - last_f_);
-      dG_.back().store(g - last_g_);
+      if (blocked) {
+        dF_.back().store_blocked(f_, last_f_);
+        dG_.back().store_blocked(g, last_g_);
+      } else {
+        dF_.back().store(f_ - last_f_);
+        dG_.back().store(g - last_g_);
+      }
       // Only the new difference's products are new: each iteration reads the history once for
       // them and once for the right-hand side, not m^2 / 2 times.
       const int last = static_cast<int>(dF_.size()) - 1;
-      for (int i = 0; i <= last; ++i) gram_(i, last) = gram_(last, i) = dF_[i].dot(dF_[last]);
+      for (int i = 0; i <= last; ++i) gram_(i, last) = gram_(last, i) = dF_[i].dot(dF_[last], blocked);
     }
-    last_f_ = f_;
-    last_g_ = g;
+    if (blocked) {
+      copy_blocked(f_, last_f_);
+      copy_blocked(g, last_g_);
+    } else {
+      last_f_ = f_;
+      last_g_ = g;
+    }
     has_last_ = true;
     if (dF_.empty()) return false;
     const int m = static_cast<int>(dF_.size());
     Eigen::MatrixXd normal = gram_.topLeftCorner(m, m);
     Eigen::VectorXd rhs(m);
-    for (int i = 0; i < m; ++i) rhs(i) = dF_[i].dot(f_);
+    for (int i = 0; i < m; ++i) rhs(i) = dF_[i].dot(f_, blocked);
     normal.diagonal().array() += 1e-12 * std::max(1e-300, normal.diagonal().maxCoeff());
     const Eigen::VectorXd gamma = normal.ldlt().solve(rhs);
     Eigen::Map<Eigen::VectorXd> o(out, size);
-    o = g;
-    for (int i = 0; i < m; ++i) o -= (gamma(i) * dG_[i].scale) * dG_[i].values.template cast<double>();
+    if (blocked) {
+      for_blocks(size, [&](Eigen::Index b, Eigen::Index n) {
+        auto ob = o.segment(b, n);
+        ob = g.segment(b, n);
+        for (int i = 0; i < m; ++i)
+          ob -= (gamma(i) * dG_[i].scale) * dG_[i].values.segment(b, n).template cast<double>();
+      });
+    } else {
+      o = g;
+      for (int i = 0; i < m; ++i) o -= (gamma(i) * dG_[i].scale) * dG_[i].values.template cast<double>();
+    }
     return gamma.allFinite();
   }
 
@@ -77,6 +101,39 @@ public:
   }
 
 private:
+  // From this many values on (a generation of about 350K vertices and more: tens of MB a vector)
+  // every pass runs over fixed blocks on all threads, the first touches of fresh history
+  // included; sums are taken per block and added in block order, so the result does not depend
+  // on the threads' schedule. Smaller iterates (the hierarchy's levels, deformation frames) keep
+  // the serial expressions, and their results as they were.
+  static constexpr Eigen::Index kBlockedFrom = Eigen::Index{1} << 20;
+  static constexpr Eigen::Index kBlock = Eigen::Index{1} << 16;
+
+  // body(begin, count) over fixed blocks of [0, size), in parallel.
+  template <class Body> static void for_blocks(Eigen::Index size, Body&& body) {
+    const Eigen::Index blocks = (size + kBlock - 1) / kBlock;
+    tbb::parallel_for(Eigen::Index{0}, blocks, [&](Eigen::Index k) {
+      const Eigen::Index b = k * kBlock;
+      body(b, std::min(kBlock, size - b));
+    });
+  }
+  // The sum of term(begin, count) over the blocks, added in block order.
+  template <class Term> static double sum_blocks(Eigen::Index size, Term&& term) {
+    std::vector<double> part((size + kBlock - 1) / kBlock);
+    for_blocks(size, [&](Eigen::Index b, Eigen::Index n) { part[b / kBlock] = term(b, n); });
+    double sum = 0;
+    for (double p : part) sum += p;
+    return sum;
+  }
+  template <class A, class B> static void subtract_blocked(const A& a, const B& b, Eigen::VectorXd& out) {
+    out.resize(a.size()); // not initialised: the blocks make the first touches
+    for_blocks(a.size(), [&](Eigen::Index k, Eigen::Index n) { out.segment(k, n) = a.segment(k, n) - b.segment(k, n); });
+  }
+  template <class A> static void copy_blocked(const A& a, Eigen::VectorXd& out) {
+    out.resize(a.size());
+    for_blocks(a.size(), [&](Eigen::Index k, Eigen::Index n) { out.segment(k, n) = a.segment(k, n); });
+  }
+
   /// A difference of iterates or images, as values * scale. Float keeps 8 digits of each at any
   /// model scale because scale is a power of two near its largest entry (a raw cast overflows
   /// above 3e38 and flushes below 1e-38, and dividing by a power of two rounds nothing). Double
@@ -96,13 +153,42 @@ private:
         values = (v / scale).template cast<Stored>();
       }
     }
-    double dot(const Difference& other) const {
-      return scale * other.scale * values.template cast<double>().dot(other.values.template cast<double>());
+    /// values * scale = a - b, by blocks.
+    template <class A> void store_blocked(const A& a, const Eigen::VectorXd& b) {
+      const Eigen::Index size = a.size();
+      values.resize(size);
+      if constexpr (std::is_same_v<Stored, double>) {
+        for_blocks(size, [&](Eigen::Index k, Eigen::Index n) { values.segment(k, n) = a.segment(k, n) - b.segment(k, n); });
+      } else {
+        std::vector<double> part((size + kBlock - 1) / kBlock); // a maximum: any order gives the same
+        for_blocks(size, [&](Eigen::Index k, Eigen::Index n) {
+          part[k / kBlock] = (a.segment(k, n) - b.segment(k, n)).cwiseAbs().maxCoeff();
+        });
+        const double largest = *std::max_element(part.begin(), part.end());
+        int exponent = 0;
+        std::frexp(largest, &exponent);
+        scale = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, exponent) : 1.0;
+        for_blocks(size, [&](Eigen::Index k, Eigen::Index n) {
+          values.segment(k, n) = ((a.segment(k, n) - b.segment(k, n)) / scale).template cast<Stored>();
+        });
+      }
     }
-    double dot(const Eigen::VectorXd& v) const { return scale * values.template cast<double>().dot(v); }
+    double dot(const Difference& other, bool blocked) const {
+      if (!blocked) return scale * other.scale * values.template cast<double>().dot(other.values.template cast<double>());
+      return scale * other.scale * sum_blocks(values.size(), [&](Eigen::Index k, Eigen::Index n) {
+               return values.segment(k, n).template cast<double>().dot(other.values.segment(k, n).template cast<double>());
+             });
+    }
+    double dot(const Eigen::VectorXd& v, bool blocked) const {
+      if (!blocked) return scale * values.template cast<double>().dot(v);
+      return scale * sum_blocks(values.size(), [&](Eigen::Index k, Eigen::Index n) {
+               return values.segment(k, n).template cast<double>().dot(v.segment(k, n));
+             });
+    }
   };
 
   int depth_;
+  Eigen::Index blocked_from_;
   std::vector<Difference> dF_, dG_;
   Eigen::MatrixXd gram_; // dF_i . dF_j of the kept differences
   Eigen::VectorXd f_, last_f_, last_g_;

@@ -1097,7 +1097,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   auto gather_free = [&](std::vector<double>& out) { free_rows([&](std::size_t x, std::size_t f) { out[f] = X[x]; }); };
   auto scatter_free = [&](const std::vector<double>& in) { free_rows([&](std::size_t x, std::size_t f) { X[x] = in[f]; }); };
   if (options.anderson_history > 0)
-    for (auto* v : {&before, &image}) v->resize(free_values);
+    for (auto* v : {&before, &image}) detail::assign_populated(*v, free_values); // 63 MB each at sphere:9
   for (int it = 1; it <= options.max_iterations && m.nf > 0; ++it) {
     if (!before.empty()) gather_free(before);
     const auto t_global = Clock::now();
