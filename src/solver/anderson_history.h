@@ -104,8 +104,8 @@ private:
   // From this many values on (a generation of about 350K vertices and more: tens of MB a vector)
   // every pass runs over fixed blocks on all threads, the first touches of fresh history
   // included; sums are taken per block and added in block order, so the result does not depend
-  // on the threads' schedule. Smaller iterates (the hierarchy's levels, deformation frames) keep
-  // the serial expressions, and their results as they were.
+  // on the threads' schedule. Smaller iterates (the hierarchy's levels, the frames and poses of
+  // shells below that size) keep the serial expressions, and their results as they were.
   static constexpr Eigen::Index kBlockedFrom = Eigen::Index{1} << 20;
   static constexpr Eigen::Index kBlock = Eigen::Index{1} << 16;
 
