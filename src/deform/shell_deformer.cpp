@@ -475,11 +475,10 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     // the straight path to it keeps every guarded tet positive (it then inverts none of them).
     outcome.method = FrameMethod::TetsOnly;
     Y = X;
-  } else if (outcome.method == FrameMethod::Failed && regeneration_tried &&
-             fewer_faults(fresh_certificate, guard_->certify(X))) {
-    // Nothing valid: the fresh top, not clean either, is returned where it has fewer faults than
-    // the paper's solve (CGAL's turbine twisted by 90 degrees, frame 6, its base crossing itself
-    // 22 times: 20 inverted tets and 105 intersecting pairs against 331 and 251).
+  } else if (outcome.method == FrameMethod::Failed && fewer_faults(fresh_certificate, guard_->certify(X))) {
+    // Nothing valid: the fresh top (made above, not clean either) is returned where it has fewer
+    // faults than the paper's solve (CGAL's turbine twisted by 90 degrees, frame 6, its base
+    // crossing itself 22 times: 20 inverted tets and 105 intersecting pairs against 331 and 251).
     Y = std::move(fresh);
     fresh_returned = true;
   }

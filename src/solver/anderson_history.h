@@ -40,7 +40,7 @@ public:
     if (depth_ <= 0) return false;
     const Eigen::Map<const Eigen::VectorXd> u(x, size), g(image, size);
     const bool blocked = size >= blocked_from_;
-    if (blocked) subtract_blocked(g, u, f_);
+    if (blocked) assign_blocked(f_, size, [&](Eigen::Index k, Eigen::Index n) { return g.segment(k, n) - u.segment(k, n); });
     else f_ = g - u;
     if (has_last_) {
       if (static_cast<int>(dF_.size()) == depth_) { // oldest pair out; its storage is reused
@@ -65,8 +65,8 @@ public:
       for (int i = 0; i <= last; ++i) gram_(i, last) = gram_(last, i) = dF_[i].dot(dF_[last], blocked);
     }
     if (blocked) {
-      copy_blocked(f_, last_f_);
-      copy_blocked(g, last_g_);
+      assign_blocked(last_f_, size, [&](Eigen::Index k, Eigen::Index n) { return f_.segment(k, n); });
+      assign_blocked(last_g_, size, [&](Eigen::Index k, Eigen::Index n) { return g.segment(k, n); });
     } else {
       last_f_ = f_;
       last_g_ = g;
@@ -117,22 +117,21 @@ private:
       body(b, std::min(kBlock, size - b));
     });
   }
-  // The sum of term(begin, count) over the blocks, added in block order.
-  template <class Term> static double sum_blocks(Eigen::Index size, Term&& term) {
+  // term(begin, count) of every block, folded in block order: combine(combine(term0, term1), ...).
+  template <class Term, class Combine> static double fold_blocks(Eigen::Index size, Term&& term, Combine&& combine) {
     std::vector<double> part((size + kBlock - 1) / kBlock);
     for_blocks(size, [&](Eigen::Index b, Eigen::Index n) { part[b / kBlock] = term(b, n); });
-    double sum = 0;
-    for (double p : part) sum += p;
-    return sum;
+    double folded = part.empty() ? 0.0 : part[0];
+    for (std::size_t i = 1; i < part.size(); ++i) folded = combine(folded, part[i]);
+    return folded;
   }
-  template <class A, class B> static void subtract_blocked(const A& a, const B& b, Eigen::VectorXd& out) {
-    out.resize(a.size()); // not initialised: the blocks make the first touches
-    for_blocks(a.size(), [&](Eigen::Index k, Eigen::Index n) { out.segment(k, n) = a.segment(k, n) - b.segment(k, n); });
+  // out = the blocks block(begin, count) (expressions), out resized but not initialised first:
+  // the blocks make the first touches.
+  template <class Out, class Block> static void assign_blocked(Out& out, Eigen::Index size, Block&& block) {
+    out.resize(size);
+    for_blocks(size, [&](Eigen::Index k, Eigen::Index n) { out.segment(k, n) = block(k, n); });
   }
-  template <class A> static void copy_blocked(const A& a, Eigen::VectorXd& out) {
-    out.resize(a.size());
-    for_blocks(a.size(), [&](Eigen::Index k, Eigen::Index n) { out.segment(k, n) = a.segment(k, n); });
-  }
+  static double plus(double a, double b) { return a + b; }
 
   /// A difference of iterates or images, as values * scale. Float keeps 8 digits of each at any
   /// model scale because scale is a power of two near its largest entry (a raw cast overflows
@@ -156,34 +155,31 @@ private:
     /// values * scale = a - b, by blocks.
     template <class A> void store_blocked(const A& a, const Eigen::VectorXd& b) {
       const Eigen::Index size = a.size();
-      values.resize(size);
+      auto difference = [&](Eigen::Index k, Eigen::Index n) { return a.segment(k, n) - b.segment(k, n); };
       if constexpr (std::is_same_v<Stored, double>) {
-        for_blocks(size, [&](Eigen::Index k, Eigen::Index n) { values.segment(k, n) = a.segment(k, n) - b.segment(k, n); });
+        assign_blocked(values, size, difference);
       } else {
-        std::vector<double> part((size + kBlock - 1) / kBlock); // a maximum: any order gives the same
-        for_blocks(size, [&](Eigen::Index k, Eigen::Index n) {
-          part[k / kBlock] = (a.segment(k, n) - b.segment(k, n)).cwiseAbs().maxCoeff();
-        });
-        const double largest = *std::max_element(part.begin(), part.end());
+        const double largest = fold_blocks(
+            size, [&](Eigen::Index k, Eigen::Index n) { return difference(k, n).cwiseAbs().maxCoeff(); },
+            [](double x, double y) { return std::max(x, y); });
         int exponent = 0;
         std::frexp(largest, &exponent);
         scale = largest > 0 && std::isfinite(largest) ? std::ldexp(1.0, exponent) : 1.0;
-        for_blocks(size, [&](Eigen::Index k, Eigen::Index n) {
-          values.segment(k, n) = ((a.segment(k, n) - b.segment(k, n)) / scale).template cast<Stored>();
-        });
+        assign_blocked(values, size,
+                       [&](Eigen::Index k, Eigen::Index n) { return (difference(k, n) / scale).template cast<Stored>(); });
       }
     }
     double dot(const Difference& other, bool blocked) const {
       if (!blocked) return scale * other.scale * values.template cast<double>().dot(other.values.template cast<double>());
-      return scale * other.scale * sum_blocks(values.size(), [&](Eigen::Index k, Eigen::Index n) {
+      return scale * other.scale * fold_blocks(values.size(), [&](Eigen::Index k, Eigen::Index n) {
                return values.segment(k, n).template cast<double>().dot(other.values.segment(k, n).template cast<double>());
-             });
+             }, plus);
     }
     double dot(const Eigen::VectorXd& v, bool blocked) const {
       if (!blocked) return scale * values.template cast<double>().dot(v);
-      return scale * sum_blocks(values.size(), [&](Eigen::Index k, Eigen::Index n) {
+      return scale * fold_blocks(values.size(), [&](Eigen::Index k, Eigen::Index n) {
                return values.segment(k, n).template cast<double>().dot(v.segment(k, n));
-             });
+             }, plus);
     }
   };
 
