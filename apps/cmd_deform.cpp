@@ -56,6 +56,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
                   f.result.valid ? "valid" : "INVALID", frame_method_name(f.result.method));
     std::string line = text;
     if (f.result.substeps > 1) line += ", " + std::to_string(f.result.substeps) + " sub-steps";
+    if (f.result.method == FrameMethod::Failed && f.result.fresh_top) line += ", fresh top";
     line += ")";
     if (f.result.certificate.inverted_tets > 0) line += ", " + std::to_string(f.result.certificate.inverted_tets) + " inverted";
     if (f.offset) {

@@ -235,6 +235,7 @@ TEST(DeformGuard, ASliverWhoseNormalTurnsSidewaysStillGivesAValidFrame) {
   // Made afresh as soon as the drag first stalled: within one attempt's iterations, not after the
   // retry and the tets-only drag (143 iterations here when they came first).
   EXPECT_EQ(r.method, FrameMethod::Regenerated);
+  EXPECT_TRUE(r.fresh_top);
   EXPECT_LE(r.guarded_iterations, DeformOptions{}.max_iterations * r.substeps);
 }
 
@@ -347,6 +348,8 @@ TEST(DeformGuard, AFrameNothingValidReachesReturnsTheStateWithFewerInvertedTets)
   EXPECT_LT(returned.inverted_tets, solved.inverted_tets);
   EXPECT_EQ(returned.inverted_tets, r.certificate.inverted_tets) // the report describes what is returned
       << "paper's solve: " << solved.inverted_tets;
+  EXPECT_TRUE(r.fresh_top); // and says which state it is
+  EXPECT_FALSE(paper.fresh_top);
 }
 
 TEST(DeformGuard, AFrameAfterAnInvalidOneStartsFromTheLastValidState) {

@@ -767,8 +767,8 @@ def bend_plane(V, degrees, band):
     return out
 
 
-FRAME_FIELDS = {"valid", "method", "substeps", "guarded_iterations", "thinned_vertices", "certificate",
-                "base_self_intersections"}
+FRAME_FIELDS = {"valid", "method", "resumed", "fresh_top", "substeps", "guarded_iterations", "thinned_vertices",
+                "certificate", "base_self_intersections"}
 
 
 class DeformGuardTest(TempDirTest):

@@ -483,6 +483,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     fresh_returned = true;
   }
   result.method = outcome.method;
+  result.fresh_top = outcome.method == FrameMethod::Regenerated || fresh_returned;
   result.substeps = outcome.substeps;
   result.guarded_iterations = outcome.iterations;
   result.valid = outcome.method == FrameMethod::Guarded || outcome.method == FrameMethod::Regenerated;

@@ -85,6 +85,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
   j["valid"] = r.valid;
   j["method"] = frame_method_name(r.method);
   j["resumed"] = r.resumed;
+  j["fresh_top"] = r.fresh_top;
   j["substeps"] = r.substeps;
   j["guarded_iterations"] = r.guarded_iterations;
   j["thinned_vertices"] = r.thinned_vertices;

@@ -132,6 +132,9 @@ struct FrameResult {
   /// The previous frame was not valid for the guard (TetsOnly or Failed), so the guard started this
   /// one from the last valid frame instead.
   bool resumed = false;
+  /// The frame's top is the one made afresh over the new base (method Regenerated, or a Failed
+  /// frame where that top had fewer faults than the paper's solve), not a solve from the last frame.
+  bool fresh_top = false;
 };
 
 /// Rest shapes for deforming a shell: its own 3m tets (no cracks). A generated shell may hold a
