@@ -1,8 +1,10 @@
 // `gshell convert IN OUT`: any readable surface (or builtin:...) to OBJ, OFF or PLY, keeping
-// the vertex order and, for OBJ to OBJ, the texture coordinates.
+// the vertex order and, for OBJ to OBJ, the texture coordinates; `--weld` joins the surface's cuts.
 #include "command_registry.h"
 #include "progress.h"
 
+#include <gshell/geometry/validate_mesh.h>
+#include <gshell/geometry/weld_vertices.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
 
@@ -13,7 +15,7 @@ namespace {
 
 struct ConvertOptions {
   std::string input, output;
-  bool ascii = false;
+  bool ascii = false, weld = false;
 };
 
 void add_convert_command(CLI::App& app) {
@@ -24,11 +26,24 @@ void add_convert_command(CLI::App& app) {
   cmd->add_option("input", opt->input, "Input mesh file or builtin:NAME[:RES]")->required();
   cmd->add_option("output", opt->output, "Output mesh file (.obj, .off or .ply)")->required();
   cmd->add_flag("--ascii", opt->ascii, "Write PLY as ASCII instead of binary little endian");
+  cmd->add_flag("--weld", opt->weld,
+                "Join the surface's cuts: boundary vertices at exactly the position of another boundary vertex "
+                "(a triangle soup, split seams) become one; the other vertices keep their order");
   cmd->callback([opt] {
-    const gshell::TriMesh mesh = gshell::load_mesh(opt->input);
-    gshell::write_mesh(opt->output, mesh, {}, opt->ascii);
-    gshell::cli::Progress("convert").line("wrote " + opt->output + " (" + std::to_string(mesh.num_vertices()) +
-                                         " vertices, " + std::to_string(mesh.num_faces()) + " faces)");
+    using namespace gshell;
+    std::vector<std::string> warnings;
+    TriMesh mesh = load_mesh(opt->input, opt->weld ? nullptr : &warnings);
+    cli::Progress progress("convert");
+    if (opt->weld) {
+      int merged = 0;
+      mesh = weld_boundary_vertices(mesh, &merged);
+      warnings = require_valid_mesh(mesh, opt->input + " after --weld");
+      progress.line("welded " + std::to_string(merged) + " vertices");
+    }
+    for (const std::string& w : warnings) std::cerr << "gshell convert: warning: " << w << "\n";
+    write_mesh(opt->output, mesh, {}, opt->ascii);
+    progress.line("wrote " + opt->output + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +
+                  std::to_string(mesh.num_faces()) + " faces)");
   });
 }
 

@@ -8,7 +8,6 @@
 
 #include <gshell/io/load_mesh.h>
 #include <gshell/run/generate_run.h>
-#include <gshell/shell/generate_report.h>
 #include <gshell/run/staged_folder.h>
 
 #include <cstdio>
@@ -33,10 +32,11 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   });
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, holds_only_shell_files);
-  const TriMesh mesh = load_mesh(a.input);
+  std::vector<std::string> input_warnings;
+  const TriMesh mesh = load_mesh(a.input, &input_warnings);
   cli::Progress progress("generate");
   char eta[32];
-  std::snprintf(eta, sizeof eta, "%g", a.options.thickness.eta(mesh.V));
+  std::snprintf(eta, sizeof eta, "%g", a.options.thickness.eta(mesh.V, mesh.F));
   progress.line(a.input + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +
                 std::to_string(mesh.num_faces()) + " faces), method " + a.method + ", eta " + eta);
   if (progress.enabled())
@@ -45,9 +45,10 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
       std::snprintf(text, sizeof text, "iteration %d  energy %.6g  %.3f s", it, energy, seconds);
       progress.update(text);
     };
-  const GenerateRun result = run_generate(mesh, a.input, a.options);
+  GenerateRun result = run_generate(mesh, a.input, a.options);
+  result.input_warnings = std::move(input_warnings);
   progress.finish_status();
-  for (const std::string& warning : generate_warnings(result.result)) std::cerr << "gshell generate: warning: " << warning << "\n";
+  for (const std::string& warning : result.warnings()) std::cerr << "gshell generate: warning: " << warning << "\n";
   result.write(a.output, cli::preview_writer(a.render, a.output, view));
   std::cout << result.summary() << "wrote        " << a.output << "/{top.obj, base.obj, shell.vtu, report.json"
             << (a.render ? ", preview.png" : "") << "}\n";

@@ -39,7 +39,7 @@ std::string genus_text(double genus, int errors) {
 }
 
 void print_text(const std::string& name, const TriMesh& mesh, const MeshStats& s,
-                const std::vector<MeshProblem>& problems, int errors, int warnings) {
+                const std::vector<MeshProblem>& problems, int errors, int warnings, int infos) {
   std::ostream& out = std::cout;
   const auto line = [&](const std::string& key, const auto& value) {
     out << std::left << std::setw(22) << (key + ":") << value << "\n";
@@ -62,7 +62,6 @@ void print_text(const std::string& name, const TriMesh& mesh, const MeshStats& s
   line("size", size_text.str());
   line("mean edge length", s.mean_edge_length);
   line("texture coordinates", mesh.has_uv() ? std::to_string(mesh.UV.rows()) : std::string("none"));
-  const int infos = static_cast<int>(problems.size()) - errors - warnings;
   line("problems", problems.empty() ? std::string("none")
                                     : std::to_string(errors) + " errors, " + std::to_string(warnings) +
                                           " warnings, " + std::to_string(infos) + " info");
@@ -96,15 +95,15 @@ void run_info(const InfoArgs& args) {
   const TriMesh mesh = is_builtin_spec(args.mesh) ? make_builtin(args.mesh) : read_mesh(args.mesh);
   const MeshStats stats = mesh_stats(mesh);
   const auto problems = validate_mesh(mesh);
-  int errors = 0, warnings = 0;
-  for (const auto& p : problems) {
-    if (p.severity == MeshProblem::Severity::Error) errors += p.count;
-    if (p.severity == MeshProblem::Severity::Warning) warnings += p.count;
-  }
+  // Occurrences, not entries: a summary entry ("... and 3058 more") stands for many.
+  int errors = 0, warnings = 0, infos = 0;
+  for (const auto& p : problems)
+    (p.severity == MeshProblem::Severity::Error ? errors : p.severity == MeshProblem::Severity::Warning ? warnings : infos) +=
+        p.count;
   if (args.json)
     print_json(args.mesh, mesh, stats, problems);
   else
-    print_text(args.mesh, mesh, stats, problems, errors, warnings);
+    print_text(args.mesh, mesh, stats, problems, errors, warnings, infos);
   std::cout.flush();
   if (errors > 0)
     throw InputError(with_file(args.mesh, std::to_string(errors) + " validation error" + (errors == 1 ? "" : "s") +

@@ -34,7 +34,7 @@ void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
   if (top.V.rows() != base.V.rows() || top.F.rows() != base.F.rows() || top.F != base.F)
     throw InputError(with_file(o.top, "must have the same vertex count and faces as " + o.base));
   require_usable_coordinates(top.V, o.top);
-  const double eta = o.thickness.eta(base.V);
+  const double eta = o.thickness.eta(base.V, base.F);
   const ShellMetrics m = shell_metrics(base.V, base.F, top.V, eta, true);
   if (!o.output.empty()) {
     nlohmann::json report = metrics_report(m, base.num_vertices(), base.num_faces(), eta, o.thickness.thickness_ratio);

@@ -82,8 +82,9 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   options.check();
   py::gil_scoped_release release;
   // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
-  require_valid_mesh(mesh, "mesh (V, F)");
+  std::vector<std::string> input_warnings = require_valid_mesh(mesh, "mesh (V, F)");
   GenerateRun run = run_generate(std::move(mesh), kArrayInput, options);
+  run.input_warnings = std::move(input_warnings);
   pass_gil_probe();
   ShellObject s;
   s.tets = build_prism_tets(run.surface.F, run.surface.num_vertices());
@@ -104,7 +105,7 @@ py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, s
   {
     py::gil_scoped_release release;
     require_valid_mesh(base, "base (Vb, F)");
-    eta = choice.eta(base.V);
+    eta = choice.eta(base.V, base.F);
     m = shell_metrics(base.V, base.F, top, eta, count_intersections);
   }
   py::dict d = to_python(metrics_report(m, base.num_vertices(), base.num_faces(), eta, thickness_ratio));

@@ -80,6 +80,12 @@ TEST(Generate, ThicknessFromRatioUsesTheBoundingSphere) {
   EXPECT_THROW(thickness_from_ratio(box.V, 0), InputError);
   EXPECT_THROW(thickness_from_ratio(box.V, -1), InputError);
   EXPECT_THROW(thickness_from_ratio(box.V, std::nan("")), InputError);
+  // Over the vertices the faces use: a stray point left far away does not thicken the shell.
+  TriMesh stray = box;
+  stray.V.conservativeResize(box.V.rows() + 1, 3);
+  stray.V.row(box.V.rows()) << 100, 100, 100;
+  EXPECT_EQ(thickness_from_ratio(stray.V, stray.F, 0.1), thickness_from_ratio(box.V, 0.1));
+  EXPECT_GT(thickness_from_ratio(stray.V, 0.1), 1.0);
 }
 
 TEST(Generate, MethodsAndBadOptions) {

@@ -101,4 +101,36 @@ TEST(ConvertCli, BadOutputsExitOneAndLeaveNothing) {
   EXPECT_EQ(usage.exit_code, 1);
 }
 
+// A triangle soup (every face with its own vertices, as some exporters write OBJ) is a surface cut
+// along every edge: `generate` warns of it and names the cure, `convert --weld` applies it, and the
+// welded sphere's shell is valid.
+TEST(ConvertCli, WeldJoinsATriangleSoupThatGenerateWarnsOf) {
+  TempDir dir;
+  const TriMesh sphere = make_sphere(2);
+  TriMesh soup;
+  soup.V.resize(3 * sphere.F.rows(), 3);
+  soup.F.resize(sphere.F.rows(), 3);
+  for (Eigen::Index f = 0; f < sphere.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      soup.V.row(3 * f + k) = sphere.V.row(sphere.F(f, k));
+      soup.F(f, k) = static_cast<int>(3 * f + k);
+    }
+  write_mesh(dir.file("soup.obj"), soup);
+  const auto cut = run_cli("generate " + shell_quoted(dir.file("soup.obj")) + " -o " + shell_quoted(dir.file("cut")) +
+                           " --thickness-ratio 0.05 --quiet");
+  EXPECT_EQ(cut.exit_code, 0) << cut.err;
+  EXPECT_NE(cut.err.find("soup.obj: vertices "), std::string::npos) << cut.err;
+  EXPECT_NE(cut.err.find("convert --weld"), std::string::npos) << cut.err;
+  const auto weld = run_cli("convert " + shell_quoted(dir.file("soup.obj")) + " " + shell_quoted(dir.file("w.obj")) + " --weld");
+  ASSERT_EQ(weld.exit_code, 0) << weld.err;
+  EXPECT_NE(weld.err.find("welded " + std::to_string(soup.V.rows() - sphere.V.rows()) + " vertices"), std::string::npos)
+      << weld.err;
+  EXPECT_EQ(read_mesh(dir.file("w.obj")).V.rows(), sphere.V.rows());
+  const auto whole = run_cli("generate " + shell_quoted(dir.file("w.obj")) + " -o " + shell_quoted(dir.file("whole")) +
+                             " --thickness-ratio 0.05 --quiet");
+  EXPECT_EQ(whole.exit_code, 0) << whole.err;
+  EXPECT_TRUE(whole.err.empty()) << whole.err;
+  EXPECT_NE(whole.out.find("valid        yes"), std::string::npos) << whole.out;
+}
+
 } // namespace

@@ -1,6 +1,7 @@
 #include <gshell/geometry/validate_mesh.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/weld_vertices.h>
 
 #include <Eigen/Geometry>
 
@@ -27,7 +28,7 @@ public:
 
   void add(Severity severity, const std::string& kind, std::string message) {
     int& seen = seen_[kind_index(kind, severity)].second;
-    if (++seen <= kListed) out_.push_back({severity, std::move(message), 1});
+    if (++seen <= kListed) out_.push_back({severity, std::move(message), 1, kind});
   }
 
   /// Appends "N more <kind>" for every kind that went over the limit.
@@ -35,7 +36,7 @@ public:
     for (size_t i = 0; i < kinds_.size(); ++i) {
       const int rest = seen_[i].second - kListed;
       if (rest > 0)
-        out_.push_back({seen_[i].first, "... and " + std::to_string(rest) + " more " + kinds_[i], rest});
+        out_.push_back({seen_[i].first, "... and " + std::to_string(rest) + " more " + kinds_[i], rest, kinds_[i]});
     }
   }
 
@@ -73,6 +74,26 @@ std::string coordinate_problem(const Eigen::Vector3d& p, int v) {
   return {};
 }
 
+/// One line per kind of warning: its first entry and how many more there are.
+std::vector<std::string> warnings_by_kind(const std::vector<MeshProblem>& problems, const std::string& name) {
+  std::vector<std::string> kinds, lines;
+  std::vector<int> more;
+  for (const MeshProblem& p : problems) {
+    if (p.severity != Severity::Warning) continue;
+    const auto it = std::find(kinds.begin(), kinds.end(), p.kind);
+    if (it == kinds.end()) {
+      kinds.push_back(p.kind);
+      lines.push_back(with_file(name, p.message));
+      more.push_back(p.count - 1);
+    } else {
+      more[static_cast<std::size_t>(it - kinds.begin())] += p.count;
+    }
+  }
+  for (std::size_t k = 0; k < lines.size(); ++k)
+    if (more[k] > 0) lines[k] += " (and " + std::to_string(more[k]) + " more " + kinds[k] + ")";
+  return lines;
+}
+
 } // namespace
 
 std::string too_large_coordinate(const Eigen::Vector3d& p) {
@@ -95,11 +116,12 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   const Eigen::MatrixXd& V = mesh.V;
   const Eigen::MatrixXi& F = mesh.F;
   if (V.rows() == 0 || F.rows() == 0) {
-    problems.push_back({Severity::Error, V.rows() == 0 ? "mesh is empty (no vertices)" : "mesh has no faces", 1});
+    problems.push_back({Severity::Error, V.rows() == 0 ? "mesh is empty (no vertices)" : "mesh has no faces", 1, "empty mesh"});
     return problems;
   }
   if (V.cols() != 3 || F.cols() != 3) {
-    problems.push_back({Severity::Error, "mesh must have 3 coordinates per vertex and 3 vertices per face", 1});
+    problems.push_back(
+        {Severity::Error, "mesh must have 3 coordinates per vertex and 3 vertices per face", 1, "wrong matrix shapes"});
     return problems;
   }
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
@@ -214,6 +236,21 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   }
 
   if (!boundary.empty()) {
+    // A cut: boundary vertices on both sides of it at one position. Closed meshes have no boundary
+    // and skip this (two closed parts touching at a point are the certificate's base crossings).
+    std::vector<int> ends;
+    ends.reserve(2 * boundary.size());
+    for (const auto& [a, b] : boundary)
+      for (int v : {a, b})
+        if (usable[v]) ends.push_back(v);
+    std::sort(ends.begin(), ends.end());
+    ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
+    for (const auto& [kept, other] : coincident_vertices(V, std::move(ends)))
+      list.add(Severity::Warning, "coincident boundary vertices",
+               "vertices " + std::to_string(kept) + " and " + std::to_string(other) +
+                   " are at the same position but not joined: the surface is cut there (a triangle soup or split "
+                   "seams; the shell gets walls along the cut; `gshell convert --weld` joins them)");
+
     // Loops = connected pieces of the boundary-edge graph.
     detail::DisjointSets pieces(n);
     std::vector<char> seen(n, 0);
@@ -234,7 +271,7 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   return problems;
 }
 
-void require_valid_mesh(const TriMesh& mesh, const std::string& name) {
+std::vector<std::string> require_valid_mesh(const TriMesh& mesh, const std::string& name) {
   const auto problems = validate_mesh(mesh);
   const MeshProblem* first = nullptr;
   int more = 0;
@@ -245,7 +282,7 @@ void require_valid_mesh(const TriMesh& mesh, const std::string& name) {
     else
       more += p.count;
   }
-  if (!first) return;
+  if (!first) return warnings_by_kind(problems, name);
   std::string message = first->message;
   if (more > 0) message += " (and " + std::to_string(more) + " more problem" + (more == 1 ? "" : "s") + ")";
   throw InputError(with_file(name, message));

@@ -6,9 +6,10 @@
 
 namespace gshell {
 
-TriMesh load_mesh(const std::string& input) {
+TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings) {
   TriMesh mesh = is_builtin_spec(input) ? make_builtin(input) : read_mesh(input);
-  require_valid_mesh(mesh, input);
+  std::vector<std::string> found = require_valid_mesh(mesh, input);
+  if (warnings) *warnings = std::move(found);
   return mesh;
 }
 

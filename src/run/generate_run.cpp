@@ -16,9 +16,9 @@ void ThicknessChoice::check() const {
     throw InputError("thickness_ratio must be positive and finite (got " + std::to_string(*thickness_ratio) + ")");
 }
 
-double ThicknessChoice::eta(const Eigen::MatrixXd& V) const {
+double ThicknessChoice::eta(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) const {
   check();
-  return thickness ? *thickness : thickness_from_ratio(V, *thickness_ratio);
+  return thickness ? *thickness : thickness_from_ratio(V, F, *thickness_ratio);
 }
 
 void GenerateRunOptions::check() const {
@@ -31,7 +31,7 @@ void GenerateRunOptions::check() const {
 GenerateRun run_generate(TriMesh surface, std::string input, const GenerateRunOptions& options) {
   GenerateOptions generate = options.generate;
   options.check();
-  generate.thickness = options.thickness.eta(surface.V);
+  generate.thickness = options.thickness.eta(surface.V, surface.F);
   GenerateRun run;
   run.result = generate_shell(surface.V, surface.F, generate);
   run.input = std::move(input);
@@ -40,8 +40,16 @@ GenerateRun run_generate(TriMesh surface, std::string input, const GenerateRunOp
   return run;
 }
 
+std::vector<std::string> GenerateRun::warnings() const {
+  std::vector<std::string> w = input_warnings;
+  for (std::string& line : generate_warnings(result)) w.push_back(std::move(line));
+  return w;
+}
+
 nlohmann::ordered_json GenerateRun::to_json() const {
-  return nlohmann::ordered_json(generate_report(result, input, thickness_ratio));
+  nlohmann::ordered_json j(generate_report(result, input, thickness_ratio));
+  j["warnings"] = warnings();
+  return j;
 }
 
 std::string GenerateRun::summary() const { return generate_summary(result, input); }

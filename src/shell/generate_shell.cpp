@@ -164,6 +164,18 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
   return ratio * radius;
 }
 
+double thickness_from_ratio(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double ratio) {
+  std::vector<char> used(static_cast<std::size_t>(V.rows()), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
+  const Eigen::Index count = std::count(used.begin(), used.end(), char{1});
+  if (count == V.rows()) return thickness_from_ratio(V, ratio);
+  Eigen::MatrixXd U(count, 3);
+  for (Eigen::Index v = 0, row = 0; v < V.rows(); ++v)
+    if (used[v]) U.row(row++) = V.row(v);
+  return thickness_from_ratio(U, ratio);
+}
+
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options) {
   options.check();

@@ -12,6 +12,7 @@ struct MeshProblem {
   Severity severity;
   std::string message; ///< one line, naming the face/vertex index where the problem is
   int count = 1;       ///< occurrences this entry stands for (> 1 for "and N more ..." summaries)
+  std::string kind;    ///< what kind of problem, plural ("unreferenced vertices"); the same for its summary
 };
 
 /// "error", "warning" or "info".
@@ -48,7 +49,8 @@ std::string too_large_coordinate(const Eigen::Vector3d& p);
 void require_usable_coordinates(const Eigen::MatrixXd& V, const std::string& name);
 
 /// Throws InputError "NAME: <first error> (and K more problems)" if validate_mesh finds an error;
-/// K counts the other errors and warnings.
-void require_valid_mesh(const TriMesh& mesh, const std::string& name);
+/// K counts the other errors and warnings. Otherwise returns the warnings, one line per kind:
+/// "NAME: <first> (and K more <kind>)".
+std::vector<std::string> require_valid_mesh(const TriMesh& mesh, const std::string& name);
 
 } // namespace gshell

@@ -19,8 +19,8 @@ struct ThicknessChoice {
   /// \throws InputError naming the parameter (thickness, thickness_ratio) unless exactly one is
   ///         given, positive and finite.
   void check() const;
-  /// eta in model units for base vertices V. \throws InputError as check().
-  double eta(const Eigen::MatrixXd& V) const;
+  /// eta in model units for the base (V, F) (a ratio: of the vertices F uses). \throws InputError as check().
+  double eta(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) const;
 };
 
 struct GenerateRunOptions {
@@ -41,9 +41,13 @@ struct GenerateRun {
   TriMesh surface;                       ///< the base as used: its faces, vertex order and UVs go to the folder
   std::optional<double> thickness_ratio; ///< as given (null in the report when eta was given)
   GenerateResult result;
+  /// What the input's validation warned of (require_valid_mesh's lines; the caller sets them).
+  std::vector<std::string> input_warnings;
 
   /// report.json: generate_report (shell/generate_report.h lists the fields).
   nlohmann::ordered_json to_json() const;
+  /// input_warnings, then generate_warnings: the report's `warnings`.
+  std::vector<std::string> warnings() const;
   /// The terminal summary (generate_summary).
   std::string summary() const;
   /// The shell folder DIR: base.obj, top.obj, shell.vtu (cell data stretch, inverted, prism),

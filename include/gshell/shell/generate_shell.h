@@ -61,6 +61,9 @@ struct GenerateOptions {
 /// distance to the farthest vertex).
 /// \throws InputError unless ratio > 0 and finite, and when V is empty or all one point.
 double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio);
+/// The same over the vertices the faces F use: a stray vertex far away (left in an exported file)
+/// does not change the thickness. Preconditions: face ids in [0, V.rows()).
+double thickness_from_ratio(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double ratio);
 
 struct GenerateTimings {
   double total = 0;  ///< whole generate_shell call, metrics included (seconds)

@@ -1,0 +1,24 @@
+#pragma once
+// Joining a surface's cuts: boundary vertices that sit at exactly one position (a triangle soup,
+// seams split by an exporter) made one vertex.
+#include <gshell/mesh.h>
+
+#include <utility>
+#include <vector>
+
+namespace gshell {
+
+/// Among `candidates` (vertex ids into V, any order, no repeats), those at exactly the position of
+/// another: one (kept, merged) pair per vertex that is not the lowest id at its position, kept
+/// being that lowest id; sorted by merged id.
+std::vector<std::pair<int, int>> coincident_vertices(const Eigen::MatrixXd& V, std::vector<int> candidates);
+
+/// The surface with every boundary vertex (on an edge of one face) that sits at exactly the
+/// position of a lower-numbered boundary vertex replaced by it and removed; the other vertices keep
+/// their order. Faces keep their order and texture coordinates (which are per corner). `merged`
+/// (if not null) receives the number of vertices removed. The result is not validated: joining
+/// two patches that touch at one corner makes a non-manifold vertex (require_valid_mesh says so).
+/// Preconditions: face ids in [0, V.rows()).
+TriMesh weld_boundary_vertices(const TriMesh& mesh, int* merged = nullptr);
+
+} // namespace gshell
