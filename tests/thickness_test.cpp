@@ -70,13 +70,18 @@ TEST(Thickness, ConcentricSpheres) {
   EXPECT_GT(tr.mean(), h + 0.1 * faceting); // most top vertices do sit over facet interiors
 }
 
-// Closest distance from p to any face of (V, F), by CGAL, face by face.
-double brute_force_distance(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                            const Eigen::Vector3d& p) {
+// Closest distance from p to any face of (V, F), by CGAL, face by face; with `own` >= 0 (p is top
+// vertex `own` of a shell) only over the faces at base vertex `own` and those p lies above.
+double brute_force_distance(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::Vector3d& p,
+                            int own = -1) {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
   const K::Point_3 q(p.x(), p.y(), p.z());
   double best = std::numeric_limits<double>::infinity();
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    if (own >= 0 && F(f, 0) != own && F(f, 1) != own && F(f, 2) != own) {
+      const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+      if (!((b - a).cross(c - a).dot(p - a) > 0)) continue;
+    }
     auto corner = [&](int k) { return K::Point_3(V(F(f, k), 0), V(F(f, k), 1), V(F(f, k), 2)); };
     best = std::min(best, CGAL::squared_distance(q, K::Triangle_3(corner(0), corner(1), corner(2))));
   }
@@ -96,7 +101,7 @@ TEST(Thickness, MatchesAllFacesClosestPoint) {
 
 TEST(Thickness, PairedShellMatchesAllFacesClosestPoint) {
   // A bumpy base and a top whose vertex i wanders around base vertex i: the pairing only
-  // seeds the search, the answer must still be the global closest point.
+  // seeds the search, the answer must still be the closest point over the faces that count.
   TriMesh base = test::icosphere(3);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> bump(0.8, 1.2), jitter(-0.15, 0.15);
@@ -111,9 +116,36 @@ TEST(Thickness, PairedShellMatchesAllFacesClosestPoint) {
   top.row(top.rows() - 1) << 5, 5, 5.001;
 
   const Eigen::VectorXd t = vertex_thickness(base.V, base.F, top);
-  for (Eigen::Index i = 0; i < top.rows(); ++i)
-    EXPECT_NEAR(t[i], brute_force_distance(base.V, base.F, top.row(i).transpose()), 1e-12) << i;
-  EXPECT_GT(t[top.rows() - 1], 5.0);
+  int nearer_behind = 0; // top vertices with a face nearer that they lie behind
+  for (Eigen::Index i = 0; i + 1 < top.rows(); ++i) {
+    const Eigen::Vector3d q = top.row(i).transpose();
+    EXPECT_NEAR(t[i], brute_force_distance(base.V, base.F, q, static_cast<int>(i)), 1e-12) << i;
+    nearer_behind += brute_force_distance(base.V, base.F, q) < t[i] - 1e-9;
+  }
+  EXPECT_GT(nearer_behind, 0); // the jitter puts some there, so the rule is exercised
+  EXPECT_GT(t[top.rows() - 1], 5.0); // on no face: measured to every face
+}
+
+TEST(Thickness, ATopUnderTheBackOfAnotherPartIsMeasuredOnItsOwnSide) {
+  // Two concentric spheres, both shells extruded outwards: the inner top (radius 1.04) passes
+  // 0.01 under the outer base (1.05) but is 0.04 thick; the outer top is 0.05 thick.
+  const auto inner = test::icosphere(3, 1.0), outer = test::icosphere(3, 1.05);
+  const Eigen::Index n = inner.V.rows();
+  TriMesh both;
+  both.V.resize(2 * n, 3);
+  both.V << inner.V, outer.V;
+  both.F.resize(2 * inner.F.rows(), 3);
+  both.F << inner.F, (outer.F.array() + static_cast<int>(n)).matrix();
+  Eigen::MatrixXd top(2 * n, 3);
+  top << inner.V * 1.04, outer.V * (1.10 / 1.05);
+  const Eigen::VectorXd t = vertex_thickness(both.V, both.F, top);
+  EXPECT_NEAR(t.head(n).minCoeff(), 0.04, 1e-12);
+  EXPECT_NEAR(t.head(n).maxCoeff(), 0.04, 1e-12);
+  EXPECT_NEAR(t.tail(n).minCoeff(), 0.05, 1e-12);
+  EXPECT_NEAR(t.tail(n).maxCoeff(), 0.05, 1e-12);
+  // Unpaired, the same points are measured to every face: 0.01 from the outer base at most.
+  const Eigen::VectorXd any = vertex_thickness(both.V, both.F, Eigen::MatrixXd(top.topRows(n)));
+  EXPECT_LE(any.maxCoeff(), 0.01 + 1e-12);
 }
 
 TEST(Thickness, JustAboveAFineBumpySurfaceMatchesAllFacesClosestPoint) {

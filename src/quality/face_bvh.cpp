@@ -352,35 +352,7 @@ double FaceBvh::face_squared_distance(const Triangle& t, const Eigen::Vector3d& 
 }
 
 double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2) const {
-  assert(slot_triangle_.size() == slot_face_.size() && "FaceBvh built without Use::distances");
-  double best = bound2;
-  if (nodes_.empty()) return best;
-  struct Entry {
-    int node;
-    double d2; // lower bound on the squared distance from q to the node's faces
-  };
-  Entry stack[128]; // holds at most depth + 1 entries; depth <= 63 code bits + log2(faces)
-  int top = 0;
-  stack[top++] = {0, node_lower_bound(0, q)};
-  while (top > 0) {
-    const Entry e = stack[--top];
-    if (e.d2 >= best) continue;
-    const Node& node = nodes_[e.node];
-    if (node.leaf()) {
-      for (int s = node.begin; s < node.end; ++s)
-        if (slot_box_[s].squaredExteriorDistance(q) < best)
-          best = std::min(best, face_squared_distance(slot_triangle_[s], q));
-      continue;
-    }
-    const Entry l{e.node + 1, node_lower_bound(e.node + 1, q)};
-    const Entry r{node.right, node_lower_bound(node.right, q)};
-    // The nearer child goes on top of the stack: searched first, it tightens `best` early.
-    const Entry& near = l.d2 <= r.d2 ? l : r;
-    const Entry& far = l.d2 <= r.d2 ? r : l;
-    if (far.d2 < best) stack[top++] = far;
-    if (near.d2 < best) stack[top++] = near;
-  }
-  return best;
+  return squared_distance(q, bound2, [](int) { return true; });
 }
 
 } // namespace gshell::detail

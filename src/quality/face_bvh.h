@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <tbb/parallel_invoke.h>
+#include <algorithm>
 #include <cassert>
 #include <cstdint>
 #include <vector>
@@ -97,6 +98,8 @@ public:
   /// Needs Use::distances.
   /// A good bound2 (e.g. the squared distance to a known point of the surface) prunes the search.
   double squared_distance(const Eigen::Vector3d& q, double bound2) const;
+  /// The same over the faces f for which counts(f) is true (asked only of faces within the bound).
+  template <class Counts> double squared_distance(const Eigen::Vector3d& q, double bound2, Counts&& counts) const;
 
 private:
   // Node boxes are floats rounded outwards (conservative, half the memory of doubles).
@@ -281,6 +284,39 @@ template <class Visit>
 void FaceBvh::for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const {
   auto leaves = [&](const Node& na, const Node& nb, bool) { visit(na.begin, na.end, nb.begin, nb.end); };
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
+}
+
+template <class Counts>
+double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2, Counts&& counts) const {
+  assert(slot_triangle_.size() == slot_face_.size() && "FaceBvh built without Use::distances");
+  double best = bound2;
+  if (nodes_.empty()) return best;
+  struct Entry {
+    int node;
+    double d2; // lower bound on the squared distance from q to the node's faces
+  };
+  Entry stack[128]; // holds at most depth + 1 entries; depth <= 63 code bits + log2(faces)
+  int top = 0;
+  stack[top++] = {0, node_lower_bound(0, q)};
+  while (top > 0) {
+    const Entry e = stack[--top];
+    if (e.d2 >= best) continue;
+    const Node& node = nodes_[e.node];
+    if (node.leaf()) {
+      for (int s = node.begin; s < node.end; ++s)
+        if (slot_box_[s].squaredExteriorDistance(q) < best && counts(slot_face_[s]))
+          best = std::min(best, face_squared_distance(slot_triangle_[s], q));
+      continue;
+    }
+    const Entry l{e.node + 1, node_lower_bound(e.node + 1, q)};
+    const Entry r{node.right, node_lower_bound(node.right, q)};
+    // The nearer child goes on top of the stack: searched first, it tightens `best` early.
+    const Entry& near = l.d2 <= r.d2 ? l : r;
+    const Entry& far = l.d2 <= r.d2 ? r : l;
+    if (far.d2 < best) stack[top++] = far;
+    if (near.d2 < best) stack[top++] = near;
+  }
+  return best;
 }
 
 } // namespace gshell::detail

@@ -45,9 +45,17 @@ Eigen::VectorXd vertex_thickness(const Eigen::MatrixXd& base, const Eigen::Matri
     for (std::size_t k = r.begin(); k < r.end(); ++k) {
       const int i = order[k];
       const Eigen::Vector3d q = top.row(i).transpose();
-      double bound2 = std::numeric_limits<double>::infinity();
-      if (paired && on_surface[i]) bound2 = (q - base.row(i).transpose()).squaredNorm();
-      thickness[i] = std::sqrt(bvh.squared_distance(q, bound2));
+      if (!paired || !on_surface[i]) {
+        thickness[i] = std::sqrt(bvh.squared_distance(q, std::numeric_limits<double>::infinity()));
+        continue;
+      }
+      const auto seen_from_its_side = [&](int f) {
+        const int a = F(f, 0), b = F(f, 1), c = F(f, 2);
+        if (a == i || b == i || c == i) return true;
+        const Eigen::Vector3d pa = base.row(a).transpose(), pb = base.row(b).transpose(), pc = base.row(c).transpose();
+        return (pb - pa).cross(pc - pa).dot(q - pa) > 0;
+      };
+      thickness[i] = std::sqrt(bvh.squared_distance(q, (q - base.row(i).transpose()).squaredNorm(), seen_from_its_side));
     }
   });
   return thickness;
