@@ -1,8 +1,9 @@
-// read_mesh, write_mesh, builtin.
+// read_mesh, write_mesh, builtin, weld.
 #include "bindings.h"
 #include "numpy_arrays.h"
 
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/geometry/weld_vertices.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/write_mesh.h>
 
@@ -39,6 +40,17 @@ py::tuple builtin_py(const std::string& spec) {
   {
     py::gil_scoped_release release;
     mesh = make_builtin(full);
+  }
+  return mesh_tuple(mesh);
+}
+
+py::tuple weld_py(const ArrayArg& V, const ArrayArg& F) {
+  TriMesh mesh;
+  mesh.V = to_matrix(V, "V", 3);
+  mesh.F = to_indices(F, "F", 3, static_cast<int>(mesh.V.rows()));
+  {
+    py::gil_scoped_release release;
+    mesh = weld_boundary_vertices(mesh);
   }
   return mesh_tuple(mesh);
 }
@@ -89,6 +101,25 @@ Returns:
 
 Raises:
     ValueError: unknown name or resolution out of range.)");
+
+  m.def("weld", &weld_py, py::arg("V"), py::arg("F"),
+        R"(Join a surface's cuts, as `gshell convert --weld` does.
+
+A boundary vertex (on an edge of one face) at exactly the position of a lower-numbered boundary
+vertex (a triangle soup, seams split by an exporter) is replaced by it and removed; the other
+vertices keep their order, the faces theirs. generate() lists such cuts in its report's
+`warnings`, because the shell lines a cut with walls that touch.
+
+Args:
+    V: float array (n, 3).
+    F: integer array (m, 3) of vertex ids in [0, n).
+
+Returns:
+    (V, F): the welded mesh (not validated: joining two patches that touch at one corner makes a
+    non-manifold vertex, which generate() then refuses).
+
+Raises:
+    ValueError: wrong shapes or dtypes, indices out of range.)");
 }
 
 } // namespace gshell::python

@@ -138,7 +138,7 @@ class DocstringTest(unittest.TestCase):
     def test_everything_public_is_documented(self):
         self.assertGreater(len(gshell.__doc__), 100)
         names = [n for n in dir(gshell) if not n.startswith("_")]
-        self.assertTrue({"read_mesh", "write_mesh", "builtin", "generate", "metrics", "load_shell", "Shell",
+        self.assertTrue({"read_mesh", "write_mesh", "builtin", "weld", "generate", "metrics", "load_shell", "Shell",
                          "Deformer", "Poser", "Embedding", "embed"} <= set(names))
         for name in names:
             obj = getattr(gshell, name)
@@ -189,6 +189,19 @@ class MeshIOTest(TempDirTest):
         np.testing.assert_array_equal(gshell.read_mesh(p)[1], F[::-1])
         gshell.write_mesh(p, V.tolist(), F.tolist())
         np.testing.assert_array_equal(gshell.read_mesh(p)[0], V)
+
+    def test_weld_joins_a_triangle_soup_that_generate_warns_of(self):
+        V, F = gshell.builtin("sphere:2")
+        soup_V, soup_F = V[F.reshape(-1)], np.arange(3 * len(F)).reshape(-1, 3)
+        cut = gshell.generate(soup_V, soup_F, thickness_ratio=0.05)
+        self.assertTrue(any("same position but not joined" in w for w in cut.report["warnings"]),
+                        cut.report["warnings"])
+        W, G = gshell.weld(soup_V, soup_F)
+        self.assertEqual(W.shape, V.shape)
+        np.testing.assert_array_equal(W[G], V[F])  # every face corner where it was
+        whole = gshell.generate(W, G, thickness_ratio=0.05)
+        self.assertTrue(whole.report["valid"])
+        self.assertEqual(whole.report["warnings"], [])
 
     def test_read_matches_cli_output(self):
         out = self.path("shell")
