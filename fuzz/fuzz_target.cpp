@@ -11,6 +11,7 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/mesh_topology.h>
 #include <gshell/geometry/validate_mesh.h>
+#include <gshell/geometry/weld_vertices.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/view/view_protocol.h>
 
@@ -33,7 +34,8 @@ const std::string kName = "fuzz-input";
 }
 
 /// A reader's result: indices in range, UVs consistent (read_mesh.h); then what `gshell info`
-/// (mesh_stats, validate_mesh) and every command's load_mesh (require_valid_mesh) do with it.
+/// (mesh_stats, validate_mesh) and every command's load_mesh (require_valid_mesh) do with it, and
+/// on a valid surface `convert --weld` (weld_boundary_vertices: every face corner where it was).
 void check_surface(const TriMesh& mesh) {
   if (mesh.V.cols() != 3 || mesh.F.cols() != 3) violated("surface must be n x 3 and m x 3");
   if (mesh.F.size() > 0 && (mesh.F.minCoeff() < 0 || mesh.F.maxCoeff() >= mesh.V.rows()))
@@ -44,6 +46,14 @@ void check_surface(const TriMesh& mesh) {
   }
   (void)mesh_stats(mesh);
   require_valid_mesh(mesh, kName);
+  int merged = -1;
+  const TriMesh welded = weld_boundary_vertices(mesh, &merged);
+  if (merged < 0 || welded.V.rows() != mesh.V.rows() - merged || welded.F.rows() != mesh.F.rows())
+    violated("weld: vertex or face count");
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (welded.F(f, k) < 0 || welded.F(f, k) >= welded.V.rows() || welded.V.row(welded.F(f, k)) != mesh.V.row(mesh.F(f, k)))
+        violated("weld: a face corner moved");
 }
 
 /// A tet reader's result: ids in range, one data row per point/cell.
