@@ -1,12 +1,12 @@
 // gshell animate: synthetic base frames (a smooth bend or twist) to drive `gshell deform`.
 #include "command_registry.h"
 #include "progress.h"
+#include "surface_input.h"
 
 #include <gshell/run/frames.h>
 #include <gshell/run/staged_folder.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/error.h>
-#include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/triangle_intersections.h>
 
@@ -41,7 +41,7 @@ void run_animate(const AnimateArgs& args) {
   const bool bending = !std::isnan(args.bend);
   const double degrees = bending ? args.bend : args.twist;
   if (!std::isfinite(degrees)) throw gshell::InputError("the angle must be finite");
-  gshell::TriMesh mesh = gshell::load_mesh(args.base);
+  gshell::TriMesh mesh = gshell::cli::load_surface(args.base, "animate");
   const gshell::MotionFrame frame = gshell::motion_frame(mesh.V);
   const Eigen::MatrixXd rest = mesh.V;
 

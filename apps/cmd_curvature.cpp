@@ -1,10 +1,10 @@
 // `gshell curvature MESH -o OUT.ply`: normal-cycle principal curvatures as PLY properties.
 #include "command_registry.h"
 #include "progress.h"
+#include "surface_input.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/curvature.h>
-#include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/seconds_since.h>
 
@@ -51,7 +51,7 @@ void run_curvature(const CurvatureArgs& args) {
   if (ext != ".ply")
     throw InputError(with_file(args.output, "curvature output must be a .ply file (it carries the curvature "
                                             "as PLY properties)"));
-  const TriMesh mesh = load_mesh(args.input);
+  const TriMesh mesh = cli::load_surface(args.input, "curvature");
   const auto start = std::chrono::steady_clock::now();
   const FaceCurvature faces = face_curvature(mesh.V, mesh.F, args.options);
   const VertexCurvature vertices = vertex_curvature(mesh.V, mesh.F, args.options);

@@ -2,12 +2,12 @@
 // measures").
 #include "command_registry.h"
 #include "parameter_flags.h"
+#include "surface_input.h"
 #include "thickness_flags.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/validate_mesh.h>
-#include <gshell/io/load_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
@@ -28,7 +28,7 @@ void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
   using namespace gshell;
   cli::check_flags(cmd, [&] { o.thickness.check(); });
 
-  const TriMesh base = load_mesh(o.base);
+  const TriMesh base = cli::load_surface(o.base, "metrics");
   // The top is not validated as a surface: a bad shell may well have degenerate top faces.
   const TriMesh top = is_builtin_spec(o.top) ? make_builtin(o.top) : read_mesh(o.top);
   if (top.V.rows() != base.V.rows() || top.F.rows() != base.F.rows() || top.F != base.F)

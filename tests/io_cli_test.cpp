@@ -102,7 +102,7 @@ TEST(ConvertCli, BadOutputsExitOneAndLeaveNothing) {
 }
 
 // A triangle soup (every face with its own vertices, as some exporters write OBJ) is a surface cut
-// along every edge: `generate` warns of it and names the cure, `convert --weld` applies it, and the
+// along every edge: `generate` (and every command reading a surface) warns of it and names the cure, `convert --weld` applies it, and the
 // welded sphere's shell is valid.
 TEST(ConvertCli, WeldJoinsATriangleSoupThatGenerateWarnsOf) {
   TempDir dir;
@@ -121,6 +121,11 @@ TEST(ConvertCli, WeldJoinsATriangleSoupThatGenerateWarnsOf) {
   EXPECT_EQ(cut.exit_code, 0) << cut.err;
   EXPECT_NE(cut.err.find("soup.obj: vertices "), std::string::npos) << cut.err;
   EXPECT_NE(cut.err.find("convert --weld"), std::string::npos) << cut.err;
+  const auto animate = run_cli("animate " + shell_quoted(dir.file("soup.obj")) + " --twist 10 --frames 1 -o " +
+                               shell_quoted(dir.file("frames")) + " --quiet");
+  EXPECT_EQ(animate.exit_code, 0) << animate.err;
+  EXPECT_NE(animate.err.find("gshell animate: warning: " + dir.file("soup.obj") + ": vertices "), std::string::npos)
+      << animate.err;
   const auto weld = run_cli("convert " + shell_quoted(dir.file("soup.obj")) + " " + shell_quoted(dir.file("w.obj")) + " --weld");
   ASSERT_EQ(weld.exit_code, 0) << weld.err;
   EXPECT_NE(weld.err.find("welded " + std::to_string(soup.V.rows() - sphere.V.rows()) + " vertices"), std::string::npos)
