@@ -4,6 +4,7 @@
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/write_mesh.h>
 
+#include "shell_fixtures.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -107,14 +108,7 @@ TEST(ConvertCli, BadOutputsExitOneAndLeaveNothing) {
 TEST(ConvertCli, WeldJoinsATriangleSoupThatGenerateWarnsOf) {
   TempDir dir;
   const TriMesh sphere = make_sphere(2);
-  TriMesh soup;
-  soup.V.resize(3 * sphere.F.rows(), 3);
-  soup.F.resize(sphere.F.rows(), 3);
-  for (Eigen::Index f = 0; f < sphere.F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      soup.V.row(3 * f + k) = sphere.V.row(sphere.F(f, k));
-      soup.F(f, k) = static_cast<int>(3 * f + k);
-    }
+  const TriMesh soup = gshell::test::triangle_soup(sphere);
   write_mesh(dir.file("soup.obj"), soup);
   const auto cut = run_cli("generate " + shell_quoted(dir.file("soup.obj")) + " -o " + shell_quoted(dir.file("cut")) +
                            " --thickness-ratio 0.05 --quiet");

@@ -4,6 +4,8 @@
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/geometry/weld_vertices.h>
 
+#include "shell_fixtures.h"
+
 #include <gtest/gtest.h>
 
 #include <string>
@@ -11,19 +13,6 @@
 using namespace gshell;
 
 namespace {
-
-/// Every face with its own three vertices, in face order.
-TriMesh soup_of(const TriMesh& m) {
-  TriMesh s;
-  s.V.resize(3 * m.F.rows(), 3);
-  s.F.resize(m.F.rows(), 3);
-  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      s.V.row(3 * f + k) = m.V.row(m.F(f, k));
-      s.F(f, k) = static_cast<int>(3 * f + k);
-    }
-  return s;
-}
 
 /// The plane cut along x = 0: the faces right of the cut use copies of the cut's vertices,
 /// appended after the others. `copies` receives how many.
@@ -66,7 +55,7 @@ TEST(WeldVertices, ASeamSplitPatchWeldsBackToTheSameMeshAndVertexOrder) {
 
 TEST(WeldVertices, ATriangleSoupWeldsBackToAClosedSurfaceWithTheSameFaces) {
   const TriMesh sphere = make_sphere(2);
-  const TriMesh soup = soup_of(sphere);
+  const TriMesh soup = test::triangle_soup(sphere);
   int merged = 0;
   const TriMesh welded = weld_boundary_vertices(soup, &merged);
   EXPECT_EQ(welded.V.rows(), sphere.V.rows());

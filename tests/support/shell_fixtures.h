@@ -12,6 +12,20 @@
 
 namespace gshell::test {
 
+/// `m` as a triangle soup: every face with its own three vertices, in face order (as some
+/// exporters write OBJ): the surface cut along every edge.
+inline TriMesh triangle_soup(const TriMesh& m) {
+  TriMesh s;
+  s.V.resize(3 * m.F.rows(), 3);
+  s.F.resize(m.F.rows(), 3);
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      s.V.row(3 * f + k) = m.V.row(m.F(f, k));
+      s.F(f, k) = static_cast<int>(3 * f + k);
+    }
+  return s;
+}
+
 /// Vertex ids first .. first + count - 1; the base rows of a 2n-vertex shell are
 /// vertex_range(0, n), what generation and deformation hold fixed.
 inline std::vector<int> vertex_range(int first, int count) {
