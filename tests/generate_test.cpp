@@ -88,6 +88,20 @@ TEST(Generate, ThicknessFromRatioUsesTheBoundingSphere) {
   EXPECT_GT(thickness_from_ratio(stray.V, 0.1), 1.0);
 }
 
+TEST(Generate, AStrayVertexLeavesTheThicknessReportAsItWas) {
+  // A vertex no face uses carries no layer: the report's thickness figures are over the others.
+  const TriMesh sphere = make_sphere(2);
+  TriMesh stray = sphere;
+  stray.V.conservativeResize(sphere.V.rows() + 1, 3);
+  stray.V.row(sphere.V.rows()) << 100, 100, 100;
+  const double eta = 0.05;
+  const GenerateResult a = generate_shell(sphere.V, sphere.F, generate_options(ShellMethod::Offset, eta));
+  const GenerateResult b = generate_shell(stray.V, stray.F, generate_options(ShellMethod::Offset, eta));
+  EXPECT_NEAR(b.metrics.thickness_mean, a.metrics.thickness_mean, 1e-12);
+  EXPECT_NEAR(b.metrics.thickness_min, a.metrics.thickness_min, 1e-12);
+  EXPECT_EQ(b.metrics.thinned_vertices, a.metrics.thinned_vertices);
+}
+
 TEST(Generate, MethodsAndBadOptions) {
   EXPECT_EQ(parse_shell_method("rigid"), ShellMethod::Rigid);
   EXPECT_EQ(parse_shell_method("offset"), ShellMethod::Offset);

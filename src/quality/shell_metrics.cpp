@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace gshell {
 
@@ -33,10 +34,23 @@ ShellMetrics metrics_from_stretch(const Eigen::MatrixXd& base, const Eigen::Matr
   certify.test_intersections = count_intersections;
   m.certificate = certify_shell(base, top, F, certify);
   m.vertex_thickness = vertex_thickness(base, F, top) / eta;
-  if (n > 0) {
-    m.thickness_min = m.vertex_thickness.minCoeff();
-    m.thickness_mean = m.vertex_thickness.mean();
-    m.thinned_vertices = static_cast<int>((m.vertex_thickness.array() < kThinnedFraction).count());
+  // Over the vertices faces use: a stray vertex's "top" is wherever it was left, no layer.
+  std::vector<char> used(static_cast<std::size_t>(n), 0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
+  double sum = 0, least = INFINITY;
+  int count = 0;
+  for (int i = 0; i < n; ++i) {
+    if (!used[i]) continue;
+    const double t = m.vertex_thickness[i];
+    sum += t;
+    least = std::min(least, t);
+    ++count;
+    m.thinned_vertices += t < kThinnedFraction;
+  }
+  if (count > 0) {
+    m.thickness_min = least;
+    m.thickness_mean = sum / count;
   }
   return m;
 }

@@ -20,8 +20,9 @@ struct ShellMetrics {
   /// intersection counts only its tets are checked (pair counts -1).
   ShellCertificate certificate;
   Eigen::VectorXd vertex_thickness; ///< distance of each top vertex to the base surface / eta
-  double thickness_min = 0, thickness_mean = 0; ///< of vertex_thickness (relative to eta)
-  int thinned_vertices = 0; ///< top vertices with vertex_thickness < kThinnedFraction
+  /// Of vertex_thickness (relative to eta), over the vertices some face uses.
+  double thickness_min = 0, thickness_mean = 0;
+  int thinned_vertices = 0; ///< used top vertices with vertex_thickness < kThinnedFraction
 };
 
 /// Measures the shell between `base` and `top` (same faces F, top vertex i over base vertex i)
