@@ -5,6 +5,7 @@
 
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/error.h>
+#include <gshell/geometry/mesh_topology.h>
 #include <gshell/seconds_since.h>
 
 #include <algorithm>
@@ -25,9 +26,8 @@ void require_anchored_components(const Eigen::MatrixXi& F, int n, const std::vec
   detail::DisjointSets parts(n);
   for (int f = 0; f < F.rows(); ++f)
     for (int k = 1; k < 3; ++k) parts.unite(F(f, k), F(f, 0));
-  std::vector<char> used(n, 0), anchored(n, 0);
-  for (int f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
+  const std::vector<char> used = used_vertices(F, n);
+  std::vector<char> anchored(n, 0);
   for (int v : constrained) anchored[parts.find(v < n ? v : v - n)] = 1;
   for (int v = 0; v < n; ++v)
     if (used[v] && !anchored[parts.find(v)])

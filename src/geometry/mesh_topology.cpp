@@ -111,6 +111,14 @@ int count_boundary_loops(const EdgeIncidence& incidence, int num_vertices) {
   return loops;
 }
 
+std::vector<char> used_vertices(const Eigen::MatrixXi& elements, Eigen::Index n) {
+  std::vector<char> used(static_cast<std::size_t>(std::max<Eigen::Index>(n, 0)), 0);
+  for (Eigen::Index r = 0; r < elements.rows(); ++r)
+    for (Eigen::Index c = 0; c < elements.cols(); ++c)
+      if (const int v = elements(r, c); v >= 0 && v < n) used[static_cast<std::size_t>(v)] = 1;
+  return used;
+}
+
 MeshStats mesh_stats(const TriMesh& mesh) {
   MeshStats s;
   const int n = mesh.V.cols() == 3 ? mesh.num_vertices() : 0;

@@ -1,6 +1,7 @@
 #include <gshell/geometry/validate_mesh.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/mesh_topology.h>
 #include <gshell/geometry/weld_vertices.h>
 
 #include <Eigen/Geometry>
@@ -185,10 +186,7 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   // Everything topological is checked per vertex on its star (see vertex_stars.h). Edge (v, w)
   // with v < w is checked at v: the corners of v that have w as a neighbour are its faces.
   const detail::VertexStars stars(T, n);
-  std::vector<char> referenced(n, 0);
-  for (int f = 0; f < m; ++f)
-    for (int k = 0; k < 3; ++k)
-      if (T(f, k) >= 0 && T(f, k) < n) referenced[T(f, k)] = 1;
+  const std::vector<char> referenced = used_vertices(F, n);
 
   std::vector<detail::Neighbour> around;
   detail::DisjointSets fan_sets;

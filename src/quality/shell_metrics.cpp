@@ -1,6 +1,7 @@
 #include <gshell/quality/shell_metrics.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/mesh_topology.h>
 #include <gshell/quality/thickness.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -35,9 +36,7 @@ ShellMetrics metrics_from_stretch(const Eigen::MatrixXd& base, const Eigen::Matr
   m.certificate = certify_shell(base, top, F, certify);
   m.vertex_thickness = vertex_thickness(base, F, top) / eta;
   // Over the vertices faces use: a stray vertex's "top" is wherever it was left, no layer.
-  std::vector<char> used(static_cast<std::size_t>(n), 0);
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
+  const std::vector<char> used = used_vertices(F, n);
   double sum = 0, least = INFINITY;
   int count = 0;
   for (int i = 0; i < n; ++i) {

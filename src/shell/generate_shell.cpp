@@ -2,6 +2,7 @@
 
 #include <gshell/error.h>
 #include <gshell/geometry/curvature.h>
+#include <gshell/geometry/mesh_topology.h>
 #include <gshell/seconds_since.h>
 #include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/offset_shell.h>
@@ -165,9 +166,7 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
 }
 
 double thickness_from_ratio(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double ratio) {
-  std::vector<char> used(static_cast<std::size_t>(V.rows()), 0);
-  for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
+  const std::vector<char> used = used_vertices(F, V.rows());
   const Eigen::Index count = std::count(used.begin(), used.end(), char{1});
   if (count == V.rows()) return thickness_from_ratio(V, ratio);
   Eigen::MatrixXd U(count, 3);

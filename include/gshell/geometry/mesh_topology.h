@@ -20,6 +20,10 @@ struct MeshStats {
 
 MeshStats mesh_stats(const TriMesh& mesh);
 
+/// Per vertex id in [0, n): 1 if some row of `elements` (faces, tets) uses it, else 0. Ids outside
+/// [0, n) are skipped.
+std::vector<char> used_vertices(const Eigen::MatrixXi& elements, Eigen::Index n);
+
 /// Unique undirected edges (E x 2, smaller id first), in order of first appearance.
 /// Faces with a negative or repeated index are skipped.
 Eigen::MatrixXi unique_edges(const Eigen::MatrixXi& F);
