@@ -69,7 +69,10 @@ void run_render(const CLI::App& cmd, const RenderArgs& args) {
   options.style = styles.at(args.style);
 
   std::vector<RenderSubject> subjects;
-  for (const auto& input : args.inputs) subjects.push_back(load_render_subject(input));
+  for (const auto& input : args.inputs) {
+    subjects.push_back(load_render_subject(input));
+    for (const std::string& warning : subjects.back().warnings) std::cerr << "gshell render: warning: " << warning << "\n";
+  }
   const Image image = render_subjects(subjects, args.captions, options);
   write_png(args.output, image);
   Progress("render").line("wrote " + args.output + " (" + std::to_string(image.width) + "x" +

@@ -102,6 +102,7 @@ void run(const CLI::App& cmd, ViewArgs& a) {
   }
   ViewInput input = load_view_input(a.inputs, a.input);
   progress.finish_status();
+  for (const std::string& warning : input.warnings) std::cerr << "gshell view: warning: " << warning << "\n";
   const int n = input.shell.num_base_vertices();
   const std::string what = std::to_string(2 * n) + " shell vertices, " + std::to_string(3 * input.shell.F.rows()) +
                            " tets" +

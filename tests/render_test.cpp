@@ -15,6 +15,7 @@
 #include <gshell/render/scene.h>
 #include <gshell/render/shell_render.h>
 
+#include "shell_fixtures.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -519,6 +520,21 @@ TEST(RenderCli, ShellFolderWithStretchColors) {
   scale.max = 0.1;
   // The centre of the image is inside the plane: the ramp color of 0.03.
   expect_color(image, 200, 150, scale.color(0.03), 3, "centre");
+}
+
+// A cut surface (a triangle soup) renders, and `gshell render` says it is cut, as generate does.
+TEST(RenderCli, ACutSurfaceRendersWithTheInputsWarning) {
+  REQUIRE_RENDERER();
+  test::TempDir dir("render-cli-soup");
+  const TriMesh sphere = make_sphere(1);
+  write_mesh(dir.file("soup.obj"), test::triangle_soup(sphere));
+  EXPECT_FALSE(load_render_subject(dir.file("soup.obj")).warnings.empty());
+  EXPECT_TRUE(load_render_subject("builtin:sphere:1").warnings.empty());
+  const std::string png = dir.file("soup.png");
+  const auto r = test::run_cli("render '" + dir.file("soup.obj") + "' -o '" + png + "' --size 64x64 -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("gshell render: warning: " + dir.file("soup.obj") + ": vertices "), std::string::npos) << r.err;
+  EXPECT_EQ(read_png(png).width, 64);
 }
 
 TEST(RenderCli, BadArgumentsFailCleanly) {

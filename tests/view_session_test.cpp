@@ -2,10 +2,12 @@
 // messages ends where `gshell pose` ends with the same handle targets; bad messages get one error
 // each and change nothing; drags coalesce; undo, reset, saving and sequences do what the page
 // promises.
+#include "shell_fixtures.h"
 #include "test_support.h"
 
 #include <gshell/deform/handles.h>
 #include <gshell/error.h>
+#include <gshell/io/write_mesh.h>
 #include <gshell/run/shell_folder.h>
 #include <gshell/view/view_input.h>
 #include <gshell/view/view_session.h>
@@ -392,6 +394,19 @@ TEST(ViewSession, SequencesShowFramesAndCannotBePosed) {
   ASSERT_EQ(test::run_cli("generate builtin:plane:8 --thickness 0.1 -q -o '" + other + "'").exit_code, 0);
   EXPECT_THROW(load_view_input({plate.dir, other}), InputError);
   EXPECT_THROW(load_view_input({plate.tmp.file("missing")}), InputError);
+}
+
+// A surface input is generated as `gshell generate` would, and carries what generate warns of
+// (here the cut of a triangle soup, first); a shell folder carries none.
+TEST(ViewSession, ASurfaceInputCarriesWhatGenerateWarnsOf) {
+  test::TempDir dir("view-soup");
+  write_mesh(dir.file("soup.obj"), test::triangle_soup(make_sphere(1)));
+  const ViewInput soup = load_view_input({dir.file("soup.obj")});
+  ASSERT_FALSE(soup.warnings.empty());
+  EXPECT_EQ(soup.warnings.front().rfind(dir.file("soup.obj") + ": vertices ", 0), 0u) << soup.warnings.front();
+  EXPECT_TRUE(load_view_input({"builtin:sphere:1"}).warnings.empty());
+  const PlateFolder plate;
+  EXPECT_TRUE(load_view_input({plate.dir}).warnings.empty());
 }
 
 TEST(ViewSession, LoadedHandlesAreSolvedLikeADrag) {

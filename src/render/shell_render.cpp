@@ -103,7 +103,7 @@ RenderSubject load_render_subject(const std::string& input) {
   }
   RenderSubject subject;
   subject.name = input;
-  TriMesh mesh = load_mesh(input);
+  TriMesh mesh = load_mesh(input, &subject.warnings);
   subject.shell.base = std::move(mesh.V);
   subject.shell.F = std::move(mesh.F);
   return subject;

@@ -62,13 +62,16 @@ ViewInput from_surface(const std::string& spec, const ViewInputOptions& options)
     generate.thickness.thickness_ratio = kViewDefaultThicknessRatio;
   generate.generate.count_intersections = false; // the viewer checks validity itself, off the interactive path
   generate.check();
-  TriMesh surface = load_mesh(spec);
+  std::vector<std::string> input_warnings;
+  TriMesh surface = load_mesh(spec, &input_warnings);
   GenerateRun run = run_generate(surface, spec, generate);
+  run.input_warnings = std::move(input_warnings);
   ViewInput in;
   in.name = spec;
   in.made_by = to_string(run.result.method);
   in.shell = run.result.shell;
   in.surface = std::move(run.surface);
+  in.warnings = run.warnings();
   const Eigen::MatrixXd X = in.shell.vertices();
   in.frames.push_back({spec, X,
                        face_stretch_from_tets(X, build_prism_tets(in.shell.F, in.shell.num_base_vertices()),

@@ -18,6 +18,7 @@ struct RenderSubject {
   Shell shell;                 ///< base, top (may be empty), faces, thickness eta (0 if unknown)
   Eigen::VectorXd face_stretch;///< one value per face (see face_stretch_from_tets), or empty
   TriMesh detail;              ///< geometry embedded in the shell (DIR/detail.obj of deform), or empty
+  std::vector<std::string> warnings; ///< a surface input's validation warnings (cuts, unused vertices; load_mesh)
 
   bool is_shell() const { return shell.top.rows() > 0; }
 };

@@ -45,6 +45,9 @@ struct ViewInput {
   Shell shell;              ///< the (first) shell: base, top, faces, thickness eta > 0
   TriMesh surface;          ///< its base's faces and UVs (for a saved pose folder)
   std::vector<ViewFrame> frames; ///< one for a posable shell; 2 or more for a sequence
+  /// For a surface input, what `gshell generate` would warn of: the surface's validation
+  /// warnings, then the generated shell's (GenerateRun::warnings). Empty for shell folders.
+  std::vector<std::string> warnings;
 
   bool posable() const { return frames.size() == 1; }
 };
