@@ -1,5 +1,5 @@
 // bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--linear auto,direct,auto:jacobi] [--ratio 0.02]
-//             [--runs 3] [--anderson K] [--cg-relative T] [--start-smoothing S]
+//             [--runs 3] [--anderson K] [--cg-relative T] [--start-smoothing S] [--method rigid|curvature]
 // How shell generation and the deformer's setup grow with the mesh: builtin:sphere at the given
 // subdivision levels (4x the vertices per level) plus models/bunny00.off when it is there (or
 // the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named (CG paths
@@ -14,7 +14,9 @@
 // four at its edge midpoints, case FILE@k: the same surface, finer against the same layer; growth
 // per split printed as for the sphere levels). --anderson and --cg-relative override generation's Anderson history and
 // the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21);
-// --start-smoothing the radius of the start's normal smoothing (0: the offset surface, before session 34).
+// --start-smoothing the radius of the start's normal smoothing (0: the offset surface, before session 34);
+// --method curvature generates towards the curvature-sensitive prisms instead (their making,
+// principal curvatures included, is the column curv_s and part of total_s).
 #include "bench_main.h"
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/geometry/builtin_mesh.h>
@@ -109,9 +111,10 @@ struct Tuning {
   int anderson = -1;         ///< SolveOptions::anderson_history
   double cg_relative = -1;   ///< LinearSolverOptions::cg_relative_tolerance
   double start_smoothing = -1; ///< GuardOptions::start_smoothing
+  std::string method = "rigid"; ///< GenerateOptions::method
   std::string arguments() const {
     return " --anderson " + std::to_string(anderson) + " --cg-relative " + std::to_string(cg_relative) +
-           " --start-smoothing " + std::to_string(start_smoothing);
+           " --start-smoothing " + std::to_string(start_smoothing) + " --method " + method;
   }
 };
 
@@ -122,6 +125,7 @@ int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner prec
   options.thickness = thickness_from_ratio(mesh.V, ratio);
   options.linear.kind = linear;
   options.linear.preconditioner = preconditioner;
+  options.method = parse_shell_method(tuning.method);
   if (tuning.anderson >= 0) options.solve.anderson_history = tuning.anderson;
   if (tuning.cg_relative >= 0) options.linear.cg_relative_tolerance = tuning.cg_relative;
   if (tuning.start_smoothing >= 0) options.guard.start_smoothing = tuning.start_smoothing;
@@ -139,13 +143,14 @@ int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner prec
   }
   const double deform_setup = seconds_since(t0), deform_cpu = process_times().cpu() - deform_cpu0;
   const int iterations = std::max(1, r.solve.iterations);
+  const double curvature_seconds = r.curvature ? r.curvature->prism_seconds : 0.0;
   std::printf("vertices=%d total=%.6g setup=%.6g solve=%.6g iterations=%d per_iteration=%.6g cg=%d local=%.6g "
-              "global=%.6g guard=%.6g "
+              "global=%.6g guard=%.6g curvature=%.6g "
               "deform_setup=%.6g deform_factor=%.6g deform_cpu=%.6g cpu=%.6g user=%.6g faults=%.6g generate_peak_mb=%.6g peak_mb=%.6g energy=%.10g stretch_mean=%.10g "
               "stretch_max=%.10g inverted=%d intersections=%d thickness_min=%.10g certificate=%.6g\n",
               static_cast<int>(mesh.V.rows()), r.seconds.total, r.seconds.factor, r.seconds.solve, r.solve.iterations,
               r.seconds.solve / iterations, r.solve.linear_iterations, r.solve.local_seconds, r.solve.global_seconds,
-              r.seconds.guard, deform_setup, deform_factor, deform_cpu, generate_cpu,
+              r.seconds.guard, curvature_seconds, deform_setup, deform_factor, deform_cpu, generate_cpu,
               after.user - before.user, after.minor_faults - before.minor_faults,
               generate_peak, peak_megabytes(), r.solve.energy.back(), r.metrics.stretch.mean, r.metrics.stretch.max,
               r.metrics.certificate.inverted_tets,
@@ -190,7 +195,7 @@ bool run_child(const std::string& self, const std::string& spec, const std::stri
 
 constexpr const char* kUsage =
     "usage: bench_scale [--levels 6,7,8,9] [--mesh FILE]... [--subdivide K] [--no-mesh] [--linear auto,direct,cg,auto:jacobi] "
-    "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T] [--start-smoothing S]\n";
+    "[--ratio 0.02] [--runs N] [--anderson K] [--cg-relative T] [--start-smoothing S] [--method rigid|curvature]\n";
 
 int bench_main(int argc, char** argv) {
   std::vector<int> levels{6, 7, 8, 9};
@@ -234,6 +239,9 @@ int bench_main(int argc, char** argv) {
       tuning.cg_relative = std::stod(next());
     } else if (a == "--start-smoothing") {
       tuning.start_smoothing = std::stod(next());
+    } else if (a == "--method") {
+      tuning.method = next();
+      parse_shell_method(tuning.method); // rejects an unknown name here, not in every child
     } else {
       std::fprintf(stderr, "bench_scale: unknown argument %s\n%s", a.c_str(), kUsage);
       return 1;
@@ -254,9 +262,9 @@ int bench_main(int argc, char** argv) {
   if (!meshes_given && std::filesystem::exists("models/bunny00.off")) meshes.push_back("models/bunny00.off");
 
   const std::string self = std::filesystem::canonical("/proc/self/exe").string();
-  std::printf("bench_scale: rigid generation at thickness ratio %g, medians of %d fresh processes each; "
+  std::printf("bench_scale: %s generation at thickness ratio %g, medians of %d fresh processes each; "
               "Anderson history %s, relative CG tolerance %s, start smoothing %s; load average at start %s\n",
-              ratio, runs, tuning.anderson >= 0 ? std::to_string(tuning.anderson).c_str() : "default",
+              tuning.method.c_str(), ratio, runs, tuning.anderson >= 0 ? std::to_string(tuning.anderson).c_str() : "default",
               tuning.cg_relative >= 0 ? std::to_string(tuning.cg_relative).c_str() : "default",
               tuning.start_smoothing >= 0 ? std::to_string(tuning.start_smoothing).c_str() : "default",
               load_average().c_str());
@@ -267,10 +275,10 @@ int bench_main(int argc, char** argv) {
     for (int k = 1; k <= subdivisions; ++k) specs.push_back(mesh + "@" + std::to_string(k));
   }
   std::vector<Row> rows;
-  std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s "
+  std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s "
               "%4s\n",
               "mesh", "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "local_s", "global_s",
-              "guard_s", "cert_s", "deform_s",
+              "guard_s", "curv_s", "cert_s", "deform_s",
               "dfm_cpu", "cpu_s", "usr_s", "faults_k", "gen_MB", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
   for (const std::string& linear : linears)
     for (const std::string& spec : specs) {
@@ -279,12 +287,12 @@ int bench_main(int argc, char** argv) {
       for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, tuning, row);
       if (!ok) continue;
       const std::string name = display_name(spec);
-      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.3f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
+      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
                   "%4.0f "
                   "%4.0f\n",
                   name.c_str(), linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
                   row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("local"),
-                  row.get("global"), row.get("guard"), row.get("certificate"), row.get("deform_setup"), row.get("deform_cpu"), row.get("cpu"),
+                  row.get("global"), row.get("guard"), row.get("curvature"), row.get("certificate"), row.get("deform_setup"), row.get("deform_cpu"), row.get("cpu"),
                   row.get("user"), row.get("faults") / 1000, row.get("generate_peak_mb"), row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
                   row.get("stretch_mean"), row.get("stretch_max"), row.get("inverted"), row.get("intersections"));
       std::fflush(stdout);
