@@ -195,7 +195,7 @@ int bench_main(int argc, char** argv) {
     for (const std::string& method : methods) {
       GenerateOptions options;
       options.method = parse_shell_method(method);
-      options.thickness = thickness_from_ratio(mesh.V, ratio);
+      options.thickness = thickness_from_ratio(mesh.V, mesh.F, ratio);
       options.count_intersections = false;
       GenerateResult shell;
       try {

@@ -128,7 +128,7 @@ int bench_main(int argc, char** argv) {
 
   GenerateOptions g;
   g.method = ShellMethod::Rigid;
-  g.thickness = thickness_from_ratio(base.V, ratio);
+  g.thickness = thickness_from_ratio(base.V, base.F, ratio);
   g.count_intersections = false;
   const GenerateResult rigid = generate_shell(base.V, base.F, g);
   const double eta = g.thickness;

@@ -137,7 +137,7 @@ int bench_main(int argc, char** argv) {
   std::vector<int> order = all;
   std::sort(order.begin(), order.end(), [&](int a, int b) { return std::abs(vc.k1(a)) > std::abs(vc.k1(b)); });
   const std::vector<int> ridge(order.begin(), order.begin() + std::max(1, n / 20));
-  const double radius = thickness_from_ratio(mesh.V, 1.0);
+  const double radius = thickness_from_ratio(mesh.V, mesh.F, 1.0);
   std::printf("ridge set: %zu vertices with |k1| >= %.4g (radius of curvature <= %.4g; bounding radius %.4g)\n",
               ridge.size(), std::abs(vc.k1(ridge.back())), 1 / std::abs(vc.k1(ridge.back())), radius);
   std::printf("thickness columns are per-vertex thickness / eta: min, p1 = 1st percentile, r.* = over the ridge "

@@ -111,7 +111,7 @@ int bench_main(int argc, char** argv) {
   const int runs = 5;
 
   for (double ratio : {0.01, 0.03}) {
-    const double eta = thickness_from_ratio(mesh.V, ratio);
+    const double eta = thickness_from_ratio(mesh.V, mesh.F, ratio);
     std::printf("\n== ratio %.2f (eta %.6g)\n", ratio, eta);
     const RestTets rest = prism_rest_tets(mesh.F, n, normal_prisms(mesh.V, mesh.F, eta));
     Eigen::MatrixXd X0(2 * n, 3);

@@ -168,7 +168,7 @@ int bench_main(int argc, char** argv) {
     for (double ratio : ratios) {
       GenerateOptions o;
       o.method = parse_shell_method(method);
-      o.thickness = thickness_from_ratio(mesh.V, ratio);
+      o.thickness = thickness_from_ratio(mesh.V, mesh.F, ratio);
       o.guard = guard;
       if (guard_iterations >= 0) o.solve.max_iterations = guard_iterations;
       GenerateResult u, g;

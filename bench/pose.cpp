@@ -73,7 +73,7 @@ namespace {
 Shell make_shell(const TriMesh& mesh, double ratio) {
   GenerateOptions options;
   options.method = ShellMethod::Rigid;
-  options.thickness = thickness_from_ratio(mesh.V, ratio);
+  options.thickness = thickness_from_ratio(mesh.V, mesh.F, ratio);
   options.count_intersections = false;
   options.solve.anderson_history = 0;
   return generate_shell(mesh.V, mesh.F, options).shell;

@@ -203,7 +203,7 @@ int bench_main(int argc, char** argv) {
   const TriMesh mesh = make_bowl();
   GenerateOptions generate;
   generate.method = ShellMethod::Rigid;
-  generate.thickness = thickness_from_ratio(mesh.V, 0.02);
+  generate.thickness = thickness_from_ratio(mesh.V, mesh.F, 0.02);
   generate.count_intersections = false;
   const Shell shell = generate_shell(mesh.V, mesh.F, generate).shell;
   const HandleSet handles = bench::pull_handles(shell, true);

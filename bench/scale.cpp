@@ -122,7 +122,7 @@ int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner prec
              const Tuning& tuning) {
   const TriMesh mesh = load_case_mesh(spec);
   GenerateOptions options;
-  options.thickness = thickness_from_ratio(mesh.V, ratio);
+  options.thickness = thickness_from_ratio(mesh.V, mesh.F, ratio);
   options.linear.kind = linear;
   options.linear.preconditioner = preconditioner;
   options.method = parse_shell_method(tuning.method);

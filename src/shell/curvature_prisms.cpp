@@ -36,16 +36,14 @@ std::array<Eigen::Vector3d, 3> top_corners(const PrismFrame& p, double s1, doubl
   return top;
 }
 
-/// Smallest volume of the prism's 3 tets; `corners` = rows 3f..3f+2 of prism_tet_corners.
+/// Smallest volume of the prism's 3 tets; `corners`: the face's prism_corner_tets.
 double min_tet_volume(const PrismFrame& p, const std::array<Eigen::Vector3d, 3>& top,
-                      const Eigen::MatrixXi& corners, Eigen::Index f) {
+                      const std::array<std::array<int, 4>, 3>& corners) {
   auto corner = [&](int c) -> const Eigen::Vector3d& { return c < 3 ? p.base[c] : top[c - 3]; };
   double smallest = INFINITY;
-  for (int k = 0; k < 3; ++k) {
-    const Eigen::Index t = 3 * f + k;
-    const Eigen::Vector3d& x0 = corner(corners(t, 0));
-    const double volume =
-        (corner(corners(t, 1)) - x0).cross(corner(corners(t, 2)) - x0).dot(corner(corners(t, 3)) - x0) / 6;
+  for (const auto& tet : corners) {
+    const Eigen::Vector3d& x0 = corner(tet[0]);
+    const double volume = (corner(tet[1]) - x0).cross(corner(tet[2]) - x0).dot(corner(tet[3]) - x0) / 6;
     smallest = std::min(smallest, volume);
   }
   return smallest;
@@ -74,7 +72,6 @@ PrismCorners curvature_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   if (curvature.k1.size() != m || curvature.k2.size() != m || curvature.e1.rows() != m ||
       curvature.e2.rows() != m)
     throw InputError("curvature prisms: curvature does not match the faces");
-  const Eigen::MatrixXi corners = prism_tet_corners(F);
 
   PrismCorners P(6 * m, 3);
   tbb::combinable<CurvaturePrismStats> counts;
@@ -95,14 +92,15 @@ PrismCorners curvature_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
 
       std::array<Eigen::Vector3d, 3> top = top_corners(p, s1, s2, eta);
       const double required = s_min * s_min * eta * area / 3;
-      if (area > 0 && s1 != s2 && min_tet_volume(p, top, corners, f) < required) {
+      const auto corners = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
+      if (area > 0 && s1 != s2 && min_tet_volume(p, top, corners) < required) {
         // Largest blend t in [0,1] (t = 0: isotropic, always sound) that keeps the volumes.
         const double log_iso = 0.5 * (std::log(s1) + std::log(s2));
         auto blended = [&](double t, double s) { return std::exp((1 - t) * log_iso + t * std::log(s)); };
         double good = 0, bad = 1;
         for (int it = 0; it < 30; ++it) {
           const double t = 0.5 * (good + bad);
-          if (min_tet_volume(p, top_corners(p, blended(t, s1), blended(t, s2), eta), corners, f) >= required)
+          if (min_tet_volume(p, top_corners(p, blended(t, s1), blended(t, s2), eta), corners) >= required)
             good = t;
           else
             bad = t;
