@@ -33,7 +33,7 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, holds_only_shell_files);
   std::vector<std::string> input_warnings;
-  const TriMesh mesh = load_mesh(a.input, &input_warnings);
+  TriMesh mesh = load_mesh(a.input, &input_warnings);
   cli::Progress progress("generate");
   char eta[32];
   std::snprintf(eta, sizeof eta, "%g", a.options.thickness.eta(mesh.V, mesh.F));
@@ -45,8 +45,7 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
       std::snprintf(text, sizeof text, "iteration %d  energy %.6g  %.3f s", it, energy, seconds);
       progress.update(text);
     };
-  GenerateRun result = run_generate(mesh, a.input, a.options);
-  result.input_warnings = std::move(input_warnings);
+  const GenerateRun result = run_generate(std::move(mesh), a.input, a.options, std::move(input_warnings));
   progress.finish_status();
   for (const std::string& warning : result.warnings()) std::cerr << "gshell generate: warning: " << warning << "\n";
   result.write(a.output, cli::preview_writer(a.render, a.output, view));

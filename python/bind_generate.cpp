@@ -83,8 +83,7 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   py::gil_scoped_release release;
   // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
   std::vector<std::string> input_warnings = require_valid_mesh(mesh, "mesh (V, F)");
-  GenerateRun run = run_generate(std::move(mesh), kArrayInput, options);
-  run.input_warnings = std::move(input_warnings);
+  GenerateRun run = run_generate(std::move(mesh), kArrayInput, options, std::move(input_warnings));
   pass_gil_probe();
   ShellObject s;
   s.tets = build_prism_tets(run.surface.F, run.surface.num_vertices());

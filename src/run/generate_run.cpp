@@ -4,6 +4,7 @@
 #include <gshell/shell/generate_report.h>
 
 #include <cmath>
+#include <utility>
 
 namespace gshell {
 
@@ -28,7 +29,8 @@ void GenerateRunOptions::check() const {
   g.check();
 }
 
-GenerateRun run_generate(TriMesh surface, std::string input, const GenerateRunOptions& options) {
+GenerateRun run_generate(TriMesh surface, std::string input, const GenerateRunOptions& options,
+                         std::vector<std::string> input_warnings) {
   GenerateOptions generate = options.generate;
   options.check();
   generate.thickness = options.thickness.eta(surface.V, surface.F);
@@ -37,6 +39,7 @@ GenerateRun run_generate(TriMesh surface, std::string input, const GenerateRunOp
   run.input = std::move(input);
   run.surface = std::move(surface);
   run.thickness_ratio = options.thickness.thickness_ratio;
+  run.input_warnings = std::move(input_warnings);
   return run;
 }
 

@@ -64,8 +64,7 @@ ViewInput from_surface(const std::string& spec, const ViewInputOptions& options)
   generate.check();
   std::vector<std::string> input_warnings;
   TriMesh surface = load_mesh(spec, &input_warnings);
-  GenerateRun run = run_generate(surface, spec, generate);
-  run.input_warnings = std::move(input_warnings);
+  GenerateRun run = run_generate(std::move(surface), spec, generate, std::move(input_warnings));
   ViewInput in;
   in.name = spec;
   in.made_by = to_string(run.result.method);

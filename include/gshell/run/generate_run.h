@@ -41,7 +41,7 @@ struct GenerateRun {
   TriMesh surface;                       ///< the base as used: its faces, vertex order and UVs go to the folder
   std::optional<double> thickness_ratio; ///< as given (null in the report when eta was given)
   GenerateResult result;
-  /// What the input's validation warned of (require_valid_mesh's lines; the caller sets them).
+  /// What the input's validation warned of (require_valid_mesh's lines, as run_generate got them).
   std::vector<std::string> input_warnings;
 
   /// report.json: generate_report (shell/generate_report.h lists the fields).
@@ -55,8 +55,10 @@ struct GenerateRun {
   void write(const std::string& dir, const BeforeCommit& before_commit = {}) const;
 };
 
-/// Generates the shell of `surface` (already validated, e.g. by load_mesh or require_valid_mesh).
+/// Generates the shell of `surface` (already validated, e.g. by load_mesh or require_valid_mesh;
+/// `input_warnings`: what that validation warned of, kept for the report).
 /// \throws InputError on bad options (GenerateRunOptions::check).
-GenerateRun run_generate(TriMesh surface, std::string input, const GenerateRunOptions& options);
+GenerateRun run_generate(TriMesh surface, std::string input, const GenerateRunOptions& options,
+                         std::vector<std::string> input_warnings = {});
 
 } // namespace gshell
