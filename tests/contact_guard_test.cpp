@@ -415,6 +415,26 @@ TEST(PairCcd, TouchingPairsThatMoveGetZero) {
                             pts(zero, zero, {0, 0, 1}, {0, 0, 1}), 1.0), 0);
 }
 
+TEST(PairCcd, PairsTouchingToRoundingAreThoseItCannotMove) {
+  const Vec3 t0(0, 0, 0), t1(1, 0, 0), t2(0, 1, 0), zero(0, 0, 0), up(0, 0, 1e-3);
+  for (double gap : {0.0, 1e-14, 1e-11, 1e-9, 1e-6}) {
+    SCOPED_TRACE("gap " + std::to_string(gap));
+    const PairPoints x = pts({0.2, 0.2, gap}, t0, t1, t2);
+    const bool touching = pair_touches_to_rounding(PairKind::PointTriangle, x);
+    // Within ten allowances (about 7e-7 at this size and place): touching to rounding ...
+    EXPECT_EQ(touching, gap < 1e-8);
+    // ... and then a slow relative motion is certified for next to nothing; otherwise for much of it.
+    const double bound = pair_step_bound(PairKind::PointTriangle, x, pts(-up, zero, zero, zero), 1.0);
+    if (touching) EXPECT_LT(bound, 1e-4);
+    else EXPECT_GT(bound, 0.5 * 0.9 * gap / 1e-3);
+  }
+  // Far from the origin the allowance grows with the coordinates.
+  const Vec3 far(1e6, 1e6, 1e6);
+  EXPECT_TRUE(pair_touches_to_rounding(PairKind::PointTriangle, pts(far + Vec3(0.2, 0.2, 1e-9), far + t0, far + t1, far + t2)));
+  EXPECT_TRUE(pair_touches_to_rounding(PairKind::EdgeEdge, pts({-1, 0, 0}, {1, 0, 0}, {0, -1, 1e-12}, {0, 1, 1e-12})));
+  EXPECT_FALSE(pair_touches_to_rounding(PairKind::EdgeEdge, pts({-1, 0, 0}, {1, 0, 0}, {0, -1, 1e-3}, {0, 1, 1e-3})));
+}
+
 TEST(PairCcd, RandomMotionsNeverPassBelowTheFloor) {
   std::mt19937 rng(11);
   const double keep = 0.1;

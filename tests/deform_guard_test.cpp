@@ -507,5 +507,51 @@ TEST(PoseGuard, SqueezingABowlShutStopsAtContactValidHierarchicalSolver) {
   expect_squeeze_stops_at_contact(PoseSolverKind::Hierarchical);
 }
 
+TEST(PoseGuard, APairTouchingToRoundingAtRestDoesNotHoldThePoseStill) {
+  // One top vertex pressed onto the base to 1e-13 of the thickness: the base vertex under it then
+  // touches the top triangles around it as far as floating point can tell, so no step that moves
+  // them is certified. Guarding them held every step where it began (blocked by contact, as
+  // CGAL's mannequin-devil posed); they are left out like the rest shell's own faults, and the
+  // pose reaches its targets with every other tet and pair guarded.
+  Shell rest = flat_plane_shell(16, 0.2);
+  const int n = rest.num_base_vertices();
+  int v = 0;
+  for (int i = 1; i < n; ++i) // the vertex nearest the plane's middle: an interior one
+    if (rest.base.row(i).head<2>().squaredNorm() < rest.base.row(v).head<2>().squaredNorm()) v = i;
+  rest.top.row(v) = rest.base.row(v) + 1e-13 * (rest.top.row(v) - rest.base.row(v));
+  HandleSet handles;
+  for (int side : {-1, 1}) {
+    Handle h;
+    for (int i = 0; i < n; ++i)
+      if (side * rest.base(i, 0) > 0.8) h.vertices.insert(h.vertices.end(), {i, n + i});
+    std::sort(h.vertices.begin(), h.vertices.end());
+    if (side > 0) {
+      h.axis = Eigen::Vector3d(0, 1, 0);
+      h.degrees = 170;
+      h.center = Eigen::Vector3d(0.5, 0, 0);
+    }
+    handles.handles.push_back(h);
+  }
+  PoseOptions options;
+  options.steps = 1;
+  options.solve.max_iterations = 100;
+  options.solve.tolerance = 1e-5;
+  const PoseResult r = run_pose(rest, handles, options);
+  for (const PoseStepReport& s : r.steps) {
+    SCOPED_TRACE("step at fraction " + std::to_string(s.fraction));
+    EXPECT_EQ(s.method, FrameMethod::Guarded); // the solver's step refused: the guard drags
+    EXPECT_FALSE(s.blocked_by_contact);
+    EXPECT_NE(s.method, FrameMethod::Failed);
+  }
+  const Eigen::MatrixXd targets = handles.targets(rest.vertices(), 1.0);
+  const std::vector<int> constrained = handles.constrained_vertices();
+  for (std::size_t k = 0; k < constrained.size(); ++k)
+    EXPECT_LT((r.X.row(constrained[k]) - targets.row(static_cast<Eigen::Index>(k))).norm(), 1e-12);
+  // What the certificate finds wrong is at the pressed vertex.
+  const Eigen::MatrixXi T = build_prism_tets(rest.F, n);
+  const ShellCertificate c = certify_shell(r.X.topRows(n), r.X.bottomRows(n), rest.F);
+  for (int t : c.inverted_tet_ids) EXPECT_TRUE((T.row(t).array() == n + v).any()) << "tet " << t;
+}
+
 } // namespace
 } // namespace gshell

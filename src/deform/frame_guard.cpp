@@ -1,7 +1,9 @@
 #include "frame_guard.h"
 
 #include <gshell/error.h>
+#include <gshell/guard/contact_guard.h>
 #include <gshell/guard/extrusion_directions.h>
+#include <gshell/guard/pair_ccd.h>
 #include <gshell/guard/tet_step_bound.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/triangle_intersections.h>
@@ -70,6 +72,26 @@ void exclude_around_base_crossings(const Eigen::MatrixXd& V, const Eigen::Matrix
   exclude_faces_touching(touched, F, boundary, excluded);
 }
 
+/// Flags in `touched` (one per base vertex) the base vertex of every vertex of a boundary pair
+/// that touches to rounding at X (pair_touches_to_rounding), among the pairs a guard with these
+/// fixed vertices sees. The candidate search reaches 1e-4 eta: ten rounding allowances of pairs
+/// up to about 200 eta across.
+void touch_pairs_touching_to_rounding(const ShellBoundary& boundary, const Eigen::MatrixXd& X, int n,
+                                      const std::vector<int>& fixed, double eta, std::vector<char>& touched) {
+  std::vector<char> movable(X.rows(), 1);
+  for (int v : fixed) movable[v] = 0;
+  ContactOptions near;
+  near.dhat = 1e-4 * eta;
+  ContactGuard pairs(boundary, static_cast<int>(X.rows()), std::move(movable), near);
+  pairs.min_distance(X); // builds the candidate list at X
+  for (const ContactPair& pair : pairs.candidate_pairs()) {
+    PairPoints x;
+    for (int k = 0; k < 4; ++k) x[k] = X.row(pair.vertices[k]).transpose();
+    if (pair_touches_to_rounding(pair.kind, x))
+      for (int v : pair.vertices) touched[v % n] = 1;
+  }
+}
+
 } // namespace
 
 FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options,
@@ -104,6 +126,11 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   for (const BoundaryIntersection& pair : rest_certificate.intersections)
     for (int row : {pair.a, pair.b})
       for (int k = 0; k < 3; ++k) touched[boundary_.F(row, k) % n] = 1;
+  // So do the faces of pairs that touch to rounding at rest (a top left a hair's breadth from its
+  // base where the generation's guard could not lift it, next to a base crossing or a vertex
+  // extruded almost sideways): no step moving them is certified, so guarding them would hold every
+  // drag still (CGAL's mannequin-devil posed: every step ended where it began).
+  if (parameters_.contact_distance > 0 && n > 0) touch_pairs_touching_to_rounding(boundary_, X, n, fixed_, eta, touched);
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
   rest_excluded_ = parameters_.excluded_triangles;

@@ -21,9 +21,9 @@ public:
   /// `rest`: the rest shell (the first frame starts from it), `rest_tets` the solver's rest
   /// shapes, `fixed` the vertices the caller moves (the base for a deformation, the handles for
   /// a pose); `moving_base`: the base is free, so base/base pairs count as the shell's own. Tets
-  /// inverted at rest are left unguarded, and the boundary triangles of pairs that intersect at
-  /// rest (with their neighbours) see no contacts: what the rest shell breaks, the guard cannot
-  /// keep.
+  /// inverted at rest are left unguarded, and the boundary triangles of pairs that intersect or
+  /// touch to rounding (pair_touches_to_rounding) at rest, with their neighbours, see no
+  /// contacts: what the rest shell breaks, the guard cannot keep.
   FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options, std::vector<int> fixed,
              bool moving_base);
   ~FrameGuard();

@@ -31,4 +31,10 @@ struct PairCcdOptions {
 double pair_step_bound(PairKind kind, const PairPoints& x, const PairPoints& dx, double t_max,
                        const PairCcdOptions& options = {});
 
+/// Whether the pair at x is so close (within ten times the rounding allowance of its measured
+/// distance) that pair_step_bound certifies next to no relative motion of it: it touches as far
+/// as floating point can tell. A guard that starts from such a state (a rest shell whose top was
+/// left a hair's breadth from its base) leaves the pair out, as it does pairs that intersect.
+bool pair_touches_to_rounding(PairKind kind, const PairPoints& x);
+
 } // namespace gshell
