@@ -214,6 +214,44 @@ TEST(DeformCli, EndToEndFromGenerate) {
   EXPECT_EQ(read_mesh(tmp.file("tex.ply")).num_vertices(), 16 * 49);
 }
 
+TEST(DeformCli, DeformAndPoseWarnWhenTheRestShellsReportCallsItInvalid) {
+  // The report as `gshell generate` writes it for a shell over a base that crosses itself: the
+  // frames and steps that stay invalid there are explained before the first is reported so.
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 6, 0.1), frames = tmp.file("frames");
+  const std::string handles = tmp.file("handles.json");
+  test::write_text(handles, R"({"handles": [{"select": {"box": [-2, -2, -1, -0.8, 2, 1]}},
+                                             {"select": {"box": [0.8, -2, -1, 2, 2, 1]}, "translate": [0, 0, 0.3]}]})");
+  ASSERT_EQ(run_cli("animate '" + shell + "/base.obj' --bend 30 --frames 1 -o '" + frames + "' -q").exit_code, 0);
+  auto deform = [&] {
+    return run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' -o '" + tmp.file("out") + "' -q");
+  };
+  auto pose = [&] {
+    return run_cli("pose --shell '" + shell + "' --handles '" + handles + "' -o '" + tmp.file("posed") + "' -q");
+  };
+  const std::string faults = "warning: " + shell + ": the rest shell is not valid (2 inverted tets, 3 top/top, 4 "
+                             "top/base and 0 wall intersecting pairs; its base crosses itself at 5 face pairs); the "
+                             "guard leaves those places out, so a ";
+  test::write_text(shell + "/report.json",
+                   R"({"thickness": {"eta": 0.1}, "valid": false, "certificate": {"inverted_tets": 2,
+                       "top_self_intersections": 3, "top_base_intersections": 4, "wall_intersections": 0,
+                       "exact": true}, "base_self_intersections": 5})");
+  const auto d = deform(), p = pose();
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  EXPECT_NE(d.err.find(faults + "frame may stay invalid there\n"), std::string::npos) << d.err;
+  EXPECT_NE(p.err.find(faults + "pose step may stay invalid there\n"), std::string::npos) << p.err;
+  // A report that calls the shell valid, or says nothing of it, gives no such warning.
+  for (const char* report : {R"({"thickness": {"eta": 0.1}, "valid": true})", R"({"thickness": 0.1})"}) {
+    test::write_text(shell + "/report.json", report);
+    const auto dv = deform(), pv = pose();
+    ASSERT_EQ(dv.exit_code, 0) << dv.err;
+    ASSERT_EQ(pv.exit_code, 0) << pv.err;
+    EXPECT_EQ(dv.err.find("rest shell is not valid"), std::string::npos) << dv.err;
+    EXPECT_EQ(pv.err.find("rest shell is not valid"), std::string::npos) << pv.err;
+  }
+}
+
 TEST(DeformCli, RenderWritesAPreviewOfTheFrames) {
   if (!offscreen_rendering_available()) GTEST_SKIP() << "built without OSMesa";
   TempDir tmp;

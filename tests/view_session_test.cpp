@@ -409,6 +409,18 @@ TEST(ViewSession, ASurfaceInputCarriesWhatGenerateWarnsOf) {
   EXPECT_TRUE(load_view_input({plate.dir}).warnings.empty());
 }
 
+TEST(ViewSession, AShellFolderItsReportCallsInvalidCarriesAWarning) {
+  const PlateFolder plate;
+  json report = json::parse(test::read_text(plate.dir + "/report.json"));
+  report["valid"] = false;
+  report["certificate"]["inverted_tets"] = 7;
+  test::write_text(plate.dir + "/report.json", report.dump());
+  const ViewInput in = load_view_input({plate.dir});
+  ASSERT_EQ(in.warnings.size(), 1u);
+  EXPECT_EQ(in.warnings[0].rfind(plate.dir + ": the shell is not valid (7 inverted tets, 0 top/top, 0 top/base and 0 "
+                                 "wall intersecting pairs); ", 0), 0u) << in.warnings[0];
+}
+
 TEST(ViewSession, LoadedHandlesAreSolvedLikeADrag) {
   const PlateFolder plate;
   ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));

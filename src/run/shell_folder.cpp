@@ -77,6 +77,12 @@ std::string report_made_by(const nlohmann::ordered_json& report) {
   return {};
 }
 
+// report[key] as a count, -1 when absent or not a non-negative integer.
+long long report_count(const nlohmann::ordered_json& report, const char* key) {
+  if (!report.is_object() || !report.contains(key) || !report[key].is_number_integer()) return -1;
+  return std::max<long long>(report[key].get<long long>(), -1);
+}
+
 // The report that describes DIR: its own, or for a deform frame its run's.
 fs::path report_folder(const fs::path& dir) {
   if (fs::exists(dir / "report.json")) return dir;
@@ -100,6 +106,26 @@ nlohmann::ordered_json read_report(const fs::path& dir) {
 
 void write_report(const fs::path& path, const nlohmann::ordered_json& report) {
   write_file_atomically(path.string(), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
+}
+
+std::string reported_shell_faults(const nlohmann::ordered_json& report) {
+  if (!report.is_object() || !report.contains("valid") || !report["valid"].is_boolean() || report["valid"].get<bool>())
+    return {};
+  std::string out;
+  if (report.contains("certificate")) {
+    const auto& c = report["certificate"];
+    const long long inverted = report_count(c, "inverted_tets"), top_top = report_count(c, "top_self_intersections"),
+                    top_base = report_count(c, "top_base_intersections"), wall = report_count(c, "wall_intersections");
+    if (inverted >= 0) out += std::to_string(inverted) + " inverted tets";
+    if (top_top >= 0 && top_base >= 0 && wall >= 0)
+      out += (out.empty() ? "" : ", ") + std::to_string(top_top) + " top/top, " + std::to_string(top_base) +
+             " top/base and " + std::to_string(wall) + " wall intersecting pairs";
+  }
+  const long long base_crossings = report_count(report, "base_self_intersections");
+  if (base_crossings > 0)
+    out += (out.empty() ? "" : "; ") + std::string("its base crosses itself at ") + std::to_string(base_crossings) +
+           " face pairs";
+  return out.empty() ? "the report says so" : out;
 }
 
 bool is_shell_folder(const fs::path& dir) {

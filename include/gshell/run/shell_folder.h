@@ -53,6 +53,12 @@ struct ShellFolderReadOptions {
 ///         the surfaces disagree, or the thickness is required and missing or not positive.
 ShellFolder read_shell_folder(const std::string& dir, const ShellFolderReadOptions& options = {});
 
+/// What a shell folder's report says is wrong with its shell, as a phrase for a warning ("199
+/// inverted tets, 2335 top/top, 2908 top/base and 0 wall intersecting pairs; its base crosses
+/// itself at 1643 face pairs"), or empty when the report says the shell is valid or says nothing
+/// of its validity (generate's `valid`, `certificate` and `base_self_intersections`).
+std::string reported_shell_faults(const nlohmann::ordered_json& report);
+
 /// DIR/report.json, parsed with its key order kept.
 /// \throws InputError naming the file when it is missing or not a JSON object.
 nlohmann::ordered_json read_report(const std::filesystem::path& dir);

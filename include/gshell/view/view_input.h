@@ -46,7 +46,8 @@ struct ViewInput {
   TriMesh surface;          ///< its base's faces and UVs (for a saved pose folder)
   std::vector<ViewFrame> frames; ///< one for a posable shell; 2 or more for a sequence
   /// For a surface input, what `gshell generate` would warn of: the surface's validation
-  /// warnings, then the generated shell's (GenerateRun::warnings). Empty for shell folders.
+  /// warnings, then the generated shell's (GenerateRun::warnings). For shell folders, that the
+  /// first one's report calls its shell invalid (reported_shell_faults), if it does.
   std::vector<std::string> warnings;
 
   bool posable() const { return frames.size() == 1; }
