@@ -91,16 +91,24 @@ TEST(DeformGuard, CylinderBentTo150DegreesStaysValidAndStretchesLessThanOffset) 
   bend_to_150(offset_shell(make_cylinder(16, 0.25, 3.0), 0.15), 6, 0.4, &unguarded_invalid);
 }
 
-TEST(DeformGuard, TetsFlatToRoundingErrorAtRestDoNotHoldTheFramesStill) {
-  // One top vertex pressed onto the base to 1e-13 of the thickness: its tets are positive but flat
-  // to rounding error, so no floating-point step bound keeps their sign. They stay out of the
-  // guard; every frame is solved (no internal error), and whatever the frames break is theirs.
+// A plane's shell with the top of its middle vertex (an interior one; id in *v) pressed onto the
+// base to 1e-13 of the thickness.
+Shell plane_shell_with_a_pressed_top(int* v) {
   Shell rest = flat_plane_shell(16, 0.2);
-  const int n = rest.num_base_vertices();
+  *v = 0;
+  for (int i = 1; i < rest.num_base_vertices(); ++i)
+    if (rest.base.row(i).head<2>().squaredNorm() < rest.base.row(*v).head<2>().squaredNorm()) *v = i;
+  rest.top.row(*v) = rest.base.row(*v) + 1e-13 * (rest.top.row(*v) - rest.base.row(*v));
+  return rest;
+}
+
+TEST(DeformGuard, TetsFlatToRoundingErrorAtRestDoNotHoldTheFramesStill) {
+  // One top vertex pressed onto the base: its tets are positive but flat to rounding error, so no
+  // floating-point step bound keeps their sign. They stay out of the guard; every frame is solved
+  // (no internal error), and whatever the frames break is theirs.
   int v = 0;
-  for (int i = 1; i < n; ++i) // the vertex nearest the plane's middle: an interior one
-    if (rest.base.row(i).head<2>().squaredNorm() < rest.base.row(v).head<2>().squaredNorm()) v = i;
-  rest.top.row(v) = rest.base.row(v) + 1e-13 * (rest.top.row(v) - rest.base.row(v));
+  const Shell rest = plane_shell_with_a_pressed_top(&v);
+  const int n = rest.num_base_vertices();
   const Eigen::MatrixXi T = build_prism_tets(rest.F, n);
   const MotionFrame frame = motion_frame(rest.base);
   ShellDeformer deformer(rest);
@@ -508,17 +516,14 @@ TEST(PoseGuard, SqueezingABowlShutStopsAtContactValidHierarchicalSolver) {
 }
 
 TEST(PoseGuard, APairTouchingToRoundingAtRestDoesNotHoldThePoseStill) {
-  // One top vertex pressed onto the base to 1e-13 of the thickness: the base vertex under it then
-  // touches the top triangles around it as far as floating point can tell, so no step that moves
-  // them is certified. Guarding them held every step where it began (blocked by contact, as
-  // CGAL's mannequin-devil posed); they are left out like the rest shell's own faults, and the
-  // pose reaches its targets with every other tet and pair guarded.
-  Shell rest = flat_plane_shell(16, 0.2);
-  const int n = rest.num_base_vertices();
+  // One top vertex pressed onto the base: the base vertex under it then touches the top triangles
+  // around it as far as floating point can tell, so no step that moves them is certified. Guarding
+  // them held every step where it began (blocked by contact, as CGAL's mannequin-devil posed);
+  // they are left out like the rest shell's own faults, and the pose reaches its targets with
+  // every other tet and pair guarded.
   int v = 0;
-  for (int i = 1; i < n; ++i) // the vertex nearest the plane's middle: an interior one
-    if (rest.base.row(i).head<2>().squaredNorm() < rest.base.row(v).head<2>().squaredNorm()) v = i;
-  rest.top.row(v) = rest.base.row(v) + 1e-13 * (rest.top.row(v) - rest.base.row(v));
+  const Shell rest = plane_shell_with_a_pressed_top(&v);
+  const int n = rest.num_base_vertices();
   HandleSet handles;
   for (int side : {-1, 1}) {
     Handle h;
