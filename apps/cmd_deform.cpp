@@ -4,7 +4,6 @@
 #include "parameter_flags.h"
 #include "preview_option.h"
 #include "progress.h"
-#include "surface_input.h"
 
 #include <gshell/run/deform_run.h>
 #include <gshell/run/staged_folder.h>
@@ -35,7 +34,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   // Everything that can be wrong with the input is found before any work or output.
   check_output_folder(a.out, holds_only_deform_output);
   const DeformInput input = load_deform_input(a.shell, a.frames, a.embed);
-  cli::warn_invalid_rest_shell(a.shell, input.shell_faults, "frame");
+  if (!input.rest_warning.empty()) std::fprintf(stderr, "warning: %s\n", input.rest_warning.c_str());
 
   cli::Progress progress("deform");
   auto report = [&](const DeformRun& run, int count) {

@@ -5,7 +5,6 @@
 #include "parameter_flags.h"
 #include "preview_option.h"
 #include "progress.h"
-#include "surface_input.h"
 
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
@@ -35,7 +34,8 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   const HandleSet handles = read_handles(a.handles, rest.shell);
   check_output_folder(a.output, holds_only_shell_files); // fail on a bad output path before the long part
 
-  cli::warn_invalid_rest_shell(a.shell_dir, reported_shell_faults(rest.report), "pose step");
+  const std::string rest_warning = invalid_rest_shell_warning(a.shell_dir, rest.report, "pose step");
+  if (!rest_warning.empty()) std::fprintf(stderr, "warning: %s\n", rest_warning.c_str());
 
   cli::Progress progress("pose", 0.5);
   progress.line(std::to_string(rest.shell.num_base_vertices() * 2) + " shell vertices, " +

@@ -14,10 +14,4 @@ TriMesh load_surface(const std::string& input, const std::string& command) {
   return mesh;
 }
 
-void warn_invalid_rest_shell(const std::string& shell, const std::string& faults, const std::string& result) {
-  if (faults.empty()) return;
-  std::cerr << "warning: " << shell << ": the rest shell is not valid (" << faults
-            << "); the guard leaves those places out, so a " << result << " may stay invalid there\n";
-}
-
 } // namespace gshell::cli

@@ -417,7 +417,7 @@ TEST(ViewSession, AShellFolderItsReportCallsInvalidCarriesAWarning) {
   test::write_text(plate.dir + "/report.json", report.dump());
   const ViewInput in = load_view_input({plate.dir});
   ASSERT_EQ(in.warnings.size(), 1u);
-  EXPECT_EQ(in.warnings[0].rfind(plate.dir + ": the shell is not valid (7 inverted tets, 0 top/top, 0 top/base and 0 "
+  EXPECT_EQ(in.warnings[0].rfind(plate.dir + ": the rest shell is not valid (7 inverted tets, 0 top/top, 0 top/base and 0 "
                                  "wall intersecting pairs); ", 0), 0u) << in.warnings[0];
 }
 

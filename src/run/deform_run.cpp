@@ -62,7 +62,7 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   input.shell_name = shell_dir;
   input.shell = std::move(folder.shell);
   input.surface = std::move(folder.surface);
-  input.shell_faults = reported_shell_faults(folder.report);
+  input.rest_warning = invalid_rest_shell_warning(shell_dir, folder.report, "frame");
   input.frame_names = frames;
   input.frames = load_base_frames(frames, input.shell.F, input.shell.num_base_vertices());
   if (!embed.empty()) {

@@ -80,7 +80,8 @@ std::string report_made_by(const nlohmann::ordered_json& report) {
 // report[key] as a count, -1 when absent or not a non-negative integer.
 long long report_count(const nlohmann::ordered_json& report, const char* key) {
   if (!report.is_object() || !report.contains(key) || !report[key].is_number_integer()) return -1;
-  return std::max<long long>(report[key].get<long long>(), -1);
+  const long long count = report[key].get<long long>();
+  return count >= 0 ? count : -1;
 }
 
 // The report that describes DIR: its own, or for a deform frame its run's.
@@ -108,7 +109,8 @@ void write_report(const fs::path& path, const nlohmann::ordered_json& report) {
   write_file_atomically(path.string(), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
 }
 
-std::string reported_shell_faults(const nlohmann::ordered_json& report) {
+std::string invalid_rest_shell_warning(const std::string& dir, const nlohmann::ordered_json& report,
+                                       const std::string& result) {
   if (!report.is_object() || !report.contains("valid") || !report["valid"].is_boolean() || report["valid"].get<bool>())
     return {};
   std::string out;
@@ -125,7 +127,8 @@ std::string reported_shell_faults(const nlohmann::ordered_json& report) {
   if (base_crossings > 0)
     out += (out.empty() ? "" : "; ") + std::string("its base crosses itself at ") + std::to_string(base_crossings) +
            " face pairs";
-  return out.empty() ? "the report says so" : out;
+  return dir + ": the rest shell is not valid (" + (out.empty() ? "its report says so" : out) +
+         "); the guard leaves those places out, so a " + result + " may stay invalid there";
 }
 
 bool is_shell_folder(const fs::path& dir) {

@@ -43,10 +43,8 @@ ViewInput from_folders(const std::vector<std::string>& dirs, const std::string& 
       in.made_by = f.made_by;
       in.shell = f.shell;
       in.surface = std::move(f.surface);
-      const std::string faults = reported_shell_faults(f.report);
-      if (!faults.empty())
-        in.warnings.push_back(dirs[0] + ": the shell is not valid (" + faults +
-                              "); the guard leaves those places out, so a pose step may stay invalid there");
+      const std::string rest_warning = invalid_rest_shell_warning(dirs[0], f.report, "pose step");
+      if (!rest_warning.empty()) in.warnings.push_back(rest_warning);
     } else if (f.shell.base.rows() != in.shell.base.rows() || f.shell.F != in.shell.F) {
       throw InputError(with_file(dirs[k], "not a frame of the same shell as " + dirs[0] + " (" +
                                               std::to_string(f.shell.base.rows()) + " vertices, " +

@@ -34,7 +34,7 @@ struct DeformInput {
   std::string shell_name;                 ///< as the report names the rest shell
   Shell shell;                            ///< the rest shell (thickness > 0)
   TriMesh surface;                        ///< its base's faces and UVs (top.obj of each frame gets them)
-  std::string shell_faults;               ///< reported_shell_faults of its report: empty unless it says invalid
+  std::string rest_warning;               ///< invalid_rest_shell_warning of its report: empty unless it says invalid
   std::vector<std::string> frame_names;   ///< as the report names the frames
   std::vector<Eigen::MatrixXd> frames;    ///< n x 3 each
   std::string detail_name;                ///< the embedded detail mesh, or empty

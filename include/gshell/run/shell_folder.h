@@ -53,11 +53,14 @@ struct ShellFolderReadOptions {
 ///         the surfaces disagree, or the thickness is required and missing or not positive.
 ShellFolder read_shell_folder(const std::string& dir, const ShellFolderReadOptions& options = {});
 
-/// What a shell folder's report says is wrong with its shell, as a phrase for a warning ("199
-/// inverted tets, 2335 top/top, 2908 top/base and 0 wall intersecting pairs; its base crosses
-/// itself at 1643 face pairs"), or empty when the report says the shell is valid or says nothing
-/// of its validity (generate's `valid`, `certificate` and `base_self_intersections`).
-std::string reported_shell_faults(const nlohmann::ordered_json& report);
+/// The warning a pose or deformation of the shell in folder `dir` starts with when the folder's
+/// report calls it invalid: "DIR: the rest shell is not valid (199 inverted tets, 2335 top/top,
+/// 2908 top/base and 0 wall intersecting pairs; its base crosses itself at 1643 face pairs); the
+/// guard leaves those places out, so a RESULT may stay invalid there" (`result`: "pose step",
+/// "frame"). Empty when the report calls the shell valid or says nothing of its validity
+/// (generate's `valid`, `certificate` and `base_self_intersections`).
+std::string invalid_rest_shell_warning(const std::string& dir, const nlohmann::ordered_json& report,
+                                       const std::string& result);
 
 /// DIR/report.json, parsed with its key order kept.
 /// \throws InputError naming the file when it is missing or not a JSON object.

@@ -47,7 +47,7 @@ struct ViewInput {
   std::vector<ViewFrame> frames; ///< one for a posable shell; 2 or more for a sequence
   /// For a surface input, what `gshell generate` would warn of: the surface's validation
   /// warnings, then the generated shell's (GenerateRun::warnings). For shell folders, that the
-  /// first one's report calls its shell invalid (reported_shell_faults), if it does.
+  /// first one's report calls its shell invalid (invalid_rest_shell_warning), if it does.
   std::vector<std::string> warnings;
 
   bool posable() const { return frames.size() == 1; }
