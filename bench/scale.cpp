@@ -5,7 +5,9 @@
 // the --mesh files), rigid method at thickness ratio 0.02, once per linear solver named (CG paths
 // take the multigrid preconditioner; a ":jacobi" suffix, e.g. auto:jacobi, takes Jacobi's). Every
 // case runs in a fresh process (this executable with --case), so the peak memory (VmHWM) is that
-// case's own; times are medians over --runs processes. Prints per case: total, setup (assembly +
+// case's own; times are medians over --runs processes. The runs go in rounds, every case once per
+// round, so a drift in the machine's speed (20-30 % within minutes on a shared host) reaches all
+// sizes alike, and a growth ratio is the median over rounds of that round's ratio. Prints per case: total, setup (assembly +
 // factor), solve, per-iteration time, CG iterations, the deformer's setup, generation's CPU
 // seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the kernel backing
 // freshly touched memory) and minor page faults (faults_k, thousands), peak memory of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up
@@ -262,7 +264,7 @@ int bench_main(int argc, char** argv) {
   if (!meshes_given && std::filesystem::exists("models/bunny00.off")) meshes.push_back("models/bunny00.off");
 
   const std::string self = std::filesystem::canonical("/proc/self/exe").string();
-  std::printf("bench_scale: %s generation at thickness ratio %g, medians of %d fresh processes each; "
+  std::printf("bench_scale: %s generation at thickness ratio %g, medians of %d rounds of fresh processes; "
               "Anderson history %s, relative CG tolerance %s, start smoothing %s; load average at start %s\n",
               tuning.method.c_str(), ratio, runs, tuning.anderson >= 0 ? std::to_string(tuning.anderson).c_str() : "default",
               tuning.cg_relative >= 0 ? std::to_string(tuning.cg_relative).c_str() : "default",
@@ -275,29 +277,33 @@ int bench_main(int argc, char** argv) {
     for (int k = 1; k <= subdivisions; ++k) specs.push_back(mesh + "@" + std::to_string(k));
   }
   std::vector<Row> rows;
+  for (const std::string& linear : linears)
+    for (const std::string& spec : specs) rows.push_back(Row{spec, linear, {}});
+  std::vector<char> failed(rows.size(), 0);
+  for (int run = 0; run < runs; ++run)
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      if (failed[r]) continue;
+      if (runs > 1) std::fprintf(stderr, "bench_scale: round %d/%d %s\n", run + 1, runs, display_name(rows[r].name).c_str());
+      failed[r] = !run_child(self, rows[r].name, rows[r].linear, ratio, tuning, rows[r]);
+    }
+  for (std::size_t r = rows.size(); r-- > 0;)
+    if (failed[r]) rows.erase(rows.begin() + static_cast<std::ptrdiff_t>(r));
   std::printf("%-22s %-11s %9s %8s %8s %8s %4s %9s %5s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %8s %11s %11s %11s %4s "
               "%4s\n",
               "mesh", "linear", "vertices", "total_s", "setup_s", "solve_s", "its", "per_it_s", "cg", "local_s", "global_s",
               "guard_s", "curv_s", "cert_s", "deform_s",
               "dfm_cpu", "cpu_s", "usr_s", "faults_k", "gen_MB", "peak_MB", "KB/vert", "energy", "stretch", "stretch_max", "inv", "isct");
-  for (const std::string& linear : linears)
-    for (const std::string& spec : specs) {
-      Row row{spec, linear, {}};
-      bool ok = true;
-      for (int run = 0; run < runs && ok; ++run) ok = run_child(self, spec, linear, ratio, tuning, row);
-      if (!ok) continue;
-      const std::string name = display_name(spec);
-      std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
-                  "%4.0f "
-                  "%4.0f\n",
-                  name.c_str(), linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
-                  row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("local"),
-                  row.get("global"), row.get("guard"), row.get("curvature"), row.get("certificate"), row.get("deform_setup"), row.get("deform_cpu"), row.get("cpu"),
-                  row.get("user"), row.get("faults") / 1000, row.get("generate_peak_mb"), row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
-                  row.get("stretch_mean"), row.get("stretch_max"), row.get("inverted"), row.get("intersections"));
-      std::fflush(stdout);
-      rows.push_back(row);
-    }
+  for (const Row& row : rows) {
+    const std::string name = display_name(row.name);
+    std::printf("%-22s %-11s %9.0f %8.3f %8.3f %8.3f %4.0f %9.4f %5.0f %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f %8.2f %8.2f %8.2f %8.0f %8.0f %8.0f %8.2f %11.6g %11.6g %11.6g "
+                "%4.0f "
+                "%4.0f\n",
+                name.c_str(), row.linear.c_str(), row.get("vertices"), row.get("total"), row.get("setup"), row.get("solve"),
+                row.get("iterations"), row.get("per_iteration"), row.get("cg"), row.get("local"),
+                row.get("global"), row.get("guard"), row.get("curvature"), row.get("certificate"), row.get("deform_setup"), row.get("deform_cpu"), row.get("cpu"),
+                row.get("user"), row.get("faults") / 1000, row.get("generate_peak_mb"), row.get("peak_mb"), 1024.0 * row.get("peak_mb") / row.get("vertices"), row.get("energy"),
+                row.get("stretch_mean"), row.get("stretch_max"), row.get("inverted"), row.get("intersections"));
+  }
 
   std::printf("\ngrowth per 4x vertices (consecutive sphere levels and midpoint splits; target <= 4.6):\n");
   std::printf("%-22s %-11s %8s %8s %8s %8s %8s %8s %8s %8s %8s\n", "step", "linear", "total", "setup", "per_it", "deform",
@@ -305,7 +311,18 @@ int bench_main(int argc, char** argv) {
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const Row &a = rows[i - 1], &b = rows[i];
     if (a.linear != b.linear || family(a.name) != family(b.name)) continue;
-    auto ratio_of = [&](const char* key) { return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0; };
+    // Peak memory is the largest of the runs' (Row::get), the other columns pair the two cases'
+    // runs round by round.
+    auto ratio_of = [&](const char* key) {
+      if (std::string(key).find("peak_mb") != std::string::npos) return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0;
+      const auto x = a.values.find(key), y = b.values.find(key);
+      std::vector<double> ratios;
+      for (std::size_t k = 0; x != a.values.end() && y != b.values.end() && k < std::min(x->second.size(), y->second.size()); ++k)
+        if (x->second[k] > 0) ratios.push_back(y->second[k] / x->second[k]);
+      if (ratios.empty()) return 0.0;
+      std::sort(ratios.begin(), ratios.end());
+      return ratios[ratios.size() / 2];
+    };
     const std::string step = display_name(a.name) + " -> " + display_name(b.name);
     std::printf("%-22s %-11s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(),
                 ratio_of("total"), ratio_of("setup"), ratio_of("per_iteration"), ratio_of("deform_setup"),
