@@ -20,6 +20,7 @@
 #include <gshell/guard/volume_barrier.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/run/process_memory.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -88,6 +89,7 @@ std::string not_closed(const std::string& file) {
 } // namespace
 
 int bench_main(int argc, char** argv) {
+  gshell::reuse_freed_memory(); // as the gshell CLI does
   std::vector<std::string> files;
   std::vector<double> ratios;
   std::string method = "rigid";
