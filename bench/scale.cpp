@@ -7,9 +7,9 @@
 // case runs in a fresh process (this executable with --case), so the peak memory (VmHWM) is that
 // case's own; times are medians over --runs processes. The runs go in rounds, every case once per
 // round, so a drift in the machine's speed (20-30 % within minutes on a shared host) reaches all
-// sizes alike, and a growth ratio is the median over rounds of that round's ratio. Prints per case: total, setup (assembly +
-// factor), solve, per-iteration time, CG iterations, the deformer's setup, generation's CPU
-// seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the kernel backing
+// sizes alike, and a growth ratio is the median over rounds of that round's ratio. Prints per
+// case: total, setup (assembly + factor), solve, per-iteration time, CG iterations, the
+// deformer's setup, generation's CPU seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the kernel backing
 // freshly touched memory) and minor page faults (faults_k, thousands), peak memory of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up
 // beside the generation result), the report's figures (to compare the solvers), and the growth
 // ratios per 4x vertices. --subdivide K also runs every --mesh split K times (each triangle into
@@ -161,15 +161,21 @@ int run_case(const std::string& spec, LinearSolver linear, CgPreconditioner prec
   return 0;
 }
 
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
 struct Row {
   std::string name, linear;
-  std::map<std::string, std::vector<double>> values; // one per run
+  std::map<std::string, std::vector<double>> values; // one per round
+  /// Peak memory columns give the largest run's figure, the others the median.
+  static bool takes_largest(const std::string& key) { return key.find("peak_mb") != std::string::npos; }
   double get(const std::string& key) const {
     auto it = values.find(key);
     if (it == values.end() || it->second.empty()) return 0;
-    std::vector<double> v = it->second;
-    std::sort(v.begin(), v.end());
-    return key.find("peak_mb") != std::string::npos ? v.back() : v[v.size() / 2];
+    return takes_largest(key) ? *std::max_element(it->second.begin(), it->second.end()) : median(it->second);
   }
 };
 
@@ -311,17 +317,15 @@ int bench_main(int argc, char** argv) {
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const Row &a = rows[i - 1], &b = rows[i];
     if (a.linear != b.linear || family(a.name) != family(b.name)) continue;
-    // Peak memory is the largest of the runs' (Row::get), the other columns pair the two cases'
+    // Peak memory compares the largest runs (as printed); the other columns pair the two cases'
     // runs round by round.
     auto ratio_of = [&](const char* key) {
-      if (std::string(key).find("peak_mb") != std::string::npos) return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0;
+      if (Row::takes_largest(key)) return a.get(key) > 0 ? b.get(key) / a.get(key) : 0.0;
       const auto x = a.values.find(key), y = b.values.find(key);
       std::vector<double> ratios;
       for (std::size_t k = 0; x != a.values.end() && y != b.values.end() && k < std::min(x->second.size(), y->second.size()); ++k)
         if (x->second[k] > 0) ratios.push_back(y->second[k] / x->second[k]);
-      if (ratios.empty()) return 0.0;
-      std::sort(ratios.begin(), ratios.end());
-      return ratios[ratios.size() / 2];
+      return median(std::move(ratios));
     };
     const std::string step = display_name(a.name) + " -> " + display_name(b.name);
     std::printf("%-22s %-11s %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f\n", step.c_str(), b.linear.c_str(),
