@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "guard/shell_part.h"
 #include "shell_fixtures.h"
 
 #include <algorithm>
@@ -190,6 +191,128 @@ TEST(GuardedSolver, ARestStateWithCloseContactsStaysPutWithCappedSupports) {
       EXPECT_GT(r.energy.front(), 0);
       EXPECT_GT(moved, 1e-3);
     }
+  }
+}
+
+// Confined (confine), every free top stays within the radius of where it started although its
+// prism pulls it 0.19 away; without the bound the same solve takes some top farther.
+TEST(GuardedSolver, ConfinedFreeVerticesStayInTheirBalls) {
+  const CapRepair c;
+  const GuardedSolverParameters p = c.parameters(0.1, 1.0, 0.02);
+  GuardedSolveOptions options;
+  options.max_iterations = 200;
+  const double radius = 0.05;
+  double farthest[2] = {0, 0};
+  for (bool confined : {false, true}) {
+    SCOPED_TRACE(confined ? "confined" : "free");
+    GuardedSolver solver(c.rest, 2 * c.n, c.fixed, c.boundary, p);
+    if (confined) solver.confine(c.X, radius);
+    Eigen::MatrixXd X = c.X;
+    const GuardedSolveResult r = solver.solve(X, options);
+    ASSERT_GT(r.iterations, 1);
+    for (std::size_t k = 1; k < r.energy.size(); ++k) EXPECT_LE(r.energy[k], r.energy[k - 1]) << "iteration " << k;
+    EXPECT_GT(r.min_relative_volume, 0);
+    farthest[confined] = (X - c.X).rowwise().norm().maxCoeff();
+  }
+  EXPECT_GT(farthest[0], 2 * radius);
+  EXPECT_LE(farthest[1], radius * (1 + 1e-12));
+  EXPECT_GT(farthest[1], 0.9 * radius); // the bound, not the energy, stopped them
+
+  GuardedSolver solver(c.rest, 2 * c.n, c.fixed, c.boundary, p);
+  EXPECT_THROW(solver.confine(c.X.topRows(3), radius), InputError);
+  EXPECT_THROW(solver.confine(c.X, 0), InputError);
+}
+
+// A solver over the part of the shell a repair can reach (detail::shell_part, as generation's
+// repair runs) takes the same iterations as one over the whole shell's vertices and boundary with
+// the same tets, both confined alike.
+TEST(GuardedSolver, ASolverOverTheShellPartSolvesAsOneOverTheWholeShell) {
+  const CapRepair c;
+  const GuardedSolverParameters p = c.parameters(0.1, 1.0, 0.02);
+  std::vector<char> moving(2 * c.n, 1);
+  for (int v : c.fixed) moving[v] = 0;
+  const double travel = 0.3;
+  const detail::ShellPart part = detail::shell_part(c.rest, c.boundary, c.X, moving, travel, 2 * p.contact_distance);
+  ASSERT_LT(part.size(), 2 * c.n); // a part, not the whole
+  ASSERT_LT(static_cast<int>(part.row.size()), c.boundary.size());
+
+  // The whole shell's solver over the same tets (those with a moving vertex, as the repair's).
+  RestTets moving_tets;
+  moving_tets.T.resize(static_cast<int>(part.tet.size()), 4);
+  moving_tets.volume.resize(moving_tets.T.rows());
+  for (std::size_t k = 0; k < part.tet.size(); ++k) {
+    moving_tets.T.row(static_cast<int>(k)) = c.rest.T.row(part.tet[k]);
+    moving_tets.Dm_inv.push_back(c.rest.dm_inv(part.tet[k]));
+    moving_tets.volume[static_cast<int>(k)] = c.rest.volume[part.tet[k]];
+  }
+  GuardedSolver whole(moving_tets, 2 * c.n, c.fixed, c.boundary, p);
+  GuardedSolver over_part(part.tets, part.size(), part.held, part.boundary, p);
+  whole.confine(c.X, travel);
+  over_part.confine(part.X, travel);
+  GuardedSolveOptions options;
+  options.max_iterations = 30;
+  Eigen::MatrixXd X = c.X, Y = part.X;
+  const GuardedSolveResult a = whole.solve(X, options), b = over_part.solve(Y, options);
+  ASSERT_GT(a.iterations, 1);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.active_contacts, b.active_contacts);
+  ASSERT_EQ(a.energy.size(), b.energy.size());
+  for (std::size_t k = 0; k < a.energy.size(); ++k) EXPECT_NEAR(b.energy[k], a.energy[k], 1e-12 * a.energy[0]);
+  Eigen::MatrixXd Z = c.X;
+  part.scatter_moving(Y, Z);
+  EXPECT_LT((Z - X).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// The part: exactly the tets with a moving vertex; every boundary row left out lies beyond the
+// reach of every row with a moving vertex (by boxes); the rows kept, renumbered, are the shell's.
+TEST(GuardedSolver, AShellPartHoldsWhatTheMovingVerticesCanReach) {
+  const TriMesh base = make_sphere(4);
+  const int n = static_cast<int>(base.V.rows());
+  const double eta = 0.1;
+  const RestTets rest = prism_rest_tets(base.F, n, normal_prisms(base.V, base.F, eta));
+  const ShellBoundary boundary = shell_boundary(base.F, n);
+  Eigen::MatrixXd X(2 * n, 3);
+  X << base.V, offset_top(base.V, base.F, eta);
+  std::vector<char> moving(2 * n, 0);
+  for (int i = 0; i < n; ++i) moving[n + i] = base.V(i, 2) > 0.95;
+  const double travel = 0.1, radius = 0.02;
+  const detail::ShellPart part = detail::shell_part(rest, boundary, X, moving, travel, radius);
+
+  auto has_moving = [&](const Eigen::MatrixXi& T, int r) {
+    for (int k = 0; k < T.cols(); ++k)
+      if (moving[T(r, k)]) return true;
+    return false;
+  };
+  std::vector<int> tets;
+  for (int t = 0; t < rest.size(); ++t)
+    if (has_moving(rest.T, t)) tets.push_back(t);
+  EXPECT_EQ(part.tet, tets);
+  for (std::size_t k = 0; k < tets.size(); ++k)
+    for (int j = 0; j < 4; ++j) EXPECT_EQ(part.vertex[part.tets.T(static_cast<int>(k), j)], rest.T(tets[k], j));
+
+  auto box = [&](int r) {
+    Eigen::AlignedBox3d b(X.row(boundary.F(r, 0)).transpose());
+    return b.extend(X.row(boundary.F(r, 1)).transpose()).extend(X.row(boundary.F(r, 2)).transpose());
+  };
+  std::vector<char> kept(boundary.size(), 0);
+  for (std::size_t k = 0; k < part.row.size(); ++k) {
+    const int r = part.row[k];
+    kept[r] = 1;
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(part.vertex[part.boundary.F(static_cast<int>(k), j)], boundary.F(r, j));
+    EXPECT_EQ(part.boundary.face[k], boundary.face[r]);
+  }
+  int left_out = 0;
+  for (int r = 0; r < boundary.size(); ++r) {
+    if (kept[r]) continue;
+    ++left_out;
+    for (int s = 0; s < boundary.size(); ++s)
+      if (has_moving(boundary.F, s)) EXPECT_GT(box(r).exteriorDistance(box(s)), travel + radius) << r << " " << s;
+  }
+  EXPECT_GT(left_out, boundary.size() / 2); // a small cap's part is small
+
+  for (int i = 0; i < part.size(); ++i) {
+    EXPECT_EQ(part.X.row(i), X.row(part.vertex[i]));
+    EXPECT_EQ(std::count(part.held.begin(), part.held.end(), i) == 0, moving[part.vertex[i]] != 0);
   }
 }
 

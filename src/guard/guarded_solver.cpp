@@ -349,10 +349,31 @@ struct GuardedSolver::Impl {
     return d;
   }
 
-  // Largest step in [0, 1] keeping tets and boundary pairs safe along D (N x 3).
+  // confine(): the free vertices stay within confine_radius of their rows in anchor.
+  Eigen::MatrixXd anchor;
+  double confine_radius = kInf;
+  bool confined() const { return std::isfinite(confine_radius); }
+
+  // Largest step in [0, limit] along D (N x 3) keeping free vertex v inside its ball: the positive
+  // root of |p + s d| = radius with p = X_v - anchor_v (written so that it does not cancel).
+  double confined_step(int v, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double limit) const {
+    const Eigen::Vector3d p = (X.row(v) - anchor.row(v)).transpose(), d = D.row(v).transpose();
+    const double dd = d.squaredNorm();
+    if (dd == 0) return limit;
+    const double pd = p.dot(d), room = confine_radius * confine_radius - p.squaredNorm();
+    if (!(room > 0)) return pd < 0 ? std::min(limit, -pd / dd) : 0.0; // on the sphere by rounding
+    const double root = std::sqrt(pd * pd + dd * room);
+    return std::min(limit, pd > 0 ? room / (pd + root) : (root - pd) / dd);
+  }
+
+  // Largest step in [0, 1] keeping tets and boundary pairs safe along D (N x 3), and the free
+  // vertices in their balls where confined.
   double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D) {
-    const TetStepBound tb = tet_step_bound(T, X, D, p.keep_fraction, 1.0, &volume.skip());
-    double a = tb.step;
+    double a = 1;
+    if (confined())
+      for (int v : free) a = confined_step(v, X, D, a);
+    const TetStepBound tb = tet_step_bound(T, X, D, p.keep_fraction, a, &volume.skip());
+    a = std::min(a, tb.step);
     if (contact && a > 0) a = std::min(a, contact->step_bound(X, D, a));
     return a;
   }
@@ -365,6 +386,9 @@ struct GuardedSolver::Impl {
     };
     for (int t : tets_cutting_step(T, X, D, p.keep_fraction, tau, &volume.skip()))
       for (int k = 0; k < 4; ++k) add(T(t, k));
+    if (confined())
+      for (int v : free)
+        if (confined_step(v, X, D, tau) < tau) add(v);
     if (contact) {
       std::vector<ContactPair> pairs;
       contact->step_bound(X, D, tau, &pairs);
@@ -437,6 +461,16 @@ void GuardedSolver::set_excluded_triangles(const ShellBoundary& boundary, std::v
     throw InputError("GuardedSolver::set_excluded_triangles: expected one flag per boundary triangle");
   m.p.excluded_triangles = std::move(excluded);
   if (m.contact) m.make_contact_guard(boundary);
+}
+
+void GuardedSolver::confine(const Eigen::MatrixXd& anchor, double radius) {
+  Impl& m = *impl_;
+  if (anchor.rows() != m.N || anchor.cols() != 3)
+    throw InputError("GuardedSolver::confine: expected " + std::to_string(m.N) + " x 3 anchor positions");
+  if (!(radius > 0)) throw InputError("GuardedSolver::confine: radius must be positive");
+  m.confine_radius = radius;
+  if (m.confined()) m.anchor = anchor;
+  else m.anchor.resize(0, 3);
 }
 
 void GuardedSolver::cap_contact_support(const Eigen::MatrixXd& X, double fraction) {

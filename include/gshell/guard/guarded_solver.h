@@ -183,6 +183,14 @@ public:
   /// \throws InputError when excluded has neither 0 nor one flag per boundary triangle.
   void set_excluded_triangles(const ShellBoundary& boundary, std::vector<char> excluded);
 
+  /// Keeps every free vertex within `radius` (model units) of its row in `anchor` in the
+  /// following solves: a step is also cut where a free vertex would leave that ball, as the tet
+  /// and contact bounds cut it. A solver over a part of a larger shell (generation's repair)
+  /// leaves out the boundary triangles beyond where its vertices can go; this makes that a bound.
+  /// An infinite radius lifts it.
+  /// \throws InputError when anchor is not num_vertices x 3 or radius is not positive.
+  void confine(const Eigen::MatrixXd& anchor, double radius);
+
   /// ContactGuard::cap_support on the contact barrier (no-op without contacts): pairs close at X
   /// (a rest state) get a support below that closeness. \throws InputError as cap_support.
   void cap_contact_support(const Eigen::MatrixXd& X, double fraction);
