@@ -17,11 +17,29 @@
 
 #include <algorithm>
 #include <limits>
+#include <utility>
 #include <vector>
 
 using namespace gshell;
 
 namespace {
+
+// The shell of normal prisms of thickness eta over `base`, at rest: its top the offset surface.
+struct NormalShell {
+  TriMesh base;
+  int n;
+  double eta;
+  RestTets rest;
+  ShellBoundary boundary;
+  Eigen::MatrixXd X;
+
+  NormalShell(TriMesh b, double thickness)
+      : base(std::move(b)), n(static_cast<int>(base.V.rows())), eta(thickness),
+        rest(prism_rest_tets(base.F, n, normal_prisms(base.V, base.F, eta))), boundary(shell_boundary(base.F, n)),
+        X(2 * n, 3) {
+    X << base.V, offset_top(base.V, base.F, eta);
+  }
+};
 
 // A sphere's shell started at a twentieth of its thickness (valid, every tet inside the volume
 // barrier), with the tops of a cap around +z free and everything else held (a repaired region).
@@ -266,13 +284,8 @@ TEST(GuardedSolver, ASolverOverTheShellPartSolvesAsOneOverTheWholeShell) {
 // The part: exactly the tets with a moving vertex; every boundary row left out lies beyond the
 // reach of every row with a moving vertex (by boxes); the rows kept, renumbered, are the shell's.
 TEST(GuardedSolver, AShellPartHoldsWhatTheMovingVerticesCanReach) {
-  const TriMesh base = make_sphere(4);
-  const int n = static_cast<int>(base.V.rows());
-  const double eta = 0.1;
-  const RestTets rest = prism_rest_tets(base.F, n, normal_prisms(base.V, base.F, eta));
-  const ShellBoundary boundary = shell_boundary(base.F, n);
-  Eigen::MatrixXd X(2 * n, 3);
-  X << base.V, offset_top(base.V, base.F, eta);
+  const NormalShell shell(make_sphere(4), 0.1);
+  const auto& [base, n, eta, rest, boundary, X] = shell;
   std::vector<char> moving(2 * n, 0);
   for (int i = 0; i < n; ++i) moving[n + i] = base.V(i, 2) > 0.95;
   const double travel = 0.1, radius = 0.02;
@@ -358,13 +371,8 @@ GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>
 // iterates must reach the plain iterations' minimum, never raise E_guard, keep the shell valid
 // and need fewer iterations (the reason for the option; a count, not a time).
 TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereNoBarrierActs) {
-  const TriMesh base = make_plane(12);
-  const int n = static_cast<int>(base.V.rows());
-  const double eta = 0.1;
-  const RestTets rest = prism_rest_tets(base.F, n, normal_prisms(base.V, base.F, eta));
-  const ShellBoundary boundary = shell_boundary(base.F, n);
-  Eigen::MatrixXd X(2 * n, 3);
-  X << base.V, offset_top(base.V, base.F, eta);
+  const NormalShell shell(make_plane(12), 0.1);
+  const auto& [base, n, eta, rest, boundary, X] = shell;
   std::vector<int> fixed;
   Eigen::MatrixXd targets = X;
   for (int i = 0; i < n; ++i) {
