@@ -7,11 +7,12 @@
 // case runs in a fresh process (this executable with --case), so the peak memory (VmHWM) is that
 // case's own; times are medians over --runs processes. The runs go in rounds, every case once per
 // round, so a drift in the machine's speed (20-30 % within minutes on a shared host) reaches all
-// sizes alike, and a growth ratio is the median over rounds of that round's ratio. Prints per
-// case: total, setup (assembly + factor), solve, per-iteration time, CG iterations, the
-// deformer's setup, generation's CPU seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the kernel backing
-// freshly touched memory) and minor page faults (faults_k, thousands), peak memory of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up
-// beside the generation result), the report's figures (to compare the solvers), and the growth
+// sizes alike, and a growth ratio is the median over rounds of that round's ratio. Prints per case:
+// total, setup (assembly + factor), solve, per-iteration time, CG iterations, the deformer's setup,
+// generation's CPU seconds (cpu_s), of which user time (usr_s; the rest is system time, mostly the
+// kernel backing freshly touched memory) and minor page faults (faults_k, thousands), peak memory
+// of generation alone (gen_MB) and of the whole case (peak_MB: the deformer is set up beside the
+// generation result), the report's figures (to compare the solvers), and the growth
 // ratios per 4x vertices. --subdivide K also runs every --mesh split K times (each triangle into
 // four at its edge midpoints, case FILE@k: the same surface, finer against the same layer; growth
 // per split printed as for the sphere levels). --anderson and --cg-relative override generation's Anderson history and
