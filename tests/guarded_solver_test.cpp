@@ -12,11 +12,15 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/SparseCholesky>
+
 #include "guard/shell_part.h"
+#include "guard/vertex_amd_ordering.h"
 #include "shell_fixtures.h"
 
 #include <algorithm>
 #include <limits>
+#include <random>
 #include <utility>
 #include <vector>
 
@@ -464,4 +468,60 @@ TEST(GuardedSolver, ExactDirectionsReachTheMinimumOfTheCgDirectionsWithoutCg) {
   EXPECT_EQ(exact.cg_iterations, 0); // the settling solve: its path is done from the start
   EXPECT_NEAR(exact.energy.back(), cg.energy.back(), 1e-5 * cg.energy.back());
   EXPECT_LT((exact_state - cg_state).cwiseAbs().maxCoeff(), 0.01 * sheets.eta);
+}
+
+TEST(VertexAmdOrdering, EliminatesEachVertexsRowsTogetherAndSolvesAsScalarAmdDoes) {
+  // A local system's shape: the stiffness of a shell's tets on each axis (x, y, z uncoupled), plus
+  // positive semidefinite 3 x 3 blocks coupling the axes of vertex pairs, as the barriers do.
+  const NormalShell s(make_sphere(2), 0.1);
+  const int N = 2 * s.n;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int t = 0; t < s.rest.size(); ++t) {
+    // Corner a's gradient of F = sum_a x_a g_a^T: rows of the inverse edge matrix, and minus their sum.
+    const Eigen::Matrix3d Dinv = s.rest.dm_inv(t);
+    Eigen::Matrix<double, 3, 4> G;
+    G.rightCols<3>() = Dinv.transpose();
+    G.col(0) = -G.rightCols<3>().rowwise().sum();
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b)
+        for (int d = 0; d < 3; ++d)
+          entries.emplace_back(3 * s.rest.T(t, a) + d, 3 * s.rest.T(t, b) + d,
+                               s.rest.volume[t] * G.col(a).dot(G.col(b)));
+  }
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> vertex(0, N - 1);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int k = 0; k < N / 4; ++k) {
+    const int i = vertex(rng), j = vertex(rng);
+    Eigen::Vector3d w(u(rng), u(rng), u(rng));
+    const int v[2] = {i, j};
+    const double sign[2] = {1, -1};
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        for (int p = 0; p < 3; ++p)
+          for (int q = 0; q < 3; ++q) entries.emplace_back(3 * v[a] + p, 3 * v[b] + q, sign[a] * sign[b] * w[p] * w[q]);
+  }
+  for (int r = 0; r < 3 * N; ++r) entries.emplace_back(r, r, 1e-3); // the base is not held here
+  Eigen::SparseMatrix<double> A(3 * N, 3 * N);
+  A.setFromTriplets(entries.begin(), entries.end());
+
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, detail::VertexAmdOrdering<int>> blocked(A);
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> scalar(A);
+  ASSERT_EQ(blocked.info(), Eigen::Success);
+  ASSERT_EQ(scalar.info(), Eigen::Success);
+  const Eigen::VectorXi order = blocked.permutationPinv().indices();
+  ASSERT_EQ(order.size(), 3 * N);
+  std::vector<char> seen(3 * N, 0);
+  for (int k = 0; k < N; ++k)
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_EQ(order[3 * k + d], order[3 * k] + d) << "vertex " << order[3 * k] / 3 << " split";
+      ++seen[order[3 * k + d]];
+    }
+  EXPECT_TRUE(std::all_of(seen.begin(), seen.end(), [](char c) { return c == 1; })) << "not a permutation";
+
+  Eigen::VectorXd b(3 * N);
+  for (int r = 0; r < b.size(); ++r) b[r] = u(rng);
+  const Eigen::VectorXd x = blocked.solve(b), y = scalar.solve(b);
+  EXPECT_LT((A * x - b).norm(), 1e-10 * b.norm());
+  EXPECT_LT((x - y).norm(), 1e-9 * y.norm());
 }

@@ -6,6 +6,7 @@
 
 #include "guard/low_rank_inverse.h"
 #include "guard/reused_ordering.h"
+#include "guard/vertex_amd_ordering.h"
 #include "solver/anderson_history.h"
 #include "solver/hierarchy_linear.h"
 
@@ -244,7 +245,7 @@ struct GuardedSolver::Impl {
            std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1, ldlt_outer.begin(), ldlt_outer.end()) &&
            std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), ldlt_inner.begin(), ldlt_inner.end());
   }
-  mutable Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt; // of the small local systems
+  mutable Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, detail::VertexAmdOrdering<int>> ldlt; // of the small local systems
   mutable std::vector<int> ldlt_outer, ldlt_inner;                 // the pattern it was analysed for (empty: none)
   mutable detail::ReusedOrdering ordering; // of the large local systems, from the current solve()
   mutable int supernodal_solves = 0;       // since the last solve() began
