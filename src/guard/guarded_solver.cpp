@@ -245,7 +245,10 @@ struct GuardedSolver::Impl {
            std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1, ldlt_outer.begin(), ldlt_outer.end()) &&
            std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), ldlt_inner.begin(), ldlt_inner.end());
   }
-  mutable Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, detail::VertexAmdOrdering<int>> ldlt; // of the small local systems
+  // Of the small local systems, ordered on their vertex graph (a ninth of the scalar pattern to
+  // order, and less fill on the barriers' coupled 3 x 3 blocks; docs/guarded-generation.md).
+  using SmallSystemLdlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, detail::VertexAmdOrdering<int>>;
+  mutable SmallSystemLdlt ldlt;
   mutable std::vector<int> ldlt_outer, ldlt_inner;                 // the pattern it was analysed for (empty: none)
   mutable detail::ReusedOrdering ordering; // of the large local systems, from the current solve()
   mutable int supernodal_solves = 0;       // since the last solve() began
