@@ -17,6 +17,7 @@
 #include "guard/shell_part.h"
 #include "guard/vertex_amd_ordering.h"
 #include "shell_fixtures.h"
+#include "solver/hierarchy_levels.h"
 
 #include <algorithm>
 #include <limits>
@@ -476,18 +477,11 @@ TEST(VertexAmdOrdering, EliminatesEachVertexsRowsTogetherAndSolvesAsScalarAmdDoe
   const NormalShell s(make_sphere(2), 0.1);
   const int N = 2 * s.n;
   std::vector<Eigen::Triplet<double>> entries;
-  for (int t = 0; t < s.rest.size(); ++t) {
-    // Corner a's gradient of F = sum_a x_a g_a^T: rows of the inverse edge matrix, and minus their sum.
-    const Eigen::Matrix3d Dinv = s.rest.dm_inv(t);
-    Eigen::Matrix<double, 3, 4> G;
-    G.rightCols<3>() = Dinv.transpose();
-    G.col(0) = -G.rightCols<3>().rowwise().sum();
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b)
-        for (int d = 0; d < 3; ++d)
-          entries.emplace_back(3 * s.rest.T(t, a) + d, 3 * s.rest.T(t, b) + d,
-                               s.rest.volume[t] * G.col(a).dot(G.col(b)));
-  }
+  const Eigen::SparseMatrix<double> L = detail::stiffness_matrix(s.rest, N);
+  for (int k = 0; k < L.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, k); it; ++it)
+      for (int d = 0; d < 3; ++d)
+        entries.emplace_back(3 * static_cast<int>(it.row()) + d, 3 * static_cast<int>(it.col()) + d, it.value());
   std::mt19937 rng(7);
   std::uniform_int_distribution<int> vertex(0, N - 1);
   std::uniform_real_distribution<double> u(-1, 1);

@@ -249,7 +249,7 @@ struct GuardedSolver::Impl {
   // order, and less fill on the barriers' coupled 3 x 3 blocks; docs/guarded-generation.md).
   using SmallSystemLdlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, detail::VertexAmdOrdering<int>>;
   mutable SmallSystemLdlt ldlt;
-  mutable std::vector<int> ldlt_outer, ldlt_inner;                 // the pattern it was analysed for (empty: none)
+  mutable std::vector<int> ldlt_outer, ldlt_inner; // the pattern it was analysed for (empty: none)
   mutable detail::ReusedOrdering ordering; // of the large local systems, from the current solve()
   mutable int supernodal_solves = 0;       // since the last solve() began
   mutable int reused_orderings = 0;        // of those, with `ordering`
