@@ -911,6 +911,20 @@ TEST(ContactGuard, PairsCuttingAStepAreThoseWhoseOwnBoundIsBelowIt) {
     EXPECT_EQ(keys(cutting), expected);
     EXPECT_EQ(cutting.size(), expected.size()); // no pair twice
     EXPECT_EQ(expected.empty(), tau <= plain);
+
+    // Limited to the pairs of one vertex (as the solver asks again after holding a few): those of
+    // the list with that vertex, on whichever side of a leaf pair its triangles are.
+    std::vector<char> touching(2 * s.n, 0);
+    if (!expected.empty()) touching[expected.begin()->back()] = 1;
+    std::set<std::vector<int>> expected_touching;
+    for (const std::vector<int>& k : expected)
+      if (touching[k[1]] || touching[k[2]] || touching[k[3]] || touching[k[4]]) expected_touching.insert(k);
+    EXPECT_EQ(expected_touching.empty(), expected.empty());
+    if (tau >= 0.5) EXPECT_LT(expected_touching.size(), expected.size());
+    std::vector<ContactPair> cutting_touching;
+    guard.step_bound(s.X, D, tau, &cutting_touching, &touching);
+    EXPECT_EQ(keys(cutting_touching), expected_touching);
+    EXPECT_EQ(cutting_touching.size(), expected_touching.size());
   }
 }
 
@@ -968,6 +982,8 @@ TEST(ContactGuard, BadInputThrows) {
   Eigen::MatrixXd D = Eigen::MatrixXd::Zero(2 * s.n, 3);
   D(2, 0) = std::numeric_limits<double>::infinity();
   EXPECT_THROW(guard.step_bound(s.X, D), InputError);
+  const std::vector<char> short_flags(s.n, 1);
+  EXPECT_THROW(guard.step_bound(s.X, Eigen::MatrixXd::Zero(2 * s.n, 3), 1.0, nullptr, &short_flags), InputError);
 }
 
 TEST(ContactGuard, CappedSupportsAreQuietAtTheirRestAndWeightedBeyondIt) {

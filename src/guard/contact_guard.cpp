@@ -429,11 +429,13 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
 }
 
 double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
-                                std::vector<ContactPair>* cutting) {
+                                std::vector<ContactPair>* cutting, const std::vector<char>* touching) {
   Impl& m = *impl_;
   if (cutting) cutting->clear();
   m.set_positions(X);
   m.check_shape(D, "D");
+  if (touching && touching->size() != static_cast<std::size_t>(m.primitives.num_vertices()))
+    throw InputError("ContactGuard::step_bound: expected one flag per vertex in `touching`");
   if (!(max_step > 0)) return 0;
   const std::vector<int>& verts = m.primitives.boundary_vertices();
   // The boundary vertices D moves, ascending, and their motions in dx (zero elsewhere, kept between
@@ -478,6 +480,7 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   // the thread schedule, so the result would not be the same bits run to run.
   double ccd_range = max_step;
   auto bound_pair = [&](PairKind kind, const Ids& ids) {
+    if (touching && !std::any_of(ids.begin(), ids.end(), [&](int v) { return (*touching)[v]; })) return;
     const PairPoints p = m.points(ids), d = {dx[ids[0]], dx[ids[1]], dx[ids[2]], dx[ids[3]]};
     const double pb = pair_step_bound(kind, p, d, ccd_range, ccd);
     if (!cutting) {
@@ -546,9 +549,10 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
     const std::vector<int>& corners = m.primitives.movable_patch_vertices();
     auto sweep = [&](std::size_t k) { return listed * dx[corners[k]].lpNorm<Eigen::Infinity>(); };
     if (!m.fixed_patch_covers(sweep)) m.make_fixed_patch(m.search_boxes(), sweep);
-    m.primitives.for_each_pair(m.kept_patch(m.swept[1], true, box), m.fixed_patch, visit);
+    m.primitives.for_each_pair(m.kept_patch(m.swept[1], true, box), m.fixed_patch, visit, touching);
   } else {
-    m.primitives.for_each_pair(m.kept_patch(m.swept[1], true, box), m.kept_patch(m.swept[0], false, box), visit);
+    m.primitives.for_each_pair(m.kept_patch(m.swept[1], true, box), m.kept_patch(m.swept[0], false, box), visit,
+                               touching);
   }
   return result();
 }

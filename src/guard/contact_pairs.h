@@ -108,6 +108,13 @@ struct ContactPatch {
   std::vector<std::array<int, 2>> edge_end;
 
   int size() const { return static_cast<int>(triangle.size()); }
+  /// Whether a triangle of slots [s0, s1) has a corner flagged in `flag` (one per vertex).
+  bool touches(int s0, int s1, const std::vector<char>& flag) const {
+    for (int s = s0; s < s1; ++s)
+      for (int v : tri_corner[s])
+        if (flag[v]) return true;
+    return false;
+  }
 };
 
 class ContactPrimitives {
@@ -158,9 +165,12 @@ public:
   /// four vertices fixed, nothing excluded: contact_guard.h) whose boxes meet: (vertex a,
   /// triangle b) or (edge a, edge b) with a < b, and the pair's vertex ids in PairPoints order.
   /// `movable` and `fixed` are the two patches made from the same boxes. visit runs concurrently
-  /// from several threads.
+  /// from several threads. With `touching` (one flag per vertex), at least the pairs with a
+  /// flagged vertex: a pair's vertices are corners of the two triangles it is found through, so
+  /// leaf pairs with no flagged corner are passed over.
   template <class Visit>
-  void for_each_pair(const ContactPatch& movable, const ContactPatch& fixed, Visit&& visit) const;
+  void for_each_pair(const ContactPatch& movable, const ContactPatch& fixed, Visit&& visit,
+                     const std::vector<char>* touching = nullptr) const;
 
   /// Faces per leaf of the patches' trees: a leaf pair tests all its primitives' boxes in
   /// vectorised runs, so leaves hold more faces than a face-by-face search would want. A leaf
@@ -234,12 +244,16 @@ void ContactPrimitives::leaf_pair(const ContactPatch& A, int a0, int a1, const C
 }
 
 template <class Visit>
-void ContactPrimitives::for_each_pair(const ContactPatch& movable, const ContactPatch& fixed, Visit&& visit) const {
+void ContactPrimitives::for_each_pair(const ContactPatch& movable, const ContactPatch& fixed, Visit&& visit,
+                                      const std::vector<char>* touching) const {
+  auto wanted = [&](const ContactPatch& A, int a0, int a1, const ContactPatch& B, int b0, int b1) {
+    return !touching || A.touches(a0, a1, *touching) || B.touches(b0, b1, *touching);
+  };
   movable.tree.for_each_overlapping_leaf_pair([&](int a0, int a1, int b0, int b1) {
-    leaf_pair(movable, a0, a1, movable, b0, b1, a0 == b0, visit);
+    if (wanted(movable, a0, a1, movable, b0, b1)) leaf_pair(movable, a0, a1, movable, b0, b1, a0 == b0, visit);
   });
   movable.tree.for_each_overlapping_leaf_pair(fixed.tree, [&](int a0, int a1, int b0, int b1) {
-    leaf_pair(movable, a0, a1, fixed, b0, b1, false, visit);
+    if (wanted(movable, a0, a1, fixed, b0, b1)) leaf_pair(movable, a0, a1, fixed, b0, b1, false, visit);
   });
 }
 

@@ -382,8 +382,10 @@ struct GuardedSolver::Impl {
     return a;
   }
 
-  // The free vertices moving along D of every tet and boundary pair that would cut a step of tau.
-  std::vector<int> vertices_cutting(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double tau) {
+  // The free vertices moving along D of every tet and boundary pair that would cut a step of tau;
+  // of the pairs, only those with a vertex flagged in `touching` where that is given.
+  std::vector<int> vertices_cutting(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double tau,
+                                    const std::vector<char>* touching = nullptr) {
     std::vector<int> out;
     auto add = [&](int v) {
       if (free_index[v] >= 0 && !D.row(v).isZero(0)) out.push_back(v);
@@ -395,7 +397,7 @@ struct GuardedSolver::Impl {
         if (confined_step(v, X, D, tau) < tau) add(v);
     if (contact) {
       std::vector<ContactPair> pairs;
-      contact->step_bound(X, D, tau, &pairs);
+      contact->step_bound(X, D, tau, &pairs, touching);
       for (const ContactPair& pair : pairs)
         for (int v : pair.vertices) add(v);
     }
@@ -420,10 +422,17 @@ struct GuardedSolver::Impl {
     if (p.hold_rounds <= 0 || !(bound < p.hold_below) || !(bound > 0)) return std::nullopt;
     const double tau = std::min(0.5, 64 * bound);
     Eigen::MatrixXd held = d;
+    // After the first round only the pairs of the vertices held last can cut anew: every other
+    // pair moves as it did in the round that checked it, and either did not cut or is held still.
+    std::vector<char> held_last;
     for (int round = 0; round < p.hold_rounds; ++round) {
-      const std::vector<int> cut = vertices_cutting(X, scatter(held), tau);
+      const std::vector<int> cut = vertices_cutting(X, scatter(held), tau, round > 0 ? &held_last : nullptr);
       if (cut.empty()) break;
-      for (int v : cut) held.row(free_index[v]).setZero();
+      held_last.assign(N, 0);
+      for (int v : cut) {
+        held.row(free_index[v]).setZero();
+        held_last[v] = 1;
+      }
     }
     const double a = step_bound(X, scatter(held));
     const double s = 2 * dot(g, held);

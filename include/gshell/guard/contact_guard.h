@@ -97,8 +97,12 @@ public:
   /// pairs among fixed vertices only stay out (the caller answers for the base's own motion).
   /// `cutting`, if given, receives every pair whose own bound is below max_step, in (kind,
   /// vertices) order (slower: no pair is culled by a bound found earlier in the pass).
+  /// `touching`, if given (one flag per vertex), limits the pass to the pairs with a flagged
+  /// vertex: the bound and `cutting` are then those of these pairs alone. A caller that changes D
+  /// on a few vertices only and asks again needs only their pairs (the others move as before).
+  /// \throws InputError as energy, or when `touching` has not one flag per vertex.
   double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step = 1,
-                    std::vector<ContactPair>* cutting = nullptr);
+                    std::vector<ContactPair>* cutting = nullptr, const std::vector<char>* touching = nullptr);
 
   /// Caps each pair's support below dhat by the distances at X: a vertex's cap is `fraction` (in
   /// (0, 1]) times the distance at X of the closest candidate pair it belongs to, a pair's support
