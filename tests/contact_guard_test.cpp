@@ -772,6 +772,26 @@ TEST(ContactGuard, GradientAndHessianOfTheSumMatchFiniteDifferences) {
   const Eigen::MatrixXd dense(H);
   EXPECT_NEAR((dense - dense.transpose()).norm(), 0, 1e-12 * dense.norm());
   EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense).eigenvalues().minCoeff(), -1e-9 * dense.norm());
+
+  // Only the blocks between kept vertices (a solver's free ones), in the same order, either form.
+  std::vector<char> kept(2 * s.n, 1);
+  for (int v = 0; v < 2 * s.n; v += 2) kept[v] = 0;
+  for (bool projected : {true, false}) {
+    std::vector<Eigen::Triplet<double>> all, some, expected;
+    guard.add_hessian(X, 1.0, all, projected);
+    guard.add_hessian(X, 1.0, some, projected, &kept);
+    for (const auto& t : all)
+      if (kept[t.row() / 3] && kept[t.col() / 3]) expected.push_back(t);
+    EXPECT_LT(some.size(), all.size());
+    ASSERT_EQ(some.size(), expected.size()) << "projected " << projected;
+    for (std::size_t i = 0; i < some.size(); ++i)
+      ASSERT_TRUE(some[i].row() == expected[i].row() && some[i].col() == expected[i].col() &&
+                  some[i].value() == expected[i].value())
+          << "projected " << projected << ", triplet " << i;
+  }
+  const std::vector<char> short_flags(s.n, 1);
+  std::vector<Eigen::Triplet<double>> unused;
+  EXPECT_THROW(guard.add_hessian(X, 1.0, unused, true, &short_flags), InputError);
 }
 
 TEST(ContactGuard, StepOfAFlatShellIntoItsBaseStopsAtTheKeptFraction) {
@@ -925,6 +945,34 @@ TEST(ContactGuard, PairsCuttingAStepAreThoseWhoseOwnBoundIsBelowIt) {
     guard.step_bound(s.X, D, tau, &cutting_touching, &touching);
     EXPECT_EQ(keys(cutting_touching), expected_touching);
     EXPECT_EQ(cutting_touching.size(), expected_touching.size());
+
+    // As flags: the moving vertices of those pairs, added to those the caller set (which spare
+    // the pairs they cover their CCD, not the others' vertices).
+    auto moving_vertices = [&](const std::set<std::vector<int>>& pairs, std::vector<char> flags) {
+      for (const std::vector<int>& k : pairs)
+        for (int i = 1; i <= 4; ++i)
+          if (!D.row(k[i]).isZero(0)) flags[k[i]] = 1;
+      return flags;
+    };
+    const std::vector<char> none(2 * s.n, 0);
+    std::vector<char> held = none;
+    guard.flag_cutting_vertices(s.X, D, tau, held);
+    EXPECT_EQ(held, moving_vertices(expected, none));
+    held = none;
+    guard.flag_cutting_vertices(s.X, D, tau, held, &touching);
+    EXPECT_EQ(held, moving_vertices(expected_touching, none));
+    // Set beforehand: one moving vertex of every pair but the last, and a vertex no pair moves.
+    std::vector<char> prior = none;
+    for (auto k = expected.begin(); k != expected.end() && std::next(k) != expected.end(); ++k)
+      for (int i = 4; i >= 1; --i)
+        if (!D.row((*k)[i]).isZero(0)) {
+          prior[(*k)[i]] = 1;
+          break;
+        }
+    prior[0] = 1;
+    held = prior;
+    guard.flag_cutting_vertices(s.X, D, tau, held);
+    EXPECT_EQ(held, moving_vertices(expected, prior));
   }
 }
 
@@ -984,6 +1032,8 @@ TEST(ContactGuard, BadInputThrows) {
   EXPECT_THROW(guard.step_bound(s.X, D), InputError);
   const std::vector<char> short_flags(s.n, 1);
   EXPECT_THROW(guard.step_bound(s.X, Eigen::MatrixXd::Zero(2 * s.n, 3), 1.0, nullptr, &short_flags), InputError);
+  std::vector<char> short_held(s.n, 0);
+  EXPECT_THROW(guard.flag_cutting_vertices(s.X, Eigen::MatrixXd::Zero(2 * s.n, 3), 1.0, short_held), InputError);
 }
 
 TEST(ContactGuard, CappedSupportsAreQuietAtTheirRestAndWeightedBeyondIt) {

@@ -15,6 +15,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -334,6 +335,62 @@ TEST(VolumeBarrier, ProjectedHessianIsPsdAndAboveTheTrueHessian) {
     }
   }
   EXPECT_GE(tested, 10);
+}
+
+// Triplets whose row and column vertices are both flagged, in their order.
+std::vector<Eigen::Triplet<double>> kept_blocks(const std::vector<Eigen::Triplet<double>>& all,
+                                                const std::vector<char>& kept) {
+  std::vector<Eigen::Triplet<double>> out;
+  for (const auto& t : all)
+    if (kept[t.row() / 3] && kept[t.col() / 3]) out.push_back(t);
+  return out;
+}
+
+bool same_triplets(const std::vector<Eigen::Triplet<double>>& a, const std::vector<Eigen::Triplet<double>>& b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const auto& x, const auto& y) {
+    return x.row() == y.row() && x.col() == y.col() && x.value() == y.value();
+  });
+}
+
+TEST(VolumeBarrier, HessianOfKeptVerticesIsTheirBlocksInTheSameOrder) {
+  // A solver holding some vertices asks only for the blocks between the others: those of the whole
+  // Hessian, the same values in the same order (its assembly sums them in that order). Tets share
+  // vertices here so that a tet keeps 0 to 4 corners.
+  std::mt19937 rng(8);
+  std::normal_distribution<double> g(0, 1);
+  const int K = 300, n = 120;
+  Eigen::MatrixXi T(K, 4);
+  Eigen::MatrixXd rest(n, 3);
+  for (int v = 0; v < n; ++v) rest.row(v) << g(rng), g(rng), g(rng);
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  for (int t = 0; t < K; ++t) {
+    std::array<int, 4> c{};
+    do {
+      for (int& v : c) v = pick(rng);
+      std::sort(c.begin(), c.end());
+    } while (std::adjacent_find(c.begin(), c.end()) != c.end());
+    if (volume6(rest(std::vector<int>(c.begin(), c.end()), Eigen::all)) < 0) std::swap(c[0], c[1]);
+    T.row(t) << c[0], c[1], c[2], c[3];
+  }
+  // Squashed along z: every tet at a tenth of its volume, inside the barrier.
+  Eigen::MatrixXd X = rest;
+  X.col(2) *= 0.1;
+  const VolumeBarrier barrier(rest_tets_from_positions(rest, T), 0.3);
+  const std::vector<int> active = barrier.active_tets(X);
+  ASSERT_EQ(static_cast<int>(active.size()), K);
+  std::vector<char> kept(n, 0);
+  for (int v = 0; v < n; ++v) kept[v] = v % 3 != 0;
+  for (bool projected : {false, true}) {
+    std::vector<Eigen::Triplet<double>> all, some;
+    barrier.add_hessian(X, 0.7, all, active, projected);
+    barrier.add_hessian(X, 0.7, some, active, projected, &kept);
+    ASSERT_EQ(all.size(), 144u * K);
+    EXPECT_LT(some.size(), all.size());
+    EXPECT_TRUE(same_triplets(some, kept_blocks(all, kept))) << "projected " << projected;
+  }
+  const std::vector<char> short_flags(n - 1, 1);
+  std::vector<Eigen::Triplet<double>> H;
+  EXPECT_THROW(barrier.add_hessian(X, 1.0, H, active, true, &short_flags), InputError);
 }
 
 TEST(VolumeBarrier, ProjectedHessianIsTheEigenProjectionOfTheTrueHessian) {

@@ -399,8 +399,11 @@ void ContactGuard::add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::M
 }
 
 void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
-                               bool projected) {
+                               bool projected, const std::vector<char>* kept_vertices) {
   Impl& m = *impl_;
+  if (kept_vertices && kept_vertices->size() != static_cast<std::size_t>(m.primitives.num_vertices()))
+    throw InputError("ContactGuard::add_hessian: expected one flag per vertex in `kept_vertices`");
+  auto kept = [&](int vertex) { return !kept_vertices || (*kept_vertices)[vertex]; };
   m.scan(X);
   const int n = static_cast<int>(m.active.size());
   std::vector<std::vector<Eigen::Triplet<double>>> block_triplets((n + kBlock - 1) / kBlock);
@@ -420,9 +423,11 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
       h *= m.weight(active.support);
       for (int k = 0; k < 4; ++k)
         for (int l = 0; l < 4; ++l)
-          for (int a = 0; a < 3; ++a)
-            for (int c = 0; c < 3; ++c)
-              if (const double v = h(3 * k + a, 3 * l + c); v != 0) out.emplace_back(3 * ids[k] + a, 3 * ids[l] + c, scale * v);
+          if (kept(ids[k]) && kept(ids[l]))
+            for (int a = 0; a < 3; ++a)
+              for (int c = 0; c < 3; ++c)
+                if (const double v = h(3 * k + a, 3 * l + c); v != 0)
+                  out.emplace_back(3 * ids[k] + a, 3 * ids[l] + c, scale * v);
     }
   });
   for (const auto& out : block_triplets) H.insert(H.end(), out.begin(), out.end()); // list order
@@ -430,8 +435,21 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
 
 double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
                                 std::vector<ContactPair>* cutting, const std::vector<char>* touching) {
-  Impl& m = *impl_;
   if (cutting) cutting->clear();
+  return sweep_step(X, D, max_step, cutting, touching, nullptr);
+}
+
+void ContactGuard::flag_cutting_vertices(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
+                                         std::vector<char>& held, const std::vector<char>* touching) {
+  if (held.size() != static_cast<std::size_t>(impl_->primitives.num_vertices()))
+    throw InputError("ContactGuard::flag_cutting_vertices: expected one flag per vertex in `held`");
+  sweep_step(X, D, max_step, nullptr, touching, &held);
+}
+
+double ContactGuard::sweep_step(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
+                                std::vector<ContactPair>* cutting, const std::vector<char>* touching,
+                                std::vector<char>* held) {
+  Impl& m = *impl_;
   m.set_positions(X);
   m.check_shape(D, "D");
   if (touching && touching->size() != static_cast<std::size_t>(m.primitives.num_vertices()))
@@ -471,8 +489,13 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   if (rho == 0) return max_step;
 
   const PairCcdOptions ccd{m.options.keep_fraction, m.options.dhat};
-  // alpha culls the pairs that cannot cut the step further; collecting every cutting pair, it
-  // stays at max_step and `least` keeps the bound.
+  // alpha culls the pairs that cannot cut the step further; collecting every cutting pair (or
+  // its vertices), it stays at max_step and `least` keeps the bound.
+  const bool collecting = cutting || held;
+  // Flags are read and set by both threads: a pair passed over because another thread flagged
+  // its vertices first would have set nothing new.
+  auto flagged = [&](int v) { return std::atomic_ref<char>((*held)[v]).load(std::memory_order_relaxed) != 0; };
+  auto moves = [&](int v) { return !dx[v].isZero(0); };
   std::atomic<double> alpha(max_step), least(max_step);
   std::mutex cutting_mutex;
   // Each pair's bound over a fixed range (max_step, then the listed pairs' bound), not below the
@@ -481,18 +504,24 @@ double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   double ccd_range = max_step;
   auto bound_pair = [&](PairKind kind, const Ids& ids) {
     if (touching && !std::any_of(ids.begin(), ids.end(), [&](int v) { return (*touching)[v]; })) return;
+    if (held && std::all_of(ids.begin(), ids.end(), [&](int v) { return !moves(v) || flagged(v); })) return;
     const PairPoints p = m.points(ids), d = {dx[ids[0]], dx[ids[1]], dx[ids[2]], dx[ids[3]]};
     const double pb = pair_step_bound(kind, p, d, ccd_range, ccd);
-    if (!cutting) {
+    if (!collecting) {
       lower_to(alpha, pb);
     } else if (pb < max_step) {
       lower_to(least, pb);
+      if (held) {
+        for (int v : ids)
+          if (moves(v)) std::atomic_ref<char>((*held)[v]).store(1, std::memory_order_relaxed);
+        return;
+      }
       const std::lock_guard<std::mutex> lock(cutting_mutex);
       cutting->push_back({kind, ids});
     }
   };
   auto result = [&] {
-    if (!cutting) return alpha.load();
+    if (!cutting) return collecting ? least.load() : alpha.load();
     // A pair can be visited by both passes below.
     auto order = [](const ContactPair& a, const ContactPair& b) {
       return std::tie(a.kind, a.vertices) < std::tie(b.kind, b.vertices);

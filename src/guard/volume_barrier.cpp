@@ -171,18 +171,31 @@ Matrix9d projected_det_barrier_hessian(const Eigen::Matrix3d& E, double a, doubl
 } // namespace
 
 void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
-                                const std::vector<int>& active, bool projected) const {
-  // One 12 x 12 block per tet of `active`, written at its own place in H: chunks of tets run in
-  // parallel and the triplets keep the order of `active` (the assembled matrix does not depend on
-  // the schedule). A large repair has hundreds of thousands of active tets.
+                                const std::vector<int>& active, bool projected,
+                                const std::vector<char>* kept_vertices) const {
+  // One 12 x 12 block per tet of `active` (its kept part), written at its own place in H: chunks
+  // of tets run in parallel and the triplets keep the order of `active` (the assembled matrix does
+  // not depend on the schedule). A large repair has hundreds of thousands of active tets.
+  if (kept_vertices && kept_vertices->size() != static_cast<std::size_t>(X.rows()))
+    throw InputError("VolumeBarrier::add_hessian: expected one flag per vertex in `kept_vertices`");
+  auto kept = [&](int vertex) { return !kept_vertices || (*kept_vertices)[vertex]; };
   constexpr int kChunk = 1024;
-  constexpr std::size_t kPerTet = 144;
   const int n = static_cast<int>(active.size());
   const int chunks = (n + kChunk - 1) / kChunk;
-  const std::size_t base = H.size();
-  H.resize(base + kPerTet * active.size());
+  // Where each chunk's triplets start: a tet with f kept corners writes 9 f^2.
+  std::vector<std::size_t> start(chunks + 1, H.size());
+  for (int ci = 0; ci < chunks; ++ci) {
+    std::size_t count = 0;
+    for (int k = ci * kChunk; k < std::min(n, (ci + 1) * kChunk); ++k) {
+      std::size_t f = 0;
+      for (int a = 0; a < 4; ++a) f += kept(T_(active[k], a));
+      count += 9 * f * f;
+    }
+    start[ci + 1] = start[ci] + count;
+  }
+  H.resize(start[chunks]);
   tbb::parallel_for(0, chunks, [&](int ci) {
-    Eigen::Triplet<double>* out = H.data() + base + kPerTet * static_cast<std::size_t>(ci) * kChunk;
+    Eigen::Triplet<double>* out = H.data() + start[ci];
     for (int k = ci * kChunk; k < std::min(n, (ci + 1) * kChunk); ++k) {
       const int t = active[k];
       Eigen::Vector3d g[4];
@@ -218,8 +231,10 @@ void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vec
       }
       for (int a = 0; a < 4; ++a)
         for (int b = 0; b < 4; ++b)
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) *out++ = Eigen::Triplet<double>(3 * T_(t, a) + i, 3 * T_(t, b) + j, hx(3 * a + i, 3 * b + j));
+          if (kept(T_(t, a)) && kept(T_(t, b)))
+            for (int i = 0; i < 3; ++i)
+              for (int j = 0; j < 3; ++j)
+                *out++ = Eigen::Triplet<double>(3 * T_(t, a) + i, 3 * T_(t, b) + j, hx(3 * a + i, 3 * b + j));
     }
   });
 }

@@ -85,8 +85,10 @@ public:
   /// vertices included: a solver drops the rows it does not solve for).
   /// With `projected` false, each pair's block is pair_barrier_gauss_newton instead (no
   /// eigen-decomposition: the cost of a Hessian falls several-fold).
+  /// With `kept_vertices` (one flag per vertex), only the 3 x 3 blocks of two flagged vertices
+  /// are appended, in the same order (as VolumeBarrier::add_hessian).
   void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
-                   bool projected = true);
+                   bool projected = true, const std::vector<char>* kept_vertices = nullptr);
 
   /// The largest alpha in [0, max_step] such that along X + s D, 0 <= s <= alpha, no pair comes
   /// closer than keep_fraction * min(d0, dhat), d0 its distance at X (conservative: the true
@@ -103,6 +105,15 @@ public:
   /// \throws InputError as energy, or when `touching` has not one flag per vertex.
   double step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step = 1,
                     std::vector<ContactPair>* cutting = nullptr, const std::vector<char>* touching = nullptr);
+  /// Sets held[v] for every vertex v that D moves of every pair `cutting` would list (own bound
+  /// below max_step; `touching` as in step_bound), leaving flags already set as they are. A pair
+  /// whose moving vertices are all flagged (by the caller or by an earlier pair of the pass)
+  /// could add none and gets no CCD: a solver holding the vertices of the tets and pairs that
+  /// would cut a step flags its tets' first and is spared most pairs where the two crowd
+  /// together. The flags set are the same whichever pairs the schedule passes over.
+  /// \throws InputError as step_bound, or when `held` has not one flag per vertex.
+  void flag_cutting_vertices(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
+                             std::vector<char>& held, const std::vector<char>* touching = nullptr);
 
   /// Caps each pair's support below dhat by the distances at X: a vertex's cap is `fraction` (in
   /// (0, 1]) times the distance at X of the closest candidate pair it belongs to, a pair's support
@@ -130,6 +141,10 @@ public:
   int fixed_patch_builds() const;
 
 private:
+  // step_bound and flag_cutting_vertices: one of `cutting` and `held` at most.
+  double sweep_step(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
+                    std::vector<ContactPair>* cutting, const std::vector<char>* touching, std::vector<char>* held);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

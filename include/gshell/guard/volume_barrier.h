@@ -38,8 +38,13 @@ public:
   /// The Gauss-Newton part does not see that turning a nearly flat tet further flat (a motion
   /// orthogonal to grad J) lowers J at second order, and psi' ~ -1/J makes that term dominant
   /// there: a solver using it alone keeps squashing such tets, each step clamped by them.
+  /// With `kept_vertices` (one flag per vertex), only the 3 x 3 blocks of two flagged vertices
+  /// are appended, in the same order: a solver that drops the rows and columns of the vertices it
+  /// holds (most tets of a shell have corners on its fixed base) need not receive them.
+  /// \throws InputError when `kept_vertices` has not one flag per row of X.
   void add_hessian(const Eigen::MatrixXd& X, double scale, std::vector<Eigen::Triplet<double>>& H,
-                   const std::vector<int>& active, bool projected = false) const;
+                   const std::vector<int>& active, bool projected = false,
+                   const std::vector<char>* kept_vertices = nullptr) const;
 
   /// Tets with 0 < J < j_hat at X (where the barrier acts), ascending.
   std::vector<int> active_tets(const Eigen::MatrixXd& X) const;
