@@ -109,7 +109,7 @@ public:
   /// below max_step; `touching` as in step_bound), leaving flags already set as they are. A pair
   /// whose moving vertices are all flagged (by the caller or by an earlier pair of the pass)
   /// could add none and gets no CCD: a solver holding the vertices of the tets and pairs that
-  /// would cut a step flags its tets' first and is spared most pairs where the two crowd
+  /// would cut a step flags its tets' vertices first and is spared most pairs where the two crowd
   /// together. The flags set are the same whichever pairs the schedule passes over.
   /// \throws InputError as step_bound, or when `held` has not one flag per vertex.
   void flag_cutting_vertices(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,
