@@ -7,6 +7,8 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/solver/rest_tets.h>
 
+#include "kept_blocks.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -337,21 +339,6 @@ TEST(VolumeBarrier, ProjectedHessianIsPsdAndAboveTheTrueHessian) {
   EXPECT_GE(tested, 10);
 }
 
-// Triplets whose row and column vertices are both flagged, in their order.
-std::vector<Eigen::Triplet<double>> kept_blocks(const std::vector<Eigen::Triplet<double>>& all,
-                                                const std::vector<char>& kept) {
-  std::vector<Eigen::Triplet<double>> out;
-  for (const auto& t : all)
-    if (kept[t.row() / 3] && kept[t.col() / 3]) out.push_back(t);
-  return out;
-}
-
-bool same_triplets(const std::vector<Eigen::Triplet<double>>& a, const std::vector<Eigen::Triplet<double>>& b) {
-  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const auto& x, const auto& y) {
-    return x.row() == y.row() && x.col() == y.col() && x.value() == y.value();
-  });
-}
-
 TEST(VolumeBarrier, HessianOfKeptVerticesIsTheirBlocksInTheSameOrder) {
   // A solver holding some vertices asks only for the blocks between the others: those of the whole
   // Hessian, the same values in the same order (its assembly sums them in that order). Tets share
@@ -369,6 +356,7 @@ TEST(VolumeBarrier, HessianOfKeptVerticesIsTheirBlocksInTheSameOrder) {
       for (int& v : c) v = pick(rng);
       std::sort(c.begin(), c.end());
     } while (std::adjacent_find(c.begin(), c.end()) != c.end());
+    if (t == 0) c = {0, 3, 6, 9}; // no corner kept below: the tet writes nothing
     if (volume6(rest(std::vector<int>(c.begin(), c.end()), Eigen::all)) < 0) std::swap(c[0], c[1]);
     T.row(t) << c[0], c[1], c[2], c[3];
   }
@@ -386,7 +374,7 @@ TEST(VolumeBarrier, HessianOfKeptVerticesIsTheirBlocksInTheSameOrder) {
     barrier.add_hessian(X, 0.7, some, active, projected, &kept);
     ASSERT_EQ(all.size(), 144u * K);
     EXPECT_LT(some.size(), all.size());
-    EXPECT_TRUE(same_triplets(some, kept_blocks(all, kept))) << "projected " << projected;
+    EXPECT_TRUE(test::same_triplets(some, test::kept_blocks(all, kept))) << "projected " << projected;
   }
   const std::vector<char> short_flags(n - 1, 1);
   std::vector<Eigen::Triplet<double>> H;

@@ -413,6 +413,7 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
     for (int i = begin; i < end; ++i) {
       const Impl::Active& active = m.active[i];
       const Ids& ids = m.ids(active);
+      if (std::none_of(ids.begin(), ids.end(), kept)) continue; // writes nothing
       if (projected) {
         h.setZero(); // stays zero for a touching pair
         pair_barrier(active.kind, m.points(ids), active.support, nullptr, &h);

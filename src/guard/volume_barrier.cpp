@@ -198,6 +198,7 @@ void VolumeBarrier::add_hessian(const Eigen::MatrixXd& X, double scale, std::vec
     Eigen::Triplet<double>* out = H.data() + start[ci];
     for (int k = ci * kChunk; k < std::min(n, (ci + 1) * kChunk); ++k) {
       const int t = active[k];
+      if (!kept(T_(t, 0)) && !kept(T_(t, 1)) && !kept(T_(t, 2)) && !kept(T_(t, 3))) continue; // writes nothing
       Eigen::Vector3d g[4];
       const double u = relative_volume(X, t, g) / j_hat_;
       Eigen::Matrix<double, 12, 12> hx = Eigen::Matrix<double, 12, 12>::Zero();
