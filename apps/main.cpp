@@ -115,6 +115,7 @@ std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std:
 
 int main(int argc, char** argv) {
   using namespace gshell::cli;
+  gshell::restart_with_huge_pages(argv); // where the kernel gives them only on request
   gshell::reuse_freed_memory(); // one command per process: keep freed buffers for the next phase
   CLI::App app{"gshell: build and deform shells (Huang et al. 2007, gradient-based shell generation "
                "and deformation)."};

@@ -335,4 +335,7 @@ int bench_main(int argc, char** argv) {
   return 0;
 }
 
-int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kHelp, bench_main); }
+int main(int argc, char** argv) {
+  gshell::restart_with_huge_pages(argv); // as the gshell CLI does
+  return gshell::bench::run_benchmark(argc, argv, kHelp, bench_main);
+}

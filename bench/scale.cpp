@@ -272,11 +272,11 @@ int bench_main(int argc, char** argv) {
 
   const std::string self = std::filesystem::canonical("/proc/self/exe").string();
   std::printf("bench_scale: %s generation at thickness ratio %g, medians of %d rounds of fresh processes; "
-              "Anderson history %s, relative CG tolerance %s, start smoothing %s; load average at start %s\n",
+              "Anderson history %s, relative CG tolerance %s, start smoothing %s; load average at start %s; GLIBC_TUNABLES %s\n",
               tuning.method.c_str(), ratio, runs, tuning.anderson >= 0 ? std::to_string(tuning.anderson).c_str() : "default",
               tuning.cg_relative >= 0 ? std::to_string(tuning.cg_relative).c_str() : "default",
               tuning.start_smoothing >= 0 ? std::to_string(tuning.start_smoothing).c_str() : "default",
-              load_average().c_str());
+              load_average().c_str(), std::getenv("GLIBC_TUNABLES") ? std::getenv("GLIBC_TUNABLES") : "unset");
   std::vector<std::string> specs;
   for (int level : levels) specs.push_back("builtin:sphere:" + std::to_string(level));
   for (const std::string& mesh : meshes) {
@@ -337,4 +337,7 @@ int bench_main(int argc, char** argv) {
   return 0;
 }
 
-int main(int argc, char** argv) { return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main); }
+int main(int argc, char** argv) {
+  gshell::restart_with_huge_pages(argv); // as the gshell CLI does; the cases inherit it
+  return gshell::bench::run_benchmark(argc, argv, kUsage, bench_main);
+}

@@ -1,6 +1,7 @@
 // reuse_freed_memory: a large block the process frees stays in its heap for the next allocation
-// (glibc would otherwise have mapped it on its own and unmapped it at free). Its own executable:
-// the call changes the allocator of the whole process.
+// (glibc would otherwise have mapped it on its own and unmapped it at free). restart_with_huge_pages:
+// a restarted process's heap is in huge pages. Its own executable: the calls change the allocator
+// of the whole process.
 #include <gshell/run/process_memory.h>
 
 #include <gtest/gtest.h>
@@ -14,8 +15,86 @@
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
+#if defined(__linux__) && defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 35))
+#define GSHELL_TEST_HUGE_PAGES 1
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <string>
+#endif
 
 namespace {
+
+#if defined(GSHELL_TEST_HUGE_PAGES)
+constexpr const char* kChildVariable = "GSHELL_HUGE_PAGE_CHILD"; // "1": expect huge pages, "0": none
+
+/// Kilobytes of this process's anonymous memory in transparent huge pages.
+long anon_huge_page_kb() {
+  std::ifstream rollup("/proc/self/smaps_rollup");
+  const std::string key = "AnonHugePages:";
+  for (std::string line; std::getline(rollup, line);)
+    if (line.rfind(key, 0) == 0) return std::stol(line.substr(key.size()));
+  return -1;
+}
+
+/// The restarted test's own process: before gtest starts, it touches 64 MB of heap and exits 0 if
+/// huge pages back it as expected, 3 if not (the parent test reads the exit status).
+const bool kRanAsChild = [] {
+  const char* expect = std::getenv(kChildVariable);
+  if (!expect) return false;
+  gshell::reuse_freed_memory(); // as the CLI: every block from the heap
+  constexpr std::size_t kBlock = std::size_t{64} << 20;
+  static char* volatile block; // volatile: the stores below must happen
+  block = static_cast<char*>(std::malloc(kBlock));
+  if (!block) _exit(4);
+  std::memset(block, 1, kBlock);
+  const long kb = anon_huge_page_kb();
+  std::fprintf(stderr, "child (expecting %s): AnonHugePages %ld kB\n", expect, kb);
+  _exit((std::strcmp(expect, "1") == 0 ? kb >= static_cast<long>(kBlock >> 11) : kb == 0) ? 0 : 3); // half the block, in kB
+}();
+
+std::string transparent_huge_page_mode() {
+  std::string line;
+  std::getline(std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled"), line);
+  const size_t open = line.find('['), close = line.find(']');
+  return open == std::string::npos || close == std::string::npos ? "" : line.substr(open + 1, close - open - 1);
+}
+
+/// Forks a child that sets GLIBC_TUNABLES to `tunables` (nullptr: unset), calls
+/// restart_with_huge_pages and, if that returns, restarts itself unchanged; returns the exit status
+/// of the process that results.
+int status_of_restarted_child(const char* tunables, const char* expect) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    if (tunables) setenv("GLIBC_TUNABLES", tunables, 1);
+    else unsetenv("GLIBC_TUNABLES");
+    setenv(kChildVariable, expect, 1);
+    char self[] = "process_memory_test";
+    char* argv[] = {self, nullptr};
+    gshell::restart_with_huge_pages(argv);
+    execv("/proc/self/exe", argv);
+    _exit(5);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Where the kernel gives huge pages only on request, the restarted process's heap asks for them;
+// a GLIBC_TUNABLES that already names the setting (here: off) is left alone and nothing restarts.
+TEST(ProcessMemory, RestartGivesTheHeapHugePagesUnlessTheUserChoseOtherwise) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer has its own allocator";
+#endif
+  if (transparent_huge_page_mode() != "madvise")
+    GTEST_SKIP() << "transparent huge pages are '" << transparent_huge_page_mode() << "' here, not 'madvise'";
+  EXPECT_FALSE(kRanAsChild);
+  EXPECT_EQ(status_of_restarted_child(nullptr, "1"), 0);
+  EXPECT_EQ(status_of_restarted_child("glibc.malloc.check=0", "1"), 0) << "other tunables are kept beside it";
+  EXPECT_EQ(status_of_restarted_child("glibc.malloc.hugetlb=0", "0"), 0);
+}
+#endif
 
 #if defined(__GLIBC__)
 TEST(ProcessMemory, AFreedLargeBlockStaysInTheHeap) {

@@ -5,6 +5,15 @@
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
+#if defined(__linux__) && defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 35))
+#define GSHELL_GLIBC_HUGE_PAGES 1 // glibc 2.35 brought the glibc.malloc.hugetlb tunable
+#include <unistd.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+#endif
 
 namespace gshell {
 
@@ -15,6 +24,27 @@ void reuse_freed_memory() {
   // One arena for all threads: a block a worker thread asks for then comes from the heap where
   // the main thread's freed buffers are, not from fresh pages of an arena of its own.
   mallopt(M_ARENA_MAX, 1);
+#endif
+}
+
+void restart_with_huge_pages(char** argv) {
+#if defined(GSHELL_GLIBC_HUGE_PAGES)
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (tunables && std::strstr(tunables, "glibc.malloc.hugetlb")) return;
+  // valgrind runs its client with its own preload library; an exec would leave valgrind behind.
+  if (const char* preload = std::getenv("LD_PRELOAD"); preload && std::strstr(preload, "vgpreload")) return;
+  std::string mode;
+  std::getline(std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled"), mode);
+  if (mode.find("[madvise]") == std::string::npos) return;
+  const std::string before = tunables ? tunables : "";
+  const std::string with_huge_pages = (before.empty() ? "" : before + ":") + "glibc.malloc.hugetlb=1";
+  if (setenv("GLIBC_TUNABLES", with_huge_pages.c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // Still here: the restart failed; carry on as before, with the environment as it was.
+  if (tunables) setenv("GLIBC_TUNABLES", before.c_str(), 1);
+  else unsetenv("GLIBC_TUNABLES");
+#else
+  (void)argv;
 #endif
 }
 

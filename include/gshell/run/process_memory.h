@@ -16,4 +16,20 @@ namespace gshell {
 /// where the C library is not glibc.
 void reuse_freed_memory();
 
+/// Restarts the process once, with the same arguments (`execv` of /proc/self/exe), with glibc's
+/// malloc told to ask for transparent huge pages for its heap (`GLIBC_TUNABLES` gains
+/// `glibc.malloc.hugetlb=1`), where the kernel gives huge pages only to memory that asks for them
+/// (transparent_hugepage "madvise" mode, the default of Ubuntu among others; "always" needs no
+/// asking). Why: a generation on millions of vertices walks gigabytes of tets, trees and matrices
+/// every iteration; in 4 KB pages that is a TLB miss per few tets and a page fault per 4 KB on first
+/// touch, both far dearer in a virtual machine. At builtin:sphere:9 (3.4 GB) huge pages took the
+/// faults from 0.87 M to 6 K and an iteration from 1.7 to 1.2 s (docs/scale.md).
+/// Returns without restarting where it cannot help or would surprise: not Linux with glibc 2.35 or
+/// later; the mode is not "madvise"; `GLIBC_TUNABLES` already names glibc.malloc.hugetlb (so a
+/// restarted process does not restart again, and `GLIBC_TUNABLES=glibc.malloc.hugetlb=0` opts
+/// out); the process runs under valgrind (whose restarted child would run untraced); or the
+/// restart fails. Call first thing in `main`, before any thread or output; for one-job processes
+/// (the CLI, the benchmarks), not from a library inside a host.
+void restart_with_huge_pages(char** argv);
+
 } // namespace gshell
