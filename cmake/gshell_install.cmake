@@ -20,5 +20,5 @@ configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/gshellConfig.cmake.in
 write_basic_package_version_file(${CMAKE_BINARY_DIR}/gshellConfigVersion.cmake COMPATIBILITY SameMinorVersion)
 install(FILES ${CMAKE_BINARY_DIR}/gshellConfig.cmake ${CMAKE_BINARY_DIR}/gshellConfigVersion.cmake
               ${PROJECT_SOURCE_DIR}/cmake/FindGshellStb.cmake ${PROJECT_SOURCE_DIR}/cmake/FindGshellCHOLMOD.cmake
-              ${PROJECT_SOURCE_DIR}/cmake/FindGshellOSMesa.cmake ${PROJECT_SOURCE_DIR}/cmake/gshell_find_library.cmake
+              ${PROJECT_SOURCE_DIR}/cmake/gshell_find_library.cmake
         DESTINATION ${GSHELL_INSTALL_CMAKEDIR})

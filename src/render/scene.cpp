@@ -3,11 +3,7 @@
 #include <gshell/error.h>
 
 #include "render/box_filter.h"
-
-#ifdef GSHELL_HAVE_OSMESA
-#include <GL/gl.h>
-#include <GL/osmesa.h>
-#endif
+#include "render/osmesa_library.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,7 +15,7 @@ namespace gshell {
 
 bool offscreen_rendering_available() {
 #ifdef GSHELL_HAVE_OSMESA
-  return true;
+  return detail::osmesa_library() != nullptr;
 #else
   return false;
 #endif
@@ -111,22 +107,23 @@ Soup make_soup(const SurfaceLayer& layer, const UnitFrame& frame) {
   return soup;
 }
 
-void draw_soup(const Soup& soup, const std::optional<Eigen::Vector3f>& back_color) {
+void draw_soup(const detail::OSMesaLibrary& gl, const Soup& soup, const std::optional<Eigen::Vector3f>& back_color) {
   if (back_color) {
     const GLfloat back[] = {(*back_color)[0], (*back_color)[1], (*back_color)[2], soup.color.empty() ? 1.0f : soup.color[3]};
-    glColorMaterial(GL_FRONT, GL_AMBIENT_AND_DIFFUSE);
-    glMaterialfv(GL_BACK, GL_AMBIENT_AND_DIFFUSE, back);
+    gl.ColorMaterial(GL_FRONT, GL_AMBIENT_AND_DIFFUSE);
+    gl.Materialfv(GL_BACK, GL_AMBIENT_AND_DIFFUSE, back);
   } else {
-    glColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
+    gl.ColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
   }
-  glVertexPointer(3, GL_FLOAT, 0, soup.position.data());
-  glNormalPointer(GL_FLOAT, 0, soup.normal.data());
-  glColorPointer(4, GL_FLOAT, 0, soup.color.data());
-  glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(soup.position.size() / 3));
+  gl.VertexPointer(3, GL_FLOAT, 0, soup.position.data());
+  gl.NormalPointer(GL_FLOAT, 0, soup.normal.data());
+  gl.ColorPointer(4, GL_FLOAT, 0, soup.color.data());
+  gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(soup.position.size() / 3));
 }
 
 struct ContextDeleter {
-  void operator()(osmesa_context* context) const { OSMesaDestroyContext(context); }
+  const detail::OSMesaLibrary* gl;
+  void operator()(osmesa_context* context) const { gl->OSMesaDestroyContext(context); }
 };
 
 #endif
@@ -147,18 +144,22 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   const int w = options.width * ss, h = options.height * ss;
 
   const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_PROFILE, OSMESA_COMPAT_PROFILE, 0};
-  std::unique_ptr<osmesa_context, ContextDeleter> context(OSMesaCreateContextAttribs(attributes, nullptr));
+  std::string why;
+  const detail::OSMesaLibrary* library = detail::osmesa_library(&why);
+  if (!library) throw std::runtime_error("render: " + why);
+  const detail::OSMesaLibrary& gl = *library;
+  std::unique_ptr<osmesa_context, ContextDeleter> context(gl.OSMesaCreateContextAttribs(attributes, nullptr), ContextDeleter{&gl});
   if (!context) throw std::runtime_error("render: cannot create an OSMesa context");
   std::vector<unsigned char> buffer(static_cast<size_t>(w) * h * 4);
-  if (!OSMesaMakeCurrent(context.get(), buffer.data(), GL_UNSIGNED_BYTE, w, h))
+  if (!gl.OSMesaMakeCurrent(context.get(), buffer.data(), GL_UNSIGNED_BYTE, w, h))
     throw std::runtime_error("render: cannot bind the OSMesa buffer");
-  OSMesaPixelStore(OSMESA_Y_UP, 0); // row 0 = top, like Image
+  gl.OSMesaPixelStore(OSMESA_Y_UP, 0); // row 0 = top, like Image
 
-  glViewport(0, 0, w, h);
-  glClearColor(options.background.x(), options.background.y(), options.background.z(), 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LEQUAL);
+  gl.Viewport(0, 0, w, h);
+  gl.ClearColor(options.background.x(), options.background.y(), options.background.z(), 1.0f);
+  gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.DepthFunc(GL_LEQUAL);
 
   UnitFrame frame;
   Camera unit_camera = camera; // the same view of the scene in `frame`
@@ -171,68 +172,68 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
     unit_camera.far_plane *= frame.scale;
   }
 
-  glMatrixMode(GL_PROJECTION);
+  gl.MatrixMode(GL_PROJECTION);
   const Eigen::Matrix4d projection = unit_camera.projection_matrix(static_cast<double>(w) / h);
-  glLoadMatrixd(projection.data());
-  glMatrixMode(GL_MODELVIEW);
-  glLoadIdentity();
+  gl.LoadMatrixd(projection.data());
+  gl.MatrixMode(GL_MODELVIEW);
+  gl.LoadIdentity();
 
   // Headlight: a directional light along the view axis, fixed in eye space.
   const GLfloat light_direction[] = {0, 0, 1, 0};
   const GLfloat ambient[] = {options.ambient, options.ambient, options.ambient, 1};
   const GLfloat diffuse[] = {options.diffuse, options.diffuse, options.diffuse, 1};
   const GLfloat none[] = {0, 0, 0, 1};
-  glLightfv(GL_LIGHT0, GL_POSITION, light_direction);
-  glLightfv(GL_LIGHT0, GL_AMBIENT, ambient);
-  glLightfv(GL_LIGHT0, GL_DIFFUSE, diffuse);
-  glLightfv(GL_LIGHT0, GL_SPECULAR, none);
-  glLightModelfv(GL_LIGHT_MODEL_AMBIENT, none);
-  glLightModeli(GL_LIGHT_MODEL_TWO_SIDE, GL_TRUE); // open surfaces look the same from both sides
-  glMaterialfv(GL_FRONT_AND_BACK, GL_SPECULAR, none);
-  glMaterialfv(GL_FRONT_AND_BACK, GL_EMISSION, none);
-  glEnable(GL_LIGHTING);
-  glEnable(GL_LIGHT0);
-  glEnable(GL_COLOR_MATERIAL);
-  glColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
-  glShadeModel(GL_SMOOTH);
+  gl.Lightfv(GL_LIGHT0, GL_POSITION, light_direction);
+  gl.Lightfv(GL_LIGHT0, GL_AMBIENT, ambient);
+  gl.Lightfv(GL_LIGHT0, GL_DIFFUSE, diffuse);
+  gl.Lightfv(GL_LIGHT0, GL_SPECULAR, none);
+  gl.LightModelfv(GL_LIGHT_MODEL_AMBIENT, none);
+  gl.LightModeli(GL_LIGHT_MODEL_TWO_SIDE, GL_TRUE); // open surfaces look the same from both sides
+  gl.Materialfv(GL_FRONT_AND_BACK, GL_SPECULAR, none);
+  gl.Materialfv(GL_FRONT_AND_BACK, GL_EMISSION, none);
+  gl.Enable(GL_LIGHTING);
+  gl.Enable(GL_LIGHT0);
+  gl.Enable(GL_COLOR_MATERIAL);
+  gl.ColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
+  gl.ShadeModel(GL_SMOOTH);
 
   const Eigen::Matrix4d view = unit_camera.view_matrix();
-  glLoadMatrixd(view.data());
+  gl.LoadMatrixd(view.data());
   if (scene.clip_plane) {
     // n.x + d = 0 with x = origin + x' / scale  <=>  n.x' + scale (n.origin + d) = 0
     const Eigen::Vector4d& c = *scene.clip_plane;
     const GLdouble plane[4] = {c[0], c[1], c[2], frame.scale * (c.head<3>().dot(frame.origin) + c[3])};
-    glClipPlane(GL_CLIP_PLANE0, plane); // taken in world coordinates: the view matrix is current
-    glEnable(GL_CLIP_PLANE0);
+    gl.ClipPlane(GL_CLIP_PLANE0, plane); // taken in world coordinates: the view matrix is current
+    gl.Enable(GL_CLIP_PLANE0);
   }
 
-  glEnableClientState(GL_VERTEX_ARRAY);
-  glEnableClientState(GL_NORMAL_ARRAY);
-  glEnableClientState(GL_COLOR_ARRAY);
+  gl.EnableClientState(GL_VERTEX_ARRAY);
+  gl.EnableClientState(GL_NORMAL_ARRAY);
+  gl.EnableClientState(GL_COLOR_ARRAY);
   std::vector<std::pair<Soup, std::optional<Eigen::Vector3f>>> translucent;
   for (const auto& layer : scene.layers) {
-    if (layer.opacity >= 1.0f) draw_soup(make_soup(layer, frame), layer.back_color);
+    if (layer.opacity >= 1.0f) draw_soup(gl, make_soup(layer, frame), layer.back_color);
     else if (layer.opacity > 0.0f) translucent.emplace_back(make_soup(layer, frame), layer.back_color);
   }
   if (!translucent.empty()) {
     // Blended after every opaque surface, without writing depth; back faces before front faces
     // is the cheap ordering that is right for closed, convex-ish layers.
-    glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-    glDepthMask(GL_FALSE);
-    glEnable(GL_CULL_FACE);
+    gl.Enable(GL_BLEND);
+    gl.BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    gl.DepthMask(GL_FALSE);
+    gl.Enable(GL_CULL_FACE);
     for (GLenum cull : {GL_FRONT, GL_BACK}) {
-      glCullFace(cull);
-      for (const auto& [soup, back_color] : translucent) draw_soup(soup, back_color);
+      gl.CullFace(cull);
+      for (const auto& [soup, back_color] : translucent) draw_soup(gl, soup, back_color);
     }
-    glDisable(GL_CULL_FACE);
-    glDepthMask(GL_TRUE);
-    glDisable(GL_BLEND);
+    gl.Disable(GL_CULL_FACE);
+    gl.DepthMask(GL_TRUE);
+    gl.Disable(GL_BLEND);
   }
-  glFinish();
-  if (glGetError() != GL_NO_ERROR) throw std::runtime_error("render: OpenGL error");
+  gl.Finish();
+  if (gl.GetError() != GL_NO_ERROR) throw std::runtime_error("render: OpenGL error");
 
-  OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
+  gl.OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
   // Box filter straight from the RGBA buffer: one pass over the big image.
   Image image(options.width, options.height);
   detail::box_filter(buffer.data(), w, 4, ss, image);
