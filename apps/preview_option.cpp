@@ -9,7 +9,9 @@
 namespace gshell::cli {
 
 void require_renderer() {
-  if (!offscreen_rendering_available()) throw InputError("--render: gshell was built without OSMesa");
+  if (!offscreen_rendering_available())
+    throw InputError("--render: no OSMesa (gshell was built without it, or libOSMesa.so.8 cannot be loaded: "
+                     "install libosmesa6)");
 }
 
 void add_preview_flags(CLI::App& cmd, bool& render, std::string& view, const std::string& what) {

@@ -23,14 +23,13 @@ template <class Function> bool bind(void* handle, const char* name, Function& f,
 
 Loaded load() {
   Loaded loaded;
-  void* handle = nullptr;
   // The runtime library's name (Debian's libosmesa6), then the development symlink.
-  for (const char* name : {"libOSMesa.so.8", "libOSMesa.so"})
-    if ((handle = dlopen(name, RTLD_NOW | RTLD_LOCAL))) break;
+  void* handle = dlopen("libOSMesa.so.8", RTLD_NOW | RTLD_LOCAL);
   if (!handle) {
-    const char* error = dlerror();
+    const char* error = dlerror(); // about the name users should install, not the fallback
     loaded.why = std::string("cannot load libOSMesa.so.8 (install libosmesa6)") + (error ? ": " + std::string(error) : "");
-    return loaded;
+    if (!(handle = dlopen("libOSMesa.so", RTLD_NOW | RTLD_LOCAL))) return loaded;
+    loaded.why.clear();
   }
   OSMesaLibrary l{};
   std::string& why = loaded.why;

@@ -146,7 +146,7 @@ Image render_scene(const Scene& scene, const Camera& camera, const RenderOptions
   const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_PROFILE, OSMESA_COMPAT_PROFILE, 0};
   std::string why;
   const detail::OSMesaLibrary* library = detail::osmesa_library(&why);
-  if (!library) throw std::runtime_error("render: " + why);
+  if (!library) throw InputError("render: " + why); // as when built without it: the setup, not a bug
   const detail::OSMesaLibrary& gl = *library;
   std::unique_ptr<osmesa_context, ContextDeleter> context(gl.OSMesaCreateContextAttribs(attributes, nullptr), ContextDeleter{&gl});
   if (!context) throw std::runtime_error("render: cannot create an OSMesa context");
