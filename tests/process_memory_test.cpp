@@ -54,13 +54,6 @@ const bool kRanAsChild = [] {
   _exit((std::strcmp(expect, "1") == 0 ? kb >= static_cast<long>(kBlock >> 11) : kb == 0) ? 0 : 3); // half the block, in kB
 }();
 
-std::string transparent_huge_page_mode() {
-  std::string line;
-  std::getline(std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled"), line);
-  const size_t open = line.find('['), close = line.find(']');
-  return open == std::string::npos || close == std::string::npos ? "" : line.substr(open + 1, close - open - 1);
-}
-
 /// Forks a child that sets GLIBC_TUNABLES to `tunables` (nullptr: unset), calls
 /// restart_with_huge_pages and, if that returns, restarts itself unchanged; returns the exit status
 /// of the process that results.
@@ -87,8 +80,8 @@ TEST(ProcessMemory, RestartGivesTheHeapHugePagesUnlessTheUserChoseOtherwise) {
 #if defined(__SANITIZE_ADDRESS__)
   GTEST_SKIP() << "AddressSanitizer has its own allocator";
 #endif
-  if (transparent_huge_page_mode() != "madvise")
-    GTEST_SKIP() << "transparent huge pages are '" << transparent_huge_page_mode() << "' here, not 'madvise'";
+  if (const std::string mode = gshell::transparent_huge_page_mode(); mode != "madvise")
+    GTEST_SKIP() << "transparent huge pages are '" << mode << "' here, not 'madvise'";
   EXPECT_FALSE(kRanAsChild);
   EXPECT_EQ(status_of_restarted_child(nullptr, "1"), 0);
   EXPECT_EQ(status_of_restarted_child("glibc.malloc.check=0", "1"), 0) << "other tunables are kept beside it";

@@ -32,28 +32,10 @@ Loaded load() {
     loaded.why.clear();
   }
   OSMesaLibrary l{};
-  std::string& why = loaded.why;
-  const bool all = bind(handle, "OSMesaCreateContextAttribs", l.OSMesaCreateContextAttribs, why) &&
-                   bind(handle, "OSMesaMakeCurrent", l.OSMesaMakeCurrent, why) &&
-                   bind(handle, "OSMesaPixelStore", l.OSMesaPixelStore, why) &&
-                   bind(handle, "OSMesaDestroyContext", l.OSMesaDestroyContext, why) &&
-                   bind(handle, "glBlendFunc", l.BlendFunc, why) && bind(handle, "glClear", l.Clear, why) &&
-                   bind(handle, "glClearColor", l.ClearColor, why) && bind(handle, "glClipPlane", l.ClipPlane, why) &&
-                   bind(handle, "glColorMaterial", l.ColorMaterial, why) &&
-                   bind(handle, "glColorPointer", l.ColorPointer, why) && bind(handle, "glCullFace", l.CullFace, why) &&
-                   bind(handle, "glDepthFunc", l.DepthFunc, why) && bind(handle, "glDepthMask", l.DepthMask, why) &&
-                   bind(handle, "glDisable", l.Disable, why) && bind(handle, "glDrawArrays", l.DrawArrays, why) &&
-                   bind(handle, "glEnable", l.Enable, why) &&
-                   bind(handle, "glEnableClientState", l.EnableClientState, why) &&
-                   bind(handle, "glFinish", l.Finish, why) && bind(handle, "glGetError", l.GetError, why) &&
-                   bind(handle, "glLightModelfv", l.LightModelfv, why) &&
-                   bind(handle, "glLightModeli", l.LightModeli, why) && bind(handle, "glLightfv", l.Lightfv, why) &&
-                   bind(handle, "glLoadIdentity", l.LoadIdentity, why) &&
-                   bind(handle, "glLoadMatrixd", l.LoadMatrixd, why) && bind(handle, "glMaterialfv", l.Materialfv, why) &&
-                   bind(handle, "glMatrixMode", l.MatrixMode, why) &&
-                   bind(handle, "glNormalPointer", l.NormalPointer, why) &&
-                   bind(handle, "glShadeModel", l.ShadeModel, why) &&
-                   bind(handle, "glVertexPointer", l.VertexPointer, why) && bind(handle, "glViewport", l.Viewport, why);
+  bool all = true;
+#define GSHELL_OSMESA_BIND(member, symbol) all = all && bind(handle, #symbol, l.member, loaded.why);
+  GSHELL_OSMESA_ENTRY_POINTS(GSHELL_OSMESA_BIND)
+#undef GSHELL_OSMESA_BIND
   if (all) loaded.library = l;
   return loaded; // the handle stays open: the process may render again
 }

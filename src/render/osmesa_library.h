@@ -11,39 +11,26 @@
 
 namespace gshell::detail {
 
-/// Entry points of the loaded library, named as in OpenGL without the "gl" prefix (`Enable` is
-/// glEnable); the types come from the headers the build found.
+/// The entry points the renderer calls, once each: X(member, symbol). OpenGL's are named without
+/// the "gl" prefix (`Enable` is glEnable).
+#define GSHELL_OSMESA_ENTRY_POINTS(X)                                                                \
+  X(OSMesaCreateContextAttribs, OSMesaCreateContextAttribs)                                          \
+  X(OSMesaMakeCurrent, OSMesaMakeCurrent) X(OSMesaPixelStore, OSMesaPixelStore)                      \
+  X(OSMesaDestroyContext, OSMesaDestroyContext) X(BlendFunc, glBlendFunc) X(Clear, glClear)          \
+  X(ClearColor, glClearColor) X(ClipPlane, glClipPlane) X(ColorMaterial, glColorMaterial)            \
+  X(ColorPointer, glColorPointer) X(CullFace, glCullFace) X(DepthFunc, glDepthFunc)                  \
+  X(DepthMask, glDepthMask) X(Disable, glDisable) X(DrawArrays, glDrawArrays) X(Enable, glEnable)    \
+  X(EnableClientState, glEnableClientState) X(Finish, glFinish) X(GetError, glGetError)              \
+  X(LightModelfv, glLightModelfv) X(LightModeli, glLightModeli) X(Lightfv, glLightfv)                \
+  X(LoadIdentity, glLoadIdentity) X(LoadMatrixd, glLoadMatrixd) X(Materialfv, glMaterialfv)          \
+  X(MatrixMode, glMatrixMode) X(NormalPointer, glNormalPointer) X(ShadeModel, glShadeModel)          \
+  X(VertexPointer, glVertexPointer) X(Viewport, glViewport)
+
+/// Entry points of the loaded library; the types come from the headers the build found.
 struct OSMesaLibrary {
-  decltype(&::OSMesaCreateContextAttribs) OSMesaCreateContextAttribs;
-  decltype(&::OSMesaMakeCurrent) OSMesaMakeCurrent;
-  decltype(&::OSMesaPixelStore) OSMesaPixelStore;
-  decltype(&::OSMesaDestroyContext) OSMesaDestroyContext;
-  decltype(&::glBlendFunc) BlendFunc;
-  decltype(&::glClear) Clear;
-  decltype(&::glClearColor) ClearColor;
-  decltype(&::glClipPlane) ClipPlane;
-  decltype(&::glColorMaterial) ColorMaterial;
-  decltype(&::glColorPointer) ColorPointer;
-  decltype(&::glCullFace) CullFace;
-  decltype(&::glDepthFunc) DepthFunc;
-  decltype(&::glDepthMask) DepthMask;
-  decltype(&::glDisable) Disable;
-  decltype(&::glDrawArrays) DrawArrays;
-  decltype(&::glEnable) Enable;
-  decltype(&::glEnableClientState) EnableClientState;
-  decltype(&::glFinish) Finish;
-  decltype(&::glGetError) GetError;
-  decltype(&::glLightModelfv) LightModelfv;
-  decltype(&::glLightModeli) LightModeli;
-  decltype(&::glLightfv) Lightfv;
-  decltype(&::glLoadIdentity) LoadIdentity;
-  decltype(&::glLoadMatrixd) LoadMatrixd;
-  decltype(&::glMaterialfv) Materialfv;
-  decltype(&::glMatrixMode) MatrixMode;
-  decltype(&::glNormalPointer) NormalPointer;
-  decltype(&::glShadeModel) ShadeModel;
-  decltype(&::glVertexPointer) VertexPointer;
-  decltype(&::glViewport) Viewport;
+#define GSHELL_OSMESA_MEMBER(member, symbol) decltype(&::symbol) member;
+  GSHELL_OSMESA_ENTRY_POINTS(GSHELL_OSMESA_MEMBER)
+#undef GSHELL_OSMESA_MEMBER
 };
 
 /// The library, loaded on the first call (thread-safe; it stays loaded), or nullptr when it cannot

@@ -1,6 +1,7 @@
 #include <gshell/run/process_memory.h>
 
 #include <climits> // also brings glibc's <features.h>, which defines __GLIBC__
+#include <fstream>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -11,8 +12,6 @@
 
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
-#include <string>
 #endif
 
 namespace gshell {
@@ -33,9 +32,7 @@ void restart_with_huge_pages(char** argv) {
   if (tunables && std::strstr(tunables, "glibc.malloc.hugetlb")) return;
   // valgrind runs its client with its own preload library; an exec would leave valgrind behind.
   if (const char* preload = std::getenv("LD_PRELOAD"); preload && std::strstr(preload, "vgpreload")) return;
-  std::string mode;
-  std::getline(std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled"), mode);
-  if (mode.find("[madvise]") == std::string::npos) return;
+  if (transparent_huge_page_mode() != "madvise") return;
   const std::string before = tunables ? tunables : "";
   const std::string with_huge_pages = (before.empty() ? "" : before + ":") + "glibc.malloc.hugetlb=1";
   if (setenv("GLIBC_TUNABLES", with_huge_pages.c_str(), 1) != 0) return;
@@ -46,6 +43,13 @@ void restart_with_huge_pages(char** argv) {
 #else
   (void)argv;
 #endif
+}
+
+std::string transparent_huge_page_mode() {
+  std::string line;
+  std::getline(std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled"), line);
+  const size_t open = line.find('['), close = line.find(']', open);
+  return open == std::string::npos || close == std::string::npos ? "" : line.substr(open + 1, close - open - 1);
 }
 
 } // namespace gshell

@@ -1,5 +1,7 @@
 #pragma once
 // Memory policy for processes that run one job and exit (the CLI, the benchmarks).
+#include <string>
+
 namespace gshell {
 
 /// Keeps memory the process frees for its next allocations instead of returning it to the
@@ -31,5 +33,9 @@ void reuse_freed_memory();
 /// restart fails. Call first thing in `main`, before any thread or output; for one-job processes
 /// (the CLI, the benchmarks), not from a library inside a host.
 void restart_with_huge_pages(char** argv);
+
+/// The kernel's transparent huge page mode ("always", "madvise" or "never", the bracketed word of
+/// /sys/kernel/mm/transparent_hugepage/enabled); "" where there is no such file.
+std::string transparent_huge_page_mode();
 
 } // namespace gshell
