@@ -5,6 +5,7 @@
 #include "preview_option.h"
 #include "progress.h"
 
+#include <gshell/quality/certificate_report.h>
 #include <gshell/run/deform_run.h>
 #include <gshell/run/staged_folder.h>
 
@@ -60,6 +61,10 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     if (f.result.method == FrameMethod::Failed && f.result.fresh_top) line += ", fresh top";
     line += ")";
     if (f.result.certificate.inverted_tets > 0) line += ", " + std::to_string(f.result.certificate.inverted_tets) + " inverted";
+    if (!f.result.valid) {
+      const std::string faults = unavoidable_faults(f.result.certificate, f.result.unextrudable_vertices);
+      if (!faults.empty()) line += "; " + faults;
+    }
     if (f.offset) {
       std::snprintf(text, sizeof text, " | offset %.3g, %d inverted", f.offset->volume_mean, f.offset->inverted);
       line += text;

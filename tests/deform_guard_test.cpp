@@ -288,6 +288,9 @@ TEST(DeformGuard, AVertexTheMotionMakesUnextrudableKeepsTheFramesGuarded) {
     EXPECT_NE(r.method, FrameMethod::Failed) << "frame " << i;
     EXPECT_TRUE(c.intersections.empty()) << "frame " << i;
     if (!unextrudable) EXPECT_EQ(c.inverted_tets, 0) << "frame " << i;
+    // The frame names the vertex that makes it invalid (and nothing while it is valid).
+    EXPECT_EQ(r.unextrudable_vertices, r.valid ? std::vector<int>{} : std::vector<int>{kApex}) << "frame " << i;
+    EXPECT_EQ(r.valid, c.valid()) << "frame " << i;
     // Only tets over a whole base face with the apex's top, those the apex forces (without the
     // apex left out: 3-4 inverted tets elsewhere too and 12 intersecting pairs, frames failed).
     for (int t : c.inverted_tet_ids) {

@@ -781,7 +781,7 @@ def bend_plane(V, degrees, band):
 
 
 FRAME_FIELDS = {"valid", "method", "resumed", "fresh_top", "substeps", "guarded_iterations", "thinned_vertices",
-                "certificate", "base_self_intersections"}
+                "certificate", "base_self_intersections", "unextrudable_vertices"}
 
 
 class DeformGuardTest(TempDirTest):

@@ -3,6 +3,7 @@
 #include "frame_guard.h"
 
 #include <gshell/error.h>
+#include <gshell/guard/extrusion_directions.h>
 #include <gshell/seconds_since.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/quality/triangle_intersections.h>
@@ -344,6 +345,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
     }
     result.certificate_seconds = seconds_since(certify_start);
     result.valid = result.certificate.valid();
+    if (!result.valid) result.unextrudable_vertices = extrusion_directions(X.topRows(n), rest_.F).unextrudable;
     // A certified frame is free of contacts whatever made it: the next frame may guard them again.
     if (!options.allow_invalid && result.valid) {
       current_clean_ = true;

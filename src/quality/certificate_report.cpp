@@ -44,4 +44,21 @@ std::string certificate_summary(const ShellCertificate& c) {
   return line;
 }
 
+std::string first_ids(const std::vector<int>& ids, std::size_t shown) {
+  std::string text;
+  for (std::size_t i = 0; i < ids.size() && i < shown; ++i) text += (i ? ", " : "") + std::to_string(ids[i]);
+  if (ids.size() > shown) text += ", ...";
+  return text;
+}
+
+std::string unavoidable_faults(const ShellCertificate& c, const std::vector<int>& unextrudable_vertices) {
+  std::string text;
+  if (c.base_self_intersections > 0)
+    text = "its base crosses itself at " + std::to_string(c.base_self_intersections) + " face pairs";
+  if (!unextrudable_vertices.empty())
+    text += (text.empty() ? "" : ", and ") + std::to_string(unextrudable_vertices.size()) +
+            " base vertices cannot be extruded (" + first_ids(unextrudable_vertices) + ")";
+  return text;
+}
+
 } // namespace gshell

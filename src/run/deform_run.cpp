@@ -98,6 +98,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
                                             {"exact", ShellCertificate::exact},
                                             {"seconds", r.certificate_seconds}};
   j["base_self_intersections"] = count_or_null(c.base_self_intersections);
+  j["unextrudable_vertices"] = r.unextrudable_vertices;
   return j;
 }
 

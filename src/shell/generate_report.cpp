@@ -103,12 +103,8 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
                 " pairs of faces cross): no top can be clean near those crossings" +
                 (r.guarded ? std::string(", the shell is guarded everywhere else") : std::string()));
   if (!r.unextrudable_vertices.empty()) {
-    std::string ids;
-    for (std::size_t i = 0; i < r.unextrudable_vertices.size() && i < 10; ++i)
-      ids += (i ? ", " : "") + std::to_string(r.unextrudable_vertices[i]);
-    if (r.unextrudable_vertices.size() > 10) ids += ", ...";
     w.push_back(std::to_string(r.unextrudable_vertices.size()) +
-                " base vertices cannot be extruded (" + ids +
+                " base vertices cannot be extruded (" + first_ids(r.unextrudable_vertices) +
                 "; no direction sees all their faces from the positive side, or on the rim their side walls "
                 "cut through their own faces): prisms around them may stay inverted");
   }
@@ -120,11 +116,9 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
     std::vector<int> vertices = unmended_vertices(start, r.shell.F, static_cast<int>(r.shell.base.rows()));
     const Eigen::VectorXd& margin = r.guard.directions.margin;
     std::stable_sort(vertices.begin(), vertices.end(), [&](int a, int b) { return margin[a] < margin[b]; });
-    std::string ids;
-    for (std::size_t i = 0; i < vertices.size() && i < 10; ++i) ids += (i ? ", " : "") + std::to_string(vertices[i]);
-    if (vertices.size() > 10) ids += ", ...";
     w.push_back("the valid start could not mend " + std::to_string(start.inverted_tets.size()) + " tets and " +
-                std::to_string(start.intersections.size()) + " boundary triangle pairs around base vertices " + ids +
+                std::to_string(start.intersections.size()) + " boundary triangle pairs around base vertices " +
+                first_ids(vertices) +
                 format(" (smallest extrusion margin %.2g: faces folded nearly flat onto each other)",
                        vertices.empty() ? 0.0 : margin[vertices.front()]) +
                 ", the shell is guarded everywhere else");

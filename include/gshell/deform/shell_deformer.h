@@ -129,6 +129,11 @@ struct FrameResult {
   /// The certificate holds (options.certify), else the frame's method guarantees it (Bounded,
   /// Guarded).
   bool valid = false;
+  /// Base vertices of this frame where no direction sees every incident face from its positive
+  /// side (extrusion_directions): some tet of the prisms around each must be inverted, whatever
+  /// the top. Found for certified frames that are not valid (empty otherwise), so that a report
+  /// can say why; ascending.
+  std::vector<int> unextrudable_vertices;
   /// The previous frame was not valid for the guard (TetsOnly or Failed), so the guard started this
   /// one from the last valid frame instead.
   bool resumed = false;

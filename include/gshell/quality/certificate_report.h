@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace gshell {
 
@@ -23,5 +24,13 @@ nlohmann::ordered_json certificate_report(const ShellCertificate& certificate);
 /// top/base 0, wall 0 intersecting face pairs)", and a second line for the base when it
 /// intersects itself.
 std::string certificate_summary(const ShellCertificate& certificate);
+
+/// The first `shown` of `ids` for a message, e.g. "3, 5, 7, ..." (", ..." when some are left out).
+std::string first_ids(const std::vector<int>& ids, std::size_t shown = 10);
+
+/// What makes a shell invalid whatever its top, for a terminal line: e.g. "its base crosses itself
+/// at 20 face pairs, and 4 base vertices cannot be extruded (3, 5, 7, 17)"; empty when the base
+/// neither crosses itself nor has unextrudable vertices (extrusion_directions).
+std::string unavoidable_faults(const ShellCertificate& certificate, const std::vector<int>& unextrudable_vertices);
 
 } // namespace gshell
