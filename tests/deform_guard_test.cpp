@@ -561,5 +561,55 @@ TEST(PoseGuard, APairTouchingToRoundingAtRestDoesNotHoldThePoseStill) {
   for (int t : c.inverted_tet_ids) EXPECT_TRUE((T.row(t).array() == n + v).any()) << "tet " << t;
 }
 
+// Hard handles are the caller's: the guard moves them exactly along their path, so a pair of
+// primitives whose four vertices are all handle vertices can only be kept apart by stopping the
+// path. A box (2 x 0.5 x 2) whose every vertex is a handle vertex, one end held and the other
+// turned by 45 degrees about the long axis and shifted sideways: half way its faces start to cross
+// (pairs among handle vertices only, which the guard used to leave out: the steps from there were
+// returned INVALID). Guarded, every step stays valid and the motion stops at contact.
+TEST(PoseGuard, HandlesFoldingAShellOntoItselfStopAtContact) {
+  TriMesh box;
+  box.V.resize(8, 3);
+  box.V << -1, -0.25, -1, -1, 0.25, -1, 1, 0.25, -1, 1, -0.25, -1, -1, -0.25, 1, -1, 0.25, 1, 1, 0.25, 1, 1, -0.25, 1;
+  box.F.resize(12, 3);
+  box.F << 0, 1, 3, 3, 1, 2, 0, 4, 1, 1, 4, 5, 3, 2, 7, 7, 2, 6, 4, 0, 3, 7, 4, 3, 6, 4, 7, 6, 5, 4, 1, 5, 6, 2, 1, 6;
+  const Shell rest = offset_shell(box, 0.05);
+  const int n = rest.num_base_vertices();
+  HandleSet handles;
+  for (int side : {-1, 1}) {
+    Handle h;
+    for (int i = 0; i < n; ++i)
+      if (side * rest.base(i, 0) > 0) h.vertices.insert(h.vertices.end(), {i, n + i});
+    std::sort(h.vertices.begin(), h.vertices.end());
+    if (side > 0) {
+      h.axis = Eigen::Vector3d::UnitX();
+      h.degrees = 45;
+      h.center = Eigen::Vector3d(1, 0, 0);
+      h.translate = Eigen::Vector3d(0, 0.6, 0);
+    }
+    handles.handles.push_back(h);
+  }
+  PoseOptions options;
+  options.steps = 4;
+  const PoseResult r = run_pose(rest, handles, options);
+  bool blocked = false;
+  for (const PoseStepReport& s : r.steps) {
+    SCOPED_TRACE("step at fraction " + std::to_string(s.fraction));
+    EXPECT_TRUE(s.valid);
+    EXPECT_EQ(s.inverted_tets, 0);
+    EXPECT_EQ(s.intersections, 0);
+    blocked = blocked || s.blocked_by_contact;
+  }
+  EXPECT_TRUE(blocked);
+  const ShellCertificate c = certify_shell(r.X.topRows(n), r.X.bottomRows(n), rest.F);
+  EXPECT_TRUE(c.valid());
+  EXPECT_EQ(c.base_self_intersections, 0);
+  // Unguarded, the box reaches its targets, where it crosses itself.
+  options.allow_invalid = true;
+  const PoseResult loose = run_pose(rest, handles, options);
+  const ShellCertificate l = certify_shell(loose.X.topRows(n), loose.X.bottomRows(n), rest.F);
+  EXPECT_FALSE(l.valid() && l.base_self_intersections == 0);
+}
+
 } // namespace
 } // namespace gshell

@@ -130,7 +130,11 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // base where the generation's guard could not lift it, next to a base crossing or a vertex
   // extruded almost sideways): no step moving them is certified, so guarding them would hold every
   // drag still (CGAL's mannequin-devil posed: every step ended where it began).
-  if (parameters_.contact_distance > 0 && n > 0) touch_pairs_touching_to_rounding(boundary_, X, n, fixed_, eta, touched);
+  // A posed shell's handles move relative to each other, so their own pairs are guarded too;
+  // a deformation's base is the caller's.
+  parameters_.guard_fixed_pairs = moving_base_;
+  if (parameters_.contact_distance > 0 && n > 0)
+    touch_pairs_touching_to_rounding(boundary_, X, n, moving_base_ ? std::vector<int>{} : fixed_, eta, touched);
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
   rest_excluded_ = parameters_.excluded_triangles;

@@ -68,7 +68,9 @@ struct GuardedSolver::Impl {
   }
 
   void make_contact_guard(const ShellBoundary& boundary) {
-    contact = std::make_unique<ContactGuard>(boundary, N, is_free, contact_options(p), p.excluded_triangles);
+    // ContactGuard leaves out pairs among the vertices it is told are not movable.
+    const std::vector<char> movable = p.guard_fixed_pairs ? std::vector<char>(N, 1) : is_free;
+    contact = std::make_unique<ContactGuard>(boundary, N, movable, contact_options(p), p.excluded_triangles);
   }
 
   static GuardedSolverParameters checked(GuardedSolverParameters p) {
@@ -452,8 +454,10 @@ GuardedSolver& GuardedSolver::operator=(GuardedSolver&&) noexcept = default;
 void GuardedSolver::set_parameters(GuardedSolverParameters parameters) {
   Impl& m = *impl_;
   parameters = Impl::checked(std::move(parameters));
-  if (parameters.skip_tets != m.p.skip_tets || parameters.excluded_triangles != m.p.excluded_triangles)
-    throw InputError("GuardedSolver::set_parameters: skip_tets and excluded_triangles must stay as they are");
+  if (parameters.skip_tets != m.p.skip_tets || parameters.excluded_triangles != m.p.excluded_triangles ||
+      parameters.guard_fixed_pairs != m.p.guard_fixed_pairs)
+    throw InputError("GuardedSolver::set_parameters: skip_tets, excluded_triangles and guard_fixed_pairs must stay as "
+                     "they are");
   if ((parameters.contact_distance > 0) != (m.contact != nullptr))
     throw InputError("GuardedSolver::set_parameters: contact_distance must stay positive, or zero, as at construction");
   if (parameters.exact_direction_vertices != m.p.exact_direction_vertices)

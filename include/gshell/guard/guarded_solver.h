@@ -105,6 +105,13 @@ struct GuardedSolverParameters {
   /// Boundary triangles left out of contacts (empty or one flag per row of the boundary), e.g.
   /// around the crossings of a base that intersects itself.
   std::vector<char> excluded_triangles;
+  /// Contacts between primitives whose vertices are all fixed count too (their barrier and step
+  /// bound). Off where the fixed vertices never move relative to each other (generation's base)
+  /// or their motion is the caller's to answer for (a deformation's base frames); on for drags
+  /// whose fixed vertices are hard handles moving apart from each other, so that a drag that
+  /// would push one handle through another, or fold a shell of handles onto itself, stops at
+  /// contact instead.
+  bool guard_fixed_pairs = false;
 };
 
 struct GuardedSolveOptions {
