@@ -59,7 +59,15 @@ void run(const CLI::App& cmd, PoseArgs& a) {
     std::snprintf(text, sizeof text, "step %zu/%zu: %d iterations%s, energy %g, %.3f s%s%s", k + 1, result.steps.size(),
                   s.iterations, dragged, s.energy, s.seconds, s.converged ? "" : " (not converged)",
                   !s.guarded ? "" : s.valid ? ", valid" : ", INVALID");
-    progress.line(text);
+    std::string line = text;
+    if (s.guarded && !s.valid) {
+      line += " (" + std::to_string(s.inverted_tets) + " inverted tets, " + std::to_string(s.intersections) +
+              " intersecting face pairs";
+      if (s.base_self_intersections > 0)
+        line += "; its base crosses itself at " + std::to_string(s.base_self_intersections) + " face pairs";
+      line += ")";
+    }
+    progress.line(line);
     if (s.blocked_by_contact) // a warning even with --quiet: the pose is not where the handles asked
       std::fprintf(stderr, "warning: step %zu: the handles force the shell into itself or squeeze a tet between "
                            "them flat; stopped short of them (blocked_by_contact in report.json)\n", k + 1);

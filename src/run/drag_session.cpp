@@ -138,6 +138,7 @@ struct DragSession::Impl {
     step.intersections = v.certificate.intersections_tested()
                              ? static_cast<int>(v.certificate.intersections.size())
                              : -1;
+    step.base_self_intersections = v.certificate.base_self_intersections;
     return step;
   }
 

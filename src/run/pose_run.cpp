@@ -34,6 +34,8 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
     j["blocked_by_contact"] = blocked_by_contact;
     j["guarded_iterations"] = guarded_iterations;
     j["certificate"] = {{"inverted_tets", inverted_tets}, {"intersections", intersections}};
+    j["base_self_intersections"] =
+        base_self_intersections < 0 ? nlohmann::ordered_json() : nlohmann::ordered_json(base_self_intersections);
   }
   return j;
 }

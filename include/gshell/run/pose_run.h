@@ -70,8 +70,12 @@ struct PoseStepReport {
   FrameMethod method = FrameMethod::Unguarded;
   int guarded_iterations = 0;
   int inverted_tets = -1, intersections = -1; ///< guarded: the certificate's counts (all pair kinds)
+  /// guarded: face pairs where the posed base crosses itself (-1 = not tested); a step is valid
+  /// only without them
+  int base_self_intersections = -1;
   /// {fraction, iterations, energy, seconds, converged} and, guarded, {valid, method,
-  /// blocked_by_contact, guarded_iterations, certificate {inverted_tets, intersections}}
+  /// blocked_by_contact, guarded_iterations, certificate {inverted_tets, intersections},
+  /// base_self_intersections}
   nlohmann::ordered_json to_json() const;
 };
 
