@@ -62,7 +62,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     line += ")";
     if (f.result.certificate.inverted_tets > 0) line += ", " + std::to_string(f.result.certificate.inverted_tets) + " inverted";
     if (!f.result.valid) {
-      const std::string faults = unavoidable_faults(f.result.certificate, f.result.unextrudable_vertices);
+      const std::string faults = unavoidable_faults(f.result.certificate.base_self_intersections, f.result.unextrudable_vertices);
       if (!faults.empty()) line += "; " + faults;
     }
     if (f.offset) {

@@ -6,6 +6,7 @@
 #include "preview_option.h"
 #include "progress.h"
 
+#include <gshell/quality/certificate_report.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
 #include <gshell/run/staged_folder.h>
@@ -63,9 +64,8 @@ void run(const CLI::App& cmd, PoseArgs& a) {
     if (s.guarded && !s.valid) {
       line += " (" + std::to_string(s.inverted_tets) + " inverted tets, " + std::to_string(s.intersections) +
               " intersecting face pairs";
-      if (s.base_self_intersections > 0)
-        line += "; its base crosses itself at " + std::to_string(s.base_self_intersections) + " face pairs";
-      line += ")";
+      const std::string faults = unavoidable_faults(s.base_self_intersections);
+      line += (faults.empty() ? "" : "; " + faults) + ")";
     }
     progress.line(line);
     if (s.blocked_by_contact) // a warning even with --quiet: the pose is not where the handles asked

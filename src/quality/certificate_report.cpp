@@ -51,10 +51,10 @@ std::string first_ids(const std::vector<int>& ids, std::size_t shown) {
   return text;
 }
 
-std::string unavoidable_faults(const ShellCertificate& c, const std::vector<int>& unextrudable_vertices) {
+std::string unavoidable_faults(int base_self_intersections, const std::vector<int>& unextrudable_vertices) {
   std::string text;
-  if (c.base_self_intersections > 0)
-    text = "its base crosses itself at " + std::to_string(c.base_self_intersections) + " face pairs";
+  if (base_self_intersections > 0)
+    text = "its base crosses itself at " + std::to_string(base_self_intersections) + " face pairs";
   if (!unextrudable_vertices.empty())
     text += (text.empty() ? "" : ", and ") + std::to_string(unextrudable_vertices.size()) +
             " base vertices cannot be extruded (" + first_ids(unextrudable_vertices) + ")";

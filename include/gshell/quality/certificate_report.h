@@ -30,7 +30,8 @@ std::string first_ids(const std::vector<int>& ids, std::size_t shown = 10);
 
 /// What makes a shell invalid whatever its top, for a terminal line: e.g. "its base crosses itself
 /// at 20 face pairs, and 4 base vertices cannot be extruded (3, 5, 7, 17)"; empty when the base
-/// neither crosses itself nor has unextrudable vertices (extrusion_directions).
-std::string unavoidable_faults(const ShellCertificate& certificate, const std::vector<int>& unextrudable_vertices);
+/// neither crosses itself (base_self_intersections <= 0) nor has unextrudable vertices
+/// (extrusion_directions).
+std::string unavoidable_faults(int base_self_intersections, const std::vector<int>& unextrudable_vertices = {});
 
 } // namespace gshell
