@@ -91,6 +91,16 @@ TEST(DeformGuard, CylinderBentTo150DegreesStaysValidAndStretchesLessThanOffset) 
   bend_to_150(offset_shell(make_cylinder(16, 0.25, 3.0), 0.15), 6, 0.4, &unguarded_invalid);
 }
 
+// One handle: the base and top vertices of the shell's end where side * x > from (side -1 or 1).
+Handle x_end_handle(const Shell& rest, int side, double from) {
+  const int n = rest.num_base_vertices();
+  Handle h;
+  for (int i = 0; i < n; ++i)
+    if (side * rest.base(i, 0) > from) h.vertices.insert(h.vertices.end(), {i, n + i});
+  std::sort(h.vertices.begin(), h.vertices.end());
+  return h;
+}
+
 // A plane's shell with the top of its middle vertex (an interior one; id in *v) pressed onto the
 // base to 1e-13 of the thickness.
 Shell plane_shell_with_a_pressed_top(int* v) {
@@ -528,18 +538,11 @@ TEST(PoseGuard, APairTouchingToRoundingAtRestDoesNotHoldThePoseStill) {
   const Shell rest = plane_shell_with_a_pressed_top(&v);
   const int n = rest.num_base_vertices();
   HandleSet handles;
-  for (int side : {-1, 1}) {
-    Handle h;
-    for (int i = 0; i < n; ++i)
-      if (side * rest.base(i, 0) > 0.8) h.vertices.insert(h.vertices.end(), {i, n + i});
-    std::sort(h.vertices.begin(), h.vertices.end());
-    if (side > 0) {
-      h.axis = Eigen::Vector3d(0, 1, 0);
-      h.degrees = 170;
-      h.center = Eigen::Vector3d(0.5, 0, 0);
-    }
-    handles.handles.push_back(h);
-  }
+  handles.handles = {x_end_handle(rest, -1, 0.8), x_end_handle(rest, 1, 0.8)};
+  Handle& turned = handles.handles[1];
+  turned.axis = Eigen::Vector3d(0, 1, 0);
+  turned.degrees = 170;
+  turned.center = Eigen::Vector3d(0.5, 0, 0);
   PoseOptions options;
   options.steps = 1;
   options.solve.max_iterations = 100;
@@ -576,19 +579,12 @@ TEST(PoseGuard, HandlesFoldingAShellOntoItselfStopAtContact) {
   const Shell rest = offset_shell(box, 0.05);
   const int n = rest.num_base_vertices();
   HandleSet handles;
-  for (int side : {-1, 1}) {
-    Handle h;
-    for (int i = 0; i < n; ++i)
-      if (side * rest.base(i, 0) > 0) h.vertices.insert(h.vertices.end(), {i, n + i});
-    std::sort(h.vertices.begin(), h.vertices.end());
-    if (side > 0) {
-      h.axis = Eigen::Vector3d::UnitX();
-      h.degrees = 45;
-      h.center = Eigen::Vector3d(1, 0, 0);
-      h.translate = Eigen::Vector3d(0, 0.6, 0);
-    }
-    handles.handles.push_back(h);
-  }
+  handles.handles = {x_end_handle(rest, -1, 0), x_end_handle(rest, 1, 0)};
+  Handle& turned = handles.handles[1];
+  turned.axis = Eigen::Vector3d::UnitX();
+  turned.degrees = 45;
+  turned.center = Eigen::Vector3d(1, 0, 0);
+  turned.translate = Eigen::Vector3d(0, 0.6, 0);
   PoseOptions options;
   options.steps = 4;
   const PoseResult r = run_pose(rest, handles, options);

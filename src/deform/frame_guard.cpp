@@ -134,7 +134,8 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // a deformation's base is the caller's.
   parameters_.guard_fixed_pairs = moving_base_;
   if (parameters_.contact_distance > 0 && n > 0)
-    touch_pairs_touching_to_rounding(boundary_, X, n, moving_base_ ? std::vector<int>{} : fixed_, eta, touched);
+    touch_pairs_touching_to_rounding(boundary_, X, n, parameters_.guard_fixed_pairs ? std::vector<int>{} : fixed_, eta,
+                                     touched);
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
   rest_excluded_ = parameters_.excluded_triangles;

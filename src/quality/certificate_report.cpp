@@ -1,13 +1,10 @@
 #include <gshell/quality/certificate_report.h>
 
 namespace gshell {
-namespace {
 
 nlohmann::ordered_json count_or_null(int count) {
   return count < 0 ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(count);
 }
-
-} // namespace
 
 std::optional<bool> certified_validity(const ShellCertificate& c) {
   if (c.intersections_tested()) return c.valid();

@@ -6,6 +6,7 @@
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
+#include <gshell/quality/certificate_report.h>
 #include <gshell/quality/stretch_report.h>
 #include <gshell/run/frames.h>
 #include <gshell/run/staged_folder.h>
@@ -73,11 +74,6 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   return input;
 }
 
-namespace {
-
-nlohmann::ordered_json count_or_null(int count) { return count < 0 ? nlohmann::ordered_json() : nlohmann::ordered_json(count); }
-
-} // namespace
 
 nlohmann::ordered_json frame_json(const FrameResult& r) {
   nlohmann::ordered_json j{{"iterations", r.iterations}, {"converged", r.converged}, {"energy", r.energy}};

@@ -1,6 +1,7 @@
 #include <gshell/run/pose_run.h>
 
 #include <gshell/error.h>
+#include <gshell/quality/certificate_report.h>
 #include <gshell/quality/stretch_report.h>
 #include <gshell/run/drag_session.h>
 
@@ -34,8 +35,7 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
     j["blocked_by_contact"] = blocked_by_contact;
     j["guarded_iterations"] = guarded_iterations;
     j["certificate"] = {{"inverted_tets", inverted_tets}, {"intersections", intersections}};
-    j["base_self_intersections"] =
-        base_self_intersections < 0 ? nlohmann::ordered_json() : nlohmann::ordered_json(base_self_intersections);
+    j["base_self_intersections"] = count_or_null(base_self_intersections);
   }
   return j;
 }

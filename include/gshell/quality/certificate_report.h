@@ -14,6 +14,9 @@ namespace gshell {
 /// were skipped and no tet is inverted (validity unknown).
 std::optional<bool> certified_validity(const ShellCertificate& certificate);
 
+/// A certificate's count for a report: the number, or null where it was not tested (< 0).
+nlohmann::ordered_json count_or_null(int count);
+
 /// {"valid": true | false | null (certified_validity), "certificate": {"inverted_tets",
 /// "top_self_intersections", "top_base_intersections", "wall_intersections", "exact": true},
 /// "base_self_intersections"}, pair counts null when not tested: the keys go into the report of
