@@ -102,6 +102,44 @@ TEST(Generate, AStrayVertexLeavesTheThicknessReportAsItWas) {
   EXPECT_EQ(b.metrics.thinned_vertices, a.metrics.thinned_vertices);
 }
 
+namespace {
+
+// The message generate_shell throws for these options, "" when it does not throw.
+std::string refusal(const TriMesh& mesh, ShellMethod method, double eta) {
+  try {
+    generate_shell(mesh.V, mesh.F, generate_options(method, eta));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+} // namespace
+
+TEST(Generate, AThicknessOutOfScaleWithTheMeshIsRefused) {
+  // A layer over ten times the model's radius, or too thin for double precision to tell the top
+  // from the base, is refused by every method with the reason (bounds in generate_shell.h).
+  const TriMesh sphere = make_sphere(2); // radius 1 about the origin
+  for (ShellMethod method : {ShellMethod::Rigid, ShellMethod::Curvature, ShellMethod::Offset}) {
+    SCOPED_TRACE(to_string(method));
+    EXPECT_EQ(refusal(sphere, method, 9.9), "");
+    EXPECT_EQ(refusal(sphere, method, 1e-8), "");
+    EXPECT_EQ(refusal(sphere, method, 10.5),
+              "thickness 10.5 is 10.5 times the mesh's bounding radius (1); gshell builds layers up to 10 times it "
+              "(thickness ratio 10)");
+    EXPECT_NE(refusal(sphere, method, 1e20).find("gshell builds layers up to 10 times it"), std::string::npos);
+    EXPECT_EQ(refusal(sphere, method, 1e-10),
+              "thickness 1e-10 is 1e-10 times the mesh's bounding radius (1), below 1e-09 of the mesh's extent (1): "
+              "double precision cannot tell a top that close from the base");
+  }
+  // Far from the origin the coordinates' own magnitude sets the limit: 1e-4 is a fine ratio of
+  // the radius but only about 900 units in the last place at 1e6.
+  TriMesh far = sphere;
+  far.V.rowwise() += Eigen::RowVector3d(1e6, 0, 0);
+  EXPECT_EQ(refusal(far, ShellMethod::Offset, 1e-2), "");
+  EXPECT_NE(refusal(far, ShellMethod::Offset, 1e-4).find("below 1e-09 of the mesh's extent (1e+06)"), std::string::npos);
+}
+
 TEST(Generate, MethodsAndBadOptions) {
   EXPECT_EQ(parse_shell_method("rigid"), ShellMethod::Rigid);
   EXPECT_EQ(parse_shell_method("offset"), ShellMethod::Offset);

@@ -54,10 +54,4 @@ double quantile(std::vector<double> values, double q) {
   return values[i] + (pos - i) * (values[i + 1] - values[i]);
 }
 
-std::string format_number(double value, int significant) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", significant, value);
-  return buf;
-}
-
 } // namespace gshell

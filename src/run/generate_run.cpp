@@ -1,6 +1,7 @@
 #include <gshell/run/generate_run.h>
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/shell/generate_report.h>
 
 #include <cmath>
@@ -12,9 +13,9 @@ void ThicknessChoice::check() const {
   if (thickness.has_value() == thickness_ratio.has_value())
     throw InputError("give exactly one of thickness and thickness_ratio");
   if (thickness && (!(*thickness > 0) || !std::isfinite(*thickness)))
-    throw InputError("thickness must be positive and finite (got " + std::to_string(*thickness) + ")");
+    throw InputError("thickness must be positive and finite (got " + format_number(*thickness) + ")");
   if (thickness_ratio && (!(*thickness_ratio > 0) || !std::isfinite(*thickness_ratio)))
-    throw InputError("thickness_ratio must be positive and finite (got " + std::to_string(*thickness_ratio) + ")");
+    throw InputError("thickness_ratio must be positive and finite (got " + format_number(*thickness_ratio) + ")");
 }
 
 double ThicknessChoice::eta(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) const {

@@ -1,6 +1,7 @@
 #include <gshell/shell/generate_shell.h>
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/geometry/curvature.h>
 #include <gshell/geometry/mesh_topology.h>
 #include <gshell/seconds_since.h>
@@ -128,6 +129,23 @@ GenerateResult generate_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixX
   return r;
 }
 
+// Radius of the bounding sphere about the bounding-box centre (see thickness_from_ratio).
+double bounding_radius(const Eigen::MatrixXd& V) {
+  const Eigen::RowVector3d centre = 0.5 * (V.colwise().minCoeff() + V.colwise().maxCoeff());
+  return (V.rowwise() - centre).rowwise().norm().maxCoeff();
+}
+
+// The rows of V that F uses (all of V when F uses every vertex).
+Eigen::MatrixXd used_rows(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  const std::vector<char> used = used_vertices(F, V.rows());
+  const Eigen::Index count = std::count(used.begin(), used.end(), char{1});
+  if (count == V.rows()) return V;
+  Eigen::MatrixXd U(count, 3);
+  for (Eigen::Index v = 0, row = 0; v < V.rows(); ++v)
+    if (used[v]) U.row(row++) = V.row(v);
+  return U;
+}
+
 } // namespace
 
 std::string to_string(ShellMethod method) {
@@ -147,7 +165,7 @@ ShellMethod parse_shell_method(const std::string& name) {
 
 void GenerateOptions::check() const {
   if (!(thickness > 0) || !std::isfinite(thickness))
-    throw InputError("thickness must be positive and finite (got " + std::to_string(thickness) + ")");
+    throw InputError("thickness must be positive and finite (got " + format_number(thickness) + ")");
   if (solve.max_iterations < 0) throw InputError("iterations must not be negative");
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a non-negative number");
   if (solve.anderson_history < 0) throw InputError("the Anderson history must not be negative");
@@ -157,34 +175,44 @@ void GenerateOptions::check() const {
 
 double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
   if (!(ratio > 0) || !std::isfinite(ratio))
-    throw InputError("thickness ratio must be positive and finite (got " + std::to_string(ratio) + ")");
+    throw InputError("thickness ratio must be positive and finite (got " + format_number(ratio) + ")");
   if (V.rows() == 0) throw InputError("thickness ratio of an empty mesh");
-  const Eigen::RowVector3d centre = 0.5 * (V.colwise().minCoeff() + V.colwise().maxCoeff());
-  const double radius = (V.rowwise() - centre).rowwise().norm().maxCoeff();
+  const double radius = bounding_radius(V);
   if (!(radius > 0)) throw InputError("thickness ratio of a mesh of zero size");
   return ratio * radius;
 }
 
 double thickness_from_ratio(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double ratio) {
-  const std::vector<char> used = used_vertices(F, V.rows());
-  const Eigen::Index count = std::count(used.begin(), used.end(), char{1});
-  if (count == V.rows()) return thickness_from_ratio(V, ratio);
-  Eigen::MatrixXd U(count, 3);
-  for (Eigen::Index v = 0, row = 0; v < V.rows(); ++v)
-    if (used[v]) U.row(row++) = V.row(v);
-  return thickness_from_ratio(U, ratio);
+  return thickness_from_ratio(used_rows(V, F), ratio);
+}
+
+void check_thickness_scale(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double thickness) {
+  const Eigen::MatrixXd U = used_rows(V, F);
+  if (U.rows() == 0) return;
+  const double radius = bounding_radius(U);
+  const double extent = std::max(radius, U.cwiseAbs().maxCoeff());
+  const std::string what = "thickness " + format_number(thickness) + " is " + format_number(thickness / radius) +
+                           " times the mesh's bounding radius (" + format_number(radius) + ")";
+  if (thickness > kMaxThicknessRatio * radius)
+    throw InputError(what + "; gshell builds layers up to " + format_number(kMaxThicknessRatio) +
+                     " times it (thickness ratio " + format_number(kMaxThicknessRatio) + ")");
+  if (thickness < kMinThicknessScale * extent)
+    throw InputError(what + ", below " + format_number(kMinThicknessScale) + " of the mesh's extent (" +
+                     format_number(extent) + "): double precision cannot tell a top that close from the base");
 }
 
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                           const PrismCorners& ideal, const GenerateOptions& options) {
   options.check();
   check_shapes(V, F);
+  check_thickness_scale(V, F, options.thickness);
   return generate_towards(V, F, [&] { return prism_rest_tets(F, static_cast<int>(V.rows()), ideal); }, options, false);
 }
 
 GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
   options.check();
   check_shapes(V, F);
+  check_thickness_scale(V, F, options.thickness);
   if (options.method == ShellMethod::Curvature) return generate_curvature(V, F, options);
   if (options.method == ShellMethod::Rigid) {
     const auto t0 = Clock::now();

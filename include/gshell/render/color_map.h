@@ -1,5 +1,6 @@
 #pragma once
 // Value -> color maps for the renders and their color bars.
+#include <gshell/format_number.h> // the color bars' labels
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -29,8 +30,5 @@ double round_up_nice(double x);
 
 /// The q-quantile (q in [0,1], linear interpolation) of the finite values; 0 when there are none.
 double quantile(std::vector<double> values, double q);
-
-/// Number text for labels: up to 4 significant digits, no trailing zeros ("0.1", "0.0025", "12.5").
-std::string format_number(double value, int significant = 4);
 
 } // namespace gshell
