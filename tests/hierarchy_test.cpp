@@ -258,6 +258,12 @@ TEST(HierarchicalSolver, LevelsHangFromAFixedCoarsestClusterCountAtEveryMeshSize
   const int finest = solver.num_levels() - 2;
   EXPECT_EQ(solver.tree_depth(finest), static_cast<int>(std::lround(std::log2(n / 8.0)))) << n << " base vertices";
   EXPECT_LT(solver.tree_depth(0), 3) << "the levels move up on a small mesh";
+  // More levels than the mesh can hold: the ones that would repeat a subspace are not built.
+  HierarchyOptions many;
+  many.levels = 40;
+  const HierarchicalSolver deep(small.rest, small.X, small.shell.F, small.constraints, many);
+  EXPECT_LT(deep.num_levels(), 8) << n << " base vertices";
+  for (int l = 1; l + 1 < deep.num_levels(); ++l) EXPECT_GT(deep.num_clusters(l), deep.num_clusters(l - 1)) << "level " << l;
 }
 
 TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {

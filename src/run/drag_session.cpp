@@ -487,7 +487,9 @@ PoseResult DragSession::result(std::size_t first_step) const {
   r.shell = s.shell_name;
   r.handles = s.handles_name;
   r.solver = s.options.solver;
-  r.levels = s.options.solver == PoseSolverKind::Hierarchical ? s.options.hierarchy.levels : 1;
+  // The levels built, which on a small mesh can be fewer than asked for (HierarchicalSolver).
+  const HierarchicalSolver* hierarchy = s.solver ? s.solver->hierarchical() : nullptr;
+  r.levels = hierarchy ? hierarchy->num_levels() : s.options.solver == PoseSolverKind::Hierarchical ? s.options.hierarchy.levels : 1;
   r.mode = st.handles.mode;
   r.weight = st.handles.weight;
   r.thickness = s.rest.thickness;

@@ -307,22 +307,29 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   const int top = static_cast<int>(std::lround(std::log2(std::max(1, options.coarsest_clusters))));
   const int finest = std::min(by_size, top + (reduced_levels - 1) * split);
   const int first = std::max(0, finest - (reduced_levels - 1) * split);
-  tree_options.depth = reduced_levels > 0 ? first + (reduced_levels - 1) * split : 0;
+  // A tree deeper than log2(n) + 1 has stopped splitting (more levels than a mesh can hold were
+  // asked for, e.g. --levels 40 on 162 vertices): levels below that, or any level with no more
+  // clusters than the one above it, would repeat the same subspace at the cost of a factorisation
+  // each, and are left out (num_levels() tells how many were built).
+  const int deepest = static_cast<int>(std::ceil(std::log2(std::max(2, n_base)))) + 1;
+  tree_options.depth = reduced_levels > 0 ? std::min(deepest, first + (reduced_levels - 1) * split) : 0;
   tree_options.min_cluster_size = options.min_cluster_size;
   s.tree = build_cluster_tree(rest_vertices, F, tree_options);
   const double weight = constraints.hard ? options.reduced_hard_weight * mean_stiffness(s.rest, s.num_vertices())
                                          : constraints.weight;
   for (int l = 0; l < reduced_levels; ++l) {
     const int d = first + l * split;
+    if (d > tree_options.depth || (l > 0 && s.tree.num_clusters(d) == s.reduced.back().num_clusters())) break;
     s.depth_of_level.push_back(d);
     const ClusterWeights weights = piecewise_cluster_weights(s.tree.cluster_of[d], s.tree.num_clusters(d));
     s.reduced.emplace_back(s.rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
                            options.cluster_rotations);
   }
-  s.parents.resize(reduced_levels);
-  for (int l = 1; l < reduced_levels; ++l) s.parents[l] = s.parent_of(l);
-  s.reduced_cache.resize(reduced_levels);
-  s.tau.resize(reduced_levels);
+  const int built = static_cast<int>(s.reduced.size());
+  s.parents.resize(built);
+  for (int l = 1; l < built; ++l) s.parents[l] = s.parent_of(l);
+  s.reduced_cache.resize(built);
+  s.tau.resize(built);
   s.factor_seconds = seconds_since(start);
 }
 

@@ -87,7 +87,7 @@ struct PoseResult {
   StretchStats stretch;              ///< per-tet stretch against the rest shell
   std::string shell, handles;        ///< how the report names the rest shell and the handle source
   PoseSolverKind solver = PoseSolverKind::Hierarchical;
-  int levels = 1;                    ///< of the hierarchical solver (1 for the single-level one)
+  int levels = 1;                    ///< built by the hierarchical solver (1 for the single-level one)
   ConstraintMode mode = ConstraintMode::Hard;
   double weight = 0;                 ///< soft mode's weight
   double thickness = 0;              ///< the rest shell's eta: the output is a shell folder too

@@ -54,7 +54,10 @@ struct PositionConstraints {
 };
 
 struct HierarchyOptions {
-  int levels = 5;             ///< levels including the full one; 1 = the plain single-level solver
+  /// Levels including the full one; 1 = the plain single-level solver. At most: on a mesh too
+  /// small for them, reduced levels that would have no more clusters than the one above are not
+  /// built (num_levels() tells; 162 base vertices hold 3 reduced levels).
+  int levels = 5;
   int splits_per_level = 2;   ///< bisection rounds between successive levels (up to 4x clusters)
   /// Clusters of the coarsest reduced level (its tree depth is log2 of this, rounded); the finer
   /// levels lie splits_per_level bisection rounds apart below it. Fixed, not growing with the
