@@ -158,7 +158,7 @@ TEST(CliMessages, LargeButAcceptedCoordinatesMakeAShell) {
 }
 
 TEST(CliMessages, ThicknessesOutOfScaleSayWhy) {
-  // Before the bound, a ratio of 1e20 failed with "the start state is not valid" or "the shell
+  // Before the bound (generate_shell.h), a ratio of 1e20 failed with "the start state is not valid" or "the shell
   // system is singular", and 1e-300 with a non-finite certificate vertex.
   TempDir dir;
   expect_error_containing("generate builtin:sphere:2 -q -o " + quoted(dir.file("out")) + " --thickness-ratio 1e20",
@@ -168,6 +168,9 @@ TEST(CliMessages, ThicknessesOutOfScaleSayWhy) {
                           "below 1e-09 of the mesh's extent (1): double precision cannot tell a top that close from the base");
   expect_error_line("generate builtin:sphere:2 -q -o " + quoted(dir.file("out")) + " --thickness-ratio -1e-20",
                     "--thickness-ratio must be positive and finite (got -1e-20)");
+  // The metrics' normal prisms too (it printed "stretch mean inf" and a 300-digit thickness).
+  expect_error_containing("metrics builtin:sphere:2 builtin:sphere:2 --thickness 1e-300 -o " + quoted(dir.file("m.json")),
+                          "thickness 1e-300 is 1e-300 times the mesh's bounding radius (1), below 1e-09");
   EXPECT_EQ(count_entries(dir.path()), 0);
 }
 

@@ -380,10 +380,14 @@ class GenerateTest(TempDirTest):
             "unknown method": dict(thickness=0.1, method="magic"),
             "negative iterations": dict(thickness=0.1, iterations=-1),
             "nan tolerance": dict(thickness=0.1, tolerance=float("nan")),
+            "ratio over 10": dict(thickness_ratio=1e20),
+            "thickness under 1e-9 of the mesh": dict(thickness=1e-12),
         }
         for name, kwargs in cases.items():
             with self.subTest(name), self.assertRaises(ValueError):
                 gshell.generate(V, F, **kwargs)
+        with self.assertRaises(ValueError):  # the metrics' normal prisms alike
+            gshell.metrics(V, F, V * 1.1, thickness=1e-300)
         arrays = {
             "int V": (V.astype(int), F),
             "float F": (V, F.astype(float)),

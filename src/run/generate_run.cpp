@@ -20,7 +20,9 @@ void ThicknessChoice::check() const {
 
 double ThicknessChoice::eta(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) const {
   check();
-  return thickness ? *thickness : thickness_from_ratio(V, F, *thickness_ratio);
+  const double eta = thickness ? *thickness : thickness_from_ratio(V, F, *thickness_ratio);
+  check_thickness_scale(V, F, eta);
+  return eta;
 }
 
 void GenerateRunOptions::check() const {

@@ -19,7 +19,9 @@ struct ThicknessChoice {
   /// \throws InputError naming the parameter (thickness, thickness_ratio) unless exactly one is
   ///         given, positive and finite.
   void check() const;
-  /// eta in model units for the base (V, F) (a ratio: of the vertices F uses). \throws InputError as check().
+  /// eta in model units for the base (V, F) (a ratio: of the vertices F uses). \throws InputError as
+  /// check(), and for a thickness out of scale with the mesh (check_thickness_scale: generation and
+  /// the metrics' normal prisms alike).
   double eta(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) const;
 };
 
