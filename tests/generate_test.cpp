@@ -149,6 +149,12 @@ TEST(Generate, MethodsAndBadOptions) {
   EXPECT_THROW(generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, 0)), InputError);
   EXPECT_THROW(generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, std::nan(""))), InputError);
   EXPECT_THROW(generate_shell(mesh.V, mesh.F, generate_options(ShellMethod::Rigid, 0.1, -1)), InputError);
+  // A history long enough to exhaust memory (its Gram matrix alone) is refused up front.
+  GenerateOptions deep = generate_options(ShellMethod::Rigid, 0.1);
+  deep.solve.anderson_history = kMaxAndersonHistory + 1;
+  EXPECT_THROW(generate_shell(mesh.V, mesh.F, deep), InputError);
+  deep.solve.anderson_history = kMaxAndersonHistory;
+  EXPECT_TRUE(generate_shell(mesh.V, mesh.F, deep).metrics.certificate.valid());
 }
 
 TEST(Generate, ReportHasEveryField) {

@@ -381,6 +381,7 @@ class GenerateTest(TempDirTest):
             "negative iterations": dict(thickness=0.1, iterations=-1),
             "nan tolerance": dict(thickness=0.1, tolerance=float("nan")),
             "ratio over 10": dict(thickness_ratio=1e20),
+            "Anderson history over 100": dict(thickness=0.1, anderson=10**9),
             "thickness under 1e-9 of the mesh": dict(thickness=1e-12),
         }
         for name, kwargs in cases.items():

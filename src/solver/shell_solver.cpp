@@ -1056,7 +1056,8 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   m.check_positions(Xio, "solve");
   m.check_soft_targets(soft_targets, "solve");
   if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
-  if (options.anderson_history < 0) throw InputError("ShellSolver::solve: negative Anderson history");
+  if (options.anderson_history < 0 || options.anderson_history > kMaxAndersonHistory)
+    throw InputError("ShellSolver::solve: the Anderson history must be in [0, " + std::to_string(kMaxAndersonHistory) + "]");
   std::vector<double> X = to_row_major(Xio);
   const std::vector<double> rhs_const = m.rhs_constant(X.data(), soft_targets);
   // With the colouring the local step adds the rotations straight into b; otherwise they are

@@ -143,7 +143,8 @@ class HierarchicalSolver {
 public:
   /// `rest_vertices` are the 2n rest shell vertices the tets' rest shapes come from (base rows
   /// 0..n-1, top n..2n-1), `F` the base faces. Builds the tree, assembles and factors every level.
-  /// \throws InputError when options.levels < 1, rest_vertices is not 2n x 3, a tet or face id is
+  /// \throws InputError when options.levels < 1, an Anderson history is outside
+  ///         [0, kMaxAndersonHistory], rest_vertices is not 2n x 3, a tet or face id is
   ///         out of range, the rest shapes are not the tets of rest_vertices (tets listed in
   ///         rest.override_tets may have shapes of their own), soft constraints have
   ///         a weight <= 0, or as ShellSolver's constructor (bad constraint ids, a free part).

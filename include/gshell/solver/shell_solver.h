@@ -22,9 +22,16 @@ struct SolveOptions {
   std::function<void(int, double, double)> progress;
   /// Anderson acceleration of the local/global iterations: the last anderson_history iterates
   /// are combined, and the combination is kept only when it lowers the energy (so the energy
-  /// still never rises). 0: plain local/global (the paper's iteration).
+  /// still never rises). 0: plain local/global (the paper's iteration). At most
+  /// kMaxAndersonHistory.
   int anderson_history = 0;
 };
+
+/// Longest Anderson history a solver accepts. Each iterate kept costs two vectors of the free
+/// values (63 MB each at sphere:9) and the least-squares combination a depth x depth Gram matrix
+/// (--anderson 1000000000 ran out of memory); far below this the combination is already
+/// ill-conditioned and gains nothing (the default is 5).
+constexpr int kMaxAndersonHistory = 100;
 
 /// How the global step's linear system (L_ff X_f = B, one matrix for the three coordinates) is
 /// solved; docs/scale.md has the measurements behind the defaults.
