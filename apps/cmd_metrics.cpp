@@ -35,6 +35,7 @@ void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
     throw InputError(with_file(o.top, "must have the same vertex count and faces as " + o.base));
   require_usable_coordinates(top.V, o.top);
   const double eta = o.thickness.eta(base.V, base.F);
+  check_thickness_scale(base.V, base.F, eta); // the normal prisms the stretch is measured against
   const ShellMetrics m = shell_metrics(base.V, base.F, top.V, eta, true);
   if (!o.output.empty()) {
     nlohmann::json report = metrics_report(m, base.num_vertices(), base.num_faces(), eta, o.thickness.thickness_ratio);

@@ -9,6 +9,7 @@
 #include <gshell/run/generate_run.h>
 #include <gshell/run/shell_folder.h>
 #include <gshell/shell/generate_report.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/shell/prism_tets.h>
 
 #include <pybind11/stl.h>
@@ -105,6 +106,7 @@ py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, s
     py::gil_scoped_release release;
     require_valid_mesh(base, "base (Vb, F)");
     eta = choice.eta(base.V, base.F);
+    check_thickness_scale(base.V, base.F, eta); // the normal prisms the stretch is measured against
     m = shell_metrics(base.V, base.F, top, eta, count_intersections);
   }
   py::dict d = to_python(metrics_report(m, base.num_vertices(), base.num_faces(), eta, thickness_ratio));

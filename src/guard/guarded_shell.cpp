@@ -248,8 +248,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.cg_iterations >= 0, "cg_iterations", ">= 0");
   require(o.local_rings >= -1, "local_rings", ">= -1");
   require(o.hold_rounds >= 0, "hold_rounds", ">= 0");
-  static_assert(kMaxAndersonHistory == 100, "the range below names it");
-  require(o.anderson_history >= 0 && o.anderson_history <= kMaxAndersonHistory, "anderson_history", "in [0, 100]");
+  check_anderson_history(o.anderson_history, "guard option anderson_history");
   require(o.exact_direction_vertices >= 0, "exact_direction_vertices", ">= 0");
   require(o.supernodal_rows >= 0, "supernodal_rows", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");

@@ -82,8 +82,7 @@ struct GuardedSolver::Impl {
     if (p.cg_iterations < 0 || !(p.cg_tolerance > 0)) throw InputError("GuardedSolver: bad CG parameters");
     if (p.hold_rounds < 0 || !(p.hold_below > 0 && p.hold_below <= 1))
       throw InputError("GuardedSolver: hold_rounds must be >= 0 and hold_below in (0, 1]");
-    if (p.anderson_history < 0 || p.anderson_history > kMaxAndersonHistory)
-      throw InputError("GuardedSolver: anderson_history must be in [0, " + std::to_string(kMaxAndersonHistory) + "]");
+    check_anderson_history(p.anderson_history, "GuardedSolver: anderson_history");
     if (p.exact_direction_vertices < 0) throw InputError("GuardedSolver: exact_direction_vertices must be >= 0");
     if (p.contact_distance > 0 && !(p.contact_stiffness > 0))
       throw InputError("GuardedSolver: contact_stiffness must be positive");

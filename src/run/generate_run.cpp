@@ -20,9 +20,7 @@ void ThicknessChoice::check() const {
 
 double ThicknessChoice::eta(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) const {
   check();
-  const double eta = thickness ? *thickness : thickness_from_ratio(V, F, *thickness_ratio);
-  check_thickness_scale(V, F, eta);
-  return eta;
+  return thickness ? *thickness : thickness_from_ratio(V, F, *thickness_ratio);
 }
 
 void GenerateRunOptions::check() const {

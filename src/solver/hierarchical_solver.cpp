@@ -278,10 +278,8 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   s.options = options;
   s.rest_vertices_rows = static_cast<int>(rest_vertices.rows());
   if (options.levels < 1) throw InputError("HierarchicalSolver: options.levels must be >= 1 (got " + std::to_string(options.levels) + ")");
-  for (const int history : {options.anderson_history, options.level_anderson_history})
-    if (history < 0 || history > kMaxAndersonHistory)
-      throw InputError("HierarchicalSolver: Anderson histories must be in [0, " + std::to_string(kMaxAndersonHistory) +
-                       "] (got " + std::to_string(history) + ")");
+  check_anderson_history(options.anderson_history, "HierarchicalSolver: options.anderson_history");
+  check_anderson_history(options.level_anderson_history, "HierarchicalSolver: options.level_anderson_history");
   if (rest_vertices.rows() % 2 != 0) throw InputError("HierarchicalSolver: rest_vertices must have 2n rows (base then top), got " +
                      std::to_string(rest_vertices.rows()));
   if (!constraints.hard && !(constraints.weight > 0))

@@ -1049,6 +1049,12 @@ double ShellSolver::energy(const Eigen::MatrixXd& X, const Eigen::MatrixXd& soft
   return impl_->local_step(x.data(), nullptr) + impl_->soft_energy(x.data(), soft_targets);
 }
 
+void check_anderson_history(int history, const std::string& what) {
+  if (history < 0 || history > kMaxAndersonHistory)
+    throw InputError(what + " must be in [0, " + std::to_string(kMaxAndersonHistory) + "] (got " + std::to_string(history) +
+                     ")");
+}
+
 SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options,
                                const Eigen::MatrixXd& soft_targets) const {
   const Impl& m = *impl_;
@@ -1056,8 +1062,7 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   m.check_positions(Xio, "solve");
   m.check_soft_targets(soft_targets, "solve");
   if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
-  if (options.anderson_history < 0 || options.anderson_history > kMaxAndersonHistory)
-    throw InputError("ShellSolver::solve: the Anderson history must be in [0, " + std::to_string(kMaxAndersonHistory) + "]");
+  check_anderson_history(options.anderson_history, "ShellSolver::solve: the Anderson history");
   std::vector<double> X = to_row_major(Xio);
   const std::vector<double> rhs_const = m.rhs_constant(X.data(), soft_targets);
   // With the colouring the local step adds the rotations straight into b; otherwise they are

@@ -20,8 +20,8 @@ struct ThicknessChoice {
   ///         given, positive and finite.
   void check() const;
   /// eta in model units for the base (V, F) (a ratio: of the vertices F uses). \throws InputError as
-  /// check(), and for a thickness out of scale with the mesh (check_thickness_scale: generation and
-  /// the metrics' normal prisms alike).
+  /// check(). Not held to check_thickness_scale here: generation checks it itself, and the metrics
+  /// call it (each check is two passes over the mesh, ~25 ms at sphere:9).
   double eta(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) const;
 };
 

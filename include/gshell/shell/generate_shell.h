@@ -81,7 +81,7 @@ double thickness_from_ratio(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, 
 /// Checks that `thickness` is a layer double precision can build on this mesh: between
 /// kMinThicknessScale times its extent and kMaxThicknessRatio times its bounding radius (both over
 /// the vertices F uses, as thickness_from_ratio). generate_shell and generate_shell_from_prisms
-/// call it for every method. Preconditions: face ids in [0, V.rows()), F not empty.
+/// call it for every method, the metrics (CLI and Python) for their normal prisms. Preconditions: face ids in [0, V.rows()), F not empty.
 /// \throws InputError naming the thickness, its ratio to the radius and the bound it breaks.
 void check_thickness_scale(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double thickness);
 

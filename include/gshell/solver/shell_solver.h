@@ -32,6 +32,9 @@ struct SolveOptions {
 /// (--anderson 1000000000 ran out of memory); far below this the combination is already
 /// ill-conditioned and gains nothing (the default is 5).
 constexpr int kMaxAndersonHistory = 100;
+/// The one range check of every Anderson history a caller sets (generation, the solvers, the
+/// guard, the hierarchy). \throws InputError "WHAT must be in [0, 100] (got N)" outside it.
+void check_anderson_history(int history, const std::string& what);
 
 /// How the global step's linear system (L_ff X_f = B, one matrix for the three coordinates) is
 /// solved; docs/scale.md has the measurements behind the defaults.
