@@ -21,6 +21,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <gtest/gtest.h>
+#include "deform/frame_guard.h"
 #include "shell_fixtures.h"
 
 #include <algorithm>
@@ -490,7 +491,7 @@ TEST(PoseGuard, UnguardedDragPreviewsSettleIntoAValidState) {
 void expect_squeeze_stops_at_contact(PoseSolverKind kind) {
   std::vector<int> progress_calls;
   const PoseResult guarded = squeeze_bowl(kind, false, &progress_calls);
-  bool blocked = false;
+  bool blocked = false, started_along = false;
   ASSERT_EQ(guarded.steps.size(), progress_calls.size());
   for (std::size_t k = 0; k < guarded.steps.size(); ++k) {
     const PoseStepReport& s = guarded.steps[k];
@@ -498,12 +499,18 @@ void expect_squeeze_stops_at_contact(PoseSolverKind kind) {
     // Progress goes on while the guard drags: one report per solver and per guarded iteration.
     EXPECT_EQ(progress_calls[k], s.iterations + s.guarded_iterations);
     EXPECT_TRUE(s.guarded);
+    EXPECT_GE(s.drag_start, 0.0);
+    EXPECT_LT(s.drag_start, 1.0);
+    started_along = started_along || s.drag_start > 0;
     EXPECT_TRUE(s.valid);
     EXPECT_EQ(s.inverted_tets, 0);
     EXPECT_EQ(s.intersections, 0);
     blocked = blocked || s.blocked_by_contact;
   }
   EXPECT_TRUE(blocked);
+  // Where the solver's step pressed the rim together only late, its drag began part of the way
+  // there (FrameGuard::accepted_fraction), and ended valid all the same.
+  EXPECT_TRUE(started_along);
   const int n = static_cast<int>(guarded.X.rows()) / 2;
   const Eigen::MatrixXi F = offset_shell(make_bowl(8), 0.08).F;
   const ShellCertificate c = certify_shell(guarded.X.topRows(n), guarded.X.bottomRows(n), F);
@@ -562,6 +569,59 @@ TEST(PoseGuard, APairTouchingToRoundingAtRestDoesNotHoldThePoseStill) {
   const Eigen::MatrixXi T = build_prism_tets(rest.F, n);
   const ShellCertificate c = certify_shell(r.X.topRows(n), r.X.bottomRows(n), rest.F);
   for (int t : c.inverted_tet_ids) EXPECT_TRUE((T.row(t).array() == n + v).any()) << "tet " << t;
+}
+
+// FrameGuard::accepted_fraction, where a refused pose step's drag begins. A flat plane's shell
+// (thickness 0.2) whose middle top vertex is pushed 0.6 down, through its base: its tets keep 0.1
+// of their volume (the keep fraction) until the top is 0.02 above the base, at 0.3 of the way, and
+// nothing intersects before; so the fraction is the tets' step bound, just below 0.3.
+TEST(FrameGuardStart, AFractionCutByTheTetsIsTheirStepBound) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  const int n = rest.num_base_vertices();
+  int v = 0;
+  for (int i = 1; i < n; ++i)
+    if (rest.base.row(i).squaredNorm() < rest.base.row(v).squaredNorm()) v = i;
+  const RestTets tets = deformation_rest_tets(rest);
+  FrameGuard guard(rest, tets, frame_guard_options(), test::vertex_range(0, n), true);
+  const Eigen::MatrixXd X0 = rest.vertices();
+  Eigen::MatrixXd X1 = X0;
+  X1(n + v, 2) -= 0.6;
+  Eigen::MatrixXd Y;
+  const double t = guard.accepted_fraction(X0, X1, true, 0.05, Y);
+  EXPECT_GT(t, 0.3 - 1e-6);
+  EXPECT_LT(t, 0.3);
+  EXPECT_TRUE(Y.isApprox(X0 + t * (X1 - X0), 0.0));
+  const ShellCertificate c = certify_shell(Y.topRows(n), Y.bottomRows(n), rest.F);
+  EXPECT_TRUE(c.valid());
+}
+
+// Two facing sheets 0.5 apart, shells 0.1 thick, the upper sheet moved down by 0.5 onto the
+// lower: nothing turns (the tets' bound is 1), so the tries are 0.7, 0.49, ... of the way. At 0.7
+// the upper top (0.05 above the lower base) has passed the lower top (0.1): refused; at 0.49 it is
+// 0.155 above: taken. Below the smallest fraction allowed nothing is tried and Y stays as it was.
+TEST(FrameGuardStart, AFractionCutByContactsIsTheLargestCleanTry) {
+  const Shell rest = offset_shell(test::facing_sheets(6, 0.5), 0.1);
+  const int n = rest.num_base_vertices();
+  const RestTets tets = deformation_rest_tets(rest);
+  FrameGuard guard(rest, tets, frame_guard_options(), test::vertex_range(0, 2 * n), true);
+  const Eigen::MatrixXd X0 = rest.vertices();
+  Eigen::MatrixXd X1 = X0;
+  for (int i = 0; i < 2 * n; ++i)
+    if (X0(i, 2) > 0.25) X1(i, 2) -= 0.5; // the upper sheet, base and top
+  const auto clean = [&](const Eigen::MatrixXd& X) {
+    const ShellCertificate c = certify_shell(X.topRows(n), X.bottomRows(n), rest.F);
+    return c.valid() && c.base_self_intersections == 0;
+  };
+  ASSERT_FALSE(clean(X1));
+  ASSERT_FALSE(clean(X0 + 0.7 * (X1 - X0)));
+  Eigen::MatrixXd Y;
+  const double t = guard.accepted_fraction(X0, X1, true, 0.05, Y);
+  EXPECT_DOUBLE_EQ(t, 0.7 * 0.7);
+  EXPECT_TRUE(Y.isApprox(X0 + t * (X1 - X0), 0.0));
+  EXPECT_TRUE(clean(Y));
+  Eigen::MatrixXd untouched = X0;
+  EXPECT_EQ(guard.accepted_fraction(X0, X1, true, 0.6, untouched), 0.0);
+  EXPECT_TRUE(untouched.isApprox(X0, 0.0));
 }
 
 // Hard handles are the caller's: the guard moves them exactly along their path, so a pair of

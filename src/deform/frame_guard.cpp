@@ -36,6 +36,9 @@ double max_edge_change(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to, c
   return worst;
 }
 
+// accepted_fraction's tries: each 0.7 of the one before (about 8 tries from 0.7 down to 0.05).
+constexpr double kFractionShrink = 0.7;
+
 // Tets at or below this relative volume are left out of the guard: no step bound computed in
 // floating point keeps their sign.
 constexpr double kFlat = 1e-8;
@@ -229,6 +232,24 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   const bool ok = only_unguarded_faults(c);
   if (certificate) *certificate = std::move(c);
   return ok;
+}
+
+double FrameGuard::accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
+                                     double min_fraction, Eigen::MatrixXd& Y) {
+  const Eigen::MatrixXd D = X1 - X0;
+  double t = tet_step_bound(rest_tets_.T, X0, D, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step;
+  // With the tets' bound at 1, the end's certificate refused the whole step.
+  if (t >= 1) t = kFractionShrink;
+  const bool certify = contacts && contact_;
+  CertifyOptions options;
+  options.base_self_intersections = moving_base_;
+  for (; t >= min_fraction && t > 0; t *= kFractionShrink) {
+    Eigen::MatrixXd Z = X0 + t * D;
+    if (certify && !only_unguarded_faults(certifier_.certify(Z.topRows(n_), Z.bottomRows(n_), options))) continue;
+    Y = std::move(Z);
+    return t;
+  }
+  return 0;
 }
 
 bool FrameGuard::only_unguarded_faults(const ShellCertificate& c) const {

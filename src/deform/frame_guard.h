@@ -37,6 +37,13 @@ public:
   /// returned in `certificate`) finds no intersection the guard keeps apart. X1 is then a valid
   /// start for the guarded solver, as X0 is.
   bool accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, ShellCertificate* certificate);
+  /// The largest fraction t tried of the straight path from X0 to X1 whose end X0 + t (X1 - X0)
+  /// this guard accepts (as `accepts` does: the path keeps every guarded tet above keep_fraction
+  /// of its volume, the end's certificate finds nothing the guard keeps apart): the tet step
+  /// bound first, then 0.7 of the last try, down to min_fraction. Returns 0 and leaves Y alone
+  /// when no try is accepted, else t with Y = X0 + t (X1 - X0).
+  double accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, double min_fraction,
+                           Eigen::MatrixXd& Y);
   /// The exact certificate of X (2n x 3), base/base pairs included: certify_shell's answer, by
   /// the guard's certifier (trees refit, not rebuilt).
   ShellCertificate certify(const Eigen::MatrixXd& X);

@@ -134,6 +134,7 @@ struct DragSession::Impl {
     step.blocked_by_contact = v.blocked_by_contact;
     step.method = v.method;
     step.guarded_iterations = v.guarded_iterations;
+    step.drag_start = v.drag_start;
     step.inverted_tets = v.certificate.inverted_tets;
     step.intersections = v.certificate.intersections_tested()
                              ? static_cast<int>(v.certificate.intersections.size())

@@ -34,6 +34,7 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
     j["method"] = frame_method_name(method);
     j["blocked_by_contact"] = blocked_by_contact;
     j["guarded_iterations"] = guarded_iterations;
+    j["drag_start"] = drag_start;
     j["certificate"] = {{"inverted_tets", inverted_tets}, {"intersections", intersections}};
     j["base_self_intersections"] = count_or_null(base_self_intersections);
   }

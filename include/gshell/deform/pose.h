@@ -33,6 +33,9 @@ struct ValidStep {
   /// The handles force a collision: the step stopped at contact, short of the targets (valid).
   bool blocked_by_contact = false;
   int guarded_iterations = 0;
+  /// Guarded: where the drag began, as a fraction of the straight path from the previous state to
+  /// the solver's refused result (0: the previous state itself).
+  double drag_start = 0;
   bool valid = false;            ///< the certificate holds (base/base pairs included)
   ShellCertificate certificate;  ///< of the step's result, base/base pairs included
 };

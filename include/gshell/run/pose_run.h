@@ -69,12 +69,13 @@ struct PoseStepReport {
   bool blocked_by_contact = false; ///< guarded: the handles forced a collision; the step stopped at contact
   FrameMethod method = FrameMethod::Unguarded;
   int guarded_iterations = 0;
+  double drag_start = 0; ///< guarded: ValidStep::drag_start
   int inverted_tets = -1, intersections = -1; ///< guarded: the certificate's counts (all pair kinds)
   /// guarded: face pairs where the posed base crosses itself (-1 = not tested); a step is valid
   /// only without them
   int base_self_intersections = -1;
   /// {fraction, iterations, energy, seconds, converged} and, guarded, {valid, method,
-  /// blocked_by_contact, guarded_iterations, certificate {inverted_tets, intersections},
+  /// blocked_by_contact, guarded_iterations, drag_start, certificate {inverted_tets, intersections},
   /// base_self_intersections}
   nlohmann::ordered_json to_json() const;
 };
