@@ -7,6 +7,7 @@
 #include <gshell/run/staged_folder.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/triangle_intersections.h>
 
@@ -41,6 +42,13 @@ void run_animate(const AnimateArgs& args) {
   const bool bending = !std::isnan(args.bend);
   const double degrees = bending ? args.bend : args.twist;
   if (!std::isfinite(degrees)) throw gshell::InputError("the angle must be finite");
+  // 100 turns: a bend past one turn already runs the base through itself, and far beyond this the
+  // angle's rounding (1e300 degrees is a multiple of 360 to every digit a double keeps) decides
+  // the frames.
+  constexpr double kMaxDegrees = 36000;
+  if (std::abs(degrees) > kMaxDegrees)
+    throw gshell::InputError("the angle must be within +-" + std::to_string(static_cast<int>(kMaxDegrees)) +
+                             " degrees (100 turns; got " + gshell::format_number(degrees) + ")");
   gshell::TriMesh mesh = gshell::cli::load_surface(args.base, "animate");
   const gshell::MotionFrame frame = gshell::motion_frame(mesh.V);
   const Eigen::MatrixXd rest = mesh.V;

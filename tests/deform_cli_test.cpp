@@ -86,6 +86,13 @@ TEST(AnimateCli, RejectsBadArguments) {
   EXPECT_EQ(run_cli("animate builtin:plane --bend 10 --frames 0 -o '" + out + "'").exit_code, 1);
   EXPECT_EQ(run_cli("animate builtin:plane --bend 10 --band 0 -o '" + out + "'").exit_code, 1);
   EXPECT_EQ(run_cli("animate missing.obj --bend 10 -o '" + out + "'").exit_code, 1);
+  for (const char* angle : {"--bend 1e300", "--twist -36001"}) {
+    const auto r = run_cli("animate builtin:plane " + std::string(angle) + " -o '" + out + "' -q");
+    EXPECT_EQ(r.exit_code, 1) << angle;
+    EXPECT_NE(r.err.find("the angle must be within +-36000 degrees (100 turns; got "), std::string::npos) << r.err;
+  }
+  TempDir turns;
+  EXPECT_EQ(run_cli("animate builtin:plane:4 --twist 36000 --frames 1 -o '" + turns.file("out") + "' -q").exit_code, 0);
   EXPECT_FALSE(fs::exists(out));
   EXPECT_EQ(test::count_entries(tmp.path()), 0); // no temporary folder left behind
 }
