@@ -535,6 +535,45 @@ TEST(PoseGuard, SqueezingABowlShutStopsAtContactValidHierarchicalSolver) {
   expect_squeeze_stops_at_contact(PoseSolverKind::Hierarchical);
 }
 
+// Soft handles (springs) driven through each other: no guarded solver holds springs, so a refused
+// step is cut back along its straight path to the largest part the guard accepts (it used to be
+// halved from 0.5 on). The step from rest to half the squeeze: the solver's own result passes the
+// rim through itself; the step returned lies on the straight path to it, valid, short of it.
+TEST(PoseGuard, SoftHandlesPressedTogetherAreCutBackAlongTheirStep) {
+  const Shell rest = offset_shell(make_bowl(8), 0.08);
+  const int n = rest.num_base_vertices();
+  HandleSet handles = squeeze_handles(rest);
+  handles.mode = ConstraintMode::Soft;
+  const Eigen::MatrixXd from = rest.vertices();
+  const Eigen::MatrixXd P = handles.targets(from, 0.5);
+  SolveOptions options;
+  options.max_iterations = 100;
+  options.tolerance = 1e-5;
+  Eigen::MatrixXd solved = from;
+  PoseSolver(rest, handles, PoseSolverKind::Hierarchical).solve(solved, P, options);
+  const ShellCertificate s = certify_shell(solved.topRows(n), solved.bottomRows(n), rest.F);
+  ASSERT_FALSE(s.valid() && s.base_self_intersections == 0);
+
+  PoseSolver guarded(rest, handles, PoseSolverKind::Hierarchical);
+  Eigen::MatrixXd X = from;
+  ValidStep step;
+  guarded.solve_valid(from, X, P, options, PoseOptions{}.guard, &step);
+  EXPECT_EQ(step.method, FrameMethod::Bounded);
+  EXPECT_TRUE(step.blocked_by_contact);
+  EXPECT_TRUE(step.valid);
+  // Where X lies along the path, and that it lies on it.
+  const Eigen::MatrixXd D = solved - from;
+  const double t = (X - from).cwiseProduct(D).sum() / D.squaredNorm();
+  EXPECT_LT((X - (from + t * D)).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NEAR(step.drag_start, t, 1e-12);
+  // The tets allow a third of the way here, and nothing intersects there; halving kept a quarter.
+  EXPECT_GT(t, 0.25);
+  EXPECT_LT(t, 1.0);
+  const ShellCertificate c = certify_shell(X.topRows(n), X.bottomRows(n), rest.F);
+  EXPECT_TRUE(c.valid());
+  EXPECT_EQ(c.base_self_intersections, 0);
+}
+
 TEST(PoseGuard, APairTouchingToRoundingAtRestDoesNotHoldThePoseStill) {
   // One top vertex pressed onto the base: the base vertex under it then touches the top triangles
   // around it as far as floating point can tell, so no step that moves them is certified. Guarding

@@ -143,10 +143,17 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
   rest_excluded_ = parameters_.excluded_triangles;
 
-  if (parameters_.contact_distance > 0) {
-    contact_ = std::make_unique<GuardedSolver>(rest_tets, 2 * n, fixed_, boundary_, parameters_);
+}
+
+GuardedSolver& FrameGuard::contact_solver() {
+  // Built at the first drag, not with the guard: most steps and frames are accepted as the solver
+  // made them and never need it (a factorisation of the whole shell's system), and with soft
+  // handles (no fixed vertex: no drag) its system would be singular.
+  if (!contact_) {
+    contact_ = std::make_unique<GuardedSolver>(rest_tets_, 2 * n_, fixed_, boundary_, parameters_);
     cap_contact_supports();
   }
+  return *contact_;
 }
 
 void FrameGuard::cap_contact_supports() {
@@ -214,7 +221,7 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   // is a valid start for the next one. The tet step bound and the certificate run side by side:
   // most frames pass both, and the two fill each other's idle threads (serial parts of the
   // certificate's tree passes).
-  const bool certify = contacts && contact_;
+  const bool certify = contacts && guards_contacts();
   TetStepBound tets;
   ShellCertificate c;
   auto bound = [&] {
@@ -240,7 +247,7 @@ double FrameGuard::accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::Mat
   double t = tet_step_bound(rest_tets_.T, X0, D, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step;
   // With the tets' bound at 1, the end's certificate refused the whole step.
   if (t >= 1) t = kFractionShrink;
-  const bool certify = contacts && contact_;
+  const bool certify = contacts && guards_contacts();
   CertifyOptions options;
   options.base_self_intersections = moving_base_;
   for (; t >= min_fraction && t > 0; t *= kFractionShrink) {
@@ -275,8 +282,8 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
                                      double substep_tolerance, const std::function<bool()>& other_way) {
   Outcome out;
   GuardedSolver* solver = nullptr;
-  if (contacts && contact_ && std::isfinite(contact_->energy(X))) solver = contact_.get();
-  else if (!contact_ && std::isfinite(tets_only().energy(X))) solver = &tets_only(); // contacts off
+  if (contacts && guards_contacts() && std::isfinite(contact_solver().energy(X))) solver = &contact_solver();
+  else if (!guards_contacts() && std::isfinite(tets_only().energy(X))) solver = &tets_only(); // contacts off
   else if (fall_back_to_tets && std::isfinite(tets_only().energy(X))) {
     solver = &tets_only();
     out.method = FrameMethod::TetsOnly;

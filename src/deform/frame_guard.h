@@ -2,8 +2,8 @@
 // The guard of a deformation's frames (ShellDeformer with allow_invalid off): step bounds that
 // decide whether the paper's solve can be taken as it is, and the guarded solvers that drag the
 // shell from the previous frame to the new base otherwise. Built once per rest shell and guard
-// parameters (two factorisations at most: with contacts, and tets only for bases that force a
-// contact).
+// parameters; its solvers (two factorisations at most: with contacts, and tets only for bases
+// that force a contact) are made at the first drag that needs them.
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/guard/guarded_solver.h>
 #include <gshell/quality/shell_boundary.h>
@@ -68,7 +68,7 @@ public:
     return parameters_.skip_tets != rest_skip_ || parameters_.excluded_triangles != rest_excluded_;
   }
   /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
-  bool guards_contacts() const { return contact_ != nullptr; }
+  bool guards_contacts() const { return parameters_.contact_distance > 0; }
 
   struct Outcome {
     FrameMethod method = FrameMethod::Guarded;
@@ -100,6 +100,7 @@ public:
 
 private:
   GuardedSolver& tets_only();
+  GuardedSolver& contact_solver();
   // The contact solver's supports capped at the rest shell (GuardOptions::contact_rest_fraction).
   void cap_contact_supports();
 

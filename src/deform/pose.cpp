@@ -23,6 +23,8 @@ using Clock = std::chrono::steady_clock;
 // A drag starts at the previous state rather than closer than this to it along the straight path
 // to a refused step: the tries below it would cost certificates and save next to nothing.
 constexpr double kMinDragStart = 0.05;
+// The least part of a soft step kept (below it the step stays where it began): about 2^-20.
+constexpr double kMinSoftStep = 1e-6;
 
 /// Every connected part of the base mesh (its top goes with it) needs a handle vertex, or the
 /// energy does not pin it in space and the system is singular.
@@ -182,18 +184,12 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     out.guarded_iterations = outcome.iterations;
     X = outcome.method == FrameMethod::Failed ? start : std::move(Y);
   } else {
-    // Soft handles: no guarded solver holds springs; the straight path is cut back instead.
-    const Eigen::MatrixXd D = X - start;
-    double a = 0.5;
-    bool found = false;
-    for (int halving = 0; halving < 20 && !found; ++halving, a *= 0.5) {
-      X = start + a * D;
-      found = s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate);
-    }
-    if (!found) {
-      X = start;
-      out.certificate = s.guard->certify(X);
-    }
+    // Soft handles: no guarded solver holds springs; the step is cut back along its straight path
+    // to as much of it as the guard accepts (nothing of it when not even kMinSoftStep is).
+    Eigen::MatrixXd Y = start;
+    out.drag_start = s.guard->accepted_fraction(start, X, s.guard->guards_contacts(), kMinSoftStep, Y);
+    X = std::move(Y);
+    out.certificate = s.guard->certify(X);
     out.method = FrameMethod::Bounded;
     out.blocked_by_contact = true;
   }

@@ -33,8 +33,9 @@ struct ValidStep {
   /// The handles force a collision: the step stopped at contact, short of the targets (valid).
   bool blocked_by_contact = false;
   int guarded_iterations = 0;
-  /// Guarded: where the drag began, as a fraction of the straight path from the previous state to
-  /// the solver's refused result (0: the previous state itself).
+  /// Where the guard took over from a refused solver step, as a fraction of the straight path from
+  /// the previous state to that step's result: hard handles, where the drag began; soft handles,
+  /// where the step was cut back to (0: the previous state itself).
   double drag_start = 0;
   bool valid = false;            ///< the certificate holds (base/base pairs included)
   ShellCertificate certificate;  ///< of the step's result, base/base pairs included
