@@ -45,10 +45,10 @@ void run_animate(const AnimateArgs& args) {
   // 100 turns: a bend past one turn already runs the base through itself, and far beyond this the
   // angle's rounding (1e300 degrees is a multiple of 360 to every digit a double keeps) decides
   // the frames.
-  constexpr double kMaxDegrees = 36000;
+  constexpr int kMaxDegrees = 100 * 360;
   if (std::abs(degrees) > kMaxDegrees)
-    throw gshell::InputError("the angle must be within +-" + std::to_string(static_cast<int>(kMaxDegrees)) +
-                             " degrees (100 turns; got " + gshell::format_number(degrees) + ")");
+    throw gshell::InputError("the angle must be within +-" + std::to_string(kMaxDegrees) + " degrees (100 turns; got " +
+                             gshell::format_number(degrees) + ")");
   gshell::TriMesh mesh = gshell::cli::load_surface(args.base, "animate");
   const gshell::MotionFrame frame = gshell::motion_frame(mesh.V);
   const Eigen::MatrixXd rest = mesh.V;

@@ -142,7 +142,6 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
   rest_excluded_ = parameters_.excluded_triangles;
-
 }
 
 GuardedSolver& FrameGuard::contact_solver() {
@@ -242,7 +241,7 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
 }
 
 double FrameGuard::accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
-                                     double min_fraction, Eigen::MatrixXd& Y) {
+                                     double min_fraction, Eigen::MatrixXd& Y, ShellCertificate* certificate) {
   const Eigen::MatrixXd D = X1 - X0;
   double t = tet_step_bound(rest_tets_.T, X0, D, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step;
   // With the tets' bound at 1, the end's certificate refused the whole step.
@@ -250,12 +249,19 @@ double FrameGuard::accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::Mat
   const bool certify = contacts && guards_contacts();
   CertifyOptions options;
   options.base_self_intersections = moving_base_;
+  const auto certify_state = [&](const Eigen::MatrixXd& Z) {
+    return certifier_.certify(Z.topRows(n_), Z.bottomRows(n_), options);
+  };
   for (; t >= min_fraction && t > 0; t *= kFractionShrink) {
     Eigen::MatrixXd Z = X0 + t * D;
-    if (certify && !only_unguarded_faults(certifier_.certify(Z.topRows(n_), Z.bottomRows(n_), options))) continue;
+    ShellCertificate c;
+    if (certify || certificate) c = certify_state(Z);
+    if (certify && !only_unguarded_faults(c)) continue;
+    if (certificate) *certificate = std::move(c);
     Y = std::move(Z);
     return t;
   }
+  if (certificate) *certificate = certify_state(X0);
   return 0;
 }
 

@@ -41,9 +41,11 @@ public:
   /// this guard accepts (as `accepts` does: the path keeps every guarded tet above keep_fraction
   /// of its volume, the end's certificate finds nothing the guard keeps apart): the tet step
   /// bound first, then 0.7 of the last try, down to min_fraction. Returns 0 and leaves Y alone
-  /// when no try is accepted, else t with Y = X0 + t (X1 - X0).
+  /// when no try is accepted, else t with Y = X0 + t (X1 - X0). `certificate`, if given, receives
+  /// the exact certificate of the state chosen (X0 + t (X1 - X0), or X0 for 0), base/base pairs
+  /// included where the base moves (as in `accepts`).
   double accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, double min_fraction,
-                           Eigen::MatrixXd& Y);
+                           Eigen::MatrixXd& Y, ShellCertificate* certificate = nullptr);
   /// The exact certificate of X (2n x 3), base/base pairs included: certify_shell's answer, by
   /// the guard's certifier (trees refit, not rebuilt).
   ShellCertificate certify(const Eigen::MatrixXd& X);

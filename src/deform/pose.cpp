@@ -187,9 +187,9 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     // Soft handles: no guarded solver holds springs; the step is cut back along its straight path
     // to as much of it as the guard accepts (nothing of it when not even kMinSoftStep is).
     Eigen::MatrixXd Y = start;
-    out.drag_start = s.guard->accepted_fraction(start, X, s.guard->guards_contacts(), kMinSoftStep, Y);
+    out.drag_start =
+        s.guard->accepted_fraction(start, X, s.guard->guards_contacts(), kMinSoftStep, Y, &out.certificate);
     X = std::move(Y);
-    out.certificate = s.guard->certify(X);
     out.method = FrameMethod::Bounded;
     out.blocked_by_contact = true;
   }
