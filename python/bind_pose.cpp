@@ -43,6 +43,15 @@ std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::str
 
 HandleSet handles_from(const PoserObject& p, const py::object& handles) {
   const Shell& rest = p.session.rest();
+  // A handle file's text pasted as a str is JSON, not a file name: no path starts with '{', and
+  // treating it as one answered "cannot open handle file" followed by the whole text.
+  if (py::isinstance<py::str>(handles)) {
+    std::string text = handles.cast<std::string>();
+    if (const auto first = text.find_first_not_of(" \t\r\n"); first != std::string::npos && text[first] == '{') {
+      py::gil_scoped_release release;
+      return parse_handles(text, "handles", rest);
+    }
+  }
   if (py::isinstance<py::str>(handles) || py::hasattr(handles, "__fspath__")) {
     const auto path = handles.cast<std::filesystem::path>();
     py::gil_scoped_release release;
@@ -95,7 +104,7 @@ Handles are a dict in the handle-file format of `gshell pose --handles` (docs/ha
         {"select": {"surface": "both", "box": [-9, -9, -9, 9, 9, -0.5]}},
         {"vertices": [0, 5, 17], "translate": [0, 0, 0.3],
          "rotate": {"axis": [0, 1, 0], "degrees": 30}}]}
-(shell vertex ids: base 0..n-1, top n..2n-1), or the path of such a file.)")
+(shell vertex ids: base 0..n-1, top n..2n-1), the same as JSON text, or the path of such a file.)")
       .def(py::init(&make_poser), py::arg("shell"), py::arg("solver") = pose_solver_name(defaults.solver),
            py::arg("levels") = defaults.hierarchy.levels, py::kw_only(),
            py::arg("allow_invalid") = defaults.allow_invalid,
@@ -118,7 +127,8 @@ Raises:
            R"(Move the handles and solve for the deformed shell.
 
 Args:
-    handles: dict in the handle-file format, or a handle file path (str or os.PathLike).
+    handles: dict in the handle-file format, the same as JSON text (a str starting with '{'), or
+        a handle file path (str or os.PathLike).
     fraction: how far along the handles' motion to go (1 = the full translate/rotate).
     steps: reach `fraction` in this many equal steps, solving after each (an interactive drag).
     iterations: maximum iterations per step (>= 1).

@@ -704,10 +704,13 @@ class PoseTest(TempDirTest):
                     assert_same_report(self, cli, json.load(f))
                 py_top, _ = gshell.read_mesh(os.path.join(self.path("py_posed"), "top.obj"))
                 np.testing.assert_allclose(py_top, cli_top, atol=1e-9)
-                # The same handles from the file give the same result.
-                base2, top2 = gshell.Poser(shell, solver=solver, levels=3).solve(handles, iterations=20, steps=2)
-                np.testing.assert_array_equal(base2, base)
-                np.testing.assert_array_equal(top2, top)
+                # The same handles from the file, and as JSON text, give the same result.
+                with open(handles) as f:
+                    text = "\n  " + f.read()
+                for source in (handles, text):
+                    base2, top2 = gshell.Poser(shell, solver=solver, levels=3).solve(source, iterations=20, steps=2)
+                    np.testing.assert_array_equal(base2, base)
+                    np.testing.assert_array_equal(top2, top)
 
     def test_rigid_handle_moves_everything_rigidly(self):
         everything = {"handles": [{"select": {"box": [-5, -5, -5, 5, 5, 5]}, "translate": [1, 2, 3],
@@ -756,6 +759,10 @@ class PoseTest(TempDirTest):
         for handles in ([1, 2], 3.5, self.path("missing.json")):
             with self.subTest(handles=handles), self.assertRaises(ValueError):
                 poser.solve(handles)
+        # JSON text is read as handles, not as a file name: its error is the parser's.
+        with self.assertRaisesRegex(ValueError, "handles: ") as caught:
+            poser.solve('{"handles": [{"vertices": [0], "pull": [0, 0, 1]}]}')
+        self.assertNotIn("cannot open", str(caught.exception))
         for kwargs in (dict(fraction=1.5), dict(steps=0), dict(iterations=0), dict(tolerance=float("nan"))):
             with self.subTest(kwargs=kwargs), self.assertRaises(ValueError):
                 poser.solve(HANDLES, **kwargs)
