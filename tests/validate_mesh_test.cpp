@@ -242,6 +242,24 @@ TEST(ValidateMesh, InconsistentOrientation) {
   EXPECT_EQ(of_severity(validate_mesh(m), Severity::Error).size(), 3u);
 }
 
+TEST(ValidateMesh, DuplicatedFaceIsNamedOnceWhateverItsOrientation) {
+  // One triangle twice, opposite ways round: every edge has two faces running along it in opposite
+  // directions, which the edge checks alone took for a closed surface (enclosing nothing).
+  std::string error = only_error(mesh_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}, {0, 2, 1}}));
+  EXPECT_TRUE(contains(error, "faces 0 and 1 use the same three vertices (0, 1, 2)")) << error;
+  // The same way round: not an orientation clash on each of its edges but one duplicated face.
+  error = only_error(mesh_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}, {1, 2, 0}}));
+  EXPECT_TRUE(contains(error, "faces 0 and 1 use the same three vertices")) << error;
+  // A closed tetrahedron with one face repeated: not three non-manifold edges.
+  TriMesh m = tetrahedron();
+  m.F.conservativeResize(5, 3);
+  m.F.row(4) = m.F.row(1);
+  error = only_error(m);
+  EXPECT_TRUE(contains(error, "faces 1 and 4 use the same three vertices (0, 1, 3)")) << error;
+  // Faces sharing two vertices only are no duplicates: the clean closed mesh has none.
+  EXPECT_TRUE(validate_mesh(tetrahedron()).empty());
+}
+
 TEST(ValidateMesh, UnreferencedVertexIsAWarning) {
   TriMesh m = tetrahedron();
   m.V.conservativeResize(5, 3);

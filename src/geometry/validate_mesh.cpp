@@ -207,7 +207,25 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
       while (j < around.size() && around[j].vertex == around[i].vertex) ++j;
       const int w = around[i].vertex, valence = static_cast<int>(j - i);
       const auto edge_text = [&] { return "edge (" + std::to_string(std::min(v, w)) + ", " + std::to_string(std::max(v, w)) + ")"; };
-      if (valence > 2) {
+      // Two faces on one edge with the same third vertex are one triangle twice. Said so, not as
+      // the non-manifold edge or orientation clash it also makes (or, in opposite orientations,
+      // as a valid closed surface enclosing nothing). Reported once, at its vertices v < w < third.
+      bool duplicated = false;
+      for (std::size_t q = i; q < j && q < i + 16; ++q)
+        for (std::size_t r = q + 1; r < j && r < i + 16; ++r)
+          if (around[q].third == around[r].third) {
+            duplicated = true;
+            const int u = around[q].third;
+            if (v < w && w < u)
+              list.add(Severity::Error, "duplicated faces",
+                       "faces " + std::to_string(around[q].face) + " and " + std::to_string(around[r].face) +
+                           " use the same three vertices (" + std::to_string(v) + ", " + std::to_string(w) + ", " +
+                           std::to_string(u) + "): a face is duplicated");
+          }
+      if (duplicated) {
+        on_bad_edge = true;
+        if (valence == 2 && fan_sets.unite(around[i].corner, around[i + 1].corner)) --fans;
+      } else if (valence > 2) {
         on_bad_edge = true;
         if (v < w) {
           std::string faces;

@@ -26,6 +26,7 @@ struct Neighbour {
   int face;
   int corner;    ///< index of the corner in the vertex's star
   bool outgoing; ///< the face runs from the centre vertex to `vertex`
+  int third;     ///< the face's third vertex (neither the centre nor `vertex`)
   bool operator<(const Neighbour& o) const { return vertex != o.vertex ? vertex < o.vertex : face < o.face; }
 };
 
@@ -62,8 +63,8 @@ public:
     out.clear();
     for (int i = 0; i < degree(v); ++i) {
       const Corner& c = corners_[start_[v] + i];
-      out.push_back({c.next, c.face, i, true});
-      out.push_back({c.prev, c.face, i, false});
+      out.push_back({c.next, c.face, i, true, c.prev});
+      out.push_back({c.prev, c.face, i, false, c.next});
     }
     std::sort(out.begin(), out.end());
   }
