@@ -219,7 +219,7 @@ Returns:
     dict with the fields of the CLI's metrics report (thickness {eta, ratio, min, mean},
     vertices, faces, tets, stretch {mean, volume_mean, max, p99} against the normal prisms,
     valid, certificate {inverted_tets, top_self_intersections, top_base_intersections,
-    wall_intersections, exact}, base_self_intersections, thinned_vertices), plus NumPy arrays
+    wall_intersections, nested_parts, exact}, base_self_intersections, thinned_vertices), plus NumPy arrays
     tet_stretch (3m,), tet_determinant (3m,) and vertex_thickness (n,) (distance to the base / eta).
 
 Raises:

@@ -707,5 +707,48 @@ TEST(PoseGuard, HandlesFoldingAShellOntoItselfStopAtContact) {
   EXPECT_FALSE(l.valid() && l.base_self_intersections == 0);
 }
 
+TEST(PoseGuard, APartMovedWholeIntoAnotherPartsLayerIsRefused) {
+  // A bead (base radius 0.01, top 0.02) beside a ball (base 1, top 1.1), moved by its handle in one
+  // step to the middle of the ball's layer: the state there crosses no triangle, so every pair
+  // test passes and the step used to be taken as the solver made it, the bead jumped through the
+  // ball's top. The certificate's nesting test refuses it; the drag then stops at contact.
+  const TriMesh ball = make_sphere(2), bead = make_sphere(1, 0.01);
+  const int nb = static_cast<int>(ball.V.rows()), ns = static_cast<int>(bead.V.rows()), n = nb + ns;
+  const Eigen::RowVector3d centre(1.3, 0, 0);
+  Shell rest;
+  rest.base.resize(n, 3);
+  rest.base << ball.V, bead.V.rowwise() + centre;
+  rest.top.resize(n, 3);
+  rest.top << 1.1 * ball.V, (2 * bead.V).rowwise() + centre;
+  rest.F.resize(ball.F.rows() + bead.F.rows(), 3);
+  rest.F << ball.F, (bead.F.array() + nb).matrix();
+  rest.thickness = 0.1;
+  ASSERT_TRUE(certify_shell(rest.base, rest.top, rest.F).valid());
+  HandleSet handles;
+  Handle held, moved;
+  for (int i = 0; i < nb; ++i) held.vertices.insert(held.vertices.end(), {i, n + i});
+  for (int i = nb; i < n; ++i) moved.vertices.insert(moved.vertices.end(), {i, n + i});
+  std::sort(held.vertices.begin(), held.vertices.end());
+  std::sort(moved.vertices.begin(), moved.vertices.end());
+  moved.translate = Eigen::Vector3d(-0.25, 0, 0); // the bead's layer ends in [1.03, 1.07] of x
+  handles.handles = {held, moved};
+  PoseOptions options;
+  options.allow_invalid = true;
+  const PoseResult jumped = run_pose(rest, handles, options);
+  const ShellCertificate j = certify_shell(jumped.X.topRows(n), jumped.X.bottomRows(n), rest.F);
+  EXPECT_TRUE(j.intersections.empty());
+  EXPECT_EQ(j.nested_parts, 2);
+  options.allow_invalid = false;
+  const PoseResult r = run_pose(rest, handles, options);
+  ASSERT_EQ(r.steps.size(), 1u);
+  EXPECT_TRUE(r.steps[0].valid);
+  EXPECT_TRUE(r.steps[0].blocked_by_contact);
+  EXPECT_NE(r.steps[0].method, FrameMethod::Bounded);
+  EXPECT_EQ(r.steps[0].nested_parts, 0);
+  const ShellCertificate c = certify_shell(r.X.topRows(n), r.X.bottomRows(n), rest.F);
+  EXPECT_TRUE(c.valid());
+  for (int i = nb; i < n; ++i) EXPECT_GT(r.X(n + i, 0), 1.1) << "the bead's top stays outside the ball's";
+}
+
 } // namespace
 } // namespace gshell

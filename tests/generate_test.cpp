@@ -184,6 +184,7 @@ TEST(Generate, ReportHasEveryField) {
                                                {"top_self_intersections", 0},
                                                {"top_base_intersections", 0},
                                                {"wall_intersections", 0},
+                                               {"nested_parts", 0},
                                                {"exact", true}}));
   EXPECT_EQ(j["base_self_intersections"], 0);
   EXPECT_EQ(j["thinned_vertices"], (r.metrics.vertex_thickness.array() < 0.9).count());

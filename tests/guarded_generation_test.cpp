@@ -47,6 +47,7 @@ void expect_valid(const GenerateResult& r) {
   EXPECT_EQ(c.top_self_intersections, 0);
   EXPECT_EQ(c.top_base_intersections, 0);
   EXPECT_EQ(c.wall_intersections, 0);
+  EXPECT_EQ(c.nested_parts, 0);
   EXPECT_EQ(c.base_self_intersections, 0);
   EXPECT_TRUE(r.metrics.certificate.valid());
   EXPECT_TRUE(r.guarded);
@@ -586,4 +587,26 @@ TEST(GuardedGeneration, RelaxingTheBarriersLowersTheEnergyOfTheRepairedRegionOnl
   for (int i = 0; i < n; ++i) moved += relaxed.shell.top.row(i) != repaired.shell.top.row(i);
   EXPECT_GT(moved, 0);
   EXPECT_LE(moved, repaired.guard.repaired_vertices);
+}
+
+TEST(GuardedGeneration, ASphereInsideASphereKeepsItsTopInsideTheOuterBase) {
+  // An eye in a head: a unit sphere inside one of radius 1.04, both facing out, eta 0.1. The
+  // paper's inner top lies beyond the outer base everywhere, crossing no boundary triangle: only
+  // the certificate's nesting test sees it. Guarded, the inner top stays inside the outer base,
+  // filling most of the gap, and the outer top keeps its thickness (nothing is outside it).
+  const TriMesh m = test::nested_spheres(3, 1.04);
+  const int n = static_cast<int>(m.V.rows()), half = n / 2;
+  const double eta = 0.1, gap = 0.04;
+  const GenerateResult unguarded = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta, true));
+  const ShellCertificate before = recertify(unguarded);
+  EXPECT_EQ(before.top_self_intersections + before.top_base_intersections, 0);
+  EXPECT_EQ(before.nested_parts, 2); // the inner top in the outer layer, the outer base in the inner one
+  const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta));
+  expect_valid(g);
+  for (int i = 0; i < half; ++i) {
+    const double r = g.shell.top.row(i).norm();
+    EXPECT_LT(r, 1.04) << "inner top vertex " << i;
+    EXPECT_GT(r - 1, 0.5 * gap) << "inner top vertex " << i;
+  }
+  for (int i = half; i < n; ++i) EXPECT_GT((g.shell.top.row(i) - m.V.row(i)).norm(), 0.9 * eta) << "outer " << i;
 }

@@ -14,6 +14,7 @@
 #include <gshell/shell/prism_tets.h>
 
 #include "core_test_meshes.h"
+#include "shell_fixtures.h"
 
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -615,6 +616,47 @@ TEST(ShellCertificate, DegenerateFacesAreTestedAsTheSegmentsTheyCover) {
   EXPECT_EQ(count({{0, 1, 2}, {8, 0, 9}}), 0u); // flat across vertex 0, touching the triangle there only
   EXPECT_EQ(count({{0, 10, 3}, {0, 11, 12}}), 0u); // segments leaving vertex 0 in opposite directions
   EXPECT_EQ(count({{0, 10, 3}, {0, 11, 4}}), 1u); // ... in the same direction
+}
+
+TEST(ShellCertificate, APartInsideAnotherPartsLayerIsNested) {
+  // Two spheres facing out, radius 1 inside 1.04. With tops 0.1 out, the inner top (radius 1.1)
+  // lies in the outer layer and the outer base (1.04) in the inner one, and no two boundary
+  // triangles meet: the pair tests see nothing, condition 4 the two sheets.
+  const TriMesh m = test::nested_spheres(2, 1.04);
+  const int n = static_cast<int>(m.V.rows()), half = n / 2;
+  const ShellCertificate c = certify_shell(m.V, 1.1 * m.V, m.F);
+  EXPECT_EQ(c.inverted_tets, 0);
+  EXPECT_TRUE(c.intersections.empty());
+  EXPECT_EQ(c.nested_parts, 2);
+  EXPECT_FALSE(c.valid());
+  ASSERT_EQ(c.nested.size(), 2u);
+  // The outer part's base probe (its lowest vertex, half) in an inner tet, the inner part's top
+  // probe (top n + 0) in an outer one.
+  EXPECT_EQ(c.nested[0].first, half);
+  EXPECT_LT(c.nested[0].second / 3, m.F.rows() / 2);
+  EXPECT_EQ(c.nested[1].first, n);
+  EXPECT_GE(c.nested[1].second / 3, m.F.rows() / 2);
+  // Thin enough that the inner top stays below the outer base: clean.
+  expect_clean(certify_shell(m.V, 1.03 * m.V, m.F));
+  // A small sphere wholly inside the outer sphere's layer: both its sheets are nested.
+  TriMesh small = make_sphere(1, 0.01);
+  small.V.col(0).array() += 1.09;
+  TriMesh both;
+  both.V.resize(small.V.rows() + half, 3);
+  both.V << small.V, m.V.bottomRows(half);
+  both.F.resize(small.F.rows() + m.F.rows() / 2, 3);
+  both.F << small.F, (m.F.bottomRows(m.F.rows() / 2).array() - half + static_cast<int>(small.V.rows())).matrix();
+  const Eigen::MatrixXd centre = Eigen::RowVector3d(1.09, 0, 0).replicate(small.V.rows(), 1);
+  Eigen::MatrixXd top(both.V.rows(), 3);
+  top << centre + 1.5 * (small.V - centre), (1.14 / 1.04) * m.V.bottomRows(half); // outer layer: 1.04 to 1.14
+  const ShellCertificate s = certify_shell(both.V, top, both.F);
+  EXPECT_TRUE(s.intersections.empty());
+  EXPECT_EQ(s.nested_parts, 2);
+  // One part only: nothing to nest, and the certifier of many frames says the same.
+  EXPECT_EQ(certify_shell(m.V.topRows(half), 1.1 * m.V.topRows(half), m.F.topRows(m.F.rows() / 2)).nested_parts, 0);
+  ShellCertifier certifier(m.F, n);
+  EXPECT_EQ(certifier.certify(m.V, 1.03 * m.V).nested_parts, 0);
+  EXPECT_EQ(certifier.certify(m.V, 1.1 * m.V).nested, c.nested);
 }
 
 // ---- one certifier over the frames of a motion (its trees refit, not rebuilt) ------------------

@@ -482,7 +482,7 @@ class MetricsTest(TempDirTest):
         self.assertTrue(m["valid"])
         self.assertEqual(m["certificate"], {"inverted_tets": 0, "top_self_intersections": 0,
                                             "top_base_intersections": 0, "wall_intersections": 0,
-                                            "exact": True})
+                                            "nested_parts": 0, "exact": True})
         self.assertEqual(m["base_self_intersections"], 0)
         self.assertEqual(m["thinned_vertices"], 0)
         for old_key in ("inverted_tets", "top_self_intersections", "top_base_intersections"):
@@ -898,7 +898,7 @@ class PoseGuardTest(TempDirTest):
                     for key in ("valid", "method", "blocked_by_contact", "guarded_iterations", "certificate"):
                         self.assertIn(key, step)
                     self.assertTrue(step["valid"], step)
-                    self.assertEqual(step["certificate"], {"inverted_tets": 0, "intersections": 0})
+                    self.assertEqual(step["certificate"], {"inverted_tets": 0, "intersections": 0, "nested_parts": 0})
                 self.assertTrue(any(step["blocked_by_contact"] for step in last["steps"]))
                 self.assertTrue(m["valid"])
                 self.assertEqual(m["base_self_intersections"], 0)

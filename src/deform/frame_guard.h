@@ -9,6 +9,8 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 
+#include "quality/nested_parts.h"
+
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
@@ -119,6 +121,8 @@ private:
   ShellCertifier certifier_; // the rest shell's, then every frame's (its trees refit, not rebuilt)
   GuardedSolverParameters parameters_; // skip_tets, excluded_triangles: the last leave_out's
   std::vector<char> rest_skip_, rest_excluded_; // what the rest shell leaves out
+  detail::ShellParts parts_;
+  std::vector<int> rest_nested_; // the certificate's nested probes at rest (vertices, ascending)
   std::unique_ptr<GuardedSolver> contact_, tets_;
 };
 

@@ -367,7 +367,7 @@ namespace {
 // intersecting pairs of the top (the base's own crossings are the same for both).
 bool fewer_faults(const ShellCertificate& a, const ShellCertificate& b) {
   const auto pairs = [](const ShellCertificate& c) {
-    return c.top_self_intersections + c.top_base_intersections + c.wall_intersections;
+    return c.top_self_intersections + c.top_base_intersections + c.wall_intersections + c.nested_parts;
   };
   return a.inverted_tets < b.inverted_tets || (a.inverted_tets == b.inverted_tets && pairs(a) < pairs(b));
 }

@@ -63,12 +63,39 @@ StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> sk
     if (!excluded_[r]) rows_.push_back(r);
 }
 
+const StartChecker::Parts& StartChecker::parts() const {
+  if (parts_) return *parts_;
+  Parts& p = parts_.emplace();
+  p.parts = shell_parts(F_, n_);
+  p.vertices = group_items(p.parts.count(), [&](auto&& add) {
+    for (int i = 0; i < n_; ++i)
+      if (p.parts.of_vertex[i] >= 0) add(p.parts.of_vertex[i], i);
+  });
+  p.excluded.assign(p.parts.count(), 0);
+  for (int r = 0; r < boundary_.size(); ++r)
+    if (excluded_[r]) p.excluded[p.parts.of_vertex[boundary_.F(r, 0) % n_]] = 1;
+  return p;
+}
+
 const Eigen::MatrixXi& StartChecker::tets() const {
   if (T_.rows() == 0 && F_.rows() > 0) T_ = build_prism_tets(F_, n_);
   return T_;
 }
 
 StartChecker::~StartChecker() = default;
+
+std::vector<int> StartChecker::parts_to_thin(const std::vector<std::pair<int, int>>& nested) const {
+  if (nested.empty()) return {};
+  const Parts& p = this->parts();
+  std::vector<int> parts;
+  for (const auto& [v, t] : nested) {
+    const int own = p.parts.of_vertex[v < n_ ? v : v - n_], holder = p.parts.of_vertex[F_(t / 3, 0)];
+    if (!p.excluded[own] && !p.excluded[holder]) parts.push_back(v < n_ ? holder : own);
+  }
+  std::sort(parts.begin(), parts.end());
+  parts.erase(std::unique(parts.begin(), parts.end()), parts.end());
+  return parts;
+}
 
 StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                                     const std::vector<char>* moved) const {
@@ -81,6 +108,7 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
       if (!skip_[t]) v.inverted_tets.push_back(t);
     for (const BoundaryIntersection& p : c.intersections)
       if (!excluded_[p.a] && !excluded_[p.b]) v.intersections.emplace_back(p.a, p.b);
+    if (v.inverted_tets.empty() && v.intersections.empty()) v.nested_parts = parts_to_thin(c.nested);
     return v;
   }
 
@@ -131,6 +159,11 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
     found.add(std::min(a, b), std::max(a, b));
   });
   v.intersections = found.sorted();
+  // A part moved whole through another part's surface crosses nothing on the way: tested over the
+  // whole shell (a pass over its tets, only where it has several parts) once nothing else is
+  // found, as the one-vertex-per-sheet test presumes.
+  if (v.inverted_tets.empty() && v.intersections.empty())
+    v.nested_parts = parts_to_thin(nested_probes(base, top, F_, parts().parts));
   return v;
 }
 

@@ -78,6 +78,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
   std::vector<char> thin(n), moved(n, 0);
+  bool nested = false; // a part still inside another's layer (StartViolations::nested_parts)
   for (s.rounds = 1;; ++s.rounds) {
     if (s.rounds == 1)
       s.top = P;
@@ -90,7 +91,8 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
     s.intersections = found.intersections;
     std::fill(thin.begin(), thin.end(), 0);
     checker.for_each_top_vertex(found, [&](int i) { thin[i] = 1; });
-    const bool clean = s.inverted_tets.empty() && s.intersections.empty();
+    nested = !found.nested_parts.empty();
+    const bool clean = s.inverted_tets.empty() && s.intersections.empty() && !nested;
     if (clean && s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
     if (clean || s.rounds >= options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
@@ -110,7 +112,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       }
     for (int i = 0; i < n; ++i) moved[i] = s.scale[i] != before[i];
   }
-  if (s.inverted_tets.empty() && s.intersections.empty() && options.refine_passes > 0) {
+  if (s.inverted_tets.empty() && s.intersections.empty() && !nested && options.refine_passes > 0) {
     // The halving overshoots: a vertex of a violation is halved even where a little less would
     // do. Bisect each pulled-in s_i between its valid value (lo) and the last one that was not
     // (hi), all vertices at once: raise every one to the geometric middle, then put back to lo

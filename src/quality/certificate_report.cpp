@@ -20,6 +20,7 @@ nlohmann::ordered_json certificate_report(const ShellCertificate& c) {
             {"top_self_intersections", count_or_null(c.top_self_intersections)},
             {"top_base_intersections", count_or_null(c.top_base_intersections)},
             {"wall_intersections", count_or_null(c.wall_intersections)},
+            {"nested_parts", count_or_null(c.nested_parts)},
             {"exact", c.exact}}},
           {"base_self_intersections", count_or_null(c.base_self_intersections)}};
 }
@@ -32,7 +33,9 @@ std::string certificate_summary(const ShellCertificate& c) {
   if (c.intersections_tested())
     line += "top/top " + std::to_string(c.top_self_intersections) + ", top/base " +
             std::to_string(c.top_base_intersections) + ", wall " + std::to_string(c.wall_intersections) +
-            " intersecting face pairs)\n";
+            " intersecting face pairs" +
+            (c.nested_parts > 0 ? "; " + std::to_string(c.nested_parts) + " sheets inside another part's layer" : "") +
+            ")\n";
   else
     line += "intersections not tested)\n";
   if (c.base_self_intersections > 0)

@@ -9,6 +9,7 @@
 #include "quality/embedded_stars.h"
 #include "quality/face_pair_search.h"
 #include "quality/filtered_orientation.h"
+#include "quality/nested_parts.h"
 
 #include <tbb/parallel_invoke.h>
 
@@ -85,10 +86,12 @@ struct ShellCertifier::State {
     // Two trees, base rows and the rest (top and walls), so that base/base pairs cost nothing
     // when they are not wanted. Built for the first shell, refit for the next.
     std::optional<detail::FaceSet> base_set, upper_set;
+    detail::ShellParts parts;
 
     Pairs(const Eigen::MatrixXi& F, int n)
         : boundary(shell_boundary(F, n)), base_rows(boundary.F.topRows(F.rows())),
-          upper_rows(boundary.F.bottomRows(boundary.size() - F.rows())), stars(F, n) {}
+          upper_rows(boundary.F.bottomRows(boundary.size() - F.rows())), stars(F, n),
+          parts(detail::shell_parts(F, n)) {}
   };
 
   Eigen::MatrixXi F;
@@ -135,6 +138,8 @@ ShellCertificate ShellCertifier::certify(const Eigen::MatrixXd& base, const Eige
     };
     tbb::parallel_invoke([&] { c.inverted_tet_ids = inverted_tets(base, top, s.F); },
                          [&] { place(p.base_set, p.base_rows); }, [&] { place(p.upper_set, p.upper_rows); });
+    c.nested = detail::nested_probes(base, top, s.F, p.parts);
+    c.nested_parts = static_cast<int>(c.nested.size());
     detail::PairCollector found;
     p.upper_set->for_each_pair_meeting_beyond_shared([&](int f, int g) { found.add(m + f, m + g); });
     p.upper_set->for_each_pair_meeting_beyond_shared(*p.base_set, [&](int f, int g) { found.add(g, m + f); });

@@ -345,7 +345,7 @@ void validity_paragraph(std::ostringstream& html, const json& report) {
     auto count = [&](const char* key) { return c.contains(key) ? format_value(c[key]) : std::string("?"); };
     html << " (exact certificate: " << count("inverted_tets") << " inverted tets; intersecting face pairs: top/top "
          << count("top_self_intersections") << ", top/base " << count("top_base_intersections") << ", side walls "
-         << count("wall_intersections") << ")";
+         << count("wall_intersections") << "; sheets inside another part's layer " << count("nested_parts") << ")";
   }
   if (!valid.is_boolean()) html << "; the intersection tests were not run";
   if (report.contains("base_self_intersections") && report["base_self_intersections"].is_number() &&

@@ -91,6 +91,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
                                             {"top_self_intersections", count_or_null(c.top_self_intersections)},
                                             {"top_base_intersections", count_or_null(c.top_base_intersections)},
                                             {"wall_intersections", count_or_null(c.wall_intersections)},
+                                            {"nested_parts", count_or_null(c.nested_parts)},
                                             {"exact", ShellCertificate::exact},
                                             {"seconds", r.certificate_seconds}};
   j["base_self_intersections"] = count_or_null(c.base_self_intersections);

@@ -139,6 +139,7 @@ struct DragSession::Impl {
     step.intersections = v.certificate.intersections_tested()
                              ? static_cast<int>(v.certificate.intersections.size())
                              : -1;
+    step.nested_parts = v.certificate.nested_parts;
     step.base_self_intersections = v.certificate.base_self_intersections;
     return step;
   }

@@ -35,7 +35,9 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
     j["blocked_by_contact"] = blocked_by_contact;
     j["guarded_iterations"] = guarded_iterations;
     j["drag_start"] = drag_start;
-    j["certificate"] = {{"inverted_tets", inverted_tets}, {"intersections", intersections}};
+    j["certificate"] = {{"inverted_tets", inverted_tets},
+                        {"intersections", intersections},
+                        {"nested_parts", count_or_null(nested_parts)}};
     j["base_self_intersections"] = count_or_null(base_self_intersections);
   }
   return j;

@@ -122,6 +122,8 @@ std::string invalid_rest_shell_warning(const std::string& dir, const nlohmann::o
     if (top_top >= 0 && top_base >= 0 && wall >= 0)
       out += (out.empty() ? "" : ", ") + std::to_string(top_top) + " top/top, " + std::to_string(top_base) +
              " top/base and " + std::to_string(wall) + " wall intersecting pairs";
+    if (const long long nested = report_count(c, "nested_parts"); nested > 0)
+      out += ", " + std::to_string(nested) + " sheets inside another part's layer";
   }
   const long long base_crossings = report_count(report, "base_self_intersections");
   if (base_crossings > 0)

@@ -60,6 +60,19 @@ inline TriMesh facing_sheets(int res, double gap) {
   return m;
 }
 
+/// Two builtin:sphere:LEVEL spheres about the origin, both facing out: radius 1 (vertices
+/// 0..n-1) and radius `outer` (n..2n-1), one inside the other as an eye in a head.
+inline TriMesh nested_spheres(int level, double outer) {
+  const TriMesh a = make_sphere(level);
+  const int n = static_cast<int>(a.V.rows());
+  TriMesh m;
+  m.V.resize(2 * n, 3);
+  m.V << a.V, outer * a.V;
+  m.F.resize(2 * a.F.rows(), 3);
+  m.F << a.F, (a.F.array() + n).matrix();
+  return m;
+}
+
 /// A z = 0 grid over [-1, 1]^2 (builtin:plane:RES, normals +z) folded about the y axis into a V
 /// of opening angle `degrees`, both halves' normals facing into the V.
 inline TriMesh folded_plane(int res, double degrees) {

@@ -18,7 +18,8 @@ std::optional<bool> certified_validity(const ShellCertificate& certificate);
 nlohmann::ordered_json count_or_null(int count);
 
 /// {"valid": true | false | null (certified_validity), "certificate": {"inverted_tets",
-/// "top_self_intersections", "top_base_intersections", "wall_intersections", "exact": true},
+/// "top_self_intersections", "top_base_intersections", "wall_intersections", "nested_parts",
+/// "exact": true},
 /// "base_self_intersections"}, pair counts null when not tested: the keys go into the report of
 /// the shell (`report.update(certificate_report(c))`).
 nlohmann::ordered_json certificate_report(const ShellCertificate& certificate);

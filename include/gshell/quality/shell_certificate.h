@@ -7,12 +7,16 @@
 //  3. no top triangle intersects a base triangle;
 // where on open surfaces the side walls (shell_boundary) count as boundary triangles in 2 and 3:
 // no wall triangle may meet any boundary triangle except at the vertices and edges they share.
-// With a base that does not intersect itself, 1-3 make the layer an embedding: a shell map is
+//  4. no connected part of the shell lies inside another part's layer (a sheet wholly inside
+//     another layer meets no boundary triangle, so 2 and 3 cannot see it: an eye's top grown out
+//     through the head around it).
+// With a base that does not intersect itself, 1-4 make the layer an embedding: a shell map is
 // one-to-one. Every count comes from exact predicates (CGAL's filtered orientation tests on the
 // input doubles), never from a tolerance; neighbouring triangles are tested too.
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 namespace gshell {
@@ -53,20 +57,28 @@ struct ShellCertificate {
   int top_base_intersections = -1; ///< top/base pairs (condition 3); -1 = not tested
   int wall_intersections = -1;     ///< pairs with a side-wall triangle; -1 = not tested
   int base_self_intersections = -1; ///< base/base pairs (the input's own); -1 = not tested
+  /// Sheets found inside another part's layer (condition 4): of each connected part, its lowest
+  /// base vertex and the top vertex above it are tested; -1 = not tested (with the pairs).
+  int nested_parts = -1;
 
   std::vector<int> inverted_tet_ids;                ///< rows of build_prism_tets(F, n), ascending
   std::vector<BoundaryIntersection> intersections;  ///< every pair counted above, ascending (a, b)
+  /// (shell vertex, tet of another part holding it) for every sheet counted in nested_parts,
+  /// ascending by vertex (base i is i, top i is n + i).
+  std::vector<std::pair<int, int>> nested;
   double seconds = 0;                               ///< wall-clock time of certify_shell
 
   /// Whether the pair tests ran.
   bool intersections_tested() const { return top_self_intersections >= 0; }
-  /// Conditions 1-3 hold (no inverted tet, pairs tested and none of top/top, top/base or wall)
-  /// and, if base/base pairs were tested, the base does not intersect itself: the layer is an
-  /// embedding (docs/validity.md). Without the base/base pairs this is conditions 1-3 alone, for a
-  /// caller that knows its base is embedded (the shell cannot mend its input).
+  /// Conditions 1-4 hold (no inverted tet, pairs tested and none of top/top, top/base or wall, no
+  /// part inside another's layer) and, if base/base pairs were tested, the base does not intersect
+  /// itself: the layer is an embedding (docs/validity.md). Without the base/base pairs this is
+  /// conditions 1-4 alone, for a caller that knows its base is embedded (the shell cannot mend
+  /// its input).
   bool valid() const {
     return inverted_tets == 0 && intersections_tested() && top_self_intersections == 0 &&
-           top_base_intersections == 0 && wall_intersections == 0 && base_self_intersections <= 0;
+           top_base_intersections == 0 && wall_intersections == 0 && nested_parts <= 0 &&
+           base_self_intersections <= 0;
   }
 };
 

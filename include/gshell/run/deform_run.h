@@ -51,7 +51,7 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
 /// p99} against the rest shell, inverted_tets (against the rest shell), seconds, valid, method
 /// (unguarded, bounded, guarded, tets_only, failed), substeps, guarded_iterations,
 /// thinned_vertices, certificate {inverted_tets, top_self_intersections, top_base_intersections,
-/// wall_intersections, exact, seconds}, base_self_intersections (the frame's base against itself),
+/// wall_intersections, nested_parts, exact, seconds}, base_self_intersections (the frame's base against itself),
 /// unextrudable_vertices (FrameResult::unextrudable_vertices: why an invalid frame must invert tets)}.
 nlohmann::ordered_json frame_json(const FrameResult& frame);
 

@@ -71,11 +71,13 @@ struct PoseStepReport {
   int guarded_iterations = 0;
   double drag_start = 0; ///< guarded: ValidStep::drag_start
   int inverted_tets = -1, intersections = -1; ///< guarded: the certificate's counts (all pair kinds)
+  int nested_parts = -1;                      ///< guarded: sheets inside another part's layer
   /// guarded: face pairs where the posed base crosses itself (-1 = not tested); a step is valid
   /// only without them
   int base_self_intersections = -1;
   /// {fraction, iterations, energy, seconds, converged} and, guarded, {valid, method,
-  /// blocked_by_contact, guarded_iterations, drag_start, certificate {inverted_tets, intersections},
+  /// blocked_by_contact, guarded_iterations, drag_start, certificate {inverted_tets, intersections,
+  /// nested_parts},
   /// base_self_intersections}
   nlohmann::ordered_json to_json() const;
 };

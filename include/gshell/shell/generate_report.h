@@ -14,7 +14,7 @@ namespace gshell {
 ///   thickness / eta)}, vertices, faces, tets, iterations, converged, energy [E_0 = offset start,
 ///   one per iteration], stretch {mean, volume_mean, max, p99} (against the normal prisms),
 ///   valid, certificate {inverted_tets, top_self_intersections, top_base_intersections,
-///   wall_intersections, exact}, base_self_intersections (certificate_report; pair counts null
+///   wall_intersections, nested_parts, exact}, base_self_intersections (certificate_report; pair counts null
 ///   and valid null or false when intersections were not counted), thinned_vertices,
 ///   seconds {total, factor, solve, guard, certificate}, unextrudable_vertices [ids], guarded,
 ///   warnings [sentences, generate_warnings], guard {paper_iterations, start_rounds,
