@@ -275,11 +275,9 @@ bool FrameGuard::only_unguarded_faults(const ShellCertificate& c) const {
   if (c.nested.empty()) return true;
   // A part carried whole into another's layer crosses no triangle (a step accepted as the solver
   // made it jumps; the guarded solver's continuous bounds never get there). Unguarded only where
-  // the rest shell was nested already, or a part involved has triangles left out (around base
-  // crossings a sheet can be partly inside another layer with every guarded test passing).
-  std::vector<char> part_left_out(parts_.count(), 0);
-  for (int r = 0; r < boundary_.size(); ++r)
-    if (parameters_.excluded_triangles[r]) part_left_out[parts_.of_vertex[boundary_.F(r, 0) % n_]] = 1;
+  // the rest shell was nested already, or a part involved has triangles left out.
+  const std::vector<char> part_left_out =
+      detail::parts_with_flagged_rows(parts_, boundary_, parameters_.excluded_triangles, n_);
   for (const auto& [v, t] : c.nested)
     if (!std::binary_search(rest_nested_.begin(), rest_nested_.end(), v) &&
         !part_left_out[parts_.of_vertex[v % n_]] && !part_left_out[parts_.of_vertex[F_(t / 3, 0)]])

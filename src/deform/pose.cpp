@@ -1,11 +1,10 @@
 #include <gshell/deform/pose.h>
 
 #include "frame_guard.h"
-#include "geometry/disjoint_sets.h"
+#include "quality/nested_parts.h"
 
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/error.h>
-#include <gshell/geometry/mesh_topology.h>
 #include <gshell/seconds_since.h>
 
 #include <algorithm>
@@ -29,16 +28,14 @@ constexpr double kMinSoftStep = 1e-6;
 /// Every connected part of the base mesh (its top goes with it) needs a handle vertex, or the
 /// energy does not pin it in space and the system is singular.
 void require_anchored_components(const Eigen::MatrixXi& F, int n, const std::vector<int>& constrained) {
-  detail::DisjointSets parts(n);
-  for (int f = 0; f < F.rows(); ++f)
-    for (int k = 1; k < 3; ++k) parts.unite(F(f, k), F(f, 0));
-  const std::vector<char> used = used_vertices(F, n);
-  std::vector<char> anchored(n, 0);
-  for (int v : constrained) anchored[parts.find(v < n ? v : v - n)] = 1;
-  for (int v = 0; v < n; ++v)
-    if (used[v] && !anchored[parts.find(v)])
+  const detail::ShellParts parts = detail::shell_parts(F, n);
+  std::vector<char> anchored(parts.count(), 0);
+  for (int v : constrained)
+    if (const int part = parts.of_vertex[v < n ? v : v - n]; part >= 0) anchored[part] = 1;
+  for (int part = 0; part < parts.count(); ++part) // by lowest vertex: the first free one names it
+    if (!anchored[part])
       throw InputError("the handles leave a connected part of the shell free (e.g. the part with base vertex " +
-                       std::to_string(v) + "): give every part at least one handle vertex");
+                       std::to_string(parts.probe[part]) + "): give every part at least one handle vertex");
 }
 
 } // namespace

@@ -71,9 +71,7 @@ const StartChecker::Parts& StartChecker::parts() const {
     for (int i = 0; i < n_; ++i)
       if (p.parts.of_vertex[i] >= 0) add(p.parts.of_vertex[i], i);
   });
-  p.excluded.assign(p.parts.count(), 0);
-  for (int r = 0; r < boundary_.size(); ++r)
-    if (excluded_[r]) p.excluded[p.parts.of_vertex[boundary_.F(r, 0) % n_]] = 1;
+  p.excluded = parts_with_flagged_rows(p.parts, boundary_, excluded_, n_);
   return p;
 }
 

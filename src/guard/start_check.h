@@ -107,10 +107,7 @@ private:
   struct Parts {
     ShellParts parts;
     ItemGroups vertices; // group p: the base vertices of part p
-    // Per part: some of its boundary rows are excluded (its base crosses itself or another
-    // part's there). Its sheets can then be partly inside another layer without any test
-    // failing, so the one-vertex-per-sheet test says nothing about it: not thinned for nesting.
-    std::vector<char> excluded;
+    std::vector<char> excluded; // per part: has excluded rows (parts_with_flagged_rows): not thinned for nesting
   };
   mutable std::optional<Parts> parts_;
   const Parts& parts() const;

@@ -37,6 +37,14 @@ ShellParts shell_parts(const Eigen::MatrixXi& F, int n) {
   return parts;
 }
 
+std::vector<char> parts_with_flagged_rows(const ShellParts& parts, const ShellBoundary& boundary,
+                                          const std::vector<char>& rows, int n) {
+  std::vector<char> flagged(parts.count(), 0);
+  for (int r = 0; r < boundary.size(); ++r)
+    if (rows[r]) flagged[parts.of_vertex[boundary.F(r, 0) % n]] = 1;
+  return flagged;
+}
+
 std::vector<std::pair<int, int>> nested_probes(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                                                const Eigen::MatrixXi& F, const ShellParts& parts) {
   if (parts.count() < 2) return {};

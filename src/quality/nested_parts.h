@@ -5,6 +5,8 @@
 // triangle, yet the two layers overlap. Where no boundary triangles meet, each closed sheet of the
 // boundary (a part's base, its top; base, top and walls of an open part) lies wholly inside or
 // wholly outside every other part's layer, so one vertex per sheet decides it (docs/validity.md).
+#include <gshell/quality/shell_boundary.h>
+
 #include <Eigen/Core>
 #include <utility>
 #include <vector>
@@ -20,6 +22,12 @@ struct ShellParts {
 
 /// Parts of F (m x 3) over n base vertices.
 ShellParts shell_parts(const Eigen::MatrixXi& F, int n);
+
+/// Per part: whether a row of `boundary` (over n base vertices) flagged in `rows` belongs to it.
+/// Where a part's rows are left out of a guard (around base crossings) its sheets can be partly
+/// inside another layer with every guarded test passing: nesting says nothing there.
+std::vector<char> parts_with_flagged_rows(const ShellParts& parts, const ShellBoundary& boundary,
+                                          const std::vector<char>& rows, int n);
 
 /// The probes (per part its probe base vertex i and the top vertex n + i above it) lying in a
 /// closed tet of another part's prisms (rows 3f..3f+2 of build_prism_tets), by exact orientation
