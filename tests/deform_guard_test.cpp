@@ -707,6 +707,28 @@ TEST(PoseGuard, HandlesFoldingAShellOntoItselfStopAtContact) {
   EXPECT_FALSE(l.valid() && l.base_self_intersections == 0);
 }
 
+TEST(PoseSolver, EveryPartNeedsAHandleVertexAndTheFreeOneIsNamed) {
+  // Two spheres apart: handles on the first only leave the second free (its system singular).
+  const TriMesh m = test::nested_spheres(1, 3.0);
+  const int half = static_cast<int>(m.V.rows()) / 2;
+  const Shell rest = offset_shell(m, 0.05);
+  HandleSet handles;
+  Handle first;
+  first.vertices = {0, 1};
+  handles.handles = {first};
+  try {
+    PoseSolver solver(rest, handles, PoseSolverKind::Single);
+    ADD_FAILURE() << "a free part was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the part with base vertex " + std::to_string(half) + ")"), std::string::npos)
+        << e.what();
+  }
+  Handle second; // a top vertex of the second part anchors it as well
+  second.vertices = {2 * half + half};
+  handles.handles = {first, second};
+  EXPECT_NO_THROW(PoseSolver(rest, handles, PoseSolverKind::Single));
+}
+
 TEST(PoseGuard, APartMovedWholeIntoAnotherPartsLayerIsRefused) {
   // A bead (base radius 0.01, top 0.02) beside a ball (base 1, top 1.1), moved by its handle in one
   // step to the middle of the ball's layer: the state there crosses no triangle, so every pair
