@@ -636,6 +636,12 @@ TEST(ShellCertificate, APartInsideAnotherPartsLayerIsNested) {
   EXPECT_LT(c.nested[0].second / 3, m.F.rows() / 2);
   EXPECT_EQ(c.nested[1].first, n);
   EXPECT_GE(c.nested[1].second / 3, m.F.rows() / 2);
+  // The terminal summary names them (one sheet in the singular).
+  EXPECT_NE(certificate_summary(c).find("valid        NO (exact: 0 inverted tets; top/top 0, top/base 0, wall 0 "
+                                        "intersecting face pairs; 2 sheets inside another part's layer)"),
+            std::string::npos)
+      << certificate_summary(c);
+  EXPECT_EQ(nested_parts_phrase(1), "1 sheet inside another part's layer");
   // Thin enough that the inner top stays below the outer base: clean.
   expect_clean(certify_shell(m.V, 1.03 * m.V, m.F));
   // A small sphere wholly inside the outer sphere's layer: both its sheets are nested.

@@ -25,6 +25,10 @@ nlohmann::ordered_json certificate_report(const ShellCertificate& c) {
           {"base_self_intersections", count_or_null(c.base_self_intersections)}};
 }
 
+std::string nested_parts_phrase(long long sheets) {
+  return std::to_string(sheets) + (sheets == 1 ? " sheet" : " sheets") + " inside another part's layer";
+}
+
 std::string certificate_summary(const ShellCertificate& c) {
   const std::optional<bool> valid = certified_validity(c);
   std::string line = "valid        ";
@@ -34,7 +38,7 @@ std::string certificate_summary(const ShellCertificate& c) {
     line += "top/top " + std::to_string(c.top_self_intersections) + ", top/base " +
             std::to_string(c.top_base_intersections) + ", wall " + std::to_string(c.wall_intersections) +
             " intersecting face pairs" +
-            (c.nested_parts > 0 ? "; " + std::to_string(c.nested_parts) + " sheets inside another part's layer" : "") +
+            (c.nested_parts > 0 ? "; " + nested_parts_phrase(c.nested_parts) : "") +
             ")\n";
   else
     line += "intersections not tested)\n";

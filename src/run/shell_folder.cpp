@@ -6,6 +6,7 @@
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
+#include <gshell/quality/certificate_report.h>
 #include <gshell/run/frames.h>
 #include <gshell/run/staged_folder.h>
 #include <gshell/shell/prism_tets.h>
@@ -123,7 +124,7 @@ std::string invalid_rest_shell_warning(const std::string& dir, const nlohmann::o
       out += (out.empty() ? "" : ", ") + std::to_string(top_top) + " top/top, " + std::to_string(top_base) +
              " top/base and " + std::to_string(wall) + " wall intersecting pairs";
     if (const long long nested = report_count(c, "nested_parts"); nested > 0)
-      out += ", " + std::to_string(nested) + " sheets inside another part's layer";
+      out += ", " + nested_parts_phrase(nested);
   }
   const long long base_crossings = report_count(report, "base_self_intersections");
   if (base_crossings > 0)

@@ -137,7 +137,7 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
     w.push_back(std::string("the shell is not valid: ") + std::to_string(c.inverted_tets) + " inverted tets, " +
                 std::to_string(c.top_self_intersections) + " top/top, " + std::to_string(c.top_base_intersections) +
                 " top/base, " + std::to_string(c.wall_intersections) + " wall intersections" +
-                (c.nested_parts > 0 ? ", " + std::to_string(c.nested_parts) + " sheets inside another part's layer" : "") +
+                (c.nested_parts > 0 ? ", " + nested_parts_phrase(c.nested_parts) : "") +
                 where);
   }
   return w;

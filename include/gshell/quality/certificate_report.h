@@ -29,6 +29,9 @@ nlohmann::ordered_json certificate_report(const ShellCertificate& certificate);
 /// intersects itself.
 std::string certificate_summary(const ShellCertificate& certificate);
 
+/// "3 sheets inside another part's layer" (certificate condition 4; "1 sheet ..." for one).
+std::string nested_parts_phrase(long long sheets);
+
 /// The first `shown` of `ids` for a message, e.g. "3, 5, 7, ..." (", ..." when some are left out).
 std::string first_ids(const std::vector<int>& ids, std::size_t shown = 10);
 
