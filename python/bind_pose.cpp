@@ -49,7 +49,7 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles) {
     std::string text = handles.cast<std::string>();
     if (const auto first = text.find_first_not_of(" \t\r\n"); first != std::string::npos && text[first] == '{') {
       py::gil_scoped_release release;
-      return parse_handles(text, "handles", rest);
+      return parse_handles(text, "handles argument", rest);
     }
   }
   if (py::isinstance<py::str>(handles) || py::hasattr(handles, "__fspath__")) {
@@ -61,7 +61,7 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles) {
     value_error("handles must be a dict in the handle-file format or the path of a handle file");
   const std::string text = from_python(handles, "handles").dump();
   py::gil_scoped_release release;
-  return parse_handles(text, "handles", rest);
+  return parse_handles(text, "handles argument", rest);
 }
 
 py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction, int steps, int iterations,

@@ -760,9 +760,12 @@ class PoseTest(TempDirTest):
             with self.subTest(handles=handles), self.assertRaises(ValueError):
                 poser.solve(handles)
         # JSON text is read as handles, not as a file name: its error is the parser's.
-        with self.assertRaisesRegex(ValueError, "handles: ") as caught:
+        with self.assertRaisesRegex(ValueError, "^handles argument: handle 0: ") as caught:
             poser.solve('{"handles": [{"vertices": [0], "pull": [0, 0, 1]}]}')
         self.assertNotIn("cannot open", str(caught.exception))
+        # The argument and the file format's key are told apart (it read "handles: handles: is empty").
+        with self.assertRaisesRegex(ValueError, "^handles argument: handles: is empty"):
+            poser.solve({"handles": []})
         for kwargs in (dict(fraction=1.5), dict(steps=0), dict(iterations=0), dict(tolerance=float("nan"))):
             with self.subTest(kwargs=kwargs), self.assertRaises(ValueError):
                 poser.solve(HANDLES, **kwargs)
