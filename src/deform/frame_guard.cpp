@@ -112,7 +112,6 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // of its intersecting triangle pairs with every face sharing a vertex with them (a base that
   // crosses itself leaves no clean top near the crossing).
   const ShellCertificate rest_certificate = certifier_.certify(rest.base, rest.top);
-  parts_ = detail::shell_parts(rest.F, n);
   for (const auto& [v, t] : rest_certificate.nested) rest_nested_.push_back(v);
   const Eigen::MatrixXd& X = rest_vertices_;
   parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
@@ -276,11 +275,12 @@ bool FrameGuard::only_unguarded_faults(const ShellCertificate& c) const {
   // A part carried whole into another's layer crosses no triangle (a step accepted as the solver
   // made it jumps; the guarded solver's continuous bounds never get there). Unguarded only where
   // the rest shell was nested already, or a part involved has triangles left out.
+  if (!parts_) parts_ = detail::shell_parts(F_, n_);
   const std::vector<char> part_left_out =
-      detail::parts_with_flagged_rows(parts_, boundary_, parameters_.excluded_triangles, n_);
+      detail::parts_with_flagged_rows(*parts_, boundary_, parameters_.excluded_triangles, n_);
   for (const auto& [v, t] : c.nested)
     if (!std::binary_search(rest_nested_.begin(), rest_nested_.end(), v) &&
-        !part_left_out[parts_.of_vertex[v % n_]] && !part_left_out[parts_.of_vertex[F_(t / 3, 0)]])
+        !part_left_out[parts_->of_vertex[v % n_]] && !part_left_out[parts_->of_vertex[F_(t / 3, 0)]])
       return false;
   return true;
 }

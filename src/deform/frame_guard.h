@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace gshell {
@@ -121,7 +122,8 @@ private:
   ShellCertifier certifier_; // the rest shell's, then every frame's (its trees refit, not rebuilt)
   GuardedSolverParameters parameters_; // skip_tets, excluded_triangles: the last leave_out's
   std::vector<char> rest_skip_, rest_excluded_; // what the rest shell leaves out
-  detail::ShellParts parts_;
+  // The connected parts, made only when a certificate finds a sheet nested (never on one part).
+  mutable std::optional<detail::ShellParts> parts_;
   std::vector<int> rest_nested_; // the certificate's nested probes at rest (vertices, ascending)
   std::unique_ptr<GuardedSolver> contact_, tets_;
 };

@@ -186,7 +186,7 @@ function showStats() {
     rows.push(['inverted tets', c.inverted_tets, c.inverted_tets ? 'bad' : 'good']);
     const crossing = (c.top_self_intersections || 0) + (c.top_base_intersections || 0) + (c.wall_intersections || 0);
     rows.push(['intersections', `top/top ${c.top_self_intersections}, top/base ${c.top_base_intersections}, wall ${c.wall_intersections}`, crossing ? 'bad' : 'good']);
-    if (c.nested_parts) rows.push(['parts inside another layer', `${c.nested_parts} sheets`, 'bad']);
+    if (c.nested_parts) rows.push(['parts inside another layer', `${c.nested_parts} sheet${c.nested_parts === 1 ? '' : 's'}`, 'bad']);
     if (v.base_self_intersections) rows.push(['base intersects itself', `${v.base_self_intersections} face pairs`, 'bad']);
     rows.push(['valid (exact)', v.valid === null ? 'unknown' : v.valid ? 'yes' : 'no', v.valid ? 'good' : 'bad']);
   } else {
