@@ -198,7 +198,7 @@ bool FrameGuard::built_with(const GuardOptions& o) const {
          p.contact_weight == o.contact_weight && p.keep_fraction == o.keep_fraction &&
          p.cg_iterations == o.cg_iterations && p.cg_tolerance == o.cg_tolerance && p.local_rings == o.local_rings &&
          p.hold_rounds == o.hold_rounds && p.anderson_history == o.anderson_history &&
-         p.exact_direction_vertices == o.exact_direction_vertices &&
+         p.exact_direction_vertices == o.exact_direction_vertices && p.max_step_multiple == o.max_step_multiple &&
          p.projected_volume_hessian == o.projected_volume_hessian &&
          p.projected_contact_hessian == o.projected_contact_hessian;
 }

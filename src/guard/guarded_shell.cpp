@@ -250,6 +250,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.hold_rounds >= 0, "hold_rounds", ">= 0");
   check_anderson_history(o.anderson_history, "guard option anderson_history");
   require(o.exact_direction_vertices >= 0, "exact_direction_vertices", ">= 0");
+  require(o.max_step_multiple >= 0, "max_step_multiple", ">= 0");
   require(o.supernodal_rows >= 0, "supernodal_rows", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
@@ -303,6 +304,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.hold_rounds = options.hold_rounds;
   p.anderson_history = options.anderson_history;
   p.exact_direction_vertices = options.exact_direction_vertices;
+  p.max_step_multiple = options.max_step_multiple;
   return p;
 }
 

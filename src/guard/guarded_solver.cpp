@@ -31,6 +31,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Armijo constant of the line search: the accepted step decreases E_guard by at least this
 // fraction of what the slope at the start promises.
 constexpr double kArmijo = 1e-4;
+// A whole plain step that lowered E_guard by this multiple of the model's predicted decrease is
+// tried longer (max_step_multiple): 2 is the energy linear along the step, 1 the model exact.
+constexpr double kLinearDecrease = 1.9;
 constexpr int kMaxBacktracks = 30;
 // A drag is stalled when the last kStallIterations iterations moved the fixed vertices by less
 // than kStallProgress of their path.
@@ -84,6 +87,7 @@ struct GuardedSolver::Impl {
       throw InputError("GuardedSolver: hold_rounds must be >= 0 and hold_below in (0, 1]");
     check_anderson_history(p.anderson_history, "GuardedSolver: anderson_history");
     if (p.exact_direction_vertices < 0) throw InputError("GuardedSolver: exact_direction_vertices must be >= 0");
+    if (p.max_step_multiple < 0) throw InputError("GuardedSolver: max_step_multiple must be >= 0");
     if (p.contact_distance > 0 && !(p.contact_stiffness > 0))
       throw InputError("GuardedSolver: contact_stiffness must be positive");
     return p;
@@ -408,6 +412,42 @@ struct GuardedSolver::Impl {
     return out;
   }
 
+  bool lengthening() const { return p.max_step_multiple > 1; }
+
+  // The plain step D from X, taken whole to Xt (E_guard's parts in `at`), lowered E_guard by
+  // `ratio` times the model's predicted decrease. Where the model holds a soft mode of the shell
+  // for stiff (its rotations are held), E_guard falls nearly linearly along the step (ratio near
+  // 2) and the iterations creep along that mode at a fraction of what a step could gain: a pose
+  // of CGAL's turbine twisted by 45 degrees spent 3,365 guarded iterations in its last step, all
+  // but 25 of them whole steps, nearly all with ratios of 1.8-2 (docs/valid-deformation.md). The
+  // step is tried at the power of two nearest below the minimum of the quadratic through
+  // E_guard(0), its slope and E_guard(1), 1 / (2 - ratio), halved until one is taken, and doubled
+  // on from there while that lowers E_guard further, up to max_step_multiple. Every longer step
+  // is bounded from X like any step, so the whole segment is valid. Xt and `at` become the
+  // longest step taken; false when none was.
+  bool lengthen_step(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double ratio, Eigen::MatrixXd& Xt, State& at) {
+    const double fit = ratio < 2 ? std::min<double>(1 / (2 - ratio), p.max_step_multiple) : p.max_step_multiple;
+    int first = 2;
+    while (2 * first <= fit) first *= 2;
+    State trial;
+    auto take = [&](int multiple) {
+      const Eigen::MatrixXd Dm = multiple * D;
+      if (step_bound(X, Dm) < 1) return false;
+      Eigen::MatrixXd Xm = X + Dm;
+      if (!evaluate(Xm, trial) || !(trial.total < at.total)) return false;
+      Xt.swap(Xm);
+      std::swap(at, trial);
+      return true;
+    };
+    int multiple = first;
+    while (multiple >= 2 && !take(multiple)) multiple /= 2;
+    if (multiple < 2) return false;
+    if (multiple == first)
+      for (multiple *= 2; multiple <= p.max_step_multiple && take(multiple); multiple *= 2) {
+      }
+    return true;
+  }
+
   struct HeldStep {
     Eigen::MatrixXd d; // free rows, zero on the held vertices
     double bound = 0;
@@ -628,9 +668,13 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
             }
           }
         }
+        const bool whole = a >= 1;
         for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
           Eigen::MatrixXd Xt = X + a * D;
           if (m.evaluate(Xt, trial) && trial.total <= E + kArmijo * a * slope) {
+            if (m.lengthening() && whole && b == 0 && tau >= 1 && E - trial.total >= kLinearDecrease * predicted &&
+                m.lengthen_step(X, D, (E - trial.total) / predicted, Xt, trial))
+              ++result.lengthened_steps;
             X = std::move(Xt);
             state = std::move(trial);
             E_new = state.total;
@@ -649,7 +693,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     // a large predicted decrease of the plain step is progress still to be made).
     const double scale = std::max(options.energy_scale, E);
     const bool small = E <= 0 || ((E - E_new) < options.tolerance * scale &&
-                                  ((!clamped && !combined) || predicted < options.tolerance * scale));
+                                  ((!clamped && !combined && !m.lengthening()) || predicted < options.tolerance * scale));
     // A contact-guarded drag the bounds hold still (the fixed vertices' motion forces a contact)
     // is given up early: its iterations would only shuffle the free vertices against the
     // barriers, and the caller falls back to the tets or stops at contact.

@@ -45,6 +45,8 @@ struct GuardOptions {
   int hold_rounds = 0;
   /// GuardedSolverParameters::anderson_history (>= 0; deformation and pose: 5, frame_guard_options).
   int anderson_history = 0;
+  /// GuardedSolverParameters::max_step_multiple (>= 0; deformation and pose: 64, frame_guard_options).
+  int max_step_multiple = 0;
   /// GuardedSolverParameters::exact_direction_vertices (>= 0; deformation and pose: 256,
   /// frame_guard_options).
   int exact_direction_vertices = 0;

@@ -74,6 +74,15 @@ struct GuardedSolverParameters {
   /// of the plain step. A solve that takes one converges only once the plain step's predicted
   /// decrease is below the tolerance as well.
   int anderson_history = 0;
+  /// Lengthened steps (largest multiple of the plain step tried; 0 or 1 = off). Once a drag's
+  /// path is done, a plain step taken whole that lowered E_guard by at least 1.9x what the model
+  /// predicts (E_guard nearly linear along it: the model, holding the rotations, takes a soft
+  /// mode of the shell, a bending or twisting one, for stiff) is tried longer: at the power of
+  /// two below the minimum of the quadratic fitted along it, halved until taken, then doubled
+  /// while E_guard keeps falling; every longer step is bounded like any step. A solve with it
+  /// on converges only once the plain step's predicted decrease is below the tolerance too: a
+  /// single iteration's small decrease can be an unlucky step, not the minimum.
+  int max_step_multiple = 0;
   /// Once a drag's path is done, where the barriers' Hessian touches at most this many free
   /// vertices, the direction is the model's exact Newton step, by the Woodbury identity from A's
   /// factor and the block of A^-1 on those vertices (kept between iterations and solves: one
@@ -136,6 +145,7 @@ struct GuardedSolveResult {
   int backtracks = 0;          ///< total line search halvings
   int clamped_steps = 0;       ///< iterations whose step the tet or contact bound cut below 1
   int held_steps = 0;          ///< of those, taken with the vertices that cut them held (hold_rounds)
+  int lengthened_steps = 0;    ///< iterations whose plain step was taken longer (max_step_multiple)
   double final_energy = 0;     ///< E alone (the shell energy, no barriers) at the result
   int active_tets = 0;         ///< tets inside the volume barrier at the result
   double min_relative_volume = 0; ///< smallest det F over the guarded tets at the result
