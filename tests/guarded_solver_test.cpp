@@ -372,66 +372,64 @@ GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>
 
 // A plane's shell bent by dragging one edge's prisms up and over while the opposite edge's are
 // held, the drag far from every barrier: the minimisation after it runs the model's plain
-// local/global iterations, which Anderson acceleration (anderson_history) combines. The combined
-// iterates must reach the plain iterations' minimum, never raise E_guard, keep the shell valid
-// and need fewer iterations (the reason for the option; a count, not a time).
-TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereNoBarrierActs) {
-  const NormalShell shell(make_plane(12), 0.1);
-  const auto& [base, n, eta, rest, boundary, X] = shell;
+// local/global iterations, which creep along the bending mode.
+struct BentPlane {
+  NormalShell shell{make_plane(12), 0.1};
   std::vector<int> fixed;
-  Eigen::MatrixXd targets = X;
-  for (int i = 0; i < n; ++i) {
-    if (base.V(i, 0) < -0.9) fixed.insert(fixed.end(), {i, n + i});
-    if (base.V(i, 0) > 0.9) {
-      fixed.insert(fixed.end(), {i, n + i});
-      for (int v : {i, n + i}) targets.row(v) += Eigen::RowVector3d(-0.6, 0, 0.9);
-    }
-  }
-  std::sort(fixed.begin(), fixed.end());
+  Eigen::MatrixXd targets = shell.X;
 
-  auto solve = [&](int history, Eigen::MatrixXd& Y) {
-    const GuardedSolveResult r = drag_then_settle(rest, fixed, boundary, contact_parameters(0.01, history), 50, X, targets, Y);
+  BentPlane() {
+    const int n = shell.n;
+    for (int i = 0; i < n; ++i) {
+      if (shell.base.V(i, 0) < -0.9) fixed.insert(fixed.end(), {i, n + i});
+      if (shell.base.V(i, 0) > 0.9) {
+        fixed.insert(fixed.end(), {i, n + i});
+        for (int v : {i, n + i}) targets.row(v) += Eigen::RowVector3d(-0.6, 0, 0.9);
+      }
+    }
+    std::sort(fixed.begin(), fixed.end());
+  }
+
+  GuardedSolveResult solve(const GuardedSolverParameters& p, Eigen::MatrixXd& Y) const {
+    const GuardedSolveResult r = drag_then_settle(shell.rest, fixed, shell.boundary, p, 50, shell.X, targets, Y);
     EXPECT_EQ(r.active_tets, 0); // the case: no barrier acting
     EXPECT_EQ(r.active_contacts, 0);
     EXPECT_GT(r.min_relative_volume, 0.1);
     return r;
-  };
+  }
+};
+
+// Anderson acceleration (anderson_history) combines the plain iterations of the bent plane. The
+// combined iterates must reach the plain iterations' minimum, never raise E_guard, keep the shell
+// valid and need fewer iterations (the reason for the option; a count, not a time).
+TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereNoBarrierActs) {
+  const BentPlane plane;
   Eigen::MatrixXd plain_state, combined_state;
-  const GuardedSolveResult plain = solve(0, plain_state), combined = solve(5, combined_state);
+  const GuardedSolveResult plain = plane.solve(contact_parameters(0.01, 0), plain_state);
+  const GuardedSolveResult combined = plane.solve(contact_parameters(0.01, 5), combined_state);
   EXPECT_NEAR(combined.final_energy, plain.final_energy, 1e-5 * plain.final_energy);
-  EXPECT_LT((combined_state - plain_state).cwiseAbs().maxCoeff(), 0.01 * eta);
+  EXPECT_LT((combined_state - plain_state).cwiseAbs().maxCoeff(), 0.01 * plane.shell.eta);
   EXPECT_LT(combined.iterations, plain.iterations / 2) << "plain " << plain.iterations << ", combined " << combined.iterations;
 }
 
-// The same bent plane settled with plain steps taken longer where E_guard falls nearly linearly
-// along them (max_step_multiple): the iterations creep along the bending mode, which the model,
-// holding the rotations, takes for stiff. The lengthened steps must reach the same minimum, never
-// raise E_guard and keep the shell valid, with and without Anderson acceleration (frames and
-// poses use both), and without it need fewer iterations.
+// The bent plane settled with plain steps taken longer where E_guard falls nearly linearly along
+// them (max_step_multiple): the model, holding the rotations, takes the bending mode for stiff.
+// The lengthened steps must reach the same minimum, never raise E_guard and keep the shell valid,
+// with and without Anderson acceleration (frames and poses use both), and without it need fewer
+// iterations.
 TEST(GuardedSolver, LengthenedStepsReachThePlainMinimumInFewerIterations) {
-  const NormalShell shell(make_plane(12), 0.1);
-  const auto& [base, n, eta, rest, boundary, X] = shell;
-  std::vector<int> fixed;
-  Eigen::MatrixXd targets = X;
-  for (int i = 0; i < n; ++i) {
-    if (base.V(i, 0) < -0.9) fixed.insert(fixed.end(), {i, n + i});
-    if (base.V(i, 0) > 0.9) {
-      fixed.insert(fixed.end(), {i, n + i});
-      for (int v : {i, n + i}) targets.row(v) += Eigen::RowVector3d(-0.6, 0, 0.9);
-    }
-  }
-  std::sort(fixed.begin(), fixed.end());
+  const BentPlane plane;
   for (int history : {0, 5}) {
     SCOPED_TRACE("anderson_history " + std::to_string(history));
     GuardedSolverParameters p = contact_parameters(0.01, history);
     Eigen::MatrixXd plain_state, longer_state;
-    const GuardedSolveResult plain = drag_then_settle(rest, fixed, boundary, p, 50, X, targets, plain_state);
+    const GuardedSolveResult plain = plane.solve(p, plain_state);
     p.max_step_multiple = 64;
-    const GuardedSolveResult longer = drag_then_settle(rest, fixed, boundary, p, 50, X, targets, longer_state);
+    const GuardedSolveResult longer = plane.solve(p, longer_state);
     EXPECT_EQ(plain.lengthened_steps, 0);
     EXPECT_GT(longer.lengthened_steps, 0);
     EXPECT_NEAR(longer.final_energy, plain.final_energy, 1e-5 * plain.final_energy);
-    EXPECT_LT((longer_state - plain_state).cwiseAbs().maxCoeff(), 0.01 * eta);
+    EXPECT_LT((longer_state - plain_state).cwiseAbs().maxCoeff(), 0.01 * plane.shell.eta);
     // Anderson's combined iterates already cross this small mode in a few iterations (26 here);
     // the plain iterations creep (456 here).
     if (history == 0)
