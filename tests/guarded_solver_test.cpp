@@ -414,9 +414,9 @@ TEST(GuardedSolver, AndersonReachesThePlainMinimumInFewerIterationsWhereNoBarrie
 
 // The bent plane settled with plain steps taken longer where E_guard falls nearly linearly along
 // them (max_step_multiple): the model, holding the rotations, takes the bending mode for stiff.
-// The lengthened steps must reach the same minimum, never raise E_guard and keep the shell valid,
-// with and without Anderson acceleration (frames and poses use both), and without it need fewer
-// iterations.
+// The lengthened steps must reach the same minimum, never raise E_guard, keep the shell valid and,
+// in a solve that creeps (no Anderson), need fewer iterations; a short solve (with Anderson, as
+// frames and poses run) is not lengthened.
 TEST(GuardedSolver, LengthenedStepsReachThePlainMinimumInFewerIterations) {
   const BentPlane plane;
   for (int history : {0, 5}) {
@@ -427,13 +427,15 @@ TEST(GuardedSolver, LengthenedStepsReachThePlainMinimumInFewerIterations) {
     p.max_step_multiple = 64;
     const GuardedSolveResult longer = plane.solve(p, longer_state);
     EXPECT_EQ(plain.lengthened_steps, 0);
-    EXPECT_GT(longer.lengthened_steps, 0);
     EXPECT_NEAR(longer.final_energy, plain.final_energy, 1e-5 * plain.final_energy);
     EXPECT_LT((longer_state - plain_state).cwiseAbs().maxCoeff(), 0.01 * plane.shell.eta);
-    // Anderson's combined iterates already cross this small mode in a few iterations (26 here);
-    // the plain iterations creep (456 here).
-    if (history == 0)
+    if (history == 0) { // the plain iterations creep (456 here)
+      EXPECT_GT(longer.lengthened_steps, 0);
       EXPECT_LT(longer.iterations, plain.iterations / 2) << "plain " << plain.iterations << ", lengthened " << longer.iterations;
+    } else { // Anderson's combined iterates cross this mode in a few dozen: too short a solve to lengthen
+      EXPECT_LT(plain.iterations, 100);
+      EXPECT_EQ(longer.lengthened_steps, 0);
+    }
   }
 }
 

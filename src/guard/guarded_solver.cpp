@@ -34,6 +34,10 @@ constexpr double kArmijo = 1e-4;
 // A whole plain step that lowered E_guard by this multiple of the model's predicted decrease is
 // tried longer (max_step_multiple): 2 is the energy linear along the step, 1 the model exact.
 constexpr double kLinearDecrease = 1.9;
+// ... once the solve has run this many iterations with the path done: short settles (a few dozen
+// iterations each on the generic poses of CGAL's lion, bull and homer) are left as they were, and
+// lengthening there cost 5-20 % in time; a creeping solve runs on for hundreds or thousands.
+constexpr int kLengthenAfter = 100;
 constexpr int kMaxBacktracks = 30;
 // A drag is stalled when the last kStallIterations iterations moved the fixed vertices by less
 // than kStallProgress of their path.
@@ -573,6 +577,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     tau = path.isZero(0) ? 1 : 0;
   }
 
+  int settled = 0; // iterations with the path done
   std::vector<double> tau_history{tau}; // tau_history[k]: path done after iteration k
   // Samples (X, X + D) of the iteration's map, recorded once the path is done. Where barriers act
   // the map (the local/global step corrected near them) changes a little as they move, so a
@@ -622,6 +627,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
       }
     }
     const double E = state.total;
+    settled += tau >= 1;
     bool moved = false, clamped = false, combined = false;
     double E_new = E, predicted = 0;
     if (m.nf() > 0) {
@@ -672,7 +678,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
         for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
           Eigen::MatrixXd Xt = X + a * D;
           if (m.evaluate(Xt, trial) && trial.total <= E + kArmijo * a * slope) {
-            if (m.lengthening() && whole && b == 0 && tau >= 1 && E - trial.total >= kLinearDecrease * predicted &&
+            if (m.lengthening() && whole && b == 0 && settled > kLengthenAfter && E - trial.total >= kLinearDecrease * predicted &&
                 m.lengthen_step(X, D, (E - trial.total) / predicted, Xt, trial))
               ++result.lengthened_steps;
             X = std::move(Xt);

@@ -75,7 +75,7 @@ struct GuardedSolverParameters {
   /// decrease is below the tolerance as well.
   int anderson_history = 0;
   /// Lengthened steps (largest multiple of the plain step tried; 0 or 1 = off). Once a drag's
-  /// path is done, a plain step taken whole that lowered E_guard by at least 1.9x what the model
+  /// path is done and the solve has run 100 iterations from there, a plain step taken whole that lowered E_guard by at least 1.9x what the model
   /// predicts (E_guard nearly linear along it: the model, holding the rotations, takes a soft
   /// mode of the shell, a bending or twisting one, for stiff) is tried longer: at the power of
   /// two below the minimum of the quadratic fitted along it, halved until taken, then doubled
