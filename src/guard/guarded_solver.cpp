@@ -35,8 +35,9 @@ constexpr double kArmijo = 1e-4;
 // tried longer (max_step_multiple): 2 is the energy linear along the step, 1 the model exact.
 constexpr double kLinearDecrease = 1.9;
 // ... once the solve has run this many iterations with the path done: short settles (a few dozen
-// iterations each on the generic poses of CGAL's lion, bull and homer) are left as they were, and
-// lengthening there cost 5-20 % in time; a creeping solve runs on for hundreds or thousands.
+// iterations each on the poses of CGAL's bull, armadillo or homer) are left as they were, bit
+// for bit (lengthened, homer's twist took 18 % longer on another path); a creeping solve runs
+// on for hundreds or thousands.
 constexpr int kLengthenAfter = 100;
 constexpr int kMaxBacktracks = 30;
 // A drag is stalled when the last kStallIterations iterations moved the fixed vertices by less
