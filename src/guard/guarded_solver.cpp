@@ -431,7 +431,7 @@ struct GuardedSolver::Impl {
   // is bounded from X like any step, so the whole segment is valid. Xt and `at` become the
   // longest step taken; false when none was.
   bool lengthen_step(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double ratio, Eigen::MatrixXd& Xt, State& at) {
-    const double fit = ratio < 2 ? std::min<double>(1 / (2 - ratio), p.max_step_multiple) : p.max_step_multiple;
+    const double fit = std::min<double>(ratio < 2 ? 1 / (2 - ratio) : kInf, p.max_step_multiple);
     int first = 2;
     while (2 * first <= fit) first *= 2;
     State trial;
@@ -675,12 +675,12 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
             }
           }
         }
-        const bool whole = a >= 1;
         for (int b = 0; b <= kMaxBacktracks && a > 0; ++b, a *= 0.5) {
           Eigen::MatrixXd Xt = X + a * D;
           if (m.evaluate(Xt, trial) && trial.total <= E + kArmijo * a * slope) {
-            if (m.lengthening() && whole && b == 0 && settled > kLengthenAfter && E - trial.total >= kLinearDecrease * predicted &&
-                m.lengthen_step(X, D, (E - trial.total) / predicted, Xt, trial))
+            // a >= 1 at b = 0: the whole step, neither clamped nor backtracked.
+            if (m.lengthening() && b == 0 && a >= 1 && settled > kLengthenAfter &&
+                E - trial.total >= kLinearDecrease * predicted && m.lengthen_step(X, D, (E - trial.total) / predicted, Xt, trial))
               ++result.lengthened_steps;
             X = std::move(Xt);
             state = std::move(trial);

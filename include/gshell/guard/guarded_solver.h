@@ -75,13 +75,14 @@ struct GuardedSolverParameters {
   /// decrease is below the tolerance as well.
   int anderson_history = 0;
   /// Lengthened steps (largest multiple of the plain step tried; 0 or 1 = off). Once a drag's
-  /// path is done and the solve has run 100 iterations from there, a plain step taken whole that lowered E_guard by at least 1.9x what the model
-  /// predicts (E_guard nearly linear along it: the model, holding the rotations, takes a soft
-  /// mode of the shell, a bending or twisting one, for stiff) is tried longer: at the power of
-  /// two below the minimum of the quadratic fitted along it, halved until taken, then doubled
-  /// while E_guard keeps falling; every longer step is bounded like any step. A solve with it
-  /// on converges only once the plain step's predicted decrease is below the tolerance too: a
-  /// single iteration's small decrease can be an unlucky step, not the minimum.
+  /// path is done and the solve has run 100 iterations from there, a plain step taken whole that
+  /// lowered E_guard by at least 1.9x what the model predicts (E_guard nearly linear along it:
+  /// the model, holding the rotations, takes a soft mode of the shell, a bending or twisting
+  /// one, for stiff) is tried longer: at the power of two below the minimum of the quadratic
+  /// fitted along it, halved until taken, then doubled while E_guard keeps falling; every longer
+  /// step is bounded like any step. A solve with it on converges only once the plain step's
+  /// predicted decrease is below the tolerance too: a single iteration's small decrease can be
+  /// an unlucky step, not the minimum.
   int max_step_multiple = 0;
   /// Once a drag's path is done, where the barriers' Hessian touches at most this many free
   /// vertices, the direction is the model's exact Newton step, by the Woodbury identity from A's
