@@ -178,6 +178,29 @@ TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
               1e-6 * cli.report["stretch"]["volume_mean"].get<double>());
 }
 
+TEST(ViewSession, HelloAndStatsTellTheLevelsBuiltNotOnlyThoseAsked) {
+  const PlateFolder plate; // 121 base vertices: far fewer levels than asked for below
+  ViewSessionOptions options = tight_options(plate.tmp.path().string());
+  options.pose.hierarchy.levels = 40;
+  ViewSession session(load_view_input({plate.dir}), options);
+  Outbox out;
+  session.welcome(out.sink());
+  const json hello = out.messages("hello").at(0);
+  EXPECT_EQ(hello["solver"]["levels_asked"], 40);
+  EXPECT_TRUE(hello["solver"]["levels"].is_null()); // no handles yet, so no solver
+  add_plate_groups(session, session.input().shell, out);
+  session.receive(drag_message(1, 1, Eigen::Vector3d(0, 0, 0.3), 0), out.sink());
+  session.solve_drag(out.sink());
+  const json stats = out.messages("stats").back();
+  const int built = session.drag_session()->solver_levels();
+  EXPECT_GE(built, 2);
+  EXPECT_LT(built, 40);
+  EXPECT_EQ(stats["solver_levels"], built);
+  out.clear();
+  session.welcome(out.sink()); // a page joining now hears the levels built
+  EXPECT_EQ(out.messages("hello").at(0)["solver"]["levels"], built);
+}
+
 TEST(ViewSession, BadMessagesGetAnErrorAndChangeNothing) {
   const PlateFolder plate;
   ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));

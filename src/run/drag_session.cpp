@@ -472,6 +472,12 @@ void DragSession::reset() {
 
 int DragSession::solver_builds() const { return impl_->builds; }
 
+int DragSession::solver_levels() const {
+  if (!impl_->solver) return 0;
+  const HierarchicalSolver* hierarchy = impl_->solver->hierarchical();
+  return hierarchy ? hierarchy->num_levels() : 1;
+}
+
 const RestTets& DragSession::rest_tets() const { return impl_->tets(); }
 
 void DragSession::prepare() { impl_->ensure_solver(); }
@@ -489,9 +495,8 @@ PoseResult DragSession::result(std::size_t first_step) const {
   r.shell = s.shell_name;
   r.handles = s.handles_name;
   r.solver = s.options.solver;
-  // The levels built, which on a small mesh can be fewer than asked for (HierarchicalSolver).
-  const HierarchicalSolver* hierarchy = s.solver ? s.solver->hierarchical() : nullptr;
-  r.levels = hierarchy ? hierarchy->num_levels() : s.options.solver == PoseSolverKind::Hierarchical ? s.options.hierarchy.levels : 1;
+  const int built = solver_levels();
+  r.levels = built > 0 ? built : s.options.solver == PoseSolverKind::Hierarchical ? s.options.hierarchy.levels : 1;
   r.mode = st.handles.mode;
   r.weight = st.handles.weight;
   r.thickness = s.rest.thickness;

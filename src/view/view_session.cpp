@@ -152,6 +152,7 @@ struct ViewSession::Impl {
     if (drag) {
       j["handles"] = drag->handles().handles.size();
       j["handle_vertices"] = drag->handles().constrained_vertices().size();
+      if (const int built = drag->solver_levels(); built > 0) j["solver_levels"] = built;
     } else {
       j["frame"] = frame;
     }
@@ -280,8 +281,12 @@ void ViewSession::welcome(const ViewSink& send) {
   hello["frames"] = frames;
   hello["output_dir"] = fs::absolute(s.options.output_dir).lexically_normal().string();
   hello["max_message_bytes"] = s.options.limits.max_bytes;
+  // The solver is built lazily (DragSession), so the levels a small mesh holds may be known only
+  // after the first build: `levels` is null until then, and `stats` carries it from there on.
+  const int built = s.drag ? s.drag->solver_levels() : 0;
   hello["solver"] = {{"kind", pose_solver_name(s.options.pose.solver)},
-                     {"levels", s.options.pose.hierarchy.levels},
+                     {"levels_asked", s.options.pose.hierarchy.levels},
+                     {"levels", built > 0 ? ojson(built) : ojson(nullptr)},
                      {"event_iterations", s.options.event_iterations},
                      {"tolerance", s.options.pose.solve.tolerance}};
   ColorScale stretch;

@@ -114,6 +114,10 @@ public:
 
   /// Times the solver was built (rest tets, tree, factorisations): tells a cheap event from a rebuild.
   int solver_builds() const;
+  /// Levels of the solver built last, the full one included (1 for the single-level solver);
+  /// on a small mesh fewer than PoseOptions asks for (HierarchicalSolver). 0 before the first
+  /// build (the solver is built lazily, see above).
+  int solver_levels() const;
   /// The rest shapes of the shell's prism tets (build_prism_tets order), for per-tet measures.
   const RestTets& rest_tets() const;
   /// The posed shell with its steps since the last reset (from `first_step` on) and its stretch.
