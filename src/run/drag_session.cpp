@@ -496,7 +496,7 @@ PoseResult DragSession::result(std::size_t first_step) const {
   r.handles = s.handles_name;
   r.solver = s.options.solver;
   const int built = solver_levels();
-  r.levels = built > 0 ? built : s.options.solver == PoseSolverKind::Hierarchical ? s.options.hierarchy.levels : 1;
+  r.levels = built > 0 ? built : s.options.levels_asked();
   r.mode = st.handles.mode;
   r.weight = st.handles.weight;
   r.thickness = s.rest.thickness;

@@ -284,9 +284,8 @@ void ViewSession::welcome(const ViewSink& send) {
   // The solver is built lazily (DragSession), so the levels a small mesh holds may be known only
   // after the first build: `levels` is null until then, and `stats` carries it from there on.
   const int built = s.drag ? s.drag->solver_levels() : 0;
-  const bool hierarchical = s.options.pose.solver == PoseSolverKind::Hierarchical;
   hello["solver"] = {{"kind", pose_solver_name(s.options.pose.solver)},
-                     {"levels_asked", hierarchical ? s.options.pose.hierarchy.levels : 1},
+                     {"levels_asked", s.options.pose.levels_asked()},
                      {"levels", built > 0 ? ojson(built) : ojson(nullptr)},
                      {"event_iterations", s.options.event_iterations},
                      {"tolerance", s.options.pose.solve.tolerance}};

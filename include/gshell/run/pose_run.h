@@ -56,6 +56,9 @@ struct PoseOptions {
 
   /// \throws InputError naming the parameter (steps, levels, iterations, tolerance) out of range.
   void check() const;
+  /// The levels asked for, the full one included: hierarchy.levels for the hierarchical solver, 1
+  /// for the single-level one (a small mesh may hold fewer: DragSession::solver_levels).
+  int levels_asked() const { return solver == PoseSolverKind::Hierarchical ? hierarchy.levels : 1; }
 };
 
 struct PoseStepReport {
