@@ -39,12 +39,7 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   std::snprintf(eta, sizeof eta, "%g", a.options.thickness.eta(mesh.V, mesh.F));
   progress.line(a.input + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +
                 std::to_string(mesh.num_faces()) + " faces), method " + a.method + ", eta " + eta);
-  if (progress.enabled())
-    a.options.generate.solve.progress = [&progress](int it, double energy, double seconds) {
-      char text[128];
-      std::snprintf(text, sizeof text, "iteration %d  energy %.6g  %.3f s", it, energy, seconds);
-      progress.update(text);
-    };
+  cli::show_solve_progress(progress, a.options.generate.solve);
   const GenerateRun result = run_generate(std::move(mesh), a.input, a.options, std::move(input_warnings));
   progress.finish_status();
   for (const std::string& warning : result.warnings()) std::cerr << "gshell generate: warning: " << warning << "\n";

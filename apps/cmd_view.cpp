@@ -13,7 +13,6 @@
 #include <gshell/view/view_session.h>
 
 #include <csignal>
-#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -91,11 +90,7 @@ void run(const CLI::App& cmd, ViewArgs& a) {
 
   cli::Progress progress("view", 0.2);
   if (progress.enabled()) {
-    a.input.generate.generate.solve.progress = [&progress](int it, double energy, double seconds) {
-      char text[128];
-      std::snprintf(text, sizeof text, "generating the shell: iteration %d  energy %.6g  %.3f s", it, energy, seconds);
-      progress.update(text);
-    };
+    cli::show_solve_progress(progress, a.input.generate.generate.solve, "generating the shell: ");
     a.input.frame_progress = [&progress](int done, int total) {
       progress.update("read frame " + std::to_string(done) + "/" + std::to_string(total));
     };

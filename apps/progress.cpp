@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <unistd.h>
 
 namespace gshell::cli {
@@ -38,6 +39,17 @@ void Progress::line(const std::string& text) {
 void Progress::finish_status() {
   if (status_open_) std::cerr << "\r\033[K" << std::flush; // the status line gives way
   status_open_ = false;
+}
+
+void show_solve_progress(Progress& progress, SolveOptions& solve, const std::string& lead) {
+  if (!progress.enabled()) return;
+  auto stage = std::make_shared<std::string>();
+  solve.stage = [stage](const char* name) { *stage = std::string(name) + ": "; };
+  solve.progress = [&progress, stage, lead](int it, double energy, double seconds) {
+    char text[96];
+    std::snprintf(text, sizeof text, "iteration %d  energy %.6g  %.3f s", it, energy, seconds);
+    progress.update(lead + *stage + text);
+  };
 }
 
 } // namespace gshell::cli

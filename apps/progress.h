@@ -2,6 +2,8 @@
 // Progress of long runs on stderr, the same for every command: on a terminal one status line
 // rewritten in place; anywhere else (a log, a pipe) one line per update, so logs read cleanly.
 // Nothing at all with --quiet.
+#include <gshell/solver/shell_solver.h>
+
 #include <chrono>
 #include <string>
 
@@ -31,5 +33,11 @@ private:
   double min_interval_ = 0;
   std::chrono::steady_clock::time_point last_{};
 };
+
+/// Shows a (possibly staged) solve's iterations on `progress` as "LEAD[STAGE: ]iteration N  energy
+/// E  T s", STAGE being what `solve.stage` last named (guarded generation: paper, repair, relax),
+/// so that a counter starting again reads as the next stage. Nothing when progress is off.
+/// `progress` must outlive the solve.
+void show_solve_progress(Progress& progress, SolveOptions& solve, const std::string& lead = "");
 
 } // namespace gshell::cli

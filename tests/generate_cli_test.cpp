@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <sstream>
 
 using namespace gshell;
 using namespace gshell::test;
@@ -144,4 +145,28 @@ TEST(GenerateCli, BadParametersExitOneWithoutOutput) {
   EXPECT_EQ(metrics.exit_code, 1) << metrics.err;
   const CliResult metrics_none = run_cli("metrics builtin:sphere builtin:sphere");
   EXPECT_EQ(metrics_none.exit_code, 1);
+}
+
+TEST(GenerateCli, ProgressNamesTheStageOfEveryIteration) {
+  // Guarded generation solves in stages whose iteration counts each start at 1; a log must say
+  // which stage a line belongs to (stderr is a file here: one line per update).
+  TempDir tmp;
+  const CliResult r = run_cli("generate builtin:torus:32 -o '" + tmp.file("shell") + "' --thickness-ratio 0.02");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = nlohmann::json::parse(read_text(tmp.file("shell") + "/report.json"));
+  ASSERT_TRUE(report["guarded"].get<bool>());
+  ASSERT_EQ(report["guard"]["repaired_vertices"], 0); // the paper's stage alone (the library test has all three)
+  std::istringstream lines(r.err);
+  std::string line;
+  std::getline(lines, line); // the input line
+  int paper_lines = 0;
+  while (std::getline(lines, line)) {
+    const std::string paper = "gshell generate: paper: iteration " + std::to_string(paper_lines + 1) + "  energy ";
+    EXPECT_EQ(line.rfind(paper, 0), 0u) << line;
+    ++paper_lines;
+  }
+  const int iterations = report["guard"]["paper_iterations"].get<int>();
+  EXPECT_GT(iterations, 0);
+  EXPECT_EQ(paper_lines, iterations);
+  EXPECT_NE(r.out.find("after " + std::to_string(iterations) + " paper iterations"), std::string::npos) << r.out;
 }

@@ -188,6 +188,10 @@ TEST(Generate, ReportHasEveryField) {
                                                {"exact", true}}));
   EXPECT_EQ(j["base_self_intersections"], 0);
   EXPECT_EQ(j["thinned_vertices"], (r.metrics.vertex_thickness.array() < 0.9).count());
+  // Guarded: `converged` is the paper's iterations' and the repair's together (nothing to repair here).
+  EXPECT_EQ(j["guard"]["paper_converged"], r.guard.paper.converged);
+  EXPECT_EQ(j["guard"]["repair_converged"], true);
+  EXPECT_EQ(j["converged"], r.guard.paper.converged);
   // The terminal summary says the same as the report.
   const std::string summary = generate_summary(r, "builtin:torus:24");
   const std::string faces = std::to_string(mesh.F.rows());
@@ -195,7 +199,7 @@ TEST(Generate, ReportHasEveryField) {
        {std::string("input        builtin:torus:24"),
         "shell        " + std::to_string(mesh.V.rows()) + " vertices, " + faces + " faces, " +
             std::to_string(3 * mesh.F.rows()) + " tets, eta 0.05, method rigid",
-        "after " + std::to_string(r.solve.iterations) + " iterations",
+        "after " + std::to_string(r.solve.iterations) + " paper iterations", // guarded: the repair's are on its line
         std::string("valid        yes (exact: 0 inverted tets; top/top 0, top/base 0, wall 0 intersecting face pairs)"),
         "(x eta), " + j["thinned_vertices"].dump() + " top vertices below 0.9 eta"})
     EXPECT_NE(summary.find(part), std::string::npos) << part << "\n" << summary;

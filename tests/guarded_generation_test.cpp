@@ -24,6 +24,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <string>
 #include <vector>
 
 using namespace gshell;
@@ -122,6 +123,35 @@ TEST(GuardedGeneration, TorusThickerThanItsHoleThinsOnlyInTheHole) {
       const double radial = m.V.row(i).head<2>().norm();
       if (radial > R + 0.9 * r) EXPECT_NEAR(g.metrics.vertex_thickness[i], u.metrics.vertex_thickness[i], 0.05) << i;
     }
+  }
+}
+
+TEST(GuardedGeneration, ProgressNamesEachStageAndCountsItsIterationsFromOne) {
+  // A log of a guarded run read "iteration 13 ... iteration 1 ... iteration 50 ... iteration 1":
+  // three solves, unnamed. Every stage is now named before its iterations, and the iterations
+  // shown under each name are exactly that stage's.
+  const TriMesh m = bumpy_sphere(3, 0.4); // inverts unguarded: the repair runs
+  GenerateOptions o = options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.05));
+  std::vector<std::string> stages;
+  std::vector<std::vector<int>> seen;
+  o.solve.stage = [&](const char* name) {
+    stages.emplace_back(name);
+    seen.emplace_back();
+  };
+  o.solve.progress = [&](int it, double, double) {
+    ASSERT_FALSE(seen.empty()) << "an iteration before any stage was named";
+    seen.back().push_back(it);
+  };
+  const GenerateResult g = generate_shell(m.V, m.F, o);
+  ASSERT_GT(g.guard.repaired_vertices, 0);
+  ASSERT_EQ(stages, (std::vector<std::string>{"paper", "repair", "relax"}));
+  const int counts[3] = {g.guard.paper.iterations, g.guard.solve.iterations, g.guard.relax.iterations};
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(stages[k]);
+    ASSERT_GT(counts[k], 0);
+    std::vector<int> expected(counts[k]);
+    std::iota(expected.begin(), expected.end(), 1); // generation relaxes in one round
+    EXPECT_EQ(seen[k], expected);
   }
 }
 

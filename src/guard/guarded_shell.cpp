@@ -147,6 +147,7 @@ struct MendInputs {
   // positions it is given, so attempts share it) and the top vertices it may move.
   const detail::StartChecker* lift_checker;
   const std::vector<char>& movable;
+  const std::function<void(const char*)>& stage; // names the repair and relaxation for progress
 };
 
 // Top vertices the lifting may move: not those outside the guard's protection (unextrudable,
@@ -221,7 +222,9 @@ Mended mend(const MendInputs& in, const std::vector<char>& region, const Eigen::
       repair_options.max_iterations = std::max(in.solve.max_iterations, static_cast<int>(affordable));
     }
     Eigen::MatrixXd Y = part.X;
+    if (in.stage) in.stage("repair");
     out.solve = repair.solve(Y, repair_options);
+    if (in.stage && in.options.relax_rounds > 0) in.stage("relax");
     relax(in.V, in.F, in.eta, in.options, repair, repair_options, Y, out);
     part.scatter_moving(Y, out.X);
   }
@@ -367,6 +370,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal.get()), 2 * n,
                                    fixed, {}, linear);
     g.factor_seconds = paper_solver.factor_seconds();
+    if (solve.stage) solve.stage("paper");
     g.paper = paper_solver.solve(X, solve); // the guarded solve reports its own iterations after these
   }
   ideal.release(); // made again below only if the start thins a top
@@ -456,7 +460,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     mend_solve.tolerance = solve.tolerance;
     mend_solve.progress = solve.progress;
     const MendInputs inputs{V, F, ideal_tets, eta, options, mend_solve, boundary, g, wanted,
-                            lift_checker ? &*lift_checker : nullptr, movable};
+                            lift_checker ? &*lift_checker : nullptr, movable, solve.stage};
     Mended mended = mend(inputs, in_region, X);
     g.factor_seconds += mended.factor_seconds;
     // Around held tops the repair can move their neighbours where they block them: the lifting

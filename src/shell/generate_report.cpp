@@ -66,6 +66,8 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
   if (r.guarded) {
     const GuardedShell& g = r.guard;
     j["guard"] = {{"paper_iterations", g.paper.iterations},
+                  {"paper_converged", g.paper.converged},
+                  {"repair_converged", g.repaired_vertices == 0 || g.solve.converged},
                   {"start_smoothing_iterations", g.smoothing.iterations},
                   {"start_rounds", g.start.rounds},
                   {"pulled_in_vertices", (g.start.scale.array() < 1).count()},
@@ -159,9 +161,11 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
       << format("%.6g", r.shell.thickness) << ", method " << to_string(r.method) << "\n";
   if (!r.solve.energy.empty()) {
     out << format("energy       %.6g", r.solve.energy.front());
+    // Guarded, these are the paper's iterations; whether the repair converged is on the guard line.
+    const bool converged = r.guarded ? r.guard.paper.converged : r.solve.converged;
     if (r.solve.iterations > 0)
-      out << format(" -> %.6g after ", r.solve.energy.back()) << r.solve.iterations << " iterations"
-          << (r.solve.converged ? " (converged)" : " (iteration limit)");
+      out << format(" -> %.6g after ", r.solve.energy.back()) << r.solve.iterations
+          << (r.guarded ? " paper iterations" : " iterations") << (converged ? " (converged)" : " (iteration limit)");
     out << "\n";
   }
   quality_lines(out, r.metrics);
@@ -178,7 +182,8 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
   if (r.guarded)
     out << "guard        " << r.unextrudable_vertices.size() << " unextrudable vertices, " << (r.guard.start.scale.array() < 1).count()
         << " pulled in, " << r.guard.repaired_vertices << " repaired in " << r.guard.solve.iterations
-        << " iterations (+" << r.guard.relax.iterations << " relaxing, " << r.guard.relax.kept_rounds << " kept), "
+        << " iterations (" << (r.guard.repaired_vertices > 0 && !r.guard.solve.converged ? "not converged; " : "")
+        << "+" << r.guard.relax.iterations << " relaxing, " << r.guard.relax.kept_rounds << " kept), "
         << r.guard.lift.moves << " lifting moves" << (r.guard.lift_only ? " (lifting alone kept, no repair)" : "") << "\n";
   char time[256];
   std::snprintf(time, sizeof time, "time         %.3f s (factor %.3f s, solve %.3f s, guard %.3f s, certificate %.3f s)\n",

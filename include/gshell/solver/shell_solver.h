@@ -25,6 +25,11 @@ struct SolveOptions {
   /// still never rises). 0: plain local/global (the paper's iteration). At most
   /// kMaxAndersonHistory.
   int anderson_history = 0;
+  /// Solves in stages (guarded generation: "paper", then "repair" and "relax" where the start
+  /// thinned a top) call this with the stage's name before its iterations; `progress` counts
+  /// iterations from 1 again in every stage, and reports each stage's own energy (the repair's and
+  /// the relaxation's is E_guard of the part they move, barriers included).
+  std::function<void(const char*)> stage = nullptr;
 };
 
 /// Longest Anderson history a solver accepts. Each iterate kept costs two vectors of the free
