@@ -192,6 +192,8 @@ TEST(Generate, ReportHasEveryField) {
   EXPECT_EQ(j["guard"]["paper_converged"], r.guard.paper.converged);
   EXPECT_EQ(j["guard"]["repair_converged"], true);
   EXPECT_EQ(j["converged"], r.guard.paper.converged);
+  for (const char* key : {"paper", "repair", "relax", "lift"}) EXPECT_TRUE(j["guard"]["seconds"].contains(key)) << key;
+  EXPECT_DOUBLE_EQ(j["guard"]["seconds"]["paper"].get<double>(), r.guard.paper.seconds);
   // The terminal summary says the same as the report.
   const std::string summary = generate_summary(r, "builtin:torus:24");
   const std::string faces = std::to_string(mesh.F.rows());
