@@ -67,7 +67,7 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
     const GuardedShell& g = r.guard;
     j["guard"] = {{"paper_iterations", g.paper.iterations},
                   {"paper_converged", g.paper.converged},
-                  {"repair_converged", g.repaired_vertices == 0 || g.solve.converged},
+                  {"repair_converged", g.repair_converged()},
                   {"start_smoothing_iterations", g.smoothing.iterations},
                   {"start_rounds", g.start.rounds},
                   {"pulled_in_vertices", (g.start.scale.array() < 1).count()},
@@ -185,7 +185,7 @@ std::string generate_summary(const GenerateResult& r, const std::string& input) 
   if (r.guarded)
     out << "guard        " << r.unextrudable_vertices.size() << " unextrudable vertices, " << (r.guard.start.scale.array() < 1).count()
         << " pulled in, " << r.guard.repaired_vertices << " repaired in " << r.guard.solve.iterations
-        << " iterations (" << (r.guard.repaired_vertices > 0 && !r.guard.solve.converged ? "not converged; " : "")
+        << " iterations (" << (r.guard.repair_converged() ? "" : "not converged; ")
         << "+" << r.guard.relax.iterations << " relaxing, " << r.guard.relax.kept_rounds << " kept), "
         << r.guard.lift.moves << " lifting moves" << (r.guard.lift_only ? " (lifting alone kept, no repair)" : "") << "\n";
   char time[256];

@@ -97,7 +97,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     // The paper's iterations (the energy the guard starts from); the repair's own iterations, on
     // E_guard of the region it moves, are in guard.solve.
     r.solve = r.guard.paper;
-    r.solve.converged = r.guard.paper.converged && (r.guard.repaired_vertices == 0 || r.guard.solve.converged);
+    r.solve.converged = r.guard.paper.converged && r.guard.repair_converged();
     r.seconds.factor = r.guard.factor_seconds;
     r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds + r.guard.relax.seconds;
     r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve - r.guard.ideal_seconds;

@@ -169,6 +169,8 @@ struct GuardedShell {
   /// min_relative_volume, active_contacts) describe the returned top, after relaxation if a round
   /// was kept; energy[] and the counters are the repair's own.
   GuardedSolveResult solve;
+  /// Nothing to repair, or the repair stopped by its tolerance (not at its cap or a stall).
+  bool repair_converged() const { return repaired_vertices == 0 || solve.converged; }
   /// The relaxation rounds after the repair (GuardOptions::relax_rounds).
   struct Relax {
     int iterations = 0;                ///< over all rounds, kept or not
