@@ -594,6 +594,24 @@ TEST(ContactGuard, CandidateListEqualsBruteForceAndIsKeptForSmallMoves) {
   }
 }
 
+TEST(ContactGuard, FarFromTheOriginTheCandidateListIsStillTheBruteForceOne) {
+  // Scans in survey coordinates sit millions of units from zero, where a float steps by 0.25-0.5:
+  // the broad phase's float boxes are measured from the shell, and the list stays exact.
+  ShellCase s = make_shell(test::icosphere(1), 0.15);
+  const Eigen::MatrixXd X0 = jitter(s.X, 0.08, 1);
+  ContactOptions o;
+  o.dhat = 0.12;
+  o.slack = 0.06;
+  for (const Eigen::RowVector3d& offset : {Eigen::RowVector3d(5e5, 4e6, 120), Eigen::RowVector3d(-2e7, 0, 3e5)}) {
+    SCOPED_TRACE(offset);
+    const Eigen::MatrixXd X = X0.rowwise() + offset;
+    ContactGuard guard(s.boundary, 2 * s.n, s.movable, o);
+    const double e = guard.energy(X);
+    EXPECT_EQ(keys(guard.candidate_pairs()), brute_force_pairs(s, X, o.dhat + o.slack));
+    EXPECT_NEAR(e, brute_force_energy(s, X, o.dhat), 1e-9 * std::max(1.0, e));
+  }
+}
+
 TEST(ContactGuard, CandidateListOfAPartlyMovableTopFollowsItsMoves) {
   // Only the top over x > 0 moves (a solver repairing a region): the fixed part's search structure
   // is kept across rebuilds while it stays, and remade when a fixed vertex moves.

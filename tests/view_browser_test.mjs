@@ -89,8 +89,9 @@ try {
   for (let t = 0; t < 200 && !fs.existsSync(path.join(folder, 'top.obj')); ++t) await new Promise((r) => setTimeout(r, 50));
   const base = readObj(path.join(folder, 'base.obj')), top = readObj(path.join(folder, 'top.obj'));
   const server = [...base, ...top];
+  const origin = await page.evaluate(() => window.gshellView.hello.origin); // what the page draws relative to
   let difference = 0;
-  for (let i = 0; i < server.length; ++i) difference = Math.max(difference, Math.abs(server[i] - moved[i]));
+  for (let i = 0; i < server.length; ++i) difference = Math.max(difference, Math.abs(server[i] - origin[i % 3] - moved[i]));
   check(server.length === moved.length && difference < 1e-5, `the page's geometry equals the server's state (largest difference ${difference.toExponential(2)}, float32 rounding)`);
 
   const stats = await page.evaluate(() => window.gshellView.stats);

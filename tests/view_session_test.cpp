@@ -7,6 +7,7 @@
 
 #include <gshell/deform/handles.h>
 #include <gshell/error.h>
+#include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/run/shell_folder.h>
 #include <gshell/view/view_input.h>
@@ -57,8 +58,15 @@ std::uint32_t frame_seq(const std::string& frame) {
   return seq;
 }
 
-/// The float32 positions of a Positions or Frame frame, as a 2n x 3 matrix.
-Eigen::MatrixXd frame_positions(const std::string& frame) {
+/// hello's "origin": what the page's positions and handle centres are relative to.
+Eigen::RowVector3d origin_of(const json& hello) {
+  return Eigen::RowVector3d(hello["origin"][0].get<double>(), hello["origin"][1].get<double>(),
+                            hello["origin"][2].get<double>());
+}
+
+/// The float32 positions of a Positions or Frame frame plus the session's origin, as a 2n x 3
+/// matrix in model coordinates.
+Eigen::MatrixXd frame_positions(const std::string& frame, const Eigen::RowVector3d& origin) {
   const std::size_t count = (frame.size() - kViewFrameHeaderBytes) / 4;
   Eigen::MatrixXd X(count / 3, 3);
   for (std::size_t i = 0; i < count; ++i) {
@@ -66,7 +74,7 @@ Eigen::MatrixXd frame_positions(const std::string& frame) {
     std::memcpy(&f, frame.data() + kViewFrameHeaderBytes + 4 * i, 4);
     X(i / 3, i % 3) = f;
   }
-  return X;
+  return X.rowwise() + origin;
 }
 
 double max_distance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a - b).rowwise().norm().maxCoeff(); }
@@ -126,7 +134,8 @@ TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
   EXPECT_EQ(out.messages("hello")[0]["kind"], "shell");
   ASSERT_EQ(out.frames(ViewFrameKind::Faces).size(), 1u);
   ASSERT_EQ(out.frames(ViewFrameKind::Positions).size(), 1u);
-  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Positions)[0]), rest.vertices()), 1e-6);
+  const Eigen::RowVector3d origin = origin_of(out.messages("hello")[0]);
+  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Positions)[0], origin), rest.vertices()), 1e-6);
   add_plate_groups(session, rest, out);
 
   // A mouse drag: grab, 12 moves (each answered after one iteration), release, rest.
@@ -151,7 +160,7 @@ TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
   EXPECT_EQ(out.messages("stats").back()["phase"], "settled");
   const Eigen::MatrixXd settled = session.drag_session()->vertices();
   // The page's copy is the server's state (to float32 rounding).
-  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Positions).back()), settled), 1e-6);
+  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Positions).back(), origin), settled), 1e-6);
 
   // Save the handles and the posed shell as the page's buttons do.
   out.clear();
@@ -176,6 +185,35 @@ TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
   EXPECT_EQ(mine.report["command"], "pose");
   EXPECT_NEAR(mine.report["stretch"]["volume_mean"].get<double>(), cli.report["stretch"]["volume_mean"].get<double>(),
               1e-6 * cli.report["stretch"]["volume_mean"].get<double>());
+}
+
+TEST(ViewSession, AShellFarFromTheOriginReachesThePageWithItsDetail) {
+  // A scan in survey coordinates: float32 positions of their own would sit on a grid of 0.25-0.5
+  // units there; relative to hello's origin they keep the shell to float precision of its size.
+  test::TempDir tmp{"gshell-view"};
+  TriMesh plate = make_plane(10);
+  const Eigen::RowVector3d far(5e5, 4e6, 120);
+  plate.V.rowwise() += far;
+  write_mesh(tmp.file("far.obj"), plate);
+  const std::string dir = tmp.file("far");
+  ASSERT_EQ(test::run_cli("generate '" + tmp.file("far.obj") + "' --thickness 0.1 -q -o '" + dir + "'").exit_code, 0);
+  ViewSession session(load_view_input({dir}), tight_options(tmp.path().string()));
+  const Shell& rest = session.input().shell;
+  Outbox out;
+  session.welcome(out.sink());
+  const Eigen::RowVector3d origin = origin_of(out.messages("hello")[0]);
+  EXPECT_LT((origin - far).norm(), 2.0);
+  ASSERT_EQ(out.frames(ViewFrameKind::Positions).size(), 1u);
+  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Positions)[0], origin), rest.vertices()), 1e-6);
+  // Handle centres are drawn in the same frame: the group's rest centroid, relative to the origin.
+  out.clear();
+  session.receive(R"({"type":"add_handle","name":"corner","vertices":[0,1,2]})", out.sink());
+  ASSERT_EQ(out.messages("handles").size(), 1u);
+  const json centre = out.messages("handles")[0]["handles"]["handles"][0]["rotate"]["center"];
+  const Eigen::RowVector3d drawn(centre[0].get<double>(), centre[1].get<double>(), centre[2].get<double>());
+  const Eigen::MatrixXd X = rest.vertices();
+  EXPECT_LT((drawn + origin - (X.row(0) + X.row(1) + X.row(2)) / 3).norm(), 1e-6);
+  EXPECT_LT(drawn.norm(), 2.0);
 }
 
 TEST(ViewSession, HelloAndStatsTellTheLevelsBuiltNotOnlyThoseAsked) {
@@ -401,11 +439,12 @@ TEST(ViewSession, SequencesShowFramesAndCannotBePosed) {
   EXPECT_EQ(out.messages("hello")[0]["kind"], "sequence");
   EXPECT_EQ(out.messages("hello")[0]["frames"].size(), 2u);
   ASSERT_EQ(out.frames(ViewFrameKind::Frame).size(), 1u);
+  const Eigen::RowVector3d origin = origin_of(out.messages("hello")[0]);
   out.clear();
   session.receive(R"({"type":"frame","index":1})", out.sink());
   ASSERT_EQ(out.frames(ViewFrameKind::Frame).size(), 1u);
   EXPECT_EQ(frame_seq(out.frames(ViewFrameKind::Frame)[0]), 1u);
-  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Frame)[0]), read_shell_folder(posed).shell.vertices()),
+  EXPECT_LT(max_distance(frame_positions(out.frames(ViewFrameKind::Frame)[0], origin), read_shell_folder(posed).shell.vertices()),
             1e-6);
   for (const char* m : {R"({"type":"add_handle","vertices":[0]})", R"({"type":"undo"})", R"({"type":"frame","index":2})"}) {
     out.clear();

@@ -231,7 +231,13 @@ struct ContactGuard::Impl {
   void set_positions(const Eigen::MatrixXd& X) {
     check_shape(X, "X");
     const int n = primitives.num_vertices();
-    if (!have_x) x.assign(n, Vec3::Zero());
+    if (!have_x) {
+      x.assign(n, Vec3::Zero());
+      // The patches' float boxes are measured from the boundary's centre where the guard starts.
+      Eigen::AlignedBox3d extent;
+      for (int v : primitives.boundary_vertices()) extent.extend(X.row(v).transpose());
+      if (!extent.isEmpty()) primitives.set_origin(extent.center());
+    }
     // One pass: copy X, note whether it differs from the last X, and the drift since the build.
     struct Change {
       bool changed = false;

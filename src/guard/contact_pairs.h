@@ -36,7 +36,8 @@
 namespace gshell::detail {
 
 /// Axis-aligned boxes as six float arrays (structure of arrays: box tests over a run of boxes
-/// vectorise), each bound rounded outwards from its double (conservative, half the bytes).
+/// vectorise), each bound rounded outwards from its double (conservative, half the bytes),
+/// measured from an origin near the boxes (FaceBvh's constructor says why).
 class FloatBoxes {
 public:
   static constexpr int kChunk = 8; ///< boxes per vector step; runs are read in whole chunks
@@ -47,10 +48,10 @@ public:
       hi_[d].assign(n + kChunk, 0);
     }
   }
-  void set(std::size_t i, const Eigen::AlignedBox3d& b) {
+  void set(std::size_t i, const Eigen::AlignedBox3d& b, const Eigen::Vector3d& origin) {
     for (int d = 0; d < 3; ++d) {
-      lo_[d][i] = below(b.min()[d]);
-      hi_[d][i] = above(b.max()[d]);
+      lo_[d][i] = below(b.min()[d] - origin[d]);
+      hi_[d][i] = above(b.max()[d] - origin[d]);
     }
   }
   /// Bit k set iff box i of this meets box first + k of `other`, for k < count <= 32.
@@ -87,9 +88,16 @@ public:
 
 private:
   // x moved out by 2^-22 |x| (+ a tiny absolute step) in double, then rounded to the nearest
-  // float: the rounding (at most 2^-24 |x|) cannot undo the move.
-  static float below(double x) { return static_cast<float>(x - (std::abs(x) * 0x1p-22 + 1e-37)); }
-  static float above(double x) { return static_cast<float>(x + (std::abs(x) * 0x1p-22 + 1e-37)); }
+  // float: the rounding (at most 2^-24 |x|), nor that of the difference x came from (2^-53 |x|),
+  // cannot undo the move. A difference that overflowed leaves the box unbounded there.
+  static float below(double x) {
+    return std::abs(x) <= std::numeric_limits<double>::max() ? static_cast<float>(x - (std::abs(x) * 0x1p-22 + 1e-37))
+                                                             : -std::numeric_limits<float>::infinity();
+  }
+  static float above(double x) {
+    return std::abs(x) <= std::numeric_limits<double>::max() ? static_cast<float>(x + (std::abs(x) * 0x1p-22 + 1e-37))
+                                                             : std::numeric_limits<float>::infinity();
+  }
   std::vector<float> lo_[3], hi_[3];
 };
 
@@ -99,6 +107,7 @@ class ContactPrimitives;
 /// and edges they own: what a leaf pair reads, in slot order (made by ContactPrimitives::patch).
 struct ContactPatch {
   FaceBvh tree{std::vector<Eigen::AlignedBox3d>{}};
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero(); ///< of the float boxes (the primitives' at the make)
   std::vector<int> triangle;                    ///< per slot: boundary triangle id
   std::vector<int> vertex_begin, edge_begin;    ///< per slot + 1: owned vertices / edges start
   FloatBoxes tri_box, vert_box, edge_box;
@@ -142,6 +151,12 @@ public:
   std::array<int, 4> edge_edge(int e, int f) const {
     return {edges_[e][0], edges_[e][1], edges_[f][0], edges_[f][1]};
   }
+
+  /// Where the patches made from now on measure their float boxes from (model units): near the
+  /// shell, e.g. the centre of its box (FaceBvh's constructor says why). Patches searched
+  /// together must be made with the same origin. Zero until set.
+  void set_origin(const Eigen::Vector3d& origin) { origin_ = origin.allFinite() ? origin : Eigen::Vector3d::Zero(); }
+  const Eigen::Vector3d& origin() const { return origin_; }
 
   /// Triangles with a movable corner (the movable patch's), ascending.
   const std::vector<int>& movable_triangles() const { return patch_triangles_[1]; }
@@ -198,6 +213,7 @@ private:
   std::vector<unsigned char> patch_corner_; // per vertex: bit 0 fixed patch corner, bit 1 movable
   std::vector<unsigned char> vertex_flags_, triangle_flags_, edge_flags_;
   std::vector<int> patch_triangles_[2]; // [0] fixed, [1] movable, ascending
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   ItemGroups owned_vertices_, owned_edges_; // group t: the vertices and edges triangle t owns
 };
 

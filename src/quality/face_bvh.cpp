@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 
 namespace gshell::detail {
 namespace {
@@ -45,9 +46,21 @@ float float_at_most(double x) {
 
 float float_at_least(double x) { return -float_at_most(-x); }
 
+// The float cover's ends of a box's end minus the origin: as above, and unbounded where the
+// difference is not a finite double (it overflowed, or the box was not finite), so a cover never
+// misses what it should hold.
+float float_lower_end(double lo, double origin) {
+  const double x = lo - origin;
+  return std::abs(x) <= std::numeric_limits<double>::max() ? float_at_most(x) : -std::numeric_limits<float>::infinity();
+}
+float float_upper_end(double hi, double origin) {
+  const double x = hi - origin;
+  return std::abs(x) <= std::numeric_limits<double>::max() ? float_at_least(x) : std::numeric_limits<float>::infinity();
+}
+
 } // namespace
 
-template <class Centroid> FaceBvh::Keyed FaceBvh::morton_order(int m, const Centroid& centroid) {
+template <class Centroid> FaceBvh::Keyed FaceBvh::morton_order(int m, const Centroid& centroid, Eigen::Vector3d* centre) {
   // Sort faces along a Morton (Z-order) curve of their centroids: spatial neighbours become
   // slot neighbours, and the code bits give spatial split planes. The extent is a min / max,
   // exact in any order, so reducing it in parallel gives the serial loop's codes.
@@ -58,6 +71,7 @@ template <class Centroid> FaceBvh::Keyed FaceBvh::morton_order(int m, const Cent
         return box;
       },
       [](Eigen::AlignedBox3d a, const Eigen::AlignedBox3d& b) { return a.extend(b); });
+  if (centre) *centre = extent.center();
   const Eigen::Vector3d origin = extent.min();
   constexpr double kCells = (1 << 21) - 1;
   const Eigen::Vector3d scale =
@@ -104,11 +118,15 @@ int FaceBvh::count_nodes(const Keyed& keyed, int begin, int end, int leaf_size) 
   return 1 + count_nodes(keyed, begin, mid, leaf_size) + count_nodes(keyed, mid, end, leaf_size);
 }
 
-FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use) {
+FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use, const std::optional<Eigen::Vector3d>& origin) {
+  if (origin) origin_ = *origin;
   const int m = static_cast<int>(F.rows());
   if (m == 0) return;
   auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
-  const Keyed keyed = morton_order(m, [&](int f) -> Eigen::Vector3d { return (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0; });
+  const Keyed keyed = morton_order(
+      m, [&](int f) -> Eigen::Vector3d { return (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0; },
+      origin ? nullptr : &origin_);
+  if (!origin_.allFinite()) origin_.setZero(); // an extent that overflowed
 
   slot_face_.resize(m);
   if (use != Use::float_pairs) slot_box_.resize(m);
@@ -204,10 +222,14 @@ double FaceBvh::oriented_squared_distance(int node, const Eigen::Vector3d& q) co
   return (box.lo - x).cwiseMax(x - box.hi).cwiseMax(0.0).squaredNorm();
 }
 
-FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size) {
+FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size,
+                 const std::optional<Eigen::Vector3d>& origin) {
+  if (origin) origin_ = *origin;
   const int m = static_cast<int>(boxes.size());
   if (m == 0) return;
-  const Keyed keyed = morton_order(m, [&](int f) -> Eigen::Vector3d { return boxes[f].center(); });
+  const Keyed keyed =
+      morton_order(m, [&](int f) -> Eigen::Vector3d { return boxes[f].center(); }, origin ? nullptr : &origin_);
+  if (!origin_.allFinite()) origin_.setZero(); // an extent that overflowed
   slot_face_.resize(m);
   slot_box_.resize(m);
   slot_float_box_.resize(m);
@@ -228,8 +250,8 @@ bool FaceBvh::some_face_box_meets(const Eigen::AlignedBox3d& box) const {
   if (nodes_.empty()) return false;
   FloatBox b;
   for (int d = 0; d < 3; ++d) {
-    b.lo[d] = float_at_most(box.min()[d]);
-    b.hi[d] = float_at_least(box.max()[d]);
+    b.lo[d] = float_lower_end(box.min()[d], origin_[d]);
+    b.hi[d] = float_upper_end(box.max()[d], origin_[d]);
   }
   // Depth first, one pending right child per level of the path. A path splits at most 64 times
   // by a bit of the 64-bit codes and 31 times by halving equal codes, so the stack never fills;
@@ -257,10 +279,17 @@ bool FaceBvh::some_face_box_meets(const Eigen::AlignedBox3d& box) const {
 }
 
 void FaceBvh::set_float_box(int slot, const Eigen::AlignedBox3d& box) {
+  // The differences are rounded to doubles (relative error 2^-53) before the float covers move
+  // them out by 2^-22 of themselves: still covers of the exact differences.
   for (int d = 0; d < 3; ++d) {
-    slot_float_box_[slot].lo[d] = float_at_most(box.min()[d]);
-    slot_float_box_[slot].hi[d] = float_at_least(box.max()[d]);
+    slot_float_box_[slot].lo[d] = float_lower_end(box.min()[d], origin_[d]);
+    slot_float_box_[slot].hi[d] = float_upper_end(box.max()[d], origin_[d]);
   }
+}
+
+void FaceBvh::check_same_origin(const FaceBvh& other) const {
+  if (origin_ != other.origin_ && !nodes_.empty() && !other.nodes_.empty())
+    throw std::logic_error("FaceBvh: two trees searched together measure their float boxes from different origins");
 }
 
 void FaceBvh::set_leaf_box(Node& node) const {

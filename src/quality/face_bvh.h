@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace gshell::detail {
@@ -30,12 +31,24 @@ public:
   enum class Use { pairs, distances, float_pairs };
 
   /// F must index rows of V (checked by the caller).
-  FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use);
+  ///
+  /// `origin`: where the float covers of the boxes are measured from (model units); by default
+  /// the centre of the faces' extent. A float has 24 bits, so covers measured from the model's
+  /// own origin are as coarse as the coordinates are large: a scan 1 unit across placed 4e6 away
+  /// (survey coordinates) had covers about 0.5 wide, every face's box met every other's, and a
+  /// certificate of bunny00 took 20 times as long. Two trees searched together (the pair
+  /// searches over `other`) must share their origin: give both the same one.
+  FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use,
+          const std::optional<Eigen::Vector3d>& origin = std::nullopt);
 
   /// A tree for pair searches (Use::pairs) over given boxes, one per face: faces swept along a
   /// motion, or grown by a search radius (contact candidates). Slot boxes are these boxes. Leaves
   /// hold at most leaf_size faces.
-  explicit FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size = 4);
+  explicit FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size = 4,
+                   const std::optional<Eigen::Vector3d>& origin = std::nullopt);
+
+  /// Where the float covers are measured from (see the constructor).
+  const Eigen::Vector3d& origin() const { return origin_; }
 
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
@@ -118,7 +131,8 @@ private:
   /// (Morton code, face) of faces 0..m-1 by their centroids centroid(f), sorted along the curve.
   /// The centroids are made where they are needed, twice, rather than held (24 bytes per face of
   /// fresh memory at every tree build).
-  template <class Centroid> static Keyed morton_order(int m, const Centroid& centroid);
+  /// `centre` (if given): the centre of the centroids' extent.
+  template <class Centroid> static Keyed morton_order(int m, const Centroid& centroid, Eigen::Vector3d* centre = nullptr);
   void build_nodes(const Keyed& keyed, int leaf_size);
   int build(const Keyed& keyed, int begin, int end, int leaf_size);
   // Where build splits slots [begin, end) (sorted codes), and how many nodes it makes there.
@@ -148,7 +162,7 @@ private:
   double oriented_squared_distance(int node, const Eigen::Vector3d& q) const;
   // The larger of the two boxes' lower bounds on the squared distance from q to the node's faces.
   double node_lower_bound(int node, const Eigen::Vector3d& q) const {
-    return std::max(node_squared_distance(nodes_[node], q), oriented_squared_distance(node, q));
+    return std::max(node_squared_distance(nodes_[node], q - origin_), oriented_squared_distance(node, q));
   }
 
   // Simultaneous descent of two trees (or one with itself); leaves(na, nb, self) at every pair of
@@ -170,8 +184,10 @@ private:
     return float_boxes_meet(slot_float_box_[i], other.slot_float_box_[j]) &&
            exact_boxes_meet(slot_box_[i], other.slot_box_[j]);
   }
-  // slot_float_box_[slot]: the float cover of `box`.
+  // slot_float_box_[slot]: the float cover of `box` - origin_.
   void set_float_box(int slot, const Eigen::AlignedBox3d& box);
+  // Pair searches over two trees compare covers measured from one origin.
+  void check_same_origin(const FaceBvh& other) const;
 
   // Per slot (leaf order): face id, exact box, its float cover, triangle.
   std::vector<int> slot_face_;
@@ -180,6 +196,7 @@ private:
   std::vector<Triangle> slot_triangle_; // Use::distances only
   std::vector<OrientedBox> node_oriented_box_; // Use::distances only, one per node
   std::vector<Node> nodes_; // depth-first, root first
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero(); // of the float covers (slots' and nodes')
 };
 
 // ---- templates ------------------------------------------------------------------------------
@@ -245,6 +262,7 @@ void FaceBvh::for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) con
       for (int j = nb.begin; j < nb.end; ++j)
         if (slot_boxes_meet(i, other, j)) visit(i, j);
   };
+  check_same_origin(other);
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 
@@ -271,6 +289,7 @@ void FaceBvh::for_each_pair_of_meeting_float_boxes(const FaceBvh& other, Visit&&
         if (float_boxes_meet(a, other_box[j])) visit(i, j);
     }
   };
+  check_same_origin(other);
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 
@@ -283,6 +302,7 @@ void FaceBvh::for_each_overlapping_leaf_pair(Visit&& visit) const {
 template <class Visit>
 void FaceBvh::for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const {
   auto leaves = [&](const Node& na, const Node& nb, bool) { visit(na.begin, na.end, nb.begin, nb.end); };
+  check_same_origin(other);
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 

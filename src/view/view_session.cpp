@@ -69,6 +69,9 @@ struct ViewSession::Impl {
   std::function<void(const std::string&)> log;
   Eigen::MatrixXd rest_vertices;
   double radius = 1;
+  // What the page's positions and handle centres are relative to (hello's "origin"): the centre
+  // of the input shell's box, so that float32 keeps the shell's detail wherever it lies.
+  Eigen::RowVector3d origin = Eigen::RowVector3d::Zero();
   int frame = 0; ///< the frame shown (sequences)
 
   // Drags wait here until solve_drag (coalescing).
@@ -173,8 +176,9 @@ struct ViewSession::Impl {
   }
 
   void send_positions(const ViewSink& send, float solve_ms, float latency_ms) const {
-    if (drag) send({encode_view_positions(ViewFrameKind::Positions, answered_seq, solve_ms, latency_ms, X()), true});
-    else send({encode_view_positions(ViewFrameKind::Frame, static_cast<std::uint32_t>(frame), 0, 0, X()), true});
+    if (drag)
+      send({encode_view_positions(ViewFrameKind::Positions, answered_seq, solve_ms, latency_ms, X(), origin), true});
+    else send({encode_view_positions(ViewFrameKind::Frame, static_cast<std::uint32_t>(frame), 0, 0, X(), origin), true});
   }
 
   void send_values(const ViewSink& send) {
@@ -188,9 +192,14 @@ struct ViewSession::Impl {
     send(std::move(m));
   }
 
+  // The handles as the page draws them: centres relative to `origin`, like the positions (a
+  // saved handle file keeps model coordinates).
   void send_handles(const ViewSink& send) const {
     ojson j = message("handles");
     j["handles"] = drag->handles_json();
+    for (ojson& h : j["handles"]["handles"])
+      if (h.contains("rotate"))
+        for (int d = 0; d < 3; ++d) h["rotate"]["center"][d] = h["rotate"]["center"][d].get<double>() - origin[d];
     send(text(j));
   }
 
@@ -243,6 +252,8 @@ ViewSession::ViewSession(ViewInput input, ViewSessionOptions options) : impl_(st
   Impl& s = *impl_;
   s.rest_vertices = input.shell.vertices();
   s.radius = std::max(bounding_radius(s.rest_vertices), 1e-300);
+  s.origin = 0.5 * (s.rest_vertices.colwise().minCoeff() + s.rest_vertices.colwise().maxCoeff());
+  if (!s.origin.allFinite()) s.origin.setZero();
   options.limits.vertex_count = static_cast<int>(s.rest_vertices.rows());
   if (input.posable()) {
     s.drag.emplace(input.shell, options.pose, input.surface);
@@ -275,6 +286,7 @@ void ViewSession::welcome(const ViewSink& send) {
   hello["faces"] = in.shell.F.rows();
   hello["tets"] = 3 * in.shell.F.rows();
   hello["thickness"] = in.shell.thickness;
+  hello["origin"] = {s.origin.x(), s.origin.y(), s.origin.z()};
   ojson frames = ojson::array();
   if (!in.posable())
     for (const ViewFrame& f : in.frames) frames.push_back(fs::path(f.name).filename().string());

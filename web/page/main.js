@@ -403,7 +403,7 @@ window.gshellView = {
   /** The last handle file the server sent (after a save_handles). */
   get handlesFile() { return state.handlesFile; },
   send,
-  /** The positions drawn last (2n x 3, flat). */
+  /** The positions drawn last (2n x 3, flat), relative to hello.origin as the server sends them. */
   positions() { return Array.from(view.positions); },
   /** Where vertex v is on the screen (page coordinates), or null when cut away. */
   screenOf(v) {

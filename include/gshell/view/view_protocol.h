@@ -124,9 +124,13 @@ enum class ViewFrameKind : std::uint32_t {
 };
 constexpr std::size_t kViewFrameHeaderBytes = 16;
 
-/// A Positions or Frame frame of the 2n x 3 shell vertices (rounded to float32).
+/// A Positions or Frame frame of the 2n x 3 shell vertices, relative to `origin` (the session's,
+/// `hello`'s "origin"), rounded to float32. A float has 24 bits: positions sent as they are from
+/// a scan in survey coordinates (millions of units from zero) would be drawn on a grid of
+/// 0.25-0.5 units; relative to the shell's centre they keep their detail.
 /// \throws InputError when X does not have 3 columns.
-std::string encode_view_positions(ViewFrameKind kind, std::uint32_t seq, float a, float b, const Eigen::MatrixXd& X);
+std::string encode_view_positions(ViewFrameKind kind, std::uint32_t seq, float a, float b, const Eigen::MatrixXd& X,
+                                  const Eigen::RowVector3d& origin = Eigen::RowVector3d::Zero());
 /// A Values frame: per-face values (m), then per-vertex values (n), rounded to float32.
 std::string encode_view_values(std::uint32_t seq, const Eigen::VectorXd& face_values,
                                const Eigen::VectorXd& vertex_values);
