@@ -70,7 +70,7 @@ usage: bench_guard [options] MODEL...
   --iters N                  cap on the paper's and the repair's iterations
   guard parameters (GuardOptions; defaults are generation_guard_options()):
   --dhat X --kv X --kc X --jhat X --rings N --spread X --margin X --thinning X --refine N
-  --backoff X --min-scale X --local-rings N --hold-rounds N --supernodal-rows N --start-smoothing X
+  --backoff X --min-scale X --local-rings N --hold-rounds N --supernodal-rows N --supernodal-flops X --start-smoothing X
   --gn-volume --projected-contact
 Example (the issue's table over CGAL's closed models):
   bench_guard --closed --ratio 0.01 --ratio 0.03 --ratio 0.05 models/*.off
@@ -143,6 +143,7 @@ int bench_main(int argc, char** argv) {
     else if (a == "--local-rings") guard.local_rings = std::stoi(argv[++i]);
     else if (a == "--hold-rounds") guard.hold_rounds = std::stoi(argv[++i]);
     else if (a == "--supernodal-rows") guard.supernodal_rows = std::stoi(argv[++i]);
+    else if (a == "--supernodal-flops") guard.supernodal_flops = std::stod(argv[++i]);
     else if (a == "--min-scale") guard.repair_min_scale = std::stod(argv[++i]);
     else if (a.rfind("--", 0) == 0) {
       std::fprintf(stderr, "bench_guard: unknown option %s (bench_guard --help)\n", a.c_str());

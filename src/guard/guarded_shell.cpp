@@ -255,6 +255,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.exact_direction_vertices >= 0, "exact_direction_vertices", ">= 0");
   require(o.max_step_multiple >= 0, "max_step_multiple", ">= 0");
   require(o.supernodal_rows >= 0, "supernodal_rows", ">= 0");
+  require(o.supernodal_flops >= 0, "supernodal_flops", ">= 0");
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
   require(o.start_smoothing >= 0 && std::isfinite(o.start_smoothing), "start_smoothing", ">= 0");
@@ -304,6 +305,7 @@ GuardedSolverParameters absolute_guard_parameters(const Eigen::MatrixXd& V, cons
   p.projected_contact_hessian = options.projected_contact_hessian;
   p.local_rings = options.local_rings;
   p.supernodal_rows = options.supernodal_rows;
+  p.supernodal_flops = options.supernodal_flops;
   p.hold_rounds = options.hold_rounds;
   p.anderson_history = options.anderson_history;
   p.exact_direction_vertices = options.exact_direction_vertices;

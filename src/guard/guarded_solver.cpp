@@ -93,6 +93,7 @@ struct GuardedSolver::Impl {
     check_anderson_history(p.anderson_history, "GuardedSolver: anderson_history");
     if (p.exact_direction_vertices < 0) throw InputError("GuardedSolver: exact_direction_vertices must be >= 0");
     if (p.max_step_multiple < 0) throw InputError("GuardedSolver: max_step_multiple must be >= 0");
+    if (!(p.supernodal_flops >= 0)) throw InputError("GuardedSolver: supernodal_flops must be >= 0");
     if (p.contact_distance > 0 && !(p.contact_stiffness > 0))
       throw InputError("GuardedSolver: contact_stiffness must be positive");
     return p;
@@ -216,7 +217,8 @@ struct GuardedSolver::Impl {
   }
 
   // x <- A^-1 b for the local system. Small systems (every repair of CGAL's models) take Eigen's
-  // simplicial LDLT. Its fill outgrows it on large repairs: where the whole top of a 164K-vertex
+  // simplicial LDLT, unless its analysis predicts much work (supernodal_flops). Its fill outgrows
+  // it on large repairs: where the whole top of a 164K-vertex
   // shell needed repair (491,520 rows), one factorisation took 217 s, against 15 s for CHOLMOD's
   // supernodal Cholesky with the ordering CHOLMOD picks (METIS there: 78M entries instead of
   // AMD's 115M). About half of that was CHOLMOD's choice of ordering (4.5 of 9.2 s, idle machine),
@@ -225,7 +227,20 @@ struct GuardedSolver::Impl {
   // rest; Cholesky then fails and the LDLT takes over. Returns false when neither factors.
   bool solve_local_system(const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices,
                           const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
-    if (A.rows() >= p.supernodal_rows) {
+    // Consecutive iterations often build the same pattern (the same region and active pairs):
+    // the analysis (AMD ordering, elimination tree; on a pose step of CGAL's bull about as long
+    // as the numeric factorisation) is then kept, and the factor is the one a fresh LDLT gives.
+    const bool large = A.rows() >= p.supernodal_rows;
+    if (!large && !analysed_for(A)) {
+      ldlt.analyzePattern(A);
+      ldlt_outer.clear();
+      ldlt_inner.clear();
+      if (A.isCompressed()) {
+        ldlt_outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+        ldlt_inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+      }
+    }
+    if (large || ldlt.factor_flops() >= p.supernodal_flops) {
       try {
         detail::SpdSolver cholesky;
         const bool reused = ordering.factor(cholesky, A, vertices, N);
@@ -238,9 +253,6 @@ struct GuardedSolver::Impl {
       } catch (const std::runtime_error&) {
       }
     }
-    // Consecutive iterations often build the same pattern (the same region and active pairs):
-    // the analysis (AMD ordering, elimination tree; on a pose step of CGAL's bull about as long
-    // as the numeric factorisation) is then kept, and the factor is the one a fresh LDLT gives.
     if (!analysed_for(A)) {
       ldlt.analyzePattern(A);
       ldlt_outer.clear();
@@ -263,7 +275,17 @@ struct GuardedSolver::Impl {
   }
   // Of the small local systems, ordered on their vertex graph (a ninth of the scalar pattern to
   // order, and less fill on the barriers' coupled 3 x 3 blocks; docs/guarded-generation.md).
-  using SmallSystemLdlt = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, detail::VertexAmdOrdering<int>>;
+  // The work its analysis predicts for the numeric factorisation: the sum over the factor's
+  // columns of their squared entry counts (multiply-adds, up to a constant).
+  struct SmallSystemLdlt
+      : Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, detail::VertexAmdOrdering<int>> {
+    double factor_flops() const {
+      double sum = 0;
+      for (Eigen::Index j = 0; j < m_nonZerosPerCol.size(); ++j)
+        sum += static_cast<double>(m_nonZerosPerCol[j]) * static_cast<double>(m_nonZerosPerCol[j]);
+      return sum;
+    }
+  };
   mutable SmallSystemLdlt ldlt;
   mutable std::vector<int> ldlt_outer, ldlt_inner; // the pattern it was analysed for (empty: none)
   mutable detail::ReusedOrdering ordering; // of the large local systems, from the current solve()

@@ -57,6 +57,8 @@ struct GuardOptions {
   int local_rings = 2;
   /// GuardedSolverParameters::supernodal_rows (>= 0).
   int supernodal_rows = 150000;
+  /// GuardedSolverParameters::supernodal_flops (>= 0).
+  double supernodal_flops = 1e9;
   /// GuardedSolverParameters::projected_volume_hessian (generation: true).
   bool projected_volume_hessian = false;
   /// GuardedSolverParameters::projected_contact_hessian (generation: false).

@@ -103,6 +103,11 @@ struct GuardedSolverParameters {
   /// fills much), instead of Eigen's simplicial LDLT, whose fill outgrows it on large repairs
   /// (docs/guarded-generation.md "Large repairs"). An indefinite system falls back to the LDLT.
   int supernodal_rows = 150000;
+  /// Smaller local systems take the supernodal factor too when the LDLT's analysis predicts at
+  /// least this much work (the sum of the factor's squared column counts, >= 0): parts coupled
+  /// by contacts across narrow gaps fill far more than a surface's own graph, and rows alone do
+  /// not tell (docs/guarded-generation.md "Parts close together").
+  double supernodal_flops = 1e9;
   /// The volume barrier's Hessian in the directions: each tet's whole Hessian projected onto its
   /// positive eigenvalues (true) or its Gauss-Newton part (false; VolumeBarrier::add_hessian).
   bool projected_volume_hessian = false;
