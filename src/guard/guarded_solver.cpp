@@ -227,19 +227,8 @@ struct GuardedSolver::Impl {
   // rest; Cholesky then fails and the LDLT takes over. Returns false when neither factors.
   bool solve_local_system(const Eigen::SparseMatrix<double>& A, const std::vector<int>& vertices,
                           const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
-    // Consecutive iterations often build the same pattern (the same region and active pairs):
-    // the analysis (AMD ordering, elimination tree; on a pose step of CGAL's bull about as long
-    // as the numeric factorisation) is then kept, and the factor is the one a fresh LDLT gives.
     const bool large = A.rows() >= p.supernodal_rows;
-    if (!large && !analysed_for(A)) {
-      ldlt.analyzePattern(A);
-      ldlt_outer.clear();
-      ldlt_inner.clear();
-      if (A.isCompressed()) {
-        ldlt_outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
-        ldlt_inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
-      }
-    }
+    if (!large) analyse(A);
     if (large || ldlt.factor_flops() >= p.supernodal_flops) {
       try {
         detail::SpdSolver cholesky;
@@ -253,19 +242,24 @@ struct GuardedSolver::Impl {
       } catch (const std::runtime_error&) {
       }
     }
-    if (!analysed_for(A)) {
-      ldlt.analyzePattern(A);
-      ldlt_outer.clear();
-      ldlt_inner.clear();
-      if (A.isCompressed()) {
-        ldlt_outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
-        ldlt_inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
-      }
-    }
+    analyse(A);
     ldlt.factorize(A);
     if (ldlt.info() != Eigen::Success) return false;
     x = ldlt.solve(b);
     return true;
+  }
+  // Consecutive iterations often build the same pattern (the same region and active pairs):
+  // the analysis (AMD ordering, elimination tree; on a pose step of CGAL's bull about as long
+  // as the numeric factorisation) is then kept, and the factor is the one a fresh LDLT gives.
+  void analyse(const Eigen::SparseMatrix<double>& A) const {
+    if (analysed_for(A)) return;
+    ldlt.analyzePattern(A);
+    ldlt_outer.clear();
+    ldlt_inner.clear();
+    if (A.isCompressed()) {
+      ldlt_outer.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+      ldlt_inner.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
+    }
   }
   // Whether ldlt was analysed for A's pattern (A square, as every local system).
   bool analysed_for(const Eigen::SparseMatrix<double>& A) const {
