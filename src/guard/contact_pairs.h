@@ -50,8 +50,8 @@ public:
   }
   void set(std::size_t i, const Eigen::AlignedBox3d& b, const Eigen::Vector3d& origin) {
     for (int d = 0; d < 3; ++d) {
-      lo_[d][i] = below(b.min()[d] - origin[d]);
-      hi_[d][i] = above(b.max()[d] - origin[d]);
+      lo_[d][i] = float_lower_end(b.min()[d], origin[d]);
+      hi_[d][i] = float_upper_end(b.max()[d], origin[d]);
     }
   }
   /// Bit k set iff box i of this meets box first + k of `other`, for k < count <= 32.
@@ -87,17 +87,6 @@ public:
   }
 
 private:
-  // x moved out by 2^-22 |x| (+ a tiny absolute step) in double, then rounded to the nearest
-  // float: the rounding (at most 2^-24 |x|), nor that of the difference x came from (2^-53 |x|),
-  // cannot undo the move. A difference that overflowed leaves the box unbounded there.
-  static float below(double x) {
-    return std::abs(x) <= std::numeric_limits<double>::max() ? static_cast<float>(x - (std::abs(x) * 0x1p-22 + 1e-37))
-                                                             : -std::numeric_limits<float>::infinity();
-  }
-  static float above(double x) {
-    return std::abs(x) <= std::numeric_limits<double>::max() ? static_cast<float>(x + (std::abs(x) * 0x1p-22 + 1e-37))
-                                                             : std::numeric_limits<float>::infinity();
-  }
   std::vector<float> lo_[3], hi_[3];
 };
 
@@ -107,7 +96,6 @@ class ContactPrimitives;
 /// and edges they own: what a leaf pair reads, in slot order (made by ContactPrimitives::patch).
 struct ContactPatch {
   FaceBvh tree{std::vector<Eigen::AlignedBox3d>{}};
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero(); ///< of the float boxes (the primitives' at the make)
   std::vector<int> triangle;                    ///< per slot: boundary triangle id
   std::vector<int> vertex_begin, edge_begin;    ///< per slot + 1: owned vertices / edges start
   FloatBoxes tri_box, vert_box, edge_box;

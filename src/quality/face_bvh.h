@@ -10,11 +10,38 @@
 #include <tbb/parallel_invoke.h>
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
 namespace gshell::detail {
+
+// A float no larger (float_at_most) / no smaller (float_at_least) than x, without branches: these
+// run for six coordinates of every face of every frame, and a rounding that tested its result
+// against x mispredicted half the time. x is moved outwards by 2^-22 of itself (more than half a
+// float ulp at x, so rounding to nearest cannot come back past x) and by the least denormal float
+// (for x near 0), then rounded; beyond the float range, the largest float of the right sign or an
+// infinity. At most two ulps looser than the tightest float, and monotone in x.
+inline float float_at_most(double x) {
+  const double moved = x - std::abs(x) * 0x1p-22 - 0x1p-149;
+  return std::min(static_cast<float>(moved), std::numeric_limits<float>::max());
+}
+
+inline float float_at_least(double x) { return -float_at_most(-x); }
+
+// The float cover's ends of a box's end minus the origin: as above, and unbounded where the
+// difference is not a finite double (it overflowed, or the box was not finite), so a cover never
+// misses what it should hold.
+inline float float_lower_end(double lo, double origin) {
+  const double x = lo - origin;
+  return std::abs(x) <= std::numeric_limits<double>::max() ? float_at_most(x) : -std::numeric_limits<float>::infinity();
+}
+inline float float_upper_end(double hi, double origin) {
+  const double x = hi - origin;
+  return std::abs(x) <= std::numeric_limits<double>::max() ? float_at_least(x) : std::numeric_limits<float>::infinity();
+}
 
 inline bool exact_boxes_meet(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
   return (a.min().array() <= b.max().array()).all() && (b.min().array() <= a.max().array()).all();
