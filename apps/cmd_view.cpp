@@ -3,6 +3,7 @@
 // (the library's ViewSession and ViewServer, view/; protocol in docs/viewer.md).
 #include "command_registry.h"
 #include "parameter_flags.h"
+#include "interrupts.h"
 #include "progress.h"
 #include "thickness_flags.h"
 
@@ -12,15 +13,11 @@
 #include <gshell/view/view_server.h>
 #include <gshell/view/view_session.h>
 
-#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <memory>
-#include <mutex>
 #include <sstream>
-#include <thread>
-#include <unistd.h>
 
 namespace {
 
@@ -31,42 +28,6 @@ struct ViewArgs {
   gshell::ViewSessionOptions session;
   gshell::ViewServerOptions server;
 };
-
-// Ctrl-C and SIGTERM: the handler only writes the signal's number into a pipe (async-signal-safe,
-// whichever thread it interrupts: libraries start threads of their own); a waiting thread reads it
-// and stops the server (or, while the input is still loading, ends the process: nothing has been
-// written yet).
-int g_signal_pipe[2] = {-1, -1};
-std::mutex g_server_mutex;
-gshell::ViewServer* g_server = nullptr;
-
-extern "C" void on_signal(int signal) {
-  const unsigned char byte = static_cast<unsigned char>(signal);
-  [[maybe_unused]] const ssize_t written = ::write(g_signal_pipe[1], &byte, 1);
-}
-
-void handle_signals() {
-  unsigned char signal = 0;
-  while (::read(g_signal_pipe[0], &signal, 1) != 1) {
-  }
-  std::lock_guard lock(g_server_mutex);
-  if (g_server) {
-    g_server->stop();
-  } else {
-    std::cerr << "gshell view: interrupted\n";
-    std::_Exit(128 + signal);
-  }
-}
-
-void catch_signals() {
-  if (::pipe(g_signal_pipe) != 0) throw std::runtime_error("view: cannot create a pipe for signals");
-  struct sigaction action {};
-  action.sa_handler = on_signal;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
-  std::thread(handle_signals).detach();
-}
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -85,8 +46,6 @@ void run(const CLI::App& cmd, ViewArgs& a) {
     if (a.input.generate.thickness.thickness || a.input.generate.thickness.thickness_ratio)
       a.input.generate.thickness.check();
   });
-
-  catch_signals();
 
   cli::Progress progress("view", 0.2);
   if (progress.enabled()) {
@@ -110,15 +69,9 @@ void run(const CLI::App& cmd, ViewArgs& a) {
   std::cout << server.url() << std::endl; // the first line on stdout, for scripts
   progress.line("serving " + a.inputs.front() + (a.inputs.size() > 1 ? " ..." : "") + " (" + what + ") at " +
                 server.url() + "; Ctrl-C stops");
-  {
-    std::lock_guard lock(g_server_mutex);
-    g_server = &server;
-  }
+  cli::on_next_interrupt([&server] { server.stop(); }); // Ctrl-C stops the server; a second one ends the process
   server.run();
-  {
-    std::lock_guard lock(g_server_mutex);
-    g_server = nullptr;
-  }
+  cli::on_next_interrupt({});
   // A solver build or a validity check cannot be interrupted; do not keep the user waiting for it.
   if (!server.wait_finished(std::chrono::milliseconds(500))) {
     progress.line("stopped");

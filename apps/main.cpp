@@ -1,6 +1,7 @@
 // gshell command-line tool: a thin layer over the library. Exit codes: 0 success, 1 bad input or
 // arguments, 2 internal failure.
 #include "command_registry.h"
+#include "interrupts.h"
 
 #include <gshell/error.h>
 #include <gshell/run/process_memory.h>
@@ -117,6 +118,7 @@ int main(int argc, char** argv) {
   using namespace gshell::cli;
   gshell::restart_with_huge_pages(argv); // where the kernel gives them only on request
   gshell::reuse_freed_memory(); // one command per process: keep freed buffers for the next phase
+  catch_interrupts();
   CLI::App app{"gshell: build and deform shells (Huang et al. 2007, gradient-based shell generation "
                "and deformation)."};
   app.set_version_flag("--version", std::string("gshell ") + GSHELL_VERSION);

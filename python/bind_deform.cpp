@@ -3,6 +3,7 @@
 #include "numpy_arrays.h"
 #include "shell_object.h"
 #include "gil_probe.h"
+#include "progress_watch.h"
 
 #include <gshell/deform/embedding.h>
 #include <gshell/deform/shell_deformer.h>
@@ -64,7 +65,7 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
 
 py::object deform_py(const ShellObject& shell, const py::sequence& frames, const std::optional<std::string>& output,
                      int iterations, double tolerance, const std::string& warm_start, bool compare_offset,
-                     bool allow_invalid) {
+                     bool allow_invalid, const py::object& progress) {
   DeformRunOptions options;
   options.frame.allow_invalid = allow_invalid;
   options.frame.max_iterations = iterations;
@@ -84,10 +85,23 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames, const
     input.frames.push_back(to_matrix(frames[k], name.c_str(), 3, n));
     input.frame_names.push_back(name);
   }
+  ProgressWatch watch(progress, "gshell.deform");
+  const DeformProgress frame_done = [&watch](const DeformRun& run, int count) {
+    nlohmann::ordered_json update{{"frame", run.frames.size()}, {"frames", count}};
+    if (run.frames.empty()) {
+      update["seconds"] = run.setup_seconds;
+    } else {
+      const FrameResult& r = run.frames.back().result;
+      update["iterations"] = r.iterations;
+      update["seconds"] = r.seconds;
+      update["valid"] = r.valid;
+    }
+    watch.report(update);
+  };
   nlohmann::ordered_json report;
   {
     py::gil_scoped_release release;
-    report = run_deform(input, options, output.value_or("")).to_json();
+    report = run_deform(input, options, output.value_or(""), frame_done).to_json();
     pass_gil_probe();
   }
   return to_python(report);
@@ -170,7 +184,7 @@ Releases the GIL while it runs.)")
   m.def("deform", &deform_py, py::arg("shell"), py::arg("frames"), py::kw_only(), py::arg("output") = py::none(),
         py::arg("iterations") = defaults.max_iterations, py::arg("tolerance") = defaults.tolerance,
         py::arg("warm_start") = warm_start_name(defaults.warm_start), py::arg("compare_offset") = false,
-        py::arg("allow_invalid") = defaults.allow_invalid,
+        py::arg("allow_invalid") = defaults.allow_invalid, py::arg("progress") = py::none(),
         R"(Deform `shell` by a sequence of new bases, as `gshell deform` does: one factorisation, each
 frame warm-started from the previous one.
 
@@ -183,6 +197,11 @@ Args:
     compare_offset: also measure re-extruding each frame by the vertex-normal offset.
     allow_invalid: the unguarded frames, as `gshell deform --allow-invalid` (default: every
         frame valid by construction).
+    progress: None (default), True to print each frame on sys.stderr, or a callable called with
+        a dict {"frame": 0, "frames", "seconds"} once the setup (factorisation) is done and
+        {"frame", "frames", "iterations", "seconds", "valid"} after every frame. Either way Ctrl-C
+        ends the call after the frame in progress with KeyboardInterrupt, as does an exception
+        the callable raises; nothing is written to `output` then.
 
 Returns:
     dict: the CLI's report.json (summary and one record per frame).

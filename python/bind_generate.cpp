@@ -3,6 +3,7 @@
 #include "numpy_arrays.h"
 #include "shell_object.h"
 #include "gil_probe.h"
+#include "progress_watch.h"
 
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/quality/shell_metrics.h>
@@ -67,7 +68,7 @@ ShellObject load_shell_py(const std::filesystem::path& dir) {
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
                         std::optional<double> thickness_ratio, const std::string& method, int iterations,
                         double tolerance, int anderson, double start_smoothing, double s_min, double s_max,
-                        bool count_intersections, bool allow_invalid) {
+                        bool count_intersections, bool allow_invalid, const py::object& progress) {
   TriMesh mesh = checked_mesh(V, F);
   GenerateRunOptions options;
   options.thickness = {thickness, thickness_ratio};
@@ -81,6 +82,8 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   options.generate.count_intersections = count_intersections;
   options.generate.allow_invalid = allow_invalid;
   options.check();
+  ProgressWatch watch(progress, "gshell.generate");
+  watch.watch(options.generate.solve);
   py::gil_scoped_release release;
   // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
   std::vector<std::string> input_warnings = require_valid_mesh(mesh, "mesh (V, F)");
@@ -166,7 +169,7 @@ stretch and report are measured as by metrics() without intersection counts.)")
         py::arg("start_smoothing") = defaults.guard.start_smoothing,
         py::arg("s_min") = defaults.s_min, py::arg("s_max") = defaults.s_max,
         py::arg("count_intersections") = defaults.count_intersections,
-        py::arg("allow_invalid") = defaults.allow_invalid,
+        py::arg("allow_invalid") = defaults.allow_invalid, py::arg("progress") = py::none(),
         R"(Generate the shell of a triangle surface (paper section 4.1), as `gshell generate` does.
 
 Args:
@@ -192,6 +195,11 @@ Args:
         (rigid and curvature without allow_invalid) is always certified in full.
     allow_invalid: rigid and curvature: skip the guard and return the paper's unguarded result,
         which may have inverted tets and intersections (report["valid"] says).
+    progress: None (default), True to print each iteration on sys.stderr, or a callable called
+        after every iteration with a dict {"stage", "iteration", "energy", "seconds"} (stage:
+        "paper", then "repair" and "relax" where the guard mends the top; each stage counts its
+        iterations from 1 and reports its own energy). Either way Ctrl-C ends the call at its next
+        iteration with KeyboardInterrupt, and an exception the callable raises ends it too.
 
 Returns:
     Shell with top, tets, per-tet stretch and report (dict: the CLI's report.json, with the

@@ -3,6 +3,7 @@
 #include "bindings.h"
 #include "gil_probe.h"
 #include "numpy_arrays.h"
+#include "progress_watch.h"
 #include "shell_object.h"
 
 #include <gshell/deform/handles.h>
@@ -65,7 +66,7 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles) {
 }
 
 py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction, int steps, int iterations,
-                      double tolerance) {
+                      double tolerance, const py::object& progress) {
   if (!(fraction >= 0 && fraction <= 1)) value_error("fraction must be in [0, 1] (got " + std::to_string(fraction) + ")");
   PoseOptions options;
   options.steps = steps;
@@ -73,6 +74,10 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   options.solve.tolerance = tolerance;
   options.check();
   const HandleSet set = handles_from(p, handles);
+  ProgressWatch watch(progress, "gshell.Poser.solve");
+  options.step_progress = [&watch, steps](int step, int iteration, double energy, double seconds) {
+    watch.report({{"step", step}, {"steps", steps}, {"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
+  };
   Eigen::MatrixXd X;
   {
     py::gil_scoped_release release;
@@ -82,7 +87,14 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
       p.session.set_handles(set);
       p.handles = set;
     }
-    p.last = run_pose(p.session, options, fraction).to_json();
+    try {
+      p.last = run_pose(p.session, options, fraction).to_json();
+    } catch (const PythonErrorPending&) { // interrupted: no half-solved state to continue from
+      p.session.reset();
+      p.handles.reset();
+      p.last = nullptr;
+      throw;
+    }
     X = p.session.vertices();
     pass_gil_probe();
   }
@@ -123,7 +135,7 @@ Raises:
     ValueError: unknown solver, levels < 1.)")
       .def("solve", &poser_solve, py::arg("handles"), py::kw_only(), py::arg("fraction") = 1.0,
            py::arg("steps") = defaults.steps, py::arg("iterations") = defaults.solve.max_iterations,
-           py::arg("tolerance") = defaults.solve.tolerance,
+           py::arg("tolerance") = defaults.solve.tolerance, py::arg("progress") = py::none(),
            R"(Move the handles and solve for the deformed shell.
 
 Args:
@@ -133,6 +145,11 @@ Args:
     steps: reach `fraction` in this many equal steps, solving after each (an interactive drag).
     iterations: maximum iterations per step (>= 1).
     tolerance: stop a step when the relative energy change per iteration is below this.
+    progress: None (default), True to print each iteration on sys.stderr, or a callable called
+        after every iteration with a dict {"step", "steps", "iteration", "energy", "seconds"}.
+        Either way Ctrl-C ends the call at its next iteration with KeyboardInterrupt, as does an
+        exception the callable raises; the Poser then starts from the rest shell again, as after
+        reset().
 
 The first solve for a handle set builds the solver (cluster tree, factorisations) and starts from
 the rest shell; later solves with the same handles reuse it and continue from the last state

@@ -1,6 +1,7 @@
 // The `gshell` Python module: NumPy arrays in and out of the library (see python/README section).
 #include "bindings.h"
 #include "gil_probe.h"
+#include "progress_watch.h"
 
 #include <gshell/error.h>
 
@@ -15,7 +16,7 @@ arrays of shape (m, 3) with counter-clockwise faces (outward normals), tets inte
 shape (k, 4). Shell vertices are numbered base 0..n-1, then top n..2n-1. Results are float64 /
 int64 arrays. Bad input (wrong shape or dtype, NaN, index out of range, unknown option, a mesh
 that cannot carry a shell, a file that cannot be read) raises ValueError. Long computations
-release the GIL.)";
+release the GIL, take a `progress` argument and end at Ctrl-C (KeyboardInterrupt).)";
   m.attr("__version__") = GSHELL_VERSION;
 
   // InputError is the library's "bad input" (one line naming the file or argument).
@@ -26,6 +27,7 @@ release the GIL.)";
       PyErr_SetString(PyExc_ValueError, e.what());
     }
   });
+  gshell::python::register_python_error_pending(); // KeyboardInterrupt and progress callables' errors
 
   gshell::python::bind_io(m);
   gshell::python::bind_generate(m);

@@ -910,5 +910,118 @@ class PoseGuardTest(TempDirTest):
                 self.assertFalse(m["valid"] and m["base_self_intersections"] == 0)
 
 
+
+class ProgressTest(TempDirTest):
+    """progress= on the long calls: every iteration (or frame) reported, results unchanged, and
+    Ctrl-C or an exception from the callable ends the call there, leaving nothing behind."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.V, cls.F = gshell.builtin("sphere:3")
+        cls.shell = gshell.generate(cls.V, cls.F, thickness=0.05, count_intersections=False)
+
+    def test_generate_reports_every_iteration_and_gives_the_same_shell(self):
+        V, F = gshell.builtin("torus")
+        updates = []
+        with_progress = gshell.generate(V, F, thickness=1.3, progress=updates.append)
+        plain = gshell.generate(V, F, thickness=1.3)
+        np.testing.assert_array_equal(with_progress.top, plain.top)
+        paper = [u for u in updates if u["stage"] == "paper"]
+        self.assertEqual(updates[:len(paper)], paper)  # the paper's solve comes first
+        self.assertEqual([u["iteration"] for u in paper], list(range(1, plain.report["iterations"] + 1)))
+        energies = [u["energy"] for u in paper]
+        self.assertEqual(energies, sorted(energies, reverse=True))  # the energy never rises
+        for u in updates:
+            self.assertEqual(set(u), {"stage", "iteration", "energy", "seconds"})
+
+    def test_progress_true_prints_one_line_per_update(self):
+        import contextlib
+        import io
+        lines = io.StringIO()
+        with contextlib.redirect_stderr(lines):
+            gshell.generate(self.V, self.F, thickness=0.05, iterations=3, tolerance=0, anderson=0, progress=True)
+        printed = lines.getvalue().splitlines()
+        self.assertEqual(len(printed), 3, printed)
+        self.assertTrue(printed[2].startswith("gshell.generate: stage paper, iteration 3, energy "), printed)
+
+    def test_an_exception_from_the_callable_ends_the_call_at_once(self):
+        class Stop(Exception):
+            pass
+        calls = []
+
+        def stop_at_third(update):
+            calls.append(update)
+            if len(calls) == 3:
+                raise Stop()
+        with self.assertRaises(Stop):
+            gshell.generate(self.V, self.F, thickness=0.05, iterations=20, tolerance=0, anderson=0, progress=stop_at_third)
+        self.assertEqual(len(calls), 3)
+
+    def test_ctrl_c_ends_generate_deform_and_pose_where_they_are(self):
+        import _thread
+
+        def interrupt_at(k, calls):
+            def callback(update):
+                calls.append(update)
+                if len(calls) == k:
+                    _thread.interrupt_main()  # as Ctrl-C does
+            return callback
+        calls = []
+        with self.assertRaises(KeyboardInterrupt):
+            gshell.generate(self.V, self.F, thickness=0.05, iterations=20, tolerance=0, anderson=0,
+                            progress=interrupt_at(2, calls))
+        self.assertEqual(len(calls), 2)
+
+        # deform: no output folder, no staging folder beside it.
+        out = self.path("out")
+        calls = []
+        with self.assertRaises(KeyboardInterrupt):
+            gshell.deform(self.shell, [self.V * 1.1, self.V] * 4, output=out, progress=interrupt_at(3, calls))
+        self.assertEqual([u["frame"] for u in calls], [0, 1, 2])
+        self.assertEqual(os.listdir(self.tmp), [])
+
+        # Poser: interrupted, it is back at the rest shell (as after reset()) and solves again.
+        poser = gshell.Poser(self.shell, solver="single")
+        calls = []
+        with self.assertRaises(KeyboardInterrupt):
+            poser.solve(HANDLES, steps=2, progress=interrupt_at(4, calls))
+        self.assertEqual(len(calls), 4)
+        self.assertIsNone(poser.last)
+        np.testing.assert_array_equal(poser.vertices, np.vstack([self.shell.base, self.shell.top]))
+        base, top = poser.solve(HANDLES, steps=2)
+        self.assertEqual(len(poser.last["steps"]), 2)
+        fresh_base, fresh_top = gshell.Poser(self.shell, solver="single").solve(HANDLES, steps=2)
+        np.testing.assert_allclose(top, fresh_top, atol=1e-4)  # the same minimum, to the solve's tolerance
+
+    def test_ctrl_c_ends_a_call_without_progress(self):
+        # A thread presses Ctrl-C once the deform has written a frame into its staging folder; the
+        # call must end there: no output folder, nothing left beside it. (A call that ignored the
+        # signal would finish and move its folder into place before the interrupt was raised.)
+        import _thread
+        out = self.path("out")
+        done = threading.Event()
+
+        def press_ctrl_c_when_a_frame_is_written():
+            while not done.is_set():
+                staging = [n for n in os.listdir(self.tmp) if n.startswith(".out.tmp-")]
+                if staging and os.path.exists(os.path.join(self.tmp, staging[0], "frame_0001", "top.obj")):
+                    _thread.interrupt_main()
+                    return
+                done.wait(0.001)
+        watcher = threading.Thread(target=press_ctrl_c_when_a_frame_is_written)
+        watcher.start()
+        try:
+            with self.assertRaises(KeyboardInterrupt):
+                gshell.deform(self.shell, [self.V * 1.1, self.V] * 500, output=out)
+        finally:
+            done.set()
+            watcher.join()
+        self.assertEqual(os.listdir(self.tmp), [])
+
+    def test_bad_progress_raises_value_error(self):
+        with self.assertRaises(ValueError):
+            gshell.generate(self.V, self.F, thickness=0.05, progress=3)
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -1,6 +1,7 @@
 #include <gshell/io/atomic_file.h>
 
 #include <gshell/error.h>
+#include <gshell/io/temporary_outputs.h>
 
 #include <atomic>
 #include <cerrno>
@@ -51,6 +52,7 @@ void write_file_atomically(const std::string& path, const std::function<void(std
   const fs::path target(path);
   if (fs::is_directory(target)) throw InputError(with_file(path, "is a directory, expected a file name"));
   const fs::path temporary = create_unique_temporary(target);
+  const TemporaryOutput registered(temporary);
   try {
     {
       std::ofstream out(temporary, binary ? std::ios::out | std::ios::trunc | std::ios::binary

@@ -56,6 +56,7 @@ StagedFolder::StagedFolder(const fs::path& destination) : destination_(folder_na
   staging_ = sibling(destination_, "tmp");
   if (!fs::create_directory(staging_, ec) || ec)
     throw InputError(with_file(destination_.string(), "cannot create a folder beside it: " + ec.message()));
+  registered_.emplace(staging_);
 }
 
 StagedFolder::~StagedFolder() {
@@ -80,6 +81,7 @@ void StagedFolder::commit(const std::function<bool(const fs::path&)>& is_previou
     throw InputError(with_file(destination_.string(), "cannot move the output into place: " + ec.message()));
   }
   committed_ = true;
+  registered_.reset();
   if (!old.empty()) fs::remove_all(old, ec);
 }
 

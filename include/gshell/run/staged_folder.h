@@ -1,8 +1,11 @@
 #pragma once
 // Output folders written in one piece: everything goes into a hidden temporary folder beside the
 // destination, which is renamed into place only when complete. A failure leaves nothing behind.
+#include <gshell/io/temporary_outputs.h>
+
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
 namespace gshell {
@@ -36,6 +39,7 @@ public:
 
 private:
   std::filesystem::path destination_, staging_;
+  std::optional<TemporaryOutput> registered_; ///< staging_ until committed (removed if the process is interrupted)
   bool committed_ = false;
 };
 

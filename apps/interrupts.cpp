@@ -1,0 +1,71 @@
+#include "interrupts.h"
+
+#include <gshell/io/temporary_outputs.h>
+
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+#include <unistd.h>
+
+namespace gshell::cli {
+
+namespace {
+
+// The handler only writes the signal's number into a pipe (async-signal-safe, whichever thread
+// it interrupts: libraries start threads of their own); a waiting thread does the rest.
+int g_pipe[2] = {-1, -1};
+std::mutex g_mutex;
+std::function<void()> g_stop;
+
+extern "C" void on_signal(int signal) {
+  const unsigned char byte = static_cast<unsigned char>(signal);
+  [[maybe_unused]] const ssize_t written = ::write(g_pipe[1], &byte, 1);
+}
+
+[[noreturn]] void end_process(int signal) {
+  remove_temporary_outputs(/*for_exit=*/true); // a writer still running now blocks at its next file
+  // After "^C" on a terminal, or an open status line there, the message needs a line of its own.
+  const char* line = ::isatty(2) ? "\ngshell: interrupted\n" : "gshell: interrupted\n";
+  [[maybe_unused]] const ssize_t written = ::write(2, line, std::strlen(line));
+  std::_Exit(128 + signal);
+}
+
+void watch_signals() {
+  for (;;) {
+    unsigned char signal = 0;
+    if (::read(g_pipe[0], &signal, 1) != 1) continue;
+    const std::lock_guard lock(g_mutex);
+    if (!g_stop) end_process(signal);
+    const std::function<void()> stop = std::move(g_stop);
+    g_stop = nullptr;
+    stop();
+  }
+}
+
+bool ignored_at_start(int signal) {
+  struct sigaction current {};
+  return sigaction(signal, nullptr, &current) == 0 && current.sa_handler == SIG_IGN;
+}
+
+} // namespace
+
+void catch_interrupts() {
+  if (::pipe(g_pipe) != 0) throw std::runtime_error("cannot create a pipe for signals");
+  struct sigaction action {};
+  action.sa_handler = on_signal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;
+  if (!ignored_at_start(SIGINT)) sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  std::thread(watch_signals).detach();
+}
+
+void on_next_interrupt(std::function<void()> stop) {
+  const std::lock_guard lock(g_mutex);
+  g_stop = std::move(stop);
+}
+
+} // namespace gshell::cli

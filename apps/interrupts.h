@@ -1,0 +1,21 @@
+#pragma once
+// Ctrl-C (SIGINT) and SIGTERM, the same for every command: the process removes the outputs it is
+// still writing (gshell/io/temporary_outputs.h), prints "gshell: interrupted" and ends at once
+// with status 128 + the signal's number. Without this, an interrupted `gshell deform -o OUT` left
+// its half-written hidden folder beside OUT; now an interrupted command leaves nothing, as a
+// failed one does not. A command can take the first signal itself (`gshell view` stops its server
+// and exits normally); a second one ends the process as above.
+#include <functional>
+
+namespace gshell::cli {
+
+/// Installs the handlers; main calls it once. A SIGINT that was ignored when the process started
+/// (a background job of a non-interactive shell, nohup) stays ignored.
+void catch_interrupts();
+
+/// The next signal calls `stop` (on the signal thread, while this function cannot return) instead
+/// of ending the process; later signals end it. Empty `stop`: back to ending it. Once this returns,
+/// an earlier `stop` is no longer running and will not be called.
+void on_next_interrupt(std::function<void()> stop);
+
+} // namespace gshell::cli

@@ -1,0 +1,76 @@
+#include "progress_watch.h"
+
+#include "bindings.h"
+#include "numpy_arrays.h"
+
+#include <cstdio>
+
+namespace gshell::python {
+
+ProgressWatch::ProgressWatch(const py::object& progress, std::string call) : call_(std::move(call)) {
+  if (progress.is_none()) return;
+  if (py::isinstance<py::bool_>(progress)) {
+    print_ = progress.cast<bool>();
+    return;
+  }
+  if (!PyCallable_Check(progress.ptr())) value_error("progress must be None, True, False or a callable taking one dict");
+  callable_ = progress;
+}
+
+void ProgressWatch::report(const nlohmann::ordered_json& update) {
+  const bool show = print_ || callable_;
+  const auto now = std::chrono::steady_clock::now();
+  // Taking the GIL can wait for another Python thread's time slice (5 ms): not at every iteration
+  // of a fast solve when nothing is shown.
+  if (!show && now - last_check_ < std::chrono::milliseconds(100)) return;
+  last_check_ = now;
+  py::gil_scoped_acquire gil;
+  try {
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    if (callable_) {
+      callable_(to_python(update));
+    } else if (print_) {
+      std::string line = call_ + ":";
+      for (const auto& [key, value] : update.items()) {
+        line += (line.back() == ':' ? " " : ", ") + key + " ";
+        if (value.is_string()) {
+          line += value.get<std::string>();
+        } else if (value.is_number_float()) {
+          char number[32];
+          std::snprintf(number, sizeof number, "%.6g", value.get<double>());
+          line += number;
+        } else {
+          line += value.dump();
+        }
+      }
+      py::module_::import("sys").attr("stderr").attr("write")(line + "\n");
+    }
+  } catch (py::error_already_set& e) {
+    e.restore(); // the Python error, set again for the translator once the call unwinds
+    throw PythonErrorPending{};
+  }
+}
+
+void ProgressWatch::watch(SolveOptions& solve) {
+  solve.stage = [this](const char* name) { stage_ = name; };
+  solve.progress = [this](int iteration, double energy, double seconds) {
+    nlohmann::ordered_json update;
+    if (!stage_.empty()) update["stage"] = stage_;
+    update["iteration"] = iteration;
+    update["energy"] = energy;
+    update["seconds"] = seconds;
+    report(update);
+  };
+}
+
+void register_python_error_pending() {
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const PythonErrorPending&) {
+      if (!PyErr_Occurred()) PyErr_SetString(PyExc_RuntimeError, "gshell: the call was interrupted");
+    }
+  });
+}
+
+} // namespace gshell::python

@@ -1,0 +1,49 @@
+#pragma once
+// Long calls let Python in while they run: at each solver iteration (or deform frame) they take
+// the GIL for a moment to run pending signal handlers, so Ctrl-C (KeyboardInterrupt) ends them
+// there instead of after minutes, and to call the `progress` argument the user gave.
+#include <pybind11/pybind11.h>
+
+#include <gshell/solver/shell_solver.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace gshell::python {
+
+namespace py = pybind11;
+
+/// Thrown from a progress callback, through the library (with the GIL released), when Python has
+/// an exception to raise: a signal handler's (KeyboardInterrupt) or the `progress` callable's.
+/// The Python error stays set; the module's exception translator lets it through.
+struct PythonErrorPending {};
+
+/// The progress of one long call. Made with the GIL held from its `progress` argument: None
+/// (nothing shown; signals are still checked, at most every 0.1 s), True (one line per update on
+/// sys.stderr) or a callable, called with one dict per update (the fields named by each call's
+/// docstring). Must outlive the call and die with the GIL held.
+class ProgressWatch {
+public:
+  ProgressWatch(const py::object& progress, std::string call);
+  ProgressWatch(const ProgressWatch&) = delete;
+  ProgressWatch& operator=(const ProgressWatch&) = delete;
+
+  /// Without the GIL: one update. \throws PythonErrorPending when a signal handler or the
+  /// callable raised.
+  void report(const nlohmann::ordered_json& update);
+  /// Hooks solve.progress and solve.stage to report {"stage"?, "iteration", "energy", "seconds"}
+  /// ("stage": the solve's stage name, e.g. paper, repair, relax, when it names one).
+  void watch(SolveOptions& solve);
+
+private:
+  py::object callable_; ///< None when printing or silent
+  bool print_ = false;
+  std::string call_, stage_;
+  std::chrono::steady_clock::time_point last_check_{};
+};
+
+/// The module's exception translator for PythonErrorPending: the error is already set.
+void register_python_error_pending();
+
+} // namespace gshell::python
