@@ -174,8 +174,18 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
             kwargs["thickness"] = self.thickness
         if gshell_module.supports(gshell.generate, "allow_invalid"):
             kwargs["allow_invalid"] = self.allow_invalid
+        wm = bpy.context.window_manager
+
+        def show(update):  # the paper's iterations as the cursor's number while the UI waits
+            if update["stage"] == "paper":
+                wm.progress_update(update["iteration"])
+        if gshell_module.supports(gshell.generate, "progress"):
+            kwargs["progress"] = show
+        wm.progress_begin(0, self.iterations)
         try:
             return gshell.generate(V, F, **kwargs), F
         except ValueError as e:
             message = str(e).removeprefix("mesh (V, F): ")  # the module's name for its arguments
             raise shell_store.ShellError(f"'{base.name}': {in_polygons(message, polygon)}") from e
+        finally:
+            wm.progress_end()
