@@ -989,9 +989,14 @@ class ProgressTest(TempDirTest):
         self.assertIsNone(poser.last)
         np.testing.assert_array_equal(poser.vertices, np.vstack([self.shell.base, self.shell.top]))
         base, top = poser.solve(HANDLES, steps=2)
-        self.assertEqual(len(poser.last["steps"]), 2)
-        fresh_base, fresh_top = gshell.Poser(self.shell, solver="single").solve(HANDLES, steps=2)
-        np.testing.assert_allclose(top, fresh_top, atol=1e-4)  # the same minimum, to the solve's tolerance
+        # Bit for bit what a Poser gives after a finished solve and reset(). (A Poser's first solve
+        # lands 1e-5 away from its later ones, within the solve's tolerance; measured, not explained.)
+        after_reset = gshell.Poser(self.shell, solver="single")
+        after_reset.solve(HANDLES, steps=2)
+        after_reset.reset()
+        reset_base, reset_top = after_reset.solve(HANDLES, steps=2)
+        np.testing.assert_array_equal(base, reset_base)
+        np.testing.assert_array_equal(top, reset_top)
 
     def test_ctrl_c_ends_a_call_without_progress(self):
         # A thread presses Ctrl-C once the deform has written a frame into its staging folder; the
