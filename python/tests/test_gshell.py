@@ -989,8 +989,10 @@ class ProgressTest(TempDirTest):
         self.assertIsNone(poser.last)
         np.testing.assert_array_equal(poser.vertices, np.vstack([self.shell.base, self.shell.top]))
         base, top = poser.solve(HANDLES, steps=2)
-        # Bit for bit what a Poser gives after a finished solve and reset(). (A Poser's first solve
-        # lands 1e-5 away from its later ones, within the solve's tolerance; measured, not explained.)
+        # Bit for bit what a Poser gives after a finished solve and reset(). (A fresh Poser starts
+        # its second step along the handles' motion, one after reset() along the targets' last
+        # change, since reset() and the handles count as a change of motion; the two land 1e-5
+        # apart, within the solve's tolerance.)
         after_reset = gshell.Poser(self.shell, solver="single")
         after_reset.solve(HANDLES, steps=2)
         after_reset.reset()
