@@ -107,6 +107,10 @@ struct DragSession::Impl {
       before.valid = false;
       state.targets = current_rows(state.handles);
       state.version_of_last = state.motion_version;
+    } else if (state.fraction == 0) {
+      // At fraction 0 every motion gives the last targets (the rest rows): the last event belongs
+      // to the new motions too, so the next drag continues along them as from a fresh session.
+      state.version_of_last = state.motion_version;
     }
   }
 
