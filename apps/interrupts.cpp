@@ -2,6 +2,7 @@
 
 #include <gshell/io/temporary_outputs.h>
 
+#include <atomic>
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
@@ -19,6 +20,7 @@ namespace {
 int g_pipe[2] = {-1, -1};
 std::mutex g_mutex;
 std::function<void()> g_stop;
+std::atomic<bool> g_ending{false};
 
 extern "C" void on_signal(int signal) {
   const unsigned char byte = static_cast<unsigned char>(signal);
@@ -26,6 +28,7 @@ extern "C" void on_signal(int signal) {
 }
 
 [[noreturn]] void end_process(int signal) {
+  g_ending = true;
   remove_temporary_outputs(/*for_exit=*/true); // a writer still running now blocks at its next file
   // After "^C" on a terminal, or an open status line there, the message needs a line of its own.
   const char* line = ::isatty(2) ? "\ngshell: interrupted\n" : "gshell: interrupted\n";
@@ -61,6 +64,11 @@ void catch_interrupts() {
   if (!ignored_at_start(SIGINT)) sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
   std::thread(watch_signals).detach();
+}
+
+void wait_if_interrupted() {
+  if (!g_ending) return;
+  for (;;) ::pause(); // the signal thread ends the process
 }
 
 void on_next_interrupt(std::function<void()> stop) {

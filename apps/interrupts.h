@@ -13,6 +13,11 @@ namespace gshell::cli {
 /// (a background job of a non-interactive shell, nohup) stays ignored.
 void catch_interrupts();
 
+/// Never returns once a signal is ending the process: main calls it before it reports an error,
+/// which may be only a consequence of the removal (a frame written into a removed folder), so
+/// that the one line printed is "gshell: interrupted" and the status 128 + the signal.
+void wait_if_interrupted();
+
 /// The next signal calls `stop` (on the signal thread, while this function cannot return) instead
 /// of ending the process; later signals end it. Empty `stop`: back to ending it. Once this returns,
 /// an earlier `stop` is no longer running and will not be called.

@@ -142,15 +142,19 @@ int main(int argc, char** argv) {
       return 1;
     }
   } catch (const gshell::InputError& e) {
+    wait_if_interrupted();
     std::cerr << "gshell: error: " << e.what() << "\n";
     return 1;
   } catch (const std::bad_alloc&) {
+    wait_if_interrupted();
     std::cerr << "gshell: internal error: out of memory\n";
     return 2;
   } catch (const std::exception& e) {
+    wait_if_interrupted();
     std::cerr << "gshell: internal error: " << e.what() << "\n";
     return 2;
   } catch (...) {
+    wait_if_interrupted();
     std::cerr << "gshell: internal error: unknown exception\n";
     return 2;
   }

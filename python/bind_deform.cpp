@@ -42,7 +42,7 @@ std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell, bool all
 }
 
 py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterations, double tolerance,
-                         const std::string& warm_start) {
+                         const std::string& warm_start, const py::object& progress) {
   const int n = d.deformer.rest_shell().num_base_vertices();
   const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
   DeformOptions options;
@@ -51,11 +51,21 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
   options.warm_start = parse_warm_start(warm_start);
   options.allow_invalid = d.allow_invalid;
   options.check();
+  ProgressWatch watch(progress, "gshell.Deformer.solve");
+  options.progress = [&watch](int iteration, double energy, double seconds) {
+    watch.report({{"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
+  };
   Eigen::MatrixXd top;
   {
     py::gil_scoped_release release;
     const std::lock_guard<std::mutex> lock(d.mutex); // released before the GIL is taken back
-    d.last = d.deformer.solve(base, options);
+    try {
+      d.last = d.deformer.solve(base, options);
+    } catch (const PythonErrorPending&) { // interrupted inside the frame: no half-made frame to continue from
+      d.deformer.reset();
+      d.solved = false;
+      throw;
+    }
     pass_gil_probe();
     d.solved = true;
     top = d.last.top;
@@ -86,6 +96,7 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames, const
     input.frame_names.push_back(name);
   }
   ProgressWatch watch(progress, "gshell.deform");
+  options.frame.progress = [&watch](int, double, double) { watch.check_signals(); }; // Ctrl-C inside a frame
   const DeformProgress frame_done = [&watch](const DeformRun& run, int count) {
     nlohmann::ordered_json update{{"frame", run.frames.size()}, {"frames", count}};
     if (run.frames.empty()) {
@@ -136,6 +147,7 @@ Raises:
     ValueError: the shell has a tet of non-positive volume.)")
       .def("solve", &deformer_solve, py::arg("new_base"), py::kw_only(), py::arg("iterations") = defaults.max_iterations,
            py::arg("tolerance") = defaults.tolerance, py::arg("warm_start") = warm_start_name(defaults.warm_start),
+           py::arg("progress") = py::none(),
            R"(Solve the top for a new base.
 
 Args:
@@ -146,6 +158,12 @@ Args:
         continued), "rotated" (previous offsets rotated with the base's 1-rings), "translated"
         (previous top moved with the base) or "previous" (previous top as is), as
         `gshell deform --warm-start`.
+    progress: None (default), True to print each iteration on sys.stderr, or a callable called
+        after every iteration with a dict {"iteration", "energy", "seconds"} (the frame's solve,
+        then, where the guard works, each guarded sub-step and a fresh top, each counting from 1
+        again). Either way Ctrl-C ends the call at its next iteration with KeyboardInterrupt, as
+        does an exception the callable raises; the Deformer then starts from the rest shell
+        again, as after reset().
 
 Returns:
     float64 array (n, 3): the deformed top. Statistics are in .last.
@@ -200,8 +218,8 @@ Args:
     progress: None (default), True to print each frame on sys.stderr, or a callable called with
         a dict {"frame": 0, "frames", "seconds"} once the setup (factorisation) is done and
         {"frame", "frames", "iterations", "seconds", "valid"} after every frame. Either way Ctrl-C
-        ends the call after the frame in progress with KeyboardInterrupt, as does an exception
-        the callable raises; nothing is written to `output` then.
+        ends the call with KeyboardInterrupt (inside a frame, at its next iteration), as does an
+        exception the callable raises; nothing is written to `output` then.
 
 Returns:
     dict: the CLI's report.json (summary and one record per frame).

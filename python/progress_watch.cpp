@@ -17,34 +17,47 @@ ProgressWatch::ProgressWatch(const py::object& progress, std::string call) : cal
   callable_ = progress;
 }
 
+std::string ProgressWatch::line(const nlohmann::ordered_json& update) const {
+  std::string text = call_ + ":";
+  for (const auto& [key, value] : update.items()) {
+    text += (text.back() == ':' ? " " : ", ") + key + " ";
+    if (value.is_string()) {
+      text += value.get<std::string>();
+    } else if (value.is_number_float()) {
+      char number[32];
+      std::snprintf(number, sizeof number, "%.6g", value.get<double>());
+      text += number;
+    } else {
+      text += value.dump();
+    }
+  }
+  return text + "\n";
+}
+
 void ProgressWatch::report(const nlohmann::ordered_json& update) {
-  const bool show = print_ || callable_;
-  const auto now = std::chrono::steady_clock::now();
+  if (!print_ && !callable_) return check_signals();
+  with_python([&] {
+    if (callable_)
+      callable_(to_python(update));
+    else
+      py::module_::import("sys").attr("stderr").attr("write")(line(update));
+  });
+}
+
+void ProgressWatch::check_signals() {
   // Taking the GIL can wait for another Python thread's time slice (5 ms): not at every iteration
   // of a fast solve when nothing is shown.
-  if (!show && now - last_check_ < std::chrono::milliseconds(100)) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_check_ < std::chrono::milliseconds(100)) return;
   last_check_ = now;
+  with_python([] {});
+}
+
+void ProgressWatch::with_python(const std::function<void()>& work) {
   py::gil_scoped_acquire gil;
   try {
     if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-    if (callable_) {
-      callable_(to_python(update));
-    } else if (print_) {
-      std::string line = call_ + ":";
-      for (const auto& [key, value] : update.items()) {
-        line += (line.back() == ':' ? " " : ", ") + key + " ";
-        if (value.is_string()) {
-          line += value.get<std::string>();
-        } else if (value.is_number_float()) {
-          char number[32];
-          std::snprintf(number, sizeof number, "%.6g", value.get<double>());
-          line += number;
-        } else {
-          line += value.dump();
-        }
-      }
-      py::module_::import("sys").attr("stderr").attr("write")(line + "\n");
-    }
+    work();
   } catch (py::error_already_set& e) {
     e.restore(); // the Python error, set again for the translator once the call unwinds
     throw PythonErrorPending{};

@@ -7,6 +7,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <chrono>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -32,11 +33,18 @@ public:
   /// Without the GIL: one update. \throws PythonErrorPending when a signal handler or the
   /// callable raised.
   void report(const nlohmann::ordered_json& update);
+  /// Without the GIL: only the signal handlers (at most every 0.1 s), for the iterations of a
+  /// call whose updates are coarser (deform's frames). \throws PythonErrorPending as report().
+  void check_signals();
   /// Hooks solve.progress and solve.stage to report {"stage"?, "iteration", "energy", "seconds"}
   /// ("stage": the solve's stage name, e.g. paper, repair, relax, when it names one).
   void watch(SolveOptions& solve);
 
 private:
+  std::string line(const nlohmann::ordered_json& update) const; ///< for progress=True
+  /// Runs the signal handlers, then `work`, with the GIL; a Python error becomes PythonErrorPending.
+  void with_python(const std::function<void()>& work);
+
   py::object callable_; ///< None when printing or silent
   bool print_ = false;
   std::string call_, stage_;

@@ -1032,6 +1032,31 @@ class ProgressTest(TempDirTest):
             watcher.join()
         self.assertEqual(os.listdir(self.tmp), [])
 
+    def test_deformer_reports_every_iteration_and_ctrl_c_ends_its_frame(self):
+        import _thread
+        new_base = self.V * np.array([1.3, 1.0, 0.8])
+        plain = gshell.Deformer(self.shell, allow_invalid=True).solve(new_base)
+        deformer = gshell.Deformer(self.shell, allow_invalid=True)
+        updates = []
+        top = deformer.solve(new_base, progress=updates.append)
+        np.testing.assert_array_equal(top, plain)
+        self.assertEqual([u["iteration"] for u in updates], list(range(1, deformer.last["iterations"] + 1)))
+        self.assertEqual([u["energy"] for u in updates], deformer.last["energy"][1:])
+
+        guarded = gshell.Deformer(self.shell)
+        calls = []
+
+        def interrupt_at_second(update):
+            calls.append(update)
+            if len(calls) == 2:
+                _thread.interrupt_main()
+        with self.assertRaises(KeyboardInterrupt):
+            guarded.solve(new_base, progress=interrupt_at_second)
+        self.assertEqual(len(calls), 2)
+        self.assertIsNone(guarded.last)  # back at the rest shell, as after reset()
+        np.testing.assert_array_equal(guarded.vertices, np.vstack([self.shell.base, self.shell.top]))
+        np.testing.assert_array_equal(guarded.solve(new_base), gshell.Deformer(self.shell).solve(new_base))
+
     def test_bad_progress_raises_value_error(self):
         with self.assertRaises(ValueError):
             gshell.generate(self.V, self.F, thickness=0.05, progress=3)

@@ -325,6 +325,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   SolveOptions solve_options;
   solve_options.max_iterations = options.max_iterations;
   solve_options.tolerance = options.tolerance;
+  solve_options.progress = options.progress;
   const SolveResult solved = solver_.solve(X, solve_options);
 
   FrameResult result;
@@ -383,6 +384,7 @@ ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::Matr
   const int n = rest_.num_base_vertices();
   SolveOptions paper;
   paper.max_iterations = options.max_iterations;
+  paper.progress = options.progress;
   // From the frame's own solve rather than the offset: on CGAL's bull (frame 3 of a twist) the
   // fresh top's stretch came out 0.0042 instead of 0.0048, before the polish in guard_frame.
   const GuardedShell fresh = guarded_shell(X.topRows(n), rest_.F, solver_.rest(), rest_.thickness,
@@ -426,6 +428,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   GuardedSolveOptions solve;
   solve.max_iterations = options.max_iterations;
   solve.tolerance = options.tolerance;
+  solve.progress = options.progress;
   // The straight path from the previous frame is not the only way to a valid frame: a sliver face
   // (CGAL's triceratops has two) turns its normal by 90 degrees under a base motion far smaller
   // than the shell, the top over it must swing across to keep its tets positive, and the drag,

@@ -1,8 +1,10 @@
 #include <gshell/io/temporary_outputs.h>
 
+#include <chrono>
 #include <cstdint>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <unordered_set>
 
 namespace gshell {
@@ -41,9 +43,17 @@ int remove_temporary_outputs(bool for_exit) noexcept {
   r.mutex.lock();
   int removed = 0;
   for (const std::string& path : r.paths) {
-    std::error_code ec;
-    const std::uintmax_t count = fs::remove_all(path, ec);
-    removed += !ec && count > 0;
+    // Another thread may still add an entry (a frame's folder, a file opened before it was
+    // registered), and the folder is then not empty when its turn comes: try again until it is
+    // gone. Such a thread blocks at its next registration, so this ends.
+    bool existed = false;
+    for (int attempt = 0; attempt < 1000; ++attempt) {
+      std::error_code ec;
+      existed |= fs::remove_all(path, ec) > 0 && !ec;
+      if (!fs::exists(path, ec) && !ec) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    removed += existed;
   }
   if (!for_exit) r.mutex.unlock();
   return removed;

@@ -9,6 +9,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -77,6 +78,11 @@ struct DeformOptions {
   /// Fill FrameResult::certificate by the exact certificate (certify_shell, with the base's own
   /// crossings): not counted in FrameResult::seconds.
   bool certify = true;
+  /// Called after every iteration of the frame's solves with (iteration, energy, seconds since
+  /// that solve began): the paper's solve, then, where the guard works, each guarded sub-step and
+  /// a fresh top's generation, each counting from 1 again. It may throw to end the frame (the
+  /// exception passes through solve(); reset() the deformer before its next frame).
+  std::function<void(int, double, double)> progress;
 
   /// \throws InputError naming the parameter (iterations, tolerance, guard options, substeps)
   ///         when it is out of range.
