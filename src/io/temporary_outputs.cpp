@@ -15,7 +15,7 @@ namespace {
 
 struct Registry {
   std::mutex mutex;
-  std::unordered_multiset<std::string> paths; // a name may be registered twice (a folder reused)
+  std::unordered_multiset<std::string> paths; // each registration counts, even of one name
 };
 
 // Never destroyed: a signal thread may use it while the main thread runs static destructors.

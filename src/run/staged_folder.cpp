@@ -60,7 +60,7 @@ StagedFolder::StagedFolder(const fs::path& destination) : destination_(folder_na
 }
 
 StagedFolder::~StagedFolder() {
-  if (committed_) return;
+  if (!registered_) return; // committed
   std::error_code ec;
   fs::remove_all(staging_, ec);
 }
@@ -80,8 +80,7 @@ void StagedFolder::commit(const std::function<bool(const fs::path&)>& is_previou
     if (!old.empty()) fs::rename(old, destination_, ignored);
     throw InputError(with_file(destination_.string(), "cannot move the output into place: " + ec.message()));
   }
-  committed_ = true;
-  registered_.reset();
+  registered_.reset(); // committed: no longer temporary
   if (!old.empty()) fs::remove_all(old, ec);
 }
 

@@ -39,8 +39,8 @@ public:
 
 private:
   std::filesystem::path destination_, staging_;
-  std::optional<TemporaryOutput> registered_; ///< staging_ until committed (removed if the process is interrupted)
-  bool committed_ = false;
+  /// staging_, registered until committed (removed if the process is interrupted); empty once committed.
+  std::optional<TemporaryOutput> registered_;
 };
 
 } // namespace gshell
