@@ -9,6 +9,7 @@
 #include <gshell/run/deform_run.h>
 #include <gshell/run/staged_folder.h>
 
+#include <chrono>
 #include <cstdio>
 #include <memory>
 
@@ -38,7 +39,29 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   if (!input.rest_warning.empty()) std::fprintf(stderr, "warning: %s\n", input.rest_warning.c_str());
 
   cli::Progress progress("deform");
+  // A long frame (a guarded one of a large shell, one whose guard regenerates its top) shows its
+  // iterations as well, once it has run a second and then at most once a second, so a terminal
+  // or a log shows it is alive; short frames show only their summary line. The count runs over
+  // all of the frame's solves (paper, guarded sub-steps, a fresh top's), which each restart theirs.
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point frame_began = Clock::now(), last_shown = frame_began;
+  int frame_iterations = 0;
+  std::string frame_label;
+  if (progress.enabled())
+    a.options.frame.progress = [&](int, double energy, double) {
+      ++frame_iterations;
+      const auto now = Clock::now();
+      if (now - frame_began < std::chrono::seconds(1) || now - last_shown < std::chrono::seconds(1)) return;
+      last_shown = now;
+      char text[160];
+      std::snprintf(text, sizeof text, "%s: iteration %d  energy %.6g  %.1f s", frame_label.c_str(), frame_iterations,
+                    energy, std::chrono::duration<double>(now - frame_began).count());
+      progress.update(text);
+    };
   auto report = [&](const DeformRun& run, int count) {
+    frame_began = last_shown = Clock::now();
+    frame_iterations = 0;
+    frame_label = "frame " + std::to_string(run.frames.size() + 1) + "/" + std::to_string(count);
     if (run.frames.empty()) {
       progress.line("shell " + std::to_string(run.base_vertices) + " base vertices, " + std::to_string(run.tets) +
                     " tets, factored in " + std::to_string(run.factor_seconds) + " s; " + std::to_string(count) +
@@ -53,8 +76,11 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     }
     const DeformFrameRecord& f = run.frames.back();
     char text[200];
-    std::snprintf(text, sizeof text, "frame %d/%d: %d iterations, %.1f ms, stretch %.3g, %s (%s", f.frame, count,
-                  f.result.iterations, 1e3 * f.result.seconds, f.result.stretch.volume_mean,
+    // The paper's iterations, and the guard's after them (the status above counted both).
+    std::string iterations = std::to_string(f.result.iterations);
+    if (f.result.guarded_iterations > 0) iterations += " + " + std::to_string(f.result.guarded_iterations) + " guarded";
+    std::snprintf(text, sizeof text, "frame %d/%d: %s iterations, %.1f ms, stretch %.3g, %s (%s", f.frame, count,
+                  iterations.c_str(), 1e3 * f.result.seconds, f.result.stretch.volume_mean,
                   f.result.valid ? "valid" : "INVALID", frame_method_name(f.result.method));
     std::string line = text;
     if (f.result.substeps > 1) line += ", " + std::to_string(f.result.substeps) + " sub-steps";

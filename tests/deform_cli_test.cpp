@@ -221,6 +221,27 @@ TEST(DeformCli, EndToEndFromGenerate) {
   EXPECT_EQ(read_mesh(tmp.file("tex.ply")).num_vertices(), 16 * 49);
 }
 
+
+// A sphere squashed to less than its layer's thickness: the paper's solve presses the top
+// through itself, so the guard finishes the frame. Its line counts both solvers' iterations, as
+// the status shown during a long frame does.
+TEST(DeformCli, AGuardedFramesLineCountsThePapersAndTheGuardsIterations) {
+  TempDir tmp;
+  const std::string shell = tmp.file("shell"), out = tmp.file("out");
+  ASSERT_EQ(run_cli("generate builtin:sphere:3 --thickness-ratio 0.1 -o '" + shell + "' -q").exit_code, 0);
+  TriMesh squashed = read_mesh(shell + "/base.obj");
+  squashed.V.col(1) *= 0.08;
+  write_mesh(tmp.file("squashed.obj"), squashed);
+  const auto r = run_cli("deform --shell '" + shell + "' --base '" + tmp.file("squashed.obj") + "' -o '" + out + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json frame = read_json(out + "/report.json")["frames"][0];
+  ASSERT_EQ(frame["method"], "guarded");
+  const int guarded = frame["guarded_iterations"].get<int>();
+  ASSERT_GT(guarded, 0);
+  const std::string counts = "frame 1/1: " + std::to_string(frame["iterations"].get<int>()) + " + " +
+                             std::to_string(guarded) + " guarded iterations, ";
+  EXPECT_NE(r.err.find(counts), std::string::npos) << r.err;
+}
 TEST(DeformCli, DeformAndPoseWarnWhenTheRestShellsReportCallsItInvalid) {
   // The report as `gshell generate` writes it for a shell over a base that crosses itself: the
   // frames and steps that stay invalid there are explained before the first is reported so.
