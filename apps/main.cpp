@@ -147,7 +147,8 @@ int main(int argc, char** argv) {
     return 1;
   } catch (const std::bad_alloc&) {
     wait_if_interrupted();
-    std::cerr << "gshell: internal error: out of memory\n";
+    // A limit of the machine more often than a fault of the program: said as such.
+    std::cerr << "gshell: error: out of memory (the job needs more memory than the system gave)\n";
     return 2;
   } catch (const std::exception& e) {
     wait_if_interrupted();

@@ -4,7 +4,9 @@
 #include <gshell/error.h>
 #include <gshell/shell/prism_tets.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 
@@ -65,6 +67,19 @@ GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_sou
   if (tile.F.minCoeff() < 0 || tile.F.maxCoeff() >= tile.num_vertices())
     throw InputError("the tile has a face index out of range");
   if (!uv_source.UV.allFinite()) throw InputError("the base has a non-finite texture coordinate");
+  // Meshes index their vertices with int: a count beyond that cannot be written, however much
+  // memory there is (bumps:1000 tiled 200 x 200 asked for 4e10 vertices).
+  const double copies = static_cast<double>(repeat_u) * repeat_v;
+  const double vertices = copies * tile.num_vertices(), faces = copies * tile.num_faces();
+  if (std::max(vertices, faces) > std::numeric_limits<int>::max()) {
+    char what[200];
+    std::snprintf(what, sizeof what,
+                  "%d x %d tiles of %d vertices and %d faces make %.3g vertices and %.3g faces, more than a mesh "
+                  "can hold (%d): use fewer repeats or a coarser tile",
+                  repeat_u, repeat_v, tile.num_vertices(), tile.num_faces(), vertices, faces,
+                  std::numeric_limits<int>::max());
+    throw InputError(what);
+  }
 
   const TextureSpaceTets tex = texture_space_tets(shell.F, uv_source.UV, uv_source.FUV);
   GeometricTexture out;

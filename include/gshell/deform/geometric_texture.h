@@ -40,7 +40,8 @@ struct GeometricTexture {
 /// every tiled vertex tet by tet into the shell.
 /// \throws InputError when the base has no UVs or a non-finite one, its faces differ from the
 ///         shell's, every UV triangle is degenerate, the tile is empty, non-finite or has a face
-///         id out of range, or a repeat count is < 1.
+///         id out of range, a repeat count is < 1, or the tiles would hold more vertices or
+///         faces than an int indexes.
 GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_source, const TriMesh& tile,
                                        int repeat_u = 1, int repeat_v = 1);
 
