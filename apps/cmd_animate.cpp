@@ -72,7 +72,7 @@ void run_animate(const AnimateArgs& args) {
       if (crossing_frames++ == 0) first_crossing = k;
       most_crossings = std::max(most_crossings, c);
     }
-    gshell::write_mesh((staged.path() / gshell::frame_name(k, ".obj")).string(), mesh);
+    gshell::write_mesh((staged.path() / gshell::frame_name(k, ".obj", args.frames)).string(), mesh);
     progress.update("frame " + std::to_string(k) + "/" + std::to_string(args.frames));
   }
   staged.commit(holds_only_frames);
@@ -81,7 +81,7 @@ void run_animate(const AnimateArgs& args) {
     std::fprintf(stderr,
                  "warning: %d of %d frames (the first %s) make the base cross itself (up to %d intersecting face "
                  "pairs, the input %d); no shell stays clean where its base crosses itself\n",
-                 crossing_frames, args.frames, gshell::frame_name(first_crossing, ".obj").c_str(), most_crossings,
+                 crossing_frames, args.frames, gshell::frame_name(first_crossing, ".obj", args.frames).c_str(), most_crossings,
                  rest_crossings);
   std::ostringstream done;
   done << "wrote " << args.frames << " frames of a " << (bending ? "bend" : "twist") << " to " << degrees

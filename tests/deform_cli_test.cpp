@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -61,6 +62,21 @@ TEST(AnimateCli, ProgressInALogIsOneLinePerFrame) {
   EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
   EXPECT_EQ(r.err, "gshell animate: frame 1/3\ngshell animate: frame 2/3\ngshell animate: frame 3/3\n"
                    "gshell animate: wrote 3 frames of a twist to 30 degrees to " + tmp.file("twist") + "\n");
+}
+
+// Ten thousand frames: every name has five digits, so the names sort as text (the order a
+// shell's frame_*.obj hands them to `gshell deform`) in the frames' order.
+TEST(AnimateCli, NamesOfALongSequenceSortInFrameOrder) {
+  TempDir tmp;
+  const auto r = run_cli("animate builtin:plane:1 --twist 30 --frames 10000 -o '" + tmp.file("long") + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(tmp.file("long"))) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  ASSERT_EQ(names.size(), 10000u);
+  EXPECT_EQ(names.front(), "frame_00001.obj");
+  EXPECT_EQ(names[9998], "frame_09999.obj");
+  EXPECT_EQ(names.back(), "frame_10000.obj");
 }
 
 // A strip bent isometrically past a full turn lies on itself: the frame that does so is written
@@ -348,6 +364,11 @@ TEST(TextureCli, RejectsBadInput) {
   EXPECT_EQ(run_cli("texture --shell '" + shell + "' --tile builtin:bumps --repeat 0 1 -o '" + out + "'").exit_code, 1);
   EXPECT_EQ(run_cli("texture --shell '" + shell + "' --tile builtin:nope -o '" + out + "'").exit_code, 1);
   EXPECT_EQ(run_cli("texture --shell '" + shell + "' --tile missing.obj -o '" + out + "'").exit_code, 1);
+  // More tiled vertices than an int indexes (it once ran out of memory instead): said before any
+  // allocation, with the counts.
+  const auto huge = run_cli("texture --shell '" + shell + "' --tile builtin:bumps:1000 --repeat 200 200 -o '" + out + "'");
+  EXPECT_EQ(huge.exit_code, 1);
+  EXPECT_NE(huge.err.find("4.01e+10 vertices"), std::string::npos) << huge.err;
   // A base without UVs cannot carry a texture.
   write_mesh(shell + "/base.obj", make_sphere(0));
   write_mesh(shell + "/top.obj", make_sphere(0));

@@ -47,6 +47,12 @@ ShellFolderContents cylinder_contents(double eta) {
 TEST(Frames, NamesNumbersAndScanOrder) {
   EXPECT_EQ(frame_name(7), "frame_0007");
   EXPECT_EQ(frame_name(12345, ".obj"), "frame_12345.obj");
+  // A sequence longer than 9999 frames names every frame with as many digits as its last, so
+  // that its names sort as text (a shell's frame_*.obj) in the frames' order.
+  EXPECT_EQ(frame_name(7, ".obj", 9999), "frame_0007.obj");
+  EXPECT_EQ(frame_name(7, ".obj", 12000), "frame_00007.obj");
+  EXPECT_LT(frame_name(9999, "", 12000), frame_name(10000, "", 12000));
+  EXPECT_EQ(frame_number(frame_name(7, "", 12000)), 7);
   EXPECT_EQ(frame_number("frame_0012.obj", ".obj"), 12);
   EXPECT_EQ(frame_number("frame_10000"), 10000);
   EXPECT_FALSE(frame_number("frame_012"));      // fewer than four digits

@@ -226,7 +226,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
       X << input.frames[k], offset_top(input.frames[k], shell.F, shell.thickness);
       record.offset = stretch_stats(deformer.rest_tets(), X);
     }
-    if (staged) write_frame(staged->path() / frame_name(k + 1), input, deformer, tets, embedding);
+    if (staged) write_frame(staged->path() / frame_name(k + 1, {}, count), input, deformer, tets, embedding);
     run.frames.push_back(std::move(record));
     if (progress) progress(run, count);
   }

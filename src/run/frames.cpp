@@ -3,14 +3,17 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
+#include <string>
 
 namespace gshell {
 
 namespace fs = std::filesystem;
 
-std::string frame_name(int k, const std::string& extension) {
+std::string frame_name(int k, const std::string& extension, int count) {
+  // One width for the whole sequence, so that a shell's glob (frame_*.obj) lists it in order.
+  const int width = std::max(4, static_cast<int>(std::to_string(std::max(count, 0)).size()));
   char name[32];
-  std::snprintf(name, sizeof name, "frame_%04d", k);
+  std::snprintf(name, sizeof name, "frame_%0*d", width, k);
   return name + extension;
 }
 

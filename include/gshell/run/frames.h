@@ -1,6 +1,8 @@
 #pragma once
 // Numbered frames, the one naming rule for sequences: `gshell animate` writes frame_0001.obj ..,
-// `gshell deform` writes frame_0001/ .. (a shell folder each). Numbers have at least four digits.
+// `gshell deform` writes frame_0001/ .. (a shell folder each). Numbers have at least four digits,
+// and every name of a sequence as many as its largest number (frame_00001 .. frame_12000), so
+// that sorting the names as text (a shell's glob) orders the frames too.
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -8,8 +10,9 @@
 
 namespace gshell {
 
-/// "frame_0007" + extension (e.g. ".obj", or "" for a folder). k >= 0.
-std::string frame_name(int k, const std::string& extension = {});
+/// "frame_0007" + extension (e.g. ".obj", or "" for a folder); with the digits of `count` (the
+/// sequence's frame count) where it has more than four. 0 <= k <= count where count is given.
+std::string frame_name(int k, const std::string& extension = {}, int count = 0);
 
 /// The number of a name made by frame_name with this extension ("frame_0012.obj" -> 12), or
 /// nothing when the name is not a frame name.
