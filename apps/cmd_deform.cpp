@@ -47,8 +47,9 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   Clock::time_point frame_began = Clock::now(), last_shown = frame_began;
   int frame_iterations = 0;
   std::string frame_label;
+  DeformRunOptions options = a.options; // with the status callback, which refers to this call's locals
   if (progress.enabled())
-    a.options.frame.progress = [&](int, double energy, double) {
+    options.frame.progress = [&](int, double energy, double) {
       ++frame_iterations;
       const auto now = Clock::now();
       if (now - frame_began < std::chrono::seconds(1) || now - last_shown < std::chrono::seconds(1)) return;
@@ -97,7 +98,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     }
     progress.update(line);
   };
-  const DeformRun run = run_deform(input, a.options, a.out, report, cli::preview_writer(a.render, a.out, view));
+  const DeformRun run = run_deform(input, options, a.out, report, cli::preview_writer(a.render, a.out, view));
   const auto summary = run.to_json()["summary"];
   char text[200];
   std::snprintf(text, sizeof text, "%zu frames (%d valid), median %.3g ms and %g iterations per frame; wrote %s",
