@@ -90,11 +90,13 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames, const
   input.surface.F = shell.shell.F;
   const int n = shell.shell.num_base_vertices();
   if (py::len(frames) == 0) value_error("frames is empty: give at least one new base");
+  std::vector<Eigen::MatrixXd> bases;
   for (std::size_t k = 0; k < py::len(frames); ++k) {
     const std::string name = "frames[" + std::to_string(k) + "]";
-    input.frames.push_back(to_matrix(frames[k], name.c_str(), 3, n));
+    bases.push_back(to_matrix(frames[k], name.c_str(), 3, n));
     input.frame_names.push_back(name);
   }
+  input.frames = BaseFrames(std::move(bases));
   ProgressWatch watch(progress, "gshell.deform");
   options.frame.progress = [&watch](int, double, double) { watch.check_signals(); }; // Ctrl-C inside a frame
   const DeformProgress frame_done = [&watch](const DeformRun& run, int count) {

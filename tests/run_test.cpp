@@ -208,11 +208,13 @@ TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
   input.shell = rest;
   input.surface = cylinder;
   const int frames = 3;
+  std::vector<Eigen::MatrixXd> bases;
   for (int k = 1; k <= frames; ++k) {
     const Eigen::Matrix3d R = Eigen::AngleAxisd(0.2 * k, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
-    input.frames.push_back((rest.base * R.transpose()).rowwise() + Eigen::RowVector3d(0.1 * k, 0, 0));
+    bases.push_back((rest.base * R.transpose()).rowwise() + Eigen::RowVector3d(0.1 * k, 0, 0));
     input.frame_names.push_back("turn " + std::to_string(k));
   }
+  input.frames = BaseFrames(bases);
   DeformRunOptions options;
   options.frame.tolerance = 1e-10;
   options.compare_offset = true;
@@ -243,9 +245,62 @@ TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
   EXPECT_DOUBLE_EQ(last.shell.thickness, 0.1);
   EXPECT_EQ(last.shell.F, cylinder.F);
   EXPECT_TRUE(last.surface.has_uv());
-  EXPECT_LT((last.shell.base - input.frames.back()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((last.shell.base - bases.back()).cwiseAbs().maxCoeff(), 1e-12);
 
   options.frame.max_iterations = -1;
   EXPECT_THROW(run_deform(input, options), InputError);
   EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"run"});
+}
+
+// A sequence too large to hold is read again frame by frame: the same run, bit for bit. Its files
+// are all checked before any work, and one changed during the run ends it with the file named
+// and nothing written.
+TEST(DeformRun, FramesReadAgainWhenTooLargeToHoldGiveTheSameRun) {
+  test::TempDir tmp;
+  const TriMesh cylinder = make_cylinder(16);
+  const Shell rest = test::offset_shell(cylinder, 0.1);
+  std::vector<std::string> paths;
+  for (int k = 1; k <= 3; ++k) {
+    TriMesh frame = cylinder;
+    frame.V.col(0) = cylinder.V.col(0) * (1 + 0.05 * k) + cylinder.V.col(2) * (0.1 * k);
+    paths.push_back(tmp.file("base" + std::to_string(k) + ".obj"));
+    write_mesh(paths.back(), frame);
+  }
+  const BaseFrames held = BaseFrames::load(paths, cylinder.F, rest.num_base_vertices());
+  const BaseFrames read_again = BaseFrames::load(paths, cylinder.F, rest.num_base_vertices(), 0);
+  ASSERT_TRUE(held.held());
+  ASSERT_FALSE(read_again.held());
+  ASSERT_EQ(read_again.size(), 3);
+  DeformInput input;
+  input.shell_name = "rest";
+  input.shell = rest;
+  input.surface = cylinder;
+  input.frame_names = paths;
+  input.frames = held;
+  const DeformRun a = run_deform(input, {});
+  input.frames = read_again;
+  const DeformRun b = run_deform(input, {});
+  ASSERT_EQ(a.frames.size(), 3u);
+  ASSERT_EQ(b.frames.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(read_again.get(k), held.get(k)) << k;
+    EXPECT_EQ(a.frames[k].result.energy, b.frames[k].result.energy) << k;
+  }
+
+  // A bad file fails at load() whether the frames are held or not.
+  test::write_text(tmp.file("bad.obj"), "v 0 0 0\n");
+  std::vector<std::string> with_bad = paths;
+  with_bad.push_back(tmp.file("bad.obj"));
+  EXPECT_THROW(BaseFrames::load(with_bad, cylinder.F, rest.num_base_vertices(), 0), InputError);
+
+  // The last frame's file replaced by a mesh of another size after the load: the run stops there.
+  write_mesh(paths.back(), make_cylinder(8));
+  const std::string out = tmp.file("run");
+  try {
+    run_deform(input, {}, out);
+    ADD_FAILURE() << "a frame changed during the run was used";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(paths.back()), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(out));
 }

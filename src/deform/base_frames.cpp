@@ -6,25 +6,51 @@
 
 namespace gshell {
 
+namespace {
+
+// One frame file read and checked against the shell's base.
+Eigen::MatrixXd read_base_frame(const std::string& path, const Eigen::MatrixXi& F, int n) {
+  TriMesh mesh = read_mesh(path);
+  if (mesh.num_vertices() != n)
+    throw InputError(with_file(path, "has " + std::to_string(mesh.num_vertices()) + " vertices, the shell's base has " +
+                                         std::to_string(n)));
+  if (mesh.F.rows() != F.rows())
+    throw InputError(with_file(path, "has " + std::to_string(mesh.F.rows()) + " faces, the shell's base has " +
+                                         std::to_string(F.rows())));
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    if (mesh.F.row(f) != F.row(f))
+      throw InputError(with_file(path, "face " + std::to_string(f) + " differs from the shell's base"));
+  require_usable_coordinates(mesh.V, path);
+  return std::move(mesh.V);
+}
+
+} // namespace
+
 std::vector<Eigen::MatrixXd> load_base_frames(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n) {
   if (paths.empty()) throw InputError("no base frame given");
   std::vector<Eigen::MatrixXd> frames;
   frames.reserve(paths.size());
-  for (const std::string& path : paths) {
-    TriMesh mesh = read_mesh(path);
-    if (mesh.num_vertices() != n)
-      throw InputError(with_file(path, "has " + std::to_string(mesh.num_vertices()) +
-                                           " vertices, the shell's base has " + std::to_string(n)));
-    if (mesh.F.rows() != F.rows())
-      throw InputError(with_file(path, "has " + std::to_string(mesh.F.rows()) + " faces, the shell's base has " +
-                                           std::to_string(F.rows())));
-    for (Eigen::Index f = 0; f < F.rows(); ++f)
-      if (mesh.F.row(f) != F.row(f))
-        throw InputError(with_file(path, "face " + std::to_string(f) + " differs from the shell's base"));
-    require_usable_coordinates(mesh.V, path);
-    frames.push_back(std::move(mesh.V));
-  }
+  for (const std::string& path : paths) frames.push_back(read_base_frame(path, F, n));
   return frames;
+}
+
+BaseFrames BaseFrames::load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n,
+                            std::size_t held_bytes) {
+  if (paths.empty()) throw InputError("no base frame given");
+  const double bytes = static_cast<double>(paths.size()) * n * 3 * sizeof(double);
+  if (bytes <= static_cast<double>(held_bytes)) return BaseFrames(load_base_frames(paths, F, n));
+  // Every file is still read and checked now, so that a bad one fails before any work.
+  for (const std::string& path : paths) read_base_frame(path, F, n);
+  BaseFrames frames;
+  frames.paths_ = paths;
+  frames.F_ = F;
+  frames.n_ = n;
+  return frames;
+}
+
+Eigen::MatrixXd BaseFrames::get(int k) const {
+  if (held()) return held_.at(static_cast<std::size_t>(k));
+  return read_base_frame(paths_.at(static_cast<std::size_t>(k)), F_, n_);
 }
 
 } // namespace gshell

@@ -65,7 +65,7 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   input.surface = std::move(folder.surface);
   input.rest_warning = invalid_rest_shell_warning(shell_dir, folder.report, "frame");
   input.frame_names = frames;
-  input.frames = load_base_frames(frames, input.shell.F, input.shell.num_base_vertices());
+  input.frames = BaseFrames::load(frames, input.shell.F, input.shell.num_base_vertices());
   if (!embed.empty()) {
     input.detail = read_mesh(embed);
     require_usable_coordinates(input.detail.V, embed);
@@ -185,7 +185,8 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
                      const DeformProgress& progress, const BeforeCommit& before_commit) {
   using Clock = std::chrono::steady_clock;
   options.check();
-  if (input.frames.size() != input.frame_names.size()) throw InputError("one name per base frame is needed");
+  if (input.frames.size() != static_cast<int>(input.frame_names.size()))
+    throw InputError("one name per base frame is needed");
   if (!(input.shell.thickness > 0)) throw InputError("the rest shell needs a positive thickness");
   std::unique_ptr<StagedFolder> staged; // fails on a bad output path before the long part
   if (!out.empty()) {
@@ -212,18 +213,19 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
   run.replaced_rest_tets = deformer.replaced_rest_tets();
   run.factor_seconds = deformer.factor_seconds();
   run.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  const int count = static_cast<int>(input.frames.size());
+  const int count = input.frames.size();
   if (progress) progress(run, count);
 
   for (int k = 0; k < count; ++k) {
     DeformFrameRecord record;
     record.frame = k + 1;
     record.base = input.frame_names[k];
-    record.result = deformer.solve(input.frames[k], options.frame);
+    const Eigen::MatrixXd base = input.frames.get(k);
+    record.result = deformer.solve(base, options.frame);
     record.result.top.resize(0, 3); // in the folder, not in memory
     if (options.compare_offset) {
       Eigen::MatrixXd X(2 * n, 3);
-      X << input.frames[k], offset_top(input.frames[k], shell.F, shell.thickness);
+      X << base, offset_top(base, shell.F, shell.thickness);
       record.offset = stretch_stats(deformer.rest_tets(), X);
     }
     if (staged) write_frame(staged->path() / frame_name(k + 1, {}, count), input, deformer, tets, embedding);

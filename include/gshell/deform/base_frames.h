@@ -1,6 +1,7 @@
 #pragma once
 // The base frames that drive a deformation, read and checked up front.
 #include <Eigen/Core>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -12,5 +13,40 @@ namespace gshell {
 /// \throws InputError "FRAME: problem" for the first bad frame (unreadable, unknown format,
 ///         other vertex count or faces, non-finite), or when `paths` is empty.
 std::vector<Eigen::MatrixXd> load_base_frames(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n);
+
+/// The base frames of a deformation, in order: held in memory, or, for a sequence too large to
+/// hold (a long animation of a sculpt: 1,000 frames of a million vertices are 24 GB), read
+/// again from their files one at a time while the deformation runs.
+class BaseFrames {
+public:
+  /// Sequences up to this many bytes of coordinates are held (n x 3 doubles per frame).
+  static constexpr std::size_t kHeldBytes = std::size_t{1} << 30;
+
+  BaseFrames() = default;
+  /// Frames given in memory (n x 3 each), held.
+  explicit BaseFrames(std::vector<Eigen::MatrixXd> frames) : held_(std::move(frames)) {}
+
+  /// Reads and checks every file as load_base_frames does, before returning; keeps the
+  /// coordinates when the whole sequence takes at most `held_bytes`, else only the paths, and
+  /// get() reads a frame again when asked for it.
+  /// \throws InputError as load_base_frames.
+  static BaseFrames load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n,
+                         std::size_t held_bytes = kHeldBytes);
+
+  int size() const { return static_cast<int>(held_.empty() ? paths_.size() : held_.size()); }
+  bool empty() const { return size() == 0; }
+  /// Whether the coordinates are in memory (else get() reads the files).
+  bool held() const { return paths_.empty(); }
+  /// Frame k (0-based), n x 3.
+  /// \throws InputError when a file read again no longer passes the checks (changed or removed
+  ///         since load()).
+  Eigen::MatrixXd get(int k) const;
+
+private:
+  std::vector<Eigen::MatrixXd> held_;
+  std::vector<std::string> paths_; // when not held
+  Eigen::MatrixXi F_;              // to check the files read again
+  int n_ = 0;
+};
 
 } // namespace gshell

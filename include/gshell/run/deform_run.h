@@ -6,6 +6,7 @@
 // Output folder: report.json (below), frame_NNNN/ per frame (top.obj with the base's faces and
 // UVs, shell.vtu with cell data stretch and det_F against the rest shell, detail.obj with --embed),
 // optionally preview.png.
+#include <gshell/deform/base_frames.h>
 #include <gshell/deform/embedding.h>
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/mesh.h>
@@ -36,7 +37,7 @@ struct DeformInput {
   TriMesh surface;                        ///< its base's faces and UVs (top.obj of each frame gets them)
   std::string rest_warning;               ///< invalid_rest_shell_warning of its report: empty unless it says invalid
   std::vector<std::string> frame_names;   ///< as the report names the frames
-  std::vector<Eigen::MatrixXd> frames;    ///< n x 3 each
+  BaseFrames frames;                      ///< n x 3 each (long sequences of large bases read as needed)
   std::string detail_name;                ///< the embedded detail mesh, or empty
   TriMesh detail;
 };
