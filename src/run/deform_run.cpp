@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <memory>
 #include <numeric>
 
@@ -216,11 +217,17 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
   const int count = input.frames.size();
   if (progress) progress(run, count);
 
+  // Frames read again from their files (a sequence too large to hold): the next one is read while
+  // this one is solved.
+  const auto read_frame = [&input](int k) { return input.frames.get(k); };
+  std::future<Eigen::MatrixXd> next;
+  if (!input.frames.held()) next = std::async(std::launch::async, read_frame, 0);
   for (int k = 0; k < count; ++k) {
     DeformFrameRecord record;
     record.frame = k + 1;
     record.base = input.frame_names[k];
-    const Eigen::MatrixXd base = input.frames.get(k);
+    const Eigen::MatrixXd base = next.valid() ? next.get() : input.frames.get(k);
+    if (!input.frames.held() && k + 1 < count) next = std::async(std::launch::async, read_frame, k + 1);
     record.result = deformer.solve(base, options.frame);
     record.result.top.resize(0, 3); // in the folder, not in memory
     if (options.compare_offset) {
