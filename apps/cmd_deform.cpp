@@ -44,7 +44,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   // or a log shows it is alive; short frames show only their summary line. The count runs over
   // all of the frame's solves (paper, guarded sub-steps, a fresh top's), which each restart theirs.
   using Clock = std::chrono::steady_clock;
-  Clock::time_point frame_began = Clock::now(), last_shown = frame_began;
+  Clock::time_point frame_began = Clock::now(), last_shown = frame_began; // last_shown: the frame's start at first
   int frame_iterations = 0;
   std::string frame_label;
   DeformRunOptions options = a.options; // with the status callback, which refers to this call's locals
@@ -52,7 +52,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     options.frame.progress = [&](int, double energy, double) {
       ++frame_iterations;
       const auto now = Clock::now();
-      if (now - frame_began < std::chrono::seconds(1) || now - last_shown < std::chrono::seconds(1)) return;
+      if (now - last_shown < std::chrono::seconds(1)) return;
       last_shown = now;
       char text[160];
       std::snprintf(text, sizeof text, "%s: iteration %d  energy %.6g  %.1f s", frame_label.c_str(), frame_iterations,

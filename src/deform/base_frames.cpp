@@ -26,25 +26,22 @@ Eigen::MatrixXd read_base_frame(const std::string& path, const Eigen::MatrixXi& 
 
 } // namespace
 
-std::vector<Eigen::MatrixXd> load_base_frames(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n) {
-  if (paths.empty()) throw InputError("no base frame given");
-  std::vector<Eigen::MatrixXd> frames;
-  frames.reserve(paths.size());
-  for (const std::string& path : paths) frames.push_back(read_base_frame(path, F, n));
-  return frames;
-}
-
 BaseFrames BaseFrames::load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n,
                             std::size_t held_bytes) {
   if (paths.empty()) throw InputError("no base frame given");
-  const double bytes = static_cast<double>(paths.size()) * n * 3 * sizeof(double);
-  if (bytes <= static_cast<double>(held_bytes)) return BaseFrames(load_base_frames(paths, F, n));
-  // Every file is still read and checked now, so that a bad one fails before any work.
-  for (const std::string& path : paths) read_base_frame(path, F, n);
+  const bool hold = static_cast<double>(paths.size()) * n * 3 * sizeof(double) <= static_cast<double>(held_bytes);
   BaseFrames frames;
-  frames.paths_ = paths;
-  frames.F_ = F;
-  frames.n_ = n;
+  if (hold) frames.held_.reserve(paths.size());
+  // Every file is read and checked now, held or not, so that a bad one fails before any work.
+  for (const std::string& path : paths) {
+    Eigen::MatrixXd V = read_base_frame(path, F, n);
+    if (hold) frames.held_.push_back(std::move(V));
+  }
+  if (!hold) {
+    frames.paths_ = paths;
+    frames.F_ = F;
+    frames.n_ = n;
+  }
   return frames;
 }
 

@@ -7,13 +7,6 @@
 
 namespace gshell {
 
-/// Reads every frame file (any mesh format read_mesh knows) and checks each against the shell's
-/// base faces F (n vertices): same vertex count, identical faces, finite coordinates. All files
-/// are read and checked before returning, so a bad frame fails before any work is done.
-/// \throws InputError "FRAME: problem" for the first bad frame (unreadable, unknown format,
-///         other vertex count or faces, non-finite), or when `paths` is empty.
-std::vector<Eigen::MatrixXd> load_base_frames(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n);
-
 /// The base frames of a deformation, in order: held in memory, or, for a sequence too large to
 /// hold (a long animation of a sculpt: 1,000 frames of a million vertices are 24 GB), read
 /// again from their files one at a time while the deformation runs.
@@ -26,15 +19,17 @@ public:
   /// Frames given in memory (n x 3 each), held.
   explicit BaseFrames(std::vector<Eigen::MatrixXd> frames) : held_(std::move(frames)) {}
 
-  /// Reads and checks every file as load_base_frames does, before returning; keeps the
-  /// coordinates when the whole sequence takes at most `held_bytes`, else only the paths, and
-  /// get() reads a frame again when asked for it.
-  /// \throws InputError as load_base_frames.
+  /// Reads every frame file (any mesh format read_mesh knows) and checks each against the shell's
+  /// base faces F (n vertices): same vertex count, identical faces, finite coordinates, all before
+  /// returning, so a bad frame fails before any work is done. Keeps the coordinates when the whole
+  /// sequence takes at most `held_bytes`, else only the paths, and get() reads a frame again
+  /// (and checks it again) when asked for it.
+  /// \throws InputError "FRAME: problem" for the first bad frame (unreadable, unknown format,
+  ///         other vertex count or faces, non-finite), or when `paths` is empty.
   static BaseFrames load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n,
                          std::size_t held_bytes = kHeldBytes);
 
-  int size() const { return static_cast<int>(held_.empty() ? paths_.size() : held_.size()); }
-  bool empty() const { return size() == 0; }
+  int size() const { return static_cast<int>(held() ? held_.size() : paths_.size()); }
   /// Whether the coordinates are in memory (else get() reads the files).
   bool held() const { return paths_.empty(); }
   /// Frame k (0-based), n x 3.
