@@ -57,6 +57,9 @@ void run(const CLI::App& cmd, ViewArgs& a) {
   ViewInput input = load_view_input(a.inputs, a.input);
   progress.finish_status();
   for (const std::string& warning : input.warnings) std::cerr << "gshell view: warning: " << warning << "\n";
+  if (!input.frames_held)
+    progress.line(std::to_string(input.frames.size()) + " frames take more than " +
+                  std::to_string(a.input.held_frame_bytes >> 20) + " MiB together: each is read when shown");
   const int n = input.shell.num_base_vertices();
   const std::string what = std::to_string(2 * n) + " shell vertices, " + std::to_string(3 * input.shell.F.rows()) +
                            " tets" +

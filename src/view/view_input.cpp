@@ -33,6 +33,15 @@ LoadedFolder load_folder(const std::string& dir) {
   return out;
 }
 
+// Throws unless `f` (read from `dir`) is a frame of the shell `first` (read from `first_dir`).
+void check_same_shell(const std::string& dir, const Shell& f, const Shell& first, const std::string& first_dir) {
+  if (f.base.rows() == first.base.rows() && f.F == first.F) return;
+  throw InputError(with_file(dir, "not a frame of the same shell as " + first_dir + " (" + std::to_string(f.base.rows()) +
+                                      " vertices, " + std::to_string(f.F.rows()) + " faces vs " +
+                                      std::to_string(first.base.rows()) + ", " + std::to_string(first.F.rows()) +
+                                      ", or other faces)"));
+}
+
 ViewInput from_folders(const std::vector<std::string>& dirs, const std::string& name, const ViewInputOptions& options) {
   ViewInput in;
   in.name = name;
@@ -45,15 +54,17 @@ ViewInput from_folders(const std::vector<std::string>& dirs, const std::string& 
       in.surface = std::move(f.surface);
       const std::string rest_warning = invalid_rest_shell_warning(dirs[0], f.report, "pose step");
       if (!rest_warning.empty()) in.warnings.push_back(rest_warning);
-    } else if (f.shell.base.rows() != in.shell.base.rows() || f.shell.F != in.shell.F) {
-      throw InputError(with_file(dirs[k], "not a frame of the same shell as " + dirs[0] + " (" +
-                                              std::to_string(f.shell.base.rows()) + " vertices, " +
-                                              std::to_string(f.shell.F.rows()) + " faces vs " +
-                                              std::to_string(in.shell.base.rows()) + ", " +
-                                              std::to_string(in.shell.F.rows()) + ", or other faces)"));
+      const double frame_bytes = sizeof(double) * static_cast<double>(6 * f.shell.base.rows() + loaded.face_stretch.size());
+      in.frames_held = dirs.size() == 1 || frame_bytes * static_cast<double>(dirs.size()) <= static_cast<double>(options.held_frame_bytes);
+    } else {
+      check_same_shell(dirs[k], f.shell, in.shell, dirs[0]);
     }
     in.frames.push_back({dirs[k], f.shell.vertices(), std::move(loaded.face_stretch)});
     if (options.frame_progress && dirs.size() > 1) options.frame_progress(static_cast<int>(k) + 1, static_cast<int>(dirs.size()));
+    if (!in.frames_held) { // the first frame only (the shell the page opens on); the others are named
+      for (size_t j = k + 1; j < dirs.size(); ++j) in.frames.push_back({dirs[j], {}, {}});
+      break;
+    }
   }
   return in;
 }
@@ -102,6 +113,16 @@ ViewInput load_view_input(const std::vector<std::string>& inputs, const ViewInpu
     if (!fs::is_directory(input, ec) || !is_shell_folder(input))
       throw InputError(with_file(input, "several inputs play as a sequence of frames: each must be a shell folder"));
   return from_folders(inputs, inputs[0], options);
+}
+
+ViewFrame read_view_frame(const ViewInput& input, int k) {
+  if (k < 0 || k >= static_cast<int>(input.frames.size()))
+    throw InputError("no frame " + std::to_string(k) + " (there are " + std::to_string(input.frames.size()) + ")");
+  const ViewFrame& frame = input.frames[static_cast<size_t>(k)];
+  if (input.frames_held || k == 0) return frame;
+  LoadedFolder loaded = load_folder(frame.name);
+  check_same_shell(frame.name, loaded.folder.shell, input.shell, input.frames[0].name);
+  return {frame.name, loaded.folder.shell.vertices(), std::move(loaded.face_stretch)};
 }
 
 } // namespace gshell

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 namespace gshell {
 
@@ -97,7 +98,10 @@ struct ViewSession::Impl {
   std::string phase = "rest";
   std::string solver_note;
 
-  const Eigen::MatrixXd& X() const { return drag ? drag->vertices() : input.frames[frame].X; }
+  std::optional<ViewFrame> read_frame; ///< the frame shown when the sequence is not held and it is not the first
+
+  const ViewFrame& shown_frame() const { return read_frame ? *read_frame : input.frames[drag ? 0 : frame]; }
+  const Eigen::MatrixXd& X() const { return drag ? drag->vertices() : shown_frame().X; }
   int num_base() const { return input.shell.num_base_vertices(); }
 
   DragSession& posable(const char* type) {
@@ -122,7 +126,7 @@ struct ViewSession::Impl {
     at_rest = !drag || x == rest_vertices;
     inverted_by_det = -1;
     if (at_rest) {
-      face_values = input.frames[drag ? 0 : frame].face_stretch;
+      face_values = shown_frame().face_stretch;
     } else {
       const RestTets& tets = drag->rest_tets();
       const Eigen::VectorXd stretch = tet_stretch(tets, x);
@@ -432,6 +436,11 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
     if (show->index >= static_cast<int>(s.input.frames.size()))
       throw InputError("frame: no frame " + std::to_string(show->index) + " (there are " +
                        std::to_string(s.input.frames.size()) + ")");
+    if (!s.input.frames_held) { // read before anything changes: a frame that cannot be read leaves the shown one
+      std::optional<ViewFrame> read;
+      if (show->index > 0) read = read_view_frame(s.input, show->index);
+      s.read_frame = std::move(read);
+    }
     s.frame = show->index;
     s.changed();
     s.send_state(send);

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <functional>
 #include <string>
 #include <vector>
@@ -31,12 +32,16 @@ struct ViewInputOptions {
   GenerateRunOptions generate;
   /// Called after each frame of a sequence is read (frames read, frames in all).
   std::function<void(int, int)> frame_progress;
+  /// A sequence whose frames (positions and colors) take more than this many bytes is not held:
+  /// only its first frame is read up front, the others when shown (read_view_frame). Holding 80
+  /// frames of a 655K-vertex shell would take 3.4 GB and minutes of reading before the page opens.
+  std::size_t held_frame_bytes = std::size_t{1} << 30;
 };
 
 struct ViewFrame {
   std::string name;             ///< the folder as given / frame_NNNN
-  Eigen::MatrixXd X;            ///< 2n x 3 shell vertices (base rows, then top rows)
-  Eigen::VectorXd face_stretch; ///< per face, as gshell render colors it (m)
+  Eigen::MatrixXd X;            ///< 2n x 3 shell vertices (base rows, then top rows); empty if not held
+  Eigen::VectorXd face_stretch; ///< per face, as gshell render colors it (m); empty if not held
 };
 
 struct ViewInput {
@@ -45,6 +50,9 @@ struct ViewInput {
   Shell shell;              ///< the (first) shell: base, top, faces, thickness eta > 0
   TriMesh surface;          ///< its base's faces and UVs (for a saved pose folder)
   std::vector<ViewFrame> frames; ///< one for a posable shell; 2 or more for a sequence
+  /// Whether every frame's X and face_stretch are in memory; else only the first one's are
+  /// (ViewInputOptions::held_frame_bytes) and read_view_frame reads the others.
+  bool frames_held = true;
   /// For a surface input, what `gshell generate` would warn of: the surface's validation
   /// warnings, then the generated shell's (GenerateRun::warnings). For shell folders, that the
   /// first one's report calls its shell invalid (invalid_rest_shell_warning), if it does.
@@ -56,7 +64,12 @@ struct ViewInput {
 /// Loads what `gshell view INPUT...` shows (see the table above). A surface is generated with
 /// `options.generate` (progress through its solve.progress callback).
 /// \throws InputError naming the input when it cannot be read, when frames of a sequence differ in
-///         vertex count or faces, or when a thickness is missing or bad.
+///         vertex count or faces (frames not held: when shown), or when a thickness is missing or bad.
 ViewInput load_view_input(const std::vector<std::string>& inputs, const ViewInputOptions& options = {});
+
+/// Frame k of a sequence as shown: input.frames[k] when held, else read from its folder.
+/// \throws InputError naming the folder when it can no longer be read or is not a frame of
+///         input.shell (checked only now for frames not held), or when k is out of range.
+ViewFrame read_view_frame(const ViewInput& input, int k);
 
 } // namespace gshell
