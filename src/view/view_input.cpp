@@ -55,7 +55,8 @@ ViewInput from_folders(const std::vector<std::string>& dirs, const std::string& 
       const std::string rest_warning = invalid_rest_shell_warning(dirs[0], f.report, "pose step");
       if (!rest_warning.empty()) in.warnings.push_back(rest_warning);
       const double frame_bytes = sizeof(double) * static_cast<double>(6 * f.shell.base.rows() + loaded.face_stretch.size());
-      in.frames_held = dirs.size() == 1 || frame_bytes * static_cast<double>(dirs.size()) <= static_cast<double>(options.held_frame_bytes);
+      in.frames_held =
+          dirs.size() == 1 || frame_bytes * static_cast<double>(dirs.size()) <= static_cast<double>(options.held_frame_bytes);
     } else {
       check_same_shell(dirs[k], f.shell, in.shell, dirs[0]);
     }
