@@ -478,8 +478,8 @@ TEST(ViewSession, ASequenceTooLargeToHoldShowsWhatAHeldOneShows) {
   EXPECT_EQ(read_when_shown.frames[1].X.size(), 0); // not read yet
   EXPECT_THROW(load_view_input(dirs), InputError);  // held: every frame is checked up front
 
-  // The frames the page gets (positions and colors) for 1, 0, 2, 1, from a session holding them
-  // all (the three good frames) and from one reading them when shown.
+  // The frames the page gets (positions and colors) for 1, 0, 2, 1 and then 3, from a session
+  // holding the three good frames and from one reading all four when shown.
   auto shown = [&](ViewInput input, Outbox& out) {
     ViewSession session(std::move(input), tight_options(plate.tmp.path().string()));
     session.welcome(out.sink());

@@ -100,7 +100,7 @@ struct ViewSession::Impl {
 
   std::optional<ViewFrame> read_frame; ///< the frame shown when the sequence is not held and it is not the first
 
-  const ViewFrame& shown_frame() const { return read_frame ? *read_frame : input.frames[drag ? 0 : frame]; }
+  const ViewFrame& shown_frame() const { return read_frame ? *read_frame : input.frames[frame]; } // frame: 0 when posable
   const Eigen::MatrixXd& X() const { return drag ? drag->vertices() : shown_frame().X; }
   int num_base() const { return input.shell.num_base_vertices(); }
 
@@ -436,11 +436,8 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
     if (show->index >= static_cast<int>(s.input.frames.size()))
       throw InputError("frame: no frame " + std::to_string(show->index) + " (there are " +
                        std::to_string(s.input.frames.size()) + ")");
-    if (!s.input.frames_held) { // read before anything changes: a frame that cannot be read leaves the shown one
-      std::optional<ViewFrame> read;
-      if (show->index > 0) read = read_view_frame(s.input, show->index);
-      s.read_frame = std::move(read);
-    }
+    if (!s.input.frames_held) // read before anything changes: a frame that cannot be read leaves the shown one
+      s.read_frame = show->index > 0 ? std::optional(read_view_frame(s.input, show->index)) : std::nullopt;
     s.frame = show->index;
     s.changed();
     s.send_state(send);
