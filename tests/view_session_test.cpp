@@ -469,35 +469,44 @@ TEST(ViewSession, ASequenceTooLargeToHoldShowsWhatAHeldOneShows) {
   const std::string posed = plate.tmp.file("lifted"), other = plate.tmp.file("other");
   ASSERT_EQ(test::run_cli("pose -q --shell '" + plate.dir + "' --handles '" + handles + "' -o '" + posed + "'").exit_code, 0);
   ASSERT_EQ(test::run_cli("generate builtin:plane:8 --thickness 0.1 -q -o '" + other + "'").exit_code, 0);
-  const std::vector<std::string> dirs{plate.dir, posed, plate.dir, other};
+  // The plate with its faces listed in reverse: as many vertices and faces, other tets.
+  TriMesh reversed = make_plane(10);
+  reversed.F = reversed.F.colwise().reverse().eval();
+  const std::string reordered = plate.tmp.file("reordered");
+  write_mesh(plate.tmp.file("reordered.obj"), reversed);
+  ASSERT_EQ(test::run_cli("generate '" + plate.tmp.file("reordered.obj") + "' --thickness 0.1 -q -o '" + reordered + "'").exit_code,
+            0);
+  const std::vector<std::string> dirs{plate.dir, posed, plate.dir, other, reordered};
   ViewInputOptions small;
   small.held_frame_bytes = 1;
   const ViewInput read_when_shown = load_view_input(dirs, small);
   EXPECT_FALSE(read_when_shown.frames_held);
-  ASSERT_EQ(read_when_shown.frames.size(), 4u);
+  ASSERT_EQ(read_when_shown.frames.size(), 5u);
   EXPECT_EQ(read_when_shown.frames[1].X.size(), 0); // not read yet
   EXPECT_THROW(load_view_input(dirs), InputError);  // held: every frame is checked up front
 
-  // The frames the page gets (positions and colors) for 1, 0, 2, 1 and then 3, from a session
-  // holding the three good frames and from one reading all four when shown.
+  // The frames the page gets (positions and colors) for 1, 0, 2, 1 and then 3 and 4, from a
+  // session holding the three good frames and from one reading all five when shown.
   auto shown = [&](ViewInput input, Outbox& out) {
     ViewSession session(std::move(input), tight_options(plate.tmp.path().string()));
     session.welcome(out.sink());
-    for (int k : {1, 0, 2, 1, 3}) session.receive(R"({"type":"frame","index":)" + std::to_string(k) + "}", out.sink());
+    for (int k : {1, 0, 2, 1, 3, 4}) session.receive(R"({"type":"frame","index":)" + std::to_string(k) + "}", out.sink());
     return out.frames(ViewFrameKind::Frame).size();
   };
   Outbox held_out, read_out;
   const std::size_t held_frames = shown(load_view_input({plate.dir, posed, plate.dir}), held_out);
   const std::size_t read_frames = shown(read_when_shown, read_out);
   EXPECT_EQ(held_frames, 5u);
-  EXPECT_EQ(read_frames, 5u); // frame 3 sent nothing
+  EXPECT_EQ(read_frames, 5u); // frames 3 and 4 sent nothing
   EXPECT_EQ(held_out.frames(ViewFrameKind::Frame), read_out.frames(ViewFrameKind::Frame));
   EXPECT_EQ(held_out.frames(ViewFrameKind::Values), read_out.frames(ViewFrameKind::Values));
   EXPECT_NE(read_out.frames(ViewFrameKind::Frame)[1], read_out.frames(ViewFrameKind::Frame)[2]); // 1 is posed
-  ASSERT_EQ(held_out.messages("error").size(), 1u); // no frame 3
-  ASSERT_EQ(read_out.messages("error").size(), 1u); // frame 3 is another shell
+  ASSERT_EQ(held_out.messages("error").size(), 2u); // no frames 3 and 4
+  ASSERT_EQ(read_out.messages("error").size(), 2u); // frames 3 and 4 are other shells
   EXPECT_NE(read_out.messages("error")[0]["message"].get<std::string>().find("other"), std::string::npos)
       << read_out.messages("error")[0].dump();
+  EXPECT_NE(read_out.messages("error")[1]["message"].get<std::string>().find("reordered"), std::string::npos)
+      << read_out.messages("error")[1].dump();
 }
 
 // A surface input is generated as `gshell generate` would, and carries what generate warns of

@@ -37,7 +37,7 @@ TriMesh read_mesh(const std::string& path) {
   else
     throw InputError(with_file(path, "unknown mesh format '" + (ext.empty() ? std::string("(no extension)") : "." + ext) +
                                          "' (supported: .obj .off .ply .stl)"));
-  const std::string bytes = io_detail::read_file_bytes(path);
+  const io_detail::FileBytes bytes(path);
   return reader(path, bytes);
 }
 

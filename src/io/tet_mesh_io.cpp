@@ -52,7 +52,7 @@ void write_tet_mesh(const std::string& path, const TetMesh& mesh) {
 TetMesh read_tet_mesh(const std::string& path) {
   const std::string ext = io_detail::lower_extension(path);
   if (ext != "vtu" && ext != "mesh") throw InputError(format_error(path, ext));
-  const std::string bytes = io_detail::read_file_bytes(path);
+  const io_detail::FileBytes bytes(path);
   return ext == "vtu" ? io_detail::read_vtu(path, bytes) : io_detail::read_medit(path, bytes);
 }
 

@@ -9,6 +9,7 @@
 #include <gshell/error.h>
 #include <gshell/io/xml_escape.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdio>
@@ -209,18 +210,62 @@ int type_size(const std::string& t) {
   return 0;
 }
 
-double decode(const std::string& t, const char* p, bool big) {
-  if (t == "Float64") return load_value<double>(p, big);
-  if (t == "Float32") return load_value<float>(p, big);
-  if (t == "Int8") return load_value<std::int8_t>(p, big);
-  if (t == "UInt8") return load_value<std::uint8_t>(p, big);
-  if (t == "Int16") return load_value<std::int16_t>(p, big);
-  if (t == "UInt16") return load_value<std::uint16_t>(p, big);
-  if (t == "Int32") return load_value<std::int32_t>(p, big);
-  if (t == "UInt32") return load_value<std::uint32_t>(p, big);
-  if (t == "Int64") return static_cast<double>(load_value<std::int64_t>(p, big));
-  return static_cast<double>(load_value<std::uint64_t>(p, big));
+// Decodes `count` values of type T stored with the given byte order at `data` into `out`.
+template <class T>
+void decode_as(const char* data, std::size_t count, bool big, double* out) {
+  for (std::size_t i = 0; i < count; ++i, data += sizeof(T)) out[i] = static_cast<double>(load_value<T>(data, big));
 }
+
+using Decoder = void (*)(const char*, std::size_t, bool, double*);
+
+// Chosen once per array and run over many values at a time: comparing the type's name at every
+// value took a quarter of reading a shell.vtu.
+Decoder decoder(const std::string& t) {
+  if (t == "Float64") return decode_as<double>;
+  if (t == "Float32") return decode_as<float>;
+  if (t == "Int8") return decode_as<std::int8_t>;
+  if (t == "UInt8") return decode_as<std::uint8_t>;
+  if (t == "Int16") return decode_as<std::int16_t>;
+  if (t == "UInt16") return decode_as<std::uint16_t>;
+  if (t == "Int32") return decode_as<std::int32_t>;
+  if (t == "UInt32") return decode_as<std::uint32_t>;
+  if (t == "Int64") return decode_as<std::int64_t>;
+  return decode_as<std::uint64_t>;
+}
+
+// An array's values in the file: `tuples` tuples of `components` values each, row-major.
+struct Values {
+  const char* data;
+  std::size_t size; ///< bytes per value
+  Decoder decode;
+  bool big_endian;
+  long long tuples, components;
+
+  /// f(t, v) for the values v of every tuple t, in order, decoded a block at a time (into a small
+  /// buffer: decoding a whole array first would touch twice the memory).
+  template <class F>
+  void for_each_tuple(F&& f) const {
+    constexpr long long block = 4096;
+    std::vector<double> buffer(static_cast<std::size_t>(std::min(tuples, block) * components));
+    for (long long t0 = 0; t0 < tuples; t0 += block) {
+      const long long t1 = std::min(tuples, t0 + block);
+      decode(data + static_cast<std::size_t>(t0 * components) * size, static_cast<std::size_t>((t1 - t0) * components),
+             big_endian, buffer.data());
+      for (long long t = t0; t < t1; ++t) f(t, buffer.data() + (t - t0) * components);
+    }
+  }
+  /// All values, a row per tuple.
+  Eigen::MatrixXd matrix() const {
+    Eigen::MatrixXd values(tuples, components);
+    if (components == 1) // one column: the file's order is the matrix's
+      decode(data, static_cast<std::size_t>(tuples), big_endian, values.data());
+    else
+      for_each_tuple([&](long long t, const double* v) {
+        for (long long c = 0; c < components; ++c) values(t, c) = v[c];
+      });
+    return values;
+  }
+};
 
 long long to_count(const VtuParser& p, const Tag& tag, const std::string& key) {
   const auto it = tag.attributes.find(key);
@@ -296,8 +341,8 @@ TetMesh read_vtu(const std::string& path, std::string_view bytes) {
   if (data_start == std::string_view::npos) p.fail("no <AppendedData> (truncated?)");
 
   const std::size_t header_bytes = header64 ? 8 : 4;
-  // Reads an array's values (row-major, `components` per tuple); checks the block fits the file.
-  auto read_array = [&](const ArrayInfo& a, long long tuples) {
+  // An array's values, checked to fit the file.
+  auto locate = [&](const ArrayInfo& a, long long tuples) {
     const std::size_t size = static_cast<std::size_t>(type_size(a.type));
     if (static_cast<unsigned long long>(tuples) > bytes.size())
       p.fail("DataArray '" + a.name + "' claims more values than the file holds (truncated or wrong counts)");
@@ -310,12 +355,9 @@ TetMesh read_vtu(const std::string& path, std::string_view bytes) {
       p.fail("DataArray '" + a.name + "' holds " + std::to_string(declared) + " bytes, expected " + std::to_string(expected));
     if (data_start + a.offset + header_bytes + expected > bytes.size())
       p.fail("DataArray '" + a.name + "' runs past the end of the file (truncated?)");
-    Eigen::MatrixXd values(tuples, a.components);
-    const char* data = block + header_bytes;
-    for (long long r = 0; r < tuples; ++r)
-      for (long long c = 0; c < a.components; ++c, data += size) values(r, c) = decode(a.type, data, big);
-    return values;
+    return Values{block + header_bytes, size, decoder(a.type), big, tuples, a.components};
   };
+  auto read_array = [&](const ArrayInfo& a, long long tuples) { return locate(a, tuples).matrix(); };
   auto find = [&](const std::string& sec, const std::string& name) -> const ArrayInfo* {
     for (const ArrayInfo& a : arrays)
       if (a.section == sec && (name.empty() || a.name == name)) return &a;
@@ -330,27 +372,26 @@ TetMesh read_vtu(const std::string& path, std::string_view bytes) {
   const ArrayInfo* offsets = find("Cells", "offsets");
   const ArrayInfo* types = find("Cells", "types");
   if (!connectivity || !offsets || !types) p.fail("Cells lacks connectivity, offsets or types");
-  const Eigen::MatrixXd type_values = read_array(*types, num_cells);
-  for (long long c = 0; c < num_cells; ++c)
-    if (type_values(c, 0) != vtk_tetra) p.fail("cell " + std::to_string(c) + " is not a tetrahedron (only tets are supported)");
-  const Eigen::MatrixXd offset_values = read_array(*offsets, num_cells);
-  for (long long c = 0; c < num_cells; ++c)
-    if (offset_values(c, 0) != 4.0 * (c + 1)) p.fail("cell offsets are not those of tetrahedra");
-  const Eigen::MatrixXd ids = read_array(*connectivity, 4 * num_cells);
+  locate(*types, num_cells).for_each_tuple([&](long long c, const double* type) {
+    if (*type != vtk_tetra) p.fail("cell " + std::to_string(c) + " is not a tetrahedron (only tets are supported)");
+  });
+  locate(*offsets, num_cells).for_each_tuple([&](long long c, const double* offset) {
+    if (*offset != 4.0 * (c + 1)) p.fail("cell offsets are not those of tetrahedra");
+  });
   mesh.T.resize(num_cells, 4);
-  for (long long c = 0; c < num_cells; ++c)
-    for (int k = 0; k < 4; ++k) {
-      const double id = ids(4 * c + k, 0);
-      // Ids arrive as doubles (any array type is decoded to double): a whole number in range,
-      // tested before the conversion to int (converting 1e19 or NaN is undefined behaviour).
-      if (!(id >= 0 && id < static_cast<double>(num_points) && id == std::floor(id))) {
-        char text[32];
-        std::snprintf(text, sizeof text, "%.17g", id);
-        p.fail("cell " + std::to_string(c) + " refers to point " + text + ", not a point id (the file has " +
-               std::to_string(num_points) + " points)");
-      }
-      mesh.T(c, k) = static_cast<int>(id);
+  locate(*connectivity, 4 * num_cells).for_each_tuple([&](long long i, const double* first) {
+    const double id = *first;
+    // Ids arrive as doubles (any array type is decoded to double): a whole number in range,
+    // tested before the conversion to int (converting 1e19 or NaN is undefined behaviour).
+    const long long c = i / 4;
+    if (!(id >= 0 && id < static_cast<double>(num_points) && id == std::floor(id))) {
+      char text[32];
+      std::snprintf(text, sizeof text, "%.17g", id);
+      p.fail("cell " + std::to_string(c) + " refers to point " + text + ", not a point id (the file has " +
+             std::to_string(num_points) + " points)");
     }
+    mesh.T(c, i % 4) = static_cast<int>(id);
+  });
   for (const ArrayInfo& a : arrays) {
     if (a.section == "PointData") mesh.point_data.emplace_back(a.name, read_array(a, num_points));
     if (a.section == "CellData") mesh.cell_data.emplace_back(a.name, read_array(a, num_cells));

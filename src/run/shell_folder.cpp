@@ -196,7 +196,7 @@ ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderRead
   if (vtu && options.read_tets) {
     const Eigen::Index m = out.shell.F.rows();
     if (vtu->T.rows() == 3 * m && vtu->X.rows() == 2 * out.shell.base.rows()) {
-      out.tets = vtu->T;
+      out.tets = std::move(vtu->T);
       for (const auto& [name, values] : vtu->cell_data)
         if (name == "stretch" && values.rows() == 3 * m && values.cols() == 1) out.tet_stretch = values.col(0);
     }

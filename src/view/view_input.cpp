@@ -1,6 +1,8 @@
 #include <gshell/view/view_input.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
+#include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/render/shell_render.h>
 #include <gshell/run/frames.h>
@@ -8,6 +10,7 @@
 #include <gshell/shell/prism_tets.h>
 
 #include <filesystem>
+#include <optional>
 
 namespace gshell {
 
@@ -33,13 +36,39 @@ LoadedFolder load_folder(const std::string& dir) {
   return out;
 }
 
-// Throws unless `f` (read from `dir`) is a frame of the shell `first` (read from `first_dir`).
-void check_same_shell(const std::string& dir, const Shell& f, const Shell& first, const std::string& first_dir) {
-  if (f.base.rows() == first.base.rows() && f.F == first.F) return;
-  throw InputError(with_file(dir, "not a frame of the same shell as " + first_dir + " (" + std::to_string(f.base.rows()) +
-                                      " vertices, " + std::to_string(f.F.rows()) + " faces vs " +
+// Throws unless the shell read from `dir` (n vertices, m faces; `same_faces`) is a frame of the
+// shell `first` read from `first_dir`.
+void check_same_shell(const std::string& dir, Eigen::Index n, Eigen::Index m, bool same_faces, const Shell& first,
+                      const std::string& first_dir) {
+  if (n == first.base.rows() && m == first.F.rows() && same_faces) return;
+  throw InputError(with_file(dir, "not a frame of the same shell as " + first_dir + " (" + std::to_string(n) +
+                                      " vertices, " + std::to_string(m) + " faces vs " +
                                       std::to_string(first.base.rows()) + ", " + std::to_string(first.F.rows()) +
                                       ", or other faces)"));
+}
+
+void check_same_shell(const std::string& dir, const Shell& f, const Shell& first, const std::string& first_dir) {
+  check_same_shell(dir, f.base.rows(), f.F.rows(), f.F == first.F, first, first_dir);
+}
+
+// A frame not held, read when shown: positions and stored stretch from its shell.vtu alone,
+// checked against the first frame's tets (which fix its faces). Reading the folder as a whole
+// parsed top.obj again for faces every frame has, and that was most of a read. Empty when the
+// folder has no shell.vtu with a stretch array (read as a whole then).
+std::optional<ViewFrame> read_frame_vtu(const std::string& dir, const ViewInput& input) {
+  const fs::path path = fs::path(dir) / "shell.vtu";
+  std::error_code ec;
+  if (input.tets.size() == 0 || !fs::exists(path, ec)) return std::nullopt;
+  TetMesh vtu = read_tet_mesh(path.string());
+  const Eigen::MatrixXd* stretch = nullptr;
+  for (const auto& [name, values] : vtu.cell_data)
+    if (name == "stretch" && values.cols() == 1) stretch = &values;
+  if (!stretch) return std::nullopt;
+  const bool same = vtu.X.rows() == 2 * input.shell.base.rows() && vtu.T == input.tets;
+  check_same_shell(dir, vtu.X.rows() / 2, vtu.T.rows() / 3, same, input.shell, input.frames[0].name);
+  require_usable_coordinates(vtu.X, path.string());
+  Eigen::VectorXd face_stretch = face_stretch_from_tets(vtu.X, vtu.T, stretch->col(0));
+  return ViewFrame{dir, std::move(vtu.X), std::move(face_stretch)};
 }
 
 ViewInput from_folders(const std::vector<std::string>& dirs, const std::string& name, const ViewInputOptions& options) {
@@ -63,6 +92,7 @@ ViewInput from_folders(const std::vector<std::string>& dirs, const std::string& 
     in.frames.push_back({dirs[k], f.shell.vertices(), std::move(loaded.face_stretch)});
     if (options.frame_progress && dirs.size() > 1) options.frame_progress(static_cast<int>(k) + 1, static_cast<int>(dirs.size()));
     if (!in.frames_held) { // the first frame only (the shell the page opens on); the others are named
+      in.tets = std::move(f.tets);
       for (size_t j = k + 1; j < dirs.size(); ++j) in.frames.push_back({dirs[j], {}, {}});
       break;
     }
@@ -121,6 +151,7 @@ ViewFrame read_view_frame(const ViewInput& input, int k) {
     throw InputError("no frame " + std::to_string(k) + " (there are " + std::to_string(input.frames.size()) + ")");
   const ViewFrame& frame = input.frames[static_cast<size_t>(k)];
   if (input.frames_held || k == 0) return frame;
+  if (std::optional<ViewFrame> read = read_frame_vtu(frame.name, input)) return std::move(*read);
   LoadedFolder loaded = load_folder(frame.name);
   check_same_shell(frame.name, loaded.folder.shell, input.shell, input.frames[0].name);
   return {frame.name, loaded.folder.shell.vertices(), std::move(loaded.face_stretch)};

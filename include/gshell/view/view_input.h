@@ -53,6 +53,9 @@ struct ViewInput {
   /// Whether every frame's X and face_stretch are in memory; else only the first one's are
   /// (ViewInputOptions::held_frame_bytes) and read_view_frame reads the others.
   bool frames_held = true;
+  /// When frames are not held: the first frame's prism tets (3m x 4) as its shell.vtu stores them,
+  /// against which read_view_frame checks the others. Empty otherwise.
+  Eigen::MatrixXi tets;
   /// For a surface input, what `gshell generate` would warn of: the surface's validation
   /// warnings, then the generated shell's (GenerateRun::warnings). For shell folders, that the
   /// first one's report calls its shell invalid (invalid_rest_shell_warning), if it does.
