@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <future>
 #include <memory>
 #include <numeric>
@@ -33,24 +34,25 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
 }
 
-void write_frame(const fs::path& dir, const DeformInput& input, const ShellDeformer& deformer,
+// Writes frame folder `dir` for the shell vertices X (2n x 3).
+void write_frame(const fs::path& dir, const DeformInput& input, const RestTets& rest, Eigen::MatrixXd X,
                  const Eigen::MatrixXi& tets, const Embedding& embedding) {
   fs::create_directory(dir);
   const int n = input.shell.num_base_vertices();
   TriMesh top = input.surface; // faces and UVs of the base
-  top.V = deformer.current().bottomRows(n);
+  top.V = X.bottomRows(n);
   write_mesh((dir / "top.obj").string(), top);
-  TetMesh tet_mesh;
-  tet_mesh.X = deformer.current();
-  tet_mesh.T = tets;
-  tet_mesh.cell_data.emplace_back("stretch", tet_stretch(deformer.rest_tets(), tet_mesh.X));
-  tet_mesh.cell_data.emplace_back("det_F", tet_deformation_determinants(deformer.rest_tets(), tet_mesh.X));
-  write_tet_mesh((dir / "shell.vtu").string(), tet_mesh);
   if (!input.detail_name.empty()) {
     TriMesh carried = input.detail;
-    carried.V = carry(embedding, deformer.current());
+    carried.V = carry(embedding, X);
     write_mesh((dir / "detail.obj").string(), carried);
   }
+  TetMesh tet_mesh;
+  tet_mesh.T = tets;
+  tet_mesh.cell_data.emplace_back("stretch", tet_stretch(rest, X));
+  tet_mesh.cell_data.emplace_back("det_F", tet_deformation_determinants(rest, X));
+  tet_mesh.X = std::move(X);
+  write_tet_mesh((dir / "shell.vtu").string(), tet_mesh);
 }
 
 } // namespace
@@ -221,6 +223,11 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
   // this one is solved.
   const auto read_frame = [&input](int k) { return input.frames.get(k); };
   std::future<Eigen::MatrixXd> next;
+  // A frame's files are written while the next frame is solved: at 1.3M shell vertices writing
+  // them took longer than the solve. One write at a time; its error surfaces at the next frame's
+  // write or before the report. Declared after `staged`, so that a run stopped by an error waits
+  // for the write in flight before the staging folder is removed.
+  std::future<void> writing;
   if (!input.frames.held()) next = std::async(std::launch::async, read_frame, 0);
   for (int k = 0; k < count; ++k) {
     DeformFrameRecord record;
@@ -235,10 +242,16 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
       X << base, offset_top(base, shell.F, shell.thickness);
       record.offset = stretch_stats(deformer.rest_tets(), X);
     }
-    if (staged) write_frame(staged->path() / frame_name(k + 1, {}, count), input, deformer, tets, embedding);
+    if (staged) {
+      if (writing.valid()) writing.get();
+      writing = std::async(std::launch::async, write_frame, staged->path() / frame_name(k + 1, {}, count),
+                           std::cref(input), std::cref(deformer.rest_tets()), deformer.current(), std::cref(tets),
+                           std::cref(embedding));
+    }
     run.frames.push_back(std::move(record));
     if (progress) progress(run, count);
   }
+  if (writing.valid()) writing.get();
   if (staged) {
     write_report(staged->path() / "report.json", run.to_json());
     if (before_commit) before_commit(staged->path());
