@@ -18,10 +18,14 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <sys/stat.h>
 
 using namespace gshell;
 using gshell::test::TempDir;
@@ -557,6 +561,27 @@ TEST(IoErrors, MissingFileUnknownExtensionFolder) {
   expect_input_error(dir.file("noextension"), "unknown mesh format");
   std::filesystem::create_directory(dir.file("folder.off"));
   expect_input_error(dir.file("folder.off"), "directory");
+}
+
+// Regular files are mapped, anything else (a pipe here) is read into memory: both give the same
+// mesh, and an empty file is refused as empty rather than mapped.
+TEST(IoErrors, APipeReadsAsItsFileAndAnEmptyFileIsRefused) {
+  TempDir dir;
+  const TriMesh mesh = make_sphere(2);
+  write_mesh(dir.file("sphere.off"), mesh);
+  const std::string pipe = dir.file("pipe.off");
+  ASSERT_EQ(mkfifo(pipe.c_str(), 0600), 0);
+  std::thread writer([&] {
+    std::ofstream(pipe, std::ios::binary) << read_text(dir.file("sphere.off"));
+  });
+  const TriMesh through_pipe = read_mesh(pipe);
+  writer.join();
+  const TriMesh from_file = read_mesh(dir.file("sphere.off"));
+  EXPECT_EQ(through_pipe.V, from_file.V);
+  EXPECT_EQ(through_pipe.F, from_file.F);
+  EXPECT_EQ(from_file.F, mesh.F);
+  write_text(dir.file("empty.obj"), "");
+  expect_input_error(dir.file("empty.obj"), "empty");
 }
 
 TEST(IoErrors, GarbageIsRefusedByEveryReader) {
