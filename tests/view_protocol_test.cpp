@@ -172,6 +172,21 @@ TEST(ViewProtocol, FolderNamesArePlainNames) {
   EXPECT_NE(rejection(R"({"type":"save_shell","folder":"/tmp/x"})").find("plain name"), std::string::npos);
 }
 
+// A run of frame requests is answered by its last one; everything else, and a frame request
+// followed by anything else, is acted on.
+TEST(ViewProtocol, AFrameRequestTheNextOneReplacesIsSkipped) {
+  const std::vector<std::string> batch{
+      R"({"type":"frame","index":1})", R"({"type":"frame","index":2})", R"({"type":"frame","index":3})",
+      R"({"type":"certify"})",         R"({"type":"frame","index":4})", R"({"type":"frame", "index":5})",
+      R"({"type":"frame"})", // malformed: answered with its error, so kept, and the 5 before it too
+      R"({"type":"save_shell","folder":"frame"})", R"({"type":"frame","index":6})"};
+  const std::vector<std::string_view> views(batch.begin(), batch.end());
+  const std::vector<bool> act = view_messages_to_act_on(views, limits());
+  EXPECT_EQ(act, (std::vector<bool>{false, false, true, true, false, true, true, true, true}));
+  EXPECT_TRUE(view_messages_to_act_on({}, limits()).empty());
+  EXPECT_EQ(view_messages_to_act_on({batch[0]}, limits()), std::vector<bool>{true});
+}
+
 TEST(ViewProtocol, BinaryFramesCarryHeaderAndPayload) {
   Eigen::MatrixXd X(2, 3);
   X << 1, 2, 3, 4.5, -5, 1e-3;

@@ -222,6 +222,21 @@ const char* view_message_type(const ViewMessage& message) {
   return names[message.index()];
 }
 
+std::vector<bool> view_messages_to_act_on(const std::vector<std::string_view>& batch, const ViewMessageLimits& limits) {
+  const auto is_frame_request = [&](std::string_view bytes) {
+    if (bytes.find("\"frame\"") == std::string_view::npos) return false; // no second parse of other messages
+    try {
+      return std::holds_alternative<ViewShowFrame>(parse_view_message(bytes, limits));
+    } catch (const InputError&) {
+      return false;
+    }
+  };
+  std::vector<bool> frame(batch.size()), act(batch.size(), true);
+  for (std::size_t k = 0; k < batch.size(); ++k) frame[k] = is_frame_request(batch[k]);
+  for (std::size_t k = 0; k + 1 < batch.size(); ++k) act[k] = !(frame[k] && frame[k + 1]);
+  return act;
+}
+
 bool is_plain_folder_name(std::string_view name) {
   if (name.empty() || name.size() > kViewNameLength || name.front() == '.' || name.front() == '-') return false;
   for (const char c : name)

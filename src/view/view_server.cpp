@@ -165,6 +165,7 @@ struct ServerCore {
   }
 
   void solver_loop();
+  void skip_superseded_frame_requests(std::deque<Item>& items) const;
   void process(Item& item);
   void check_loop();
 
@@ -504,6 +505,25 @@ void ServerCore::process(Item& item) {
   }
 }
 
+// Frame requests that the next message of the batch replaces (view_messages_to_act_on) are dropped.
+void ServerCore::skip_superseded_frame_requests(std::deque<Item>& items) const {
+  std::vector<std::string_view> messages;
+  std::vector<std::size_t> at; // index in items of each message
+  for (std::size_t k = 0; k < items.size(); ++k)
+    if (items[k].kind == Item::Message) {
+      messages.push_back(items[k].bytes);
+      at.push_back(k);
+    }
+  if (messages.size() < 2) return;
+  const std::vector<bool> act = view_messages_to_act_on(messages, session.limits());
+  std::vector<bool> keep(items.size(), true);
+  for (std::size_t j = 0; j < messages.size(); ++j) keep[at[j]] = act[j];
+  std::deque<Item> kept;
+  for (std::size_t k = 0; k < items.size(); ++k)
+    if (keep[k]) kept.push_back(std::move(items[k]));
+  items.swap(kept);
+}
+
 void ServerCore::solver_loop() {
   const ViewSink everyone = sink(0);
   const auto rest = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.rest_seconds));
@@ -522,6 +542,7 @@ void ServerCore::solver_loop() {
       inbox_nonempty = false;
     }
     try {
+      skip_superseded_frame_requests(items);
       for (Item& item : items) process(item);
       if (stopping) break;
       if (!items.empty()) continue; // more may have come meanwhile: the latest drag target wins

@@ -107,6 +107,13 @@ const char* view_message_type(const ViewMessage& message);
 ///         or index out of range, an empty vertex list, a zero rotation axis, a bad name.
 ViewMessage parse_view_message(std::string_view bytes, const ViewMessageLimits& limits);
 
+/// Which of a batch of page messages (in the order they came) to act on: every one but a "frame"
+/// request directly followed by another, whose frame the next one would replace at once. A slider
+/// dragged over a sequence asks for every frame it passes; where frames are read when shown (about
+/// a fifth of a second each for 1.3M shell vertices) answering them all lags seconds behind the
+/// slider. Messages that do not parse are kept (they are answered with their error).
+std::vector<bool> view_messages_to_act_on(const std::vector<std::string_view>& batch, const ViewMessageLimits& limits);
+
 /// A folder name a page may ask the server to write: 1..64 characters of [A-Za-z0-9._-], not
 /// starting with '.' or '-' (so never "..", a hidden file, an option or a path).
 bool is_plain_folder_name(std::string_view name);
