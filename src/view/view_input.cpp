@@ -47,8 +47,13 @@ void check_same_shell(const std::string& dir, Eigen::Index n, Eigen::Index m, bo
                                       ", or other faces)"));
 }
 
+// Eigen's == needs equal sizes (it reads past the smaller matrix otherwise).
+bool same_ids(const Eigen::MatrixXi& a, const Eigen::MatrixXi& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() && a == b;
+}
+
 void check_same_shell(const std::string& dir, const Shell& f, const Shell& first, const std::string& first_dir) {
-  check_same_shell(dir, f.base.rows(), f.F.rows(), f.F == first.F, first, first_dir);
+  check_same_shell(dir, f.base.rows(), f.F.rows(), same_ids(f.F, first.F), first, first_dir);
 }
 
 // A frame not held, read when shown: positions and stored stretch from its shell.vtu alone,
@@ -64,7 +69,7 @@ std::optional<ViewFrame> read_frame_vtu(const std::string& dir, const ViewInput&
   for (const auto& [name, values] : vtu.cell_data)
     if (name == "stretch" && values.cols() == 1) stretch = &values;
   if (!stretch) return std::nullopt;
-  const bool same = vtu.X.rows() == 2 * input.shell.base.rows() && vtu.T == input.tets;
+  const bool same = vtu.X.rows() == 2 * input.shell.base.rows() && same_ids(vtu.T, input.tets);
   check_same_shell(dir, vtu.X.rows() / 2, vtu.T.rows() / 3, same, input.shell, input.frames[0].name);
   require_usable_coordinates(vtu.X, path.string());
   Eigen::VectorXd face_stretch = face_stretch_from_tets(vtu.X, vtu.T, stretch->col(0));
