@@ -223,13 +223,8 @@ const char* view_message_type(const ViewMessage& message) {
 }
 
 std::vector<bool> view_messages_to_act_on(const std::vector<std::string_view>& batch, const ViewMessageLimits& limits) {
-  const auto is_frame_request = [&](std::string_view bytes) {
-    if (bytes.find("\"frame\"") == std::string_view::npos) return false; // no second parse of other messages
-    try {
-      return std::holds_alternative<ViewShowFrame>(parse_view_message(bytes, limits));
-    } catch (const InputError&) {
-      return false;
-    }
+  const auto is_frame_request = [&](std::string_view bytes) { // no second parse of other messages
+    return bytes.find("\"frame\"") != std::string_view::npos && is_view_message<ViewShowFrame>(bytes, limits);
   };
   std::vector<bool> frame(batch.size()), act(batch.size(), true);
   for (std::size_t k = 0; k < batch.size(); ++k) frame[k] = is_frame_request(batch[k]);

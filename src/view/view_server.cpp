@@ -300,13 +300,7 @@ public:
     for (const Outgoing& out : waiting) send(out);
   }
 
-  bool is_drawn(const std::string& text) const {
-    try {
-      return std::holds_alternative<ViewDrawn>(parse_view_message(text, server_.session.limits()));
-    } catch (const InputError&) {
-      return false; // the solver thread answers it with the parser's error
-    }
-  }
+  bool is_drawn(const std::string& text) const { return is_view_message<ViewDrawn>(text, server_.session.limits()); }
 
   /// Closes after what is queued has gone out.
   void close(websocket::close_code code) {
@@ -508,19 +502,14 @@ void ServerCore::process(Item& item) {
 // Frame requests that the next message of the batch replaces (view_messages_to_act_on) are dropped.
 void ServerCore::skip_superseded_frame_requests(std::deque<Item>& items) const {
   std::vector<std::string_view> messages;
-  std::vector<std::size_t> at; // index in items of each message
-  for (std::size_t k = 0; k < items.size(); ++k)
-    if (items[k].kind == Item::Message) {
-      messages.push_back(items[k].bytes);
-      at.push_back(k);
-    }
+  for (const Item& item : items)
+    if (item.kind == Item::Message) messages.push_back(item.bytes);
   if (messages.size() < 2) return;
   const std::vector<bool> act = view_messages_to_act_on(messages, session.limits());
-  std::vector<bool> keep(items.size(), true);
-  for (std::size_t j = 0; j < messages.size(); ++j) keep[at[j]] = act[j];
   std::deque<Item> kept;
-  for (std::size_t k = 0; k < items.size(); ++k)
-    if (keep[k]) kept.push_back(std::move(items[k]));
+  std::size_t message = 0;
+  for (Item& item : items)
+    if (item.kind != Item::Message || act[message++]) kept.push_back(std::move(item));
   items.swap(kept);
 }
 

@@ -7,6 +7,8 @@
 // function is the whole attack surface of the server's WebSocket (a fuzz target), so it accepts
 // only the documented shapes, checks every number, id and length against ViewMessageLimits and
 // throws InputError with a one-line reason for anything else.
+#include <gshell/error.h>
+
 #include <Eigen/Core>
 
 #include <cstddef>
@@ -106,6 +108,17 @@ const char* view_message_type(const ViewMessage& message);
 ///         object, unknown "type" or key, a missing or mistyped field, a non-finite number, an id
 ///         or index out of range, an empty vertex list, a zero rotation axis, a bad name.
 ViewMessage parse_view_message(std::string_view bytes, const ViewMessageLimits& limits);
+
+/// Whether `bytes` parses as a message of type T (ViewDrawn, ViewShowFrame, ...); false when it
+/// does not parse (the session answers it with the parser's error).
+template <class T>
+bool is_view_message(std::string_view bytes, const ViewMessageLimits& limits) {
+  try {
+    return std::holds_alternative<T>(parse_view_message(bytes, limits));
+  } catch (const InputError&) {
+    return false;
+  }
+}
 
 /// Which of a batch of page messages (in the order they came) to act on: every one but a "frame"
 /// request directly followed by another, whose frame the next one would replace at once. A slider
