@@ -4,6 +4,7 @@
 // valid, stopping at contact) against unguarded (--allow-invalid), runs interleaved.
 //
 //   bench_pose_guard [--steps K=20] [--runs R=3] [--solver hierarchical|single] [--goal]
+//   bench_pose_guard --mend SHELL_DIR HANDLES.json [--steps K=20] [--runs R=3] [--solver S]
 //
 // Prints the shell's size, then per mode: median step time over the drag (median over runs), the
 // slowest step (the snap-through), valid steps, steps blocked by contact, guarded steps. Each step
@@ -19,6 +20,11 @@
 // Also printed: the largest vertex motion per drag step (against the mean base edge and the
 // thickness), the CPU time of the median step (all threads, steadier than wall time on a loaded
 // machine) and the certificate's median wall time inside the guarded step.
+//
+// --mend: a shell folder (gshell generate's) posed by a handle file, guarded, with refused steps
+// mended in place (GuardOptions::mend_rings, the default) against dragged from the last pose
+// (mend_rings = -1), runs interleaved: per step the method, median wall seconds, guarded
+// iterations and energy of each, and the energies' relative difference.
 #include "bench_main.h"
 #include "bench_common.h"
 
@@ -26,6 +32,8 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
+#include <gshell/run/shell_folder.h>
+#include <gshell/deform/handles.h>
 #include <gshell/shell/generate_shell.h>
 
 #include <algorithm>
@@ -45,7 +53,7 @@ namespace {
 
 struct Stats {
   std::vector<double> step_ms;
-  int valid = 0, blocked = 0, guarded = 0, steps = 0;
+  int valid = 0, blocked = 0, guarded = 0, mended = 0, steps = 0;
 };
 
 Stats run(const Shell& shell, const HandleSet& handles, PoseOptions options, bool allow_invalid) {
@@ -57,6 +65,7 @@ Stats run(const Shell& shell, const HandleSet& handles, PoseOptions options, boo
     s.valid += step.valid ? 1 : 0;
     s.blocked += step.blocked_by_contact ? 1 : 0;
     s.guarded += step.method == FrameMethod::Guarded ? 1 : 0;
+    s.mended += step.method == FrameMethod::Mended ? 1 : 0;
     ++s.steps;
   }
   return s;
@@ -184,21 +193,69 @@ void references(const Shell& shell, const HandleSet& handles, int steps, std::ve
 } // namespace
 
 constexpr const char* kUsage =
-    "usage: bench_pose_guard [--steps K=20] [--runs R=3] [--solver hierarchical|single] [--goal]\n";
+    "usage: bench_pose_guard [--steps K=20] [--runs R=3] [--solver hierarchical|single] [--goal]\n"
+    "       bench_pose_guard --mend SHELL_DIR HANDLES.json [--steps K=20] [--runs R=3] [--solver S]\n";
+
+// Refused steps mended in place against dragged, on a shell folder and handle file.
+int mend_against_drag(const std::string& dir, const std::string& handle_file, PoseOptions options, int runs) {
+  const Shell shell = read_shell_folder(dir).shell;
+  const HandleSet handles = read_handles(handle_file, shell);
+  std::printf("%s: %d shell vertices, %d tets; %s; %d steps\n", dir.c_str(), 2 * shell.num_base_vertices(),
+              3 * static_cast<int>(shell.F.rows()), handle_file.c_str(), options.steps);
+  struct Mode {
+    const char* name;
+    int rings;
+    std::vector<std::vector<double>> seconds; // per step, per run
+    PoseResult last;
+  };
+  Mode modes[2] = {{"mended", options.guard.mend_rings, {}, {}}, {"dragged", -1, {}, {}}};
+  for (int r = 0; r < runs; ++r)
+    for (Mode& m : modes) {
+      options.guard.mend_rings = m.rings;
+      m.last = run_pose(shell, handles, options);
+      m.seconds.resize(m.last.steps.size());
+      for (std::size_t k = 0; k < m.last.steps.size(); ++k) m.seconds[k].push_back(m.last.steps[k].seconds);
+    }
+  double total[2] = {0, 0};
+  for (std::size_t k = 0; k < modes[0].last.steps.size() && k < modes[1].last.steps.size(); ++k) {
+    std::printf("step %zu:", k + 1);
+    for (int i = 0; i < 2; ++i) {
+      const PoseStepReport& s = modes[i].last.steps[k];
+      total[i] += median(modes[i].seconds[k]);
+      std::printf("  %s: %s%s %.3f s, %d guarded it, E %.9g;", modes[i].name, frame_method_name(s.method),
+                  s.valid ? "" : " INVALID", median(modes[i].seconds[k]), s.guarded_iterations, s.energy);
+    }
+    const double e0 = modes[0].last.steps[k].energy, e1 = modes[1].last.steps[k].energy;
+    std::printf("  E mended / dragged - 1 = %+.2e\n", e0 / e1 - 1);
+  }
+  std::printf("total (sum of step medians over %d runs): mended %.2f s, dragged %.2f s\n", runs, total[0], total[1]);
+  return 0;
+}
 
 int bench_main(int argc, char** argv) {
   int steps = 20, runs = 3;
   std::string solver = "hierarchical";
   bool goal = false;
+  std::string mend_dir, mend_handles;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) steps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--solver") && i + 1 < argc) solver = argv[++i];
     else if (!std::strcmp(argv[i], "--goal")) goal = true;
+    else if (!std::strcmp(argv[i], "--mend") && i + 2 < argc) {
+      mend_dir = argv[++i];
+      mend_handles = argv[++i];
+    }
     else {
       std::fprintf(stderr, "bench_pose_guard: unknown argument %s\n%s", argv[i], kUsage);
       return 1;
     }
+  }
+  if (!mend_dir.empty()) {
+    PoseOptions options;
+    options.solver = parse_pose_solver(solver);
+    options.steps = steps;
+    return mend_against_drag(mend_dir, mend_handles, options, runs);
   }
   const TriMesh mesh = make_bowl();
   GenerateOptions generate;
@@ -243,8 +300,8 @@ int bench_main(int argc, char** argv) {
     guarded_max.push_back(*std::max_element(g.step_ms.begin(), g.step_ms.end()));
   }
   std::printf("guarded (default):           median step %.1f ms, slowest step %.1f ms (medians of %d runs); "
-              "%d/%d steps valid, %d blocked by contact, %d by the guarded drag\n",
-              median(guarded_median), median(guarded_max), runs, g.valid, g.steps, g.blocked, g.guarded);
+              "%d/%d steps valid, %d blocked by contact, %d by the guarded drag, %d mended\n",
+              median(guarded_median), median(guarded_max), runs, g.valid, g.steps, g.blocked, g.guarded, g.mended);
   std::printf("unguarded (--allow-invalid): median step %.1f ms, slowest step %.1f ms (medians of %d runs)\n",
               median(unguarded_median), median(unguarded_max), runs);
   std::printf("    guarded step ms:");

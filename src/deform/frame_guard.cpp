@@ -4,9 +4,14 @@
 #include <gshell/guard/contact_guard.h>
 #include <gshell/guard/extrusion_directions.h>
 #include <gshell/guard/pair_ccd.h>
+#include <gshell/geometry/mesh_topology.h>
+#include <gshell/guard/guarded_shell.h>
 #include <gshell/guard/tet_step_bound.h>
+#include <gshell/guard/valid_start.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/triangle_intersections.h>
+
+#include "guard/shell_part.h"
 
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
@@ -234,9 +239,8 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   };
   if (certify) tbb::parallel_invoke(bound, certify_end);
   else bound();
-  if (tets.step < 1) return false;
-  if (!certify) return true;
-  const bool ok = only_unguarded_faults(c);
+  if (!certify) return tets.step >= 1;
+  const bool ok = tets.step >= 1 && only_unguarded_faults(c);
   if (certificate) *certificate = std::move(c);
   return ok;
 }
@@ -287,6 +291,90 @@ bool FrameGuard::only_unguarded_faults(const ShellCertificate& c) const {
 
 ShellCertificate FrameGuard::certify(const Eigen::MatrixXd& X) {
   return certifier_.certify(X.topRows(n_), X.bottomRows(n_), CertifyOptions{});
+}
+
+bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& solve, const ShellCertificate* refused,
+                      ShellCertificate* certificate, int* iterations) {
+  if (iterations) *iterations = 0;
+  if (!guards_contacts() || rings < 0) return false;
+  CertifyOptions with_base;
+  with_base.base_self_intersections = moving_base_;
+  const ShellCertificate before =
+      refused && refused->intersections_tested() ? *refused : certifier_.certify(X.topRows(n_), X.bottomRows(n_), with_base);
+  // Pulling tops in mends nothing where the base crosses itself, and a handle's top the start
+  // would pull in (it thins the tops of every violation) is where the caller put it.
+  std::vector<char> is_fixed(2 * n_, 0);
+  for (int v : fixed_) is_fixed[v] = 1;
+  const auto fixed_top = [&](auto vertices) {
+    for (int k = 0; k < vertices.size(); ++k)
+      if (vertices(k) >= n_ && is_fixed[vertices(k)]) return true;
+    return false;
+  };
+  for (int t : before.inverted_tet_ids)
+    if (!parameters_.skip_tets[t] && fixed_top(rest_tets_.T.row(t))) return false;
+  for (const BoundaryIntersection& pair : before.intersections) {
+    if (parameters_.excluded_triangles[pair.a] || parameters_.excluded_triangles[pair.b]) continue;
+    if (pair.kind == IntersectionKind::BaseBase) return false;
+    if (fixed_top(boundary_.F.row(pair.a)) || fixed_top(boundary_.F.row(pair.b))) return false;
+  }
+  const Eigen::MatrixXd B = X.topRows(n_);
+  double thickness = 0; // the mean rest thickness: what a top with no length of its own thins from
+  for (int i = 0; i < n_; ++i) thickness += (rest_vertices_.row(n_ + i) - rest_vertices_.row(i)).norm();
+  thickness /= n_;
+  const ValidStartOptions start_options = valid_start_options(options_, std::max(thickness, 1e-300));
+  const ValidStart start =
+      valid_start(B, F_, X.bottomRows(n_), extrusion_directions(B, F_, options_.normal_margin), parameters_.skip_tets,
+                  parameters_.excluded_triangles, start_options);
+  if (!start.inverted_tets.empty() || !start.intersections.empty()) return false;
+  std::vector<char> region(n_, 0);
+  for (int i = 0; i < n_; ++i) {
+    region[i] = start.scale[i] < 1;
+    if (region[i] && is_fixed[n_ + i]) return false;
+  }
+  Eigen::MatrixXd Y = X;
+  Y.bottomRows(n_) = start.top;
+  // A state free of faults is also refused for tets squashed on the way below the keep fraction:
+  // those inside the volume barrier's support are mended with the rest.
+  for (int t = 0; t < rest_tets_.T.rows(); ++t)
+    if (!parameters_.skip_tets[t] && probe_.relative_volume_of(Y, t) < options_.j_hat)
+      for (int k = 0; k < 4; ++k) region[rest_tets_.T(t, k) % n_] = 1;
+  if (std::find(region.begin(), region.end(), 1) == region.end()) return false;
+  grow_by_rings(F_, rings, region);
+  std::vector<char> moving(2 * n_, 0);
+  for (int i = 0; i < n_; ++i) {
+    moving[n_ + i] = region[i] && !is_fixed[n_ + i];
+    if (moving_base_) moving[i] = region[i] && !is_fixed[i];
+  }
+  // As generation's repair does, the solve runs over the part of the shell it can touch; a vertex
+  // travelling farther than a few thicknesses is not a mend.
+  const double travel = 4 * thickness;
+  const detail::ShellPart part =
+      detail::shell_part(rest_tets_, boundary_, Y, moving, travel, 2 * parameters_.contact_distance);
+  GuardedSolverParameters q = parameters_;
+  q.skip_tets.clear();
+  for (int t : part.tet) q.skip_tets.push_back(parameters_.skip_tets[t]);
+  q.excluded_triangles.clear();
+  for (int r : part.row) q.excluded_triangles.push_back(parameters_.excluded_triangles[r]);
+  GuardedSolver solver(part.tets, part.size(), part.held, part.boundary, q);
+  if (part.row.size() < static_cast<std::size_t>(boundary_.size())) solver.confine(part.X, travel);
+  if (options_.contact_rest_fraction > 0) {
+    Eigen::MatrixXd rest(part.size(), 3);
+    for (int k = 0; k < part.size(); ++k) rest.row(k) = rest_vertices_.row(part.vertex[k]);
+    solver.cap_contact_support(rest, options_.contact_rest_fraction);
+  }
+  Eigen::MatrixXd Z = part.X;
+  if (!std::isfinite(solver.energy(Z))) return false;
+  const GuardedSolveResult r = solver.solve(Z, solve);
+  if (iterations) *iterations = r.iterations;
+  part.scatter_moving(Z, Y);
+  // Valid by construction, as a drag's end is (a valid start, every step bounded); the certificate
+  // confirms it. No path from the refused state is asked for: its tops pulled in have thinned
+  // their tets on purpose.
+  ShellCertificate c = certifier_.certify(Y.topRows(n_), Y.bottomRows(n_), with_base);
+  if (!only_unguarded_faults(c)) return false;
+  if (certificate) *certificate = std::move(c);
+  X = std::move(Y);
+  return true;
 }
 
 int FrameGuard::substeps_between(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to,

@@ -36,8 +36,9 @@ public:
 
   /// Whether X1 can be taken as the next frame after X0 (a frame made by this guard): the
   /// straight path from X0 to X1 keeps every guarded tet above keep_fraction of its volume and,
-  /// with `contacts` (X0 free of contacts), X1's exact certificate (without base/base pairs,
-  /// returned in `certificate`) finds no intersection the guard keeps apart. X1 is then a valid
+  /// with `contacts` (X0 free of contacts), X1's exact certificate (base/base pairs included
+  /// where the base moves; returned in `certificate`, also when X1 is refused) finds no
+  /// intersection the guard keeps apart. X1 is then a valid
   /// start for the guarded solver, as X0 is.
   bool accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, ShellCertificate* certificate);
   /// The largest fraction t tried of the straight path from X0 to X1 whose end X0 + t (X1 - X0)
@@ -82,6 +83,19 @@ public:
     bool blocked = false; ///< stopped at contact (no fall-back to the tets): X valid, short of the targets
     bool superseded = false; ///< ended by `other_way` (see drag)
   };
+  /// Mends X (2n x 3, a state this guard refused) where it is wrong instead of dragging the shell
+  /// there: the top vertices of every violation are pulled towards their base vertices until X
+  /// is valid (valid_start over X's own base, GuardOptions' start_* fields), and the guarded
+  /// solver then moves them and `rings` (>= 0) rings around them, the rest held, to a minimum of
+  /// the guarded energy. Taken when the exact certificate (base/base pairs included where the base
+  /// moves, returned in `certificate`) finds only what the guard leaves out; no path from the
+  /// refused state is asked for, its pulled-in tops thin their tets on purpose. Returns false and
+  /// leaves X alone when contacts are not guarded, X's base crosses itself where the guard keeps
+  /// contacts, the start gives up, a top it pulls in is a fixed vertex, or the certificate
+  /// refuses the result. `refused`: X's certificate from `accepts`, if at hand (else X is
+  /// certified again); `iterations` gets the solver's.
+  bool mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& solve, const ShellCertificate* refused,
+            ShellCertificate* certificate, int* iterations);
   /// Sub-steps for a drag from the state `from` to `to` (2n x 3): as many as keep every base edge
   /// vector's change per sub-step within schedule.substep_edge_change of its length, at least 1,
   /// at most schedule.max_substeps.

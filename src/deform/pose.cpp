@@ -5,6 +5,7 @@
 
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/error.h>
+#include <gshell/guard/guarded_shell.h>
 #include <gshell/seconds_since.h>
 
 #include <algorithm>
@@ -132,6 +133,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   check_state(X, s.rest_vertices);
   check_state(from, s.rest_vertices);
   check_targets(P, s.constrained);
+  check_guard_options(guard);
   ValidStep local;
   ValidStep& out = step ? *step : local;
   out = ValidStep{};
@@ -143,6 +145,14 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   SolveResult result = solve(X, P, options);
   if (s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate)) {
     out.method = FrameMethod::Bounded;
+  } else if (hard && guard.mend_rings >= 0 && [&] {
+               GuardedSolveOptions solve;
+               solve.max_iterations = options.max_iterations;
+               solve.tolerance = options.tolerance;
+               return s.guard->mend(X, guard.mend_rings, solve, &out.certificate, &out.certificate,
+                                    &out.guarded_iterations);
+             }()) {
+    out.method = FrameMethod::Mended;
   } else if (hard) {
     Eigen::MatrixXd targets = start;
     for (std::size_t r = 0; r < s.constrained.size(); ++r) targets.row(s.constrained[r]) = P.row(static_cast<Eigen::Index>(r));
@@ -190,7 +200,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     out.method = FrameMethod::Bounded;
     out.blocked_by_contact = true;
   }
-  if (out.method != FrameMethod::Bounded) out.certificate = s.guard->certify(X);
+  if (out.method != FrameMethod::Bounded && out.method != FrameMethod::Mended) out.certificate = s.guard->certify(X);
   out.valid = out.certificate.valid() && out.certificate.base_self_intersections == 0;
   // The result describes the state returned: where the guard replaced the solver's state, its
   // last energy is that of the valid state, and a step short of its targets has not converged.

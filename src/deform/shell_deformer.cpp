@@ -102,6 +102,10 @@ GuardOptions frame_guard_options() {
   // without barriers acting (a pose of bunny00: 1,675 of its 2,088 guarded iterations; CGAL's lion:
   // 1,577 of 2,368, 24 pairs active; docs/valid-deformation.md).
   o.anderson_history = 5;
+  // A pose step the guard refuses is mostly right: its few wrong spots mended in place cost a
+  // fraction of a drag from the last pose to the same minimum (docs/valid-deformation.md,
+  // "Mending a refused step").
+  o.mend_rings = 10;
   // A frame's barriers act on a few spots (tens to hundreds of vertices), where CG spent ten and
   // more solves with the whole shell's factor per direction (a pose of CGAL's refined_elephant:
   // 0.35-0.45 s per guarded iteration, 82 % of the run in those solves; 50 s instead of over 25
@@ -130,6 +134,7 @@ const char* frame_method_name(FrameMethod m) {
   case FrameMethod::Unguarded: return "unguarded";
   case FrameMethod::Bounded: return "bounded";
   case FrameMethod::Guarded: return "guarded";
+  case FrameMethod::Mended: return "mended";
   case FrameMethod::TetsOnly: return "tets_only";
   case FrameMethod::Regenerated: return "regenerated";
   case FrameMethod::Failed: return "failed";

@@ -183,4 +183,14 @@ MeshStats mesh_stats(const TriMesh& mesh) {
   return s;
 }
 
+void grow_by_rings(const Eigen::MatrixXi& F, int rings, std::vector<char>& flags) {
+  for (int ring = 0; ring < rings; ++ring) {
+    std::vector<char> grown = flags;
+    for (Eigen::Index f = 0; f < F.rows(); ++f)
+      if (flags[F(f, 0)] || flags[F(f, 1)] || flags[F(f, 2)])
+        for (int k = 0; k < 3; ++k) grown[F(f, k)] = 1;
+    flags = std::move(grown);
+  }
+}
+
 } // namespace gshell

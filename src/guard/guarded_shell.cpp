@@ -1,6 +1,7 @@
 #include <gshell/guard/guarded_shell.h>
 
 #include <gshell/error.h>
+#include <gshell/geometry/mesh_topology.h>
 #include <gshell/seconds_since.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/stretch.h>
@@ -271,6 +272,19 @@ void check_guard_options(const GuardOptions& o) {
   require(o.repair_budget >= 0 && std::isfinite(o.repair_budget), "repair_budget", ">= 0");
   require(o.relax_rounds >= 0, "relax_rounds", ">= 0");
   require(o.lift_sweeps >= 0, "lift_sweeps", ">= 0");
+  require(o.mend_rings >= -1, "mend_rings", ">= -1");
+}
+
+ValidStartOptions valid_start_options(const GuardOptions& options, double fallback_length) {
+  ValidStartOptions o;
+  o.thinning = options.start_thinning;
+  o.straight_margin = options.start_margin;
+  o.spread = options.start_spread;
+  o.refine_passes = options.start_refine;
+  o.backoff = options.start_backoff;
+  o.max_rounds = options.start_max_rounds;
+  o.fallback_length = fallback_length;
+  return o;
 }
 
 GuardOptions generation_guard_options() {
@@ -382,14 +396,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
 
   // Valid start: that top, pulled towards the base only where it is not valid.
-  ValidStartOptions start_options;
-  start_options.thinning = options.start_thinning;
-  start_options.straight_margin = options.start_margin;
-  start_options.spread = options.start_spread;
-  start_options.refine_passes = options.start_refine;
-  start_options.backoff = options.start_backoff;
-  start_options.max_rounds = options.start_max_rounds;
-  start_options.fallback_length = eta;
+  const ValidStartOptions start_options = valid_start_options(options, eta);
   g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
   g.start = valid_start(V, F, X.bottomRows(n), g.directions, p.skip_tets, g.unprotected_triangles, start_options);
   // On the rim of an open surface a vertex can have a direction that sees all its faces and still
@@ -422,13 +429,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   std::vector<char> in_region(n, 0);
   for (int i = 0; i < n; ++i) in_region[i] = g.start.scale[i] < 1;
   for (int v : g.directions.unextrudable) in_region[v] = 0;
-  for (int ring = 0; ring < options.repair_rings; ++ring) {
-    std::vector<char> grown = in_region;
-    for (int f = 0; f < m; ++f)
-      if (in_region[F(f, 0)] || in_region[F(f, 1)] || in_region[F(f, 2)])
-        for (int k = 0; k < 3; ++k) grown[F(f, k)] = 1;
-    in_region = grown;
-  }
+  grow_by_rings(F, options.repair_rings, in_region);
   for (int v : g.directions.unextrudable) in_region[v] = 0;
   // Top vertices the start had to pull nearly onto their base stay there: their pairs with the
   // base triangles around them can be closer than the contact step bound resolves in floating

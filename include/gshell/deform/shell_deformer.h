@@ -43,7 +43,8 @@ WarmStart parse_warm_start(const std::string& name);
 /// with generation's directions (generation_guard_options: the volume barrier's Hessian projected
 /// per tet, the contact barrier's Gauss-Newton Hessian, a 4-ring local solve); the contact
 /// support stays 0.1, capped per pair at half of how close the rest shell holds its vertices to
-/// other parts of the boundary (contact_rest_fraction). On hard models a dragged frame or pose
+/// other parts of the boundary (contact_rest_fraction); a pose step it refuses is mended in place
+/// over 10 rings before any drag (mend_rings). On hard models a dragged frame or pose
 /// step meets near-flat tets and wide contacts, as a repair does (docs/valid-deformation.md has
 /// the measurements).
 GuardOptions frame_guard_options();
@@ -99,6 +100,9 @@ enum class FrameMethod {
   Unguarded, ///< allow_invalid: the paper's solve only
   Bounded,   ///< the paper's solve, taken: the tet step bound passes on the way and its certificate holds
   Guarded,   ///< the guarded solver from the previous frame (sub-steps), boundary contacts kept apart
+  /// Pose only: the solve's step, refused, mended where it is wrong (GuardOptions::mend_rings):
+  /// its violations' tops pulled in and the guarded solver over them and a few rings around them.
+  Mended,
   TetsOnly,  ///< guarded against inverted tets only: the base forced a contact and no fresh top was clean
   /// The drag stalled (e.g. a sliver base face whose normal swings faster than its top can
   /// follow): the frame's top made afresh over the new base as guarded generation makes one,

@@ -24,6 +24,10 @@ MeshStats mesh_stats(const TriMesh& mesh);
 /// [0, n) are skipped.
 std::vector<char> used_vertices(const Eigen::MatrixXi& elements, Eigen::Index n);
 
+/// Grows the vertex set `flags` (one flag per vertex) by `rings` rings: each ring adds every
+/// vertex of a face of F with a flagged vertex.
+void grow_by_rings(const Eigen::MatrixXi& F, int rings, std::vector<char>& flags);
+
 /// Unique undirected edges (E x 2, smaller id first), in order of first appearance.
 /// Faces with a negative or repeated index are skipped.
 Eigen::MatrixXi unique_edges(const Eigen::MatrixXi& F);

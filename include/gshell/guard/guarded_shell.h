@@ -129,10 +129,22 @@ struct GuardOptions {
   /// unguarded result at 0.01 / 0.03 / 0.05: 1.235 / 1.204 / 1.168 -> 1.058 / 1.164 / 1.140).
   /// 0: none. Generation: 4.
   int lift_sweeps = 0;
+  /// Pose only, hard handles: a step the guard refuses is first mended where it is wrong (the
+  /// tops of its violations pulled in as the valid start pulls them, then the guarded solver over
+  /// them and this many rings around them, the rest of the solve's result held) and dragged from
+  /// the last pose only where that fails (a handle among the tops pulled in, a base crossing
+  /// itself). -1: always the drag. Deformation and pose: 10, frame_guard_options; fewer rings
+  /// leave the pose further from the drag's minimum (CGAL's homer: energy +0.33 % with 3 rings,
+  /// +0.02 % with 10; docs/valid-deformation.md, "Mending a refused step").
+  int mend_rings = -1;
 };
 
 /// \throws InputError naming the parameter unless every field is in range.
 void check_guard_options(const GuardOptions& options);
+
+/// The valid start's options as `options` sets them (its start_* fields), with `fallback_length`
+/// (model units, > 0) where a top has no length of its own to thin.
+ValidStartOptions valid_start_options(const GuardOptions& options, double fallback_length);
 
 /// GuardOptions{} with what generation uses (GenerateOptions::guard): the contact support 0.03 of
 /// min(eta, mean edge) instead of 0.1, the projected volume-barrier Hessian, the Gauss-Newton
