@@ -824,6 +824,12 @@ TEST(FrameGuardMend, ATopPushedThroughItsBaseIsPulledBackInPlace) {
   for (int h : handles.constrained_vertices()) EXPECT_TRUE(M.row(h) == X.row(h)) << "handle vertex " << h;
 }
 
+void expect_mend_declines(FrameGuard& guard, const Eigen::MatrixXd& X) {
+  Eigen::MatrixXd M = X;
+  EXPECT_FALSE(guard.mend(M, 10, GuardedSolveOptions{}, nullptr, nullptr, nullptr));
+  EXPECT_TRUE(M == X);
+}
+
 // What only a drag can do is left to it: a handle's own top pushed through its base (the start
 // would pull a vertex the caller placed), and a base that crosses itself (no thinning mends it):
 // mend declines and leaves the state as it was.
@@ -842,9 +848,7 @@ TEST(FrameGuardMend, AHandlePushedThroughItsBaseIsLeftToTheDrag) {
   Eigen::MatrixXd X = rest.vertices();
   X(h, 2) -= 0.6;
   ASSERT_FALSE(guard.accepts(rest.vertices(), X, true, nullptr));
-  Eigen::MatrixXd M = X;
-  EXPECT_FALSE(guard.mend(M, 10, GuardedSolveOptions{}, nullptr, nullptr, nullptr));
-  EXPECT_TRUE(M == X);
+  expect_mend_declines(guard, X);
 }
 
 TEST(FrameGuardMend, ABaseCrossingItselfIsLeftToTheDrag) {
@@ -860,9 +864,7 @@ TEST(FrameGuardMend, ABaseCrossingItselfIsLeftToTheDrag) {
   X(v, 2) -= 0.8; // through the lower sheet, its top with it
   X(n + v, 2) -= 0.8;
   ASSERT_GT(certify_shell(X.topRows(n), X.bottomRows(n), rest.F).base_self_intersections, 0);
-  Eigen::MatrixXd M = X;
-  EXPECT_FALSE(guard.mend(M, 10, GuardedSolveOptions{}, nullptr, nullptr, nullptr));
-  EXPECT_TRUE(M == X);
+  expect_mend_declines(guard, X);
 }
 
 // A pose step refused where the solver's result is wrong in one spot away from the handles is
