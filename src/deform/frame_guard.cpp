@@ -1,11 +1,11 @@
 #include "frame_guard.h"
 
 #include <gshell/error.h>
+#include <gshell/geometry/mesh_topology.h>
 #include <gshell/guard/contact_guard.h>
 #include <gshell/guard/extrusion_directions.h>
-#include <gshell/guard/pair_ccd.h>
-#include <gshell/geometry/mesh_topology.h>
 #include <gshell/guard/guarded_shell.h>
+#include <gshell/guard/pair_ccd.h>
 #include <gshell/guard/tet_step_bound.h>
 #include <gshell/guard/valid_start.h>
 #include <gshell/quality/shell_certificate.h>

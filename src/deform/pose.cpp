@@ -149,6 +149,13 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
                GuardedSolveOptions solve;
                solve.max_iterations = options.max_iterations;
                solve.tolerance = options.tolerance;
+               // Reported as the solve's iterations continued, as the drag's are.
+               int mended = 0;
+               const auto began = std::chrono::steady_clock::now();
+               if (options.progress)
+                 solve.progress = [&](int, double e, double) {
+                   options.progress(result.iterations + ++mended, e, result.seconds + seconds_since(began));
+                 };
                return s.guard->mend(X, guard.mend_rings, solve, &out.certificate, &out.certificate,
                                     &out.guarded_iterations);
              }()) {
