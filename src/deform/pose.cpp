@@ -143,22 +143,21 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
                                            hard ? s.constrained : std::vector<int>{}, true);
   const Eigen::MatrixXd start = from;
   SolveResult result = solve(X, P, options);
+  // The guarded solver's iterations (a mend's, then a drag's) can be many times the solve's: they
+  // are reported as the solve's continued (energy: E with the barriers), so progress does not stop.
+  GuardedSolveOptions solve;
+  solve.max_iterations = options.max_iterations;
+  solve.tolerance = options.tolerance;
+  int continued = 0;
+  const auto solved = std::chrono::steady_clock::now();
+  if (options.progress)
+    solve.progress = [&](int, double e, double) {
+      options.progress(result.iterations + ++continued, e, result.seconds + seconds_since(solved));
+    };
   if (s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate)) {
     out.method = FrameMethod::Bounded;
-  } else if (hard && guard.mend_rings >= 0 && [&] {
-               GuardedSolveOptions solve;
-               solve.max_iterations = options.max_iterations;
-               solve.tolerance = options.tolerance;
-               // Reported as the solve's iterations continued, as the drag's are.
-               int mended = 0;
-               const auto began = std::chrono::steady_clock::now();
-               if (options.progress)
-                 solve.progress = [&](int, double e, double) {
-                   options.progress(result.iterations + ++mended, e, result.seconds + seconds_since(began));
-                 };
-               return s.guard->mend(X, guard.mend_rings, solve, &out.certificate, &out.certificate,
-                                    &out.guarded_iterations);
-             }()) {
+  } else if (hard && guard.mend_rings >= 0 &&
+             s.guard->mend(X, guard.mend_rings, solve, &out.certificate, &out.certificate, &out.guarded_iterations)) {
     out.method = FrameMethod::Mended;
   } else if (hard) {
     Eigen::MatrixXd targets = start;
@@ -169,17 +168,6 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     // iterations from the start, 51 from 0.72 of the way; docs/valid-deformation.md).
     Eigen::MatrixXd Y = start;
     out.drag_start = s.guard->accepted_fraction(start, X, s.guard->guards_contacts(), kMinDragStart, Y);
-    GuardedSolveOptions solve;
-    solve.max_iterations = options.max_iterations;
-    solve.tolerance = options.tolerance;
-    // A drag can take many times the solve's iterations: its iterations are reported as the
-    // solve's continued (energy: E with the barriers), so progress does not stop during it.
-    int dragged = 0;
-    const auto drag_began = std::chrono::steady_clock::now();
-    if (options.progress)
-      solve.progress = [&](int, double e, double) {
-        options.progress(result.iterations + ++dragged, e, result.seconds + seconds_since(drag_began));
-      };
     const DeformOptions schedule; // the deformation frames' sub-steps
     const auto drag = [&] { // Y from where it is to the targets
       return s.guard->drag(Y, targets, s.guard->substeps_between(Y, X, schedule), s.guard->guards_contacts(), false,
