@@ -74,17 +74,19 @@ RunStats run_sequence(ShellDeformer& deformer, const std::vector<Eigen::MatrixXd
 struct ValidityStats {
   std::vector<double> ms, cpu_ms; // wall, and CPU summed over threads (steadier on a loaded machine)
   std::vector<double> certificate_ms; // the exact certificate inside the guard's acceptance (part of ms)
+  std::vector<double> energy; // the frame's (E of the state returned)
   std::vector<int> inverted, substeps, intersections;
   std::vector<std::string> methods;
   int valid = 0;
 };
 
 ValidityStats run_validity(ShellDeformer& deformer, const std::vector<Eigen::MatrixXd>& frames, bool allow_invalid,
-                           bool certify) {
+                           bool certify, int mend_rings) {
   ValidityStats s;
   deformer.reset();
   DeformOptions options;
   options.allow_invalid = allow_invalid;
+  options.guard.mend_rings = mend_rings;
   options.measure_stretch = false;
   options.certify = certify;
   for (const Eigen::MatrixXd& base : frames) {
@@ -101,6 +103,7 @@ ValidityStats run_validity(ShellDeformer& deformer, const std::vector<Eigen::Mat
     s.intersections.push_back(r.certificate.top_self_intersections + r.certificate.top_base_intersections +
                               r.certificate.wall_intersections);
     s.substeps.push_back(r.substeps);
+    s.energy.push_back(r.energy.back());
     s.methods.push_back(frame_method_name(r.method));
   }
   return s;
@@ -115,13 +118,16 @@ void print_list(const char* name, const std::vector<int>& v) {
 } // namespace
 
 constexpr const char* kUsage = "usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60] "
-                                "[--ratio R=0.01] [--validity-only]\n";
+                                "[--ratio R=0.01] [--validity-only] [--mend-rings N]\n"
+                                "  --mend-rings N  the guard's mend of a refused frame over N rings (-1: drag only; "
+                                "default: DeformOptions{}'s)\n";
 
 int bench_main(int argc, char** argv) {
   std::string path = "models/bunny00.off";
   int runs = 5, frame_count = 30;
   double degrees = 60, ratio = 0.01;
   bool validity_only = false;
+  int mend_rings = DeformOptions{}.guard.mend_rings;
   // A bad option is one line and exit 1, not a load_mesh exception for a "mesh" named --help.
   const auto bad = [&](const char* what, const char* arg) {
     std::fprintf(stderr, "bench_deform: %s '%s' (see --help)\n", what, arg);
@@ -141,12 +147,14 @@ int bench_main(int argc, char** argv) {
     else if (!std::strcmp(a, "--bend")) degrees = number(i);
     else if (!std::strcmp(a, "--ratio")) ratio = number(i);
     else if (!std::strcmp(a, "--validity-only")) validity_only = true;
+    else if (!std::strcmp(a, "--mend-rings")) mend_rings = static_cast<int>(number(i));
     else if (a[0] == '-') bad("unknown option", a);
     else path = a;
   }
   if (runs < 1) bad("--runs must be >= 1, got", std::to_string(runs).c_str());
   if (frame_count < 1) bad("--frames must be >= 1, got", std::to_string(frame_count).c_str());
   if (!(ratio > 0)) bad("--ratio must be > 0, got", std::to_string(ratio).c_str());
+  if (mend_rings < -1) bad("--mend-rings must be >= -1, got", std::to_string(mend_rings).c_str());
   TriMesh mesh;
   try {
     mesh = load_mesh(path);
@@ -176,14 +184,14 @@ int bench_main(int argc, char** argv) {
 
   {
     // Certified once per mode (not timed), then timed runs interleaved guarded / unguarded.
-    const ValidityStats guarded = run_validity(deformer, frames, false, true);
-    const ValidityStats unguarded = run_validity(deformer, frames, true, true);
+    const ValidityStats guarded = run_validity(deformer, frames, false, true, mend_rings);
+    const ValidityStats unguarded = run_validity(deformer, frames, true, true, mend_rings);
     std::vector<double> guarded_ms{median(guarded.ms)}, unguarded_ms{median(unguarded.ms)};
     std::vector<double> guarded_cpu{median(guarded.cpu_ms)}, unguarded_cpu{median(unguarded.cpu_ms)};
     std::vector<double> certificate_ms{guarded.certificate_ms.empty() ? 0.0 : median(guarded.certificate_ms)};
     for (int r = 1; r < runs; ++r) {
-      const ValidityStats u = run_validity(deformer, frames, true, false);
-      const ValidityStats g = run_validity(deformer, frames, false, false);
+      const ValidityStats u = run_validity(deformer, frames, true, false, mend_rings);
+      const ValidityStats g = run_validity(deformer, frames, false, false, mend_rings);
       unguarded_ms.push_back(median(u.ms));
       unguarded_cpu.push_back(median(u.cpu_ms));
       guarded_ms.push_back(median(g.ms));
@@ -208,7 +216,11 @@ int bench_main(int argc, char** argv) {
     print_list("inverted tets per frame, unguarded", unguarded.inverted);
     print_list("intersecting boundary pairs per frame, unguarded", unguarded.intersections);
     print_list("sub-steps per frame, guarded", guarded.substeps);
-    std::printf("    guarded frame methods:");
+    std::printf("    ms per frame, guarded (first run):");
+    for (double ms : guarded.ms) std::printf(" %.0f", ms);
+    std::printf("\n    energy per frame, guarded:");
+    for (double e : guarded.energy) std::printf(" %.6g", e);
+    std::printf("\n    guarded frame methods:");
     for (const std::string& m : guarded.methods) std::printf(" %s", m.c_str());
     std::printf("\n");
   }

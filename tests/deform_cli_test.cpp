@@ -239,7 +239,7 @@ TEST(DeformCli, EndToEndFromGenerate) {
 
 
 // A sphere squashed to less than its layer's thickness: the paper's solve presses the top
-// through itself, so the guard finishes the frame. Its line counts both solvers' iterations, as
+// through itself, so the guard mends the frame. Its line counts both solvers' iterations, as
 // the status shown during a long frame does.
 TEST(DeformCli, AGuardedFramesLineCountsThePapersAndTheGuardsIterations) {
   TempDir tmp;
@@ -251,7 +251,7 @@ TEST(DeformCli, AGuardedFramesLineCountsThePapersAndTheGuardsIterations) {
   const auto r = run_cli("deform --shell '" + shell + "' --base '" + tmp.file("squashed.obj") + "' -o '" + out + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json frame = read_json(out + "/report.json")["frames"][0];
-  ASSERT_EQ(frame["method"], "guarded");
+  ASSERT_EQ(frame["method"], "mended");
   const int guarded = frame["guarded_iterations"].get<int>();
   ASSERT_GT(guarded, 0);
   const std::string counts = "frame 1/1: " + std::to_string(frame["iterations"].get<int>()) + " + " +

@@ -135,11 +135,18 @@ TEST(DeformGuard, TetsFlatToRoundingErrorAtRestDoNotHoldTheFramesStill) {
   }
 }
 
+// DeformOptions whose refused frames are always dragged (no mend first), for the drag's own tests.
+DeformOptions drag_only() {
+  DeformOptions o;
+  o.guard.mend_rings = -1;
+  return o;
+}
+
 TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {
   const Shell rest = flat_plane_shell(16, 0.2);
   ShellDeformer deformer(rest);
   const Eigen::MatrixXd base = bend(rest.base, motion_frame(rest.base), 150.0, 0.3);
-  const FrameResult r = deformer.solve(base);
+  const FrameResult r = deformer.solve(base, drag_only());
   expect_valid_frame(deformer, r, base);
   EXPECT_EQ(r.method, FrameMethod::Guarded);
   EXPECT_GT(r.substeps, 1);
@@ -153,7 +160,7 @@ TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {
 TEST(DeformGuard, SubStepsSolvedLooselyEndWhereTightOnesDoInFewerIterations) {
   const Shell rest = flat_plane_shell(16, 0.2);
   const Eigen::MatrixXd base = bend(rest.base, motion_frame(rest.base), 150.0, 0.3);
-  DeformOptions tight, loose;
+  DeformOptions tight = drag_only(), loose = drag_only();
   tight.tolerance = loose.tolerance = 1e-6;
   tight.max_iterations = loose.max_iterations = 1000;
   tight.substep_tolerance = tight.tolerance; // every sub-step to the frame's tolerance
@@ -165,6 +172,48 @@ TEST(DeformGuard, SubStepsSolvedLooselyEndWhereTightOnesDoInFewerIterations) {
   expect_valid_frame(b, l, base);
   EXPECT_LT(l.guarded_iterations, t.guarded_iterations);
   EXPECT_NEAR(l.energy.back(), t.energy.back(), 1e-5 * t.energy.back());
+}
+
+// The same far jump, refused, is mended where the paper's solve went wrong instead of dragged
+// there in sub-steps: valid, with the drag's energy to 1 %, in fewer guarded iterations.
+TEST(DeformGuard, AFarJumpRefusedIsMendedInPlaceNearTheDragsMinimum) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  const Eigen::MatrixXd base = bend(rest.base, motion_frame(rest.base), 150.0, 0.3);
+  ShellDeformer mending(rest), dragging(rest);
+  const FrameResult m = mending.solve(base), d = dragging.solve(base, drag_only());
+  ASSERT_EQ(d.method, FrameMethod::Guarded);
+  ASSERT_GT(d.substeps, 1);
+  EXPECT_EQ(m.method, FrameMethod::Mended);
+  expect_valid_frame(mending, m, base);
+  EXPECT_EQ(m.substeps, 0);
+  EXPECT_LT(m.guarded_iterations, d.guarded_iterations);
+  EXPECT_NEAR(m.energy.back(), d.energy.back(), 0.01 * d.energy.back());
+  const double returned = base_fixed_solver(mending.rest_tets(), rest.num_base_vertices()).energy(mending.current());
+  EXPECT_NEAR(m.energy.back(), returned, 1e-9 * returned);
+  // The next frame goes on from the mended one as from any valid frame.
+  const FrameResult next = mending.solve(bend(rest.base, motion_frame(rest.base), 155.0, 0.3));
+  expect_valid_frame(mending, next, bend(rest.base, motion_frame(rest.base), 155.0, 0.3));
+}
+
+// A refused frame the drag reaches in one sub-step is dragged: from a frame that close, one
+// guarded solve with the guard's own factor costs less than the mend's solver.
+TEST(DeformGuard, ARefusedFrameOneSubStepAwayIsDraggedNotMended) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  const MotionFrame frame = motion_frame(rest.base);
+  ShellDeformer deformer(rest);
+  int refused = 0;
+  for (int k = 1; k <= 30; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const Eigen::MatrixXd base = bend(rest.base, frame, 150.0 * ramp(k, 30), 0.3);
+    const FrameResult r = deformer.solve(base);
+    expect_valid_frame(deformer, r, base);
+    EXPECT_NE(r.method, FrameMethod::Mended);
+    if (r.method == FrameMethod::Guarded) {
+      ++refused;
+      EXPECT_EQ(r.substeps, 1);
+    }
+  }
+  EXPECT_GT(refused, 0); // else the rule was not exercised
 }
 
 TEST(DeformGuard, SubStepToleranceOutsideZeroToOneIsAnInputError) {

@@ -843,8 +843,9 @@ class DeformGuardTest(TempDirTest):
             self.assertTrue(m["valid"], f"frame {k + 1}")
             self.assertEqual(m["certificate"]["inverted_tets"], 0)
             self.assertEqual(m["base_self_intersections"], 0)
-        self.assertLessEqual(set(methods), {"bounded", "guarded"})
-        self.assertIn("guarded", methods)  # the guard had to act
+        # far frames the paper's solve got wrong are mended in place, near ones dragged
+        self.assertLessEqual(set(methods), {"bounded", "guarded", "mended"})
+        self.assertIn("mended", methods)  # the guard had to act
 
     def test_allow_invalid_reproduces_the_unguarded_frames(self):
         guarded, loose = gshell.Deformer(self.shell), gshell.Deformer(self.shell, allow_invalid=True)

@@ -43,8 +43,8 @@ WarmStart parse_warm_start(const std::string& name);
 /// with generation's directions (generation_guard_options: the volume barrier's Hessian projected
 /// per tet, the contact barrier's Gauss-Newton Hessian, a 4-ring local solve); the contact
 /// support stays 0.1, capped per pair at half of how close the rest shell holds its vertices to
-/// other parts of the boundary (contact_rest_fraction); a pose step it refuses is mended in place
-/// over 10 rings before any drag (mend_rings). On hard models a dragged frame or pose
+/// other parts of the boundary (contact_rest_fraction); a frame or pose step it refuses is mended
+/// in place over 10 rings before any drag (mend_rings). On hard models a dragged frame or pose
 /// step meets near-flat tets and wide contacts, as a repair does (docs/valid-deformation.md has
 /// the measurements).
 GuardOptions frame_guard_options();
@@ -64,7 +64,8 @@ struct DeformOptions {
   bool allow_invalid = false;
   /// Barrier and step parameters of the guard (relative to the shell's scales, as in generation;
   /// only j_hat, volume_weight, contact_distance, contact_rest_fraction, contact_weight,
-  /// keep_fraction, cg_iterations, cg_tolerance, local_rings and the two Hessian choices are read).
+  /// keep_fraction, cg_iterations, cg_tolerance, local_rings, mend_rings and the two Hessian choices
+  /// are read).
   GuardOptions guard = frame_guard_options();
   /// A guarded frame moves its base in sub-steps, each changing no base edge vector by more than
   /// this fraction of the edge's length (about this many radians of turn), in (0, 2].
@@ -100,8 +101,9 @@ enum class FrameMethod {
   Unguarded, ///< allow_invalid: the paper's solve only
   Bounded,   ///< the paper's solve, taken: the tet step bound passes on the way and its certificate holds
   Guarded,   ///< the guarded solver from the previous frame (sub-steps), boundary contacts kept apart
-  /// Pose only: the solve's step, refused, mended where it is wrong (GuardOptions::mend_rings):
-  /// its violations' tops pulled in and the guarded solver over them and a few rings around them.
+  /// The paper's solve (a frame's, or a pose step's), refused, mended where it is wrong
+  /// (GuardOptions::mend_rings): its violations' tops pulled in and the guarded solver over them
+  /// and a few rings around them, certified.
   Mended,
   TetsOnly,  ///< guarded against inverted tets only: the base forced a contact and no fresh top was clean
   /// The drag stalled (e.g. a sliver base face whose normal swings faster than its top can

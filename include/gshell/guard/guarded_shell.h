@@ -129,11 +129,11 @@ struct GuardOptions {
   /// unguarded result at 0.01 / 0.03 / 0.05: 1.235 / 1.204 / 1.168 -> 1.058 / 1.164 / 1.140).
   /// 0: none. Generation: 4.
   int lift_sweeps = 0;
-  /// Pose only, hard handles: a step the guard refuses is first mended where it is wrong (the
-  /// tops of its violations pulled in as the valid start pulls them, then the guarded solver over
-  /// them and this many rings around them, the rest of the solve's result held) and dragged from
-  /// the last pose only where that fails (a handle among the tops pulled in, a base crossing
-  /// itself). -1: always the drag. Deformation and pose: 10, frame_guard_options; fewer rings
+  /// Deformation frames, and pose steps with hard handles: a frame or step the guard refuses is
+  /// first mended where it is wrong (the tops of its violations pulled in as the valid start pulls
+  /// them, then the guarded solver over them and this many rings around them, the rest of the
+  /// solve's result held) and dragged from the last frame or pose only where that fails (a handle
+  /// among the tops pulled in, a base crossing itself). -1: always the drag. Deformation and pose: 10, frame_guard_options; fewer rings
   /// leave the pose further from the drag's minimum (CGAL's homer: energy +0.33 % with 3 rings,
   /// +0.02 % with 10; docs/valid-deformation.md, "Mending a refused step").
   int mend_rings = -1;
