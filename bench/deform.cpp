@@ -1,6 +1,6 @@
-// bench_deform: base-driven deformation of the bunny shell through a 30-frame bend (issues 5, 14).
-// Usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60]
-//                     [--ratio R=0.01] [--validity-only]
+// bench_deform: base-driven deformation of the bunny shell through a 30-frame bend or twist (issues 5, 14).
+// Usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60 | --twist DEG]
+//                     [--ratio R=0.01] [--validity-only] [--mend-rings N]
 // Prints the rest shell's size, the one-off factorization time, then guarded (valid by
 // construction, the default) against unguarded (--allow-invalid) frames, runs interleaved: median
 // time per frame, valid frames and inverted tets per frame by the exact certificate (not timed);
@@ -75,7 +75,8 @@ struct ValidityStats {
   std::vector<double> ms, cpu_ms; // wall, and CPU summed over threads (steadier on a loaded machine)
   std::vector<double> certificate_ms; // the exact certificate inside the guard's acceptance (part of ms)
   std::vector<double> energy; // the frame's (E of the state returned)
-  std::vector<int> inverted, substeps, intersections;
+  std::vector<double> paper_energy; // the paper's solve's, before the guard replaced it (if it did)
+  std::vector<int> inverted, substeps, intersections, guarded_iterations;
   std::vector<std::string> methods;
   int valid = 0;
 };
@@ -103,7 +104,9 @@ ValidityStats run_validity(ShellDeformer& deformer, const std::vector<Eigen::Mat
     s.intersections.push_back(r.certificate.top_self_intersections + r.certificate.top_base_intersections +
                               r.certificate.wall_intersections);
     s.substeps.push_back(r.substeps);
+    s.guarded_iterations.push_back(r.guarded_iterations);
     s.energy.push_back(r.energy.back());
+    s.paper_energy.push_back(r.energy[r.iterations]); // energy[0] is the warm start's
     s.methods.push_back(frame_method_name(r.method));
   }
   return s;
@@ -117,8 +120,8 @@ void print_list(const char* name, const std::vector<int>& v) {
 
 } // namespace
 
-constexpr const char* kUsage = "usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] [--bend DEG=60] "
-                                "[--ratio R=0.01] [--validity-only] [--mend-rings N]\n"
+constexpr const char* kUsage = "usage: bench_deform [MESH=models/bunny00.off] [--runs R=5] [--frames K=30] "
+                                "[--bend DEG=60 | --twist DEG] [--ratio R=0.01] [--validity-only] [--mend-rings N]\n"
                                 "  --mend-rings N  the guard's mend of a refused frame over N rings (-1: drag only; "
                                 "default: DeformOptions{}'s)\n";
 
@@ -126,6 +129,7 @@ int bench_main(int argc, char** argv) {
   std::string path = "models/bunny00.off";
   int runs = 5, frame_count = 30;
   double degrees = 60, ratio = 0.01;
+  bool twisting = false; // else bending
   bool validity_only = false;
   int mend_rings = DeformOptions{}.guard.mend_rings;
   // A bad option is one line and exit 1, not a load_mesh exception for a "mesh" named --help.
@@ -144,7 +148,8 @@ int bench_main(int argc, char** argv) {
     const char* a = argv[i];
     if (!std::strcmp(a, "--runs")) runs = static_cast<int>(number(i));
     else if (!std::strcmp(a, "--frames")) frame_count = static_cast<int>(number(i));
-    else if (!std::strcmp(a, "--bend")) degrees = number(i);
+    else if (!std::strcmp(a, "--bend")) degrees = number(i), twisting = false;
+    else if (!std::strcmp(a, "--twist")) degrees = number(i), twisting = true;
     else if (!std::strcmp(a, "--ratio")) ratio = number(i);
     else if (!std::strcmp(a, "--validity-only")) validity_only = true;
     else if (!std::strcmp(a, "--mend-rings")) mend_rings = static_cast<int>(number(i));
@@ -178,9 +183,12 @@ int bench_main(int argc, char** argv) {
 
   const MotionFrame frame = motion_frame(rest.base);
   std::vector<Eigen::MatrixXd> frames;
-  for (int k = 1; k <= frame_count; ++k) frames.push_back(bend(rest.base, frame, degrees * ramp(k, frame_count)));
-  std::printf("%d frames: smooth bend to %.0f degrees about the bounding box's middle axis (thickness ratio %g)\n",
-              frame_count, degrees, ratio);
+  for (int k = 1; k <= frame_count; ++k) {
+    const double at = degrees * ramp(k, frame_count);
+    frames.push_back(twisting ? twist(rest.base, frame, at) : bend(rest.base, frame, at));
+  }
+  std::printf("%d frames: smooth %s to %.0f degrees about the bounding box's %s axis (thickness ratio %g)\n",
+              frame_count, twisting ? "twist" : "bend", degrees, twisting ? "long" : "middle", ratio);
 
   {
     // Certified once per mode (not timed), then timed runs interleaved guarded / unguarded.
@@ -216,10 +224,13 @@ int bench_main(int argc, char** argv) {
     print_list("inverted tets per frame, unguarded", unguarded.inverted);
     print_list("intersecting boundary pairs per frame, unguarded", unguarded.intersections);
     print_list("sub-steps per frame, guarded", guarded.substeps);
+    print_list("guarded iterations per frame", guarded.guarded_iterations);
     std::printf("    ms per frame, guarded (first run):");
     for (double ms : guarded.ms) std::printf(" %.0f", ms);
     std::printf("\n    energy per frame, guarded:");
     for (double e : guarded.energy) std::printf(" %.6g", e);
+    std::printf("\n    energy of the paper's solve per frame, guarded:");
+    for (double e : guarded.paper_energy) std::printf(" %.6g", e);
     std::printf("\n    guarded frame methods:");
     for (const std::string& m : guarded.methods) std::printf(" %s", m.c_str());
     std::printf("\n");

@@ -28,6 +28,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <numeric>
 #include <string>
 
@@ -193,6 +194,24 @@ TEST(DeformGuard, AFarJumpRefusedIsMendedInPlaceNearTheDragsMinimum) {
   // The next frame goes on from the mended one as from any valid frame.
   const FrameResult next = mending.solve(bend(rest.base, motion_frame(rest.base), 155.0, 0.3));
   expect_valid_frame(mending, next, bend(rest.base, motion_frame(rest.base), 155.0, 0.3));
+}
+
+// Allowed no rise above the paper's energy, the far jump's mend is kept aside, the drag runs too
+// (its iterations counted) and the frame is whichever valid state is lower.
+TEST(DeformGuard, AMendAboveThePapersEnergyIsComparedWithTheDrag) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  const Eigen::MatrixXd base = bend(rest.base, motion_frame(rest.base), 150.0, 0.3);
+  DeformOptions strict;
+  strict.guard.mend_max_rise = 0;
+  ShellDeformer mending(rest), dragging(rest), both(rest);
+  const FrameResult m = mending.solve(base), d = dragging.solve(base, drag_only()), s = both.solve(base, strict);
+  ASSERT_EQ(m.method, FrameMethod::Mended);
+  ASSERT_EQ(d.method, FrameMethod::Guarded);
+  expect_valid_frame(both, s, base);
+  EXPECT_GT(s.guarded_iterations, m.guarded_iterations);
+  const bool mend_lower = m.energy.back() < d.energy.back();
+  EXPECT_EQ(s.method, mend_lower ? FrameMethod::Mended : FrameMethod::Guarded);
+  EXPECT_DOUBLE_EQ(s.energy.back(), std::min(m.energy.back(), d.energy.back()));
 }
 
 // A refused frame the drag reaches in one sub-step is dragged: from a frame that close, one
@@ -951,20 +970,36 @@ TEST(PoseGuard, ARefusedStepIsMendedInPlaceToTheDragsMinimum) {
   for (std::size_t k = 0; k < constrained.size(); ++k)
     EXPECT_LT((mended.X.row(constrained[k]) - targets.row(static_cast<Eigen::Index>(k))).norm(), 1e-12);
   EXPECT_NEAR(mended.steps[0].energy, dragged.steps[0].energy, 1e-4 * dragged.steps[0].energy);
+  // Allowed no rise above the solve's energy, the mend is kept aside, the drag runs too (its
+  // iterations counted) and the step returns whichever valid state is lower.
+  options.guard.mend_rings = 10;
+  options.guard.mend_max_rise = 0;
+  const PoseResult both = run_pose(rest, handles, options);
+  ASSERT_EQ(both.steps.size(), 1u);
+  EXPECT_TRUE(both.steps[0].valid);
+  EXPECT_GT(both.steps[0].guarded_iterations, mended.steps[0].guarded_iterations);
+  const bool mend_lower = mended.steps[0].energy < dragged.steps[0].energy;
+  EXPECT_EQ(both.steps[0].method, mend_lower ? FrameMethod::Mended : FrameMethod::Guarded);
+  EXPECT_DOUBLE_EQ(both.steps[0].energy, std::min(mended.steps[0].energy, dragged.steps[0].energy));
 }
 
 TEST(PoseGuard, GuardOptionsOutOfRangeAreAnInputErrorNamingThem) {
   HandleSet handles;
   int v = 0;
   const Shell rest = mend_plane(handles, &v);
-  PoseOptions options;
-  options.guard.mend_rings = -2;
-  try {
-    run_pose(rest, handles, options);
-    ADD_FAILURE() << "mend_rings -2 was accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("mend_rings"), std::string::npos) << e.what();
-  }
+  const auto expect_named = [&](const char* name, const std::function<void(GuardOptions&)>& spoil) {
+    PoseOptions options;
+    spoil(options.guard);
+    try {
+      run_pose(rest, handles, options);
+      ADD_FAILURE() << name << " out of range was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  };
+  expect_named("mend_rings", [](GuardOptions& g) { g.mend_rings = -2; });
+  expect_named("mend_max_rise", [](GuardOptions& g) { g.mend_max_rise = -0.1; });
+  expect_named("mend_max_rise", [](GuardOptions& g) { g.mend_max_rise = std::nan(""); });
 }
 
 } // namespace

@@ -154,12 +154,32 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     solve.progress = [&](int, double e, double) {
       options.progress(result.iterations + ++continued, e, result.seconds + seconds_since(solved));
     };
-  if (s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate)) {
+  // A mend well above the solve's energy is kept aside while the drag runs, and the valid state
+  // of lower energy is returned (GuardOptions::mend_max_rise; as for deformation frames).
+  Eigen::MatrixXd mended; // empty: none kept aside
+  ShellCertificate mended_certificate;
+  double mended_energy = 0;
+  int mend_iterations = 0;
+  // Settled by the solve's own step, or by its mend.
+  bool settled = s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate);
+  if (settled) {
     out.method = FrameMethod::Bounded;
-  } else if (hard && guard.mend_rings >= 0 &&
-             s.guard->mend(X, guard.mend_rings, solve, &out.certificate, &out.certificate, &out.guarded_iterations)) {
-    out.method = FrameMethod::Mended;
-  } else if (hard) {
+  } else if (hard && guard.mend_rings >= 0) {
+    mended = X;
+    const double paper_energy = energy(X, P);
+    if (s.guard->mend(mended, guard.mend_rings, solve, &out.certificate, &mended_certificate, &mend_iterations)) {
+      mended_energy = energy(mended, P);
+      if (mended_energy <= (1 + guard.mend_max_rise) * paper_energy) {
+        X = std::move(mended);
+        out.method = FrameMethod::Mended;
+        out.guarded_iterations = mend_iterations;
+        settled = true;
+      }
+    } else {
+      mended.resize(0, 3);
+    }
+  }
+  if (!settled && hard) {
     Eigen::MatrixXd targets = start;
     for (std::size_t r = 0; r < s.constrained.size(); ++r) targets.row(s.constrained[r]) = P.row(static_cast<Eigen::Index>(r));
     // The drag starts as far along the straight path to the refused step as the guard accepts:
@@ -181,11 +201,18 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
       outcome = drag();
       outcome.iterations += spent;
     }
-    out.method = outcome.method;
-    out.blocked_by_contact = outcome.blocked;
-    out.guarded_iterations = outcome.iterations;
-    X = outcome.method == FrameMethod::Failed ? start : std::move(Y);
-  } else {
+    out.guarded_iterations = mend_iterations + outcome.iterations;
+    const bool reached = outcome.method == FrameMethod::Guarded && !outcome.blocked;
+    if (mended.rows() > 0 && (!reached || energy(Y, P) > mended_energy)) {
+      X = std::move(mended);
+      out.method = FrameMethod::Mended;
+      out.drag_start = 0;
+    } else {
+      out.method = outcome.method;
+      out.blocked_by_contact = outcome.blocked;
+      X = outcome.method == FrameMethod::Failed ? start : std::move(Y);
+    }
+  } else if (!settled) {
     // Soft handles: no guarded solver holds springs; the step is cut back along its straight path
     // to as much of it as the guard accepts (nothing of it when not even kMinSoftStep is).
     Eigen::MatrixXd Y = start;
@@ -195,7 +222,11 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     out.method = FrameMethod::Bounded;
     out.blocked_by_contact = true;
   }
-  if (out.method != FrameMethod::Bounded && out.method != FrameMethod::Mended) out.certificate = s.guard->certify(X);
+  if (out.method == FrameMethod::Mended) {
+    out.certificate = std::move(mended_certificate);
+  } else if (out.method != FrameMethod::Bounded) {
+    out.certificate = s.guard->certify(X);
+  }
   out.valid = out.certificate.valid() && out.certificate.base_self_intersections == 0;
   // The result describes the state returned: where the guard replaced the solver's state, its
   // last energy is that of the valid state, and a step short of its targets has not converged.

@@ -273,6 +273,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.relax_rounds >= 0, "relax_rounds", ">= 0");
   require(o.lift_sweeps >= 0, "lift_sweeps", ">= 0");
   require(o.mend_rings >= -1, "mend_rings", ">= -1");
+  require(o.mend_max_rise >= 0 && std::isfinite(o.mend_max_rise), "mend_max_rise", ">= 0");
 }
 
 ValidStartOptions valid_start_options(const GuardOptions& options, double fallback_length) {

@@ -64,8 +64,8 @@ struct DeformOptions {
   bool allow_invalid = false;
   /// Barrier and step parameters of the guard (relative to the shell's scales, as in generation;
   /// only j_hat, volume_weight, contact_distance, contact_rest_fraction, contact_weight,
-  /// keep_fraction, cg_iterations, cg_tolerance, local_rings, mend_rings and the two Hessian choices
-  /// are read).
+  /// keep_fraction, cg_iterations, cg_tolerance, local_rings, mend_rings, mend_max_rise and the two
+  /// Hessian choices are read).
   GuardOptions guard = frame_guard_options();
   /// A guarded frame moves its base in sub-steps, each changing no base edge vector by more than
   /// this fraction of the edge's length (about this many radians of turn), in (0, 2].
@@ -200,6 +200,8 @@ private:
   // passes the step bounds, else replaced by the guarded drag.
   void guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
                    FrameResult& result);
+  // Reports the mended frame X (FrameMethod::Mended, valid, certified) and carries it forward.
+  void take_mended(const Eigen::MatrixXd& X, ShellCertificate certificate, int iterations, FrameResult& result);
   // After a stalled drag: Y = the top over X's base made afresh (guarded_shell towards the
   // solver's rest shapes, its paper iterations started from X's top, the frame's own solve), and
   // its exact certificate.
