@@ -552,7 +552,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   result.fresh_top = outcome.method == FrameMethod::Regenerated || fresh_returned;
   result.substeps = outcome.substeps;
   result.guarded_iterations = mend_iterations + outcome.iterations; // a declined mend's too
-  result.valid = outcome.method == FrameMethod::Guarded || outcome.method == FrameMethod::Regenerated;
+  result.valid = dragged_valid;
   if (result.valid) {
     current_clean_ = true;
     resume_.resize(0, 3);

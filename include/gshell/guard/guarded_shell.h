@@ -129,13 +129,15 @@ struct GuardOptions {
   /// unguarded result at 0.01 / 0.03 / 0.05: 1.235 / 1.204 / 1.168 -> 1.058 / 1.164 / 1.140).
   /// 0: none. Generation: 4.
   int lift_sweeps = 0;
-  /// Deformation frames, and pose steps with hard handles: a frame or step the guard refuses is
-  /// first mended where it is wrong (the tops of its violations pulled in as the valid start pulls
-  /// them, then the guarded solver over them and this many rings around them, the rest of the
-  /// solve's result held) and dragged from the last frame or pose only where that fails (a handle
-  /// among the tops pulled in, a base crossing itself). -1: always the drag. Deformation and pose: 10, frame_guard_options; fewer rings
-  /// leave the pose further from the drag's minimum (CGAL's homer: energy +0.33 % with 3 rings,
-  /// +0.02 % with 10; docs/valid-deformation.md, "Mending a refused step").
+  /// Deformation frames (those the drag would take more than one sub-step to reach), and pose
+  /// steps with hard handles: a frame or step the guard refuses is first mended where it is wrong
+  /// (the tops of its violations pulled in as the valid start pulls them, then the guarded solver
+  /// over them and this many rings around them, the rest of the solve's result held) and dragged
+  /// from the last frame or pose only where that fails (a handle among the tops pulled in, a base
+  /// crossing itself). -1: always the drag. Deformation and pose: 10, frame_guard_options; fewer
+  /// rings leave the pose further from the drag's minimum (CGAL's homer: energy +0.33 % with 3
+  /// rings, +0.02 % with 10; docs/valid-deformation.md, "Mending a refused step" and "Mending a
+  /// refused frame").
   int mend_rings = -1;
   /// A mend that ends more than this fraction above the energy of the solve it mends (>= 0) is
   /// not taken as it is: the drag runs too, and the valid state of lower energy is returned. Its
