@@ -377,6 +377,20 @@ bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& 
   return true;
 }
 
+FrameMend FrameGuard::weighed_mend(const Eigen::MatrixXd& X, int rings, double max_rise,
+                                   const GuardedSolveOptions& solve, const ShellCertificate* refused,
+                                   const std::function<double(const Eigen::MatrixXd&)>& energy) {
+  FrameMend m;
+  m.X = X;
+  if (!mend(m.X, rings, solve, refused, &m.certificate, &m.iterations)) {
+    m.X.resize(0, 3);
+    return m;
+  }
+  m.energy = energy(m.X);
+  m.within_rise = m.energy <= (1 + max_rise) * energy(X);
+  return m;
+}
+
 int FrameGuard::substeps_between(const Eigen::MatrixXd& from, const Eigen::MatrixXd& to,
                                  const DeformOptions& schedule) const {
   const double change = max_edge_change(from.topRows(n_), to.topRows(n_), F_);

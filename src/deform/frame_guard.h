@@ -19,6 +19,18 @@
 
 namespace gshell {
 
+/// A mend of a refused state weighed by the caller's energy (weighed_mend).
+struct FrameMend {
+  Eigen::MatrixXd X; ///< the mended state, 2n x 3; empty where the mend declined
+  ShellCertificate certificate; ///< X's (mend's `certificate`)
+  double energy = 0; ///< the caller's energy of X
+  int iterations = 0; ///< the guarded solver's, also where the mend declined
+  /// X's energy is at most (1 + max_rise) times the refused state's: X is to be taken as it is.
+  /// A mend above that may sit in another minimum than a drag's: the caller drags too and keeps
+  /// the valid state of lower energy (GuardOptions::mend_max_rise).
+  bool within_rise = false;
+};
+
 class FrameGuard {
 public:
   /// `rest`: the rest shell (the first frame starts from it), `rest_tets` the solver's rest
@@ -96,6 +108,10 @@ public:
   /// certified again); `iterations` gets the solver's.
   bool mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& solve, const ShellCertificate* refused,
             ShellCertificate* certificate, int* iterations);
+  /// mend() of a copy of X, then X's and the mended state's `energy` (the caller's objective)
+  /// compared (FrameMend::within_rise).
+  FrameMend weighed_mend(const Eigen::MatrixXd& X, int rings, double max_rise, const GuardedSolveOptions& solve,
+                    const ShellCertificate* refused, const std::function<double(const Eigen::MatrixXd&)>& energy);
   /// Sub-steps for a drag from the state `from` to `to` (2n x 3): as many as keep every base edge
   /// vector's change per sub-step within schedule.substep_edge_change of its length, at least 1,
   /// at most schedule.max_substeps.

@@ -156,27 +156,19 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     };
   // A mend well above the solve's energy is kept aside while the drag runs, and the valid state
   // of lower energy is returned (GuardOptions::mend_max_rise; as for deformation frames).
-  Eigen::MatrixXd mended; // empty: none kept aside
-  ShellCertificate mended_certificate;
-  double mended_energy = 0;
-  int mend_iterations = 0;
+  FrameMend mended; // X empty: none kept aside
   // Settled by the solve's own step, or by its mend.
   bool settled = s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate);
   if (settled) {
     out.method = FrameMethod::Bounded;
   } else if (hard && guard.mend_rings >= 0) {
-    mended = X;
-    const double paper_energy = energy(X, P);
-    if (s.guard->mend(mended, guard.mend_rings, solve, &out.certificate, &mended_certificate, &mend_iterations)) {
-      mended_energy = energy(mended, P);
-      if (mended_energy <= (1 + guard.mend_max_rise) * paper_energy) {
-        X = std::move(mended);
-        out.method = FrameMethod::Mended;
-        out.guarded_iterations = mend_iterations;
-        settled = true;
-      }
-    } else {
-      mended.resize(0, 3);
+    mended = s.guard->weighed_mend(X, guard.mend_rings, guard.mend_max_rise, solve, &out.certificate,
+                                   [&](const Eigen::MatrixXd& Y) { return energy(Y, P); });
+    if (mended.within_rise) {
+      X = std::move(mended.X);
+      out.method = FrameMethod::Mended;
+      out.guarded_iterations = mended.iterations;
+      settled = true;
     }
   }
   if (!settled && hard) {
@@ -201,10 +193,10 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
       outcome = drag();
       outcome.iterations += spent;
     }
-    out.guarded_iterations = mend_iterations + outcome.iterations;
+    out.guarded_iterations = mended.iterations + outcome.iterations;
     const bool reached = outcome.method == FrameMethod::Guarded && !outcome.blocked;
-    if (mended.rows() > 0 && (!reached || energy(Y, P) > mended_energy)) {
-      X = std::move(mended);
+    if (mended.X.rows() > 0 && (!reached || energy(Y, P) > mended.energy)) {
+      X = std::move(mended.X);
       out.method = FrameMethod::Mended;
       out.drag_start = 0;
     } else {
@@ -223,7 +215,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     out.blocked_by_contact = true;
   }
   if (out.method == FrameMethod::Mended) {
-    out.certificate = std::move(mended_certificate);
+    out.certificate = std::move(mended.certificate);
   } else if (out.method != FrameMethod::Bounded) {
     out.certificate = s.guard->certify(X);
   }

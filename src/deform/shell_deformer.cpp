@@ -399,15 +399,15 @@ ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::Matr
   return guard_->certify(Y);
 }
 
-void ShellDeformer::take_mended(const Eigen::MatrixXd& X, ShellCertificate certificate, int iterations,
-                                FrameResult& result) {
+void ShellDeformer::take_mended(Eigen::MatrixXd& X, FrameMend& mended, int iterations, FrameResult& result) {
+  X = std::move(mended.X);
   result.method = FrameMethod::Mended;
   result.valid = true;
   result.substeps = 0;
   result.guarded_iterations = iterations;
-  result.certificate = std::move(certificate);
+  result.certificate = std::move(mended.certificate);
   result.certified = true;
-  result.energy.push_back(solver_.energy(X));
+  result.energy.push_back(mended.energy);
   current_clean_ = true;
   resume_.resize(0, 3);
 }
@@ -457,25 +457,16 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   // the drag would (GuardOptions::mend_max_rise): it is kept aside, the drag runs, and the valid
   // frame of lower energy is returned.
   const int substeps = guard_->substeps_between(previous, X, options);
-  int mend_iterations = 0;
-  Eigen::MatrixXd mended; // a valid mend kept aside (empty: none)
-  ShellCertificate mended_certificate;
-  double mended_energy = 0;
+  FrameMend mended; // a valid mend kept aside while the drag runs (X empty: none)
   if (contacts && options.guard.mend_rings >= 0 && substeps > 1) {
     GuardedSolveOptions mend = solve;
     mend.tolerance = 0.1 * options.tolerance;
     mend.max_iterations = substeps * options.max_iterations;
-    mended = X;
-    const double paper_energy = solver_.energy(X);
-    if (guard_->mend(mended, options.guard.mend_rings, mend, &certificate, &mended_certificate, &mend_iterations)) {
-      mended_energy = solver_.energy(mended);
-      if (mended_energy <= (1 + options.guard.mend_max_rise) * paper_energy) {
-        X = std::move(mended);
-        take_mended(X, std::move(mended_certificate), mend_iterations, result);
-        return;
-      }
-    } else {
-      mended.resize(0, 3);
+    mended = guard_->weighed_mend(X, options.guard.mend_rings, options.guard.mend_max_rise, mend, &certificate,
+                                  [this](const Eigen::MatrixXd& Y) { return solver_.energy(Y); });
+    if (mended.within_rise) {
+      take_mended(X, mended, mended.iterations, result);
+      return;
     }
   }
   Eigen::MatrixXd Y = previous;
@@ -543,15 +534,14 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     fresh_returned = true;
   }
   const bool dragged_valid = outcome.method == FrameMethod::Guarded || outcome.method == FrameMethod::Regenerated;
-  if (mended.rows() > 0 && (!dragged_valid || solver_.energy(Y) > mended_energy)) {
-    X = std::move(mended);
-    take_mended(X, std::move(mended_certificate), mend_iterations + outcome.iterations, result);
+  if (mended.X.rows() > 0 && (!dragged_valid || solver_.energy(Y) > mended.energy)) {
+    take_mended(X, mended, mended.iterations + outcome.iterations, result);
     return;
   }
   result.method = outcome.method;
   result.fresh_top = outcome.method == FrameMethod::Regenerated || fresh_returned;
   result.substeps = outcome.substeps;
-  result.guarded_iterations = mend_iterations + outcome.iterations; // a declined mend's too
+  result.guarded_iterations = mended.iterations + outcome.iterations; // a declined mend's too
   result.valid = dragged_valid;
   if (result.valid) {
     current_clean_ = true;

@@ -164,6 +164,7 @@ constexpr double kMinRestVolumeRatio = 1e-3;
 RestTets deformation_rest_tets(const Shell& shell, int* replaced = nullptr);
 
 class FrameGuard; // src/deform/frame_guard.h
+struct FrameMend;  // src/deform/frame_guard.h
 
 /// Built once per rest shell: rest shapes from deformation_rest_tets, base vertices fixed, system
 /// matrix factored once; every frame only back-substitutes.
@@ -200,8 +201,8 @@ private:
   // passes the step bounds, else replaced by the guarded drag.
   void guard_frame(const Eigen::MatrixXd& previous, Eigen::MatrixXd& X, const DeformOptions& options,
                    FrameResult& result);
-  // Reports the mended frame X (FrameMethod::Mended, valid, certified) and carries it forward.
-  void take_mended(const Eigen::MatrixXd& X, ShellCertificate certificate, int iterations, FrameResult& result);
+  // Makes the mend the frame X (FrameMethod::Mended, valid, certified) and carries it forward.
+  void take_mended(Eigen::MatrixXd& X, FrameMend& mended, int iterations, FrameResult& result);
   // After a stalled drag: Y = the top over X's base made afresh (guarded_shell towards the
   // solver's rest shapes, its paper iterations started from X's top, the frame's own solve), and
   // its exact certificate.
