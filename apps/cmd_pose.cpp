@@ -36,7 +36,7 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   check_output_folder(a.output, holds_only_shell_files); // fail on a bad output path before the long part
 
   const std::string rest_warning = invalid_rest_shell_warning(a.shell_dir, rest.report, "pose step");
-  if (!rest_warning.empty()) std::fprintf(stderr, "warning: %s\n", rest_warning.c_str());
+  if (!rest_warning.empty()) std::fprintf(stderr, "gshell pose: warning: %s\n", rest_warning.c_str());
 
   cli::Progress progress("pose", 0.5);
   progress.line(std::to_string(rest.shell.num_base_vertices() * 2) + " shell vertices, " +
@@ -68,10 +68,9 @@ void run(const CLI::App& cmd, PoseArgs& a) {
       line += (faults.empty() ? "" : "; " + faults) + ")";
     }
     progress.line(line);
-    if (s.blocked_by_contact) // a warning even with --quiet: the pose is not where the handles asked
-      std::fprintf(stderr, "warning: step %zu: the handles force the shell into itself or squeeze a tet between "
-                           "them flat; stopped short of them (blocked_by_contact in report.json)\n", k + 1);
   }
+  // Even with --quiet: a pose short of its handles, or not valid, is not what was asked for.
+  for (const std::string& warning : result.warnings()) std::fprintf(stderr, "gshell pose: warning: %s\n", warning.c_str());
   session.write(a.output, 0, cli::preview_writer(a.render, a.output, view));
   progress.line("wrote " + a.output + " (top.obj, base.obj, shell.vtu, report.json" + (a.render ? ", preview.png" : "") +
                 ")");

@@ -296,6 +296,26 @@ TEST(DeformCli, DeformAndPoseWarnWhenTheRestShellsReportCallsItInvalid) {
   }
 }
 
+// A frame whose base lies on itself (a strip bent past a full turn) cannot be valid: even with
+// --quiet the run says which frame and why, as report.json does; a valid run says nothing.
+TEST(DeformCli, InvalidFramesAreNamedInAWarningEvenWhenQuiet) {
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 6, 0.1), frames = tmp.file("frames");
+  ASSERT_EQ(run_cli("animate '" + shell + "/base.obj' --bend 450 --frames 2 -o '" + frames + "' -q").exit_code, 0);
+  const auto r = run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' '" + frames +
+                         "/frame_0002.obj' -o '" + tmp.file("out") + "' -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string warning = "1 of 2 frames is not valid: the base crosses itself in frame 2 (report.json has each "
+                              "frame's certificate)";
+  EXPECT_EQ(r.err, "gshell deform: warning: " + warning + "\n");
+  const nlohmann::json report = read_json(tmp.file("out") + "/report.json");
+  EXPECT_EQ(report["warnings"], nlohmann::json::array({warning}));
+  const auto valid = run_cli("deform --shell '" + shell + "' --base '" + frames + "/frame_0001.obj' -o '" +
+                             tmp.file("valid") + "' -q");
+  ASSERT_EQ(valid.exit_code, 0) << valid.err;
+  EXPECT_EQ(valid.err, "");
+}
+
 TEST(DeformCli, RenderWritesAPreviewOfTheFrames) {
   if (!offscreen_rendering_available()) GTEST_SKIP() << "built without OSMesa";
   TempDir tmp;

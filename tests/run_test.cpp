@@ -9,6 +9,7 @@
 #include <gshell/run/deform_run.h>
 #include <gshell/run/frames.h>
 #include <gshell/run/generate_run.h>
+#include <gshell/run/pose_run.h>
 #include <gshell/run/shell_folder.h>
 #include <gshell/run/staged_folder.h>
 
@@ -236,6 +237,7 @@ TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
   EXPECT_EQ(report["summary"]["frames"], frames);
   EXPECT_EQ(report["summary"]["inverted_tets"], 0);
   EXPECT_TRUE(report["summary"].contains("offset"));
+  EXPECT_EQ(report["warnings"], nlohmann::ordered_json::array()); // every frame valid
   EXPECT_EQ(report["frames"][1]["base"], "turn 2");
   EXPECT_EQ(read_report(out), report);
   EXPECT_EQ(entries(out), (std::vector<std::string>{"frame_0001", "frame_0002", "frame_0003", "report.json"}));
@@ -250,6 +252,54 @@ TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
   options.frame.max_iterations = -1;
   EXPECT_THROW(run_deform(input, options), InputError);
   EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"run"});
+}
+
+// Frames and pose steps that are not valid are named in one warning line, by what explains them;
+// the line goes into report.json too (the CLI prints it even with --quiet).
+TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
+  DeformRun run;
+  auto add = [&](bool valid, int crossings, std::vector<int> unextrudable) {
+    DeformFrameRecord f;
+    f.frame = static_cast<int>(run.frames.size()) + 1;
+    f.result.valid = valid;
+    f.result.certificate.base_self_intersections = crossings;
+    f.result.unextrudable_vertices = std::move(unextrudable);
+    run.frames.push_back(f);
+  };
+  add(true, 0, {});
+  EXPECT_TRUE(run.warnings().empty());
+  add(false, 4, {});
+  add(false, 0, {});
+  add(true, 0, {});
+  add(false, 2, {7, 9});
+  const std::vector<std::string> w = run.warnings();
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0], "3 of 5 frames are not valid: the base crosses itself in frames 2, 5; base vertices cannot be "
+                  "extruded in frame 5; the guard could not make frame 3 valid (report.json has each frame's "
+                  "certificate)");
+  EXPECT_EQ(run.to_json()["warnings"], nlohmann::ordered_json(w));
+  run.options.frame.allow_invalid = true; // unexplained frames were not guarded at all
+  EXPECT_NE(run.warnings()[0].find("frame 3 unguarded (allow_invalid)"), std::string::npos) << run.warnings()[0];
+
+  PoseResult pose;
+  auto step = [&](bool valid, bool blocked, int crossings) {
+    PoseStepReport s;
+    s.guarded = true;
+    s.valid = valid;
+    s.blocked_by_contact = blocked;
+    s.base_self_intersections = crossings;
+    pose.steps.push_back(s);
+  };
+  step(true, false, 0);
+  EXPECT_TRUE(pose.warnings().empty());
+  step(true, true, 0);
+  step(false, false, 3);
+  const std::vector<std::string> p = pose.warnings();
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(p[0].rfind("pose step 2: the handles force the shell into itself", 0), 0u) << p[0];
+  EXPECT_EQ(p[1], "1 of 3 pose steps is not valid: the base crosses itself in pose step 3 (report.json has each "
+                  "pose step's certificate)");
+  EXPECT_EQ(pose.to_json()["warnings"], nlohmann::ordered_json(p));
 }
 
 // A sequence too large to hold is read again frame by frame: the same run, bit for bit. Its files

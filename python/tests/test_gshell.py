@@ -881,6 +881,10 @@ class DeformGuardTest(TempDirTest):
         self.assertGreater(loose["summary"]["invalid_frames"], 0)
         self.assertGreater(loose["summary"]["certificate_inverted_tets"], 0)
         self.assertEqual(loose["summary"]["guarded_frames"], 0)
+        # The invalid frames are named in the report's warnings (the CLI prints them), by cause.
+        self.assertEqual(report["warnings"], [])
+        self.assertEqual(len(loose["warnings"]), 1)
+        self.assertIn("unguarded (allow_invalid)", loose["warnings"][0])
         # deform(allow_invalid=True) is the unguarded Deformer frame by frame.
         d = gshell.Deformer(self.shell, allow_invalid=True)
         for frame, record in zip(self.frames, loose["frames"]):

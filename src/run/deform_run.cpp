@@ -13,6 +13,8 @@
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
+#include "invalid_items_warning.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -109,6 +111,17 @@ nlohmann::ordered_json DeformFrameRecord::to_json() const {
   return j;
 }
 
+std::vector<std::string> DeformRun::warnings() const {
+  detail::InvalidItems invalid;
+  for (const DeformFrameRecord& f : frames)
+    if (!f.result.valid)
+      invalid.add(f.frame, f.result.certificate.base_self_intersections > 0, !f.result.unextrudable_vertices.empty());
+  const std::string line =
+      detail::invalid_items_warning(invalid, static_cast<int>(frames.size()), "frame", options.frame.allow_invalid);
+  if (line.empty()) return {};
+  return {line};
+}
+
 nlohmann::ordered_json DeformRun::to_json() const {
   using json = nlohmann::ordered_json;
   std::vector<double> seconds, iterations;
@@ -169,6 +182,7 @@ nlohmann::ordered_json DeformRun::to_json() const {
                            {"outside", embed->outside},
                            {"max_outside_distance", embed->max_outside_distance}};
   report["summary"] = summary;
+  report["warnings"] = warnings();
   json list = json::array();
   for (const DeformFrameRecord& f : frames) list.push_back(f.to_json());
   report["frames"] = list;

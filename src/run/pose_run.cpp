@@ -5,6 +5,8 @@
 #include <gshell/quality/stretch_report.h>
 #include <gshell/run/drag_session.h>
 
+#include "invalid_items_warning.h"
+
 #include <cmath>
 
 namespace gshell {
@@ -43,6 +45,26 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
   return j;
 }
 
+std::vector<std::string> PoseResult::warnings() const {
+  std::vector<std::string> lines;
+  detail::InvalidItems invalid;
+  int guarded = 0;
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    const PoseStepReport& s = steps[k];
+    if (!s.guarded) continue;
+    ++guarded;
+    const int step = static_cast<int>(k) + 1;
+    if (s.blocked_by_contact)
+      lines.push_back("pose step " + std::to_string(step) +
+                      ": the handles force the shell into itself or squeeze a tet between them flat; stopped short "
+                      "of them (blocked_by_contact in report.json)");
+    if (!s.valid) invalid.add(step, s.base_self_intersections > 0, false);
+  }
+  const std::string line = detail::invalid_items_warning(invalid, guarded, "pose step", false);
+  if (!line.empty()) lines.push_back(line);
+  return lines;
+}
+
 nlohmann::ordered_json PoseResult::to_json() const {
   nlohmann::ordered_json j;
   j["command"] = "pose";
@@ -62,6 +84,7 @@ nlohmann::ordered_json PoseResult::to_json() const {
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (const PoseStepReport& s : steps) list.push_back(s.to_json());
   j["steps"] = list;
+  j["warnings"] = warnings();
   j.update(stretch_report(stretch));
   return j;
 }

@@ -80,12 +80,17 @@ struct DeformRun {
   std::optional<Embed> embed;
   std::vector<DeformFrameRecord> frames;
 
+  /// What a user must hear even with progress off: one line naming the frames that are not valid
+  /// and why (the base crosses itself, unextrudable base vertices, unguarded by allow_invalid, or
+  /// none of those: the guard could not make them valid); empty when every frame is valid.
+  std::vector<std::string> warnings() const;
+
   /// report.json: command, shell, base_vertices, tets, thickness, tolerance, max_iterations,
   /// warm_start, allow_invalid, replaced_rest_tets, factor_seconds, setup_seconds, embed {detail,
   /// points, outside, max_outside_distance}, summary {frames, median_seconds, total_seconds,
   /// median_iterations, max_iterations, unconverged_frames, mean_volume_stretch, max_stretch,
   /// inverted_tets, valid_frames, invalid_frames, certificate_inverted_tets, guarded_frames,
-  /// max_substeps, offset {...}}, frames [DeformFrameRecord::to_json].
+  /// max_substeps, offset {...}}, warnings [warnings()], frames [DeformFrameRecord::to_json].
   nlohmann::ordered_json to_json() const;
 };
 

@@ -101,9 +101,14 @@ struct PoseResult {
   double tolerance = 0;
   int max_iterations = 0;
 
+  /// What a user must hear even with progress off: one line per guarded step the handles blocked
+  /// (stopped at contact, short of them), and one naming the guarded steps that are not valid and
+  /// why (the posed base crosses itself, or the guard could not make them valid).
+  std::vector<std::string> warnings() const;
+
   /// report.json: command, shell, handles, solver, levels, mode, weight (soft only), thickness,
   /// vertices, tets, handle_vertices, setup_seconds, tolerance, max_iterations, steps [...],
-  /// stretch {mean, volume_mean, max, p99}, inverted_tets.
+  /// warnings [warnings()], stretch {mean, volume_mean, max, p99}, inverted_tets.
   nlohmann::ordered_json to_json() const;
 };
 

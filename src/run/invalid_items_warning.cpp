@@ -1,0 +1,22 @@
+#include "invalid_items_warning.h"
+
+#include <gshell/quality/certificate_report.h>
+
+namespace gshell::detail {
+
+std::string invalid_items_warning(const InvalidItems& items, int total, const std::string& noun, bool unguarded) {
+  if (items.all.empty()) return {};
+  const auto named = [&](const std::vector<int>& ids) { return noun + (ids.size() == 1 ? " " : "s ") + first_ids(ids); };
+  std::vector<std::string> causes;
+  if (!items.crossing.empty()) causes.push_back("the base crosses itself in " + named(items.crossing));
+  if (!items.unextrudable.empty()) causes.push_back("base vertices cannot be extruded in " + named(items.unextrudable));
+  if (!items.unexplained.empty())
+    causes.push_back(unguarded ? named(items.unexplained) + " unguarded (allow_invalid)"
+                               : "the guard could not make " + named(items.unexplained) + " valid");
+  std::string text = std::to_string(items.all.size()) + " of " + std::to_string(total) + " " + noun + "s " +
+                     (items.all.size() == 1 ? "is" : "are") + " not valid: ";
+  for (std::size_t i = 0; i < causes.size(); ++i) text += (i ? "; " : "") + causes[i];
+  return text + " (report.json has each " + noun + "'s certificate)";
+}
+
+} // namespace gshell::detail

@@ -1,0 +1,31 @@
+#pragma once
+// The warning line of a run whose frames or pose steps are not all valid (DeformRun::warnings,
+// PoseResult::warnings): printed even with progress off, since report.json is otherwise the only
+// place that says so.
+#include <string>
+#include <vector>
+
+namespace gshell::detail {
+
+/// Ids of the invalid items of one run (frames or steps, 1-based), sorted by what explains them;
+/// an item may be in both `crossing` and `unextrudable`.
+struct InvalidItems {
+  std::vector<int> all;          ///< every invalid item
+  std::vector<int> crossing;     ///< the base crosses itself there
+  std::vector<int> unextrudable; ///< base vertices that cannot be extruded there
+  std::vector<int> unexplained;  ///< neither: left invalid by the guard (or unguarded)
+  /// Files an invalid item under its causes.
+  void add(int id, bool base_crosses, bool has_unextrudable) {
+    all.push_back(id);
+    if (base_crosses) crossing.push_back(id);
+    if (has_unextrudable) unextrudable.push_back(id);
+    if (!base_crosses && !has_unextrudable) unexplained.push_back(id);
+  }
+};
+
+/// E.g. "2 of 4 frames are not valid: the base crosses itself in frames 3, 4; the guard could not
+/// make frame 2 valid (report.json has each frame's certificate)". `noun`: "frame" or "pose step";
+/// `unguarded`: the run asked for no guard (allow_invalid). Empty when nothing is invalid.
+std::string invalid_items_warning(const InvalidItems& items, int total, const std::string& noun, bool unguarded);
+
+} // namespace gshell::detail
