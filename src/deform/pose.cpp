@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <string>
 
 namespace gshell {
@@ -157,6 +158,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   // A mend well above the solve's energy is kept aside while the drag runs, and the valid state
   // of lower energy is returned (GuardOptions::mend_max_rise; as for deformation frames).
   FrameMend mended; // X empty: none kept aside
+  std::optional<double> returned_energy; // of the state returned, where already evaluated
   // Settled by the solve's own step, or by its mend.
   bool settled = s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate);
   if (settled) {
@@ -168,6 +170,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
       X = std::move(mended.X);
       out.method = FrameMethod::Mended;
       out.guarded_iterations = mended.iterations;
+      returned_energy = mended.energy;
       settled = true;
     }
   }
@@ -195,8 +198,10 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     }
     out.guarded_iterations = mended.iterations + outcome.iterations;
     const bool reached = outcome.method == FrameMethod::Guarded && !outcome.blocked;
-    if (mended.X.rows() > 0 && (!reached || energy(Y, P) > mended.energy)) {
+    if (mended.X.rows() > 0 && reached) returned_energy = energy(Y, P);
+    if (mended.X.rows() > 0 && (!reached || *returned_energy > mended.energy)) {
       X = std::move(mended.X);
+      returned_energy = mended.energy;
       out.method = FrameMethod::Mended;
       out.drag_start = 0;
     } else {
@@ -223,7 +228,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   // The result describes the state returned: where the guard replaced the solver's state, its
   // last energy is that of the valid state, and a step short of its targets has not converged.
   if (out.method != FrameMethod::Bounded || out.blocked_by_contact) {
-    result.energy.push_back(energy(X, P));
+    result.energy.push_back(returned_energy ? *returned_energy : energy(X, P));
     result.converged = result.converged && !out.blocked_by_contact && out.method != FrameMethod::Failed;
   }
   return result;

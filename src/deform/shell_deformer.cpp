@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 namespace gshell {
 
@@ -534,7 +535,9 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     fresh_returned = true;
   }
   const bool dragged_valid = outcome.method == FrameMethod::Guarded || outcome.method == FrameMethod::Regenerated;
-  if (mended.X.rows() > 0 && (!dragged_valid || solver_.energy(Y) > mended.energy)) {
+  std::optional<double> dragged_energy; // evaluated once, where a mend kept aside needs it
+  if (mended.X.rows() > 0 && dragged_valid) dragged_energy = solver_.energy(Y);
+  if (mended.X.rows() > 0 && (!dragged_valid || *dragged_energy > mended.energy)) {
     take_mended(X, mended, mended.iterations + outcome.iterations, result);
     return;
   }
@@ -554,7 +557,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   }
   if (outcome.method != FrameMethod::Failed || fresh_returned) { // else the paper's solve stands
     X = std::move(Y);
-    result.energy.push_back(solver_.energy(X)); // the frame's energy is the returned state's
+    result.energy.push_back(dragged_energy ? *dragged_energy : solver_.energy(X)); // the returned state's
   }
 }
 
