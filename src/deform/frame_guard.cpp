@@ -355,6 +355,15 @@ bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& 
   for (int t : part.tet) q.skip_tets.push_back(parameters_.skip_tets[t]);
   q.excluded_triangles.clear();
   for (int r : part.row) q.excluded_triangles.push_back(parameters_.excluded_triangles[r]);
+  // From tops pulled in, as generation's repair starts, one pair can hold every step to a sliver:
+  // pressed to a hundred-thousandth of dhat and sliding along it, its CCD certifies
+  // 3e-4 of the step (CGAL's refined_elephant bent by 30 degrees a frame: 2,000 iterations and
+  // still 6 % above the paper's energy). Such steps are taken with what cuts them held, as the
+  // repair's are, but only below 0.005: holding below generation's 0.05 held dozens of dino's
+  // steps each mend and cost its bends and twists half again their time (docs/valid-deformation.md,
+  // "Mends held still by one pair").
+  q.hold_rounds = 4;
+  q.hold_below = 0.005;
   GuardedSolver solver(part.tets, part.size(), part.held, part.boundary, q);
   if (part.row.size() < static_cast<std::size_t>(boundary_.size())) solver.confine(part.X, travel);
   if (options_.contact_rest_fraction > 0) {
