@@ -362,7 +362,7 @@ bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& 
   // repair's are, but only below 0.005: holding below generation's 0.05 held dozens of dino's
   // steps each mend and cost its bends and twists half again their time (docs/valid-deformation.md,
   // "Mends held still by one pair").
-  q.hold_rounds = 4;
+  q.hold_rounds = generation_guard_options().hold_rounds;
   q.hold_below = 0.005;
   GuardedSolver solver(part.tets, part.size(), part.held, part.boundary, q);
   if (part.row.size() < static_cast<std::size_t>(boundary_.size())) solver.confine(part.X, travel);

@@ -42,8 +42,8 @@ struct GuardOptions {
   int cg_iterations = 20;     ///< CG iterations per Newton direction, at most
   double cg_tolerance = 0.1;  ///< relative CG residual
   /// GuardedSolverParameters::hold_rounds (>= 0; generation: 4, in the repair only). A deformation
-  /// frame's or pose step's mend holds on its own terms (4 rounds, steps cut below 0.005) whatever
-  /// this is (FrameGuard::mend).
+  /// frame's or pose step's mend holds on its own terms (generation's rounds, steps cut below 0.005)
+  /// whatever this is (FrameGuard::mend).
   int hold_rounds = 0;
   /// GuardedSolverParameters::anderson_history (>= 0; deformation and pose: 5, frame_guard_options).
   int anderson_history = 0;
