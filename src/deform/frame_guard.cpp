@@ -48,6 +48,14 @@ constexpr double kFractionShrink = 0.7;
 // floating point keeps their sign.
 constexpr double kFlat = 1e-8;
 
+// A mend's steps cut below this fraction are taken with what cuts them held (generation's repair
+// holds below GuardedSolverParameters' 0.05): from tops pulled in, one pair pressed to a
+// hundred-thousandth of dhat and sliding can hold every step to 3e-4 (CGAL's refined_elephant bent
+// by 30 degrees a frame: 2,000 iterations, still 6 % above the paper's energy), while holding below
+// 0.05 held dozens of dino's steps each mend and cost its bends and twists half again their time
+// (docs/valid-deformation.md, "Mends held still by one pair").
+constexpr double kMendHoldBelow = 0.005;
+
 /// Flags in `skip` the three tets of every prism touching a vertex of (V, F) that no direction
 /// extrudes (one of them must be inverted, and which one may change as the base moves).
 void skip_prisms_at_unextrudable_vertices(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::vector<char>& skip) {
@@ -355,15 +363,9 @@ bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& 
   for (int t : part.tet) q.skip_tets.push_back(parameters_.skip_tets[t]);
   q.excluded_triangles.clear();
   for (int r : part.row) q.excluded_triangles.push_back(parameters_.excluded_triangles[r]);
-  // From tops pulled in, as generation's repair starts, one pair can hold every step to a sliver:
-  // pressed to a hundred-thousandth of dhat and sliding along it, its CCD certifies
-  // 3e-4 of the step (CGAL's refined_elephant bent by 30 degrees a frame: 2,000 iterations and
-  // still 6 % above the paper's energy). Such steps are taken with what cuts them held, as the
-  // repair's are, but only below 0.005: holding below generation's 0.05 held dozens of dino's
-  // steps each mend and cost its bends and twists half again their time (docs/valid-deformation.md,
-  // "Mends held still by one pair").
+  // Steps cut to slivers are taken with what cuts them held, as generation's repair takes them.
   q.hold_rounds = generation_guard_options().hold_rounds;
-  q.hold_below = 0.005;
+  q.hold_below = kMendHoldBelow;
   GuardedSolver solver(part.tets, part.size(), part.held, part.boundary, q);
   if (part.row.size() < static_cast<std::size_t>(boundary_.size())) solver.confine(part.X, travel);
   if (options_.contact_rest_fraction > 0) {
