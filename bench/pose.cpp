@@ -156,6 +156,7 @@ Config parse_config(const std::string& spec) {
     else if (key == "period") o.coarse_period = static_cast<int>(value);
     else if (key == "path") o.path_extrapolation = value != 0;
     else if (key == "fc") o.first_coarse_iteration = static_cast<int>(value);
+    else if (key == "ao") o.anderson_over_passes = value != 0;
     else std::fprintf(stderr, "bench_pose: unknown key %s\n", key.c_str());
   }
   return c;

@@ -232,6 +232,35 @@ struct HierarchicalSolver::Impl {
     return true;
   }
 
+  /// One outer iteration's full part under anderson_over_passes: `start` is the iterate before
+  /// this iteration's coarse pass (state holds the pass's result), image = the plain full
+  /// iterations from there, so (start, image) is a pair of the whole iteration's map G. A
+  /// combination is kept only if it lowers the energy; else the plain image (which cannot raise
+  /// it), the history kept: a combination that fails once still holds valid secant pairs.
+  void full_iterations_over_pass(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson,
+                                 const Eigen::MatrixXd& start) {
+    const Eigen::MatrixXd& soft = soft_targets(targets);
+    Eigen::MatrixXd& image = state.image;
+    image = state.X;
+    full->global_step(image, state.step, soft);
+    for (int k = 1; k < options.full_iterations; ++k) {
+      full->local_step(image, state.candidate, soft);
+      full->global_step(image, state.candidate, soft);
+    }
+    if (anderson.extrapolate(start, image, state.accelerated)) {
+      full->local_step(state.accelerated, state.candidate, soft);
+      if (state.candidate.energy < state.step.energy) {
+        state.X.swap(state.accelerated);
+        std::swap(state.step, state.candidate);
+        return;
+      }
+    }
+    full->local_step(image, state.candidate, soft);
+    if (!(state.candidate.energy <= state.step.energy)) return; // only round-off makes a plain step go up
+    state.X.swap(image);
+    std::swap(state.step, state.candidate);
+  }
+
   /// Line search along the path of the iterations: the displacement d since the last checkpoint is
   /// added again at 1, 2, 4, ... times its length, each step kept while it lowers the energy.
   /// Returns whether X moved. The iterate becomes the next checkpoint either way.
@@ -360,8 +389,12 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
   result.energy.push_back(state.step.energy);
   AndersonHistory anderson(s.options.anderson_history);
   int skip = 0, backoff = 1; // outer iterations to run without the reduced levels after a rejection
+  const bool over_passes = s.options.anderson_over_passes && !s.reduced.empty() && s.options.coarse_period == 1 &&
+                           s.options.full_iterations >= 1;
+  Eigen::MatrixXd start_of_iteration;
   for (int it = 1; it <= options.max_iterations; ++it) {
     const double previous = state.step.energy;
+    if (over_passes) start_of_iteration = state.X;
     const int period = std::max(1, s.options.coarse_period);
     if (!s.reduced.empty() && it % period == 0 && it >= s.options.first_coarse_iteration && skip-- <= 0) {
       const auto coarse_start = Clock::now();
@@ -373,7 +406,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
         s.counters.coarse_decrease += previous - state.step.energy;
         // The secant pairs recorded so far still describe the full level's fixed-point map; only
         // a pair spanning the coarse jump would not (measured: fewer outer iterations than clearing).
-        anderson.restart();
+        if (!over_passes) anderson.restart();
         backoff = 1;
       } else {
         skip = backoff;
@@ -382,16 +415,21 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     }
     const double before_full = state.step.energy;
     const auto full_start = Clock::now();
-    for (int k = 0; k < s.options.full_iterations; ++k) {
-      ++s.counters.full_iterations;
-      if (!s.full_iteration(state, targets, anderson)) break;
+    if (over_passes) {
+      s.counters.full_iterations += s.options.full_iterations;
+      s.full_iterations_over_pass(state, targets, anderson, start_of_iteration);
+    } else {
+      for (int k = 0; k < s.options.full_iterations; ++k) {
+        ++s.counters.full_iterations;
+        if (!s.full_iteration(state, targets, anderson)) break;
+      }
     }
     s.counters.full_seconds += seconds_since(full_start);
     s.counters.full_decrease += before_full - state.step.energy;
     // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
     const double before_path = state.step.energy;
     const auto path_start = Clock::now();
-    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets)) anderson.restart();
+    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets) && !over_passes) anderson.restart();
     s.counters.path_seconds += seconds_since(path_start);
     s.counters.path_decrease += before_path - state.step.energy;
     ++s.counters.outer_iterations;

@@ -15,12 +15,13 @@
 // Level L-1 is the full problem: a ShellSolver over all 2n vertices (hard handles eliminated),
 // driven step by step.
 //
-// One outer iteration is full_iterations local/global iterations of the full state (Anderson-
-// accelerated), preceded on every coarse_period-th outer iteration by a coarse-to-fine pass: each
-// reduced level first receives its parent's change since the start of the pass, runs a few
-// (Anderson-accelerated) local/global iterations with its prefactored matrix, and the finest
-// reduced level's change goes into the full state. (Defaults measured with bench_pose on the
-// bowl and bunny00: a pass every 2nd iteration with 10 iterations per level; README.) Two
+// One outer iteration is full_iterations local/global iterations of the full state, preceded on
+// every coarse_period-th outer iteration by a coarse-to-fine pass: each reduced level first
+// receives its parent's change since the start of the pass, runs a few (Anderson-accelerated)
+// local/global iterations with its prefactored matrix, and the finest reduced level's change goes
+// into the full state. Anderson acceleration combines the images of whole outer iterations (pass
+// and full iterations; anderson_over_passes). (Defaults measured with bench_pose on the bowl,
+// bunny00 and four of CGAL's meshes: a pass every iteration with 10 iterations per level.) Two
 // couplings of the levels are available:
 //  - residual (default): each level starts from the affine fit of the current full state and
 //    minimises its energy minus 2 <tau, z>, tau chosen so that its gradient there equals the
@@ -77,8 +78,9 @@ struct HierarchyOptions {
   int full_iterations = 1;    ///< local/global iterations of the full level per outer iteration
   /// The coarse-to-fine pass over the reduced levels runs on outer iterations coarse_period,
   /// 2 coarse_period, ... (1: every outer iteration). With a period > 1 an outer iteration that
-  /// already suffices (a drag step from a good start) costs only its full iterations.
-  int coarse_period = 2;
+  /// already suffices (a drag step from a good start) costs only its full iterations, but
+  /// anderson_over_passes needs the same map every iteration (period 1).
+  int coarse_period = 1;
   /// Reduced levels cannot hold hard constraints exactly (a few affine maps cannot reach arbitrary
   /// targets), so there they become springs of this weight times the mean diagonal of the
   /// stiffness matrix.
@@ -116,6 +118,16 @@ struct HierarchyOptions {
   /// 10.6 -> 1.35 s, but the pull 0.21 -> 0.32 s and the squeezes and the thin half pull slower
   /// too; bunny00 settles at 1.0069 E* either way (docs/design.md). Hence off by default.
   int first_coarse_iteration = 0;
+  /// With reduced levels, a coarse pass every outer iteration (coarse_period 1) and at least one
+  /// full iteration: Anderson combines the images of whole outer iterations, G(x) = the full
+  /// level's plain local/global steps after the coarse pass from x, instead of the full level's
+  /// iterations alone (whose history every kept pass interrupts, so that inside the hierarchy
+  /// they ran almost unaccelerated). A combination is kept only if it lowers the energy; one that
+  /// does not is dropped, the history kept. bench_pose --table, CPU s to 1.001 E* against a pass
+  /// every 2nd iteration without it: thin squeeze 3.0 -> 1.6-1.8, thick pull 3.9-5.1 -> 3.0-3.3,
+  /// thin half pull 1.3-1.6 -> 1.0-1.1, and the thin twist reaches a minimum 0.3 % below the one
+  /// every other solver settles in (docs/design.md). Off: the full level's Anderson as before.
+  bool anderson_over_passes = true;
 };
 
 /// What the solver's parts did (counted per solve, and in all since construction).
