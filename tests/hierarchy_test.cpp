@@ -375,6 +375,29 @@ TEST(HierarchicalSolver, LevelsFromCoarseOrFineTopsReachTheSingleLevelMinimum) {
   }
 }
 
+TEST(HierarchicalSolver, AndersonOverWholeIterationsKeepsTheEnergyFallingToTheSameMinimum) {
+  // Anderson over whole outer iterations (coarse pass + full iteration) or over the full level's
+  // iterations alone: the energy never rises along either, and both reach the single-level minimum.
+  const Shell shell = offset_shell(make_bowl(8), 0.08);
+  const HandleSet handles = bowl_pull(shell, {0.3, 0.0, 0.15});
+  const double single = converged_energy(shell, handles, PoseSolverKind::Single);
+  Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
+  for (bool over_passes : {true, false}) {
+    HierarchyOptions o;
+    o.anderson_over_passes = over_passes;
+    o.coarse_period = over_passes ? 1 : 2;
+    EXPECT_NEAR(converged_energy(shell, handles, PoseSolverKind::Hierarchical, o), single, 1e-4 * single)
+        << "over passes " << over_passes;
+    HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+    Eigen::MatrixXd X;
+    const auto r = run_from_rest(solver, p, X, 60);
+    EXPECT_GT(r.counters.coarse_accepted, 3) << "over passes " << over_passes;
+    for (size_t k = 1; k < r.energy.size(); ++k)
+      EXPECT_LE(r.energy[k], r.energy[k - 1]) << "over passes " << over_passes << ", outer iteration " << k;
+    EXPECT_NEAR(solver.energy(X, p.targets), r.energy.back(), 1e-12 * r.energy.back());
+  }
+}
+
 TEST(HierarchicalSolver, ClusterRotationEnergyIsTheOwnersBestRotationFit) {
   // With cluster rotations a reduced level's energy is sum_t vol ||F_t - R_j(t)||^2 + springs,
   // j(t) = the cluster of the tet's corner 0 and R_j the rotation closest to sum_{t in j} vol F_t.

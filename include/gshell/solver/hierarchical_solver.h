@@ -109,15 +109,18 @@ struct HierarchyOptions {
   /// Anderson acceleration of the full level's local/global iterations (history length; 0 = off).
   /// An extrapolated iterate is kept only if it lowers the energy.
   int anderson_history = 5;
-  /// No coarse pass before this outer iteration of a solve (0: from the first period on). A
-  /// coarse pass right after the handles moved (the rest of the shell still at rest) minimises the
-  /// reduced levels' stiffer energy from a badly distorted state and can pick another buckling
-  /// pattern than the full level would; from 10 the full level has settled which way the shell
-  /// buckles and the passes only speed up the way down. bench_pose --table, CPU s to 1.001 E*,
-  /// 0 -> 10: thick twist 1.0117 E* (another minimum, any other setting) -> 0.30 s, thin twist
-  /// 10.6 -> 1.35 s, but the pull 0.21 -> 0.32 s and the squeezes and the thin half pull slower
-  /// too; bunny00 settles at 1.0069 E* either way (docs/design.md). Hence off by default.
-  int first_coarse_iteration = 0;
+  /// No coarse pass before this outer iteration of a solve. 2 (default): the first outer
+  /// iteration of every solve runs without one, so a drag step from a good start, which often
+  /// needs one iteration only, costs one full iteration (bench_pose bowl drag: 2.1-2.5 ms per
+  /// step against 11 ms with a pass at iteration 1; bunny00 30-38 ms against 65 ms). Later
+  /// starts trade one pull for another: a coarse pass right after the handles moved (the rest of
+  /// the shell still at rest) minimises the reduced levels' stiffer energy from a badly distorted
+  /// state and can pick another buckling pattern than the full level would. bench_pose --table,
+  /// CPU s to 1.001 E*, passes from iteration 1 -> 2: thick half pull another minimum (0.5 % above) -> 0.41 s, thin
+  /// twist 1.8 -> 6.8 s, the rest within 10 %; before anderson_over_passes, 10 took the thick
+  /// twist into the minimum the single-level solvers find, at a cost on six other pulls
+  /// (docs/design.md).
+  int first_coarse_iteration = 2;
   /// With reduced levels, a coarse pass every outer iteration (coarse_period 1) and at least one
   /// full iteration: Anderson combines the images of whole outer iterations, G(x) = the full
   /// level's plain local/global steps after the coarse pass from x, instead of the full level's
