@@ -116,10 +116,10 @@ struct HierarchyOptions {
   /// starts trade one pull for another: a coarse pass right after the handles moved (the rest of
   /// the shell still at rest) minimises the reduced levels' stiffer energy from a badly distorted
   /// state and can pick another buckling pattern than the full level would. bench_pose --table,
-  /// CPU s to 1.001 E*, passes from iteration 1 -> 2: thick half pull another minimum (0.5 % above) -> 0.41 s, thin
-  /// twist 1.8 -> 6.8 s, the rest within 10 %; before anderson_over_passes, 10 took the thick
-  /// twist into the minimum the single-level solvers find, at a cost on six other pulls
-  /// (docs/design.md).
+  /// CPU s to 1.001 E*, passes from iteration 1 -> 2: thick half pull another minimum (0.5 %
+  /// above) -> 0.41 s, thin twist 1.8 -> 6.8 s, the rest within 10 %; before
+  /// anderson_over_passes, 10 took the thick twist into the minimum the single-level solvers
+  /// find, at a cost on six other pulls (docs/design.md).
   int first_coarse_iteration = 2;
   /// With reduced levels, a coarse pass every outer iteration (coarse_period 1) and at least one
   /// full iteration: Anderson combines the images of whole outer iterations, G(x) = the full
@@ -128,8 +128,8 @@ struct HierarchyOptions {
   /// they ran almost unaccelerated). A combination is kept only if it lowers the energy; one that
   /// does not is dropped, the history kept. bench_pose --table, CPU s to 1.001 E* against a pass
   /// every 2nd iteration without it: thin squeeze 3.0 -> 1.6-1.8, thick pull 3.9-5.1 -> 3.0-3.3,
-  /// thin half pull 1.3-1.6 -> 1.0-1.1, and the thin twist reaches a minimum 0.3 % below the one
-  /// every other solver settles in (docs/design.md). Off: the full level's Anderson as before.
+  /// thin half pull 1.3-1.6 -> 1.0-1.1, and the thin twist reaches a minimum 0.2-0.3 % below the
+  /// one every other solver settles in (docs/design.md). Off: the full level's Anderson as before.
   bool anderson_over_passes = true;
 };
 
