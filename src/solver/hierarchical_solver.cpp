@@ -209,56 +209,38 @@ struct HierarchicalSolver::Impl {
     return accept_coarse_correction(state, trial, targets);
   }
 
-  /// One local/global iteration of the full level (Anderson-accelerated when enabled). Returns
-  /// false when it could not lower the energy (converged to round-off).
-  bool full_iteration(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson) {
+  /// Anderson-accelerated local/global steps of the full level. Anderson records the pair
+  /// (from, image), image = `steps` plain steps from state.X: from = state.X for the full level's
+  /// own map, or under anderson_over_passes the iterate before this outer iteration's coarse pass
+  /// (state.X holds the pass's result), a pair of the whole iteration's map. A combination is kept
+  /// only if it lowers the energy; else the plain image, which cannot raise it. After a failed
+  /// combination the full level's own history is cleared; the whole iteration's is kept (its
+  /// pairs stay valid secants, and clearing them measured worse). Returns false when the plain
+  /// image could not lower the energy either (converged to round-off).
+  bool full_iteration(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson,
+                      const Eigen::MatrixXd& from, int steps, bool clear_on_failure) {
     const Eigen::MatrixXd& soft = soft_targets(targets);
     Eigen::MatrixXd& image = state.image;
     image = state.X;
     full->global_step(image, state.step, soft);
-    if (anderson.extrapolate(state.X, image, state.accelerated)) {
+    for (int k = 1; k < steps; ++k) {
+      full->local_step(image, state.candidate, soft);
+      full->global_step(image, state.candidate, soft);
+    }
+    if (anderson.extrapolate(from, image, state.accelerated)) {
       full->local_step(state.accelerated, state.candidate, soft);
       if (state.candidate.energy < state.step.energy) {
         state.X.swap(state.accelerated);
         std::swap(state.step, state.candidate);
         return true;
       }
-      anderson.clear(); // a failed extrapolation: fall back on the plain step, which cannot go up
+      if (clear_on_failure) anderson.clear();
     }
     full->local_step(image, state.candidate, soft);
     if (!(state.candidate.energy <= state.step.energy)) return false; // only round-off makes a plain step go up
     state.X.swap(image);
     std::swap(state.step, state.candidate);
     return true;
-  }
-
-  /// One outer iteration's full part under anderson_over_passes: `start` is the iterate before
-  /// this iteration's coarse pass (state holds the pass's result), image = the plain full
-  /// iterations from there, so (start, image) is a pair of the whole iteration's map G. A
-  /// combination is kept only if it lowers the energy; else the plain image (which cannot raise
-  /// it), the history kept: a combination that fails once still holds valid secant pairs.
-  void full_iterations_over_pass(FullState& state, const Eigen::MatrixXd& targets, AndersonHistory& anderson,
-                                 const Eigen::MatrixXd& start) {
-    const Eigen::MatrixXd& soft = soft_targets(targets);
-    Eigen::MatrixXd& image = state.image;
-    image = state.X;
-    full->global_step(image, state.step, soft);
-    for (int k = 1; k < options.full_iterations; ++k) {
-      full->local_step(image, state.candidate, soft);
-      full->global_step(image, state.candidate, soft);
-    }
-    if (anderson.extrapolate(start, image, state.accelerated)) {
-      full->local_step(state.accelerated, state.candidate, soft);
-      if (state.candidate.energy < state.step.energy) {
-        state.X.swap(state.accelerated);
-        std::swap(state.step, state.candidate);
-        return;
-      }
-    }
-    full->local_step(image, state.candidate, soft);
-    if (!(state.candidate.energy <= state.step.energy)) return; // only round-off makes a plain step go up
-    state.X.swap(image);
-    std::swap(state.step, state.candidate);
   }
 
   /// Line search along the path of the iterations: the displacement d since the last checkpoint is
@@ -417,19 +399,21 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     const auto full_start = Clock::now();
     if (over_passes) {
       s.counters.full_iterations += s.options.full_iterations;
-      s.full_iterations_over_pass(state, targets, anderson, start_of_iteration);
+      s.full_iteration(state, targets, anderson, start_of_iteration, s.options.full_iterations, false);
     } else {
       for (int k = 0; k < s.options.full_iterations; ++k) {
         ++s.counters.full_iterations;
-        if (!s.full_iteration(state, targets, anderson)) break;
+        if (!s.full_iteration(state, targets, anderson, state.X, 1, true)) break;
       }
     }
     s.counters.full_seconds += seconds_since(full_start);
     s.counters.full_decrease += before_full - state.step.energy;
-    // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not.
+    // Anderson's secant pairs stay valid for the map; only the pair spanning the jump would not
+    // (the whole iteration's pairs span none: the next one starts where the path search ends).
     const double before_path = state.step.energy;
     const auto path_start = Clock::now();
-    if (s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets) && !over_passes) anderson.restart();
+    const bool path_moved = s.options.path_extrapolation && it % period == 0 && s.extrapolate_path(state, targets);
+    if (path_moved && !over_passes) anderson.restart();
     s.counters.path_seconds += seconds_since(path_start);
     s.counters.path_decrease += before_path - state.step.energy;
     ++s.counters.outer_iterations;
