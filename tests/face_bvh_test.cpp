@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -44,6 +46,31 @@ TEST(FaceBvh, CoversFarFromTheOriginAreAsTightAsNearIt) {
   }
 }
 
+TEST(FaceBvh, CoversOfHugeAndTinyModelsAreAsTightAsAtUnitScale) {
+  // Coordinates up to 1e50 are accepted, beyond the float range (3.4e38): covers measured in
+  // model units were all clamped there and every pair of faces met. Tiny models fall below the
+  // normal floats. The cover frame's power-of-two scale keeps them at unit size.
+  const test::SimpleMesh sphere = test::icosphere(3);
+  const FaceBvh unit(sphere.V, sphere.F, FaceBvh::Use::float_pairs);
+  const long near = meeting_pairs(unit);
+  const long all = static_cast<long>(sphere.F.rows()) * (sphere.F.rows() - 1) / 2;
+  ASSERT_LT(near, all / 10);
+  for (double scale : {1e39, 1e45, 1e49, 1e-35, 1e-40}) {
+    SCOPED_TRACE(scale);
+    const Eigen::MatrixXd V = sphere.V * scale;
+    const FaceBvh tree(V, sphere.F, FaceBvh::Use::float_pairs);
+    const long count = meeting_pairs(tree);
+    EXPECT_GE(count, near - near / 100);
+    EXPECT_LE(count, near + near / 100);
+    // Distances through the scaled covers come back in model units.
+    const FaceBvh distances(V, sphere.F, FaceBvh::Use::distances);
+    const FaceBvh unit_distances(sphere.V, sphere.F, FaceBvh::Use::distances);
+    const Eigen::Vector3d q(0.3, 1.4, -0.2);
+    const double expected = unit_distances.squared_distance(q, 1e300) * scale * scale;
+    EXPECT_NEAR(distances.squared_distance(q * scale, std::numeric_limits<double>::max()), expected, 1e-9 * expected);
+  }
+}
+
 TEST(FaceBvh, ACoverHoldsItsBoxAtEveryOffset) {
   // A box touching a face's box only along a face of the box is met; one a little apart is not
   // (where the coordinates leave room for the gap), however far from zero, and where the
@@ -66,7 +93,7 @@ TEST(FaceBvh, ACoverHoldsItsBoxAtEveryOffset) {
   // A tree measured from an origin far from its boxes (differences that overflow).
   const Eigen::Vector3d lo = Eigen::Vector3d::Constant(1.5e308), hi = Eigen::Vector3d::Constant(1.6e308);
   const FaceBvh tree(std::vector<Eigen::AlignedBox3d>{Eigen::AlignedBox3d(lo, hi)}, 4,
-                     Eigen::Vector3d::Constant(-1.7e308));
+                     detail::CoverFrame{Eigen::Vector3d::Constant(-1.7e308), 1.0});
   EXPECT_TRUE(tree.some_face_box_meets(Eigen::AlignedBox3d(hi, hi)));
 }
 
@@ -75,10 +102,10 @@ TEST(FaceBvh, TreesSearchedTogetherShareTheirOrigin) {
   const Eigen::MatrixXd moved = translated(sphere.V, Eigen::RowVector3d(0.5, 0, 0));
   const FaceBvh a(sphere.V, sphere.F, FaceBvh::Use::float_pairs);
   const FaceBvh b(moved, sphere.F, FaceBvh::Use::float_pairs);
-  ASSERT_NE(a.origin(), b.origin());
+  ASSERT_NE(a.frame(), b.frame());
   EXPECT_THROW(a.for_each_pair_of_meeting_float_boxes(b, [](int, int) {}), std::logic_error);
-  // Given a's origin, b is searched with it, and finds what the exact boxes find.
-  const FaceBvh c(moved, sphere.F, FaceBvh::Use::pairs, a.origin());
+  // Given a's frame, b is searched in it, and finds what the exact boxes find.
+  const FaceBvh c(moved, sphere.F, FaceBvh::Use::pairs, a.frame());
   const FaceBvh a_exact(sphere.V, sphere.F, FaceBvh::Use::pairs);
   std::atomic<long> covers{0}, exact{0};
   a.for_each_pair_of_meeting_float_boxes(c, [&](int, int) { ++covers; });

@@ -233,10 +233,10 @@ struct ContactGuard::Impl {
     const int n = primitives.num_vertices();
     if (!have_x) {
       x.assign(n, Vec3::Zero());
-      // The patches' float boxes are measured from the boundary's centre where the guard starts.
+      // The patches' float boxes are measured in the frame of the boundary where the guard starts.
       Eigen::AlignedBox3d extent;
       for (int v : primitives.boundary_vertices()) extent.extend(X.row(v).transpose());
-      if (!extent.isEmpty()) primitives.set_origin(extent.center());
+      primitives.set_frame(detail::CoverFrame::of_extent(extent));
     }
     // One pass: copy X, note whether it differs from the last X, and the drift since the build.
     struct Change {

@@ -106,7 +106,7 @@ ContactPatch ContactPrimitives::patch(bool movable, const std::vector<Eigen::Ali
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
     for (int i = r.begin(); i < r.end(); ++i) box[i] = triangle_box(tris[i], vertex_box);
   });
-  p.tree = FaceBvh(box, kLeafFaces, origin_);
+  p.tree = FaceBvh(box, kLeafFaces, frame_);
   const std::vector<int>& local = p.tree.faces_in_leaf_order();
 
   // Slot s: triangle tris[local[s]], then the vertices and edges it owns, so a leaf's (a slot
@@ -162,12 +162,12 @@ Eigen::AlignedBox3d ContactPrimitives::triangle_box(int t, const std::vector<Eig
 
 void ContactPrimitives::set_slot_boxes(ContactPatch& p, int s, const Eigen::AlignedBox3d& triangle_box,
                                        const std::vector<Eigen::AlignedBox3d>& vertex_box) {
-  // The patch's float boxes are measured from its tree's origin (the primitives' when it was made).
-  const Eigen::Vector3d& origin = p.tree.origin();
-  p.tri_box.set(s, triangle_box, origin);
-  for (int i = p.vertex_begin[s]; i < p.vertex_begin[s + 1]; ++i) p.vert_box.set(i, vertex_box[p.vert_id[i]], origin);
+  // The patch's float boxes are measured in its tree's frame (the primitives' when it was made).
+  const CoverFrame& frame = p.tree.frame();
+  p.tri_box.set(s, triangle_box, frame);
+  for (int i = p.vertex_begin[s]; i < p.vertex_begin[s + 1]; ++i) p.vert_box.set(i, vertex_box[p.vert_id[i]], frame);
   for (int i = p.edge_begin[s]; i < p.edge_begin[s + 1]; ++i)
-    p.edge_box.set(i, vertex_box[p.edge_end[i][0]].merged(vertex_box[p.edge_end[i][1]]), origin);
+    p.edge_box.set(i, vertex_box[p.edge_end[i][0]].merged(vertex_box[p.edge_end[i][1]]), frame);
 }
 
 void ContactPrimitives::refit(ContactPatch& p, const std::vector<Eigen::AlignedBox3d>& vertex_box) const {

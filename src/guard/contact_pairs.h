@@ -37,7 +37,7 @@ namespace gshell::detail {
 
 /// Axis-aligned boxes as six float arrays (structure of arrays: box tests over a run of boxes
 /// vectorise), each bound rounded outwards from its double (conservative, half the bytes),
-/// measured from an origin near the boxes (FaceBvh's constructor says why).
+/// measured in a frame near the boxes and of their size (CoverFrame says why).
 class FloatBoxes {
 public:
   static constexpr int kChunk = 8; ///< boxes per vector step; runs are read in whole chunks
@@ -48,10 +48,10 @@ public:
       hi_[d].assign(n + kChunk, 0);
     }
   }
-  void set(std::size_t i, const Eigen::AlignedBox3d& b, const Eigen::Vector3d& origin) {
+  void set(std::size_t i, const Eigen::AlignedBox3d& b, const CoverFrame& frame) {
     for (int d = 0; d < 3; ++d) {
-      lo_[d][i] = float_lower_end(b.min()[d], origin[d]);
-      hi_[d][i] = float_upper_end(b.max()[d], origin[d]);
+      lo_[d][i] = float_lower_end(b.min()[d], frame.origin[d], frame.scale);
+      hi_[d][i] = float_upper_end(b.max()[d], frame.origin[d], frame.scale);
     }
   }
   /// Bit k set iff box i of this meets box first + k of `other`, for k < count <= 32.
@@ -140,11 +140,11 @@ public:
     return {edges_[e][0], edges_[e][1], edges_[f][0], edges_[f][1]};
   }
 
-  /// Where the patches made from now on measure their float boxes from (model units): near the
-  /// shell, e.g. the centre of its box (FaceBvh's constructor says why). Patches searched
-  /// together must be made with the same origin. Zero until set.
-  void set_origin(const Eigen::Vector3d& origin) { origin_ = origin.allFinite() ? origin : Eigen::Vector3d::Zero(); }
-  const Eigen::Vector3d& origin() const { return origin_; }
+  /// How the patches made from now on measure their float boxes: in the frame of the shell's box,
+  /// e.g. (CoverFrame says why). Patches searched together must be made in the same frame.
+  /// Origin 0, scale 1 until set.
+  void set_frame(const CoverFrame& frame) { frame_ = frame; }
+  const CoverFrame& frame() const { return frame_; }
 
   /// Triangles with a movable corner (the movable patch's), ascending.
   const std::vector<int>& movable_triangles() const { return patch_triangles_[1]; }
@@ -201,7 +201,7 @@ private:
   std::vector<unsigned char> patch_corner_; // per vertex: bit 0 fixed patch corner, bit 1 movable
   std::vector<unsigned char> vertex_flags_, triangle_flags_, edge_flags_;
   std::vector<int> patch_triangles_[2]; // [0] fixed, [1] movable, ascending
-  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
+  CoverFrame frame_;
   ItemGroups owned_vertices_, owned_edges_; // group t: the vertices and edges triangle t owns
 };
 

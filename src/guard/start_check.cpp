@@ -147,7 +147,7 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   if (changed.empty()) return v;
   place(base, top);
   const Eigen::MatrixXi& B = boundary_.F;
-  const FaceSet some(X_, rows_of(B, changed), nullptr, all_->origin());
+  const FaceSet some(X_, rows_of(B, changed), nullptr, all_->frame());
   const std::vector<int>& rows = rows_;
   auto is_changed = [&](int row) { return std::binary_search(changed.begin(), changed.end(), row); };
   PairCollector found;

@@ -35,7 +35,21 @@ std::uint64_t spread_bits(std::uint64_t x) {
 
 } // namespace
 
-template <class Centroid> FaceBvh::Keyed FaceBvh::morton_order(int m, const Centroid& centroid, Eigen::Vector3d* centre) {
+CoverFrame CoverFrame::of_extent(const Eigen::AlignedBox3d& extent) {
+  CoverFrame frame;
+  if (extent.isEmpty() || !extent.min().allFinite() || !extent.max().allFinite()) return frame;
+  const Eigen::Vector3d centre = extent.center();
+  if (centre.allFinite()) frame.origin = centre;
+  const double size = extent.sizes().maxCoeff();
+  if (size > 0 && std::isfinite(size)) {
+    int exponent = 0;
+    std::frexp(size, &exponent); // size = f 2^exponent, f in [0.5, 1)
+    frame.scale = std::ldexp(1.0, -std::clamp(exponent, -1000, 1000));
+  }
+  return frame;
+}
+
+template <class Centroid> FaceBvh::Keyed FaceBvh::morton_order(int m, const Centroid& centroid, CoverFrame* frame) {
   // Sort faces along a Morton (Z-order) curve of their centroids: spatial neighbours become
   // slot neighbours, and the code bits give spatial split planes. The extent is a min / max,
   // exact in any order, so reducing it in parallel gives the serial loop's codes.
@@ -46,7 +60,7 @@ template <class Centroid> FaceBvh::Keyed FaceBvh::morton_order(int m, const Cent
         return box;
       },
       [](Eigen::AlignedBox3d a, const Eigen::AlignedBox3d& b) { return a.extend(b); });
-  if (centre) *centre = extent.center();
+  if (frame) *frame = CoverFrame::of_extent(extent);
   const Eigen::Vector3d origin = extent.min();
   constexpr double kCells = (1 << 21) - 1;
   const Eigen::Vector3d scale =
@@ -93,15 +107,14 @@ int FaceBvh::count_nodes(const Keyed& keyed, int begin, int end, int leaf_size) 
   return 1 + count_nodes(keyed, begin, mid, leaf_size) + count_nodes(keyed, mid, end, leaf_size);
 }
 
-FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use, const std::optional<Eigen::Vector3d>& origin) {
-  if (origin) origin_ = *origin;
+FaceBvh::FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use, const std::optional<CoverFrame>& frame) {
+  if (frame) frame_ = *frame;
   const int m = static_cast<int>(F.rows());
   if (m == 0) return;
   auto corner = [&](int f, int k) -> Eigen::Vector3d { return V.row(F(f, k)).transpose(); };
   const Keyed keyed = morton_order(
       m, [&](int f) -> Eigen::Vector3d { return (corner(f, 0) + corner(f, 1) + corner(f, 2)) / 3.0; },
-      origin ? nullptr : &origin_);
-  if (!origin_.allFinite()) origin_.setZero(); // an extent that overflowed
+      frame ? nullptr : &frame_);
 
   slot_face_.resize(m);
   if (use != Use::float_pairs) slot_box_.resize(m);
@@ -198,13 +211,12 @@ double FaceBvh::oriented_squared_distance(int node, const Eigen::Vector3d& q) co
 }
 
 FaceBvh::FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size,
-                 const std::optional<Eigen::Vector3d>& origin) {
-  if (origin) origin_ = *origin;
+                 const std::optional<CoverFrame>& frame) {
+  if (frame) frame_ = *frame;
   const int m = static_cast<int>(boxes.size());
   if (m == 0) return;
   const Keyed keyed =
-      morton_order(m, [&](int f) -> Eigen::Vector3d { return boxes[f].center(); }, origin ? nullptr : &origin_);
-  if (!origin_.allFinite()) origin_.setZero(); // an extent that overflowed
+      morton_order(m, [&](int f) -> Eigen::Vector3d { return boxes[f].center(); }, frame ? nullptr : &frame_);
   slot_face_.resize(m);
   slot_box_.resize(m);
   slot_float_box_.resize(m);
@@ -225,8 +237,8 @@ bool FaceBvh::some_face_box_meets(const Eigen::AlignedBox3d& box) const {
   if (nodes_.empty()) return false;
   FloatBox b;
   for (int d = 0; d < 3; ++d) {
-    b.lo[d] = float_lower_end(box.min()[d], origin_[d]);
-    b.hi[d] = float_upper_end(box.max()[d], origin_[d]);
+    b.lo[d] = float_lower_end(box.min()[d], frame_.origin[d], frame_.scale);
+    b.hi[d] = float_upper_end(box.max()[d], frame_.origin[d], frame_.scale);
   }
   // Depth first, one pending right child per level of the path. A path splits at most 64 times
   // by a bit of the 64-bit codes and 31 times by halving equal codes, so the stack never fills;
@@ -257,14 +269,14 @@ void FaceBvh::set_float_box(int slot, const Eigen::AlignedBox3d& box) {
   // The differences are rounded to doubles (relative error 2^-53) before the float covers move
   // them out by 2^-22 of themselves: still covers of the exact differences.
   for (int d = 0; d < 3; ++d) {
-    slot_float_box_[slot].lo[d] = float_lower_end(box.min()[d], origin_[d]);
-    slot_float_box_[slot].hi[d] = float_upper_end(box.max()[d], origin_[d]);
+    slot_float_box_[slot].lo[d] = float_lower_end(box.min()[d], frame_.origin[d], frame_.scale);
+    slot_float_box_[slot].hi[d] = float_upper_end(box.max()[d], frame_.origin[d], frame_.scale);
   }
 }
 
-void FaceBvh::check_same_origin(const FaceBvh& other) const {
-  if (origin_ != other.origin_ && !nodes_.empty() && !other.nodes_.empty())
-    throw std::logic_error("FaceBvh: two trees searched together measure their float boxes from different origins");
+void FaceBvh::check_same_frame(const FaceBvh& other) const {
+  if (frame_ != other.frame_ && !nodes_.empty() && !other.nodes_.empty())
+    throw std::logic_error("FaceBvh: two trees searched together measure their float boxes in different frames");
 }
 
 void FaceBvh::set_leaf_box(Node& node) const {

@@ -31,15 +31,33 @@ inline float float_at_most(double x) {
 
 inline float float_at_least(double x) { return -float_at_most(-x); }
 
-// The float cover's ends of a box's end minus the origin: as above, and unbounded where the
-// difference is not a finite double (it overflowed, or the box was not finite), so a cover never
+/// Where and in what unit float covers measure a point x: at (x - origin) * scale. An origin near
+/// the boxes keeps covers as tight far from the model's own origin as near it (FaceBvh's
+/// constructor says why). The scale, a power of two (so multiplying by it is exact), brings the
+/// model's extent to about 1, inside the range where floats keep their 24 bits: a model 1e39
+/// across (coordinates up to 1e50 are accepted) had every cover clamped to the largest float,
+/// every pair of faces met, and the guard's contact search went quadratic (dino scaled by 1e39:
+/// 3 s per repair iteration against 0.03 s at unit scale); a tiny one would fall below the
+/// normal floats.
+struct CoverFrame {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  double scale = 1;
+  /// The centre of `extent`, and the power of two that brings its largest side into [0.5, 1);
+  /// origin 0 and scale 1 for an empty or non-finite extent or one of zero size.
+  static CoverFrame of_extent(const Eigen::AlignedBox3d& extent);
+  bool operator==(const CoverFrame& other) const { return origin == other.origin && scale == other.scale; }
+  bool operator!=(const CoverFrame& other) const { return !(*this == other); }
+};
+
+// The float cover's ends of a box's end in a frame (along one axis): as above, and unbounded where
+// the measure is not a finite double (it overflowed, or the box was not finite), so a cover never
 // misses what it should hold.
-inline float float_lower_end(double lo, double origin) {
-  const double x = lo - origin;
+inline float float_lower_end(double lo, double origin, double scale) {
+  const double x = (lo - origin) * scale;
   return std::abs(x) <= std::numeric_limits<double>::max() ? float_at_most(x) : -std::numeric_limits<float>::infinity();
 }
-inline float float_upper_end(double hi, double origin) {
-  const double x = hi - origin;
+inline float float_upper_end(double hi, double origin, double scale) {
+  const double x = (hi - origin) * scale;
   return std::abs(x) <= std::numeric_limits<double>::max() ? float_at_least(x) : std::numeric_limits<float>::infinity();
 }
 
@@ -59,23 +77,23 @@ public:
 
   /// F must index rows of V (checked by the caller).
   ///
-  /// `origin`: where the float covers of the boxes are measured from (model units); by default
-  /// the centre of the faces' extent. A float has 24 bits, so covers measured from the model's
+  /// `frame`: how the float covers of the boxes are measured (CoverFrame); by default the frame of
+  /// the extent of the faces' centroids. A float has 24 bits, so covers measured from the model's
   /// own origin are as coarse as the coordinates are large: a scan 1 unit across placed 4e6 away
   /// (survey coordinates) had covers about 0.5 wide, every face's box met every other's, and a
   /// certificate of bunny00 took 20 times as long. Two trees searched together (the pair
-  /// searches over `other`) must share their origin: give both the same one.
+  /// searches over `other`) must share their frame: give both the same one.
   FaceBvh(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, Use use,
-          const std::optional<Eigen::Vector3d>& origin = std::nullopt);
+          const std::optional<CoverFrame>& frame = std::nullopt);
 
   /// A tree for pair searches (Use::pairs) over given boxes, one per face: faces swept along a
   /// motion, or grown by a search radius (contact candidates). Slot boxes are these boxes. Leaves
   /// hold at most leaf_size faces.
   explicit FaceBvh(const std::vector<Eigen::AlignedBox3d>& boxes, int leaf_size = 4,
-                   const std::optional<Eigen::Vector3d>& origin = std::nullopt);
+                   const std::optional<CoverFrame>& frame = std::nullopt);
 
-  /// Where the float covers are measured from (see the constructor).
-  const Eigen::Vector3d& origin() const { return origin_; }
+  /// How the float covers are measured (see the constructor).
+  const CoverFrame& frame() const { return frame_; }
 
   int num_faces() const { return static_cast<int>(slot_face_.size()); }
 
@@ -158,8 +176,8 @@ private:
   /// (Morton code, face) of faces 0..m-1 by their centroids centroid(f), sorted along the curve.
   /// The centroids are made where they are needed, twice, rather than held (24 bytes per face of
   /// fresh memory at every tree build).
-  /// `centre` (if given): the centre of the centroids' extent.
-  template <class Centroid> static Keyed morton_order(int m, const Centroid& centroid, Eigen::Vector3d* centre = nullptr);
+  /// `frame` (if given): the frame of the centroids' extent.
+  template <class Centroid> static Keyed morton_order(int m, const Centroid& centroid, CoverFrame* frame = nullptr);
   void build_nodes(const Keyed& keyed, int leaf_size);
   int build(const Keyed& keyed, int begin, int end, int leaf_size);
   // Where build splits slots [begin, end) (sorted codes), and how many nodes it makes there.
@@ -173,6 +191,7 @@ private:
   // Inner node i's box from its two children's.
   void merge_child_boxes(int i);
   void refit_subtree(int i, const int* first, const int* last);
+  // Squared distance (in the frame's units) from q, measured in the frame, to the node's cover.
   static double node_squared_distance(const Node& n, const Eigen::Vector3d& q);
 
   // Use::distances: every node also has a box in a frame of its own, its third axis the node's
@@ -189,7 +208,10 @@ private:
   double oriented_squared_distance(int node, const Eigen::Vector3d& q) const;
   // The larger of the two boxes' lower bounds on the squared distance from q to the node's faces.
   double node_lower_bound(int node, const Eigen::Vector3d& q) const {
-    return std::max(node_squared_distance(nodes_[node], q - origin_), oriented_squared_distance(node, q));
+    // The cover's distance back in model units: dividing by the square of a power of two is exact.
+    const double unit = 1 / frame_.scale;
+    return std::max(node_squared_distance(nodes_[node], (q - frame_.origin) * frame_.scale) * unit * unit,
+                    oriented_squared_distance(node, q));
   }
 
   // Simultaneous descent of two trees (or one with itself); leaves(na, nb, self) at every pair of
@@ -211,10 +233,10 @@ private:
     return float_boxes_meet(slot_float_box_[i], other.slot_float_box_[j]) &&
            exact_boxes_meet(slot_box_[i], other.slot_box_[j]);
   }
-  // slot_float_box_[slot]: the float cover of `box` - origin_.
+  // slot_float_box_[slot]: the float cover of `box` in frame_.
   void set_float_box(int slot, const Eigen::AlignedBox3d& box);
-  // Pair searches over two trees compare covers measured from one origin.
-  void check_same_origin(const FaceBvh& other) const;
+  // Pair searches over two trees compare covers measured in one frame.
+  void check_same_frame(const FaceBvh& other) const;
 
   // Per slot (leaf order): face id, exact box, its float cover, triangle.
   std::vector<int> slot_face_;
@@ -223,7 +245,7 @@ private:
   std::vector<Triangle> slot_triangle_; // Use::distances only
   std::vector<OrientedBox> node_oriented_box_; // Use::distances only, one per node
   std::vector<Node> nodes_; // depth-first, root first
-  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero(); // of the float covers (slots' and nodes')
+  CoverFrame frame_; // of the float covers (slots' and nodes')
 };
 
 // ---- templates ------------------------------------------------------------------------------
@@ -289,7 +311,7 @@ void FaceBvh::for_each_overlapping_pair(const FaceBvh& other, Visit&& visit) con
       for (int j = nb.begin; j < nb.end; ++j)
         if (slot_boxes_meet(i, other, j)) visit(i, j);
   };
-  check_same_origin(other);
+  check_same_frame(other);
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 
@@ -316,7 +338,7 @@ void FaceBvh::for_each_pair_of_meeting_float_boxes(const FaceBvh& other, Visit&&
         if (float_boxes_meet(a, other_box[j])) visit(i, j);
     }
   };
-  check_same_origin(other);
+  check_same_frame(other);
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 
@@ -329,7 +351,7 @@ void FaceBvh::for_each_overlapping_leaf_pair(Visit&& visit) const {
 template <class Visit>
 void FaceBvh::for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit) const {
   auto leaves = [&](const Node& na, const Node& nb, bool) { visit(na.begin, na.end, nb.begin, nb.end); };
-  check_same_origin(other);
+  check_same_frame(other);
   if (!nodes_.empty() && !other.nodes_.empty()) join(0, other, 0, false, leaves);
 }
 

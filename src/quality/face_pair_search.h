@@ -50,18 +50,18 @@ private:
 /// F must index rows of V, each face with three distinct ids (checked by the caller).
 /// `embedded_star`: null, or one flag per row of V (embedded_stars.h, computed on a surface that
 /// contains these faces), kept by reference: pairs sharing a flagged vertex are not tested.
-/// `origin`: of the tree's float boxes (FaceBvh), by default the centre of all of V's rows, so
-/// that sets over rows of one V are searched together; a set made later over another V takes
-/// the origin() of the set it will be searched with.
+/// `frame`: of the tree's float boxes (FaceBvh), by default the frame of all of V's rows, so that
+/// sets over rows of one V are searched together; a set made later over another V takes the
+/// frame() of the set it will be searched with.
 class FaceSet {
 public:
   FaceSet(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const std::vector<char>* embedded_star = nullptr,
-          const std::optional<Eigen::Vector3d>& origin = std::nullopt)
-      : bvh_(V, F, FaceBvh::Use::float_pairs, origin ? *origin : centre_of_rows(V)) {
+          const std::optional<CoverFrame>& frame = std::nullopt)
+      : bvh_(V, F, FaceBvh::Use::float_pairs, frame ? *frame : frame_of_rows(V)) {
     take_positions(V, F, embedded_star);
   }
 
-  const Eigen::Vector3d& origin() const { return bvh_.origin(); }
+  const CoverFrame& frame() const { return bvh_.frame(); }
 
   /// The same faces (F as constructed) at new positions V, with new star flags: the tree is refit
   /// (FaceBvh::set_slot_box, refit_nodes), not rebuilt, so a sequence of frames of one motion costs
@@ -112,9 +112,10 @@ public:
   }
 
 private:
-  static Eigen::Vector3d centre_of_rows(const Eigen::MatrixXd& V) {
-    if (V.rows() == 0) return Eigen::Vector3d::Zero();
-    return (0.5 * (V.colwise().minCoeff() + V.colwise().maxCoeff())).transpose();
+  static CoverFrame frame_of_rows(const Eigen::MatrixXd& V) {
+    if (V.rows() == 0) return {};
+    return CoverFrame::of_extent(
+        Eigen::AlignedBox3d(V.colwise().minCoeff().transpose(), V.colwise().maxCoeff().transpose()));
   }
 
   // Ids are kept apart from the shapes: most pairs of a fine surface are neighbours settled by

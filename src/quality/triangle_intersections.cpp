@@ -50,7 +50,7 @@ Pairs intersecting_pairs_between(const Eigen::MatrixXd& V1, const Eigen::MatrixX
   detail::check_triangle_mesh(V1, F1, "intersection test (first mesh)");
   detail::check_triangle_mesh(V2, F2, "intersection test (second mesh)");
   const detail::FaceBvh bvh1(V1, F1, detail::FaceBvh::Use::pairs);
-  const detail::FaceBvh bvh2(V2, F2, detail::FaceBvh::Use::pairs, bvh1.origin());
+  const detail::FaceBvh bvh2(V2, F2, detail::FaceBvh::Use::pairs, bvh1.frame());
   const std::vector<ExactFace> faces1 = detail::exact_faces_in_slot_order(V1, F1, bvh1);
   const std::vector<ExactFace> faces2 = detail::exact_faces_in_slot_order(V2, F2, bvh2);
   const std::vector<int>&face1 = bvh1.faces_in_leaf_order(), &face2 = bvh2.faces_in_leaf_order();
