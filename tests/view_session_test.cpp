@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -214,6 +215,58 @@ TEST(ViewSession, AShellFarFromTheOriginReachesThePageWithItsDetail) {
   const Eigen::MatrixXd X = rest.vertices();
   EXPECT_LT((drawn + origin - (X.row(0) + X.row(1) + X.row(2)) / 3).norm(), 1e-6);
   EXPECT_LT(drawn.norm(), 2.0);
+}
+
+TEST(ViewSession, AHugeShellReachesThePageInUnitsFloat32Holds) {
+  // Coordinates up to 1e50 are accepted; float32 ends at 3.4e38. The page gets positions, handle
+  // centres and translations in page units, (x - origin) * unit, and its drags come back divided
+  // by unit. An ordinary shell keeps unit 1 (the other tests read positions with it).
+  test::TempDir tmp{"gshell-view"};
+  const double size = 1e45;
+  TriMesh plate = make_plane(10);
+  plate.V *= size;
+  write_mesh(tmp.file("huge.obj"), plate);
+  const std::string dir = tmp.file("huge");
+  ASSERT_EQ(test::run_cli("generate '" + tmp.file("huge.obj") + "' --thickness 1e44 -q -o '" + dir + "'").exit_code, 0);
+  ViewSession session(load_view_input({dir}), tight_options(tmp.path().string()));
+  const Shell& rest = session.input().shell;
+  Outbox out;
+  session.welcome(out.sink());
+  const json hello = out.messages("hello").at(0);
+  ASSERT_TRUE(hello.contains("unit")) << hello.dump();
+  const double unit = hello["unit"].get<double>();
+  int exponent = 0;
+  EXPECT_EQ(std::frexp(unit, &exponent), 0.5); // a power of two
+  const Eigen::RowVector3d origin = origin_of(hello);
+  ASSERT_EQ(out.frames(ViewFrameKind::Positions).size(), 1u);
+  const Eigen::MatrixXd page = frame_positions(out.frames(ViewFrameKind::Positions)[0], Eigen::RowVector3d::Zero());
+  ASSERT_TRUE(page.allFinite());
+  EXPECT_LT(page.cwiseAbs().maxCoeff(), 2.0);
+  EXPECT_LT(max_distance((page / unit).rowwise() + origin, rest.vertices()), 1e-6 * size);
+  EXPECT_NEAR(hello["thickness"].get<double>(), 1e44, 1e30); // model units; the page multiplies
+
+  session.receive(R"({"type":"add_handle","name":"hold","vertices":)" + ends(rest, -0.75 * size, -1) + "}", out.sink());
+  session.receive(R"({"type":"add_handle","name":"pull","vertices":)" + ends(rest, 0.75 * size, 1) + "}", out.sink());
+  out.clear();
+  const Eigen::Vector3d lift(0, 0, 0.3); // page units
+  session.receive(drag_message(1, 1, lift, 0), out.sink());
+  ASSERT_TRUE(out.messages("error").empty()) << out.messages("error")[0].dump();
+  session.solve_drag(out.sink());
+  const Handle& pulled = session.drag_session()->handles().handles.at(1);
+  EXPECT_LT((pulled.translate - lift / unit).norm(), 1e-12 * size);
+  // The handles message draws that translation and the centre in page units again.
+  session.receive(R"({"type":"add_handle","name":"corner","vertices":[60,61,62]})", out.sink());
+  ASSERT_TRUE(out.messages("error").empty()) << out.messages("error")[0].dump();
+  const json drawn = out.messages("handles").back()["handles"]["handles"];
+  ASSERT_EQ(drawn.size(), 3u) << drawn.dump();
+  ASSERT_TRUE(drawn[1].contains("translate")) << drawn.dump();
+  EXPECT_NEAR(drawn[1]["translate"][2].get<double>(), 0.3, 1e-12);
+  const Eigen::MatrixXd X = rest.vertices();
+  const Eigen::RowVector3d corner((X.row(60) + X.row(61) + X.row(62)) / 3);
+  const json centre = drawn[2]["rotate"]["center"];
+  EXPECT_LT((Eigen::RowVector3d(centre[0].get<double>(), centre[1].get<double>(), centre[2].get<double>()) / unit +
+             origin - corner).norm(),
+            1e-9 * size);
 }
 
 TEST(ViewSession, HelloAndStatsTellTheLevelsBuiltNotOnlyThoseAsked) {

@@ -290,11 +290,11 @@ void put_floats(char* out, const double* values, Eigen::Index count) {
 } // namespace
 
 std::string encode_view_positions(ViewFrameKind kind, std::uint32_t seq, float a, float b, const Eigen::MatrixXd& X,
-                                  const Eigen::RowVector3d& origin) {
+                                  const Eigen::RowVector3d& origin, double unit) {
   if (X.cols() != 3) throw InputError("encode_view_positions: X must have 3 columns");
   std::string out = frame_header(kind, seq, a, b, 4 * static_cast<std::size_t>(X.size()));
   // Row-major x y z per vertex, as WebGL position buffers hold them.
-  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = X.rowwise() - origin;
+  const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = (X.rowwise() - origin) * unit;
   put_floats(out.data() + kViewFrameHeaderBytes, rows.data(), rows.size());
   return out;
 }

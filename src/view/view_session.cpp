@@ -73,6 +73,11 @@ struct ViewSession::Impl {
   // What the page's positions and handle centres are relative to (hello's "origin"): the centre
   // of the input shell's box, so that float32 keeps the shell's detail wherever it lies.
   Eigen::RowVector3d origin = Eigen::RowVector3d::Zero();
+  // Page units per model unit (hello's "unit"): positions, handle centres and translations go to
+  // the page as (x - origin) * unit, and drags come back divided by it. 1 for shells of ordinary
+  // size; for one whose box diagonal lies outside [1e-6, 1e18], the power of two that brings it
+  // into [0.5, 1), so that float32 (range 1.2e-38..3.4e38) and the page's camera keep it.
+  double unit = 1;
   int frame = 0; ///< the frame shown (sequences)
 
   // Drags wait here until solve_drag (coalescing).
@@ -181,8 +186,8 @@ struct ViewSession::Impl {
 
   void send_positions(const ViewSink& send, float solve_ms, float latency_ms) const {
     if (drag)
-      send({encode_view_positions(ViewFrameKind::Positions, answered_seq, solve_ms, latency_ms, X(), origin), true});
-    else send({encode_view_positions(ViewFrameKind::Frame, static_cast<std::uint32_t>(frame), 0, 0, X(), origin), true});
+      send({encode_view_positions(ViewFrameKind::Positions, answered_seq, solve_ms, latency_ms, X(), origin, unit), true});
+    else send({encode_view_positions(ViewFrameKind::Frame, static_cast<std::uint32_t>(frame), 0, 0, X(), origin, unit), true});
   }
 
   void send_values(const ViewSink& send) {
@@ -196,14 +201,18 @@ struct ViewSession::Impl {
     send(std::move(m));
   }
 
-  // The handles as the page draws them: centres relative to `origin`, like the positions (a
-  // saved handle file keeps model coordinates).
+  // The handles as the page draws them: centres and translations in page units, like the
+  // positions (a saved handle file keeps model coordinates).
   void send_handles(const ViewSink& send) const {
     ojson j = message("handles");
     j["handles"] = drag->handles_json();
-    for (ojson& h : j["handles"]["handles"])
+    for (ojson& h : j["handles"]["handles"]) {
       if (h.contains("rotate"))
-        for (int d = 0; d < 3; ++d) h["rotate"]["center"][d] = h["rotate"]["center"][d].get<double>() - origin[d];
+        for (int d = 0; d < 3; ++d)
+          h["rotate"]["center"][d] = (h["rotate"]["center"][d].get<double>() - origin[d]) * unit;
+      if (h.contains("translate"))
+        for (int d = 0; d < 3; ++d) h["translate"][d] = h["translate"][d].get<double>() * unit;
+    }
     send(text(j));
   }
 
@@ -258,6 +267,12 @@ ViewSession::ViewSession(ViewInput input, ViewSessionOptions options) : impl_(st
   s.radius = std::max(bounding_radius(s.rest_vertices), 1e-300);
   s.origin = 0.5 * (s.rest_vertices.colwise().minCoeff() + s.rest_vertices.colwise().maxCoeff());
   if (!s.origin.allFinite()) s.origin.setZero();
+  const double diagonal = (s.rest_vertices.colwise().maxCoeff() - s.rest_vertices.colwise().minCoeff()).norm();
+  if (diagonal > 0 && std::isfinite(diagonal) && (diagonal < 1e-6 || diagonal > 1e18)) {
+    int exponent = 0;
+    std::frexp(diagonal, &exponent); // diagonal = f 2^exponent, f in [0.5, 1)
+    s.unit = std::ldexp(1.0, -exponent);
+  }
   options.limits.vertex_count = static_cast<int>(s.rest_vertices.rows());
   if (input.posable()) {
     s.drag.emplace(input.shell, options.pose, input.surface);
@@ -291,6 +306,7 @@ void ViewSession::welcome(const ViewSink& send) {
   hello["tets"] = 3 * in.shell.F.rows();
   hello["thickness"] = in.shell.thickness;
   hello["origin"] = {s.origin.x(), s.origin.y(), s.origin.z()};
+  hello["unit"] = s.unit;
   ojson frames = ojson::array();
   if (!in.posable())
     for (const ViewFrame& f : in.frames) frames.push_back(fs::path(f.name).filename().string());
@@ -385,10 +401,11 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
   } else if (const auto* drag = std::get_if<ViewDrag>(&m)) {
     DragSession& d = s.posable(type);
     s.group(drag->handle);
-    if (drag->translate.norm() > kMaxMotionRadii * s.radius)
-      throw InputError("drag: a translation of " + format_number(drag->translate.norm()) +
+    const Eigen::Vector3d translate = drag->translate / s.unit; // page units -> model units
+    if (translate.norm() > kMaxMotionRadii * s.radius)
+      throw InputError("drag: a translation of " + format_number(translate.norm()) +
                        " is more than 1000 times the shell's size");
-    d.set_motion(drag->handle, drag->translate, drag->axis, drag->degrees);
+    d.set_motion(drag->handle, translate, drag->axis, drag->degrees);
     s.pending = true;
     s.seq = drag->seq;
     s.received = received;

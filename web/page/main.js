@@ -304,7 +304,8 @@ const app = {
   activeGroup: () => state.active,
   setActiveGroup(k) { state.active = k; renderGroups(); },
   surface: () => $('surface').value,
-  thickness: () => state.hello && state.hello.thickness,
+  // In page units, as positions are: (x - hello.origin) * hello.unit.
+  thickness: () => state.hello && state.hello.thickness * (state.hello.unit || 1),
   selectionChanged(set) { $('selected').textContent = `${set.size} vertices selected`; },
   dragSent(seq) { bench.sent(seq); },
 };
@@ -403,7 +404,7 @@ window.gshellView = {
   /** The last handle file the server sent (after a save_handles). */
   get handlesFile() { return state.handlesFile; },
   send,
-  /** The positions drawn last (2n x 3, flat), relative to hello.origin as the server sends them. */
+  /** The positions drawn last (2n x 3, flat), in page units as the server sends them: (x - hello.origin) * hello.unit. */
   positions() { return Array.from(view.positions); },
   /** Where vertex v is on the screen (page coordinates), or null when cut away. */
   screenOf(v) {

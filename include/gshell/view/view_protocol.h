@@ -57,8 +57,8 @@ struct ViewGrab {
 };
 /// {"type":"drag","seq":N,"handle":K,"translate":[x,y,z],"axis":[x,y,z],"degrees":D}: group K's
 /// rigid motion from rest (rotate by D degrees about `axis` through the group's rest centroid,
-/// then translate; model units). `seq` (0..2^32-1) comes back in the positions frame that answers
-/// it. `axis` and `degrees` may be left out (no rotation).
+/// then translate; in page units, i.e. model units times hello's "unit"). `seq` (0..2^32-1) comes
+/// back in the positions frame that answers it. `axis` and `degrees` may be left out (no rotation).
 struct ViewDrag {
   std::uint32_t seq = 0;
   int handle = 0;
@@ -144,13 +144,15 @@ enum class ViewFrameKind : std::uint32_t {
 };
 constexpr std::size_t kViewFrameHeaderBytes = 16;
 
-/// A Positions or Frame frame of the 2n x 3 shell vertices, relative to `origin` (the session's,
-/// `hello`'s "origin"), rounded to float32. A float has 24 bits: positions sent as they are from
-/// a scan in survey coordinates (millions of units from zero) would be drawn on a grid of
-/// 0.25-0.5 units; relative to the shell's centre they keep their detail.
+/// A Positions or Frame frame of the 2n x 3 shell vertices in page units, (x - origin) * unit (the
+/// session's, `hello`'s "origin" and "unit"), rounded to float32. A float has 24 bits: positions
+/// sent as they are from a scan in survey coordinates (millions of units from zero) would be drawn
+/// on a grid of 0.25-0.5 units; relative to the shell's centre they keep their detail. `unit`
+/// (a power of two, 1 for shells of ordinary size) keeps a shell beyond the float range
+/// (3.4e38) or below its normal range drawable.
 /// \throws InputError when X does not have 3 columns.
 std::string encode_view_positions(ViewFrameKind kind, std::uint32_t seq, float a, float b, const Eigen::MatrixXd& X,
-                                  const Eigen::RowVector3d& origin = Eigen::RowVector3d::Zero());
+                                  const Eigen::RowVector3d& origin = Eigen::RowVector3d::Zero(), double unit = 1);
 /// A Values frame: per-face values (m), then per-vertex values (n), rounded to float32.
 std::string encode_view_values(std::uint32_t seq, const Eigen::VectorXd& face_values,
                                const Eigen::VectorXd& vertex_values);
