@@ -90,6 +90,17 @@ struct PlateFolder {
   }
 };
 
+/// The folder of `gshell generate` on `mesh` (written to NAME.obj in tmp) at `thickness`.
+std::string generated_folder(const test::TempDir& tmp, const std::string& name, const TriMesh& mesh,
+                             const std::string& thickness) {
+  write_mesh(tmp.file(name + ".obj"), mesh);
+  const std::string dir = tmp.file(name);
+  const test::CliResult r =
+      test::run_cli("generate '" + tmp.file(name + ".obj") + "' --thickness " + thickness + " -q -o '" + dir + "'");
+  if (r.exit_code != 0) throw std::runtime_error("generate failed: " + r.err);
+  return dir;
+}
+
 /// Shell vertex ids (both surfaces) whose rest x lies beyond `x` on the side `sign` points to.
 std::string ends(const Shell& shell, double x, double sign) {
   const Eigen::MatrixXd X = shell.vertices();
@@ -195,9 +206,7 @@ TEST(ViewSession, AShellFarFromTheOriginReachesThePageWithItsDetail) {
   TriMesh plate = make_plane(10);
   const Eigen::RowVector3d far(5e5, 4e6, 120);
   plate.V.rowwise() += far;
-  write_mesh(tmp.file("far.obj"), plate);
-  const std::string dir = tmp.file("far");
-  ASSERT_EQ(test::run_cli("generate '" + tmp.file("far.obj") + "' --thickness 0.1 -q -o '" + dir + "'").exit_code, 0);
+  const std::string dir = generated_folder(tmp, "far", plate, "0.1");
   ViewSession session(load_view_input({dir}), tight_options(tmp.path().string()));
   const Shell& rest = session.input().shell;
   Outbox out;
@@ -225,9 +234,7 @@ TEST(ViewSession, AHugeShellReachesThePageInUnitsFloat32Holds) {
   const double size = 1e45;
   TriMesh plate = make_plane(10);
   plate.V *= size;
-  write_mesh(tmp.file("huge.obj"), plate);
-  const std::string dir = tmp.file("huge");
-  ASSERT_EQ(test::run_cli("generate '" + tmp.file("huge.obj") + "' --thickness 1e44 -q -o '" + dir + "'").exit_code, 0);
+  const std::string dir = generated_folder(tmp, "huge", plate, "1e44");
   ViewSession session(load_view_input({dir}), tight_options(tmp.path().string()));
   const Shell& rest = session.input().shell;
   Outbox out;
