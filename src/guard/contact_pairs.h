@@ -140,8 +140,8 @@ public:
     return {edges_[e][0], edges_[e][1], edges_[f][0], edges_[f][1]};
   }
 
-  /// How the patches made from now on measure their float boxes: in the frame of the shell's box,
-  /// e.g. (CoverFrame says why). Patches searched together must be made in the same frame.
+  /// How the patches made from now on measure their float boxes (CoverFrame says why), e.g. in
+  /// the frame of the shell's box. Patches searched together must be made in the same frame.
   /// Origin 0, scale 1 until set.
   void set_frame(const CoverFrame& frame) { frame_ = frame; }
   const CoverFrame& frame() const { return frame_; }
