@@ -37,7 +37,7 @@ inline float float_at_least(double x) { return -float_at_most(-x); }
 /// model's extent to about 1, inside the range where floats keep their 24 bits: a model 1e39
 /// across (coordinates up to 1e50 are accepted) had every cover clamped to the largest float,
 /// every pair of faces met, and the guard's contact search went quadratic (dino scaled by 1e39:
-/// 3 s per repair iteration against 0.03 s at unit scale); a tiny one would fall below the
+/// 3 s per repair iteration against 0.06 s at unit scale); a tiny one would fall below the
 /// normal floats.
 struct CoverFrame {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
