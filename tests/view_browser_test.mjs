@@ -3,19 +3,23 @@
 // mesh; two handle groups are selected with the box tool and made with the page's button; one is
 // dragged with the mouse; after the rest the page's geometry has moved and equals the server's state
 // (the folder its "save shell" button makes); a screenshot of the dragged shell goes to OUT.
+// --scale S: the same on the plate scaled by S (e.g. 1e45, beyond float32's range): the page
+// works in page units, (x - hello.origin) * hello.unit, and every check reads them so.
 //
-//   node tests/view_browser_test.mjs --gshell build/bin/gshell --out build/test-output
+//   node tests/view_browser_test.mjs --gshell build/bin/gshell --out build/test-output [--scale S]
 //
 // Run by ctest (CMakeLists.txt). Exit code 0 = pass.
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
+import { spawnSync } from 'node:child_process';
 import { fileURLToPath } from 'node:url';
 import { launchBrowser, readObj, startViewer } from './support/view_browser.mjs';
 
 const args = Object.fromEntries(process.argv.slice(2).reduce((pairs, a, i, all) => (a.startsWith('--') ? [...pairs, [a.slice(2), all[i + 1]]] : pairs), []));
 const gshell = args.gshell || path.join(path.dirname(fileURLToPath(import.meta.url)), '../build/bin/gshell');
 const outDir = args.out || path.join(os.tmpdir(), 'gshell-view-test-output');
+const scale = Number(args.scale || 1);
 fs.mkdirSync(outDir, { recursive: true });
 
 let failures = 0;
@@ -25,7 +29,14 @@ function check(ok, what) {
 }
 
 const work = fs.mkdtempSync(path.join(os.tmpdir(), 'gshell-view-test-'));
-const viewer = await startViewer(gshell, ['builtin:plane:12', '--thickness', '0.1', '--output-dir', work]);
+let input = 'builtin:plane:12';
+if (scale !== 1) { // the plate's OBJ with every coordinate times the scale
+  input = path.join(work, 'plate.obj');
+  spawnSync(gshell, ['convert', 'builtin:plane:12', input, '-q']);
+  const lines = fs.readFileSync(input, 'utf8').split('\n');
+  fs.writeFileSync(input, lines.map((l) => (l.startsWith('v ') ? 'v ' + l.slice(2).trim().split(/\s+/).map((x) => Number(x) * scale).join(' ') : l)).join('\n'));
+}
+const viewer = await startViewer(gshell, [input, '--thickness', String(0.1 * scale), '--output-dir', work]);
 const browser = await launchBrowser();
 try {
   const page = await browser.newPage();
@@ -36,12 +47,15 @@ try {
   await page.waitForFunction(() => window.gshellView && window.gshellView.loadMs !== null, { timeout: 60000 });
   const hello = await page.evaluate(() => window.gshellView.hello);
   check(hello.posable && hello.vertices === 169 && hello.faces === 288, `page got the 13 x 13 plate shell (${hello.vertices} base vertices, ${hello.faces} faces)`);
+  const unit = hello.unit;
+  const size = scale * unit; // the 2 x 2 plate's half width in page units
+  check(scale === 1 ? unit === 1 : Math.abs(size - 1) < 0.9, `page units: unit ${unit}, the plate ${(2 * size).toPrecision(3)} across`);
   const rest = await page.evaluate(() => window.gshellView.positions());
   check(rest.length === 6 * 169 && rest.every(Number.isFinite), 'the mesh is drawn from the server\'s positions');
 
   // Box-select each end of the plate (both surfaces) and make a group of it.
   const n = hello.vertices;
-  const endOf = (sign) => [...Array(2 * n).keys()].filter((v) => sign * rest[3 * v] > 0.8);
+  const endOf = (sign) => [...Array(2 * n).keys()].filter((v) => sign * rest[3 * v] > 0.8 * size);
   await page.click('input[name=mode][value=box]');
   async function boxAround(ids) {
     const points = await page.evaluate((ids) => ids.map((v) => window.gshellView.screenOf(v)), ids);
@@ -66,7 +80,7 @@ try {
 
   // Drag the pull group up the screen with the mouse, in many small moves, then let go.
   await page.click('input[name=mode][value=drag]');
-  const pullVertex = endOf(1).find((v) => v >= n && Math.abs(rest[3 * v + 1]) < 0.1); // a top vertex mid-edge
+  const pullVertex = endOf(1).find((v) => v >= n && Math.abs(rest[3 * v + 1]) < 0.1 * size); // a top vertex mid-edge
   const grip = await page.evaluate((v) => window.gshellView.screenOf(v), pullVertex);
   await page.mouse.move(grip.x, grip.y);
   await page.mouse.down();
@@ -80,7 +94,7 @@ try {
   const moved = await page.evaluate(() => window.gshellView.positions());
   let lift = 0;
   for (let v = 0; v < 2 * n; ++v) lift = Math.max(lift, Math.hypot(moved[3 * v] - rest[3 * v], moved[3 * v + 1] - rest[3 * v + 1], moved[3 * v + 2] - rest[3 * v + 2]));
-  check(lift > 0.3, `the page's geometry moved (largest displacement ${lift.toFixed(3)} on a 2 x 2 plate)`);
+  check(lift > 0.3 * size, `the page's geometry moved (largest displacement ${(lift / size).toFixed(3)} on a 2 x 2 plate)`);
 
   // The server's state: the folder its "save shell" button writes.
   await page.type('#shell-name', 'dragged');
@@ -91,8 +105,8 @@ try {
   const server = [...base, ...top];
   const origin = await page.evaluate(() => window.gshellView.hello.origin); // what the page draws relative to
   let difference = 0;
-  for (let i = 0; i < server.length; ++i) difference = Math.max(difference, Math.abs(server[i] - origin[i % 3] - moved[i]));
-  check(server.length === moved.length && difference < 1e-5, `the page's geometry equals the server's state (largest difference ${difference.toExponential(2)}, float32 rounding)`);
+  for (let i = 0; i < server.length; ++i) difference = Math.max(difference, Math.abs((server[i] - origin[i % 3]) * unit - moved[i]) / size);
+  check(server.length === moved.length && difference < 1e-5, `the page's geometry equals the server's state (largest difference ${difference.toExponential(2)} of the plate's size, float32 rounding)`);
 
   const stats = await page.evaluate(() => window.gshellView.stats);
   check(stats.handles === 2 && stats.stretch && stats.stretch.against === 'rest shell', 'the stats panel shows the posed shell');
@@ -111,7 +125,7 @@ try {
     });
   });
   check(overlaps.length === 0, `no panel covers the shell's canvas${overlaps.length ? ': ' + overlaps.join(', ') + ' do' : ''}`);
-  const shot = path.join(outDir, 'view_browser_dragged.png');
+  const shot = path.join(outDir, scale === 1 ? 'view_browser_dragged.png' : `view_browser_dragged_${scale}.png`);
   await page.screenshot({ path: shot });
   check(fs.statSync(shot).size > 10000, `screenshot of the dragged shell: ${shot}`);
   check(errors.length === 0, `no errors in the page${errors.length ? ': ' + errors.join('; ') : ''}`);
