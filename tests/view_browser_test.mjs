@@ -49,7 +49,9 @@ try {
   check(hello.posable && hello.vertices === 169 && hello.faces === 288, `page got the 13 x 13 plate shell (${hello.vertices} base vertices, ${hello.faces} faces)`);
   const unit = hello.unit;
   const size = scale * unit; // the 2 x 2 plate's half width in page units
-  check(scale === 1 ? unit === 1 : Math.abs(size - 1) < 0.9, `page units: unit ${unit}, the plate ${(2 * size).toPrecision(3)} across`);
+  // The unit brings the shell's box diagonal (the plate's, 2 sqrt 2, and its 0.1 thickness) into [0.5, 1).
+  const diagonal = Math.hypot(2, 2, 0.1) * size;
+  check(scale === 1 ? unit === 1 : diagonal >= 0.5 && diagonal < 1, `page units: unit ${unit}, the plate's diagonal ${diagonal.toPrecision(3)}`);
   const rest = await page.evaluate(() => window.gshellView.positions());
   check(rest.length === 6 * 169 && rest.every(Number.isFinite), 'the mesh is drawn from the server\'s positions');
 

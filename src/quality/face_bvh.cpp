@@ -1,5 +1,7 @@
 #include "quality/face_bvh.h"
 
+#include "geometry/power_of_two_unit.h"
+
 #include <gshell/geometry/closest_point.h>
 
 #include <tbb/parallel_for.h>
@@ -40,12 +42,7 @@ CoverFrame CoverFrame::of_extent(const Eigen::AlignedBox3d& extent) {
   if (extent.isEmpty() || !extent.min().allFinite() || !extent.max().allFinite()) return frame;
   const Eigen::Vector3d centre = extent.center();
   if (centre.allFinite()) frame.origin = centre;
-  const double size = extent.sizes().maxCoeff();
-  if (size > 0 && std::isfinite(size)) {
-    int exponent = 0;
-    std::frexp(size, &exponent); // size = f 2^exponent, f in [0.5, 1)
-    frame.scale = std::ldexp(1.0, -std::clamp(exponent, -1000, 1000));
-  }
+  frame.scale = power_of_two_unit(extent.sizes().maxCoeff());
   return frame;
 }
 

@@ -206,12 +206,19 @@ private:
   };
   void build_oriented_boxes();
   double oriented_squared_distance(int node, const Eigen::Vector3d& q) const;
-  // The larger of the two boxes' lower bounds on the squared distance from q to the node's faces.
-  double node_lower_bound(int node, const Eigen::Vector3d& q) const {
-    // The cover's distance back in model units: dividing by the square of a power of two is exact.
+  // A distance query's point in model units and in the covers' frame, and the factor that takes
+  // squared distances in the frame back to model units (exact: the square of a power of two).
+  struct Query {
+    Eigen::Vector3d q, in_frame;
+    double to_model;
+  };
+  Query query(const Eigen::Vector3d& q) const {
     const double unit = 1 / frame_.scale;
-    return std::max(node_squared_distance(nodes_[node], (q - frame_.origin) * frame_.scale) * unit * unit,
-                    oriented_squared_distance(node, q));
+    return {q, (q - frame_.origin) * frame_.scale, unit * unit};
+  }
+  // The larger of the two boxes' lower bounds on the squared distance from q to the node's faces.
+  double node_lower_bound(int node, const Query& q) const {
+    return std::max(node_squared_distance(nodes_[node], q.in_frame) * q.to_model, oriented_squared_distance(node, q.q));
   }
 
   // Simultaneous descent of two trees (or one with itself); leaves(na, nb, self) at every pair of
@@ -366,7 +373,8 @@ double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2, Counts
   };
   Entry stack[128]; // holds at most depth + 1 entries; depth <= 63 code bits + log2(faces)
   int top = 0;
-  stack[top++] = {0, node_lower_bound(0, q)};
+  const Query at = query(q);
+  stack[top++] = {0, node_lower_bound(0, at)};
   while (top > 0) {
     const Entry e = stack[--top];
     if (e.d2 >= best) continue;
@@ -377,8 +385,8 @@ double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2, Counts
           best = std::min(best, face_squared_distance(slot_triangle_[s], q));
       continue;
     }
-    const Entry l{e.node + 1, node_lower_bound(e.node + 1, q)};
-    const Entry r{node.right, node_lower_bound(node.right, q)};
+    const Entry l{e.node + 1, node_lower_bound(e.node + 1, at)};
+    const Entry r{node.right, node_lower_bound(node.right, at)};
     // The nearer child goes on top of the stack: searched first, it tightens `best` early.
     const Entry& near = l.d2 <= r.d2 ? l : r;
     const Entry& far = l.d2 <= r.d2 ? r : l;

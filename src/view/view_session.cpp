@@ -7,6 +7,8 @@
 #include <gshell/render/color_map.h>
 #include <gshell/render/shell_render.h>
 
+#include "geometry/power_of_two_unit.h"
+
 
 #include <Eigen/Geometry>
 
@@ -268,11 +270,7 @@ ViewSession::ViewSession(ViewInput input, ViewSessionOptions options) : impl_(st
   s.origin = 0.5 * (s.rest_vertices.colwise().minCoeff() + s.rest_vertices.colwise().maxCoeff());
   if (!s.origin.allFinite()) s.origin.setZero();
   const double diagonal = (s.rest_vertices.colwise().maxCoeff() - s.rest_vertices.colwise().minCoeff()).norm();
-  if (diagonal > 0 && std::isfinite(diagonal) && (diagonal < 1e-6 || diagonal > 1e18)) {
-    int exponent = 0;
-    std::frexp(diagonal, &exponent); // diagonal = f 2^exponent, f in [0.5, 1)
-    s.unit = std::ldexp(1.0, -exponent);
-  }
+  if (diagonal < 1e-6 || diagonal > 1e18) s.unit = detail::power_of_two_unit(diagonal);
   options.limits.vertex_count = static_cast<int>(s.rest_vertices.rows());
   if (input.posable()) {
     s.drag.emplace(input.shell, options.pose, input.surface);
