@@ -79,8 +79,8 @@ void run_animate(const AnimateArgs& args) {
   progress.finish_status();
   if (crossing_frames > 0) // a warning even with --quiet, as pose's blocked steps
     std::fprintf(stderr,
-                 "warning: %d of %d frames (the first %s) make the base cross itself (up to %d intersecting face "
-                 "pairs, the input %d); no shell stays clean where its base crosses itself\n",
+                 "gshell animate: warning: %d of %d frames (the first %s) make the base cross itself (up to %d "
+                 "intersecting face pairs, the input %d); no shell stays clean where its base crosses itself\n",
                  crossing_frames, args.frames, gshell::frame_name(first_crossing, ".obj", args.frames).c_str(), most_crossings,
                  rest_crossings);
   std::ostringstream done;

@@ -86,7 +86,8 @@ TEST(AnimateCli, WarnsWhenAFrameMakesTheBaseCrossItself) {
   const auto past = run_cli("animate builtin:plane:6 --bend 450 --frames 2 -o '" + tmp.file("past") + "' -q");
   ASSERT_EQ(past.exit_code, 0) << past.err;
   EXPECT_EQ(test::count_entries(tmp.file("past")), 2);
-  EXPECT_NE(past.err.find("warning: 1 of 2 frames (the first frame_0002.obj) make the base cross itself"),
+  EXPECT_NE(past.err.find("gshell animate: warning: 1 of 2 frames (the first frame_0002.obj) make the base cross "
+                          "itself"),
             std::string::npos)
       << past.err;
   const auto short_of = run_cli("animate builtin:plane:6 --bend 300 --frames 2 -o '" + tmp.file("short") + "' -q");

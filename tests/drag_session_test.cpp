@@ -6,6 +6,7 @@
 
 #include <gshell/deform/handles.h>
 #include <gshell/error.h>
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
@@ -14,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <filesystem>
 
 using namespace gshell;
@@ -119,6 +121,42 @@ TEST(DragSession, RunPoseIsTheFractionDrag) {
     EXPECT_DOUBLE_EQ(r.steps[k].fraction, (k + 1) / 3.0);
   }
   EXPECT_EQ(session.fraction(), 1.0);
+}
+
+TEST(DragSession, StepsInvalidOnlyWhereTheRestShellIsSayItIsTheRestShells) {
+  // An --allow-invalid or offset rest shell keeps its faults through a pose: the guard leaves them
+  // out. Such steps are named for what they are, not as steps the guard could not make valid.
+  Plate plate;
+  PoseOptions o;
+  o.steps = 2;
+  const PoseResult clean = run_pose(plate.shell, plate.handles, o);
+  ASSERT_EQ(clean.steps.size(), 2u);
+  for (const PoseStepReport& s : clean.steps) {
+    EXPECT_TRUE(s.valid);
+    EXPECT_FALSE(s.rest_faults_only);
+  }
+  EXPECT_TRUE(clean.warnings().empty());
+
+  // A held top vertex pushed through its base: its prisms' tets invert, and stay so (a free one
+  // the solver pulls back, against the rest tets' ideal shape).
+  int held = 0;
+  (plate.shell.base.rowwise() - Eigen::RowVector3d(-0.9, 0, 0)).rowwise().norm().minCoeff(&held);
+  const std::vector<int>& hold = plate.handles.handles[0].vertices;
+  ASSERT_TRUE(std::binary_search(hold.begin(), hold.end(), plate.shell.num_base_vertices() + held));
+  plate.shell.top(held, 2) = -0.5 * plate.shell.thickness;
+  ASSERT_GT(certify_shell(plate.shell.base, plate.shell.top, plate.shell.F).inverted_tets, 0);
+  const PoseResult r = run_pose(plate.shell, plate.handles, o);
+  ASSERT_EQ(r.steps.size(), 2u);
+  for (const PoseStepReport& s : r.steps) {
+    EXPECT_FALSE(s.valid);
+    EXPECT_GT(s.inverted_tets, 0);
+    EXPECT_TRUE(s.rest_faults_only);
+    EXPECT_TRUE(s.to_json()["rest_faults_only"].get<bool>());
+  }
+  const std::vector<std::string> w = r.warnings();
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0], "2 of 2 pose steps are not valid: pose steps 1, 2 keep the rest shell's own faults (report.json "
+                  "has each pose step's certificate)");
 }
 
 TEST(DragSession, UndoAndResetRestoreStates) {

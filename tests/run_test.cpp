@@ -300,6 +300,10 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
   EXPECT_EQ(p[1], "1 of 3 pose steps is not valid: the base crosses itself in pose step 3 (report.json has each "
                   "pose step's certificate)");
   EXPECT_EQ(pose.to_json()["warnings"], nlohmann::ordered_json(p));
+  step(false, false, 0);
+  pose.steps.back().rest_faults_only = true; // invalid only where the rest shell is
+  EXPECT_EQ(pose.warnings()[1], "2 of 4 pose steps are not valid: the base crosses itself in pose step 3; pose step "
+                                "4 keeps the rest shell's own faults (report.json has each pose step's certificate)");
 }
 
 // A sequence too large to hold is read again frame by frame: the same run, bit for bit. Its files

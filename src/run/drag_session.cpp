@@ -145,6 +145,7 @@ struct DragSession::Impl {
                              : -1;
     step.nested_parts = v.certificate.nested_parts;
     step.base_self_intersections = v.certificate.base_self_intersections;
+    step.rest_faults_only = v.rest_faults_only;
     return step;
   }
 

@@ -10,6 +10,10 @@ std::string invalid_items_warning(const InvalidItems& items, int total, const st
   std::vector<std::string> causes;
   if (!items.crossing.empty()) causes.push_back("the base crosses itself in " + named(items.crossing));
   if (!items.unextrudable.empty()) causes.push_back("base vertices cannot be extruded in " + named(items.unextrudable));
+  if (!items.rest_faults.empty()) {
+    const char* verb = items.rest_faults.size() == 1 ? " keeps" : " keep";
+    causes.push_back(named(items.rest_faults) + verb + " the rest shell's own faults");
+  }
   if (!items.unexplained.empty())
     causes.push_back(unguarded ? named(items.unexplained) + " unguarded (allow_invalid)"
                                : "the guard could not make " + named(items.unexplained) + " valid");

@@ -13,18 +13,21 @@ struct InvalidItems {
   std::vector<int> all;          ///< every invalid item
   std::vector<int> crossing;     ///< the base crosses itself there
   std::vector<int> unextrudable; ///< base vertices that cannot be extruded there
-  std::vector<int> unexplained;  ///< neither: left invalid by the guard (or unguarded)
+  std::vector<int> rest_faults;  ///< invalid only where the rest shell is not valid itself
+  std::vector<int> unexplained;  ///< none of these: left invalid by the guard (or unguarded)
   /// Files an invalid item under its causes.
-  void add(int id, bool base_crosses, bool has_unextrudable) {
+  void add(int id, bool base_crosses, bool has_unextrudable, bool only_rest_faults = false) {
     all.push_back(id);
     if (base_crosses) crossing.push_back(id);
     if (has_unextrudable) unextrudable.push_back(id);
-    if (!base_crosses && !has_unextrudable) unexplained.push_back(id);
+    if (only_rest_faults) rest_faults.push_back(id);
+    if (!base_crosses && !has_unextrudable && !only_rest_faults) unexplained.push_back(id);
   }
 };
 
 /// E.g. "2 of 4 frames are not valid: the base crosses itself in frames 3, 4; the guard could not
-/// make frame 2 valid (report.json has each frame's certificate)". `noun`: "frame" or "pose step";
+/// make frame 2 valid (report.json has each frame's certificate)"; items with only the rest
+/// shell's own faults: "pose steps 1, 2 keep the rest shell's own faults". `noun`: "frame" or "pose step";
 /// `unguarded`: the run asked for no guard (allow_invalid). Empty when nothing is invalid.
 std::string invalid_items_warning(const InvalidItems& items, int total, const std::string& noun, bool unguarded);
 

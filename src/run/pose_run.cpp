@@ -41,6 +41,7 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
                         {"intersections", intersections},
                         {"nested_parts", count_or_null(nested_parts)}};
     j["base_self_intersections"] = count_or_null(base_self_intersections);
+    j["rest_faults_only"] = rest_faults_only;
   }
   return j;
 }
@@ -58,7 +59,7 @@ std::vector<std::string> PoseResult::warnings() const {
       lines.push_back("pose step " + std::to_string(step) +
                       ": the handles force the shell into itself or squeeze a tet between them flat; stopped short "
                       "of them (blocked_by_contact in report.json)");
-    if (!s.valid) invalid.add(step, s.base_self_intersections > 0, false);
+    if (!s.valid) invalid.add(step, s.base_self_intersections > 0, false, s.rest_faults_only);
   }
   const std::string line = detail::invalid_items_warning(invalid, guarded, "pose step", false);
   if (!line.empty()) lines.push_back(line);

@@ -78,10 +78,11 @@ struct PoseStepReport {
   /// guarded: face pairs where the posed base crosses itself (-1 = not tested); a step is valid
   /// only without them
   int base_self_intersections = -1;
+  /// guarded, not valid: only where the rest shell is not valid itself (ValidStep::rest_faults_only)
+  bool rest_faults_only = false;
   /// {fraction, iterations, energy, seconds, converged} and, guarded, {valid, method,
   /// blocked_by_contact, guarded_iterations, drag_start, certificate {inverted_tets, intersections,
-  /// nested_parts},
-  /// base_self_intersections}
+  /// nested_parts}, base_self_intersections, rest_faults_only}
   nlohmann::ordered_json to_json() const;
 };
 
