@@ -7,6 +7,7 @@
 #include <gshell/deform/pose.h>
 #include <gshell/error.h>
 #include <gshell/deform/shell_deformer.h>
+#include <gshell/run/deform_run.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
 #include <gshell/deform/synthetic_motion.h>
@@ -418,6 +419,35 @@ TEST(DeformGuard, ABaseCrossingItselfLeavesTheTopCleanAwayFromItsCrossings) {
   for (const BoundaryIntersection& pair : c.intersections)
     away += !next_to_crossing(pair.a) && !next_to_crossing(pair.b);
   EXPECT_EQ(away, 0) << "of " << c.intersections.size() << " intersecting pairs";
+}
+
+// Two sheets 0.1 apart with layers 0.08 thick: each top passes through the other layer's side
+// walls, a rest shell that is not valid (as `--allow-invalid` or `offset` make). The guard leaves
+// those faults out; a frame that only carries them along (the whole shell translated) keeps them
+// and says they are the rest shell's, where a valid rest shell's frame has no such flag.
+TEST(DeformGuard, AFrameInvalidOnlyWhereTheRestShellIsSaysSo) {
+  const Shell rest = offset_shell(test::facing_sheets(8, 0.1), 0.08);
+  const ShellCertificate at_rest = certify_shell(rest.base, rest.top, rest.F);
+  ASSERT_FALSE(at_rest.valid());
+  ASSERT_EQ(at_rest.inverted_tets, 0);
+  Eigen::MatrixXd moved = rest.base;
+  moved.col(0).array() += 0.3;
+  ShellDeformer deformer(rest);
+  const FrameResult r = deformer.solve(moved);
+  EXPECT_FALSE(r.valid);
+  EXPECT_FALSE(r.certificate.intersections.empty());
+  EXPECT_TRUE(r.rest_faults_only) << frame_method_name(r.method);
+  DeformRun run;
+  run.frames.push_back({1, "moved.obj", r, {}});
+  ASSERT_EQ(run.warnings().size(), 1u);
+  EXPECT_EQ(run.warnings()[0], "1 of 1 frames is not valid: frame 1 keeps the rest shell's own faults (report.json "
+                               "has each frame's certificate)");
+
+  const Shell clean = offset_shell(test::facing_sheets(8, 0.1), 0.03);
+  ShellDeformer clean_deformer(clean);
+  const FrameResult c = clean_deformer.solve(moved);
+  EXPECT_TRUE(c.valid);
+  EXPECT_FALSE(c.rest_faults_only);
 }
 
 // Rolled up by 900 degrees in one frame within a band of 0.3, the plane's base winds through

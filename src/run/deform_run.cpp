@@ -101,6 +101,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
                                             {"seconds", r.certificate_seconds}};
   j["base_self_intersections"] = count_or_null(c.base_self_intersections);
   j["unextrudable_vertices"] = r.unextrudable_vertices;
+  j["rest_faults_only"] = r.rest_faults_only;
   return j;
 }
 
@@ -115,7 +116,8 @@ std::vector<std::string> DeformRun::warnings() const {
   detail::InvalidItems invalid;
   for (const DeformFrameRecord& f : frames)
     if (!f.result.valid)
-      invalid.add(f.frame, f.result.certificate.base_self_intersections > 0, !f.result.unextrudable_vertices.empty());
+      invalid.add(f.frame, f.result.certificate.base_self_intersections > 0, !f.result.unextrudable_vertices.empty(),
+                  f.result.rest_faults_only);
   const std::string line =
       detail::invalid_items_warning(invalid, static_cast<int>(frames.size()), "frame", options.frame.allow_invalid);
   if (line.empty()) return {};

@@ -146,6 +146,10 @@ struct FrameResult {
   /// the top. Found for certified frames that are not valid (empty otherwise), so that a report
   /// can say why; ascending.
   std::vector<int> unextrudable_vertices;
+  /// Certified, guarded and not valid, but only where the rest shell is not valid itself
+  /// (FrameGuard::only_rest_faults; the frame's base not crossing itself, the frame not Failed):
+  /// the faults the guard leaves out.
+  bool rest_faults_only = false;
   /// The previous frame was not valid for the guard (TetsOnly or Failed), so the guard started this
   /// one from the last valid frame instead.
   bool resumed = false;
