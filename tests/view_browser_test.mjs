@@ -32,7 +32,8 @@ const work = fs.mkdtempSync(path.join(os.tmpdir(), 'gshell-view-test-'));
 let input = 'builtin:plane:12';
 if (scale !== 1) { // the plate's OBJ with every coordinate times the scale
   input = path.join(work, 'plate.obj');
-  spawnSync(gshell, ['convert', 'builtin:plane:12', input, '-q']);
+  const converted = spawnSync(gshell, ['convert', 'builtin:plane:12', input, '-q'], { encoding: 'utf8' });
+  if (converted.status !== 0) throw new Error(`gshell convert failed: ${converted.stderr}`);
   const lines = fs.readFileSync(input, 'utf8').split('\n');
   fs.writeFileSync(input, lines.map((l) => (l.startsWith('v ') ? 'v ' + l.slice(2).trim().split(/\s+/).map((x) => Number(x) * scale).join(' ') : l)).join('\n'));
 }

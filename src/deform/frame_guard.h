@@ -87,9 +87,11 @@ public:
   }
   /// Whether every fault the certificate finds lies where the rest shell itself is left out (its
   /// own inverted tets and intersections, its unextrudable vertices): a state with only those is
-  /// as valid as its rest shell lets it be. False while more than the rest's is left out.
+  /// as valid as its rest shell lets it be. False while more than the rest's is left out, and
+  /// where the state's base crosses itself (a cause reported as such).
   bool only_rest_faults(const ShellCertificate& certificate) const {
-    return !leaves_out_beyond_rest() && only_unguarded_faults(certificate);
+    return certificate.base_self_intersections <= 0 && !leaves_out_beyond_rest() &&
+           only_unguarded_faults(certificate);
   }
   /// Whether contacts are guarded at all (GuardOptions::contact_distance > 0).
   bool guards_contacts() const { return parameters_.contact_distance > 0; }

@@ -225,8 +225,8 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     out.certificate = s.guard->certify(X);
   }
   out.valid = out.certificate.valid() && out.certificate.base_self_intersections == 0;
-  out.rest_faults_only = !out.valid && out.certificate.base_self_intersections <= 0 &&
-                         out.method != FrameMethod::Failed && s.guard->only_rest_faults(out.certificate);
+  out.rest_faults_only =
+      !out.valid && out.method != FrameMethod::Failed && s.guard->only_rest_faults(out.certificate);
   // The result describes the state returned: where the guard replaced the solver's state, its
   // last energy is that of the valid state, and a step short of its targets has not converged.
   if (out.method != FrameMethod::Bounded || out.blocked_by_contact) {

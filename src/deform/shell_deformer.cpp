@@ -360,7 +360,6 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
     if (!result.valid) {
       result.unextrudable_vertices = extrusion_directions(X.topRows(n), rest_.F).unextrudable;
       result.rest_faults_only = guard_ && !options.allow_invalid && result.method != FrameMethod::Failed &&
-                                result.certificate.base_self_intersections <= 0 &&
                                 guard_->only_rest_faults(result.certificate);
     }
     // A certified frame is free of contacts whatever made it: the next frame may guard them again.

@@ -16,7 +16,7 @@ struct InvalidItems {
   std::vector<int> rest_faults;  ///< invalid only where the rest shell is not valid itself
   std::vector<int> unexplained;  ///< none of these: left invalid by the guard (or unguarded)
   /// Files an invalid item under its causes.
-  void add(int id, bool base_crosses, bool has_unextrudable, bool only_rest_faults = false) {
+  void add(int id, bool base_crosses, bool has_unextrudable, bool only_rest_faults) {
     all.push_back(id);
     if (base_crosses) crossing.push_back(id);
     if (has_unextrudable) unextrudable.push_back(id);

@@ -38,8 +38,8 @@ struct ValidStep {
   /// where the step was cut back to (0: the previous state itself).
   double drag_start = 0;
   bool valid = false;            ///< the certificate holds (base/base pairs included)
-  /// Not valid, but only where the rest shell is not valid itself (FrameGuard::only_rest_faults),
-  /// with no crossing of the posed base and the step not Failed: what the guard leaves out.
+  /// Not valid, but only where the rest shell is not valid itself (FrameGuard::only_rest_faults:
+  /// what the guard leaves out; the posed base not crossing itself), the step not Failed.
   bool rest_faults_only = false;
   ShellCertificate certificate;  ///< of the step's result, base/base pairs included
 };
