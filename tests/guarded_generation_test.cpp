@@ -67,6 +67,19 @@ TriMesh bumpy_sphere(int level, double amplitude) {
   return m;
 }
 
+// make_plane(8) and the same plane turned about the x axis, crossing the first.
+TriMesh crossing_planes() {
+  TriMesh crossing = make_plane(8), upright = crossing;
+  upright.V.col(2) = upright.V.col(1);
+  upright.V.col(1).setZero();
+  const int n = static_cast<int>(crossing.V.rows());
+  crossing.V.conservativeResize(2 * n, 3);
+  crossing.V.bottomRows(n) = upright.V;
+  crossing.F.conservativeResize(2 * upright.F.rows(), 3);
+  crossing.F.bottomRows(upright.F.rows()) = upright.F.array() + n;
+  return crossing;
+}
+
 } // namespace
 
 TEST(GuardedGeneration, MakePlaneFacesUp) {
@@ -253,17 +266,7 @@ TEST(GuardedGeneration, TopNeedingNoMendingCarriesTheCertificateOfItsFirstCheck)
   // fresh certification of the returned shell gives, field by field. The crossing planes have
   // violations the guard leaves alone (around the base's own crossing), so their certificate is
   // not empty.
-  TriMesh crossing = make_plane(8);
-  {
-    TriMesh upright = crossing;
-    upright.V.col(2) = upright.V.col(1); // the plane turned about the x axis, crossing the first
-    upright.V.col(1).setZero();
-    const int n = static_cast<int>(crossing.V.rows());
-    crossing.V.conservativeResize(2 * n, 3);
-    crossing.V.bottomRows(n) = upright.V;
-    crossing.F.conservativeResize(2 * upright.F.rows(), 3);
-    crossing.F.bottomRows(upright.F.rows()) = upright.F.array() + n;
-  }
+  const TriMesh crossing = crossing_planes();
   for (const TriMesh& m : {make_sphere(3, 1.0), make_cylinder(24), crossing}) {
     const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, thickness_from_ratio(m.V, 0.02)));
     ASSERT_EQ(g.guard.start.rounds, 1);
@@ -279,6 +282,36 @@ TEST(GuardedGeneration, TopNeedingNoMendingCarriesTheCertificateOfItsFirstCheck)
   EXPECT_GT(generate_shell(crossing.V, crossing.F, options_for(ShellMethod::Rigid, thickness_from_ratio(crossing.V, 0.02)))
                 .metrics.certificate.base_self_intersections,
             0);
+}
+
+TEST(GuardedGeneration, AMendedTopIsCertifiedAsAFreshCertificateWould) {
+  // Where the start thins, repairs and lifts, the result's certificate is made from the first
+  // check's (of the paper's top, which had violations) by testing again only what moved
+  // (recertify_shell): it must be a fresh certification's, field by field. The crossing planes
+  // keep the pairs near their crossing, which the guard leaves alone: a certificate not empty.
+  const TriMesh crossing = crossing_planes();
+  struct Case {
+    TriMesh mesh;
+    double eta;
+  };
+  int leftover_pairs = 0, mended = 0;
+  const TriMesh bumpy = bumpy_sphere(3, 0.25);
+  for (const Case& c : {Case{test::folded_plane(12, 30), 0.1}, Case{bumpy, thickness_from_ratio(bumpy.V, 0.05)},
+                        Case{test::facing_sheets(10, 0.3), 0.2}, Case{crossing, 0.3}}) {
+    const GenerateResult g = generate_shell(c.mesh.V, c.mesh.F, options_for(ShellMethod::Rigid, c.eta));
+    ASSERT_TRUE(g.guard.start.certificate);
+    SCOPED_TRACE(std::to_string(c.mesh.V.rows()) + " vertices");
+    ASSERT_FALSE(g.guard.start.certificate->valid()); // the paper's top needed mending
+    mended += g.shell.top != g.guard.paper_top;
+    CertifyOptions shell_pairs;
+    shell_pairs.base_self_intersections = false;
+    ShellCertificate expected = certify_shell(g.shell.base, g.shell.top, g.shell.F, shell_pairs);
+    expected.base_self_intersections = recertify(g).base_self_intersections;
+    expect_same_certificate(g.metrics.certificate, expected);
+    leftover_pairs += static_cast<int>(expected.intersections.size());
+  }
+  EXPECT_EQ(mended, 3); // all but the crossing planes, whose violations the guard leaves alone
+  EXPECT_GT(leftover_pairs, 0);
 }
 
 TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {

@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -699,6 +700,11 @@ TEST(ShellCertifier, FramesOfAFoldEqualFreshCertificatesAndExactConstructions) {
   std::uniform_real_distribution<double> shake(-0.15, 0.15);
   std::set<IntersectionKind> kinds;
   int clean_frames = 0, inverted = 0;
+  struct Last {
+    ShellCertificate all, without_base;
+    Eigen::MatrixXd base, top;
+  };
+  std::optional<Last> last;
   for (double degrees : {0.0, 60.0, 120.0, 170.0, 185.0, 200.0, 230.0, 260.0, -200.0, 90.0}) {
     const Eigen::MatrixXd X = bend(rest, frame, degrees, 0.5);
     const Eigen::MatrixXd base = X.topRows(n);
@@ -707,9 +713,17 @@ TEST(ShellCertifier, FramesOfAFoldEqualFreshCertificatesAndExactConstructions) {
       for (Eigen::Index i = 0; i < top.size(); ++i) top(i) += shake(rng);
     const std::string where = "bend " + std::to_string(degrees);
     const ShellCertificate c = certifier.certify(base, top);
+    const ShellCertificate fresh_without_base = certify_shell(base, top, m.F, without_base);
     expect_same(c, certify_shell(base, top, m.F), where);
-    expect_same(certifier.certify(base, top, without_base), certify_shell(base, top, m.F, without_base), where);
+    expect_same(certifier.certify(base, top, without_base), fresh_without_base, where);
     expect_same(certifier.certify(base, top, tets_only), certify_shell(base, top, m.F, tets_only), where);
+    // From the last frame's certificate (base and top moved, every row changed): the same answer.
+    if (last) {
+      expect_same(recertify_shell(last->all, last->base, last->top, base, top, m.F), c, where + " (recertified)");
+      expect_same(recertify_shell(last->without_base, last->base, last->top, base, top, m.F, without_base),
+                  fresh_without_base, where + " (recertified, without base/base)");
+    }
+    last = Last{c, fresh_without_base, base, top};
     clean_frames += c.valid();
     inverted += c.inverted_tets;
 
@@ -734,6 +748,83 @@ TEST(ShellCertifier, FramesOfAFoldEqualFreshCertificatesAndExactConstructions) {
   EXPECT_GE(clean_frames, 3); // rest, 60 and 120 degrees at least
   EXPECT_GT(inverted, 0);     // the shaken frame
   EXPECT_EQ(kinds.size(), 4u); // top/top, top/base, wall and base/base crossings all occur
+}
+
+TEST(RecertifyShell, LocalEditsOfATopGetTheFreshCertificate) {
+  // A sphere shell whose top is edited a vertex or a few at a time: pushed through the base
+  // (inverted tets, top/base pairs), across its neighbours (top/top pairs) and back. Each state
+  // is recertified from the one before; the answer must be the fresh certificate's, pairs among
+  // the unmoved tops (kept, not tested again) included.
+  const SimpleMesh m = test::icosphere(3);
+  const int n = static_cast<int>(m.V.rows());
+  const double eta = 0.1;
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> vertex(0, n - 1);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  Eigen::MatrixXd top = (1 + eta) * m.V;
+  CertifyOptions without_base;
+  without_base.base_self_intersections = false;
+  ShellCertificate previous = certify_shell(m.V, top, m.F);
+  int invalid_states = 0, kept_pairs = 0, back_to_valid = 0;
+  for (int step = 0; step < 40; ++step) {
+    Eigen::MatrixXd next = top;
+    if (step % 10 == 9) {
+      next = (1 + eta) * m.V; // every edit undone at once
+    } else {
+      for (int k = 0, edits = 1 + step % 3; k < edits; ++k) {
+        const int i = vertex(rng);
+        const Eigen::RowVector3d normal = m.V.row(i).normalized();
+        // Down through the base, or sideways over the neighbours, by up to two thicknesses.
+        next.row(i) += (step % 2 == 0 ? -2.5 * eta * normal
+                                      : 2 * eta * Eigen::RowVector3d(unit(rng), unit(rng), unit(rng)));
+      }
+    }
+    const std::string where = "step " + std::to_string(step);
+    const ShellCertificate fresh = certify_shell(m.V, next, m.F);
+    const ShellCertificate again = recertify_shell(previous, m.V, top, m.V, next, m.F);
+    expect_same(again, fresh, where);
+    EXPECT_EQ(again.nested, fresh.nested) << where;
+    expect_same(recertify_shell(certify_shell(m.V, top, m.F, without_base), m.V, top, m.V, next, m.F, without_base),
+                certify_shell(m.V, next, m.F, without_base), where + " (without base/base)");
+    // Pairs of the previous state that the edit left alone.
+    for (const BoundaryIntersection& p : previous.intersections)
+      kept_pairs += std::find(fresh.intersections.begin(), fresh.intersections.end(), p) != fresh.intersections.end();
+    invalid_states += !fresh.valid();
+    back_to_valid += fresh.valid() && !previous.valid();
+    previous = again;
+    top = next;
+  }
+  EXPECT_GT(invalid_states, 20);
+  EXPECT_GT(kept_pairs, 20);
+  EXPECT_GE(back_to_valid, 3); // the undo steps
+  // Nothing moved: the previous answer; sheets nested after every vertex moved are found again.
+  expect_same(recertify_shell(previous, m.V, top, m.V, top, m.F), previous, "unmoved");
+  const TriMesh two = test::nested_spheres(2, 1.04);
+  const ShellCertificate thin = certify_shell(two.V, 1.03 * two.V, two.F);
+  const ShellCertificate thick = certify_shell(two.V, 1.1 * two.V, two.F);
+  ASSERT_EQ(thick.nested_parts, 2);
+  EXPECT_EQ(recertify_shell(thin, two.V, 1.03 * two.V, two.V, 1.1 * two.V, two.F).nested, thick.nested);
+  EXPECT_EQ(recertify_shell(thick, two.V, 1.1 * two.V, two.V, 1.03 * two.V, two.F).nested_parts, 0);
+}
+
+TEST(RecertifyShell, RefusesPreviousShellsAndCertificatesThatDoNotMatch) {
+  const SimpleMesh m = test::icosphere(1);
+  const Eigen::MatrixXd top = 1.1 * m.V;
+  const ShellCertificate c = certify_shell(m.V, top, m.F);
+  EXPECT_THROW(recertify_shell(c, m.V, top.topRows(5), m.V, top, m.F), InputError);
+  EXPECT_THROW(recertify_shell(c, m.V.topRows(5), top, m.V, top, m.F), InputError);
+  CertifyOptions tets_only, without_base;
+  tets_only.test_intersections = false;
+  without_base.base_self_intersections = false;
+  const ShellCertificate tets = certify_shell(m.V, top, m.F, tets_only);
+  EXPECT_THROW(recertify_shell(tets, m.V, top, m.V, top, m.F), InputError); // its pairs were not tested
+  EXPECT_THROW(recertify_shell(c, m.V, top, m.V, top, m.F, without_base), InputError);
+  EXPECT_THROW(recertify_shell(certify_shell(m.V, top, m.F, without_base), m.V, top, m.V, top, m.F), InputError);
+  expect_same(recertify_shell(tets, m.V, top, m.V, 0.5 * top, m.F, tets_only),
+              certify_shell(m.V, 0.5 * top, m.F, tets_only), "tets only");
+  Eigen::MatrixXd nan = top;
+  nan(3, 1) = std::nan("");
+  EXPECT_THROW(recertify_shell(c, m.V, top, m.V, nan, m.F), InputError);
 }
 
 TEST(ShellCertificate, TestsCanBeSkippedAndBadInputIsRefused) {

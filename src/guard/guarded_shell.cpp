@@ -142,8 +142,7 @@ struct MendInputs {
   const GuardOptions& options;
   const GuardedSolveOptions& solve;
   const ShellBoundary& boundary;
-  const GuardedShell& g;         // directions, start, paper, parameters
-  const Eigen::MatrixXd& wanted; // the paper's top where the lifting runs, else empty
+  const GuardedShell& g; // directions, start, paper, paper_top (the lifting's goal), parameters
   // Where the lifting runs: its checker (a later check refits the tree of an earlier one to the
   // positions it is given, so attempts share it) and the top vertices it may move.
   const detail::StartChecker* lift_checker;
@@ -232,8 +231,9 @@ Mended mend(const MendInputs& in, const std::vector<char>& region, const Eigen::
   if (in.lift_checker) {
     const auto lift_start = Clock::now();
     Eigen::MatrixXd top = out.X.bottomRows(n);
-    const detail::LiftResult lifted = detail::lift_thin_tops(in.V, in.F, ideal, in.wanted, in.g.directions.direction,
-                                                             in.movable, *in.lift_checker, in.options.lift_sweeps, top);
+    const detail::LiftResult lifted =
+        detail::lift_thin_tops(in.V, in.F, ideal, in.g.paper_top, in.g.directions.direction, in.movable,
+                               *in.lift_checker, in.options.lift_sweeps, top);
     out.X.bottomRows(n) = top;
     out.lift = {lifted.candidates, lifted.lifted, lifted.checks, lifted.energy_drop, seconds_since(lift_start)};
   }
@@ -448,8 +448,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
           }
   // Where the start thinned no top there is nothing to mend: no region, no lifting candidates.
   const bool thinned = (g.start.scale.array() < 1).any();
-  Eigen::MatrixXd wanted; // the paper's top, kept for the lifting
-  if (thinned && options.lift_sweeps > 0) wanted = X.bottomRows(n);
+  g.paper_top = X.bottomRows(n);
   X.bottomRows(n) = g.start.top;
   if (thinned) {
     const RestTets& ideal_tets = ideal.get();
@@ -463,7 +462,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     mend_solve.max_iterations = solve.max_iterations;
     mend_solve.tolerance = solve.tolerance;
     mend_solve.progress = solve.progress;
-    const MendInputs inputs{V, F, ideal_tets, eta, options, mend_solve, boundary, g, wanted,
+    const MendInputs inputs{V, F, ideal_tets, eta, options, mend_solve, boundary, g,
                             lift_checker ? &*lift_checker : nullptr, movable, solve.stage};
     Mended mended = mend(inputs, in_region, X);
     g.factor_seconds += mended.factor_seconds;

@@ -30,7 +30,7 @@ ItemGroups StartChecker::top_incidence(const Eigen::MatrixXi& M, const std::vect
 }
 
 void StartChecker::place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) const {
-  if (!all_) {
+  if (!certified_ && !all_) {
     X_.resize(2 * n_, 3);
     X_ << base, top;
     all_ = std::make_unique<FaceSet>(X_, rows_of(boundary_.F, rows_));
@@ -50,7 +50,12 @@ void StartChecker::place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top
       X_.row(i) = i < n_ ? base.row(i) : top.row(i - n_);
       changed.push_back(i);
     }
-  all_->move_vertices(X_, changed);
+  if (certified_) {
+    certified_->base.move_vertices(X_, changed);
+    certified_->upper.move_vertices(X_, changed);
+  } else {
+    all_->move_vertices(X_, changed);
+  }
 }
 
 StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets,
@@ -101,7 +106,11 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   if (!moved) { // the whole shell: the certificate itself, without the base's own pairs
     CertifyOptions options;
     options.base_self_intersections = false;
-    const ShellCertificate& c = v.certificate.emplace(certify_shell(base, top, F_, options));
+    // Its trees serve the later checks; a start that mends nothing frees them with the checker.
+    const ShellCertificate& c = v.certificate.emplace(certify_shell_keeping_trees(base, top, F_, options, certified_));
+    X_.resize(2 * n_, 3);
+    X_ << base, top;
+    all_.reset();
     for (int t : c.inverted_tet_ids)
       if (!skip_[t]) v.inverted_tets.push_back(t);
     for (const BoundaryIntersection& p : c.intersections)
@@ -147,15 +156,21 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   if (changed.empty()) return v;
   place(base, top);
   const Eigen::MatrixXi& B = boundary_.F;
-  const FaceSet some(X_, rows_of(B, changed), nullptr, all_->frame());
-  const std::vector<int>& rows = rows_;
+  const FaceSet some(X_, rows_of(B, changed), nullptr, certified_ ? certified_->upper.frame() : all_->frame());
   auto is_changed = [&](int row) { return std::binary_search(changed.begin(), changed.end(), row); };
   PairCollector found;
-  some.for_each_pair_meeting_beyond_shared(*all_, [&](int s, int t) {
-    const int a = changed[s], b = rows[t];
-    if (a == b || (b < a && is_changed(b))) return; // each pair of changed rows once
+  auto add = [&](int s, int b) {
+    const int a = changed[s];
+    if (a == b || (b < a && is_changed(b)) || excluded_[b]) return; // each pair of changed rows once
     found.add(std::min(a, b), std::max(a, b));
-  });
+  };
+  if (certified_) {
+    const int m = static_cast<int>(F_.rows());
+    some.for_each_pair_meeting_beyond_shared(certified_->base, [&](int s, int t) { add(s, t); });
+    some.for_each_pair_meeting_beyond_shared(certified_->upper, [&](int s, int t) { add(s, m + t); });
+  } else {
+    some.for_each_pair_meeting_beyond_shared(*all_, [&](int s, int t) { add(s, rows_[t]); });
+  }
   v.intersections = found.sorted();
   // A part moved whole through another part's surface crosses nothing on the way: tested over the
   // whole shell (a pass over its tets, only where it has several parts) once nothing else is

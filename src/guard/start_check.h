@@ -3,13 +3,16 @@
 // round certifies the whole shell (certify_shell); later ones test only the tets and boundary
 // triangle pairs that touch the vertices moved since (pairs and tets among unmoved vertices were
 // decided already). Such a check finds those tets and rows from the moved vertices' incidences
-// and moves only their faces in the tree over all rows, so its cost follows the moved vertices,
+// and moves only their faces in the trees over all rows, so its cost follows the moved vertices,
 // not the shell, apart from a pass over the flags and one comparing positions with the last
-// check's (lift_thin_tops checks hundreds of times on large meshes; docs/scale.md).
+// check's (lift_thin_tops checks hundreds of times on large meshes; docs/scale.md). The trees are
+// the first check's own (certify_shell_keeping_trees), or, for a checker whose first check is of
+// moved vertices, one built then over the rows not excluded.
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 
 #include "geometry/item_groups.h"
+#include "quality/certificate_trees.h"
 #include "quality/nested_parts.h"
 
 #include <Eigen/Core>
@@ -45,8 +48,9 @@ public:
   ~StartChecker();
 
   /// Violations of the shell (base, top). With `moved` (one flag per top vertex), only tets and
-  /// pairs with a moved top vertex are tested. Not for concurrent calls on one object: the tree
-  /// over the checked rows is built at the first such call and refit (not rebuilt) afterwards.
+  /// pairs with a moved top vertex are tested. Not for concurrent calls on one object: the trees
+  /// of the first check are kept (or, if that check had `moved`, a tree over the checked rows
+  /// is built then) and refit (not rebuilt) afterwards.
   StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                         const std::vector<char>* moved = nullptr) const;
 
@@ -115,12 +119,15 @@ private:
   std::vector<int> parts_to_thin(const std::vector<std::pair<int, int>>& nested) const;
   // Group i: the rows `ids` of M (tets of T_ not skipped, or rows_) with top vertex n + i.
   ItemGroups top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids) const;
-  // X_ = (base, top), and all_ at these positions.
+  // X_ = (base, top), and the trees at these positions.
   void place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) const;
 
   mutable ItemGroups top_tets_, top_rows_;
-  mutable Eigen::MatrixXd X_;            // the positions all_ is at (base rows, then top rows)
-  mutable std::unique_ptr<FaceSet> all_; // over the faces of rows_
+  mutable Eigen::MatrixXd X_;            // the positions the trees are at (base rows, then top rows)
+  // The first check's trees over all rows (their pairs with excluded rows are passed over), or,
+  // without a first check of the whole shell, a tree over the faces of rows_.
+  mutable std::optional<CertificateTrees> certified_;
+  mutable std::unique_ptr<FaceSet> all_;
 };
 
 } // namespace gshell::detail

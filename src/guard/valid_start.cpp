@@ -93,7 +93,7 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
     checker.for_each_top_vertex(found, [&](int i) { thin[i] = 1; });
     nested = !found.nested_parts.empty();
     const bool clean = s.inverted_tets.empty() && s.intersections.empty() && !nested;
-    if (clean && s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
+    if (s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
     if (clean || s.rounds >= options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
     for (int i = 0; i < n; ++i)

@@ -94,6 +94,13 @@ public:
     bvh_.refit_nodes_over(slots);
   }
 
+  /// Drops the star flags (every pair is then decided by the exact test), so that the set can
+  /// outlive the flags and follow moves (move_vertices) that would make them stale.
+  void forget_stars() {
+    star_ = nullptr;
+    for (Ids& ids : ids_) ids.stars_embedded = 0;
+  }
+
   /// Calls found(f, g), f < g faces of this set, concurrently for every pair that meets beyond
   /// the vertices and edges it shares (faces_intersect_beyond_shared).
   template <class Found> void for_each_pair_meeting_beyond_shared(Found&& found) const {

@@ -5,14 +5,18 @@
 #include <gshell/seconds_since.h>
 #include <gshell/shell/prism_tets.h>
 
+#include "quality/certificate_trees.h"
 #include "quality/check_mesh_input.h"
 #include "quality/embedded_stars.h"
 #include "quality/face_pair_search.h"
 #include "quality/filtered_orientation.h"
 #include "quality/nested_parts.h"
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
+#include <algorithm>
 #include <chrono>
 #include <initializer_list>
 #include <optional>
@@ -56,10 +60,67 @@ std::vector<int> inverted_tets(const Eigen::MatrixXd& base, const Eigen::MatrixX
   return ids;
 }
 
+// inverted_tets(base, top, F) from `previous`, those of a shell that differs from (base, top) at
+// the shell vertices flagged in `moved` (base i is i, top i is n + i): only the tets of faces with
+// a moved corner are tested again.
+std::vector<int> inverted_tets_after_moves(const std::vector<int>& previous, const Eigen::MatrixXd& base,
+                                           const Eigen::MatrixXd& top, const Eigen::MatrixXi& F,
+                                           const std::vector<char>& moved) {
+  const int n = static_cast<int>(base.rows()), m = static_cast<int>(F.rows());
+  auto is_moved = [&](int f) {
+    for (int k = 0; k < 3; ++k)
+      if (moved[F(f, k)] || moved[n + F(f, k)]) return true;
+    return false;
+  };
+  tbb::enumerable_thread_specific<std::vector<int>> found;
+  tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int f = r.begin(); f < r.end(); ++f) {
+      if (!is_moved(f)) continue;
+      double corner[6][3]; // prism corners: base in face order, then the tops
+      for (int k = 0; k < 3; ++k)
+        for (int d = 0; d < 3; ++d) {
+          corner[k][d] = base(F(f, k), d);
+          corner[k + 3][d] = top(F(f, k), d);
+        }
+      const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
+      for (int t = 0; t < 3; ++t) {
+        const auto& c = tets[t];
+        if (detail::orientation_sign(corner[c[0]], corner[c[1]], corner[c[2]], corner[c[3]]) <= 0)
+          found.local().push_back(3 * f + t);
+      }
+    }
+  });
+  std::vector<int> ids;
+  for (int t : previous)
+    if (!is_moved(t / 3)) ids.push_back(t);
+  for (const std::vector<int>& part : found) ids.insert(ids.end(), part.begin(), part.end());
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
 IntersectionKind kind_of(BoundaryPart a, BoundaryPart b) {
   if (a == BoundaryPart::Wall || b == BoundaryPart::Wall) return IntersectionKind::Wall;
   if (a != b) return IntersectionKind::TopBase;
   return a == BoundaryPart::Top ? IntersectionKind::TopTop : IntersectionKind::BaseBase;
+}
+
+// c's pair counts and list from `pairs` (ascending rows a < b of `boundary`).
+void set_intersections(ShellCertificate& c, const detail::FacePairs& pairs, const ShellBoundary& boundary,
+                       const CertifyOptions& options) {
+  c.top_self_intersections = c.top_base_intersections = c.wall_intersections = 0;
+  c.base_self_intersections = options.base_self_intersections ? 0 : -1;
+  c.intersections.clear();
+  c.intersections.reserve(pairs.size());
+  for (const auto& [a, b] : pairs) {
+    const IntersectionKind kind = kind_of(boundary.part[a], boundary.part[b]);
+    c.intersections.push_back({a, b, kind});
+    switch (kind) {
+    case IntersectionKind::TopTop: ++c.top_self_intersections; break;
+    case IntersectionKind::TopBase: ++c.top_base_intersections; break;
+    case IntersectionKind::Wall: ++c.wall_intersections; break;
+    case IntersectionKind::BaseBase: ++c.base_self_intersections; break;
+    }
+  }
 }
 
 } // namespace
@@ -74,7 +135,11 @@ const char* to_string(IntersectionKind kind) {
   return "unknown";
 }
 
-struct ShellCertifier::State {
+namespace {
+
+// A certifier's data (ShellCertifier::State), apart from the class so that
+// certify_shell_keeping_trees can take its trees.
+struct CertifierData {
   // What the pair tests need, set up at the first shell whose pairs are tested (the tets alone
   // need none of it).
   struct Pairs {
@@ -99,6 +164,13 @@ struct ShellCertifier::State {
   std::unique_ptr<Pairs> pairs;
 };
 
+ShellCertificate certify_with(CertifierData& s, const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                              const CertifyOptions& options);
+
+} // namespace
+
+struct ShellCertifier::State : CertifierData {};
+
 ShellCertifier::ShellCertifier(const Eigen::MatrixXi& F, int n) {
   detail::check_face_indices(F, n, "ShellCertifier");
   detail::check_distinct_corners(F, "ShellCertifier");
@@ -113,8 +185,14 @@ ShellCertifier& ShellCertifier::operator=(ShellCertifier&&) noexcept = default;
 
 ShellCertificate ShellCertifier::certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                                          const CertifyOptions& options) {
+  return certify_with(*state_, base, top, options);
+}
+
+namespace {
+
+ShellCertificate certify_with(CertifierData& s, const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                              const CertifyOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  State& s = *state_;
   const int n = s.n, m = static_cast<int>(s.F.rows());
   for (const Eigen::MatrixXd* V : {&base, &top})
     if (V->rows() != n || V->cols() != 3 || !V->allFinite())
@@ -126,8 +204,8 @@ ShellCertificate ShellCertifier::certify(const Eigen::MatrixXd& base, const Eige
   if (!options.test_intersections) {
     c.inverted_tet_ids = inverted_tets(base, top, s.F);
   } else {
-    if (!s.pairs) s.pairs = std::make_unique<State::Pairs>(s.F, n);
-    State::Pairs& p = *s.pairs;
+    if (!s.pairs) s.pairs = std::make_unique<CertifierData::Pairs>(s.F, n);
+    CertifierData::Pairs& p = *s.pairs;
     // Rows: base faces 0..m-1, then top faces, then walls.
     p.X.resize(2 * n, 3);
     p.X << base, top;
@@ -146,22 +224,29 @@ ShellCertificate ShellCertifier::certify(const Eigen::MatrixXd& base, const Eige
     if (options.base_self_intersections)
       p.base_set->for_each_pair_meeting_beyond_shared([&](int f, int g) { found.add(f, g); });
 
-    c.top_self_intersections = c.top_base_intersections = c.wall_intersections = 0;
-    c.base_self_intersections = options.base_self_intersections ? 0 : -1;
-    const detail::FacePairs pairs = found.sorted();
-    c.intersections.reserve(pairs.size());
-    for (const auto& [a, b] : pairs) {
-      const IntersectionKind kind = kind_of(p.boundary.part[a], p.boundary.part[b]);
-      c.intersections.push_back({a, b, kind});
-      switch (kind) {
-      case IntersectionKind::TopTop: ++c.top_self_intersections; break;
-      case IntersectionKind::TopBase: ++c.top_base_intersections; break;
-      case IntersectionKind::Wall: ++c.wall_intersections; break;
-      case IntersectionKind::BaseBase: ++c.base_self_intersections; break;
-      }
-    }
+    set_intersections(c, found.sorted(), p.boundary, options);
   }
   c.inverted_tets = static_cast<int>(c.inverted_tet_ids.size());
+  c.seconds = seconds_since(t0);
+  return c;
+}
+
+} // namespace
+
+ShellCertificate detail::certify_shell_keeping_trees(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                                                     const Eigen::MatrixXi& F, const CertifyOptions& options,
+                                                     std::optional<CertificateTrees>& trees) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_input(base, top, F);
+  if (!options.test_intersections) throw InputError("certify_shell_keeping_trees: no trees without the pair tests");
+  CertifierData s;
+  s.F = F;
+  s.n = static_cast<int>(base.rows());
+  ShellCertificate c = certify_with(s, base, top, options);
+  CertifierData::Pairs& p = *s.pairs;
+  p.base_set->forget_stars(); // the flags are the certifier's, freed with it
+  p.upper_set->forget_stars();
+  trees.emplace(CertificateTrees{std::move(*p.base_set), std::move(*p.upper_set)});
   c.seconds = seconds_since(t0);
   return c;
 }
@@ -171,6 +256,104 @@ ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixX
   const auto t0 = std::chrono::steady_clock::now();
   check_input(base, top, F);
   ShellCertificate c = ShellCertifier(F, static_cast<int>(base.rows())).certify(base, top, options);
+  c.seconds = seconds_since(t0);
+  return c;
+}
+
+ShellCertificate recertify_shell(const ShellCertificate& previous, const Eigen::MatrixXd& previous_base,
+                                 const Eigen::MatrixXd& previous_top, const Eigen::MatrixXd& base,
+                                 const Eigen::MatrixXd& top, const Eigen::MatrixXi& F, const CertifyOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_input(base, top, F);
+  const int n = static_cast<int>(base.rows());
+  for (const Eigen::MatrixXd* V : {&previous_base, &previous_top})
+    if (V->rows() != n || V->cols() != 3)
+      throw InputError("recertify_shell: the previous shell must be " + std::to_string(n) + " x 3 like the new one");
+  if (options.test_intersections &&
+      (!previous.intersections_tested() || options.base_self_intersections != (previous.base_self_intersections >= 0)))
+    throw InputError("recertify_shell: the previous certificate did not test the pairs these options ask for");
+
+  // Shell vertices (base i is i, top i is n + i) whose position differs, compared exactly.
+  std::vector<char> moved(2 * static_cast<std::size_t>(n), 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 4096), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i < r.end(); ++i) {
+      moved[i] = (base.row(i).array() != previous_base.row(i).array()).any();
+      moved[n + i] = (top.row(i).array() != previous_top.row(i).array()).any();
+    }
+  });
+  ShellCertificate c;
+  if (options.test_intersections && std::find(moved.begin(), moved.end(), 1) == moved.end()) {
+    c = previous; // the same shell
+    c.seconds = seconds_since(t0);
+    return c;
+  }
+  c.inverted_tet_ids = inverted_tets_after_moves(previous.inverted_tet_ids, base, top, F, moved);
+  c.inverted_tets = static_cast<int>(c.inverted_tet_ids.size());
+  if (!options.test_intersections) {
+    c.seconds = seconds_since(t0);
+    return c;
+  }
+  const ShellBoundary boundary = shell_boundary(F, n);
+  std::vector<int> changed; // rows with a moved vertex, ascending
+  std::vector<char> is_changed(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r)
+    if (moved[boundary.F(r, 0)] || moved[boundary.F(r, 1)] || moved[boundary.F(r, 2)]) {
+      changed.push_back(r);
+      is_changed[r] = 1;
+    }
+  // Previous verdicts on pairs of unchanged rows stand: both triangles are where they were.
+  detail::FacePairs pairs;
+  for (const BoundaryIntersection& p : previous.intersections)
+    if (!is_changed[p.a] && !is_changed[p.b]) pairs.emplace_back(p.a, p.b);
+  if (!changed.empty()) {
+    Eigen::MatrixXd X(2 * n, 3);
+    X << base, top;
+    auto rows_of = [&](const std::vector<int>& ids) {
+      Eigen::MatrixXi R(static_cast<int>(ids.size()), 3);
+      for (std::size_t k = 0; k < ids.size(); ++k) R.row(static_cast<int>(k)) = boundary.F.row(ids[k]);
+      return R;
+    };
+    auto box_of = [&](int r) {
+      Eigen::AlignedBox3d box(X.row(boundary.F(r, 0)).transpose());
+      return box.extend(X.row(boundary.F(r, 1)).transpose()).extend(X.row(boundary.F(r, 2)).transpose());
+    };
+    // The unchanged rows that can meet a changed one: those whose box meets a changed row's box
+    // (a pass over the rows against a tree of the changed rows' boxes, as certify_shell's pair
+    // search would visit them), then the exact tests between the changed rows and those.
+    std::vector<Eigen::AlignedBox3d> changed_boxes;
+    changed_boxes.reserve(changed.size());
+    for (int r : changed) changed_boxes.push_back(box_of(r));
+    const detail::FaceBvh reach(changed_boxes);
+    std::vector<char> near(boundary.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<int>(0, boundary.size(), 4096), [&](const tbb::blocked_range<int>& range) {
+      for (int r = range.begin(); r < range.end(); ++r)
+        near[r] = !is_changed[r] && reach.some_face_box_meets(box_of(r));
+    });
+    std::vector<int> near_rows;
+    for (int r = 0; r < boundary.size(); ++r)
+      if (near[r]) near_rows.push_back(r);
+    // Without star flags every pair is decided by the exact test itself (the flags only skip
+    // pairs that test would clear).
+    const detail::FaceSet changed_set(X, rows_of(changed)), near_set(X, rows_of(near_rows));
+    auto wanted = [&](int a, int b) {
+      return options.base_self_intersections || boundary.part[a] != BoundaryPart::Base ||
+             boundary.part[b] != BoundaryPart::Base;
+    };
+    detail::PairCollector found;
+    changed_set.for_each_pair_meeting_beyond_shared([&](int f, int g) {
+      if (wanted(changed[f], changed[g])) found.add(std::min(changed[f], changed[g]), std::max(changed[f], changed[g]));
+    });
+    changed_set.for_each_pair_meeting_beyond_shared(near_set, [&](int f, int g) {
+      const int a = changed[f], b = near_rows[g];
+      if (wanted(a, b)) found.add(std::min(a, b), std::max(a, b));
+    });
+    const detail::FacePairs more = found.sorted();
+    pairs.insert(pairs.end(), more.begin(), more.end());
+    std::sort(pairs.begin(), pairs.end());
+  }
+  set_intersections(c, pairs, boundary, options);
+  c.nested = detail::nested_probes(base, top, F, detail::shell_parts(F, n));
+  c.nested_parts = static_cast<int>(c.nested.size());
   c.seconds = seconds_since(t0);
   return c;
 }

@@ -37,19 +37,20 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
 
 // The certificate, for every method: shell_metrics checked the tets only; a guarded result is
 // tested in full, the base's crossings taken from the guard (the same exact test, not run twice).
-// Where the paper's top needed no mending, the guard's first check certified that very top: its
-// certificate is the result's (certify_shell is deterministic), not computed a second time.
+// The guard's first check certified the paper's top whole: the result's certificate decides again
+// only what the guard moved since (recertify_shell, certify_shell's answer without a second
+// search of the whole boundary; where the guard moved nothing, that check's answer itself).
 void certify(GenerateResult& r, const GenerateOptions& options) {
   if (!r.guarded) r.unextrudable_vertices = extrusion_directions(r.shell.base, r.shell.F).unextrudable;
   if (!r.guarded && !options.count_intersections) return;
-  if (r.guarded && r.guard.start.certificate) { // set only when the start moved nothing: no repair either
-    r.metrics.certificate = std::move(*r.guard.start.certificate);
-    r.guard.start.certificate.reset();
-  } else {
-    CertifyOptions o;
-    o.base_self_intersections = !r.guarded;
-    r.metrics.certificate = certify_shell(r.shell.base, r.shell.top, r.shell.F, o);
-  }
+  CertifyOptions o;
+  o.base_self_intersections = !r.guarded;
+  const Shell& s = r.shell;
+  if (r.guarded && r.guard.start.certificate)
+    r.metrics.certificate =
+        recertify_shell(*r.guard.start.certificate, s.base, r.guard.paper_top, s.base, s.top, s.F, o);
+  else
+    r.metrics.certificate = certify_shell(s.base, s.top, s.F, o);
   if (r.guarded) r.metrics.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
 }
 

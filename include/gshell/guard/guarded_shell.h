@@ -188,6 +188,7 @@ struct GuardedShell {
   bool lift_only = false;
   NormalSmoothing smoothing;           ///< of the start's normals (GuardOptions::start_smoothing)
   SolveResult paper;                   ///< the paper's iterations that give the wanted top
+  Eigen::MatrixXd paper_top;           ///< that top (n x 3): start.certificate is its certificate
   ValidStart start;                    ///< that top, pulled in where it is not valid
   /// The guarded iterations from the start. Its fields on the result (final_energy, active_tets,
   /// min_relative_volume, active_contacts) describe the returned top, after relaxation if a round

@@ -48,10 +48,10 @@ struct ValidStart {
   /// and pairs of boundary rows of which neither is excluded (base/base pairs are not reported).
   std::vector<int> inverted_tets;
   std::vector<std::pair<int, int>> intersections;
-  /// The exact certificate of `top` (certify_shell, base/base pairs not searched) when the first
-  /// check, of the wanted top itself, found nothing to mend: `top` is then P bit for bit and this
-  /// certificate is its own (skipped tets and excluded triangles are counted in it). Empty when
-  /// the start moved any vertex.
+  /// The exact certificate of the wanted top P (certify_shell, base/base pairs not searched) by
+  /// the first check, which certifies it whole (skipped tets and excluded triangles are counted in
+  /// it). When that check found nothing to mend, `top` is P bit for bit and this is its
+  /// certificate; otherwise recertify_shell makes the certificate of any later top from it.
   std::optional<ShellCertificate> certificate;
   double seconds = 0;
 };

@@ -91,6 +91,22 @@ struct ShellCertificate {
 ShellCertificate certify_shell(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F,
                                const CertifyOptions& options = {});
 
+/// The certificate of the shell (base, top) from `previous`, certify_shell's certificate of the
+/// shell (previous_base, previous_top) over the same F with the same options, deciding again only
+/// what can have changed: the tets, and the boundary triangle pairs with a vertex whose position
+/// differs between the two shells (pairs among unmoved vertices keep their exact verdicts). The
+/// answer is exactly certify_shell(base, top, F, options)'s, at the cost of a pass over the tets
+/// and the boundary triangles plus exact tests near the moved vertices, where certify_shell
+/// searches the whole boundary: for a shell changed in a few places (a generated top mended where
+/// it was invalid, an edit), several times less on big meshes (docs/validity.md).
+/// Precondition (not checked beyond the counts): `previous` is that certificate.
+/// \throws InputError for the inputs certify_shell refuses, previous shells of another size, or a
+///         `previous` whose tests do not match `options` (pairs or base/base pairs not tested).
+ShellCertificate recertify_shell(const ShellCertificate& previous, const Eigen::MatrixXd& previous_base,
+                                 const Eigen::MatrixXd& previous_top, const Eigen::MatrixXd& base,
+                                 const Eigen::MatrixXd& top, const Eigen::MatrixXi& F,
+                                 const CertifyOptions& options = {});
+
 /// Precompute once, certify many: the certificate of many shells over the same faces, e.g. the
 /// frames of a deformation. The topology (boundary surface, vertex stars, checked ids) is set up
 /// once; the search trees are built for the first shell certified and refit to every later one
