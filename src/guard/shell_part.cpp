@@ -1,20 +1,13 @@
 #include "guard/shell_part.h"
 
-#include "quality/face_bvh.h"
+#include "quality/boundary_rows.h"
 
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 
 namespace gshell::detail {
 
 namespace {
-
-Eigen::AlignedBox3d row_box(const ShellBoundary& boundary, const Eigen::MatrixXd& X, int r) {
-  Eigen::AlignedBox3d box(X.row(boundary.F(r, 0)).transpose());
-  box.extend(X.row(boundary.F(r, 1)).transpose()).extend(X.row(boundary.F(r, 2)).transpose());
-  return box;
-}
 
 // Rows that are, or share a vertex with, a row flagged in `seed`.
 std::vector<char> with_neighbouring_rows(const ShellBoundary& boundary, const std::vector<char>& seed, int num_vertices) {
@@ -40,23 +33,12 @@ ShellPart shell_part(const RestTets& tets, const ShellBoundary& boundary, const 
         break;
       }
 
-  // Rows near a moving row: a tree over the moving rows' boxes grown by the reach, and every row's
-  // box tested against it.
-  std::vector<char> keep(boundary.size(), 0);
-  std::vector<Eigen::AlignedBox3d> reach_boxes;
-  const Eigen::Vector3d grow = Eigen::Vector3d::Constant(travel + contact_radius);
+  // Rows near a moving row, within its travel and the contact radius.
+  std::vector<int> moving_rows;
   for (int r = 0; r < boundary.size(); ++r)
-    if (moving[boundary.F(r, 0)] || moving[boundary.F(r, 1)] || moving[boundary.F(r, 2)]) {
-      Eigen::AlignedBox3d box = row_box(boundary, X, r);
-      reach_boxes.emplace_back(box.min() - grow, box.max() + grow);
-    }
-  if (!reach_boxes.empty()) {
-    const FaceBvh reach(reach_boxes);
-    tbb::parallel_for(tbb::blocked_range<int>(0, boundary.size(), 4096), [&](const tbb::blocked_range<int>& range) {
-      for (int r = range.begin(); r < range.end(); ++r) keep[r] = reach.some_face_box_meets(row_box(boundary, X, r));
-    });
-  }
-  keep = with_neighbouring_rows(boundary, keep, N);
+    if (moving[boundary.F(r, 0)] || moving[boundary.F(r, 1)] || moving[boundary.F(r, 2)]) moving_rows.push_back(r);
+  const std::vector<char> keep =
+      with_neighbouring_rows(boundary, rows_near(boundary, X, moving_rows, travel + contact_radius), N);
 
   std::vector<char> used(N, 0);
   for (int t : part.tet)

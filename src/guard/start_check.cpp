@@ -3,6 +3,7 @@
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/shell/prism_tets.h>
 
+#include "quality/boundary_rows.h"
 #include "quality/face_pair_search.h"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -11,16 +12,6 @@
 #include <algorithm>
 
 namespace gshell::detail {
-namespace {
-
-Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids) {
-  Eigen::MatrixXi S(static_cast<int>(ids.size()), 3);
-  for (std::size_t i = 0; i < ids.size(); ++i) S.row(static_cast<int>(i)) = B.row(ids[i]);
-  return S;
-}
-
-} // namespace
-
 ItemGroups StartChecker::top_incidence(const Eigen::MatrixXi& M, const std::vector<int>& ids) const {
   return group_items(n_, [&](auto&& add) {
     for (int id : ids)
@@ -30,10 +21,12 @@ ItemGroups StartChecker::top_incidence(const Eigen::MatrixXi& M, const std::vect
 }
 
 void StartChecker::place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top) const {
-  if (!certified_ && !all_) {
+  if (!trees_) { // no first check of the whole shell gave its trees: the same trees, unflagged
     X_.resize(2 * n_, 3);
     X_ << base, top;
-    all_ = std::make_unique<FaceSet>(X_, rows_of(boundary_.F, rows_));
+    const Eigen::Index m = F_.rows();
+    trees_.emplace(CertificateTrees{FaceSet(X_, boundary_.F.topRows(m)),
+                                    FaceSet(X_, boundary_.F.bottomRows(boundary_.size() - m))});
     return;
   }
   // Every vertex that moved since the last check, flagged or not, so the tree is exact for the
@@ -50,12 +43,8 @@ void StartChecker::place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top
       X_.row(i) = i < n_ ? base.row(i) : top.row(i - n_);
       changed.push_back(i);
     }
-  if (certified_) {
-    certified_->base.move_vertices(X_, changed);
-    certified_->upper.move_vertices(X_, changed);
-  } else {
-    all_->move_vertices(X_, changed);
-  }
+  trees_->base.move_vertices(X_, changed);
+  trees_->upper.move_vertices(X_, changed);
 }
 
 StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets,
@@ -107,10 +96,9 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
     CertifyOptions options;
     options.base_self_intersections = false;
     // Its trees serve the later checks; a start that mends nothing frees them with the checker.
-    const ShellCertificate& c = v.certificate.emplace(certify_shell_keeping_trees(base, top, F_, options, certified_));
+    const ShellCertificate& c = v.certificate.emplace(certify_shell_keeping_trees(base, top, F_, options, trees_));
     X_.resize(2 * n_, 3);
     X_ << base, top;
-    all_.reset();
     for (int t : c.inverted_tet_ids)
       if (!skip_[t]) v.inverted_tets.push_back(t);
     for (const BoundaryIntersection& p : c.intersections)
@@ -156,7 +144,7 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   if (changed.empty()) return v;
   place(base, top);
   const Eigen::MatrixXi& B = boundary_.F;
-  const FaceSet some(X_, rows_of(B, changed), nullptr, certified_ ? certified_->upper.frame() : all_->frame());
+  const FaceSet some(X_, rows_of(B, changed), nullptr, trees_->upper.frame());
   auto is_changed = [&](int row) { return std::binary_search(changed.begin(), changed.end(), row); };
   PairCollector found;
   auto add = [&](int s, int b) {
@@ -164,13 +152,9 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
     if (a == b || (b < a && is_changed(b)) || excluded_[b]) return; // each pair of changed rows once
     found.add(std::min(a, b), std::max(a, b));
   };
-  if (certified_) {
-    const int m = static_cast<int>(F_.rows());
-    some.for_each_pair_meeting_beyond_shared(certified_->base, [&](int s, int t) { add(s, t); });
-    some.for_each_pair_meeting_beyond_shared(certified_->upper, [&](int s, int t) { add(s, m + t); });
-  } else {
-    some.for_each_pair_meeting_beyond_shared(*all_, [&](int s, int t) { add(s, rows_[t]); });
-  }
+  const int m = static_cast<int>(F_.rows());
+  some.for_each_pair_meeting_beyond_shared(trees_->base, [&](int s, int t) { add(s, t); });
+  some.for_each_pair_meeting_beyond_shared(trees_->upper, [&](int s, int t) { add(s, m + t); });
   v.intersections = found.sorted();
   // A part moved whole through another part's surface crosses nothing on the way: tested over the
   // whole shell (a pass over its tets, only where it has several parts) once nothing else is

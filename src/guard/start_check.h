@@ -7,7 +7,7 @@
 // not the shell, apart from a pass over the flags and one comparing positions with the last
 // check's (lift_thin_tops checks hundreds of times on large meshes; docs/scale.md). The trees are
 // the first check's own (certify_shell_keeping_trees), or, for a checker whose first check is of
-// moved vertices, one built then over the rows not excluded.
+// moved vertices, the same two trees built then.
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 
@@ -17,14 +17,11 @@
 
 #include <Eigen/Core>
 #include <algorithm>
-#include <memory>
 #include <optional>
 #include <utility>
 #include <vector>
 
 namespace gshell::detail {
-
-class FaceSet;
 
 struct StartViolations {
   std::vector<int> inverted_tets;                 ///< rows of T, not skipped
@@ -49,8 +46,8 @@ public:
 
   /// Violations of the shell (base, top). With `moved` (one flag per top vertex), only tets and
   /// pairs with a moved top vertex are tested. Not for concurrent calls on one object: the trees
-  /// of the first check are kept (or, if that check had `moved`, a tree over the checked rows
-  /// is built then) and refit (not rebuilt) afterwards.
+  /// over all boundary rows, of the first check (or built at it, if it had `moved`), are kept
+  /// and refit (not rebuilt) afterwards.
   StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                         const std::vector<char>* moved = nullptr) const;
 
@@ -97,8 +94,8 @@ public:
   const Eigen::MatrixXi& tets() const;
 
 private:
-  // The tets and the checked rows' faces are only needed by the checks after the first (which
-  // is certify_shell's own): made when first needed, so that a start that finds nothing to mend
+  // The tets and the incidences are only needed by the checks after the first (which is
+  // certify_shell's own): made when first needed, so that a start that finds nothing to mend
   // never holds them beside the certificate, where generation peaks.
   Eigen::MatrixXi F_;
   mutable Eigen::MatrixXi T_;
@@ -124,10 +121,8 @@ private:
 
   mutable ItemGroups top_tets_, top_rows_;
   mutable Eigen::MatrixXd X_;            // the positions the trees are at (base rows, then top rows)
-  // The first check's trees over all rows (their pairs with excluded rows are passed over), or,
-  // without a first check of the whole shell, a tree over the faces of rows_.
-  mutable std::optional<CertificateTrees> certified_;
-  mutable std::unique_ptr<FaceSet> all_;
+  // Over all rows (pairs with excluded rows are passed over).
+  mutable std::optional<CertificateTrees> trees_;
 };
 
 } // namespace gshell::detail

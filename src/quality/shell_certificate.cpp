@@ -5,6 +5,7 @@
 #include <gshell/seconds_since.h>
 #include <gshell/shell/prism_tets.h>
 
+#include "quality/boundary_rows.h"
 #include "quality/certificate_trees.h"
 #include "quality/check_mesh_input.h"
 #include "quality/embedded_stars.h"
@@ -17,6 +18,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <initializer_list>
 #include <optional>
@@ -34,6 +36,18 @@ void check_input(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const 
   detail::check_distinct_corners(F, "certify_shell");
 }
 
+// Whether each of the three tets of the prism over face (a, b, c) is not positively oriented,
+// its corners given base a, b, c, then top a, b, c.
+std::array<bool, 3> inverted_in_prism(const double* const corner[6], int a, int b, int c) {
+  const auto tets = prism_corner_tets(a, b, c);
+  std::array<bool, 3> inverted;
+  for (int t = 0; t < 3; ++t) {
+    const auto& k = tets[t];
+    inverted[t] = detail::orientation_sign(corner[k[0]], corner[k[1]], corner[k[2]], corner[k[3]]) <= 0;
+  }
+  return inverted;
+}
+
 // Tets (rows of build_prism_tets) whose exact orientation is not positive, ascending.
 std::vector<int> inverted_tets(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXi& F) {
   using RowMajorPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
@@ -47,11 +61,8 @@ std::vector<int> inverted_tets(const Eigen::MatrixXd& base, const Eigen::MatrixX
         corner[k] = B.row(F(f, k)).data();
         corner[k + 3] = T.row(F(f, k)).data();
       }
-      const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
-      for (int t = 0; t < 3; ++t) {
-        const auto& c = tets[t];
-        inverted[3 * f + t] = detail::orientation_sign(corner[c[0]], corner[c[1]], corner[c[2]], corner[c[3]]) <= 0;
-      }
+      const std::array<bool, 3> in_prism = inverted_in_prism(corner, F(f, 0), F(f, 1), F(f, 2));
+      for (int t = 0; t < 3; ++t) inverted[3 * f + t] = in_prism[t];
     }
   });
   std::vector<int> ids;
@@ -76,18 +87,16 @@ std::vector<int> inverted_tets_after_moves(const std::vector<int>& previous, con
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
     for (int f = r.begin(); f < r.end(); ++f) {
       if (!is_moved(f)) continue;
-      double corner[6][3]; // prism corners: base in face order, then the tops
-      for (int k = 0; k < 3; ++k)
-        for (int d = 0; d < 3; ++d) {
-          corner[k][d] = base(F(f, k), d);
-          corner[k + 3][d] = top(F(f, k), d);
-        }
-      const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
-      for (int t = 0; t < 3; ++t) {
-        const auto& c = tets[t];
-        if (detail::orientation_sign(corner[c[0]], corner[c[1]], corner[c[2]], corner[c[3]]) <= 0)
-          found.local().push_back(3 * f + t);
+      double xyz[6][3]; // prism corners: base in face order, then the tops
+      const double* corner[6];
+      for (int k = 0; k < 6; ++k) {
+        const Eigen::MatrixXd& V = k < 3 ? base : top;
+        for (int d = 0; d < 3; ++d) xyz[k][d] = V(F(f, k % 3), d);
+        corner[k] = xyz[k];
       }
+      const std::array<bool, 3> in_prism = inverted_in_prism(corner, F(f, 0), F(f, 1), F(f, 2));
+      for (int t = 0; t < 3; ++t)
+        if (in_prism[t]) found.local().push_back(3 * f + t);
     }
   });
   std::vector<int> ids;
@@ -308,33 +317,17 @@ ShellCertificate recertify_shell(const ShellCertificate& previous, const Eigen::
   if (!changed.empty()) {
     Eigen::MatrixXd X(2 * n, 3);
     X << base, top;
-    auto rows_of = [&](const std::vector<int>& ids) {
-      Eigen::MatrixXi R(static_cast<int>(ids.size()), 3);
-      for (std::size_t k = 0; k < ids.size(); ++k) R.row(static_cast<int>(k)) = boundary.F.row(ids[k]);
-      return R;
-    };
-    auto box_of = [&](int r) {
-      Eigen::AlignedBox3d box(X.row(boundary.F(r, 0)).transpose());
-      return box.extend(X.row(boundary.F(r, 1)).transpose()).extend(X.row(boundary.F(r, 2)).transpose());
-    };
-    // The unchanged rows that can meet a changed one: those whose box meets a changed row's box
-    // (a pass over the rows against a tree of the changed rows' boxes, as certify_shell's pair
-    // search would visit them), then the exact tests between the changed rows and those.
-    std::vector<Eigen::AlignedBox3d> changed_boxes;
-    changed_boxes.reserve(changed.size());
-    for (int r : changed) changed_boxes.push_back(box_of(r));
-    const detail::FaceBvh reach(changed_boxes);
-    std::vector<char> near(boundary.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<int>(0, boundary.size(), 4096), [&](const tbb::blocked_range<int>& range) {
-      for (int r = range.begin(); r < range.end(); ++r)
-        near[r] = !is_changed[r] && reach.some_face_box_meets(box_of(r));
-    });
+    // The unchanged rows that can meet a changed one: those whose box meets a changed row's box,
+    // as certify_shell's pair search would visit them; then the exact tests between the changed
+    // rows and those.
+    const std::vector<char> near = detail::rows_near(boundary, X, changed, 0);
     std::vector<int> near_rows;
     for (int r = 0; r < boundary.size(); ++r)
-      if (near[r]) near_rows.push_back(r);
+      if (near[r] && !is_changed[r]) near_rows.push_back(r);
     // Without star flags every pair is decided by the exact test itself (the flags only skip
     // pairs that test would clear).
-    const detail::FaceSet changed_set(X, rows_of(changed)), near_set(X, rows_of(near_rows));
+    const detail::FaceSet changed_set(X, detail::rows_of(boundary.F, changed)),
+        near_set(X, detail::rows_of(boundary.F, near_rows));
     auto wanted = [&](int a, int b) {
       return options.base_self_intersections || boundary.part[a] != BoundaryPart::Base ||
              boundary.part[b] != BoundaryPart::Base;
