@@ -176,7 +176,7 @@ TEST(Generate, ReportHasEveryField) {
   EXPECT_EQ(j["energy"].size(), static_cast<std::size_t>(r.solve.iterations + 1));
   for (const char* key : {"mean", "volume_mean", "max", "p99"}) EXPECT_TRUE(j["stretch"].contains(key)) << key;
   for (const char* key : {"eta", "ratio", "min", "mean"}) EXPECT_TRUE(j["thickness"].contains(key)) << key;
-  for (const char* key : {"total", "factor", "solve", "certificate"}) EXPECT_TRUE(j["seconds"].contains(key)) << key;
+  for (const char* key : {"total", "factor", "solve", "certificate", "metrics"}) EXPECT_TRUE(j["seconds"].contains(key)) << key;
   EXPECT_DOUBLE_EQ(j["thickness"]["eta"].get<double>(), 0.05);
   // A thin shell of a smooth torus is valid.
   EXPECT_EQ(j["valid"], true);

@@ -7,6 +7,7 @@
 #include <gshell/error.h>
 #include <gshell/guard/guarded_shell.h>
 #include <gshell/quality/shell_certificate.h>
+#include <gshell/quality/shell_metrics.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
 #include <gshell/shell/ideal_prisms.h>
@@ -345,6 +346,38 @@ TEST(GuardedGeneration, AllowInvalidIsThePapersUnguardedSolveBitForBit) {
   EXPECT_FALSE(u.guarded);
   EXPECT_FALSE(u.metrics.certificate.valid()); // this case inverts: the flag says so
   EXPECT_EQ(u.metrics.certificate.inverted_tets, recertify(u).inverted_tets);
+}
+
+TEST(GuardedGeneration, EveryMethodMeasuresItsShellAsShellMetricsWould) {
+  // Generation measures its result without shell_metrics' own certificate and certifies it in a
+  // step of its own (from the guard's first check when guarded): the report must still be the
+  // one shell_metrics gives of the same shell, the unguarded certificate's tets-only form and
+  // counted form included. The bumpy sphere inverts tets unguarded, so that form is not empty.
+  const TriMesh m = bumpy_sphere(3, 0.25);
+  const double eta = thickness_from_ratio(m.V, 0.05);
+  int inverted_unguarded = 0;
+  for (const ShellMethod method : {ShellMethod::Offset, ShellMethod::Rigid, ShellMethod::Curvature})
+    for (const bool allow_invalid : {false, true})
+      for (const bool count : {false, true}) {
+        GenerateOptions o = options_for(method, eta, allow_invalid);
+        o.count_intersections = count;
+        const GenerateResult r = generate_shell(m.V, m.F, o);
+        SCOPED_TRACE(to_string(method) + (allow_invalid ? " unguarded" : "") + (count ? " counted" : ""));
+        // A guarded result is always tested in full.
+        const ShellMetrics expected = shell_metrics(m.V, m.F, r.shell.top, eta, count || r.guarded);
+        EXPECT_TRUE(r.metrics.tet_stretch == expected.tet_stretch);
+        EXPECT_TRUE(r.metrics.tet_determinant == expected.tet_determinant);
+        EXPECT_TRUE(r.metrics.vertex_thickness == expected.vertex_thickness);
+        EXPECT_EQ(r.metrics.stretch.volume_mean, expected.stretch.volume_mean);
+        EXPECT_EQ(r.metrics.stretch.p99, expected.stretch.p99);
+        EXPECT_EQ(r.metrics.thinned_vertices, expected.thinned_vertices);
+        EXPECT_EQ(r.metrics.thickness_min, expected.thickness_min);
+        EXPECT_EQ(r.metrics.thickness_mean, expected.thickness_mean);
+        expect_same_certificate(r.metrics.certificate, expected.certificate);
+        if (!r.guarded) inverted_unguarded += r.metrics.certificate.inverted_tets;
+        EXPECT_GE(r.seconds.metrics, 0);
+      }
+  EXPECT_GT(inverted_unguarded, 0);
 }
 
 TEST(GuardedGeneration, IdealTetsMadeOnDemandGiveTheSameShellBitForBit) {

@@ -6,9 +6,11 @@
 #include <gshell/shell/prism_tets.h>
 
 #include "check_mesh_input.h"
+#include "uncertified_metrics.h"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 namespace gshell {
@@ -22,18 +24,20 @@ void check_sizes(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, double
 }
 
 // Everything but the stretch, which the callers measure against rest tets made in one piece or
-// in blocks.
+// in blocks. No certificate when `count_intersections` is empty (uncertified_shell_metrics).
 ShellMetrics metrics_from_stretch(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                                  double eta, bool count_intersections, Eigen::VectorXd tet_stretch,
+                                  double eta, std::optional<bool> count_intersections, Eigen::VectorXd tet_stretch,
                                   Eigen::VectorXd tet_determinant, const Eigen::VectorXd& volume) {
   const int n = static_cast<int>(base.rows());
   ShellMetrics m;
   m.stretch = stretch_stats(tet_stretch, tet_determinant, volume);
   m.tet_stretch = std::move(tet_stretch);
   m.tet_determinant = std::move(tet_determinant);
-  CertifyOptions certify;
-  certify.test_intersections = count_intersections;
-  m.certificate = certify_shell(base, top, F, certify);
+  if (count_intersections) {
+    CertifyOptions certify;
+    certify.test_intersections = *count_intersections;
+    m.certificate = certify_shell(base, top, F, certify);
+  }
   m.vertex_thickness = vertex_thickness(base, F, top) / eta;
   // Over the vertices faces use: a stray vertex's "top" is wherever it was left, no layer.
   const std::vector<char> used = used_vertices(F, n);
@@ -54,10 +58,8 @@ ShellMetrics metrics_from_stretch(const Eigen::MatrixXd& base, const Eigen::Matr
   return m;
 }
 
-} // namespace
-
-ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                           double eta, bool count_intersections) {
+ShellMetrics metrics_in_blocks(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                               double eta, std::optional<bool> count_intersections) {
   check_sizes(base, top, eta);
   detail::check_face_indices(F, base.rows(), "shell_metrics");
   // The normal prisms' rest tets are made a block of faces at a time (a face's three tets depend
@@ -82,8 +84,8 @@ ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F
                               volume);
 }
 
-ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                           double eta, bool count_intersections, const RestTets& rest) {
+ShellMetrics metrics_against(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                             double eta, std::optional<bool> count_intersections, const RestTets& rest) {
   check_sizes(base, top, eta);
   if (rest.size() != 3 * F.rows()) throw InputError("shell_metrics: rest tets do not match the faces");
   const int n = static_cast<int>(base.rows());
@@ -91,6 +93,28 @@ ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F
   X << base, top;
   return metrics_from_stretch(base, F, top, eta, count_intersections, tet_stretch(rest, X),
                               tet_deformation_determinants(rest, X), rest.volume);
+}
+
+} // namespace
+
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections) {
+  return metrics_in_blocks(base, F, top, eta, count_intersections);
+}
+
+ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
+                           double eta, bool count_intersections, const RestTets& normal_rest) {
+  return metrics_against(base, F, top, eta, count_intersections, normal_rest);
+}
+
+ShellMetrics detail::uncertified_shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F,
+                                               const Eigen::MatrixXd& top, double eta) {
+  return metrics_in_blocks(base, F, top, eta, std::nullopt);
+}
+
+ShellMetrics detail::uncertified_shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F,
+                                               const Eigen::MatrixXd& top, double eta, const RestTets& normal_rest) {
+  return metrics_against(base, F, top, eta, std::nullopt, normal_rest);
 }
 
 } // namespace gshell

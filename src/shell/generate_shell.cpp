@@ -9,6 +9,8 @@
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
+#include "quality/uncertified_metrics.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -35,23 +37,36 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
   return s;
 }
 
-// The certificate, for every method: shell_metrics checked the tets only; a guarded result is
-// tested in full, the base's crossings taken from the guard (the same exact test, not run twice).
-// The guard's first check certified the paper's top whole: the result's certificate decides again
-// only what the guard moved since (recertify_shell, certify_shell's answer without a second
-// search of the whole boundary; where the guard moved nothing, that check's answer itself).
+// The certificate, for every method (the metrics leave it to this step): unguarded, the tets, and
+// the pairs if asked; a guarded result is tested in full, the base's crossings taken from the
+// guard (the same exact test, not run twice). The guard's first check certified the paper's top
+// whole: the result's certificate decides again only what the guard moved since (recertify_shell,
+// certify_shell's answer without a second search of the whole boundary; where the guard moved
+// nothing, that check's answer itself).
 void certify(GenerateResult& r, const GenerateOptions& options) {
-  if (!r.guarded) r.unextrudable_vertices = extrusion_directions(r.shell.base, r.shell.F).unextrudable;
-  if (!r.guarded && !options.count_intersections) return;
-  CertifyOptions o;
-  o.base_self_intersections = !r.guarded;
   const Shell& s = r.shell;
-  if (r.guarded && r.guard.start.certificate)
-    r.metrics.certificate =
-        recertify_shell(*r.guard.start.certificate, s.base, r.guard.paper_top, s.base, s.top, s.F, o);
-  else
+  CertifyOptions o;
+  if (!r.guarded) {
+    r.unextrudable_vertices = extrusion_directions(s.base, s.F).unextrudable;
+    o.test_intersections = options.count_intersections;
     r.metrics.certificate = certify_shell(s.base, s.top, s.F, o);
-  if (r.guarded) r.metrics.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
+    return;
+  }
+  o.base_self_intersections = false;
+  r.metrics.certificate = r.guard.start.certificate
+                              ? recertify_shell(*r.guard.start.certificate, s.base, r.guard.paper_top, s.base, s.top, s.F, o)
+                              : certify_shell(s.base, s.top, s.F, o);
+  r.metrics.certificate.base_self_intersections = static_cast<int>(r.guard.base_self_intersections.size());
+}
+
+// The quality measures of the result, timed (seconds.metrics); certify() adds the certificate.
+// `normal_rest`: the normal prisms' rest tets when the caller has them.
+void measure(GenerateResult& r, const GenerateOptions& options, const RestTets* normal_rest = nullptr) {
+  const auto t0 = Clock::now();
+  const Shell& s = r.shell;
+  r.metrics = normal_rest ? detail::uncertified_shell_metrics(s.base, s.F, s.top, options.thickness, *normal_rest)
+                          : detail::uncertified_shell_metrics(s.base, s.F, s.top, options.thickness);
+  r.seconds.metrics = seconds_since(t0);
 }
 
 // Generation towards the ideal prisms' rest tets, made by `make_ideal` where they are needed (the
@@ -86,8 +101,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
       r.seconds.solve = r.solve.seconds;
       r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
     }
-    r.metrics = ideal_is_normal ? shell_metrics(V, F, r.shell.top, options.thickness, false, rest)
-                                : shell_metrics(V, F, r.shell.top, options.thickness, false);
+    measure(r, options, ideal_is_normal ? &rest : nullptr);
   } else {
     r.guard = guarded_shell(V, F, make_ideal, options.thickness, options.guard, options.solve, options.linear);
     r.guarded = true;
@@ -103,7 +117,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds + r.guard.relax.seconds;
     r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve - r.guard.ideal_seconds;
     r.shell = make_shell(V, F, r.guard.top, options.thickness);
-    r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, false);
+    measure(r, options);
   }
   certify(r, options);
   r.seconds.total = seconds_since(t0);
@@ -239,7 +253,7 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
   // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
   const RestTets rest = normal_prism_rest_tets(V, F, options.thickness);
-  r.metrics = shell_metrics(V, F, r.shell.top, options.thickness, false, rest);
+  measure(r, options, &rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
   certify(r, options);
   r.solve.converged = true;

@@ -91,6 +91,7 @@ struct GenerateTimings {
   double solve = 0;  ///< local/global iterations (guarded: the paper's and the repair's)
   double guard = 0;  ///< guarded generation beyond factor and solve: directions, base
                      ///< self-intersections, valid start (0 when unguarded)
+  double metrics = 0; ///< the quality measures (stretch, thickness); the certificate is timed apart
 };
 
 /// What the curvature method adds to a generation (paper §4.1 "Curvature Sensitive Method").
