@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <vector>
 
 namespace gshell {
@@ -23,19 +22,27 @@ void check_sizes(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, double
     throw InputError("shell_metrics: base and top must have the same number of vertices");
 }
 
+// Which certificate the metrics carry: none (uncertified_shell_metrics), the tets', or with the
+// boundary pairs tested too (shell_metrics' count_intersections).
+enum class CertificateKind { none, tets, with_pairs };
+
+CertificateKind certificate_for(bool count_intersections) {
+  return count_intersections ? CertificateKind::with_pairs : CertificateKind::tets;
+}
+
 // Everything but the stretch, which the callers measure against rest tets made in one piece or
-// in blocks. No certificate when `count_intersections` is empty (uncertified_shell_metrics).
+// in blocks.
 ShellMetrics metrics_from_stretch(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                                  double eta, std::optional<bool> count_intersections, Eigen::VectorXd tet_stretch,
+                                  double eta, CertificateKind certificate, Eigen::VectorXd tet_stretch,
                                   Eigen::VectorXd tet_determinant, const Eigen::VectorXd& volume) {
   const int n = static_cast<int>(base.rows());
   ShellMetrics m;
   m.stretch = stretch_stats(tet_stretch, tet_determinant, volume);
   m.tet_stretch = std::move(tet_stretch);
   m.tet_determinant = std::move(tet_determinant);
-  if (count_intersections) {
+  if (certificate != CertificateKind::none) {
     CertifyOptions certify;
-    certify.test_intersections = *count_intersections;
+    certify.test_intersections = certificate == CertificateKind::with_pairs;
     m.certificate = certify_shell(base, top, F, certify);
   }
   m.vertex_thickness = vertex_thickness(base, F, top) / eta;
@@ -59,7 +66,7 @@ ShellMetrics metrics_from_stretch(const Eigen::MatrixXd& base, const Eigen::Matr
 }
 
 ShellMetrics metrics_in_blocks(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                               double eta, std::optional<bool> count_intersections) {
+                               double eta, CertificateKind certificate) {
   check_sizes(base, top, eta);
   detail::check_face_indices(F, base.rows(), "shell_metrics");
   // The normal prisms' rest tets are made a block of faces at a time (a face's three tets depend
@@ -80,18 +87,18 @@ ShellMetrics metrics_in_blocks(const Eigen::MatrixXd& base, const Eigen::MatrixX
     determinant.segment(3 * f0, 3 * faces) = tet_deformation_determinants(rest, X);
     volume.segment(3 * f0, 3 * faces) = rest.volume;
   }
-  return metrics_from_stretch(base, F, top, eta, count_intersections, std::move(stretch), std::move(determinant),
+  return metrics_from_stretch(base, F, top, eta, certificate, std::move(stretch), std::move(determinant),
                               volume);
 }
 
 ShellMetrics metrics_against(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
-                             double eta, std::optional<bool> count_intersections, const RestTets& rest) {
+                             double eta, CertificateKind certificate, const RestTets& rest) {
   check_sizes(base, top, eta);
   if (rest.size() != 3 * F.rows()) throw InputError("shell_metrics: rest tets do not match the faces");
   const int n = static_cast<int>(base.rows());
   Eigen::MatrixXd X(2 * n, 3);
   X << base, top;
-  return metrics_from_stretch(base, F, top, eta, count_intersections, tet_stretch(rest, X),
+  return metrics_from_stretch(base, F, top, eta, certificate, tet_stretch(rest, X),
                               tet_deformation_determinants(rest, X), rest.volume);
 }
 
@@ -99,22 +106,22 @@ ShellMetrics metrics_against(const Eigen::MatrixXd& base, const Eigen::MatrixXi&
 
 ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
                            double eta, bool count_intersections) {
-  return metrics_in_blocks(base, F, top, eta, count_intersections);
+  return metrics_in_blocks(base, F, top, eta, certificate_for(count_intersections));
 }
 
 ShellMetrics shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top,
                            double eta, bool count_intersections, const RestTets& normal_rest) {
-  return metrics_against(base, F, top, eta, count_intersections, normal_rest);
+  return metrics_against(base, F, top, eta, certificate_for(count_intersections), normal_rest);
 }
 
 ShellMetrics detail::uncertified_shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F,
                                                const Eigen::MatrixXd& top, double eta) {
-  return metrics_in_blocks(base, F, top, eta, std::nullopt);
+  return metrics_in_blocks(base, F, top, eta, CertificateKind::none);
 }
 
 ShellMetrics detail::uncertified_shell_metrics(const Eigen::MatrixXd& base, const Eigen::MatrixXi& F,
                                                const Eigen::MatrixXd& top, double eta, const RestTets& normal_rest) {
-  return metrics_against(base, F, top, eta, std::nullopt, normal_rest);
+  return metrics_against(base, F, top, eta, CertificateKind::none, normal_rest);
 }
 
 } // namespace gshell
