@@ -2,20 +2,25 @@
 
 #include "quality/face_bvh.h"
 
+#include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 
 namespace gshell::detail {
 
-Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids) {
-  Eigen::MatrixXi S(static_cast<int>(ids.size()), 3);
-  for (std::size_t i = 0; i < ids.size(); ++i) S.row(static_cast<int>(i)) = B.row(ids[i]);
-  return S;
-}
+namespace {
 
 Eigen::AlignedBox3d row_box(const ShellBoundary& boundary, const Eigen::MatrixXd& X, int r) {
   Eigen::AlignedBox3d box(X.row(boundary.F(r, 0)).transpose());
   box.extend(X.row(boundary.F(r, 1)).transpose()).extend(X.row(boundary.F(r, 2)).transpose());
   return box;
+}
+
+} // namespace
+
+Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids) {
+  Eigen::MatrixXi S(static_cast<int>(ids.size()), 3);
+  for (std::size_t i = 0; i < ids.size(); ++i) S.row(static_cast<int>(i)) = B.row(ids[i]);
+  return S;
 }
 
 std::vector<char> rows_near(const ShellBoundary& boundary, const Eigen::MatrixXd& X, const std::vector<int>& seeds,

@@ -4,7 +4,6 @@
 #include <gshell/quality/shell_boundary.h>
 
 #include <Eigen/Core>
-#include <Eigen/Geometry>
 #include <vector>
 
 namespace gshell::detail {
@@ -12,13 +11,10 @@ namespace gshell::detail {
 /// The rows `ids` of B, in that order.
 Eigen::MatrixXi rows_of(const Eigen::MatrixXi& B, const std::vector<int>& ids);
 
-/// The box of boundary row r at X (the exact min / max of its corners).
-Eigen::AlignedBox3d row_box(const ShellBoundary& boundary, const Eigen::MatrixXd& X, int r);
-
-/// Per row of `boundary`: whether its box meets the box of one of the rows `seeds` grown by
-/// `reach` along every axis (the seeds themselves included). Found by one parallel pass over the
-/// rows against a tree of the seeds' grown boxes, whose float covers are rounded outwards, so no
-/// row whose box meets is missed.
+/// Per row of `boundary`: whether its box at X (the exact min / max of its corners) meets the box
+/// of one of the rows `seeds` grown by `reach` along every axis (the seeds themselves included).
+/// Found by one parallel pass over the rows against a tree of the seeds' grown boxes, whose float
+/// covers are rounded outwards, so no row whose box meets is missed.
 std::vector<char> rows_near(const ShellBoundary& boundary, const Eigen::MatrixXd& X, const std::vector<int>& seeds,
                             double reach);
 

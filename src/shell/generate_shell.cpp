@@ -61,11 +61,11 @@ void certify(GenerateResult& r, const GenerateOptions& options) {
 
 // The quality measures of the result, timed (seconds.metrics); certify() adds the certificate.
 // `normal_rest`: the normal prisms' rest tets when the caller has them.
-void measure(GenerateResult& r, const GenerateOptions& options, const RestTets* normal_rest = nullptr) {
+void measure(GenerateResult& r, const RestTets* normal_rest = nullptr) {
   const auto t0 = Clock::now();
   const Shell& s = r.shell;
-  r.metrics = normal_rest ? detail::uncertified_shell_metrics(s.base, s.F, s.top, options.thickness, *normal_rest)
-                          : detail::uncertified_shell_metrics(s.base, s.F, s.top, options.thickness);
+  r.metrics = normal_rest ? detail::uncertified_shell_metrics(s.base, s.F, s.top, s.thickness, *normal_rest)
+                          : detail::uncertified_shell_metrics(s.base, s.F, s.top, s.thickness);
   r.seconds.metrics = seconds_since(t0);
 }
 
@@ -101,7 +101,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
       r.seconds.solve = r.solve.seconds;
       r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
     }
-    measure(r, options, ideal_is_normal ? &rest : nullptr);
+    measure(r, ideal_is_normal ? &rest : nullptr);
   } else {
     r.guard = guarded_shell(V, F, make_ideal, options.thickness, options.guard, options.solve, options.linear);
     r.guarded = true;
@@ -117,7 +117,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds + r.guard.relax.seconds;
     r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve - r.guard.ideal_seconds;
     r.shell = make_shell(V, F, r.guard.top, options.thickness);
-    measure(r, options);
+    measure(r);
   }
   certify(r, options);
   r.seconds.total = seconds_since(t0);
@@ -253,7 +253,7 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
   // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
   const RestTets rest = normal_prism_rest_tets(V, F, options.thickness);
-  measure(r, options, &rest);
+  measure(r, &rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
   certify(r, options);
   r.solve.converged = true;
