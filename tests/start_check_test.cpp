@@ -8,6 +8,7 @@
 
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/shell_certificate.h>
+#include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
@@ -102,4 +103,66 @@ TEST(StartCheck, IncrementalChecksFindTheCertificatesViolationsAtMovedVerticesOn
   const auto [inverted, crossing] = run_random_moves(make_cylinder(24, 0.5, 1.0), 0.08, 0.25, 40);
   EXPECT_GT(inverted, 0);
   EXPECT_GT(crossing, 0);
+}
+
+// Guarded generation runs the first check in two parts: it certifies the paper's top with the
+// base's own pairs, excludes the triangles around the crossings found, then makes the check's
+// violations. That must find the crossings the base's own test finds and leave every check as a
+// checker given those exclusions up front makes them.
+TEST(StartCheck, AFirstCheckWithTheBasesOwnPairsFindsItsCrossingsAndChecksAsBefore) {
+  TriMesh m = make_sphere(3);
+  m.V.row(0) *= -1.3; // through the centre and out of the far side: the base crosses itself
+  const int n = static_cast<int>(m.V.rows());
+  const Eigen::MatrixXd top = offset_top(m.V, m.F, 0.05);
+
+  detail::StartChecker two_parts(m.F, n, {}, {});
+  const ShellCertificate with_pairs = two_parts.certify(m.V, top, true);
+  std::vector<std::pair<int, int>> crossings;
+  for (const BoundaryIntersection& p : with_pairs.intersections)
+    if (p.kind == IntersectionKind::BaseBase) crossings.emplace_back(p.a, p.b); // base row f is face f
+  ASSERT_FALSE(crossings.empty());
+  EXPECT_EQ(crossings, surface_self_intersections(m.V, m.F));
+
+  // Rows of the faces with a corner on a crossing face, as generation excludes them.
+  std::vector<char> corner(n, 0);
+  for (const auto& [f, g] : crossings)
+    for (int k = 0; k < 3; ++k) corner[m.F(f, k)] = corner[m.F(g, k)] = 1;
+  const ShellBoundary& boundary = two_parts.boundary();
+  std::vector<char> excluded(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r) {
+    const int f = boundary.face[r];
+    excluded[r] = corner[m.F(f, 0)] || corner[m.F(f, 1)] || corner[m.F(f, 2)];
+  }
+  two_parts.exclude_triangles(excluded);
+  const detail::StartViolations a = two_parts.violations(with_pairs);
+  const detail::StartChecker up_front(m.F, n, {}, excluded);
+  const detail::StartViolations b = up_front.check(m.V, top);
+  auto expect_same = [](const detail::StartViolations& x, const detail::StartViolations& y) {
+    EXPECT_EQ(x.inverted_tets, y.inverted_tets);
+    EXPECT_EQ(x.intersections, y.intersections);
+    EXPECT_EQ(x.nested_parts, y.nested_parts);
+  };
+  expect_same(a, b);
+  ASSERT_TRUE(a.certificate && b.certificate);
+  EXPECT_GT(a.certificate->top_base_intersections, 0); // the pushed vertex's top: all of them excluded
+  EXPECT_EQ(a.certificate->base_self_intersections, -1); // as if the base's pairs were not searched
+  EXPECT_EQ(a.certificate->top_self_intersections, b.certificate->top_self_intersections);
+  EXPECT_EQ(a.certificate->top_base_intersections, b.certificate->top_base_intersections);
+  EXPECT_EQ(a.certificate->inverted_tet_ids, b.certificate->inverted_tet_ids);
+  ASSERT_EQ(a.certificate->intersections.size(), b.certificate->intersections.size());
+  for (std::size_t k = 0; k < a.certificate->intersections.size(); ++k) {
+    EXPECT_EQ(a.certificate->intersections[k].a, b.certificate->intersections[k].a);
+    EXPECT_EQ(a.certificate->intersections[k].b, b.certificate->intersections[k].b);
+  }
+
+  // The later checks keep the trees of the first and the exclusions given after it.
+  Eigen::MatrixXd moved_top = top;
+  std::vector<char> moved(n, 0);
+  for (int i = 0; i < n; i += 7) {
+    moved_top.row(i) = m.V.row(i) - 0.5 * (top.row(i) - m.V.row(i)); // below the base: inverts its tets
+    moved[i] = 1;
+  }
+  const detail::StartViolations a2 = two_parts.check(m.V, moved_top, &moved);
+  EXPECT_FALSE(a2.inverted_tets.empty());
+  expect_same(a2, up_front.check(m.V, moved_top, &moved));
 }

@@ -5,10 +5,10 @@
 #include <gshell/seconds_since.h>
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/stretch.h>
-#include <gshell/quality/triangle_intersections.h>
 
 #include "guard/lift_thin_tops.h"
 #include "guard/shell_part.h"
+#include "guard/valid_start_with.h"
 
 #include <Eigen/Geometry>
 
@@ -39,6 +39,14 @@ std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, co
   }
   return {F.rows() > 0 ? length / (3.0 * static_cast<double>(F.rows())) : 0.0,
           V.rows() > 0 ? area / static_cast<double>(V.rows()) : 0.0};
+}
+
+// Per face of F (over n vertices): whether one of its corners is in `vertices` (repeats allowed).
+std::vector<char> faces_at(const Eigen::MatrixXi& F, int n, const std::vector<int>& vertices) {
+  std::vector<char> corner(n, 0), out(F.rows(), 0);
+  for (int v : vertices) corner[v] = 1;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) out[f] = corner[F(f, 0)] || corner[F(f, 1)] || corner[F(f, 2)];
+  return out;
 }
 
 // Boundary rows the contact guard cannot protect: the excluded rows and every row sharing a vertex
@@ -342,29 +350,10 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     throw InputError("guarded_shell: the first top must be " + std::to_string(n) + " x 3");
   GuardedShell g;
   g.directions = extrusion_directions(V, F, options.normal_margin);
-  g.base_self_intersections = surface_self_intersections(V, F);
 
   // Prisms around unextrudable vertices cannot all be valid: their tets are not guarded and their
-  // boundary triangles see no contacts. Around the crossings of a self-intersecting base no top
-  // can be clean: the triangles of the faces touching a crossing face see no contacts.
-  std::vector<char> unguarded_face(m, 0), excluded_face(m, 0);
-  {
-    // Faces around each vertex, for marking stars (freed before the paper's iterations).
-    std::vector<int> start(n + 1, 0), star;
-    for (int f = 0; f < m; ++f)
-      for (int k = 0; k < 3; ++k) ++start[F(f, k) + 1];
-    std::partial_sum(start.begin(), start.end(), start.begin());
-    star.resize(start[n]);
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int f = 0; f < m; ++f)
-      for (int k = 0; k < 3; ++k) star[fill[F(f, k)]++] = f;
-    for (int v : g.directions.unextrudable)
-      for (int s = start[v]; s < start[v + 1]; ++s) unguarded_face[star[s]] = excluded_face[star[s]] = 1;
-    for (const auto& [f1, f2] : g.base_self_intersections)
-      for (int f : {f1, f2})
-        for (int k = 0; k < 3; ++k)
-          for (int s = start[F(f, k)]; s < start[F(f, k) + 1]; ++s) excluded_face[star[s]] = 1;
-  }
+  // boundary triangles see no contacts (nor do those around the base's own crossings, below).
+  const std::vector<char> unguarded_face = faces_at(F, n, g.directions.unextrudable);
   GuardedSolverParameters& p = g.parameters;
   p = absolute_guard_parameters(V, F, eta, options);
   p.skip_tets.assign(3 * static_cast<std::size_t>(m), 0);
@@ -393,13 +382,27 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   ideal.release(); // made again below only if the start thins a top
   // Built after the paper's iterations, which do not need it, so as not to add to their peak.
   const ShellBoundary boundary = shell_boundary(F, n);
-  p.excluded_triangles.assign(boundary.size(), 0);
-  for (int r = 0; r < boundary.size(); ++r) p.excluded_triangles[r] = excluded_face[boundary.face[r]];
 
-  // Valid start: that top, pulled towards the base only where it is not valid.
+  // Valid start: that top, pulled towards the base only where it is not valid. Its first check
+  // certifies the paper's top whole and finds the base's own crossings in the same pass, over the
+  // certificate's tree of the base triangles (docs/scale.md, session 76): around them no top can
+  // be clean, so the triangles of the faces touching a crossing face see no contacts.
+  detail::StartChecker checker(F, n, p.skip_tets, {});
+  ShellCertificate first = checker.certify(V, X.bottomRows(n), true);
+  for (const BoundaryIntersection& c : first.intersections)
+    if (c.kind == IntersectionKind::BaseBase) g.base_self_intersections.emplace_back(c.a, c.b); // base row f is face f
+  std::vector<int> crossing_corners;
+  for (const auto& [f1, f2] : g.base_self_intersections)
+    for (int f : {f1, f2})
+      for (int k = 0; k < 3; ++k) crossing_corners.push_back(F(f, k));
+  const std::vector<char> crossing_face = faces_at(F, n, crossing_corners);
+  p.excluded_triangles.assign(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r)
+    p.excluded_triangles[r] = unguarded_face[boundary.face[r]] || crossing_face[boundary.face[r]];
   const ValidStartOptions start_options = valid_start_options(options, eta);
   g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
-  g.start = valid_start(V, F, X.bottomRows(n), g.directions, p.skip_tets, g.unprotected_triangles, start_options);
+  checker.exclude_triangles(g.unprotected_triangles);
+  g.start = detail::valid_start_with(V, F, X.bottomRows(n), g.directions, checker, std::move(first), start_options);
   // On the rim of an open surface a vertex can have a direction that sees all its faces and still
   // not extrude: its side walls cut through its own faces however thin the layer (a rim folded
   // flat back onto its neighbours). Where the start is left with violations at such vertices

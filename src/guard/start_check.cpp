@@ -49,10 +49,15 @@ void StartChecker::place(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top
 
 StartChecker::StartChecker(const Eigen::MatrixXi& F, int n, std::vector<char> skip_tets,
                            std::vector<char> excluded_triangles)
-    : F_(F), n_(n), boundary_(shell_boundary(F, n)), skip_(std::move(skip_tets)),
-      excluded_(std::move(excluded_triangles)) {
+    : F_(F), n_(n), boundary_(shell_boundary(F, n)), skip_(std::move(skip_tets)) {
   if (skip_.empty()) skip_.assign(3 * static_cast<std::size_t>(F.rows()), 0);
+  exclude_triangles(std::move(excluded_triangles));
+}
+
+void StartChecker::exclude_triangles(std::vector<char> excluded_triangles) {
+  excluded_ = std::move(excluded_triangles);
   if (excluded_.empty()) excluded_.assign(boundary_.size(), 0);
+  rows_.clear();
   for (int r = 0; r < boundary_.size(); ++r)
     if (!excluded_[r]) rows_.push_back(r);
 }
@@ -89,23 +94,35 @@ std::vector<int> StartChecker::parts_to_thin(const std::vector<std::pair<int, in
   return parts;
 }
 
+ShellCertificate StartChecker::certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, bool base_pairs) const {
+  CertifyOptions options;
+  options.base_self_intersections = base_pairs;
+  // Its trees serve the later checks; a start that mends nothing frees them with the checker.
+  ShellCertificate c = certify_shell_keeping_trees(base, top, F_, options, trees_);
+  X_.resize(2 * n_, 3);
+  X_ << base, top;
+  return c;
+}
+
+StartViolations StartChecker::violations(ShellCertificate certificate) const {
+  StartViolations v;
+  ShellCertificate& c = v.certificate.emplace(std::move(certificate));
+  if (c.base_self_intersections >= 0) { // as if they had not been searched
+    std::erase_if(c.intersections, [](const BoundaryIntersection& p) { return p.kind == IntersectionKind::BaseBase; });
+    c.base_self_intersections = -1;
+  }
+  for (int t : c.inverted_tet_ids)
+    if (!skip_[t]) v.inverted_tets.push_back(t);
+  for (const BoundaryIntersection& p : c.intersections)
+    if (!excluded_[p.a] && !excluded_[p.b]) v.intersections.emplace_back(p.a, p.b);
+  if (v.inverted_tets.empty() && v.intersections.empty()) v.nested_parts = parts_to_thin(c.nested);
+  return v;
+}
+
 StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                                     const std::vector<char>* moved) const {
+  if (!moved) return violations(certify(base, top));
   StartViolations v;
-  if (!moved) { // the whole shell: the certificate itself, without the base's own pairs
-    CertifyOptions options;
-    options.base_self_intersections = false;
-    // Its trees serve the later checks; a start that mends nothing frees them with the checker.
-    const ShellCertificate& c = v.certificate.emplace(certify_shell_keeping_trees(base, top, F_, options, trees_));
-    X_.resize(2 * n_, 3);
-    X_ << base, top;
-    for (int t : c.inverted_tet_ids)
-      if (!skip_[t]) v.inverted_tets.push_back(t);
-    for (const BoundaryIntersection& p : c.intersections)
-      if (!excluded_[p.a] && !excluded_[p.b]) v.intersections.emplace_back(p.a, p.b);
-    if (v.inverted_tets.empty() && v.intersections.empty()) v.nested_parts = parts_to_thin(c.nested);
-    return v;
-  }
 
   if (top_tets_.start.empty()) { // the incidences of the checks after the first, made once
     const Eigen::MatrixXi& T = tets();

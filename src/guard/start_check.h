@@ -47,9 +47,21 @@ public:
   /// Violations of the shell (base, top). With `moved` (one flag per top vertex), only tets and
   /// pairs with a moved top vertex are tested. Not for concurrent calls on one object: the trees
   /// over all boundary rows, of the first check (or built at it, if it had `moved`), are kept
-  /// and refit (not rebuilt) afterwards.
+  /// and refit (not rebuilt) afterwards. Without `moved`: violations(certify(base, top)).
   StartViolations check(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
                         const std::vector<char>* moved = nullptr) const;
+
+  /// The first check in two parts, for a caller that decides the excluded triangles from what it
+  /// finds: certify() certifies the whole shell (certify_shell, with the base's own pairs when
+  /// `base_pairs`: their search reuses the certificate's tree over the base rows, so it costs a
+  /// pass over that tree rather than a tree of its own), keeping its trees for the later checks;
+  /// violations() makes the check's result of that certificate, with the base/base pairs taken
+  /// out of it (StartViolations::certificate is then what certify(base, top, false) gives).
+  ShellCertificate certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, bool base_pairs = false) const;
+  StartViolations violations(ShellCertificate certificate) const;
+  /// Replaces the excluded triangles given at construction (one flag per boundary row, or empty).
+  /// Only between certify() and violations(): the later checks and the parts read them.
+  void exclude_triangles(std::vector<char> excluded_triangles);
 
   /// Calls visit(i) for every top vertex n + i of the tets and boundary rows in `found` (once per
   /// tet or row it belongs to).

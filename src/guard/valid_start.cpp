@@ -4,7 +4,7 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/shell/prism_tets.h>
 
-#include "guard/start_check.h"
+#include "guard/valid_start_with.h"
 
 #include <Eigen/Geometry>
 
@@ -66,6 +66,13 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
                        const ExtrusionDirections& directions,
                        const std::vector<char>& skip_tets, const std::vector<char>& excluded_triangles,
                        const ValidStartOptions& options) {
+  const detail::StartChecker checker(F, static_cast<int>(V.rows()), skip_tets, excluded_triangles);
+  return detail::valid_start_with(V, F, P, directions, checker, std::nullopt, options);
+}
+
+ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
+                                    const ExtrusionDirections& directions, const StartChecker& checker,
+                                    std::optional<ShellCertificate> first, const ValidStartOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(V.rows());
   if (P.rows() != n || P.cols() != 3 || directions.direction.rows() != n)
@@ -73,7 +80,6 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
   if (!(options.thinning > 0 && options.thinning < 1)) throw InputError("valid_start: thinning must be in (0, 1)");
   if (!(options.fallback_length > 0)) throw InputError("valid_start: fallback_length must be positive");
   const Paths paths = make_paths(V, F, P, directions, options);
-  const detail::StartChecker checker(F, n, skip_tets, excluded_triangles);
 
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
@@ -86,7 +92,8 @@ ValidStart valid_start(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const
       for (int i = 0; i < n; ++i)
         if (moved[i]) s.top.row(i) = V.row(i) + paths.offset(i, s.scale[i]);
     // The first round checks everything, later ones what the last thinning moved.
-    detail::StartViolations found = checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
+    detail::StartViolations found = s.rounds == 1 && first ? checker.violations(*std::move(first))
+                                                           : checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
     s.inverted_tets = found.inverted_tets;
     s.intersections = found.intersections;
     std::fill(thin.begin(), thin.end(), 0);
