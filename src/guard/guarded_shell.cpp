@@ -387,22 +387,25 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   // certifies the paper's top whole and finds the base's own crossings in the same pass, over the
   // certificate's tree of the base triangles (docs/scale.md, session 76): around them no top can
   // be clean, so the triangles of the faces touching a crossing face see no contacts.
-  detail::StartChecker checker(F, n, p.skip_tets, {});
-  ShellCertificate first = checker.certify(V, X.bottomRows(n), true);
-  for (const BoundaryIntersection& c : first.intersections)
-    if (c.kind == IntersectionKind::BaseBase) g.base_self_intersections.emplace_back(c.a, c.b); // base row f is face f
-  std::vector<int> crossing_corners;
-  for (const auto& [f1, f2] : g.base_self_intersections)
-    for (int f : {f1, f2})
-      for (int k = 0; k < 3; ++k) crossing_corners.push_back(F(f, k));
-  const std::vector<char> crossing_face = faces_at(F, n, crossing_corners);
-  p.excluded_triangles.assign(boundary.size(), 0);
-  for (int r = 0; r < boundary.size(); ++r)
-    p.excluded_triangles[r] = unguarded_face[boundary.face[r]] || crossing_face[boundary.face[r]];
   const ValidStartOptions start_options = valid_start_options(options, eta);
-  g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
-  checker.exclude_triangles(g.unprotected_triangles);
-  g.start = detail::valid_start_with(V, F, X.bottomRows(n), g.directions, checker, std::move(first), start_options);
+  {
+    // Scoped: its trees over all boundary rows are freed once the start is made, as before.
+    detail::StartChecker checker(F, n, p.skip_tets, {});
+    ShellCertificate first = checker.certify(V, X.bottomRows(n), true);
+    for (const BoundaryIntersection& c : first.intersections)
+      if (c.kind == IntersectionKind::BaseBase) g.base_self_intersections.emplace_back(c.a, c.b); // base row f is face f
+    std::vector<int> crossing_corners;
+    for (const auto& [f1, f2] : g.base_self_intersections)
+      for (int f : {f1, f2})
+        for (int k = 0; k < 3; ++k) crossing_corners.push_back(F(f, k));
+    const std::vector<char> crossing_face = faces_at(F, n, crossing_corners);
+    p.excluded_triangles.assign(boundary.size(), 0);
+    for (int r = 0; r < boundary.size(); ++r)
+      p.excluded_triangles[r] = unguarded_face[boundary.face[r]] || crossing_face[boundary.face[r]];
+    g.unprotected_triangles = unprotected_rows(boundary, p.excluded_triangles, 2 * n);
+    checker.exclude_triangles(g.unprotected_triangles);
+    g.start = detail::valid_start_with(V, F, X.bottomRows(n), g.directions, checker, std::move(first), start_options);
+  }
   // On the rim of an open surface a vertex can have a direction that sees all its faces and still
   // not extrude: its side walls cut through its own faces however thin the layer (a rim folded
   // flat back onto its neighbours). Where the start is left with violations at such vertices
