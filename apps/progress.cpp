@@ -22,18 +22,20 @@ void Progress::update(const std::string& text) {
       std::chrono::duration<double>(now - last_).count() < min_interval_)
     return;
   last_ = now;
+  // Each line goes out in one write: std::cerr writes every insertion at once, and the interrupt
+  // message (another thread's write) must not land between a line's prefix and its text.
   if (terminal_) {
-    std::cerr << "\r\033[K" << prefix_ << text << std::flush; // \033[K clears the rest of the old line
+    std::cerr << ("\r\033[K" + prefix_ + text) << std::flush; // \033[K clears the rest of the old line
     status_open_ = true;
   } else {
-    std::cerr << prefix_ << text << "\n";
+    std::cerr << (prefix_ + text + "\n");
   }
 }
 
 void Progress::line(const std::string& text) {
   if (!enabled_) return;
   finish_status();
-  std::cerr << prefix_ << text << "\n";
+  std::cerr << (prefix_ + text + "\n");
 }
 
 void Progress::finish_status() {
