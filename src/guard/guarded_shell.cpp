@@ -391,9 +391,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   {
     // Scoped: its trees over all boundary rows are freed once the start is made, as before.
     detail::StartChecker checker(F, n, p.skip_tets, {});
-    ShellCertificate first = checker.certify(V, X.bottomRows(n), true);
-    for (const BoundaryIntersection& c : first.intersections)
-      if (c.kind == IntersectionKind::BaseBase) g.base_self_intersections.emplace_back(c.a, c.b); // base row f is face f
+    ShellCertificate first = checker.certify(V, X.bottomRows(n), &g.base_self_intersections);
     std::vector<int> crossing_corners;
     for (const auto& [f1, f2] : g.base_self_intersections)
       for (int f : {f1, f2})

@@ -94,23 +94,29 @@ std::vector<int> StartChecker::parts_to_thin(const std::vector<std::pair<int, in
   return parts;
 }
 
-ShellCertificate StartChecker::certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, bool base_pairs) const {
+ShellCertificate StartChecker::certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                                       std::vector<std::pair<int, int>>* base_crossings) const {
   CertifyOptions options;
-  options.base_self_intersections = base_pairs;
+  options.base_self_intersections = base_crossings != nullptr;
   // Its trees serve the later checks; a start that mends nothing frees them with the checker.
   ShellCertificate c = certify_shell_keeping_trees(base, top, F_, options, trees_);
   X_.resize(2 * n_, 3);
   X_ << base, top;
+  if (base_crossings) { // handed over, and the certificate left as if they had not been searched
+    base_crossings->clear();
+    std::erase_if(c.intersections, [&](const BoundaryIntersection& p) {
+      if (p.kind != IntersectionKind::BaseBase) return false;
+      base_crossings->emplace_back(p.a, p.b); // base row f is face f
+      return true;
+    });
+    c.base_self_intersections = -1;
+  }
   return c;
 }
 
 StartViolations StartChecker::violations(ShellCertificate certificate) const {
   StartViolations v;
-  ShellCertificate& c = v.certificate.emplace(std::move(certificate));
-  if (c.base_self_intersections >= 0) { // as if they had not been searched
-    std::erase_if(c.intersections, [](const BoundaryIntersection& p) { return p.kind == IntersectionKind::BaseBase; });
-    c.base_self_intersections = -1;
-  }
+  const ShellCertificate& c = v.certificate.emplace(std::move(certificate));
   for (int t : c.inverted_tet_ids)
     if (!skip_[t]) v.inverted_tets.push_back(t);
   for (const BoundaryIntersection& p : c.intersections)

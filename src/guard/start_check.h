@@ -52,12 +52,13 @@ public:
                         const std::vector<char>* moved = nullptr) const;
 
   /// The first check in two parts, for a caller that decides the excluded triangles from what it
-  /// finds: certify() certifies the whole shell (certify_shell, with the base's own pairs when
-  /// `base_pairs`: their search reuses the certificate's tree over the base rows, so it costs a
-  /// pass over that tree rather than a tree of its own), keeping its trees for the later checks;
-  /// violations() makes the check's result of that certificate, with the base/base pairs taken
-  /// out of it (StartViolations::certificate is then what certify(base, top, false) gives).
-  ShellCertificate certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, bool base_pairs = false) const;
+  /// finds: certify() certifies the whole shell (certify_shell without the base's own pairs),
+  /// keeping its trees for the later checks; with `base_crossings` it also searches those pairs,
+  /// over the certificate's tree of the base rows (a pass over that tree rather than a tree of
+  /// their own), and hands them over there as face pairs (f, g), f < g, ascending, the
+  /// certificate being what it is without them. violations() makes the check's result of it.
+  ShellCertificate certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
+                           std::vector<std::pair<int, int>>* base_crossings = nullptr) const;
   StartViolations violations(ShellCertificate certificate) const;
   /// Replaces the excluded triangles given at construction (one flag per boundary row, or empty).
   /// Only between certify() and violations(): the later checks and the parts read them.
