@@ -2,6 +2,7 @@
 #include "command_registry.h"
 #include "progress.h"
 #include "surface_input.h"
+#include "warnings.h"
 
 #include <gshell/run/frames.h>
 #include <gshell/run/staged_folder.h>
@@ -13,7 +14,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <sstream>
@@ -78,11 +78,11 @@ void run_animate(const AnimateArgs& args) {
   staged.commit(holds_only_frames);
   progress.finish_status();
   if (crossing_frames > 0) // a warning even with --quiet, as pose's blocked steps
-    std::fprintf(stderr,
-                 "gshell animate: warning: %d of %d frames (the first %s) make the base cross itself (up to %d "
-                 "intersecting face pairs, the input %d); no shell stays clean where its base crosses itself\n",
-                 crossing_frames, args.frames, gshell::frame_name(first_crossing, ".obj", args.frames).c_str(), most_crossings,
-                 rest_crossings);
+    gshell::cli::print_warning(
+        "animate", std::to_string(crossing_frames) + " of " + std::to_string(args.frames) + " frames (the first " +
+                       gshell::frame_name(first_crossing, ".obj", args.frames) + ") make the base cross itself (up to " +
+                       std::to_string(most_crossings) + " intersecting face pairs, the input " +
+                       std::to_string(rest_crossings) + "); no shell stays clean where its base crosses itself");
   std::ostringstream done;
   done << "wrote " << args.frames << " frames of a " << (bending ? "bend" : "twist") << " to " << degrees
        << " degrees to " << args.out;

@@ -2,13 +2,13 @@
 // the vertex order and, for OBJ to OBJ, the texture coordinates; `--weld` joins the surface's cuts.
 #include "command_registry.h"
 #include "progress.h"
+#include "warnings.h"
 
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/geometry/weld_vertices.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
 
-#include <iostream>
 #include <memory>
 
 namespace {
@@ -40,7 +40,7 @@ void add_convert_command(CLI::App& app) {
       warnings = require_valid_mesh(mesh, opt->input + " after --weld");
       progress.line("welded " + std::to_string(merged) + " vertices");
     }
-    for (const std::string& w : warnings) std::cerr << "gshell convert: warning: " << w << "\n";
+    cli::print_warnings("convert", warnings);
     write_mesh(opt->output, mesh, {}, opt->ascii);
     progress.line("wrote " + opt->output + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +
                   std::to_string(mesh.num_faces()) + " faces)");

@@ -4,6 +4,7 @@
 #include "parameter_flags.h"
 #include "preview_option.h"
 #include "progress.h"
+#include "warnings.h"
 
 #include <gshell/quality/certificate_report.h>
 #include <gshell/run/deform_run.h>
@@ -36,7 +37,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   // Everything that can be wrong with the input is found before any work or output.
   check_output_folder(a.out, holds_only_deform_output);
   const DeformInput input = load_deform_input(a.shell, a.frames, a.embed);
-  if (!input.rest_warning.empty()) std::fprintf(stderr, "gshell deform: warning: %s\n", input.rest_warning.c_str());
+  if (!input.rest_warning.empty()) cli::print_warning("deform", input.rest_warning);
 
   cli::Progress progress("deform");
   // A long frame (a guarded one of a large shell, one whose guard regenerates its top) shows its
@@ -107,7 +108,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   progress.line(text);
   if (a.render) progress.line("wrote " + a.out + "/preview.png");
   // Even with --quiet: frames that are not valid are otherwise named only in report.json.
-  for (const std::string& warning : run.warnings()) std::fprintf(stderr, "gshell deform: warning: %s\n", warning.c_str());
+  cli::print_warnings("deform", run.warnings());
 }
 
 void add_deform_command(CLI::App& parent) {

@@ -5,6 +5,7 @@
 #include "preview_option.h"
 #include "progress.h"
 #include "thickness_flags.h"
+#include "warnings.h"
 
 #include <gshell/io/load_mesh.h>
 #include <gshell/run/generate_run.h>
@@ -42,7 +43,7 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   cli::show_solve_progress(progress, a.options.generate.solve);
   const GenerateRun result = run_generate(std::move(mesh), a.input, a.options, std::move(input_warnings));
   progress.finish_status();
-  for (const std::string& warning : result.warnings()) std::cerr << "gshell generate: warning: " << warning << "\n";
+  cli::print_warnings("generate", result.warnings());
   result.write(a.output, cli::preview_writer(a.render, a.output, view));
   std::cout << result.summary() << "wrote        " << a.output << "/{top.obj, base.obj, shell.vtu, report.json"
             << (a.render ? ", preview.png" : "") << "}\n";

@@ -5,6 +5,7 @@
 #include "parameter_flags.h"
 #include "preview_option.h"
 #include "progress.h"
+#include "warnings.h"
 
 #include <gshell/quality/certificate_report.h>
 #include <gshell/run/drag_session.h>
@@ -36,7 +37,7 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   check_output_folder(a.output, holds_only_shell_files); // fail on a bad output path before the long part
 
   const std::string rest_warning = invalid_rest_shell_warning(a.shell_dir, rest.report, "pose step");
-  if (!rest_warning.empty()) std::fprintf(stderr, "gshell pose: warning: %s\n", rest_warning.c_str());
+  if (!rest_warning.empty()) cli::print_warning("pose", rest_warning);
 
   cli::Progress progress("pose", 0.5);
   progress.line(std::to_string(rest.shell.num_base_vertices() * 2) + " shell vertices, " +
@@ -70,7 +71,7 @@ void run(const CLI::App& cmd, PoseArgs& a) {
     progress.line(line);
   }
   // Even with --quiet: a pose short of its handles, or not valid, is not what was asked for.
-  for (const std::string& warning : result.warnings()) std::fprintf(stderr, "gshell pose: warning: %s\n", warning.c_str());
+  cli::print_warnings("pose", result.warnings());
   session.write(a.output, 0, cli::preview_writer(a.render, a.output, view));
   progress.line("wrote " + a.output + " (top.obj, base.obj, shell.vtu, report.json" + (a.render ? ", preview.png" : "") +
                 ")");

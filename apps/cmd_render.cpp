@@ -2,13 +2,13 @@
 #include "command_registry.h"
 #include "parameter_flags.h"
 #include "progress.h"
+#include "warnings.h"
 
 #include <gshell/error.h>
 #include <gshell/render/image.h>
 #include <gshell/render/shell_render.h>
 
 #include <cmath>
-#include <iostream>
 #include <map>
 #include <memory>
 #include <regex>
@@ -71,7 +71,7 @@ void run_render(const CLI::App& cmd, const RenderArgs& args) {
   std::vector<RenderSubject> subjects;
   for (const auto& input : args.inputs) {
     subjects.push_back(load_render_subject(input));
-    for (const std::string& warning : subjects.back().warnings) std::cerr << "gshell render: warning: " << warning << "\n";
+    print_warnings("render", subjects.back().warnings);
   }
   const Image image = render_subjects(subjects, args.captions, options);
   write_png(args.output, image);

@@ -6,6 +6,7 @@
 #include "interrupts.h"
 #include "progress.h"
 #include "thickness_flags.h"
+#include "warnings.h"
 
 #include <gshell/error.h>
 #include <gshell/run/pose_run.h>
@@ -56,7 +57,7 @@ void run(const CLI::App& cmd, ViewArgs& a) {
   }
   ViewInput input = load_view_input(a.inputs, a.input);
   progress.finish_status();
-  for (const std::string& warning : input.warnings) std::cerr << "gshell view: warning: " << warning << "\n";
+  cli::print_warnings("view", input.warnings);
   if (!input.frames_held)
     progress.line(std::to_string(input.frames.size()) + " frames take more than " +
                   std::to_string(a.input.held_frame_bytes >> 20) + " MiB together: each is read when shown");

@@ -138,12 +138,12 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
       return app.exit(e);
     } catch (const CLI::ParseError& e) {
-      std::cerr << "gshell: error: " << explain_parse_error(app, argc, argv, e.what()) << "\n";
+      std::cerr << ("gshell: error: " + explain_parse_error(app, argc, argv, e.what()) + "\n");
       return 1;
     }
   } catch (const gshell::InputError& e) {
     wait_if_interrupted();
-    std::cerr << "gshell: error: " << e.what() << "\n";
+    std::cerr << ("gshell: error: " + std::string(e.what()) + "\n");
     return 1;
   } catch (const std::bad_alloc&) {
     wait_if_interrupted();
@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const std::exception& e) {
     wait_if_interrupted();
-    std::cerr << "gshell: internal error: " << e.what() << "\n";
+    std::cerr << ("gshell: internal error: " + std::string(e.what()) + "\n");
     return 2;
   } catch (...) {
     wait_if_interrupted();
