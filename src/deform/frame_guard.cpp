@@ -56,14 +56,20 @@ constexpr double kFlat = 1e-8;
 // (docs/valid-deformation.md, "Mends held still by one pair").
 constexpr double kMendHoldBelow = 0.005;
 
+/// Flags in `skip` the three tets of every prism over a face of F with a corner flagged in
+/// `touched` (one per base vertex).
+void skip_prisms_touching(const std::vector<char>& touched, const Eigen::MatrixXi& F, std::vector<char>& skip) {
+  for (int f = 0; f < F.rows(); ++f)
+    if (touched[F(f, 0)] || touched[F(f, 1)] || touched[F(f, 2)])
+      for (int k = 0; k < 3; ++k) skip[3 * f + k] = 1;
+}
+
 /// Flags in `skip` the three tets of every prism touching a vertex of (V, F) that no direction
 /// extrudes (one of them must be inverted, and which one may change as the base moves).
 void skip_prisms_at_unextrudable_vertices(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::vector<char>& skip) {
   std::vector<char> unextrudable(V.rows(), 0);
   for (int v : extrusion_directions(V, F).unextrudable) unextrudable[v] = 1;
-  for (int f = 0; f < F.rows(); ++f)
-    if (unextrudable[F(f, 0)] || unextrudable[F(f, 1)] || unextrudable[F(f, 2)])
-      for (int k = 0; k < 3; ++k) skip[3 * f + k] = 1;
+  skip_prisms_touching(unextrudable, F, skip);
 }
 
 /// Flags in `excluded` (one per row of `boundary`) the boundary triangles of every face of F with a
@@ -138,15 +144,15 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   // from their positive side): one of them must be inverted, and which one may change as the base
   // moves, so guarding the others would hold the frame still.
   skip_prisms_at_unextrudable_vertices(rest.base, rest.F, parameters_.skip_tets);
-  rest_skip_ = parameters_.skip_tets;
   std::vector<char> touched(n, 0);
   for (const BoundaryIntersection& pair : rest_certificate.intersections)
     for (int row : {pair.a, pair.b})
       for (int k = 0; k < 3; ++k) touched[boundary_.F(row, k) % n] = 1;
-  // So do the faces of pairs that touch to rounding at rest (a top left a hair's breadth from its
-  // base where the generation's guard could not lift it, next to a base crossing or a vertex
-  // extruded almost sideways): no step moving them is certified, so guarding them would hold every
-  // drag still (CGAL's mannequin-devil posed: every step ended where it began).
+  // The faces of pairs that touch to rounding at rest are left out of the contacts too (a top left
+  // a hair's breadth from its base where the generation's guard could not lift it, next to a base
+  // crossing or a vertex extruded almost sideways): no step moving them is certified, so guarding
+  // them would hold every drag still (CGAL's mannequin-devil posed: every step ended where it
+  // began).
   // A posed shell's handles move relative to each other, so their own pairs are guarded too;
   // a deformation's base is the caller's.
   parameters_.guard_fixed_pairs = moving_base_;
@@ -156,6 +162,12 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
   exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
   rest_excluded_ = parameters_.excluded_triangles;
+  // And the tets of those faces' prisms: their tops cross another sheet already or lie a hair
+  // from one, and guarding them held drags back (CGAL's mannequin-devil posed: not done in 600 s,
+  // 2-2.5 minutes without them; docs/valid-deformation.md). A rest shell with no intersecting
+  // pair and no pair touching to rounding has no such place: nothing changes for it.
+  skip_prisms_touching(touched, rest.F, parameters_.skip_tets);
+  rest_skip_ = parameters_.skip_tets;
 }
 
 GuardedSolver& FrameGuard::contact_solver() {

@@ -38,7 +38,8 @@ public:
   /// a pose); `moving_base`: the base is free, so base/base pairs count as the shell's own. Tets
   /// inverted at rest are left unguarded, and the boundary triangles of pairs that intersect or
   /// touch to rounding (pair_touches_to_rounding) at rest, with their neighbours, see no
-  /// contacts: what the rest shell breaks, the guard cannot keep.
+  /// contacts, nor are those faces' prisms' tets guarded: what the rest shell breaks, the guard
+  /// cannot keep.
   FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options, std::vector<int> fixed,
              bool moving_base);
   ~FrameGuard();
