@@ -452,7 +452,7 @@ TEST(DeformGuard, AFrameInvalidOnlyWhereTheRestShellIsSaysSo) {
 
 // The prisms around the rest shell's own intersections are left out of the guard with their
 // triangles: guarding their tets, between sheets that cross there, held drags back (CGAL's
-// mannequin-devil posed: not done in 600 s, about 2 minutes now). Two sheets 0.1 apart with
+// mannequin-devil posed: not done in 600 s, 2-3 minutes now). Two sheets 0.1 apart with
 // layers 0.08 thick cross at their borders only. A top pushed through its base at a vertex of an
 // intersecting pair inverts tets the guard leaves out, and the frame is accepted; the same at a
 // vertex far from the crossings, or at that vertex of the same sheets with a clean layer (0.03),

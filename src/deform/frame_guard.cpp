@@ -164,7 +164,7 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   rest_excluded_ = parameters_.excluded_triangles;
   // And the tets of those faces' prisms: their tops cross another sheet already or lie a hair
   // from one, and guarding them held drags back (CGAL's mannequin-devil posed: not done in 600 s,
-  // 2-2.5 minutes without them; docs/valid-deformation.md). A rest shell with no intersecting
+  // 2-3 minutes without them; docs/valid-deformation.md). A rest shell with no intersecting
   // pair and no pair touching to rounding has no such place: nothing changes for it.
   skip_prisms_touching(touched, rest.F, parameters_.skip_tets);
   rest_skip_ = parameters_.skip_tets;
