@@ -458,23 +458,25 @@ TEST(DeformGuard, AFrameInvalidOnlyWhereTheRestShellIsSaysSo) {
 // vertex far from the crossings, or at that vertex of the same sheets with a clean layer (0.03),
 // is refused.
 TEST(FrameGuardStart, PrismsAroundTheRestShellsIntersectionsAreLeftOut) {
-  const auto pushed_through_accepted = [](double eta, bool at_crossing) {
-    const Shell rest = offset_shell(test::facing_sheets(8, 0.1), eta);
-    const int n = rest.num_base_vertices();
-    // The crossings are the thick layers' (the thin one has none): both shells share their base.
-    const Shell thick = offset_shell(test::facing_sheets(8, 0.1), 0.08);
-    const ShellBoundary boundary = shell_boundary(rest.F, n);
-    std::vector<char> crossing(n, 0);
-    for (const BoundaryIntersection& pair : certify_shell(thick.base, thick.top, thick.F).intersections)
-      for (int row : {pair.a, pair.b})
-        for (int k = 0; k < 3; ++k) crossing[boundary.F(row, k) % n] = 1;
-    // On the lower sheet (z = 0, its layer above it): a vertex of a crossing pair, or the centre.
-    int v = -1;
-    for (int i = 0; i < n / 2 && v < 0; ++i)
-      if (at_crossing ? crossing[i] != 0 : rest.base.row(i).head<2>().norm() < 1e-9) v = i;
-    EXPECT_GE(v, 0);
-    if (v < 0) return false;
-    EXPECT_EQ(crossing[v] != 0, at_crossing);
+  const TriMesh sheets = test::facing_sheets(8, 0.1);
+  const Shell thick = offset_shell(sheets, 0.08);
+  const int n = thick.num_base_vertices();
+  const ShellBoundary boundary = shell_boundary(thick.F, n);
+  std::vector<char> crossing(n, 0);
+  for (const BoundaryIntersection& pair : certify_shell(thick.base, thick.top, thick.F).intersections)
+    for (int row : {pair.a, pair.b})
+      for (int k = 0; k < 3; ++k) crossing[boundary.F(row, k) % n] = 1;
+  // On the lower sheet (z = 0, its layer above it): a vertex of a crossing pair, and the centre.
+  int at = -1, away = -1;
+  for (int i = 0; i < n / 2; ++i) {
+    if (at < 0 && crossing[i]) at = i;
+    if (away < 0 && thick.base.row(i).head<2>().norm() < 1e-9) away = i;
+  }
+  ASSERT_GE(at, 0);
+  ASSERT_GE(away, 0);
+  ASSERT_FALSE(crossing[away]);
+  const auto pushed_through_accepted = [&](double eta, int v) {
+    const Shell rest = offset_shell(sheets, eta);
     const RestTets tets = deformation_rest_tets(rest);
     FrameGuard guard(rest, tets, frame_guard_options(), test::vertex_range(0, n), false);
     const Eigen::MatrixXd X0 = rest.vertices();
@@ -485,9 +487,9 @@ TEST(FrameGuardStart, PrismsAroundTheRestShellsIntersectionsAreLeftOut) {
     EXPECT_GT(c.inverted_tets, 0);
     return accepted;
   };
-  EXPECT_TRUE(pushed_through_accepted(0.08, true));
-  EXPECT_FALSE(pushed_through_accepted(0.08, false));
-  EXPECT_FALSE(pushed_through_accepted(0.03, true));
+  EXPECT_TRUE(pushed_through_accepted(0.08, at));
+  EXPECT_FALSE(pushed_through_accepted(0.08, away));
+  EXPECT_FALSE(pushed_through_accepted(0.03, at));
 }
 
 // Rolled up by 900 degrees in one frame within a band of 0.3, the plane's base winds through

@@ -128,8 +128,8 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   parameters_ = absolute_guard_parameters(rest.base, rest.F, eta, options);
 
   // What the rest shell breaks already stays out of the guard: its inverted tets, and the faces
-  // of its intersecting triangle pairs with every face sharing a vertex with them (a base that
-  // crosses itself leaves no clean top near the crossing).
+  // of its intersecting triangle pairs with every face sharing a vertex with them, triangles and
+  // prisms (a base that crosses itself leaves no clean top near the crossing).
   const ShellCertificate rest_certificate = certifier_.certify(rest.base, rest.top);
   for (const auto& [v, t] : rest_certificate.nested) rest_nested_.push_back(v);
   const Eigen::MatrixXd& X = rest_vertices_;
