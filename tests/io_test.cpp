@@ -274,6 +274,29 @@ TEST(IoObj, ReadsAllCornerFormsNegativeIndicesPolygonsAndUvs) {
   EXPECT_TRUE(partial.UV.rows() == 0 && partial.FUV.rows() == 0);
 }
 
+TEST(IoObj, ABackslashAtTheEndOfALineContinuesTheStatement) {
+  TempDir dir;
+  // A face and a vertex split over lines (the backslash alone, attached to a token, followed by
+  // blanks and a CR), and an ignored statement continued: its second line is not a statement.
+  const TriMesh m = read_text_mesh(dir, "a.obj",
+                                   "v 0 0 0\nv 1 \\\n 0 0\nv 1 1 0\nv 0 1 0\n"
+                                   "g a \\\n  b\n"
+                                   "f 1 2 \\\n 3\\ \r\n 4\n"
+                                   "f 1 3 4 \\");
+  ASSERT_EQ(m.V.rows(), 4);
+  EXPECT_EQ(m.V.row(1), Eigen::RowVector3d(1, 0, 0));
+  ASSERT_EQ(m.F.rows(), 3);
+  EXPECT_EQ(m.F.row(0), Eigen::RowVector3i(0, 1, 2));
+  EXPECT_EQ(m.F.row(1), Eigen::RowVector3i(0, 2, 3));
+  EXPECT_EQ(m.F.row(2), Eigen::RowVector3i(0, 2, 3));
+  // Errors after a continuation name the line they are on.
+  write_text(dir.file("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 \\\n 2 x\n");
+  expect_input_error(dir.file("bad.obj"), "line 5");
+  // A backslash inside a line is not a continuation.
+  write_text(dir.file("mid.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 \\ 2 3\n");
+  expect_input_error(dir.file("mid.obj"), "line 4");
+}
+
 TEST(IoObj, MalformedContentNamesFileAndLine) {
   TempDir dir;
   auto check = [&](const std::string& content, const std::string& fragment) {

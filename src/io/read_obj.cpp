@@ -1,5 +1,6 @@
 // Wavefront OBJ: v (x y z [w | r g b]), vt (u [v [w]]), f with corners i, i/t, i//n, i/t/n, and
-// negative (relative) indices; polygons are fan-triangulated. Normals, groups, materials and
+// negative (relative) indices; polygons are fan-triangulated; a line ending in a backslash
+// continues on the next. Normals, groups, materials and
 // free-form statements are read past. Texture coordinates are kept when every face has them;
 // when only some faces do, they are dropped (a partial UV layout cannot drive a texture).
 // Positive indices may refer to vertices defined later in the file (the format allows it), so
@@ -64,6 +65,7 @@ Corner parse_corner(std::string_view token, long long num_v, long long num_vt, c
 
 TriMesh read_obj(const std::string& path, std::string_view bytes) {
   TextScanner s(bytes, path, '#');
+  s.allow_line_continuation();
   SurfaceBuilder b;
   std::vector<int> triangle_lines; // line of each triangle, for late index checks
   std::vector<long long> vertex_ids, texture_ids;

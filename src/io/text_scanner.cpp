@@ -61,12 +61,27 @@ void TextScanner::check_text_byte(char c) const {
   }
 }
 
+bool TextScanner::at_continuation() const {
+  if (!continuation_ || pos_ >= text_.size() || text_[pos_] != '\\') return false;
+  std::size_t p = pos_ + 1;
+  while (p < text_.size() && class_of(text_[p]) == Blank) ++p;
+  return p == text_.size() || text_[p] == '\n';
+}
+
 void TextScanner::skip_blanks(bool cross_lines) {
   while (pos_ < text_.size()) {
     const char c = text_[pos_];
     const CharClass k = class_of(c);
     if (k == Blank) {
       ++pos_;
+    } else if (c == '\\' && at_continuation()) {
+      const std::size_t end = text_.find('\n', pos_);
+      if (end == std::string_view::npos) {
+        pos_ = text_.size();
+      } else {
+        pos_ = end + 1;
+        ++line_;
+      }
     } else if (k == Newline) {
       if (!cross_lines) return;
       ++line_;
@@ -87,7 +102,7 @@ std::string_view TextScanner::next_token() {
   while (pos_ < text_.size()) {
     const char c = text_[pos_];
     const CharClass k = class_of(c);
-    if (k == Blank || k == Newline || (c == comment_ && comment_ != '\0')) break;
+    if (k == Blank || k == Newline || (c == comment_ && comment_ != '\0') || (c == '\\' && at_continuation())) break;
     if (k == Control) check_text_byte(c);
     ++pos_;
   }
@@ -111,10 +126,16 @@ bool TextScanner::at_end() {
 }
 
 void TextScanner::skip_rest_of_line() {
-  while (pos_ < text_.size() && text_[pos_] != '\n') check_text_byte(text_[pos_++]);
-  if (pos_ < text_.size()) {
-    ++pos_;
-    ++line_;
+  for (bool continued = true; continued && pos_ < text_.size();) {
+    continued = false; // the line's last non-blank byte is a continuation backslash
+    while (pos_ < text_.size() && text_[pos_] != '\n') {
+      continued = (text_[pos_] == '\\' && at_continuation()) || (continued && class_of(text_[pos_]) == Blank);
+      check_text_byte(text_[pos_++]);
+    }
+    if (pos_ < text_.size()) {
+      ++pos_;
+      ++line_;
+    }
   }
 }
 

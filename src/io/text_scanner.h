@@ -13,6 +13,10 @@ public:
   TextScanner(std::string_view text, std::string path, char comment = '#', std::size_t start = 0,
               int first_line = 1);
 
+  /// Joins a line ending in a backslash (blanks after it allowed) to the next one, as OBJ's
+  /// specification allows for long statements: the backslash and the line end read as a blank.
+  void allow_line_continuation() { continuation_ = true; }
+
   /// Next token, crossing line ends; empty at the end of the input.
   std::string_view next_token();
   /// Next token on the current line; empty when the line (or input) ends.
@@ -46,10 +50,13 @@ public:
 private:
   void skip_blanks(bool cross_lines);
   void check_text_byte(char c) const;
+  /// With continuation allowed: whether pos_ is a backslash with only blanks after it on its line.
+  bool at_continuation() const;
 
   std::string_view text_;
   std::string path_;
   char comment_;
+  bool continuation_ = false;
   std::size_t pos_;
   int line_;
   int token_line_;
