@@ -20,6 +20,7 @@
 #include "solver/hierarchy_levels.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -370,6 +371,39 @@ GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>
 }
 
 } // namespace
+
+// A drag that cannot finish: one base vertex of a plane's shell dragged up through its own top
+// vertex, both held, so the tets between them must flatten on the way; the tet step bound lets the
+// path approach that point only geometrically. With the tets alone guarded (no contact) the drag
+// is given up once not even a hundred times its pace would finish it, long before its iteration
+// budget, every tet still positive; with contacts guarded as well, by the contact drag's rule.
+TEST(GuardedSolver, ADragThatCannotFinishIsGivenUpEarlyAndLeftValid) {
+  const NormalShell shell(make_plane(4), 0.1);
+  const int n = shell.n;
+  int centre = 0;
+  for (int i = 1; i < n; ++i)
+    if (shell.base.V.row(i).norm() < shell.base.V.row(centre).norm()) centre = i;
+  std::vector<int> fixed;
+  for (int i = 0; i < n; ++i) fixed.push_back(i);
+  fixed.push_back(n + centre);
+  Eigen::MatrixXd targets = shell.X;
+  targets(centre, 2) += 2 * shell.eta; // the base vertex past its top, which stays where it is
+  GuardedSolveOptions options;
+  options.max_iterations = 400;
+  for (const double contact_distance : {0.0, 0.02}) {
+    GuardedSolverParameters p;
+    p.contact_distance = contact_distance;
+    p.contact_stiffness = contact_distance > 0 ? 1 : 0;
+    GuardedSolver solver(shell.rest, 2 * n, fixed, shell.boundary, p);
+    Eigen::MatrixXd Y = shell.X;
+    const GuardedSolveResult r = solver.solve(Y, options, targets);
+    EXPECT_LT(r.path_done, 1) << "contact distance " << contact_distance;
+    EXPECT_GT(r.path_done, 0.25) << "contact distance " << contact_distance; // it went most of the way it could
+    EXPECT_LT(r.iterations, options.max_iterations / 4) << "contact distance " << contact_distance;
+    EXPECT_GT(r.min_relative_volume, 0) << "contact distance " << contact_distance;
+    EXPECT_TRUE(std::isfinite(solver.energy(Y)));
+  }
+}
 
 // A plane's shell bent by dragging one edge's prisms up and over while the opposite edge's are
 // held, the drag far from every barrier: the minimisation after it runs the model's plain

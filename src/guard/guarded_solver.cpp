@@ -44,6 +44,12 @@ constexpr int kMaxBacktracks = 30;
 // than kStallProgress of their path.
 constexpr int kStallIterations = 20;
 constexpr double kStallProgress = 1e-3;
+// A drag guarding the tets alone may creep and still finish (it is the last way a frame keeps
+// every tet positive), so it is given up only when even this many times the pace of its last
+// kStallIterations iterations would not finish the path in the iterations left (CGAL's
+// armadillo bent until its base crossed itself crept 1e-10 to 1e-13 of its path an iteration,
+// for the whole budget of each attempt).
+constexpr double kHopelessPace = 100;
 
 double dot(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a.array() * b.array()).sum(); }
 
@@ -722,9 +728,14 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
                                   ((!clamped && !combined && !m.lengthening()) || predicted < options.tolerance * scale));
     // A contact-guarded drag the bounds hold still (the fixed vertices' motion forces a contact)
     // is given up early: its iterations would only shuffle the free vertices against the
-    // barriers, and the caller falls back to the tets or stops at contact.
+    // barriers, and the caller falls back to the tets or stops at contact. A tets-only drag, only
+    // when it cannot finish (kHopelessPace).
     tau_history.push_back(tau);
-    if (m.contact && tau < 1 && it > kStallIterations && tau - tau_history[it - kStallIterations] < kStallProgress) break;
+    if (tau < 1 && it > kStallIterations) {
+      const double progress = tau - tau_history[it - kStallIterations];
+      const double left = options.max_iterations - it;
+      if (m.contact ? progress < kStallProgress : kHopelessPace * progress * left < kStallIterations * (1 - tau)) break;
+    }
     if (tau >= 1 && (small || !moved)) {
       result.converged = small;
       break;

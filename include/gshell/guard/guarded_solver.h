@@ -34,7 +34,9 @@
 // shut: its top thins where the two halves press together) instead of being carried into the
 // step bound, where the model's response alone (-A_ff^-1 A_fc dX_c, kept when only the tets are
 // guarded) stalls. A contact-guarded drag that the bounds hold still (less than 0.1% of the path
-// in 20 iterations: the fixed vertices force a contact) ends early with path_done < 1.
+// in 20 iterations: the fixed vertices force a contact) ends early with path_done < 1; so does a
+// tets-only drag whose last 20 iterations went so little of the path that a hundred times their
+// pace would not finish it in the iterations left.
 #include <gshell/guard/contact_guard.h>
 #include <gshell/guard/volume_barrier.h>
 #include <gshell/quality/shell_boundary.h>
