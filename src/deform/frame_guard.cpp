@@ -11,6 +11,7 @@
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/triangle_intersections.h>
 
+#include "geometry/faces_touching.h"
 #include "guard/shell_part.h"
 
 #include <Eigen/Geometry>
@@ -56,12 +57,17 @@ constexpr double kFlat = 1e-8;
 // (docs/valid-deformation.md, "Mends held still by one pair").
 constexpr double kMendHoldBelow = 0.005;
 
-/// Flags in `skip` the three tets of every prism over a face of F with a corner flagged in
-/// `touched` (one per base vertex).
-void skip_prisms_touching(const std::vector<char>& touched, const Eigen::MatrixXi& F, std::vector<char>& skip) {
-  for (int f = 0; f < F.rows(); ++f)
-    if (touched[F(f, 0)] || touched[F(f, 1)] || touched[F(f, 2)])
-      for (int k = 0; k < 3; ++k) skip[3 * f + k] = 1;
+/// Flags in `skip` the three tets of the prism over every face flagged in `face`.
+void skip_prisms_of(const std::vector<char>& face, std::vector<char>& skip) {
+  for (std::size_t f = 0; f < face.size(); ++f)
+    if (face[f]) skip[3 * f] = skip[3 * f + 1] = skip[3 * f + 2] = 1;
+}
+
+/// Flags in `excluded` (one per row of `boundary`) the boundary triangles of every face flagged in
+/// `face`.
+void exclude_triangles_of(const std::vector<char>& face, const ShellBoundary& boundary, std::vector<char>& excluded) {
+  for (int r = 0; r < boundary.size(); ++r)
+    if (face[boundary.face[r]]) excluded[r] = 1;
 }
 
 /// Flags in `skip` the three tets of every prism touching a vertex of (V, F) that no direction
@@ -69,17 +75,7 @@ void skip_prisms_touching(const std::vector<char>& touched, const Eigen::MatrixX
 void skip_prisms_at_unextrudable_vertices(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::vector<char>& skip) {
   std::vector<char> unextrudable(V.rows(), 0);
   for (int v : extrusion_directions(V, F).unextrudable) unextrudable[v] = 1;
-  skip_prisms_touching(unextrudable, F, skip);
-}
-
-/// Flags in `excluded` (one per row of `boundary`) the boundary triangles of every face of F with a
-/// corner flagged in `touched` (one per base vertex).
-void exclude_faces_touching(const std::vector<char>& touched, const Eigen::MatrixXi& F, const ShellBoundary& boundary,
-                            std::vector<char>& excluded) {
-  for (int r = 0; r < boundary.size(); ++r) {
-    const int f = boundary.face[r];
-    if (touched[F(f, 0)] || touched[F(f, 1)] || touched[F(f, 2)]) excluded[r] = 1;
-  }
+  skip_prisms_of(detail::faces_touching(F, unextrudable), skip);
 }
 
 /// Flags in `excluded` the boundary triangles around the crossings of the base (V, F) with itself:
@@ -91,7 +87,7 @@ void exclude_around_base_crossings(const Eigen::MatrixXd& V, const Eigen::Matrix
   std::vector<char> touched(V.rows(), 0);
   for (const auto& [f, g] : crossings)
     for (int k = 0; k < 3; ++k) touched[F(f, k)] = touched[F(g, k)] = 1;
-  exclude_faces_touching(touched, F, boundary, excluded);
+  exclude_triangles_of(detail::faces_touching(F, touched), boundary, excluded);
 }
 
 /// Flags in `touched` (one per base vertex) the base vertex of every vertex of a boundary pair
@@ -159,14 +155,15 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   if (parameters_.contact_distance > 0 && n > 0)
     touch_pairs_touching_to_rounding(boundary_, X, n, parameters_.guard_fixed_pairs ? std::vector<int>{} : fixed_, eta,
                                      touched);
+  const std::vector<char> around = detail::faces_touching(rest.F, touched);
   parameters_.excluded_triangles.assign(boundary_.size(), 0);
-  exclude_faces_touching(touched, rest.F, boundary_, parameters_.excluded_triangles);
+  exclude_triangles_of(around, boundary_, parameters_.excluded_triangles);
   rest_excluded_ = parameters_.excluded_triangles;
   // And the tets of those faces' prisms: their tops cross another sheet already or lie a hair
   // from one, and guarding them held drags back (CGAL's mannequin-devil posed: not done in 600 s,
   // 2-3 minutes without them; docs/valid-deformation.md). A rest shell with no intersecting
   // pair and no pair touching to rounding has no such place: nothing changes for it.
-  skip_prisms_touching(touched, rest.F, parameters_.skip_tets);
+  skip_prisms_of(around, parameters_.skip_tets);
   rest_skip_ = parameters_.skip_tets;
 }
 

@@ -6,6 +6,7 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/stretch.h>
 
+#include "geometry/faces_touching.h"
 #include "guard/lift_thin_tops.h"
 #include "guard/shell_part.h"
 #include "guard/valid_start_with.h"
@@ -39,14 +40,6 @@ std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, co
   }
   return {F.rows() > 0 ? length / (3.0 * static_cast<double>(F.rows())) : 0.0,
           V.rows() > 0 ? area / static_cast<double>(V.rows()) : 0.0};
-}
-
-// Per face of F (over n vertices): whether one of its corners is in `vertices` (repeats allowed).
-std::vector<char> faces_at(const Eigen::MatrixXi& F, int n, const std::vector<int>& vertices) {
-  std::vector<char> corner(n, 0), out(F.rows(), 0);
-  for (int v : vertices) corner[v] = 1;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) out[f] = corner[F(f, 0)] || corner[F(f, 1)] || corner[F(f, 2)];
-  return out;
 }
 
 // Boundary rows the contact guard cannot protect: the excluded rows and every row sharing a vertex
@@ -353,7 +346,9 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
 
   // Prisms around unextrudable vertices cannot all be valid: their tets are not guarded and their
   // boundary triangles see no contacts (nor do those around the base's own crossings, below).
-  const std::vector<char> unguarded_face = faces_at(F, n, g.directions.unextrudable);
+  std::vector<char> unextrudable(n, 0);
+  for (int v : g.directions.unextrudable) unextrudable[v] = 1;
+  const std::vector<char> unguarded_face = detail::faces_touching(F, unextrudable);
   GuardedSolverParameters& p = g.parameters;
   p = absolute_guard_parameters(V, F, eta, options);
   p.skip_tets.assign(3 * static_cast<std::size_t>(m), 0);
@@ -392,11 +387,11 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     // Scoped: its trees over all boundary rows are freed once the start is made, as before.
     detail::StartChecker checker(F, n, p.skip_tets, {});
     ShellCertificate first = checker.certify(V, X.bottomRows(n), &g.base_self_intersections);
-    std::vector<int> crossing_corners;
+    std::vector<char> crossing_corner(n, 0);
     for (const auto& [f1, f2] : g.base_self_intersections)
       for (int f : {f1, f2})
-        for (int k = 0; k < 3; ++k) crossing_corners.push_back(F(f, k));
-    const std::vector<char> crossing_face = faces_at(F, n, crossing_corners);
+        for (int k = 0; k < 3; ++k) crossing_corner[F(f, k)] = 1;
+    const std::vector<char> crossing_face = detail::faces_touching(F, crossing_corner);
     p.excluded_triangles.assign(boundary.size(), 0);
     for (int r = 0; r < boundary.size(); ++r)
       p.excluded_triangles[r] = unguarded_face[boundary.face[r]] || crossing_face[boundary.face[r]];
