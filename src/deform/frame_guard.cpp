@@ -73,9 +73,7 @@ void exclude_triangles_of(const std::vector<char>& face, const ShellBoundary& bo
 /// Flags in `skip` the three tets of every prism touching a vertex of (V, F) that no direction
 /// extrudes (one of them must be inverted, and which one may change as the base moves).
 void skip_prisms_at_unextrudable_vertices(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, std::vector<char>& skip) {
-  std::vector<char> unextrudable(V.rows(), 0);
-  for (int v : extrusion_directions(V, F).unextrudable) unextrudable[v] = 1;
-  skip_prisms_of(detail::faces_touching(F, unextrudable), skip);
+  skip_prisms_of(detail::faces_touching(F, static_cast<int>(V.rows()), extrusion_directions(V, F).unextrudable), skip);
 }
 
 /// Flags in `excluded` the boundary triangles around the crossings of the base (V, F) with itself:
@@ -84,10 +82,7 @@ void exclude_around_base_crossings(const Eigen::MatrixXd& V, const Eigen::Matrix
                                    std::vector<char>& excluded) {
   const std::vector<std::pair<int, int>> crossings = surface_self_intersections(V, F);
   if (crossings.empty()) return;
-  std::vector<char> touched(V.rows(), 0);
-  for (const auto& [f, g] : crossings)
-    for (int k = 0; k < 3; ++k) touched[F(f, k)] = touched[F(g, k)] = 1;
-  exclude_triangles_of(detail::faces_touching(F, touched), boundary, excluded);
+  exclude_triangles_of(detail::faces_around_crossings(F, static_cast<int>(V.rows()), crossings), boundary, excluded);
 }
 
 /// Flags in `touched` (one per base vertex) the base vertex of every vertex of a boundary pair

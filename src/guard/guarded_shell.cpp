@@ -346,9 +346,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
 
   // Prisms around unextrudable vertices cannot all be valid: their tets are not guarded and their
   // boundary triangles see no contacts (nor do those around the base's own crossings, below).
-  std::vector<char> unextrudable(n, 0);
-  for (int v : g.directions.unextrudable) unextrudable[v] = 1;
-  const std::vector<char> unguarded_face = detail::faces_touching(F, unextrudable);
+  const std::vector<char> unguarded_face = detail::faces_touching(F, n, g.directions.unextrudable);
   GuardedSolverParameters& p = g.parameters;
   p = absolute_guard_parameters(V, F, eta, options);
   p.skip_tets.assign(3 * static_cast<std::size_t>(m), 0);
@@ -387,11 +385,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     // Scoped: its trees over all boundary rows are freed once the start is made, as before.
     detail::StartChecker checker(F, n, p.skip_tets, {});
     ShellCertificate first = checker.certify(V, X.bottomRows(n), &g.base_self_intersections);
-    std::vector<char> crossing_corner(n, 0);
-    for (const auto& [f1, f2] : g.base_self_intersections)
-      for (int f : {f1, f2})
-        for (int k = 0; k < 3; ++k) crossing_corner[F(f, k)] = 1;
-    const std::vector<char> crossing_face = detail::faces_touching(F, crossing_corner);
+    const std::vector<char> crossing_face = detail::faces_around_crossings(F, n, g.base_self_intersections);
     p.excluded_triangles.assign(boundary.size(), 0);
     for (int r = 0; r < boundary.size(); ++r)
       p.excluded_triangles[r] = unguarded_face[boundary.face[r]] || crossing_face[boundary.face[r]];
