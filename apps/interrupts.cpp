@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
+#include <fcntl.h>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -29,10 +30,15 @@ extern "C" void on_signal(int signal) {
 
 [[noreturn]] void end_process(int signal) {
   g_ending = true;
+  // Other threads go on printing (a frame's line, a warning) until the process ends: their stderr
+  // is pointed at /dev/null first, so "gshell: interrupted" stays the last line.
+  int err = ::dup(2);
+  if (err < 0) err = 2;
+  if (const int null = ::open("/dev/null", O_WRONLY); null >= 0) ::dup2(null, 2);
   remove_temporary_outputs(/*for_exit=*/true); // a writer still running now blocks at its next file
   // After "^C" on a terminal, or an open status line there, the message needs a line of its own.
-  const char* line = ::isatty(2) ? "\ngshell: interrupted\n" : "gshell: interrupted\n";
-  [[maybe_unused]] const ssize_t written = ::write(2, line, std::strlen(line));
+  const char* line = ::isatty(err) ? "\ngshell: interrupted\n" : "gshell: interrupted\n";
+  [[maybe_unused]] const ssize_t written = ::write(err, line, std::strlen(line));
   std::_Exit(128 + signal);
 }
 
