@@ -32,7 +32,7 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
     a.options.check();
   });
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
-  check_output_folder(a.output, holds_only_shell_files);
+  check_output_folder(a.output, [](const std::filesystem::path& d) { return gshell::holds_shell_output_of(d, "generate"); });
   std::vector<std::string> input_warnings;
   TriMesh mesh = load_mesh(a.input, &input_warnings);
   cli::Progress progress("generate");

@@ -34,7 +34,7 @@ void run(const CLI::App& cmd, PoseArgs& a) {
 
   const ShellFolder rest = read_shell_folder(a.shell_dir);
   const HandleSet handles = read_handles(a.handles, rest.shell);
-  check_output_folder(a.output, holds_only_shell_files); // fail on a bad output path before the long part
+  check_pose_output_folder(a.output, a.shell_dir); // fail on a bad output path before the long part
 
   const std::string rest_warning = invalid_rest_shell_warning(a.shell_dir, rest.report, "pose step");
   if (!rest_warning.empty()) cli::print_warning("pose", rest_warning);

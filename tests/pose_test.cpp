@@ -349,6 +349,36 @@ TEST(PoseCli, AFolderOfOtherFilesIsNotReplaced) {
   EXPECT_EQ(test::count_entries(tmp.path()), 3); // shell, pull.json, mine: no temporaries left
 }
 
+TEST(PoseCli, NeitherTheRestShellNorAnotherCommandsShellFolderIsReplaced) {
+  TempDir tmp;
+  write_shell_dir(small_bowl(), tmp.path() / "shell");
+  test::write_text(tmp.file("pull.json"), kPull);
+  const std::string before = test::read_text(tmp.file("shell/top.obj"));
+  const auto pose_into = [&](const std::string& shell, const std::string& out) {
+    return run_cli("pose --shell '" + tmp.file(shell) + "' --handles '" + tmp.file("pull.json") + "' --levels 3 -q -o '" +
+                   tmp.file(out) + "'");
+  };
+  // A shell folder made by generate is not a pose's to replace, least of all the one it poses.
+  const auto own = pose_into("shell", "shell");
+  EXPECT_EQ(own.exit_code, 1);
+  EXPECT_NE(own.err.find("rest shell"), std::string::npos) << own.err;
+  EXPECT_EQ(test::read_text(tmp.file("shell/top.obj")), before);
+  // A posed shell is a shell too, and posed again it may not replace itself either...
+  ASSERT_EQ(pose_into("shell", "posed").exit_code, 0);
+  const std::string posed = test::read_text(tmp.file("posed/top.obj"));
+  const auto again = pose_into("posed", "posed");
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_EQ(test::read_text(tmp.file("posed/top.obj")), posed);
+  // ... while an earlier pose output elsewhere is replaced, and generate does not take it over.
+  EXPECT_EQ(pose_into("posed", "posed2").exit_code, 0);
+  EXPECT_EQ(pose_into("shell", "posed2").exit_code, 0);
+  const auto generate = run_cli("generate builtin:sphere:1 --thickness-ratio 0.05 -q -o '" + tmp.file("posed") + "'");
+  EXPECT_EQ(generate.exit_code, 1);
+  EXPECT_NE(generate.err.find("not an earlier output"), std::string::npos) << generate.err;
+  EXPECT_EQ(test::read_text(tmp.file("posed/top.obj")), posed);
+  EXPECT_EQ(test::count_entries(tmp.path()), 4); // shell, pull.json, posed, posed2: no temporaries left
+}
+
 TEST(PoseCli, BadHandleFilesExitOneAndWriteNothing) {
   TempDir tmp;
   write_shell_dir(small_bowl(), tmp.path() / "shell");

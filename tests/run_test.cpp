@@ -97,7 +97,8 @@ TEST(ShellFolder, WriteReadRoundTrip) {
   EXPECT_EQ(f.tets.rows(), 3 * c.surface.num_faces());
   EXPECT_EQ(f.report, c.report);
   EXPECT_TRUE(is_shell_folder(dir));
-  EXPECT_TRUE(holds_only_shell_files(dir));
+  EXPECT_TRUE(holds_shell_output_of(dir, "generate"));
+  EXPECT_FALSE(holds_shell_output_of(dir, "pose"));
 
   // Without base.obj the shell comes from shell.vtu, the faces from top.obj.
   fs::remove(fs::path(dir) / "base.obj");
@@ -163,7 +164,7 @@ TEST(StagedFolder, AFailureLeavesNothingBehind) {
   fs::create_directory(tmp.path() / "mine");
   test::write_text(tmp.file("mine/notes.txt"), "keep me");
   EXPECT_THROW(write_shell_folder(tmp.file("mine"), c), InputError);
-  EXPECT_THROW(check_output_folder(tmp.file("mine"), holds_only_shell_files), InputError);
+  EXPECT_THROW(check_output_folder(tmp.file("mine"), [](const fs::path& d) { return holds_shell_output_of(d, "generate"); }), InputError);
   EXPECT_NO_THROW(check_output_folder(tmp.file("mine"))); // without a rule only the path is checked
   EXPECT_EQ(entries(tmp.path() / "mine"), std::vector<std::string>{"notes.txt"});
   EXPECT_EQ(entries(tmp.path()), (std::vector<std::string>{"mine", "shell"}));

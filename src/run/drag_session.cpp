@@ -10,10 +10,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <cmath>
 #include <limits>
 
 namespace gshell {
+
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -516,7 +519,7 @@ nlohmann::ordered_json DragSession::handles_json() const { return handles_to_jso
 
 void DragSession::write(const std::string& dir, std::size_t first_step, const BeforeCommit& before_commit) const {
   const Impl& s = *impl_;
-  check_output_folder(dir, holds_only_shell_files);
+  check_pose_output_folder(dir, s.shell_name);
   ShellFolderContents c;
   c.surface = s.surface;
   c.X = s.state.X;
@@ -524,6 +527,13 @@ void DragSession::write(const std::string& dir, std::size_t first_step, const Be
   c.cell_data.emplace_back("det_F", tet_deformation_determinants(s.tets(), c.X));
   c.report = result(first_step).to_json();
   write_shell_folder(dir, c, before_commit);
+}
+
+void check_pose_output_folder(const std::string& dir, const std::string& shell_dir) {
+  std::error_code ec;
+  if (!shell_dir.empty() && fs::exists(dir, ec) && fs::equivalent(dir, shell_dir, ec))
+    throw InputError(with_file(dir, "is the folder of the rest shell being posed; choose another output folder"));
+  check_output_folder(dir, [](const fs::path& d) { return holds_shell_output_of(d, "pose"); });
 }
 
 } // namespace gshell

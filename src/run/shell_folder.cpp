@@ -222,21 +222,34 @@ void write_shell_files(const fs::path& dir, const ShellFolderContents& c) {
   write_report(dir / "report.json", c.report);
 }
 
-bool holds_only_shell_files(const fs::path& dir) {
+std::string shell_output_command(const nlohmann::ordered_json& report) {
+  if (report.is_object() && report.contains("command") && report["command"].is_string())
+    return report["command"].get<std::string>();
+  return "generate";
+}
+
+bool holds_shell_output_of(const fs::path& dir, const std::string& command) {
+  bool has_report = false;
   for (const auto& entry : fs::directory_iterator(dir)) {
     const std::string name = entry.path().filename().string();
     if (std::find_if(kShellFiles.begin(), kShellFiles.end(), [&](const char* f) { return name == f; }) ==
         kShellFiles.end())
       return false;
+    has_report |= name == "report.json";
   }
-  return true;
+  if (!has_report) return false; // which command made it is unknown: not replaced
+  std::ifstream in(dir / "report.json");
+  const nlohmann::ordered_json report = nlohmann::ordered_json::parse(in, nullptr, /*allow_exceptions=*/false);
+  return !report.is_discarded() && report.is_object() && shell_output_command(report) == command;
 }
 
 void write_shell_folder(const std::string& dir, const ShellFolderContents& contents, const BeforeCommit& before_commit) {
+  const std::string command = shell_output_command(contents.report);
+  check_output_folder(dir, [&](const fs::path& d) { return holds_shell_output_of(d, command); });
   StagedFolder staged(dir);
   write_shell_files(staged.path(), contents);
   if (before_commit) before_commit(staged.path());
-  staged.commit(holds_only_shell_files);
+  staged.commit([&](const fs::path& d) { return holds_shell_output_of(d, command); });
 }
 
 } // namespace gshell

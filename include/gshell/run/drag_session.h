@@ -128,12 +128,17 @@ public:
   /// explicit vertex ids, translate, rotate {axis, degrees, center}.
   nlohmann::ordered_json handles_json() const;
   /// Writes the posed shell folder, as `gshell pose` does (result(first_step) as its report).
-  /// \throws InputError on a bad output path (nothing is left behind).
+  /// \throws InputError on a bad output path (nothing is left behind), as check_pose_output_folder.
   void write(const std::string& dir, std::size_t first_step = 0, const BeforeCommit& before_commit = {}) const;
 
 private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// Whether DIR may receive a posed shell: a usable path that is empty, absent or an earlier pose
+/// output, and not the folder of the rest shell `shell_dir` (which a pose would replace by itself).
+/// \throws InputError naming DIR otherwise.
+void check_pose_output_folder(const std::string& dir, const std::string& shell_dir);
 
 } // namespace gshell

@@ -91,13 +91,20 @@ struct ShellFolderContents {
 void write_shell_files(const std::filesystem::path& dir, const ShellFolderContents& contents);
 
 /// Writes a whole shell folder DIR through a StagedFolder: complete or not at all. An existing
-/// DIR is replaced when it is empty or holds only the files of a shell folder; a folder of other
-/// files is an error (nothing of it is deleted).
+/// DIR is replaced when it is empty or holds an earlier output of the same command (the report's
+/// `command`, "generate" when it names none): a folder of other files, or a shell folder another
+/// command made (pose writing over the shell it was posed from), is an error and nothing of it is
+/// deleted.
 /// \throws InputError on a bad output path or a failed write (nothing is left behind).
 void write_shell_folder(const std::string& dir, const ShellFolderContents& contents,
                         const BeforeCommit& before_commit = {});
 
-/// A folder holds nothing but the files of a shell folder (the StagedFolder commit rule).
-bool holds_only_shell_files(const std::filesystem::path& dir);
+/// The command that wrote a shell folder's report: its "command" entry (pose), or "generate" for a
+/// report without one (generate's).
+std::string shell_output_command(const nlohmann::ordered_json& report);
+
+/// A folder holds nothing but the files of a shell folder, and its report.json says `command` made
+/// it (the StagedFolder commit rule of write_shell_folder; "generate" or "pose").
+bool holds_shell_output_of(const std::filesystem::path& dir, const std::string& command);
 
 } // namespace gshell
