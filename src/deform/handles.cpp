@@ -196,6 +196,8 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
   if (has_weight) {
     set.weight = finite_number(doc["weight"], "weight", r);
     if (!(set.weight > 0)) r.fail("weight", "must be > 0");
+    // 1e17 made the hierarchy's reduced matrices indefinite ("internal error"); see kMaxSoftWeight.
+    if (set.weight > kMaxSoftWeight) r.fail("weight", "must be <= 1e12 (for handles held exactly use \"mode\": \"hard\")");
   }
   // A weight without a mode asks for soft constraints; otherwise hard is the default.
   set.mode = has_weight ? ConstraintMode::Soft : ConstraintMode::Hard;
@@ -222,8 +224,8 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
 }
 
 void check_handles(const HandleSet& set, int shell_vertices) {
-  if (set.mode == ConstraintMode::Soft && !(set.weight > 0 && std::isfinite(set.weight)))
-    throw InputError("handles: weight must be > 0 and finite");
+  if (set.mode == ConstraintMode::Soft && !(set.weight > 0 && set.weight <= kMaxSoftWeight))
+    throw InputError("handles: weight must be > 0 and <= 1e12");
   std::vector<int> owner(std::max(shell_vertices, 0), -1);
   for (size_t k = 0; k < set.handles.size(); ++k) {
     const Handle& h = set.handles[k];

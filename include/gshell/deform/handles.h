@@ -30,12 +30,17 @@ enum class ConstraintMode {
   Soft, ///< handle vertices are pulled by springs: weight * k * ||x - p||^2 (k below)
 };
 
+/// The stiffest soft handles (HandleSet::weight): a handle then sits on its target to about 1e-12
+/// of the shell's size, and stiffer springs make the reduced levels' matrices indefinite to rounding.
+constexpr double kMaxSoftWeight = 1e12;
+
 struct HandleSet {
   std::vector<Handle> handles;         ///< disjoint vertex sets
   ConstraintMode mode = ConstraintMode::Hard;
   /// Soft mode only. Dimensionless: the spring constant is weight times the mean diagonal entry
   /// of the shell's stiffness matrix (sum_t vol_t G_t^T G_t), so the same weight behaves the same
-  /// at any model scale. 1 = as stiff as a typical vertex's tie to its neighbours.
+  /// at any model scale. 1 = as stiff as a typical vertex's tie to its neighbours. At most
+  /// kMaxSoftWeight.
   double weight = 1000;
 
   /// Vertices of all handles, handle after handle (the row order of `targets`).
@@ -50,7 +55,7 @@ struct HandleSet {
 
 /// Checks a handle set built in code for a shell of `shell_vertices` (2n) vertices, as
 /// parse_handles checks a file. \throws InputError on an empty handle, a vertex id out of range
-/// or in two handles, a zero rotation axis, non-finite numbers, or a weight <= 0.
+/// or in two handles, a zero rotation axis, non-finite numbers, or a weight <= 0 or > kMaxSoftWeight.
 void check_handles(const HandleSet& handles, int shell_vertices);
 
 /// The handle file (docs/handles.md) of a handle set: mode, weight (soft mode), and per handle
