@@ -190,9 +190,12 @@ TEST(DeformCli, BadFramesFailBeforeAnythingIsWritten) {
   std::string with_nan = test::read_text(good);
   with_nan.replace(with_nan.find("v "), 2, "v nan ");
   test::write_text(tmp.file("nan.obj"), with_nan);
+  TriMesh tiny = make_plane(4);
+  tiny.V *= 1e-45;
+  write_mesh(tmp.file("tiny.obj"), tiny);
 
   const std::string out = tmp.file("out");
-  for (const std::string bad : {"small.obj", "faces.obj", "nan.obj", "missing.obj"}) {
+  for (const std::string bad : {"small.obj", "faces.obj", "nan.obj", "tiny.obj", "missing.obj"}) {
     // The bad frame comes last: no frame may be solved or written before all are checked.
     const auto r = run_cli("deform --shell '" + shell + "' --base '" + good + "' '" + good + "' '" + tmp.file(bad) +
                            "' -o '" + out + "'");

@@ -178,6 +178,10 @@ TEST(ShellDeformer, BadFramesAreRejectedAndLeaveTheStateAlone) {
   Eigen::MatrixXd bad = rest.base;
   bad(2, 1) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(deformer.solve(bad), InputError);
+  // Too small to measure (areas underflow; such a frame ran for minutes), or every vertex at one point.
+  EXPECT_THROW(deformer.solve(rest.base * 1e-45), InputError);
+  EXPECT_THROW(deformer.solve(rest.base * 0.0), InputError);
+  EXPECT_THROW(deformer.solve(rest.base * 1e60), InputError); // beyond the coordinate limit
   EXPECT_TRUE(deformer.current().isApprox(rest.vertices()));
   const FrameResult r = deformer.solve(rest.base);
   EXPECT_LT((r.top - rest.top).cwiseAbs().maxCoeff(), 1e-12);

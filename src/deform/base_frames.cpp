@@ -20,7 +20,7 @@ Eigen::MatrixXd read_base_frame(const std::string& path, const Eigen::MatrixXi& 
   for (Eigen::Index f = 0; f < F.rows(); ++f)
     if (mesh.F.row(f) != F.row(f))
       throw InputError(with_file(path, "face " + std::to_string(f) + " differs from the shell's base"));
-  require_usable_coordinates(mesh.V, path);
+  require_usable_frame(mesh.V, path);
   return std::move(mesh.V);
 }
 

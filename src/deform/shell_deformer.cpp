@@ -3,6 +3,7 @@
 #include "frame_guard.h"
 
 #include <gshell/error.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/guard/extrusion_directions.h>
 #include <gshell/seconds_since.h>
 #include <gshell/shell/offset_shell.h>
@@ -300,7 +301,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   if (new_base.rows() != n || new_base.cols() != 3)
     throw InputError("the new base has " + std::to_string(new_base.rows()) + " vertices, the shell's base has " +
                      std::to_string(n));
-  if (!new_base.allFinite()) throw InputError("the new base has a non-finite coordinate");
+  require_usable_frame(new_base, "the new base");
   options.check();
 
   const auto start = Clock::now();

@@ -68,6 +68,11 @@ std::string short_number(double x) {
   return text;
 }
 
+std::string too_small_message(double diagonal) {
+  return "the mesh is too small: its bounding box diagonal is " + short_number(diagonal) + "; gshell needs at least " +
+         short_number(min_mesh_size) + " (areas and volumes would underflow; scale the mesh up)";
+}
+
 /// Why vertex v cannot be used (its row of V given), or "" when it can.
 std::string coordinate_problem(const Eigen::Vector3d& p, int v) {
   if (!p.allFinite()) return "vertex " + std::to_string(v) + " has a non-finite coordinate (NaN or infinity)";
@@ -154,8 +159,7 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   const bool too_small = diagonal > 0 && diagonal < min_mesh_size;
   if (too_small)
     list.add(Severity::Error, "too small mesh",
-             "the mesh is too small: its bounding box diagonal is " + short_number(diagonal) + "; gshell needs at least " +
-                 short_number(min_mesh_size) + " (areas and volumes would underflow; scale the mesh up)");
+             too_small_message(diagonal));
   // Collinear points give a cross product of rounding size (~1e-16 diag^2); anything below this
   // is too small to carry a normal or a prism.
   const double min_double_area = 1e-12 * diagonal * diagonal;
@@ -309,6 +313,16 @@ void require_usable_coordinates(const Eigen::MatrixXd& V, const std::string& nam
   for (Eigen::Index v = 0; v < V.rows(); ++v)
     if (const std::string problem = coordinate_problem(V.row(v).transpose(), static_cast<int>(v)); !problem.empty())
       throw InputError(with_file(name, problem));
+}
+
+void require_usable_frame(const Eigen::MatrixXd& V, const std::string& name) {
+  require_usable_coordinates(V, name);
+  if (V.rows() == 0) return;
+  // stableNorm, as validate_mesh: a diagonal of 1e-200 squared underflows to 0.
+  const double diagonal = (V.colwise().maxCoeff() - V.colwise().minCoeff()).stableNorm();
+  if (diagonal == 0) throw InputError(with_file(name, "every vertex is at one point"));
+  if (diagonal < min_mesh_size)
+    throw InputError(with_file(name, too_small_message(diagonal)));
 }
 
 } // namespace gshell

@@ -48,6 +48,11 @@ std::string too_large_coordinate(const Eigen::Vector3d& p);
 /// magnitude max_coordinate_magnitude or more, with validate_mesh's wording.
 void require_usable_coordinates(const Eigen::MatrixXd& V, const std::string& name);
 
+/// require_usable_coordinates, and a size (bounding-box diagonal) of at least min_mesh_size: what a
+/// new pose of a checked base (a deformation frame) must meet, its faces being the base's.
+/// \throws InputError naming `name`.
+void require_usable_frame(const Eigen::MatrixXd& V, const std::string& name);
+
 /// Throws InputError "NAME: <first error> (and K more problems)" if validate_mesh finds an error;
 /// K counts the other errors and warnings. Otherwise returns the warnings, one line per kind:
 /// "NAME: <first> (and K more <kind>)".
