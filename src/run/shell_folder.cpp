@@ -229,26 +229,24 @@ std::string shell_output_command(const nlohmann::ordered_json& report) {
 }
 
 bool holds_shell_output_of(const fs::path& dir, const std::string& command) {
-  bool has_report = false;
   for (const auto& entry : fs::directory_iterator(dir)) {
     const std::string name = entry.path().filename().string();
     if (std::find_if(kShellFiles.begin(), kShellFiles.end(), [&](const char* f) { return name == f; }) ==
         kShellFiles.end())
       return false;
-    has_report |= name == "report.json";
   }
-  if (!has_report) return false; // which command made it is unknown: not replaced
-  std::ifstream in(dir / "report.json");
-  const nlohmann::ordered_json report = nlohmann::ordered_json::parse(in, nullptr, /*allow_exceptions=*/false);
-  return !report.is_discarded() && report.is_object() && shell_output_command(report) == command;
+  try {
+    return shell_output_command(read_report(dir)) == command;
+  } catch (const InputError&) {
+    return false; // no readable report: which command made it is unknown, so it is not replaced
+  }
 }
 
 void write_shell_folder(const std::string& dir, const ShellFolderContents& contents, const BeforeCommit& before_commit) {
-  const std::string command = shell_output_command(contents.report);
-  check_output_folder(dir, [&](const fs::path& d) { return holds_shell_output_of(d, command); });
   StagedFolder staged(dir);
   write_shell_files(staged.path(), contents);
   if (before_commit) before_commit(staged.path());
+  const std::string command = shell_output_command(contents.report);
   staged.commit([&](const fs::path& d) { return holds_shell_output_of(d, command); });
 }
 
