@@ -48,7 +48,7 @@ void run_animate(const AnimateArgs& args) {
   constexpr int kMaxDegrees = 100 * 360;
   if (std::abs(degrees) > kMaxDegrees)
     throw gshell::InputError("the angle must be within +-" + std::to_string(kMaxDegrees) + " degrees (100 turns; got " +
-                             gshell::format_number(degrees) + ")");
+                             gshell::format_number(degrees, 10) + ")");
   gshell::TriMesh mesh = gshell::cli::load_surface(args.base, "animate");
   const gshell::MotionFrame frame = gshell::motion_frame(mesh.V);
   const Eigen::MatrixXd rest = mesh.V;
@@ -98,7 +98,7 @@ void add_animate_command(CLI::App& parent) {
                                "Bend the longest bounding-box axis into an arc of A degrees in total");
   auto* twist = cmd->add_option("--twist", args->twist,
                                 "Twist about the longest bounding-box axis by A degrees end to end");
-  cmd->add_option("--band", args->band,
+  auto* band = cmd->add_option("--band", args->band,
                   "With --bend: fraction of the long axis that bends (a fold when < 1), centred")
       ->capture_default_str();
   bend->excludes(twist);
@@ -106,8 +106,9 @@ void add_animate_command(CLI::App& parent) {
   cmd->add_option("--frames", args->frames, "Number of frames K; frame K reaches the full angle")
       ->capture_default_str();
   cmd->add_option("-o,--output", args->out, "Output folder: frame_0001.obj .. frame_K.obj")->required();
-  cmd->callback([args, bend, twist] {
+  cmd->callback([args, bend, twist, band] {
     if (bend->count() + twist->count() != 1) throw gshell::InputError("give exactly one of --bend A or --twist A");
+    if (band->count() && twist->count()) throw gshell::InputError("--band applies only to --bend (a twist turns the whole axis)");
     run_animate(*args);
   });
 }

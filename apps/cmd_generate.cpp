@@ -7,6 +7,7 @@
 #include "thickness_flags.h"
 #include "warnings.h"
 
+#include <gshell/error.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/run/generate_run.h>
 #include <gshell/run/staged_folder.h>
@@ -31,6 +32,9 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
     a.options.generate.method = parse_shell_method(a.method);
     a.options.check();
   });
+  if (a.options.generate.method != ShellMethod::Curvature &&
+      (cmd.get_option("--s-min")->count() || cmd.get_option("--s-max")->count()))
+    throw InputError("--s-min and --s-max apply only to --method curvature (the method is " + a.method + ")");
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, [](const std::filesystem::path& d) { return gshell::holds_shell_output_of(d, "generate"); });
   std::vector<std::string> input_warnings;

@@ -8,7 +8,10 @@
 #include <gshell/render/image.h>
 #include <gshell/render/shell_render.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <regex>
@@ -32,16 +35,26 @@ struct RenderArgs {
 
 void parse_size(const std::string& text, int& width, int& height) {
   std::smatch match;
-  static const std::regex pattern(R"((\d{1,5})[xX](\d{1,5}))");
+  static const std::regex pattern(R"((\d+)[xX](\d+))");
   if (!std::regex_match(text, match, pattern)) throw InputError("--size " + text + ": expected WIDTHxHEIGHT, e.g. 1280x720");
-  width = std::stoi(match[1]);
-  height = std::stoi(match[2]);
+  // More than 5 digits is out of range however many there are (and would overflow stoi).
+  const auto number = [](const std::string& digits) { return digits.size() > 5 ? 100000 : std::stoi(digits); };
+  width = number(match[1]);
+  height = number(match[2]);
   if (width < 32 || height < 32 || width > 8192 || height > 8192)
     throw InputError("--size " + text + ": width and height must be in [32, 8192]");
 }
 
+/// The image is always PNG: another extension would give a file whose name lies about it.
+void check_png_name(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext != ".png") throw InputError(with_file(path, "render writes PNG images: give the output a .png name"));
+}
+
 void run_render(const CLI::App& cmd, const RenderArgs& args) {
   ShellRenderOptions options;
+  check_png_name(args.output);
   parse_size(args.size, options.figure.width, options.figure.height);
   check_flags(cmd, [&] { options.figure.view = parse_view(args.view); });
   options.figure.projection = args.ortho ? Projection::Orthographic : Projection::Perspective;

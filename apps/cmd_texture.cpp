@@ -35,8 +35,14 @@ void run_texture(const TextureArgs& args) {
   if (tile.num_vertices() == 0 || tile.num_faces() == 0)
     throw gshell::InputError(gshell::with_file(args.tile, "the tile has no faces"));
   gshell::require_usable_coordinates(tile.V, args.tile);
-  const gshell::GeometricTexture texture =
-      gshell::map_geometric_texture(shell, uv_source, tile, args.repeat[0], args.repeat[1]);
+  // What is left to go wrong is the base's UV layout (every UV triangle degenerate) or the number
+  // of tiles over it: named by the shell folder, the input that holds the layout.
+  gshell::GeometricTexture texture;
+  try {
+    texture = gshell::map_geometric_texture(shell, uv_source, tile, args.repeat[0], args.repeat[1]);
+  } catch (const gshell::InputError& e) {
+    throw gshell::InputError(gshell::with_file(args.shell, e.what()));
+  }
   gshell::write_mesh(args.out, texture.mesh);
   gshell::cli::Progress progress("texture");
   if (progress.enabled()) {

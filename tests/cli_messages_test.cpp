@@ -220,6 +220,64 @@ TEST(CliMessages, HugeCoordinatesInShellFoldersAndHandlesSayTheyAreTooLarge) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("out")));
 }
 
+TEST(CliMessages, OptionsThatWouldBeIgnoredAreErrors) {
+  TempDir dir;
+  const std::string out = " -o " + quoted(dir.file("out"));
+  expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --s-min 0.8" + out,
+                    "--s-min and --s-max apply only to --method curvature (the method is rigid)");
+  expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --method offset --s-max 1.5" + out,
+                    "--s-min and --s-max apply only to --method curvature (the method is offset)");
+  expect_error_line("animate builtin:plane:4 --twist 30 --band 0.5" + out,
+                    "--band applies only to --bend (a twist turns the whole axis)");
+  EXPECT_EQ(count_entries(dir.path()), 0);
+  // The curvature method takes them, and a bend its band.
+  EXPECT_EQ(run_cli("generate builtin:sphere:1 --thickness-ratio 0.05 --method curvature --s-min 0.8 -q" + out).exit_code, 0);
+  EXPECT_EQ(run_cli("animate builtin:plane:4 --bend 30 --band 0.5 --frames 2 -q -o " + quoted(dir.file("frames"))).exit_code, 0);
+}
+
+TEST(CliMessages, ValuesAreShownAsGivenAndOutputsNamedAsWritten) {
+  TempDir dir;
+  const std::string png = dir.file("x.png");
+  // 36001 was shown as "3.6e+04", and a 6-digit size as not being WIDTHxHEIGHT at all.
+  expect_error_containing("animate builtin:plane:4 --twist 36001 -o " + quoted(dir.file("a")), "(100 turns; got 36001)");
+  expect_error_line("render builtin:sphere:1 -o " + quoted(png) + " --size 100000x100000",
+                    "--size 100000x100000: width and height must be in [32, 8192]");
+  expect_error_line("render builtin:sphere:1 -o " + quoted(png) + " --size 99999999999999999999x64",
+                    "--size 99999999999999999999x64: width and height must be in [32, 8192]");
+  // render writes PNG whatever the name says: any other name is refused.
+  expect_error_line("render builtin:sphere:1 -o " + quoted(dir.file("x.jpg")),
+                    dir.file("x.jpg") + ": render writes PNG images: give the output a .png name");
+  EXPECT_EQ(count_entries(dir.path()), 0);
+  EXPECT_EQ(run_cli("render builtin:sphere:1 --size 64x64 -q -o " + quoted(dir.file("x.PNG"))).exit_code, 0);
+}
+
+TEST(CliMessages, TextureCoordinatesAndTexturesNameTheirFile) {
+  TempDir dir;
+  // A tetrahedron whose second texture coordinate is NaN: an error of the mesh, named by its file.
+  const std::string nan_uv = dir.file("nan_uv.obj");
+  write_text(nan_uv, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt nan 0\nvt 0 1\nvt 1 1\n"
+                     "f 1/1 3/3 2/2\nf 1/1 2/2 4/4\nf 1/1 4/4 3/3\nf 2/2 3/3 4/4\n");
+  const std::string message = nan_uv + ": texture coordinate 1 is not finite (NaN or infinity)";
+  expect_error_line("generate " + quoted(nan_uv) + " --thickness-ratio 0.05 -o " + quoted(dir.file("s")), message);
+  expect_error_line("convert " + quoted(nan_uv) + " " + quoted(dir.file("c.obj")), message);
+
+  const std::string shell = dir.file("plane"), tiled = " -o " + quoted(dir.file("t.obj"));
+  ASSERT_EQ(run_cli("generate builtin:plane:4 --thickness-ratio 0.05 -q -o " + quoted(shell)).exit_code, 0);
+  expect_error_line("texture --shell " + quoted(shell) + " --tile builtin:sphere:1" + tiled,
+                    "builtin:sphere:1: unknown tile (built-in tiles: builtin:bumps[:N])");
+  expect_error_containing("texture --shell " + quoted(shell) + " --tile builtin:bumps:4 --repeat 100000 100000" + tiled,
+                          shell + ": 100000 x 100000 tiles of 25 vertices");
+  // A NaN texture coordinate in the folder's base.obj, named by that file.
+  std::string base = gshell::test::read_text(shell + "/base.obj");
+  const auto vt = base.find("\nvt ");
+  ASSERT_NE(vt, std::string::npos);
+  base.replace(vt + 1, base.find('\n', vt + 1) - vt - 1, "vt nan 0");
+  write_text(shell + "/base.obj", base);
+  expect_error_line("texture --shell " + quoted(shell) + " --tile builtin:bumps:4" + tiled,
+                    shell + "/base.obj: texture coordinate 0 is not finite (NaN or infinity)");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("t.obj")));
+}
+
 TEST(CliMessages, ProgressInALogIsOneLinePerUpdate) {
   // run_cli's stderr is a file, not a terminal: the status line of a terminal becomes one line per
   // update (animate: deform_cli_test).

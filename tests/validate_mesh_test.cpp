@@ -101,6 +101,32 @@ TEST(ValidateMesh, NonFiniteCoordinates) {
   EXPECT_TRUE(contains(only_error(m), "vertex 3 "));
 }
 
+TEST(ValidateMesh, TextureCoordinatesMustBeFiniteAndInRange) {
+  TriMesh m = tetrahedron();
+  m.UV = Eigen::MatrixXd::Zero(4, 2);
+  m.UV.col(0) << 0, 1, 0, 1;
+  m.FUV = m.F;
+  EXPECT_TRUE(validate_mesh(m).empty());
+  EXPECT_NO_THROW(require_usable_texture_coordinates(m, "t.obj"));
+
+  TriMesh bad = m;
+  bad.UV(2, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(contains(only_error(bad), "texture coordinate 2 is not finite")) << only_error(bad);
+  try {
+    require_usable_texture_coordinates(bad, "t.obj");
+    ADD_FAILURE() << "NaN texture coordinate accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "t.obj: texture coordinate 2 is not finite (NaN or infinity)");
+  }
+  bad = m;
+  bad.FUV(3, 1) = 4;
+  EXPECT_TRUE(contains(only_error(bad), "face 3 has texture coordinate id 4 out of range [0, 4)")) << only_error(bad);
+  bad = m;
+  bad.FUV.conservativeResize(3, 3); // a row of ids missing: not one per face
+  EXPECT_TRUE(contains(only_error(bad), "one row of 3 ids per face")) << only_error(bad);
+  EXPECT_THROW(require_usable_texture_coordinates(bad, "t.obj"), InputError);
+}
+
 TEST(ValidateMesh, TooLargeCoordinatesAreOneClearError) {
   // |x| ~ 1e150 used to pass validation and fail later as "rest tet 0 has non-positive volume
   // (inf)", and 1e200 as "face 0 has zero area" (squared lengths overflow).

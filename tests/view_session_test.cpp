@@ -594,6 +594,25 @@ TEST(ViewSession, AShellFolderItsReportCallsInvalidCarriesAWarning) {
                                  "wall intersecting pairs); ", 0), 0u) << in.warnings[0];
 }
 
+TEST(ViewSession, AThicknessForShellFoldersIsAnErrorNotIgnored) {
+  // A shell folder keeps the thickness it was made with; `view SHELL --thickness 0.3` used to show
+  // the folder's 0.1 shell as if asked for nothing.
+  const PlateFolder plate;
+  ViewInputOptions options;
+  options.generate.thickness.thickness = 0.3;
+  for (const std::vector<std::string>& inputs : {std::vector<std::string>{plate.dir}, {plate.dir, plate.dir}}) {
+    try {
+      load_view_input(inputs, options);
+      ADD_FAILURE() << "no error for " << inputs.size() << " input(s)";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), plate.dir + ": a thickness applies only to a surface input (a shell folder keeps its own)");
+    }
+  }
+  // Without one the folder loads with its own thickness; a surface takes the one given.
+  EXPECT_NEAR(load_view_input({plate.dir}).shell.thickness, 0.1, 1e-12);
+  EXPECT_DOUBLE_EQ(load_view_input({"builtin:plane:4"}, options).shell.thickness, 0.3);
+}
+
 TEST(ViewSession, LoadedHandlesAreSolvedLikeADrag) {
   const PlateFolder plate;
   ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));

@@ -110,7 +110,9 @@ GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_sou
   return out;
 }
 
-bool is_builtin_tile(const std::string& spec) { return spec.rfind("builtin:bumps", 0) == 0; }
+// Every builtin: spec, so that one that is not a tile (builtin:sphere) is named as such by
+// make_builtin_tile instead of being read as a file of an unknown format.
+bool is_builtin_tile(const std::string& spec) { return spec.rfind("builtin:", 0) == 0; }
 
 TriMesh make_builtin_tile(const std::string& spec) {
   int res = 16;

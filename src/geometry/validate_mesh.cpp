@@ -80,6 +80,34 @@ std::string coordinate_problem(const Eigen::Vector3d& p, int v) {
   return {};
 }
 
+/// Texture coordinates, when the mesh has any: two per row, one row of ids per face, ids in
+/// range, finite values (a NaN one would make NaN texture-space tets in `gshell texture`).
+void check_texture_coordinates(const TriMesh& mesh, ProblemList& list) {
+  const Eigen::MatrixXd& UV = mesh.UV;
+  const Eigen::MatrixXi& FUV = mesh.FUV;
+  if (UV.rows() == 0 && FUV.rows() == 0) return;
+  if (UV.cols() != 2 || FUV.cols() != 3 || FUV.rows() != mesh.F.rows()) {
+    list.add(Severity::Error, "wrong texture coordinate shapes",
+             "texture coordinates must be 2 per row with one row of 3 ids per face (got " + std::to_string(UV.rows()) +
+                 " x " + std::to_string(UV.cols()) + " coordinates and " + std::to_string(FUV.rows()) + " x " +
+                 std::to_string(FUV.cols()) + " ids for " + std::to_string(mesh.F.rows()) + " faces)");
+    return;
+  }
+  for (Eigen::Index t = 0; t < UV.rows(); ++t)
+    if (!UV.row(t).allFinite())
+      list.add(Severity::Error, "non-finite texture coordinates",
+               "texture coordinate " + std::to_string(t) + " is not finite (NaN or infinity)");
+  const Eigen::Index k = UV.rows();
+  for (Eigen::Index f = 0; f < FUV.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      if (FUV(f, c) < 0 || FUV(f, c) >= k) {
+        list.add(Severity::Error, "texture ids out of range",
+                 "face " + std::to_string(f) + " has texture coordinate id " + std::to_string(FUV(f, c)) +
+                     " out of range [0, " + std::to_string(k) + ")");
+        break;
+      }
+}
+
 /// One line per kind of warning: its first entry and how many more there are.
 std::vector<std::string> warnings_by_kind(const std::vector<MeshProblem>& problems, const std::string& name) {
   std::vector<std::string> kinds, lines;
@@ -186,6 +214,8 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
       list.add(Severity::Error, "zero-area faces",
                face_text(T, f) + " has zero area (its vertices coincide or are collinear)");
   }
+
+  check_texture_coordinates(mesh, list);
 
   // Everything topological is checked per vertex on its star (see vertex_stars.h). Edge (v, w)
   // with v < w is checked at v: the corners of v that have w as a neighbour are its faces.
@@ -313,6 +343,13 @@ void require_usable_coordinates(const Eigen::MatrixXd& V, const std::string& nam
   for (Eigen::Index v = 0; v < V.rows(); ++v)
     if (const std::string problem = coordinate_problem(V.row(v).transpose(), static_cast<int>(v)); !problem.empty())
       throw InputError(with_file(name, problem));
+}
+
+void require_usable_texture_coordinates(const TriMesh& mesh, const std::string& name) {
+  std::vector<MeshProblem> problems;
+  ProblemList list(problems);
+  check_texture_coordinates(mesh, list);
+  if (!problems.empty()) throw InputError(with_file(name, problems.front().message));
 }
 
 void require_usable_frame(const Eigen::MatrixXd& V, const std::string& name) {

@@ -166,6 +166,7 @@ ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderRead
     // Positions from a folder are not validated as a surface (a top may well be degenerate), but
     // they must be coordinates gshell can compute with.
     require_usable_coordinates(out.surface.V, (dir / "base.obj").string());
+    require_usable_texture_coordinates(out.surface, (dir / "base.obj").string());
     require_usable_coordinates(top.V, (dir / "top.obj").string());
     out.shell.base = out.surface.V;
     out.shell.top = top.V;
@@ -178,6 +179,7 @@ ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderRead
       out.surface = read_mesh((dir / "top.obj").string()); // a deform frame: same faces and UVs as the base
       if (out.surface.V.rows() != n || out.surface.F.rows() != vtu->T.rows() / 3)
         throw InputError(with_file(dir_text, "top.obj and shell.vtu differ in vertex or face count"));
+      require_usable_texture_coordinates(out.surface, (dir / "top.obj").string());
     } else {
       out.surface.F = faces_from_prism_tets(vtu->T, vtu->X, n, dir_text);
     }

@@ -132,9 +132,15 @@ ViewInput from_surface(const std::string& spec, const ViewInputOptions& options)
 ViewInput load_view_input(const std::vector<std::string>& inputs, const ViewInputOptions& options) {
   if (inputs.empty()) throw InputError("view: no input");
   std::error_code ec;
+  if (inputs.size() == 1 && !fs::is_directory(inputs[0], ec)) return from_surface(inputs[0], options);
+  for (const std::string& input : inputs)
+    if (inputs.size() > 1 && (!fs::is_directory(input, ec) || !is_shell_folder(input)))
+      throw InputError(with_file(input, "several inputs play as a sequence of frames: each must be a shell folder"));
+  // Shell folders keep the thickness they were made with; one given here would be ignored.
+  if (options.generate.thickness.thickness || options.generate.thickness.thickness_ratio)
+    throw InputError(with_file(inputs[0], "a thickness applies only to a surface input (a shell folder keeps its own)"));
   if (inputs.size() == 1) {
     const fs::path path(inputs[0]);
-    if (!fs::is_directory(path, ec)) return from_surface(inputs[0], options);
     if (is_shell_folder(path)) return from_folders(inputs, inputs[0], options);
     const std::vector<fs::path> frames = list_frames(path);
     if (frames.empty())
@@ -145,9 +151,6 @@ ViewInput load_view_input(const std::vector<std::string>& inputs, const ViewInpu
     if (in.made_by.empty()) in.made_by = "deform";
     return in;
   }
-  for (const std::string& input : inputs)
-    if (!fs::is_directory(input, ec) || !is_shell_folder(input))
-      throw InputError(with_file(input, "several inputs play as a sequence of frames: each must be a shell folder"));
   return from_folders(inputs, inputs[0], options);
 }
 

@@ -48,8 +48,10 @@ GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_sou
 /// Built-in tiles for tests and demos: "builtin:bumps[:N]" is an N x N height-field grid
 /// (default 16) over [0,1]^2 with z = 0.1 + 0.8 sin^2(pi x) sin^2(pi y): one round bump per tile,
 /// equal heights along the tile's edges so neighbouring tiles join without gaps.
+/// is_builtin_tile is true for every "builtin:" spec; make_builtin_tile refuses those that are not
+/// tiles.
 bool is_builtin_tile(const std::string& spec);
-/// \throws InputError when `spec` is not builtin:bumps[:N] with N in 1..1024.
+/// \throws InputError naming `spec` when it is not builtin:bumps[:N] with N in 1..1024.
 TriMesh make_builtin_tile(const std::string& spec);
 
 } // namespace gshell

@@ -33,6 +33,7 @@ constexpr double min_mesh_size = 1e-40;
 /// vertices coincide; face indices in range and
 /// distinct; no zero-area faces (doubled area <= 1e-12 * bbox diagonal^2); manifold edges (at most
 /// two faces) and vertices (incident faces form one fan); consistently oriented neighbours (errors);
+/// texture coordinates, when present: 2 per row, one row of ids per face, ids in range, finite;
 /// unreferenced vertices (warning); open boundaries (info, with the loop count).
 /// Errors come first, then warnings, then information. Each kind lists at most 10 places
 /// individually and then one summary entry with `count` = the rest.
@@ -47,6 +48,11 @@ std::string too_large_coordinate(const Eigen::Vector3d& p);
 /// throws InputError "NAME: vertex V has ..." on the first non-finite coordinate or one of
 /// magnitude max_coordinate_magnitude or more, with validate_mesh's wording.
 void require_usable_coordinates(const Eigen::MatrixXd& V, const std::string& name);
+
+/// validate_mesh's checks of the texture coordinates (UV, FUV) alone, for a surface whose
+/// positions are not validated as a mesh (a shell folder's base.obj). \throws InputError naming
+/// `name` on the first problem.
+void require_usable_texture_coordinates(const TriMesh& mesh, const std::string& name);
 
 /// require_usable_coordinates, and a size (bounding-box diagonal) of at least min_mesh_size: what a
 /// new pose of a checked base (a deformation frame) must meet, its faces being the base's.

@@ -67,7 +67,8 @@ struct ViewInput {
 /// Loads what `gshell view INPUT...` shows (see the table above). A surface is generated with
 /// `options.generate` (progress through its solve.progress callback).
 /// \throws InputError naming the input when it cannot be read, when frames of a sequence differ in
-///         vertex count or faces (frames not held: when shown), or when a thickness is missing or bad.
+///         vertex count or faces (frames not held: when shown), or when a thickness is bad, or given
+///         for shell folders (which keep their own).
 ViewInput load_view_input(const std::vector<std::string>& inputs, const ViewInputOptions& options = {});
 
 /// Frame k of a sequence as shown: input.frames[k] when held, else read from its folder.
