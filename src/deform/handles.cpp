@@ -96,10 +96,12 @@ std::vector<int> explicit_vertices(const json& value, int num_vertices, const st
   std::vector<int> ids;
   for (const auto& id : value) {
     if (!id.is_number_integer()) r.fail(where, "vertex id " + id.dump() + " is not an integer");
+    // Unsigned first: get<long long> of 2^63 and above wraps to a negative id.
+    const bool in_range = id.is_number_unsigned() ? id.get<unsigned long long>() < static_cast<unsigned long long>(num_vertices)
+                                                  : id.get<long long>() >= 0 && id.get<long long>() < num_vertices;
+    if (!in_range)
+      r.fail(where, "unknown vertex id " + id.dump() + " (the shell has vertices 0.." + std::to_string(num_vertices - 1) + ")");
     const auto v = id.get<long long>();
-    if (v < 0 || v >= num_vertices)
-      r.fail(where, "unknown vertex id " + std::to_string(v) + " (the shell has vertices 0.." +
-                        std::to_string(num_vertices - 1) + ")");
     ids.push_back(static_cast<int>(v));
   }
   if (ids.empty()) r.fail(where, "\"vertices\" is empty");
@@ -182,14 +184,27 @@ Handle parse_handle(const json& h, int index, const Shell& rest, const Reporter&
 HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest) {
   const Reporter r{name};
   json doc;
+  // JSON leaves repeated keys to the reader and nlohmann keeps the last one: a second "handles"
+  // would silently drop the first list. Found while parsing, refused after it.
+  std::vector<std::set<std::string>> keys_seen;
+  std::string repeated_key;
+  const json::parser_callback_t note_keys = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) keys_seen.emplace_back();
+    if (event == json::parse_event_t::object_end && !keys_seen.empty()) keys_seen.pop_back();
+    if (event == json::parse_event_t::key && !keys_seen.empty() && !keys_seen.back().insert(parsed.get<std::string>()).second &&
+        repeated_key.empty())
+      repeated_key = parsed.get<std::string>();
+    return true;
+  };
   try {
-    doc = json::parse(json_text);
+    doc = json::parse(json_text, note_keys);
   } catch (const json::exception& e) { // parse errors, and number overflow such as 1e999
     // nlohmann's message carries the position and the offending text; drop its "[json...]" prefix
     std::string what = e.what();
     const auto pos = what.find("] ");
     r.fail("", "not valid JSON (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
   }
+  if (!repeated_key.empty()) r.fail("", "the key \"" + repeated_key + "\" appears twice in one object");
   check_keys(doc, {"handles", "mode", "weight"}, "", r);
   HandleSet set;
   const bool has_weight = doc.contains("weight");
@@ -205,6 +220,8 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
     const json& m = doc["mode"];
     if (!m.is_string() || (m != "hard" && m != "soft")) r.fail("mode", "must be \"hard\" or \"soft\", got " + m.dump());
     set.mode = m == "hard" ? ConstraintMode::Hard : ConstraintMode::Soft;
+    if (set.mode == ConstraintMode::Hard && has_weight)
+      r.fail("weight", "applies only to \"mode\": \"soft\" (hard handles are held exactly)");
   }
   if (!doc.contains("handles")) r.fail("", "missing \"handles\"");
   const json& list = doc["handles"];
