@@ -127,7 +127,7 @@ Eigen::MatrixXd shell_vertices_of(const py::handle& object, int rows) {
       value_error("the shell has " + std::to_string(X.rows()) + " vertices; the embedding needs " + std::to_string(rows));
     return X;
   }
-  return to_matrix(object, "shell vertices", 3, rows);
+  return to_positions(object, "shell vertices", rows);
 }
 
 } // namespace
@@ -249,7 +249,7 @@ coordinates), carried along by every deformation of that shell (paper Fig. 5, 8)
 Args:
     deformed: a Shell with the rest shell's connectivity, or a float array (2n, 3) of all shell
         vertices (base rows, then top rows), e.g. Deformer.vertices or
-        numpy.vstack([new_base, new_top]).
+        numpy.vstack([new_base, new_top]); every |x| < 1e50.
 
 Returns:
     float64 array (P, 3). The rest shell gives back the embedded points.)")
@@ -275,7 +275,7 @@ Returns:
 
   m.def("embed",
         [](const ShellObject& shell, const ArrayArg& points) {
-          const Eigen::MatrixXd P = to_matrix(points, "points", 3);
+          const Eigen::MatrixXd P = to_positions(points, "points");
           EmbeddingObject e;
           {
             py::gil_scoped_release release;
@@ -289,14 +289,15 @@ Returns:
 
 Args:
     shell: the rest Shell.
-    points: float array (P, 3). Points outside the shell are bound to the nearest tet (see
-        Embedding.outside).
+    points: float array (P, 3), every |x| < 1e50. Points outside the shell are bound to the
+        nearest tet (see Embedding.outside).
 
 Returns:
     Embedding; .carry(deformed shell) gives the points' new positions.
 
 Raises:
-    ValueError: bad array or NaN, or a shell without any tet of positive volume.
+    ValueError: bad array, NaN or a coordinate of 1e50 or more, or a shell without any tet of
+        positive volume.
 
 Releases the GIL while it runs.)");
 }

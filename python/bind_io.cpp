@@ -28,7 +28,7 @@ py::tuple read_mesh_py(const std::filesystem::path& path) {
 
 void write_mesh_py(const std::filesystem::path& path, const ArrayArg& V, const ArrayArg& F) {
   TriMesh mesh;
-  mesh.V = to_matrix(V, "V", 3);
+  mesh.V = to_positions(V, "V");
   mesh.F = to_indices(F, "F", 3, static_cast<int>(mesh.V.rows()));
   py::gil_scoped_release release;
   write_mesh(path.string(), mesh);
@@ -46,7 +46,7 @@ py::tuple builtin_py(const std::string& spec) {
 
 py::tuple weld_py(const ArrayArg& V, const ArrayArg& F) {
   TriMesh mesh;
-  mesh.V = to_matrix(V, "V", 3);
+  mesh.V = to_positions(V, "V");
   mesh.F = to_indices(F, "F", 3, static_cast<int>(mesh.V.rows()));
   {
     py::gil_scoped_release release;
@@ -80,7 +80,7 @@ The file is written atomically (temporary file, then rename); the vertex order i
 
 Args:
     path: output file (str or os.PathLike); .obj, .off or .ply.
-    V: float array (n, 3), finite.
+    V: float array (n, 3), finite, every |x| < 1e50.
     F: integer array (m, 3) of vertex ids in [0, n).
 
 Raises:

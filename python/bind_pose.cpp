@@ -139,8 +139,8 @@ Raises:
            R"(Move the handles and solve for the deformed shell.
 
 Args:
-    handles: dict in the handle-file format, the same as JSON text (a str starting with '{'), or
-        a handle file path (str or os.PathLike).
+    handles: dict in the handle-file format (ids and vectors may be NumPy integers and arrays),
+        the same as JSON text (a str starting with '{'), or a handle file path (str or os.PathLike).
     fraction: how far along the handles' motion to go (1 = the full translate/rotate).
     steps: reach `fraction` in this many equal steps, solving after each (an interactive drag).
     iterations: maximum iterations per step (>= 1).

@@ -15,12 +15,22 @@ py::object to_python(const nlohmann::json& value) { return loads(value); }
 py::object to_python(const nlohmann::ordered_json& value) { return loads(value); }
 
 nlohmann::json from_python(const py::handle& object, const char* name) {
+  // NumPy scalars and arrays (np.int64(3), np.array([0, 0, 1])) are what users hold their ids and
+  // vectors in: written through their tolist(). Anything else json cannot write stays an error.
+  const py::cpp_function numpy_to_list([](const py::object& value) -> py::object {
+    if (py::hasattr(value, "tolist")) return value.attr("tolist")();
+    throw py::type_error("Object of type " + std::string(py::str(py::type::of(value).attr("__name__"))) +
+                         " is not JSON serializable");
+  });
   std::string text;
   try {
     // allow_nan=False: NaN is not JSON, and a NaN target must fail here, not inside a solve.
-    text = py::module_::import("json").attr("dumps")(object, py::arg("allow_nan") = false).cast<std::string>();
+    text = py::module_::import("json")
+               .attr("dumps")(object, py::arg("allow_nan") = false, py::arg("default") = numpy_to_list)
+               .cast<std::string>();
   } catch (const py::error_already_set& e) {
-    value_error(std::string(name) + " cannot be written as JSON: " + e.what());
+    // The exception's own message only: what() appends a traceback, and errors are one line.
+    value_error(std::string(name) + " cannot be written as JSON: " + std::string(py::str(e.value())));
   }
   return nlohmann::json::parse(text);
 }

@@ -1,8 +1,11 @@
 #include "numpy_arrays.h"
 
+#include <gshell/geometry/validate_mesh.h>
+
 #include <climits>
 #include <cmath>
 #include <sstream>
+#include <type_traits>
 
 namespace gshell::python {
 
@@ -39,6 +42,29 @@ void check_shape(const py::array& a, const char* name, const char* kind, int row
                 "; got shape " + shape_text(a));
 }
 
+template <class Index>
+Eigen::MatrixXi index_matrix(const py::array& a, const char* name, int cols, int num_vertices) {
+  const auto c = py::array_t<Index, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!c) throw py::error_already_set();
+  const Eigen::Index n = c.shape(0);
+  if (n > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(n) + ")");
+  Eigen::MatrixXi M(n, cols);
+  const Index* data = c.data();
+  const Index limit = num_vertices >= 0 ? static_cast<Index>(num_vertices) : static_cast<Index>(INT_MAX) + 1;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int j = 0; j < cols; ++j) {
+      const Index k = data[i * cols + j];
+      bool negative = false;
+      if constexpr (std::is_signed_v<Index>) negative = k < 0;
+      if (negative || k >= limit)
+        value_error(std::string(name) + "[" + std::to_string(i) + ", " + std::to_string(j) + "] = " +
+                    std::to_string(k) + " is not a valid index" +
+                    (num_vertices >= 0 ? " for " + std::to_string(num_vertices) + " vertices" : std::string()));
+      M(i, j) = static_cast<int>(k);
+    }
+  return M;
+}
+
 } // namespace
 
 Eigen::MatrixXd to_matrix(const py::handle& object, const char* name, int cols, int rows, bool finite) {
@@ -64,6 +90,12 @@ Eigen::MatrixXd to_matrix(const py::handle& object, const char* name, int cols, 
   return M;
 }
 
+Eigen::MatrixXd to_positions(const py::handle& object, const char* name, int rows) {
+  Eigen::MatrixXd M = to_matrix(object, name, 3, rows);
+  require_usable_coordinates(M, name);
+  return M;
+}
+
 Eigen::MatrixXi to_indices(const py::handle& object, const char* name, int cols, int num_vertices, int rows) {
   const py::array a = as_array(object, name);
   const char kind = a.dtype().kind();
@@ -71,24 +103,10 @@ Eigen::MatrixXi to_indices(const py::handle& object, const char* name, int cols,
     value_error(std::string(name) + " must be an integer array of shape " + wanted_shape(rows, cols) +
                 "; got dtype " + dtype_text(a));
   check_shape(a, name, "an integer", rows, cols);
-  // Unsigned 64-bit values above INT64_MAX wrap to negatives here and are rejected below.
-  const auto c = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
-  if (!c) throw py::error_already_set();
-  const Eigen::Index n = c.shape(0);
-  if (n > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(n) + ")");
-  Eigen::MatrixXi M(n, cols);
-  const std::int64_t* data = c.data();
-  const std::int64_t limit = num_vertices >= 0 ? num_vertices : std::int64_t(INT_MAX) + 1;
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (int j = 0; j < cols; ++j) {
-      const std::int64_t k = data[i * cols + j];
-      if (k < 0 || k >= limit)
-        value_error(std::string(name) + "[" + std::to_string(i) + ", " + std::to_string(j) + "] = " +
-                    std::to_string(k) + " is not a valid index" +
-                    (num_vertices >= 0 ? " for " + std::to_string(num_vertices) + " vertices" : std::string()));
-      M(i, j) = static_cast<int>(k);
-    }
-  return M;
+  // Unsigned arrays are read as uint64: as int64, values from 2^63 up wrapped to negative numbers,
+  // and the message showed those instead of what the user wrote.
+  return kind == 'u' ? index_matrix<std::uint64_t>(a, name, cols, num_vertices)
+                     : index_matrix<std::int64_t>(a, name, cols, num_vertices);
 }
 
 py::array_t<double> from_matrix(const Eigen::MatrixXd& M) {

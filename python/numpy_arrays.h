@@ -29,6 +29,10 @@ struct ArrayArg {
 Eigen::MatrixXd to_matrix(const py::handle& object, const char* name, int cols, int rows = -1,
                           bool finite = true);
 
+/// to_matrix(object, name, 3, rows), held to the coordinates gshell computes with (|x| < 1e50,
+/// validate_mesh.h): for positions the library takes without validating them as a surface.
+Eigen::MatrixXd to_positions(const py::handle& object, const char* name, int rows = -1);
+
 /// An integer array of shape (rows, cols) (rows = -1: any count) whose entries are indices into
 /// `num_vertices` items (num_vertices = -1: only checked to be >= 0 and to fit an int).
 Eigen::MatrixXi to_indices(const py::handle& object, const char* name, int cols, int num_vertices, int rows = -1);

@@ -229,6 +229,7 @@ class MeshIOTest(TempDirTest):
             ("not an array", F, "dtype"),
             (V, None, "dtype"),
             (V, np.full((2, 3), 2**40), "index"),
+            (V * 1e60, F, "1e+50"),
         ]
         for Vx, Fx, word in bad:
             with self.subTest(word=word):
@@ -236,6 +237,9 @@ class MeshIOTest(TempDirTest):
                     gshell.write_mesh(p, Vx, Fx)
                 self.assertIn(word, str(cm.exception).lower() if word != "finite" else str(cm.exception))
         self.assertFalse(os.path.exists(p))
+        # Unsigned ids from 2^63 up are named as given (they wrapped to negative numbers).
+        with self.assertRaisesRegex(ValueError, r"^F\[0, 2\] = 9223372036854775808 is not a valid index"):
+            gshell.write_mesh(p, V, np.array([[0, 1, 2**63]], dtype=np.uint64))
         with self.assertRaises(ValueError):
             gshell.write_mesh(self.path("m.xyz"), V, F)
         with self.assertRaises(ValueError):
@@ -654,7 +658,11 @@ class EmbedTest(TempDirTest):
             gshell.embed(self.shell, np.array([[np.nan, 0, 0]]))
         with self.assertRaises(ValueError):
             gshell.embed(self.shell, np.zeros((3, 2)))
+        with self.assertRaisesRegex(ValueError, "^points: vertex 0 has a coordinate of magnitude 1e\\+60"):
+            gshell.embed(self.shell, np.array([[1e60, 0, 0]]))
         e = gshell.embed(self.shell, np.zeros((1, 3)))
+        with self.assertRaisesRegex(ValueError, "^shell vertices: vertex 0 has a coordinate of magnitude "):
+            e.carry(self.shell.vertices * 1e60)
         with self.assertRaises(ValueError):
             e.carry(self.shell.vertices[:-1])
         with self.assertRaises(ValueError):
@@ -787,6 +795,25 @@ class PoseTest(TempDirTest):
             gshell.Poser(self.shell, solver="multigrid")
         with self.assertRaises(ValueError):
             gshell.Poser(self.shell, levels=0)
+        # What JSON cannot write is one line naming the argument, not a traceback.
+        with self.assertRaisesRegex(ValueError, "^handles cannot be written as JSON: Object of type object is not "
+                                                "JSON serializable$"):
+            poser.solve({"handles": [{"vertices": [0], "translate": object()}]})
+
+    def test_numpy_ids_and_vectors_in_handles(self):
+        # Ids and vectors held in NumPy (np.int64, arrays) are taken as the lists they hold.
+        top = np.flatnonzero(self.shell.base[:, 2] > 0.7)
+        bottom = np.flatnonzero(self.shell.base[:, 2] < -0.7)
+        as_numpy = {"handles": [{"vertices": bottom}, {"vertices": top, "translate": np.array([0.0, 0.0, 0.1])},
+                                {"vertices": [np.int64(0)]}]}
+        as_lists = {"handles": [{"vertices": bottom.tolist()}, {"vertices": top.tolist(), "translate": [0.0, 0.0, 0.1]},
+                                {"vertices": [0]}]}
+        base, top_surface = gshell.Poser(self.shell, solver="single").solve(as_numpy, iterations=5)
+        expected_base, expected_top = gshell.Poser(self.shell, solver="single").solve(as_lists, iterations=5)
+        np.testing.assert_array_equal(base, expected_base)
+        np.testing.assert_array_equal(top_surface, expected_top)
+        with self.assertRaisesRegex(ValueError, "^handles cannot be written as JSON: Out of range float values"):
+            gshell.Poser(self.shell).solve({"handles": [{"vertices": [0], "translate": np.array([np.nan, 0, 0])}]})
 
 
 def smoothstep(k, count):
