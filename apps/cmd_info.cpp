@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -92,9 +93,19 @@ void print_json(const std::string& name, const TriMesh& mesh, const MeshStats& s
 }
 
 void run_info(const InfoArgs& args) {
-  const TriMesh mesh = is_builtin_spec(args.mesh) ? make_builtin(args.mesh) : read_mesh(args.mesh);
+  std::vector<std::string> read_warnings;
+  const TriMesh mesh = is_builtin_spec(args.mesh) ? make_builtin(args.mesh) : read_mesh(args.mesh, &read_warnings);
   const MeshStats stats = mesh_stats(mesh);
-  const auto problems = validate_mesh(mesh);
+  auto problems = validate_mesh(mesh);
+  // What reading warned of (texture coordinates dropped) is listed with the warnings, after the
+  // errors, in the list's own form: without the file name, which heads the report.
+  auto first_non_error = std::find_if(problems.begin(), problems.end(),
+                                      [](const MeshProblem& p) { return p.severity != MeshProblem::Severity::Error; });
+  for (std::string& w : read_warnings) {
+    const std::string prefix = args.mesh + ": ";
+    if (w.rfind(prefix, 0) == 0) w.erase(0, prefix.size());
+    first_non_error = problems.insert(first_non_error, {MeshProblem::Severity::Warning, w, 1, "reader warnings"}) + 1;
+  }
   // Occurrences, not entries: a summary entry ("... and 3058 more") stands for many.
   int errors = 0, warnings = 0, infos = 0;
   for (const auto& p : problems)

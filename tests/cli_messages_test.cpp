@@ -260,6 +260,17 @@ TEST(CliMessages, TextureCoordinatesAndTexturesNameTheirFile) {
   const std::string message = nan_uv + ": texture coordinate 1 is not finite (NaN or infinity)";
   expect_error_line("generate " + quoted(nan_uv) + " --thickness-ratio 0.05 -o " + quoted(dir.file("s")), message);
   expect_error_line("convert " + quoted(nan_uv) + " " + quoted(dir.file("c.obj")), message);
+  // Texture coordinates on only some faces are dropped, with a warning that says so.
+  const std::string partial = dir.file("partial.obj");
+  write_text(partial, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                      "f 1/1 3/3 2/2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  const std::string dropped = "3 of 4 faces have no texture coordinates: all are dropped";
+  const auto info = run_cli("info " + quoted(partial));
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("  warning: " + dropped), std::string::npos) << info.out;
+  const auto made = run_cli("generate " + quoted(partial) + " --thickness-ratio 0.05 -o " + quoted(dir.file("ps")));
+  EXPECT_EQ(made.exit_code, 0) << made.err;
+  EXPECT_NE(made.err.find("gshell generate: warning: " + partial + ": " + dropped), std::string::npos) << made.err;
 
   const std::string shell = dir.file("plane"), tiled = " -o " + quoted(dir.file("t.obj"));
   ASSERT_EQ(run_cli("generate builtin:plane:4 --thickness-ratio 0.05 -q -o " + quoted(shell)).exit_code, 0);

@@ -272,6 +272,19 @@ TEST(IoObj, ReadsAllCornerFormsNegativeIndicesPolygonsAndUvs) {
                                                        "f 1/1 2/1 3/1\nf 2 4 3\n");
   EXPECT_FALSE(partial.has_uv());
   EXPECT_TRUE(partial.UV.rows() == 0 && partial.FUV.rows() == 0);
+  // ... and not silently: read_mesh says so, naming the file (the fan of a quad counts once).
+  write_text(dir.file("e.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 2 0\nvt 0 0\n"
+                                "f 1/1 2/1 4/1 3/1\nf 2 5 4\n");
+  std::vector<std::string> warnings;
+  EXPECT_FALSE(read_mesh(dir.file("e.obj"), &warnings).has_uv());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], dir.file("e.obj") + ": 1 of 2 faces have no texture coordinates: all are dropped (a texture "
+                                             "needs every face in the UV layout)");
+  // A file without any vt, or with them on every face, warns of nothing.
+  warnings.clear();
+  read_mesh(dir.file("b.obj"), &warnings);
+  read_mesh(dir.file("a.obj"), &warnings);
+  EXPECT_TRUE(warnings.empty());
 }
 
 TEST(IoObj, ABackslashAtTheEndOfALineContinuesTheStatement) {

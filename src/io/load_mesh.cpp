@@ -7,9 +7,13 @@
 namespace gshell {
 
 TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings) {
-  TriMesh mesh = is_builtin_spec(input) ? make_builtin(input) : read_mesh(input);
+  std::vector<std::string> read_warnings;
+  TriMesh mesh = is_builtin_spec(input) ? make_builtin(input) : read_mesh(input, &read_warnings);
   std::vector<std::string> found = require_valid_mesh(mesh, input);
-  if (warnings) *warnings = std::move(found);
+  if (warnings) {
+    *warnings = std::move(read_warnings);
+    warnings->insert(warnings->end(), found.begin(), found.end());
+  }
   return mesh;
 }
 

@@ -26,12 +26,12 @@
 
 namespace gshell {
 
-TriMesh read_mesh(const std::string& path) {
+TriMesh read_mesh(const std::string& path, std::vector<std::string>* warnings) {
   const std::string ext = io_detail::lower_extension(path);
   using Reader = TriMesh (*)(const std::string&, std::string_view);
   Reader reader = nullptr;
-  if (ext == "obj") reader = io_detail::read_obj;
-  else if (ext == "off") reader = io_detail::read_off;
+  if (ext == "obj") return io_detail::read_obj(path, io_detail::FileBytes(path), warnings);
+  if (ext == "off") reader = io_detail::read_off;
   else if (ext == "ply") reader = io_detail::read_ply;
   else if (ext == "stl") reader = io_detail::read_stl;
   else

@@ -8,6 +8,8 @@
 #include "surface_readers.h"
 #include "text_scanner.h"
 
+#include <gshell/error.h>
+
 #include <algorithm>
 #include <array>
 #include <string>
@@ -63,7 +65,7 @@ Corner parse_corner(std::string_view token, long long num_v, long long num_vt, c
 
 } // namespace
 
-TriMesh read_obj(const std::string& path, std::string_view bytes) {
+TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<std::string>* warnings) {
   TextScanner s(bytes, path, '#');
   s.allow_line_continuation();
   SurfaceBuilder b;
@@ -71,6 +73,7 @@ TriMesh read_obj(const std::string& path, std::string_view bytes) {
   std::vector<long long> vertex_ids, texture_ids;
   std::vector<int> polygon, polygon_uv;
   bool all_faces_textured = true;
+  long long polygons = 0, textured_polygons = 0;
   bool any_statement = false;
 
   while (!s.at_end()) {
@@ -113,6 +116,8 @@ TriMesh read_obj(const std::string& path, std::string_view bytes) {
       if (textured != 0 && textured != corners)
         s.fail("face mixes corners with and without texture coordinates");
       if (textured == 0) all_faces_textured = false;
+      ++polygons;
+      textured_polygons += textured != 0;
       const std::size_t before = b.corners.size();
       SurfaceBuilder::add_fan(b.corners, polygon);
       if (all_faces_textured) SurfaceBuilder::add_fan(b.uv_corners, polygon_uv);
@@ -132,6 +137,10 @@ TriMesh read_obj(const std::string& path, std::string_view bytes) {
       s.fail_without_line("face refers to vertex " + std::to_string(b.corners[i] + 1) + " but the file has only " +
                           std::to_string(n) + " vertices (line " + std::to_string(triangle_lines[i / 3]) + ")");
   if (!all_faces_textured || b.corners.empty()) {
+    if (warnings && textured_polygons > 0)
+      warnings->push_back(with_file(path, std::to_string(polygons - textured_polygons) + " of " + std::to_string(polygons) +
+                                              " faces have no texture coordinates: all are dropped (a texture needs every "
+                                              "face in the UV layout)"));
     b.uv.clear();
     b.uv_corners.clear();
   } else {

@@ -8,7 +8,9 @@
 
 namespace gshell::io_detail {
 
-TriMesh read_obj(const std::string& path, std::string_view bytes);
+/// `warnings` (if not null) receives "PATH: ..." when texture coordinates are dropped because
+/// only some faces have them.
+TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<std::string>* warnings = nullptr);
 TriMesh read_off(const std::string& path, std::string_view bytes);
 TriMesh read_ply(const std::string& path, std::string_view bytes);
 TriMesh read_stl(const std::string& path, std::string_view bytes);

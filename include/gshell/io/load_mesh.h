@@ -6,8 +6,8 @@
 namespace gshell {
 
 /// The one entry point for surface inputs of subcommands: a `builtin:...` spec or a file path.
-/// The result is validated (require_valid_mesh); `warnings` (if not null) receives what the
-/// validation warns of, one line per kind, each naming the input.
+/// The result is validated (require_valid_mesh); `warnings` (if not null) receives what reading
+/// (read_mesh) and the validation warn of, one line per kind, each naming the input.
 /// \throws InputError naming the input when it cannot be read (read_mesh, make_builtin) or is
 ///         not a valid mesh (require_valid_mesh).
 TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings = nullptr);

@@ -1,6 +1,7 @@
 #pragma once
 #include <gshell/mesh.h>
 #include <string>
+#include <vector>
 
 namespace gshell {
 
@@ -12,6 +13,8 @@ namespace gshell {
 /// content: unparsable numbers, out-of-range indices, counts that do not match the data (also data
 /// left over after the announced elements), binary files of the wrong length.
 /// Does not validate the mesh (see validate_mesh.h): NaN/inf coordinates are read as they are.
-TriMesh read_mesh(const std::string& path);
+/// `warnings` (if not null) receives "PATH: ..." lines for what is read past: an OBJ's texture
+/// coordinates dropped because only some faces have them.
+TriMesh read_mesh(const std::string& path, std::vector<std::string>* warnings = nullptr);
 
 } // namespace gshell
