@@ -6,6 +6,7 @@
 #include "progress_watch.h"
 
 #include <gshell/deform/embedding.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/run/deform_run.h>
 
@@ -45,6 +46,7 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
                          const std::string& warm_start, const py::object& progress) {
   const int n = d.deformer.rest_shell().num_base_vertices();
   const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
+  require_usable_frame(base, "new_base"); // here, to name the argument: solve would say "the new base"
   DeformOptions options;
   options.max_iterations = iterations;
   options.tolerance = tolerance;
@@ -94,6 +96,7 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames, const
   for (std::size_t k = 0; k < py::len(frames); ++k) {
     const std::string name = "frames[" + std::to_string(k) + "]";
     bases.push_back(to_matrix(frames[k], name.c_str(), 3, n));
+    require_usable_frame(bases.back(), name);
     input.frame_names.push_back(name);
   }
   input.frames = BaseFrames(std::move(bases));

@@ -608,6 +608,14 @@ class DeformTest(TempDirTest):
                 d.solve(*args, **kwargs)
         with self.assertRaises(TypeError):
             gshell.Deformer("not a shell")
+        # Frames beyond the limits are named by their argument, the same in Deformer and deform.
+        for scale, problem in ((1e60, "has a coordinate of magnitude"), (1e-45, "the mesh is too small"),
+                               (0.0, "every vertex is at one point")):
+            with self.subTest(scale=scale):
+                with self.assertRaisesRegex(ValueError, "^new_base: .*" + problem):
+                    d.solve(V * scale)
+                with self.assertRaisesRegex(ValueError, r"^frames\[1\]: .*" + problem):
+                    gshell.deform(self.shell, [V, V * scale])
 
 
 class EmbedTest(TempDirTest):
