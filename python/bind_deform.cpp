@@ -5,8 +5,8 @@
 #include "gil_probe.h"
 #include "progress_watch.h"
 
+#include <gshell/deform/base_frames.h>
 #include <gshell/deform/embedding.h>
-#include <gshell/geometry/validate_mesh.h>
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/run/deform_run.h>
 
@@ -46,7 +46,8 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
                          const std::string& warm_start, const py::object& progress) {
   const int n = d.deformer.rest_shell().num_base_vertices();
   const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
-  require_usable_frame(base, "new_base"); // here, to name the argument: solve would say "the new base"
+  // Here, to name the argument: solve would say "the new base".
+  require_frame_for_shell(base, d.deformer.rest_shell().F, d.deformer.rest_shell().thickness, "new_base");
   DeformOptions options;
   options.max_iterations = iterations;
   options.tolerance = tolerance;
@@ -96,7 +97,7 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames, const
   for (std::size_t k = 0; k < py::len(frames); ++k) {
     const std::string name = "frames[" + std::to_string(k) + "]";
     bases.push_back(to_matrix(frames[k], name.c_str(), 3, n));
-    require_usable_frame(bases.back(), name);
+    require_frame_for_shell(bases.back(), shell.shell.F, shell.shell.thickness, name);
     input.frame_names.push_back(name);
   }
   input.frames = BaseFrames(std::move(bases));

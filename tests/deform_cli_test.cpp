@@ -193,9 +193,12 @@ TEST(DeformCli, BadFramesFailBeforeAnythingIsWritten) {
   TriMesh tiny = make_plane(4);
   tiny.V *= 1e-45;
   write_mesh(tmp.file("tiny.obj"), tiny);
+  TriMesh shrunk = make_plane(4); // the shell's thickness 0.1 is 70 times its bounding radius
+  shrunk.V *= 1e-3;
+  write_mesh(tmp.file("shrunk.obj"), shrunk);
 
   const std::string out = tmp.file("out");
-  for (const std::string bad : {"small.obj", "faces.obj", "nan.obj", "tiny.obj", "missing.obj"}) {
+  for (const std::string bad : {"small.obj", "faces.obj", "nan.obj", "tiny.obj", "shrunk.obj", "missing.obj"}) {
     // The bad frame comes last: no frame may be solved or written before all are checked.
     const auto r = run_cli("deform --shell '" + shell + "' --base '" + good + "' '" + good + "' '" + tmp.file(bad) +
                            "' -o '" + out + "'");

@@ -182,6 +182,17 @@ TEST(ShellDeformer, BadFramesAreRejectedAndLeaveTheStateAlone) {
   EXPECT_THROW(deformer.solve(rest.base * 1e-45), InputError);
   EXPECT_THROW(deformer.solve(rest.base * 0.0), InputError);
   EXPECT_THROW(deformer.solve(rest.base * 1e60), InputError); // beyond the coordinate limit
+  // A frame the shell's thickness does not fit: shrunk 1000 times, it would carry a layer 70 times
+  // its bounding radius, past the 10 generation builds (a frame of plane:8 shrunk so ran for
+  // minutes); moved 1e12 away, one double precision cannot offset by the thickness.
+  for (const Eigen::MatrixXd& frame : {Eigen::MatrixXd(rest.base * 1e-3), Eigen::MatrixXd(rest.base.array() + 1e12)}) {
+    try {
+      deformer.solve(frame);
+      ADD_FAILURE() << "frame accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("the new base: the shell's thickness does not fit this frame", 0), 0u) << e.what();
+    }
+  }
   EXPECT_TRUE(deformer.current().isApprox(rest.vertices()));
   const FrameResult r = deformer.solve(rest.base);
   EXPECT_LT((r.top - rest.top).cwiseAbs().maxCoeff(), 1e-12);

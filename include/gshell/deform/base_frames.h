@@ -7,6 +7,15 @@
 
 namespace gshell {
 
+/// What a new pose of a shell's base (faces F, `thickness` the rest shell's eta) must meet:
+/// require_usable_frame, and a thickness generation would build on it (check_thickness_scale):
+/// the shell keeps its thickness, and a frame shrunk by 1000 under a shell of ratio 0.05 puts a
+/// layer 50 times its size on it (every top triangle then near every other: a guarded frame of
+/// 81 vertices ran for minutes).
+/// \throws InputError "NAME: problem".
+void require_frame_for_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double thickness,
+                             const std::string& name);
+
 /// The base frames of a deformation, in order: held in memory, or, for a sequence too large to
 /// hold (a long animation of a sculpt: 1,000 frames of a million vertices are 24 GB), read
 /// again from their files one at a time while the deformation runs.
@@ -20,13 +29,13 @@ public:
   explicit BaseFrames(std::vector<Eigen::MatrixXd> frames) : held_(std::move(frames)) {}
 
   /// Reads every frame file (any mesh format read_mesh knows) and checks each against the shell's
-  /// base faces F (n vertices): same vertex count, identical faces, finite coordinates, all before
-  /// returning, so a bad frame fails before any work is done. Keeps the coordinates when the whole
+  /// base faces F (n vertices) and thickness: same vertex count, identical faces,
+  /// require_frame_for_shell, all before returning, so a bad frame fails before any work is done. Keeps the coordinates when the whole
   /// sequence takes at most `held_bytes`, else only the paths, and get() reads a frame again
   /// (and checks it again) when asked for it.
   /// \throws InputError "FRAME: problem" for the first bad frame (unreadable, unknown format,
-  ///         other vertex count or faces, non-finite), or when `paths` is empty.
-  static BaseFrames load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n,
+  ///         other vertex count or faces, beyond the limits), or when `paths` is empty.
+  static BaseFrames load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n, double thickness,
                          std::size_t held_bytes = kHeldBytes);
 
   int size() const { return static_cast<int>(held() ? held_.size() : paths_.size()); }
@@ -42,6 +51,7 @@ private:
   std::vector<std::string> paths_; // when not held
   Eigen::MatrixXi F_;              // to check the files read again
   int n_ = 0;
+  double thickness_ = 0;
 };
 
 } // namespace gshell
