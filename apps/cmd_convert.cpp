@@ -1,6 +1,7 @@
 // `gshell convert IN OUT`: any readable surface (or builtin:...) to OBJ, OFF or PLY, keeping
 // the vertex order and, for OBJ to OBJ, the texture coordinates; `--weld` joins the surface's cuts.
 #include "command_registry.h"
+#include "output_file.h"
 #include "progress.h"
 #include "warnings.h"
 
@@ -31,6 +32,8 @@ void add_convert_command(CLI::App& app) {
                 "(a triangle soup, split seams) become one; the other vertices keep their order");
   cmd->callback([opt] {
     using namespace gshell;
+    // Over its own input is allowed (the file is written whole, then renamed), not over a shell's.
+    cli::check_output_file(opt->output, "", {});
     std::vector<std::string> warnings;
     TriMesh mesh = load_mesh(opt->input, opt->weld ? nullptr : &warnings);
     cli::Progress progress("convert");

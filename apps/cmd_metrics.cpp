@@ -1,6 +1,7 @@
 // `gshell metrics BASE TOP`: the quality report of any base/top pair (docs/design.md "Quality
 // measures").
 #include "command_registry.h"
+#include "output_file.h"
 #include "parameter_flags.h"
 #include "surface_input.h"
 #include "thickness_flags.h"
@@ -27,6 +28,7 @@ struct MetricsCliOptions {
 void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
   using namespace gshell;
   cli::check_flags(cmd, [&] { o.thickness.check(); });
+  if (!o.output.empty()) cli::check_output_file(o.output, ".json", {o.base, o.top});
 
   const TriMesh base = cli::load_surface(o.base, "metrics");
   // The top is not validated as a surface: a bad shell may well have degenerate top faces.

@@ -1,5 +1,6 @@
 // `gshell render`: headless PNG renders of shells and surfaces, side by side.
 #include "command_registry.h"
+#include "output_file.h"
 #include "parameter_flags.h"
 #include "progress.h"
 #include "warnings.h"
@@ -8,10 +9,7 @@
 #include <gshell/render/image.h>
 #include <gshell/render/shell_render.h>
 
-#include <algorithm>
-#include <cctype>
 #include <cmath>
-#include <filesystem>
 #include <map>
 #include <memory>
 #include <regex>
@@ -45,16 +43,10 @@ void parse_size(const std::string& text, int& width, int& height) {
     throw InputError("--size " + text + ": width and height must be in [32, 8192]");
 }
 
-/// The image is always PNG: another extension would give a file whose name lies about it.
-void check_png_name(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (ext != ".png") throw InputError(with_file(path, "render writes PNG images: give the output a .png name"));
-}
-
 void run_render(const CLI::App& cmd, const RenderArgs& args) {
   ShellRenderOptions options;
-  check_png_name(args.output);
+  // The image is always PNG: another extension would give a file whose name lies about it.
+  check_output_file(args.output, ".png", args.inputs);
   parse_size(args.size, options.figure.width, options.figure.height);
   check_flags(cmd, [&] { options.figure.view = parse_view(args.view); });
   options.figure.projection = args.ortho ? Projection::Orthographic : Projection::Perspective;

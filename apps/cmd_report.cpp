@@ -1,5 +1,6 @@
 // `gshell report`: a self-contained HTML page about a generate / deform / pose output folder.
 #include "command_registry.h"
+#include "output_file.h"
 
 #include <gshell/render/html_report.h>
 
@@ -23,6 +24,7 @@ void add_report_command(CLI::App& parent) {
   cmd->add_option("-o,--output", args->output, "HTML file to write")->required();
   cmd->add_flag("--no-renders", args->no_renders, "Leave out the renders (faster; no OSMesa needed)");
   cmd->callback([args] {
+    check_output_file(args->output, ".html", {args->dir});
     ReportOptions options;
     options.renders = !args->no_renders;
     write_html_report(args->dir, args->output, options);

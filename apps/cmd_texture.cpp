@@ -1,5 +1,6 @@
 // gshell texture: geometric texture through the shell map (paper Fig. 5).
 #include "command_registry.h"
+#include "output_file.h"
 #include "progress.h"
 
 #include <gshell/deform/geometric_texture.h>
@@ -25,6 +26,7 @@ struct TextureArgs {
 void run_texture(const TextureArgs& args) {
   if (args.repeat.size() != 2 || args.repeat[0] < 1 || args.repeat[1] < 1)
     throw gshell::InputError("--repeat needs two counts >= 1");
+  gshell::cli::check_output_file(args.out, "", {args.shell, args.tile});
   const gshell::ShellFolder folder = gshell::read_shell_folder(args.shell);
   const gshell::Shell& shell = folder.shell;
   const gshell::TriMesh& uv_source = folder.surface;

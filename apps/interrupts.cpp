@@ -67,8 +67,16 @@ void catch_interrupts() {
   action.sa_handler = on_signal;
   sigemptyset(&action.sa_mask);
   action.sa_flags = SA_RESTART;
-  if (!ignored_at_start(SIGINT)) sigaction(SIGINT, &action, nullptr);
+  // SIGHUP (the terminal closed, an ssh session dropped) and SIGQUIT (Ctrl-\\) end a run as Ctrl-C
+  // does: by default they killed it and left its hidden staging folder behind. SIGINT and SIGHUP
+  // ignored at the start (a background job, nohup) stay ignored.
+  for (const int signal : {SIGINT, SIGHUP})
+    if (!ignored_at_start(signal)) sigaction(signal, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
+  sigaction(SIGQUIT, &action, nullptr);
+  // Past a file size limit (ulimit -f) a write should fail, and the command report it and remove
+  // what it was writing, instead of the process being killed in the middle of it.
+  std::signal(SIGXFSZ, SIG_IGN);
   std::thread(watch_signals).detach();
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// Ctrl-C (SIGINT) and SIGTERM, the same for every command: the process removes the outputs it is
+// Ctrl-C (SIGINT), SIGTERM, SIGHUP and SIGQUIT, the same for every command: the process removes the outputs it is
 // still writing (gshell/io/temporary_outputs.h), prints "gshell: interrupted" and ends at once
 // with status 128 + the signal's number. Without this, an interrupted `gshell deform -o OUT` left
 // its half-written hidden folder beside OUT; now an interrupted command leaves nothing, as a
@@ -9,8 +9,9 @@
 
 namespace gshell::cli {
 
-/// Installs the handlers; main calls it once. A SIGINT that was ignored when the process started
-/// (a background job of a non-interactive shell, nohup) stays ignored.
+/// Installs the handlers; main calls it once. A SIGINT or SIGHUP that was ignored when the process
+/// started (a background job of a non-interactive shell, nohup) stays ignored. SIGXFSZ is ignored:
+/// a write past `ulimit -f` then fails as any failed write does.
 void catch_interrupts();
 
 /// Never returns once a signal is ending the process: main calls it before it reports an error,

@@ -246,9 +246,45 @@ TEST(CliMessages, ValuesAreShownAsGivenAndOutputsNamedAsWritten) {
                     "--size 99999999999999999999x64: width and height must be in [32, 8192]");
   // render writes PNG whatever the name says: any other name is refused.
   expect_error_line("render builtin:sphere:1 -o " + quoted(dir.file("x.jpg")),
-                    dir.file("x.jpg") + ": render writes PNG images: give the output a .png name");
+                    dir.file("x.jpg") + ": the output is written as png: give it a .png name");
   EXPECT_EQ(count_entries(dir.path()), 0);
   EXPECT_EQ(run_cli("render builtin:sphere:1 --size 64x64 -q -o " + quoted(dir.file("x.PNG"))).exit_code, 0);
+}
+
+TEST(CliMessages, NoOutputIsWrittenOverAnInputOrAFileOfAShellFolder) {
+  // `report DIR -o DIR/report.json` turned the shell's report into HTML, `texture -o DIR/top.obj`
+  // replaced its top, `metrics BASE TOP -o TOP` wrote JSON over the top it measured.
+  TempDir dir;
+  const std::string shell = dir.file("plane"), base = shell + "/base.obj", top = shell + "/top.obj";
+  ASSERT_EQ(run_cli("generate builtin:plane:4 --thickness-ratio 0.05 -q -o " + quoted(shell)).exit_code, 0);
+  const std::string report = gshell::test::read_text(shell + "/report.json"), top_text = gshell::test::read_text(top);
+  const std::string breaks = ": is a file of a gshell output folder, which this command would break; write the output elsewhere";
+  expect_error_line("report " + quoted(shell) + " --no-renders -o " + quoted(dir.file("page.txt")),
+                    dir.file("page.txt") + ": the output is written as html: give it a .html name");
+  expect_error_line("report " + quoted(shell) + " --no-renders -o " + quoted(shell + "/report.json"),
+                    shell + "/report.json: the output is written as html: give it a .html name");
+  expect_error_line("texture --shell " + quoted(shell) + " --tile builtin:bumps:4 -o " + quoted(top), top + breaks);
+  expect_error_line("metrics " + quoted(base) + " " + quoted(top) + " --thickness-ratio 0.05 -o " + quoted(shell + "/report.json"),
+                    shell + "/report.json" + breaks);
+  expect_error_line("convert builtin:plane:4 " + quoted(base), base + breaks);
+  const std::string tile = dir.file("tile.obj");
+  ASSERT_EQ(run_cli("convert builtin:plane:2 " + quoted(tile)).exit_code, 0);
+  expect_error_line("texture --shell " + quoted(shell) + " --tile " + quoted(tile) + " -o " + quoted(tile),
+                    tile + ": is an input of this command (" + tile + "); write the output elsewhere");
+  EXPECT_EQ(gshell::test::read_text(shell + "/report.json"), report);
+  EXPECT_EQ(gshell::test::read_text(top), top_text);
+  // A report.json nested 100,000 deep crashed the HTML report (its formatting recurses).
+  const std::string deep = dir.file("deep");
+  std::filesystem::create_directory(deep);
+  std::filesystem::copy(base, deep + "/base.obj");
+  std::filesystem::copy(top, deep + "/top.obj");
+  write_text(deep + "/report.json", "{\"command\": \"generate\", \"x\": " + std::string(100000, '[') + "1" +
+                                        std::string(100000, ']') + "}");
+  expect_error_line("report " + quoted(deep) + " --no-renders -o " + quoted(dir.file("deep.html")),
+                    deep + "/report.json: nested deeper than 64 levels");
+  // Other files into the folder are fine: the README writes the HTML report beside the shell.
+  EXPECT_EQ(run_cli("report " + quoted(shell) + " --no-renders -q -o " + quoted(shell + "/report.html")).exit_code, 0);
+  EXPECT_EQ(run_cli("metrics " + quoted(base) + " " + quoted(top) + " --thickness-ratio 0.05 -o " + quoted(dir.file("m.json"))).exit_code, 0);
 }
 
 TEST(CliMessages, TextureCoordinatesAndTexturesNameTheirFile) {

@@ -11,6 +11,7 @@
 
 #include <chrono>
 #include <csignal>
+#include <cstring>
 #include <fcntl.h>
 #include <optional>
 #include <spawn.h>
@@ -108,6 +109,7 @@ TEST_P(InterruptedDeform, EndsAtOnceAndLeavesNothingBehind) {
   sigset_t defaults;
   sigemptyset(&defaults);
   sigaddset(&defaults, SIGINT);
+  sigaddset(&defaults, SIGHUP);
   posix_spawnattr_setsigdefault(&attributes, &defaults);
   posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGDEF);
   pid_t pid = 0;
@@ -141,5 +143,6 @@ TEST_P(InterruptedDeform, EndsAtOnceAndLeavesNothingBehind) {
   EXPECT_EQ(err.substr(err.rfind('\n', err.size() - 2) + 1), "gshell: interrupted\n") << err;
 }
 
-INSTANTIATE_TEST_SUITE_P(Signals, InterruptedDeform, testing::Values(SIGTERM, SIGINT),
-                         [](const testing::TestParamInfo<int>& info) { return info.param == SIGINT ? "SIGINT" : "SIGTERM"; });
+// SIGHUP (a closed terminal) and SIGQUIT (Ctrl-\\) killed the process and left the staging folder.
+INSTANTIATE_TEST_SUITE_P(Signals, InterruptedDeform, testing::Values(SIGTERM, SIGINT, SIGHUP, SIGQUIT),
+                         [](const testing::TestParamInfo<int>& info) { return "SIG" + std::string(sigabbrev_np(info.param)); });

@@ -154,6 +154,9 @@ TEST(Handles, BadFilesAreClearErrors) {
   expect_error(R"({"handles": [{"vertices": [0]}], "handles": [{"vertices": [1]}]})", "the key \"handles\" appears twice");
   expect_error(R"({"handles": [{"vertices": [0], "translate": [1, 0, 0], "translate": [0, 1, 0]}]})",
                "the key \"translate\" appears twice");
+  // Deep nesting is refused before anything recursive walks it (an error message dumps the value).
+  expect_error(R"({"handles": [{"vertices": [0], "translate": )" + std::string(100000, '[') + std::string(100000, ']') + "}]}",
+               "nested deeper than 32 levels");
   // 2^63 and 2^64 - 1 are unsigned in JSON and named as written, not wrapped to negative ids.
   expect_error(R"({"handles": [{"vertices": [9223372036854775808]}]})", "unknown vertex id 9223372036854775808 ");
   expect_error(R"({"handles": [{"vertices": [18446744073709551615]}]})", "unknown vertex id 18446744073709551615 ");

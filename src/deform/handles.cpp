@@ -1,5 +1,7 @@
 #include <gshell/deform/handles.h>
 
+#include "io/json_depth.h"
+
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
 
@@ -183,6 +185,11 @@ Handle parse_handle(const json& h, int index, const Shell& rest, const Reporter&
 
 HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest) {
   const Reporter r{name};
+  // Handle files nest 5 levels; deeper ones are refused before anything recursive (the dump of a
+  // value in an error message) walks them.
+  constexpr int kMaxHandlesDepth = 32;
+  if (io_detail::json_nesting_depth(json_text, kMaxHandlesDepth) > kMaxHandlesDepth)
+    r.fail("", "nested deeper than " + std::to_string(kMaxHandlesDepth) + " levels");
   json doc;
   // JSON leaves repeated keys to the reader and nlohmann keeps the last one: a second "handles"
   // would silently drop the first list. Found while parsing, refused after it.

@@ -60,7 +60,7 @@ void write_file_atomically(const std::string& path, const std::function<void(std
       if (!out) throw InputError(with_file(path, "cannot open for writing"));
       write(out);
       out.flush();
-      if (!out) throw InputError(with_file(path, "write failed (disk full?)"));
+      if (!out) throw InputError(with_file(path, "write failed (disk full, or past a file size limit?)"));
       out.close();
       if (out.fail()) throw InputError(with_file(path, "write failed when closing the file"));
     }

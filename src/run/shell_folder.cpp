@@ -1,5 +1,7 @@
 #include <gshell/run/shell_folder.h>
 
+#include "io/json_depth.h"
+
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/atomic_file.h>
@@ -17,6 +19,7 @@
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <optional>
 
 namespace gshell {
@@ -99,9 +102,14 @@ fs::path report_folder(const fs::path& dir) {
 
 nlohmann::ordered_json read_report(const fs::path& dir) {
   const fs::path path = dir / "report.json";
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(with_file(path.string(), "cannot open (is " + dir.string() + " a gshell output folder?)"));
-  nlohmann::ordered_json report = nlohmann::ordered_json::parse(in, nullptr, /*allow_exceptions=*/false);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // gshell's reports nest 5 levels; a hostile one 100,000 deep crashed the HTML report's formatting.
+  constexpr int kMaxReportDepth = 64;
+  if (io_detail::json_nesting_depth(text, kMaxReportDepth) > kMaxReportDepth)
+    throw InputError(with_file(path.string(), "nested deeper than " + std::to_string(kMaxReportDepth) + " levels"));
+  nlohmann::ordered_json report = nlohmann::ordered_json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (report.is_discarded() || !report.is_object()) throw InputError(with_file(path.string(), "not a JSON object"));
   return report;
 }
@@ -137,6 +145,15 @@ std::string invalid_rest_shell_warning(const std::string& dir, const nlohmann::o
 bool is_shell_folder(const fs::path& dir) {
   std::error_code ec;
   return fs::exists(dir / "top.obj", ec) || fs::exists(dir / "shell.vtu", ec);
+}
+
+bool is_output_folder_file(const fs::path& file) {
+  const std::string name = file.filename().string();
+  if (name != "base.obj" && name != "top.obj" && name != "shell.vtu" && name != "report.json" && name != "detail.obj")
+    return false;
+  const fs::path dir = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  std::error_code ec;
+  return is_shell_folder(dir) || fs::exists(dir / "report.json", ec);
 }
 
 ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderReadOptions& options) {

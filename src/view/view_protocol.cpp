@@ -1,5 +1,7 @@
 #include <gshell/view/view_protocol.h>
 
+#include "io/json_depth.h"
+
 #include <gshell/error.h>
 
 #include <nlohmann/json.hpp>
@@ -21,28 +23,6 @@ namespace {
 
 [[noreturn]] void fail(const std::string& type, const std::string& problem) {
   throw InputError(type.empty() ? "message: " + problem : "message \"" + type + "\": " + problem);
-}
-
-// The nesting depth of a JSON text, strings skipped. Checked before parsing so that no parser or
-// destructor ever recurses deeply on hostile input.
-int nesting_depth(std::string_view text) {
-  int depth = 0, deepest = 0;
-  bool in_string = false, escaped = false;
-  for (const char c : text) {
-    if (in_string) {
-      if (escaped) escaped = false;
-      else if (c == '\\') escaped = true;
-      else if (c == '"') in_string = false;
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      deepest = std::max(deepest, ++depth);
-      if (deepest > kViewMessageDepth) return deepest;
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  return deepest;
 }
 
 // A value shown in a message: short, whatever the page sent.
@@ -244,7 +224,8 @@ bool is_plain_folder_name(std::string_view name) {
 ViewMessage parse_view_message(std::string_view bytes, const ViewMessageLimits& limits) {
   if (bytes.size() > limits.max_bytes)
     fail("", "too long (" + std::to_string(bytes.size()) + " bytes, at most " + std::to_string(limits.max_bytes) + ")");
-  if (nesting_depth(bytes) > kViewMessageDepth)
+  // Checked before parsing, so that nothing recursive ever walks a deep tree from a page.
+  if (io_detail::json_nesting_depth(bytes, kViewMessageDepth) > kViewMessageDepth)
     fail("", "nested deeper than " + std::to_string(kViewMessageDepth) + " levels");
   json message;
   try {

@@ -72,6 +72,12 @@ void write_report(const std::filesystem::path& path, const nlohmann::ordered_jso
 /// A folder holds a shell (top.obj or shell.vtu), as opposed to a sequence of frames.
 bool is_shell_folder(const std::filesystem::path& dir);
 
+/// Whether `file` is one a gshell output folder is read from: base.obj, top.obj, shell.vtu,
+/// report.json or detail.obj in a shell folder or in a folder with a report.json (a deform
+/// output). Only the commands that write such folders write these, and then the whole folder:
+/// another output written over one (`gshell report DIR -o DIR/report.json`) breaks the folder.
+bool is_output_folder_file(const std::filesystem::path& file);
+
 /// Called with the staging folder, complete, just before it is moved into place: what it writes
 /// (e.g. preview.png) arrives together with the rest or not at all.
 using BeforeCommit = std::function<void(const std::filesystem::path& staged)>;

@@ -1,0 +1,29 @@
+#include "output_file.h"
+
+#include <gshell/error.h>
+#include <gshell/run/shell_folder.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+namespace gshell::cli {
+
+namespace fs = std::filesystem;
+
+void check_output_file(const std::string& output, const std::string& extension, const std::vector<std::string>& inputs) {
+  std::string ext = fs::path(output).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (!extension.empty() && ext != extension)
+    throw InputError(with_file(output, "the output is written as " + extension.substr(1) + ": give it a " + extension +
+                                           " name"));
+  std::error_code ec;
+  for (const std::string& input : inputs)
+    if (fs::equivalent(output, input, ec))
+      throw InputError(with_file(output, "is an input of this command (" + input + "); write the output elsewhere"));
+  if (is_output_folder_file(output))
+    throw InputError(with_file(output, "is a file of a gshell output folder, which this command would break; write "
+                                       "the output elsewhere"));
+}
+
+} // namespace gshell::cli
