@@ -158,6 +158,20 @@ TEST(ViewServer, RequestGuardKnowsWhichHostsAreThisServer) {
   EXPECT_TRUE(RequestGuard("::1", 9000).host_allowed("[::1]:9000"));
   EXPECT_TRUE(RequestGuard("fe80::1", 9000).host_allowed("[fe80::1]:9000"));
   EXPECT_TRUE(RequestGuard("127.0.0.1", 80).host_allowed("localhost"));
+  // Bound to every interface (--host 0.0.0.0 or ::), a request may name any of the machine's
+  // addresses, which only IP literals can be sure to be: every one was refused as DNS rebinding.
+  for (const char* wildcard : {"0.0.0.0", "::"}) {
+    const RequestGuard any(wildcard, 8080);
+    for (const char* host : {"192.0.2.2:8080", "[fd00::2]:8080", "10.1.2.3:8080", "localhost:8080"})
+      EXPECT_TRUE(any.host_allowed(host)) << wildcard << " " << host;
+    for (const char* host : {"evil.example:8080", "192.0.2.2:8081", "192.0.2.2", "192.0.2:8080", "[fd00::2:8080",
+                             "fd00::2:8080", "192.0.2.2.evil:8080", ":8080"})
+      EXPECT_FALSE(any.host_allowed(host)) << wildcard << " " << host;
+    EXPECT_TRUE(any.origin_allowed("http://192.0.2.2:8080", true));
+    EXPECT_FALSE(any.origin_allowed("http://evil.example:8080", true));
+  }
+  EXPECT_TRUE(RequestGuard("0.0.0.0", 80).host_allowed("192.0.2.2"));
+  EXPECT_FALSE(RequestGuard("127.0.0.1", 8080).host_allowed("192.0.2.2:8080")); // only when bound to every interface
 }
 
 TEST(ViewServer, ServesThePageOnlyToRequestsNamingIt) {

@@ -1,5 +1,7 @@
 #include <gshell/view/request_guard.h>
 
+#include <arpa/inet.h>
+
 #include <algorithm>
 #include <cctype>
 
@@ -13,9 +15,20 @@ std::string lower(std::string_view s) {
   return out;
 }
 
+// An IP address written out: "192.0.2.2" or "[fd00::2]". DNS rebinding needs a name to rebind.
+bool is_ip_literal(const std::string& host) {
+  unsigned char address[16];
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']')
+    return inet_pton(AF_INET6, host.substr(1, host.size() - 2).c_str(), address) == 1;
+  return inet_pton(AF_INET, host.c_str(), address) == 1;
+}
+
 } // namespace
 
 RequestGuard::RequestGuard(const std::string& bound_host, int port) {
+  const std::string wildcard = lower(bound_host);
+  any_address_ = wildcard == "0.0.0.0" || wildcard == "::" || wildcard == "[::]";
+  port_ = port;
   std::vector<std::string> names{"localhost", "127.0.0.1", "[::1]"};
   std::string bound = lower(bound_host);
   if (bound.find(':') != std::string::npos && bound.front() != '[') bound = "[" + bound + "]"; // IPv6 literal
@@ -28,7 +41,15 @@ RequestGuard::RequestGuard(const std::string& bound_host, int port) {
 
 bool RequestGuard::host_allowed(std::string_view host) const {
   const std::string h = lower(host);
-  return std::find(hosts_.begin(), hosts_.end(), h) != hosts_.end();
+  if (std::find(hosts_.begin(), hosts_.end(), h) != hosts_.end()) return true;
+  if (!any_address_) return false;
+  // Bound to every interface: any of the machine's addresses may be in the Host header, and an
+  // address cannot be rebound, so every IP literal with this server's port is accepted.
+  std::string suffix(1, ':'); // not ":" + ...: GCC 12 warns of a false -Wrestrict there
+  suffix += std::to_string(port_);
+  if (h.size() > suffix.size() && h.compare(h.size() - suffix.size(), suffix.size(), suffix) == 0)
+    return is_ip_literal(h.substr(0, h.size() - suffix.size()));
+  return port_ == 80 && is_ip_literal(h);
 }
 
 bool RequestGuard::origin_allowed(std::string_view origin, bool present) const {
