@@ -1,5 +1,6 @@
 // gshell animate: synthetic base frames (a smooth bend or twist) to drive `gshell deform`.
 #include "command_registry.h"
+#include "parameter_flags.h"
 #include "progress.h"
 #include "surface_input.h"
 #include "warnings.h"
@@ -49,6 +50,8 @@ void run_animate(const AnimateArgs& args) {
   if (std::abs(degrees) > kMaxDegrees)
     throw gshell::InputError("the angle must be within +-" + std::to_string(kMaxDegrees) + " degrees (100 turns; got " +
                              gshell::format_number(degrees, 10) + ")");
+  // Before any frame is made: a folder that cannot be replaced fails at once, not after them all.
+  gshell::check_output_folder(args.out, holds_only_frames);
   gshell::TriMesh mesh = gshell::cli::load_surface(args.base, "animate");
   const gshell::MotionFrame frame = gshell::motion_frame(mesh.V);
   const Eigen::MatrixXd rest = mesh.V;
@@ -98,7 +101,7 @@ void add_animate_command(CLI::App& parent) {
                                "Bend the longest bounding-box axis into an arc of A degrees in total");
   auto* twist = cmd->add_option("--twist", args->twist,
                                 "Twist about the longest bounding-box axis by A degrees end to end");
-  auto* band = cmd->add_option("--band", args->band,
+  cmd->add_option("--band", args->band,
                   "With --bend: fraction of the long axis that bends (a fold when < 1), centred")
       ->capture_default_str();
   bend->excludes(twist);
@@ -106,9 +109,9 @@ void add_animate_command(CLI::App& parent) {
   cmd->add_option("--frames", args->frames, "Number of frames K; frame K reaches the full angle")
       ->capture_default_str();
   cmd->add_option("-o,--output", args->out, "Output folder: frame_0001.obj .. frame_K.obj")->required();
-  cmd->callback([args, bend, twist, band] {
+  cmd->callback([args, cmd, bend, twist] {
     if (bend->count() + twist->count() != 1) throw gshell::InputError("give exactly one of --bend A or --twist A");
-    if (band->count() && twist->count()) throw gshell::InputError("--band applies only to --bend (a twist turns the whole axis)");
+    gshell::cli::check_applies(*cmd, "--band", bend->count() > 0, "--bend (a twist turns the whole axis)");
     run_animate(*args);
   });
 }

@@ -32,9 +32,8 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
     a.options.generate.method = parse_shell_method(a.method);
     a.options.check();
   });
-  if (a.options.generate.method != ShellMethod::Curvature &&
-      (cmd.get_option("--s-min")->count() || cmd.get_option("--s-max")->count()))
-    throw InputError("--s-min and --s-max apply only to --method curvature (the method is " + a.method + ")");
+  for (const char* flag : {"--s-min", "--s-max"})
+    cli::check_applies(cmd, flag, a.options.generate.method == ShellMethod::Curvature, "--method curvature");
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, [](const std::filesystem::path& d) { return gshell::holds_shell_output_of(d, "generate"); });
   std::vector<std::string> input_warnings;

@@ -30,6 +30,7 @@ void run(const CLI::App& cmd, PoseArgs& a) {
     a.options.solver = parse_pose_solver(a.solver);
     a.options.check();
   });
+  cli::check_applies(cmd, "--levels", a.options.solver == PoseSolverKind::Hierarchical, "--solver hierarchical");
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view); // before the solve, not after
 
   const ShellFolder rest = read_shell_folder(a.shell_dir);

@@ -42,6 +42,7 @@ void run(const CLI::App& cmd, ViewArgs& a) {
   using namespace gshell;
   cli::check_flags(cmd, [&] {
     a.session.pose.solver = parse_pose_solver(a.solver);
+    cli::check_applies(cmd, "--levels", a.session.pose.solver == PoseSolverKind::Hierarchical, "--solver hierarchical");
     a.session.check();
     a.server.check();
     if (a.input.generate.thickness.thickness || a.input.generate.thickness.thickness_ratio)

@@ -45,4 +45,8 @@ void check_flags(const CLI::App& cmd, const std::function<void()>& check) {
   }
 }
 
+void check_applies(const CLI::App& cmd, const std::string& flag, bool applies, const std::string& when) {
+  if (!applies && cmd.get_option(flag)->count() > 0) throw InputError(flag + " applies only to " + when);
+}
+
 } // namespace gshell::cli

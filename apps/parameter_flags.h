@@ -11,4 +11,8 @@ namespace gshell::cli {
 /// messages naming files pass through other code.
 void check_flags(const CLI::App& cmd, const std::function<void()>& check);
 
+/// Throws InputError "FLAG applies only to WHEN" when `flag` (a long flag of `cmd`) was given
+/// although `applies` is false: an option a run would ignore is a mistake to be told of.
+void check_applies(const CLI::App& cmd, const std::string& flag, bool applies, const std::string& when);
+
 } // namespace gshell::cli

@@ -224,11 +224,21 @@ TEST(CliMessages, OptionsThatWouldBeIgnoredAreErrors) {
   TempDir dir;
   const std::string out = " -o " + quoted(dir.file("out"));
   expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --s-min 0.8" + out,
-                    "--s-min and --s-max apply only to --method curvature (the method is rigid)");
+                    "--s-min applies only to --method curvature");
   expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --method offset --s-max 1.5" + out,
-                    "--s-min and --s-max apply only to --method curvature (the method is offset)");
+                    "--s-max applies only to --method curvature");
+  expect_error_line("pose --shell " + quoted(dir.file("no_shell")) + " --handles h.json --solver single --levels 3" + out,
+                    "--levels applies only to --solver hierarchical");
+  expect_error_line("view builtin:plane:4 --solver single --levels 3", "--levels applies only to --solver hierarchical");
   expect_error_line("animate builtin:plane:4 --twist 30 --band 0.5" + out,
                     "--band applies only to --bend (a twist turns the whole axis)");
+  // animate checks its folder before making any frame (it made them all, then refused the folder).
+  std::filesystem::create_directory(dir.file("taken"));
+  write_text(dir.file("taken/notes.txt"), "");
+  expect_error_line("animate builtin:plane:4 --bend 30 --frames 3 -o " + quoted(dir.file("taken")),
+                    dir.file("taken") + ": exists and holds files gshell does not write there (notes.txt), which "
+                                        "replacing the folder would delete; move them, remove the folder or choose another -o");
+  std::filesystem::remove_all(dir.file("taken"));
   EXPECT_EQ(count_entries(dir.path()), 0);
   // The curvature method takes them, and a bend its band.
   EXPECT_EQ(run_cli("generate builtin:sphere:1 --thickness-ratio 0.05 --method curvature --s-min 0.8 -q" + out).exit_code, 0);

@@ -355,7 +355,7 @@ TEST(PoseCli, AFolderOfOtherFilesIsNotReplaced) {
   const auto r = run_cli("pose --shell '" + tmp.file("shell") + "' --handles '" + tmp.file("pull.json") +
                          "' --levels 3 -q -o '" + tmp.file("mine") + "'");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("not an earlier output"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("holds files gshell does not write there (notes.txt)"), std::string::npos) << r.err;
   EXPECT_EQ(test::read_text(tmp.file("mine/notes.txt")), "keep me");
   EXPECT_EQ(test::count_entries(tmp.path() / "mine"), 1);
   EXPECT_EQ(test::count_entries(tmp.path()), 3); // shell, pull.json, mine: no temporaries left

@@ -1,9 +1,13 @@
 #include <gshell/run/staged_folder.h>
 
 #include <gshell/error.h>
+#include <gshell/run/frames.h>
 
+#include <algorithm>
 #include <random>
+#include <string>
 #include <system_error>
+#include <vector>
 
 namespace gshell {
 
@@ -34,9 +38,33 @@ bool replaceable(const fs::path& destination, const std::function<bool(const fs:
   return empty || (is_previous_output && is_previous_output(destination));
 }
 
+// Entries no gshell command writes into its output folders (a report.html, a render put beside
+// the shell), named in the message: the folder may well be this command's earlier output
+// otherwise, and the user should not have to guess what holds it back.
+std::vector<std::string> foreign_entries(const fs::path& dir) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    const bool ours = name == "base.obj" || name == "top.obj" || name == "shell.vtu" || name == "report.json" ||
+                      name == "preview.png" || frame_number(name) || frame_number(name, ".obj");
+    if (!ours) out.push_back(name);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 InputError not_replaceable(const fs::path& destination) {
-  return InputError(with_file(destination.string(), "exists and is not an earlier output of this command; "
-                                                    "remove it or choose another -o"));
+  const std::vector<std::string> foreign = foreign_entries(destination);
+  if (foreign.empty())
+    return InputError(with_file(destination.string(), "exists and is not an earlier output of this command; "
+                                                      "remove it or choose another -o"));
+  std::string names;
+  for (std::size_t k = 0; k < std::min<std::size_t>(foreign.size(), 3); ++k) names += (k ? ", " : "") + foreign[k];
+  if (foreign.size() > 3) names += " and " + std::to_string(foreign.size() - 3) + " more";
+  return InputError(with_file(destination.string(), "exists and holds files gshell does not write there (" + names +
+                                                        "), which replacing the folder would delete; move them, "
+                                                        "remove the folder or choose another -o"));
 }
 
 } // namespace
