@@ -2,10 +2,9 @@
 #include "command_registry.h"
 
 #include <gshell/error.h>
-#include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/mesh_topology.h>
 #include <gshell/geometry/validate_mesh.h>
-#include <gshell/io/read_mesh.h>
+#include <gshell/io/load_mesh.h>
 
 #include <nlohmann/json.hpp>
 
@@ -94,7 +93,7 @@ void print_json(const std::string& name, const TriMesh& mesh, const MeshStats& s
 
 void run_info(const InfoArgs& args) {
   std::vector<std::string> read_warnings;
-  const TriMesh mesh = is_builtin_spec(args.mesh) ? make_builtin(args.mesh) : read_mesh(args.mesh, &read_warnings);
+  const TriMesh mesh = read_mesh_or_builtin(args.mesh, &read_warnings);
   const MeshStats stats = mesh_stats(mesh);
   auto problems = validate_mesh(mesh);
   // What reading warned of (texture coordinates dropped) is listed with the warnings, after the

@@ -7,9 +7,8 @@
 #include "thickness_flags.h"
 
 #include <gshell/error.h>
-#include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/validate_mesh.h>
-#include <gshell/io/read_mesh.h>
+#include <gshell/io/load_mesh.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
 
@@ -32,7 +31,7 @@ void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
 
   const TriMesh base = cli::load_surface(o.base, "metrics");
   // The top is not validated as a surface: a bad shell may well have degenerate top faces.
-  const TriMesh top = is_builtin_spec(o.top) ? make_builtin(o.top) : read_mesh(o.top);
+  const TriMesh top = read_mesh_or_builtin(o.top);
   if (top.V.rows() != base.V.rows() || top.F.rows() != base.F.rows() || top.F != base.F)
     throw InputError(with_file(o.top, "must have the same vertex count and faces as " + o.base));
   require_usable_coordinates(top.V, o.top);

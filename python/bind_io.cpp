@@ -4,7 +4,7 @@
 
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/weld_vertices.h>
-#include <gshell/io/read_mesh.h>
+#include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
 
 #include <pybind11/stl/filesystem.h>
@@ -21,7 +21,7 @@ py::tuple read_mesh_py(const std::filesystem::path& path) {
   TriMesh mesh;
   {
     py::gil_scoped_release release;
-    mesh = read_mesh(path.string());
+    mesh = read_mesh_or_builtin(path.string());
   }
   return mesh_tuple(mesh);
 }
@@ -59,7 +59,8 @@ py::tuple weld_py(const ArrayArg& V, const ArrayArg& F) {
 
 void bind_io(py::module_& m) {
   m.def("read_mesh", &read_mesh_py, py::arg("path"),
-        R"(Read a triangle mesh: OBJ, OFF, PLY (ASCII or binary) or STL, by file extension.
+        R"(Read a triangle mesh: OBJ, OFF, PLY (ASCII or binary) or STL, by file extension, or a
+"builtin:NAME[:RES]" spec as the command line takes it (the same as builtin()).
 
 Polygons are fan-triangulated; the vertex order of the file is kept.
 

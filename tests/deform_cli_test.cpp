@@ -179,6 +179,19 @@ TEST(DeformCli, RigidFrameMovesTheTopRigidly) {
   EXPECT_LT(read_json(tmp.file("out") + "/report.json")["frames"][0]["stretch"]["max"].get<double>(), 1e-12);
 }
 
+TEST(DeformCli, FramesAndDetailMayBeBuiltinSpecs) {
+  // "Wherever a surface is read, a built-in mesh can be named": deform's frames and detail said
+  // "unknown mesh format '(no extension)'".
+  TempDir tmp;
+  const std::string shell = write_plane_shell(tmp, 4, 0.1), out = tmp.file("out");
+  const auto r = run_cli("deform --shell '" + shell + "' --base builtin:plane:4 --embed builtin:plane:2 -q -o '" + out + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // The rest base again: the frame is the rest shell, and the detail (the plane itself) stays put.
+  const TriMesh top = read_mesh(out + "/frame_0001/top.obj"), detail = read_mesh(out + "/frame_0001/detail.obj");
+  EXPECT_LT((top.V - read_mesh(shell + "/top.obj").V).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((detail.V - make_plane(2).V).cwiseAbs().maxCoeff(), 1e-9);
+}
+
 TEST(DeformCli, BadFramesFailBeforeAnythingIsWritten) {
   TempDir tmp;
   const std::string shell = write_plane_shell(tmp, 4, 0.1);

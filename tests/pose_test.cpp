@@ -145,6 +145,7 @@ TEST(Handles, BadFilesAreClearErrors) {
   expect_error(R"({"handles": [{"vertices": [0, 1]}, {"vertices": [1, 2]}]})", "vertex 1 is in handles 0 and 1");
   expect_error(R"({"weight": -1, "handles": [{"vertices": [0]}]})", "must be > 0");
   expect_error(R"({"weight": 1e17, "handles": [{"vertices": [0]}]})", "must be <= 1e12");
+  expect_error(R"({"weight": 1e-300, "handles": [{"vertices": [0]}]})", "weight: must be >= 1e-12"); // was "singular"
   expect_error(R"({"mode": "rigid", "handles": [{"vertices": [0]}]})", "\"hard\" or \"soft\"");
   expect_error(R"({"handles": [{"select": {"surface": "middle", "box": [0, 0, 0, 1, 1, 1]}}]})", "\"base\", \"top\" or \"both\"");
   expect_error("[1, 2", "not valid JSON");

@@ -167,6 +167,12 @@ class MeshIOTest(TempDirTest):
         np.testing.assert_array_equal(F1, F2)
         self.assertEqual(V1.shape, (16 * 8, 3))
 
+    def test_read_mesh_takes_builtin_specs(self):
+        V, F = gshell.read_mesh("builtin:torus:12")
+        V2, F2 = gshell.builtin("torus:12")
+        np.testing.assert_array_equal(V, V2)
+        np.testing.assert_array_equal(F, F2)
+
     def test_round_trip_every_format(self):
         V, F = gshell.builtin("torus:12")
         for ext in ("obj", "off", "ply"):
@@ -699,8 +705,9 @@ class PoseTest(TempDirTest):
         shell = gshell.load_shell(out)
         for solver in ("hierarchical", "single"):
             with self.subTest(solver=solver):
+                levels = ["--levels", "3"] if solver == "hierarchical" else []  # an error with single
                 run_cli("pose", "--shell", out, "--handles", handles, "-o", self.path("posed"), "--solver", solver,
-                        "--levels", "3", "--iterations", "20", "--steps", "2", "--quiet")
+                        *levels, "--iterations", "20", "--steps", "2", "--quiet")
                 shutil.rmtree(self.path("py_posed"), ignore_errors=True)
                 cli_base, _ = gshell.read_mesh(os.path.join(self.path("posed"), "base.obj"))
                 cli_top, _ = gshell.read_mesh(os.path.join(self.path("posed"), "top.obj"))

@@ -2,7 +2,7 @@
 
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
-#include <gshell/io/read_mesh.h>
+#include <gshell/io/load_mesh.h>
 #include <gshell/shell/generate_shell.h>
 
 namespace gshell {
@@ -11,7 +11,7 @@ namespace {
 
 // One frame file read and checked against the shell's base.
 Eigen::MatrixXd read_base_frame(const std::string& path, const Eigen::MatrixXi& F, int n, double thickness) {
-  TriMesh mesh = read_mesh(path);
+  TriMesh mesh = read_mesh_or_builtin(path);
   if (mesh.num_vertices() != n)
     throw InputError(with_file(path, "has " + std::to_string(mesh.num_vertices()) + " vertices, the shell's base has " +
                                          std::to_string(n)));

@@ -218,6 +218,7 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
   if (has_weight) {
     set.weight = finite_number(doc["weight"], "weight", r);
     if (!(set.weight > 0)) r.fail("weight", "must be > 0");
+    if (set.weight < kMinSoftWeight) r.fail("weight", "must be >= 1e-12 (weaker springs are lost to rounding)");
     // 1e17 made the hierarchy's reduced matrices indefinite ("internal error"); see kMaxSoftWeight.
     if (set.weight > kMaxSoftWeight) r.fail("weight", "must be <= 1e12 (for handles held exactly use \"mode\": \"hard\")");
   }
@@ -248,8 +249,8 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
 }
 
 void check_handles(const HandleSet& set, int shell_vertices) {
-  if (set.mode == ConstraintMode::Soft && !(set.weight > 0 && set.weight <= kMaxSoftWeight))
-    throw InputError("handles: weight must be > 0 and <= 1e12");
+  if (set.mode == ConstraintMode::Soft && !(set.weight >= kMinSoftWeight && set.weight <= kMaxSoftWeight))
+    throw InputError("handles: weight must be in [1e-12, 1e12]");
   std::vector<int> owner(std::max(shell_vertices, 0), -1);
   for (size_t k = 0; k < set.handles.size(); ++k) {
     const Handle& h = set.handles[k];

@@ -6,9 +6,13 @@
 
 namespace gshell {
 
+TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings) {
+  return is_builtin_spec(input) ? make_builtin(input) : read_mesh(input, warnings);
+}
+
 TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings) {
   std::vector<std::string> read_warnings;
-  TriMesh mesh = is_builtin_spec(input) ? make_builtin(input) : read_mesh(input, &read_warnings);
+  TriMesh mesh = read_mesh_or_builtin(input, &read_warnings);
   std::vector<std::string> found = require_valid_mesh(mesh, input);
   if (warnings) {
     *warnings = std::move(read_warnings);

@@ -3,7 +3,7 @@
 #include <gshell/deform/base_frames.h>
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
-#include <gshell/io/read_mesh.h>
+#include <gshell/io/load_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/certificate_report.h>
@@ -72,7 +72,7 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   input.frame_names = frames;
   input.frames = BaseFrames::load(frames, input.shell.F, input.shell.num_base_vertices(), input.shell.thickness);
   if (!embed.empty()) {
-    input.detail = read_mesh(embed);
+    input.detail = read_mesh_or_builtin(embed);
     require_usable_coordinates(input.detail.V, embed);
     input.detail_name = embed;
   }

@@ -33,6 +33,10 @@ enum class ConstraintMode {
 /// The stiffest soft handles (HandleSet::weight): a handle then sits on its target to about 1e-12
 /// of the shell's size, and stiffer springs make the reduced levels' matrices indefinite to rounding.
 constexpr double kMaxSoftWeight = 1e12;
+/// The weakest: springs that hold the shell in place at all. Below about 1e-16 a spring is lost
+/// to rounding next to the shell's stiffness and the system is singular (the bowl pull: solved at
+/// 1e-15, "singular" at 1e-18), a message that named the handles' parts, not the weight.
+constexpr double kMinSoftWeight = 1e-12;
 
 struct HandleSet {
   std::vector<Handle> handles;         ///< disjoint vertex sets
@@ -40,7 +44,7 @@ struct HandleSet {
   /// Soft mode only. Dimensionless: the spring constant is weight times the mean diagonal entry
   /// of the shell's stiffness matrix (sum_t vol_t G_t^T G_t), so the same weight behaves the same
   /// at any model scale. 1 = as stiff as a typical vertex's tie to its neighbours. At most
-  /// kMaxSoftWeight.
+  /// kMaxSoftWeight, at least kMinSoftWeight.
   double weight = 1000;
 
   /// Vertices of all handles, handle after handle (the row order of `targets`).

@@ -12,4 +12,10 @@ namespace gshell {
 ///         not a valid mesh (require_valid_mesh).
 TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings = nullptr);
 
+/// The same input, read (make_builtin or read_mesh, whose warnings go to `warnings`) but not
+/// validated as a surface: for meshes checked for their own use (deformation frames, embedded
+/// detail, a shell's top in metrics).
+/// \throws InputError naming the input when it cannot be read.
+TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings = nullptr);
+
 } // namespace gshell
