@@ -15,7 +15,6 @@
 #include <cmath>
 #include <memory>
 #include <optional>
-#include <mutex>
 
 namespace gshell::python {
 
@@ -29,7 +28,7 @@ struct DeformerObject {
   bool solved = false;
   /// solve() runs without the GIL and changes the deformer's state: two Python threads calling
   /// it on one object must take turns.
-  std::mutex mutex;
+  ObjectLock lock{"the Deformer"};
 };
 
 struct EmbeddingObject {
@@ -61,7 +60,7 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
   Eigen::MatrixXd top;
   {
     py::gil_scoped_release release;
-    const std::lock_guard<std::mutex> lock(d.mutex); // released before the GIL is taken back
+    const ObjectLock::Held held(d.lock); // released before the GIL is taken back
     try {
       d.last = d.deformer.solve(base, options);
     } catch (const PythonErrorPending&) { // interrupted inside the frame: no half-made frame to continue from
@@ -179,20 +178,20 @@ Raises:
 
 Releases the GIL while it runs.)")
       .def("reset", [](DeformerObject& d) {
-             without_gil_locked(d.mutex, [&] {
+             without_gil_locked(d.lock, [&] {
                d.deformer.reset();
                d.solved = false;
              });
            },
            "Start the next solve() from the rest shell again.")
       .def_property_readonly("vertices", [](DeformerObject& d) {
-             const Eigen::MatrixXd X = without_gil_locked(d.mutex, [&] { return d.deformer.current(); });
+             const Eigen::MatrixXd X = without_gil_locked(d.lock, [&] { return d.deformer.current(); });
              return read_only(from_matrix(X));
            },
            "float64 (2n, 3): all shell vertices after the last solve (base rows, then top rows); "
            "pass it to Embedding.carry().")
       .def_property_readonly("last", [](DeformerObject& d) -> py::object {
-             const nlohmann::ordered_json j = without_gil_locked(d.mutex, [&] { // null before the first solve
+             const nlohmann::ordered_json j = without_gil_locked(d.lock, [&] { // null before the first solve
                return d.solved ? frame_json(d.last) : nlohmann::ordered_json();
              });
              return j.is_null() ? py::none() : to_python(j);

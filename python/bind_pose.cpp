@@ -15,7 +15,6 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 
 namespace gshell::python {
 
@@ -27,7 +26,7 @@ struct PoserObject {
   /// The handle set of the last solve (with its motions): the same set again continues the drag.
   std::optional<HandleSet> handles;
   nlohmann::ordered_json last; ///< null before the first solve
-  std::mutex mutex;            ///< solve() runs without the GIL
+  ObjectLock lock{"the Poser"}; ///< solve() runs without the GIL
 };
 
 std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, int levels,
@@ -81,7 +80,7 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   Eigen::MatrixXd X;
   {
     py::gil_scoped_release release;
-    const std::lock_guard<std::mutex> lock(p.mutex);
+    const ObjectLock::Held held(p.lock);
     if (!p.handles || !(*p.handles == set)) { // other handles: from the rest shell again
       p.session.reset();
       p.session.set_handles(set);
@@ -167,7 +166,7 @@ Raises:
 Releases the GIL while it runs.)")
       .def("reset",
            [](PoserObject& p) {
-             without_gil_locked(p.mutex, [&] {
+             without_gil_locked(p.lock, [&] {
                p.session.reset();
                p.handles.reset();
                p.last = nullptr;
@@ -176,21 +175,21 @@ Releases the GIL while it runs.)")
            "Forget the last handle set: the next solve() starts from the rest shell.")
       .def("write",
            [](PoserObject& p, const std::filesystem::path& path) {
-             without_gil_locked(p.mutex, [&] { p.session.write(path.string()); });
+             without_gil_locked(p.lock, [&] { p.session.write(path.string()); });
            },
            py::arg("path"),
            "Write the posed shell folder as `gshell pose -o` does (base.obj, top.obj, shell.vtu, report.json).")
       .def_property_readonly("vertices",
                              [](PoserObject& p) -> py::object {
                                const Eigen::MatrixXd X =
-                                   without_gil_locked(p.mutex, [&] { return p.session.vertices(); });
+                                   without_gil_locked(p.lock, [&] { return p.session.vertices(); });
                                return read_only(from_matrix(X));
                              },
                              "float64 (2n, 3): all shell vertices after the last solve (the rest shell "
                              "before any); pass it to Embedding.carry().")
       .def_property_readonly("last",
                              [](PoserObject& p) -> py::object {
-                               const nlohmann::ordered_json j = without_gil_locked(p.mutex, [&] { return p.last; });
+                               const nlohmann::ordered_json j = without_gil_locked(p.lock, [&] { return p.last; });
                                return j.is_null() ? py::none() : to_python(j);
                              },
                              "dict about the last solve (None before the first): the fields of `gshell pose`'s "

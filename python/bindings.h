@@ -4,8 +4,11 @@
 #include <pybind11/pybind11.h>
 
 #include <nlohmann/json.hpp>
+#include <atomic>
 #include <mutex>
+#include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace gshell::python {
 
@@ -25,11 +28,46 @@ py::object to_python(const nlohmann::ordered_json& value);
 /// cannot be written as JSON.
 nlohmann::json from_python(const py::handle& object, const char* name);
 
-/// Runs `work` with the GIL released (other Python threads run meanwhile) and `mutex` (the
+/// The lock of an object whose calls run without the GIL (Deformer, Poser): two Python threads
+/// take turns. Its own progress callback runs inside solve(), on the thread holding the lock:
+/// a property read or a call from there would wait for itself forever (with Ctrl-C unable to end
+/// it), so it raises RuntimeError instead.
+class ObjectLock {
+public:
+  explicit ObjectLock(const char* object) : object_(object) {}
+
+  class Held {
+  public:
+    explicit Held(ObjectLock& lock) : lock_(lock) {
+      if (lock_.owner_.load() == std::this_thread::get_id())
+        throw std::runtime_error(std::string(lock_.object_) +
+                                 " is busy: its solve() is running (a progress callback cannot use the object it "
+                                 "reports on)");
+      lock_.mutex_.lock();
+      lock_.owner_ = std::this_thread::get_id();
+    }
+    ~Held() {
+      lock_.owner_ = std::thread::id();
+      lock_.mutex_.unlock();
+    }
+    Held(const Held&) = delete;
+    Held& operator=(const Held&) = delete;
+
+  private:
+    ObjectLock& lock_;
+  };
+
+private:
+  const char* object_;
+  std::mutex mutex_;
+  std::atomic<std::thread::id> owner_{};
+};
+
+/// Runs `work` with the GIL released (other Python threads run meanwhile) and `lock` (the
 /// object's) held, and returns what it returns; the lock is let go before the GIL is taken back.
-template <class Work> auto without_gil_locked(std::mutex& mutex, Work&& work) {
+template <class Work> auto without_gil_locked(ObjectLock& lock, Work&& work) {
   py::gil_scoped_release release;
-  const std::lock_guard<std::mutex> lock(mutex);
+  const ObjectLock::Held held(lock);
   return work();
 }
 

@@ -1108,6 +1108,22 @@ class ProgressTest(TempDirTest):
         with self.assertRaises(ValueError):
             gshell.generate(self.V, self.F, thickness=0.05, progress=3)
 
+    def test_a_callback_using_its_own_object_gets_an_error_not_a_deadlock(self):
+        # The callback runs inside solve(), which holds the object: reading it from there waited for
+        # itself forever, and Ctrl-C could not end the wait.
+        d = gshell.Deformer(self.shell)
+        p = gshell.Poser(self.shell)
+        calls = [(d, lambda cb: d.solve(self.shell.base * 1.5, tolerance=0, progress=cb),
+                  [lambda u: d.vertices, lambda u: d.last, lambda u: d.reset()]),
+                 (p, lambda cb: p.solve(HANDLES, progress=cb), [lambda u: p.vertices, lambda u: p.last])]
+        for obj, solve, callbacks in calls:
+            for callback in callbacks:
+                with self.subTest(obj=type(obj).__name__), self.assertRaisesRegex(RuntimeError, " is busy: its solve"):
+                    solve(callback)
+        # Both are usable afterwards.
+        self.assertEqual(d.solve(self.shell.base).shape, self.shell.top.shape)
+        self.assertEqual(p.solve(HANDLES)[1].shape, self.shell.top.shape)
+
 
 if __name__ == "__main__":
     unittest.main()
