@@ -436,6 +436,11 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
     load_handles(load->text, load->name, send);
   } else if (const auto* save = std::get_if<ViewSaveShell>(&m)) {
     DragSession& d = s.posable(type);
+    // Only a shell at rest is certified: during a drag the state is the unguarded preview (a
+    // bowl pulled through itself was saved with 16,207 inverted tets under a report of earlier
+    // valid steps), during a settle a state the page no longer shows.
+    if (s.pending || settle_pending())
+      throw InputError("save_shell: the shell is still moving (" + s.phase + "); save it once it has settled");
     const fs::path dir = fs::absolute(fs::path(s.options.output_dir) / save->folder).lexically_normal();
     std::error_code ec;
     if (fs::exists(fs::symlink_status(dir, ec)))
