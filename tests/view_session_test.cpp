@@ -604,6 +604,27 @@ TEST(ViewSession, AShellFolderItsReportCallsInvalidCarriesAWarning) {
                                  "wall intersecting pairs); ", 0), 0u) << in.warnings[0];
 }
 
+TEST(ViewSession, RemovingEveryGroupLeavesNothingToSettle) {
+  // With no handle vertex left there is nothing to solve towards: the settle that followed failed
+  // with "no handle vertices", shown on the page as a drag's error.
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  session.welcome(out.sink());
+  session.receive(R"({"type":"add_handle","name":"a","vertices":[1]})", out.sink());
+  EXPECT_TRUE(session.settle_pending());
+  for (const char* last : {R"({"type":"remove_handle","handle":0})", R"({"type":"undo"})"}) {
+    if (std::string(last).find("undo") != std::string::npos) {
+      session.receive(R"({"type":"add_handle","name":"a","vertices":[1]})", out.sink());
+      ASSERT_TRUE(session.settle(out.sink(), never));
+    }
+    out.clear();
+    session.receive(last, out.sink());
+    EXPECT_TRUE(out.messages("error").empty()) << out.messages("error")[0].dump();
+    EXPECT_FALSE(session.settle_pending()) << last;
+  }
+}
+
 TEST(ViewSession, AThicknessForShellFoldersIsAnErrorNotIgnored) {
   // A shell folder keeps the thickness it was made with; `view SHELL --thickness 0.3` used to show
   // the folder's 0.1 shell as if asked for nothing.

@@ -518,7 +518,16 @@ void ServerCore::solver_loop() {
   const auto rest = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.rest_seconds));
   Clock::time_point last_drag = Clock::now() - rest;
   const auto interrupt = [this] { return stopping.load() || inbox_nonempty.load(); };
+  std::string last_logged;
   auto report = [&](const char* request, const std::string& message) {
+    // Also on the terminal, once in a row (a drag and its settle fail alike): a solve started
+    // before any page connected (--handles) has no one else to tell (a handle file that pose
+    // refuses was silently not applied).
+    if (message != last_logged) {
+      const std::string prefix = "gshell view: "; // the log adds its own
+      log(message.rfind(prefix, 0) == 0 ? message.substr(prefix.size()) : message);
+      last_logged = message;
+    }
     everyone({nlohmann::json{{"type", "error"}, {"request", request}, {"message", message}}.dump(
                   -1, ' ', false, nlohmann::json::error_handler_t::replace),
               false, false});
@@ -567,7 +576,6 @@ void ServerCore::solver_loop() {
       report("drag", e.what());
     } catch (const std::exception& e) { // a bug: say so and keep serving
       report(nullptr, std::string("internal error: ") + e.what());
-      log(std::string("internal error: ") + e.what());
     }
   }
   thread_finished();

@@ -252,9 +252,13 @@ struct ViewSession::Impl {
     drag->set_motion(k, t, turned ? turn.axis() : Eigen::Vector3d::UnitZ(), turned ? turn.angle() * 180 / M_PI : 0.0);
   }
 
+  // A shell without handle vertices has nothing to settle towards (and its solve would fail with
+  // "no handle vertices", shown after the last group was removed as if a drag had gone wrong).
+  bool has_handle_vertices() const { return drag && !drag->handles().constrained_vertices().empty(); }
+
   void handles_edited(const ViewSink& send) {
     handles_changed = true;
-    settle_pending = true;
+    settle_pending = has_handle_vertices();
     send_handles(send);
     send_stats(send);
   }
@@ -370,6 +374,7 @@ void ViewSession::load_handles(const std::string& text_, const std::string& name
                                  [](const Handle& g) { return !g.translate.isZero(0) || g.degrees != 0; });
   d.set_handles(std::move(h));
   s.pending = moves; // the motions are solved as a drag event, then settled
+  s.received = Clock::now(); // its latency counts from here (from the clock's epoch, it showed the uptime)
   s.handles_edited(send);
   if (s.log) s.log("loaded handles from " + name);
 }
@@ -414,7 +419,7 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
   } else if (std::holds_alternative<ViewUndo>(m)) {
     if (!s.posable(type).undo()) throw InputError("undo: nothing to undo");
     s.pending = false;
-    s.settle_pending = true;
+    s.settle_pending = s.has_handle_vertices();
     s.handles_changed = true;
     s.phase = "rest";
     s.changed();
