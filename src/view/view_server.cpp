@@ -92,6 +92,7 @@ struct ServerCore {
   net::io_context ioc{1};
   tcp::acceptor acceptor{ioc};
   net::steady_timer stop_timer{ioc};
+  net::steady_timer accept_retry{ioc}; ///< the pause after a failed accept
   int port = 0;
   std::string url;
 
@@ -434,8 +435,16 @@ private:
 void ServerCore::accept() {
   acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
     if (network_stopping) return;
-    if (!ec) std::make_shared<HttpConnection>(std::move(socket), *this)->read();
-    accept();
+    if (!ec) {
+      std::make_shared<HttpConnection>(std::move(socket), *this)->read();
+      return accept();
+    }
+    // Out of file descriptors (EMFILE) the connection stays queued and an immediate retry fails at
+    // once again: the loop spun at 100 % CPU until clients left. A pause lets connections close.
+    accept_retry.expires_after(std::chrono::milliseconds(100));
+    accept_retry.async_wait([this](beast::error_code wait_error) {
+      if (!wait_error && !network_stopping) accept();
+    });
   });
 }
 
@@ -672,6 +681,7 @@ void ViewServer::stop() {
     s.network_stopping = true;
     beast::error_code ec;
     s.acceptor.close(ec);
+    s.accept_retry.cancel();
     if (s.pages.empty()) return s.ioc.stop();
     for (auto& [id, page] : s.pages) page->close(websocket::close_code::going_away);
     s.stop_timer.expires_after(kCloseGrace); // or sooner, when the last page has gone (page_closed)
