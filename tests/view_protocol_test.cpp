@@ -101,6 +101,9 @@ TEST(ViewProtocol, MalformedMessagesAreOneClearError) {
   // Unknown keys are typos, not silently ignored.
   EXPECT_NE(rejection(R"({"type":"grab","handle":1,"hnadle":2})").find("unknown key \"hnadle\""), std::string::npos);
   EXPECT_NE(rejection(R"({"type":"undo","now":true})").find("unknown key"), std::string::npos);
+  // A key given twice, of which JSON readers keep one ({"type":"undo","type":"reset"} ran a reset).
+  EXPECT_EQ(rejection(R"({"type":"undo","type":"reset"})"), "message: the key \"type\" appears twice in one object");
+  EXPECT_NE(rejection(R"({"type":"grab","handle":1,"handle":2})").find("\"handle\" appears twice"), std::string::npos);
   // Missing and mistyped fields.
   EXPECT_NE(rejection(R"({"type":"grab"})").find("missing \"handle\""), std::string::npos);
   EXPECT_NE(rejection(R"({"type":"grab","handle":"1"})").find("must be an integer"), std::string::npos);

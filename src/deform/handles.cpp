@@ -1,6 +1,6 @@
 #include <gshell/deform/handles.h>
 
-#include "io/json_depth.h"
+#include "io/json_input.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
@@ -191,20 +191,9 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
   if (io_detail::json_nesting_depth(json_text, kMaxHandlesDepth) > kMaxHandlesDepth)
     r.fail("", "nested deeper than " + std::to_string(kMaxHandlesDepth) + " levels");
   json doc;
-  // JSON leaves repeated keys to the reader and nlohmann keeps the last one: a second "handles"
-  // would silently drop the first list. Found while parsing, refused after it.
-  std::vector<std::set<std::string>> keys_seen;
-  std::string repeated_key;
-  const json::parser_callback_t note_keys = [&](int, json::parse_event_t event, json& parsed) {
-    if (event == json::parse_event_t::object_start) keys_seen.emplace_back();
-    if (event == json::parse_event_t::object_end && !keys_seen.empty()) keys_seen.pop_back();
-    if (event == json::parse_event_t::key && !keys_seen.empty() && !keys_seen.back().insert(parsed.get<std::string>()).second &&
-        repeated_key.empty())
-      repeated_key = parsed.get<std::string>();
-    return true;
-  };
+  std::string repeated_key; // refused after the parse: its errors come first
   try {
-    doc = json::parse(json_text, note_keys);
+    doc = io_detail::parse_json_noting_repeated_keys(json_text, repeated_key);
   } catch (const json::exception& e) { // parse errors, and number overflow such as 1e999
     // nlohmann's message carries the position and the offending text; drop its "[json...]" prefix
     std::string what = e.what();

@@ -1,6 +1,6 @@
 #include <gshell/run/shell_folder.h>
 
-#include "io/json_depth.h"
+#include "io/json_input.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>

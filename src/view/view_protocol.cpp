@@ -1,6 +1,6 @@
 #include <gshell/view/view_protocol.h>
 
-#include "io/json_depth.h"
+#include "io/json_input.h"
 
 #include <gshell/error.h>
 
@@ -228,14 +228,16 @@ ViewMessage parse_view_message(std::string_view bytes, const ViewMessageLimits& 
   if (io_detail::json_nesting_depth(bytes, kViewMessageDepth) > kViewMessageDepth)
     fail("", "nested deeper than " + std::to_string(kViewMessageDepth) + " levels");
   json message;
+  std::string repeated; // {"type":"undo","type":"reset"} ran a reset: refused, as in handle files
   try {
-    message = json::parse(bytes.begin(), bytes.end());
+    message = io_detail::parse_json_noting_repeated_keys(bytes, repeated);
   } catch (const json::exception& e) { // parse errors, and numbers that overflow (out_of_range)
     // nlohmann's text: "[json.exception.parse_error.101] parse error at line 1, column 2: ..."
     std::string what = e.what();
     const std::size_t at = what.find("] ");
     fail("", "not valid JSON (" + (at == std::string::npos ? what : what.substr(at + 2)) + ")");
   }
+  if (!repeated.empty()) fail("", "the key \"" + repeated + "\" appears twice in one object");
   if (!message.is_object()) fail("", "expected a JSON object");
   const auto type = message.find("type");
   if (type == message.end()) fail("", "missing \"type\"");
