@@ -62,7 +62,9 @@ ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayA
 
 ShellObject load_shell_py(const std::filesystem::path& dir) {
   py::gil_scoped_release release;
-  return measured_shell(read_shell_folder(dir.string()).shell);
+  ShellObject s = measured_shell(read_shell_folder(dir.string()).shell);
+  s.folder = dir.string(); // Poser.write refuses it, as gshell pose refuses -o equal to --shell
+  return s;
 }
 
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,

@@ -38,6 +38,8 @@ std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::str
   options.check();
   auto p = std::make_unique<PoserObject>(DragSession(shell.shell, options));
   p->session.set_undo_depth(0); // Poser has no undo: keep no copies of the shell
+  // As gshell pose: the report names the rest shell's folder, and write() refuses to replace it.
+  p->session.set_names(shell.folder, "");
   return p;
 }
 

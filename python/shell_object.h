@@ -6,6 +6,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include <string>
+
 namespace gshell::python {
 
 struct ShellObject {
@@ -13,6 +15,7 @@ struct ShellObject {
   Eigen::MatrixXi tets;       ///< 3m x 4 over the 2n shell vertices (build_prism_tets)
   Eigen::VectorXd stretch;    ///< per tet, against the normal prisms of thickness eta
   nlohmann::json report;      ///< generate_report for generated shells, metrics_report otherwise
+  std::string folder;         ///< the folder load_shell read it from; empty for shells made in Python
 };
 
 } // namespace gshell::python

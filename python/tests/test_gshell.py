@@ -727,6 +727,10 @@ class PoseTest(TempDirTest):
                     assert_same_report(self, cli, json.load(f))
                 py_top, _ = gshell.read_mesh(os.path.join(self.path("py_posed"), "top.obj"))
                 np.testing.assert_allclose(py_top, cli_top, atol=1e-9)
+                # Nor does it replace the folder its rest shell was loaded from (it did; the CLI refuses).
+                self.assertEqual(last["shell"], out)
+                with self.assertRaisesRegex(ValueError, "is the folder of the rest shell being posed"):
+                    poser.write(out)
                 # The same handles from the file, and as JSON text, give the same result.
                 with open(handles) as f:
                     text = "\n  " + f.read()
