@@ -84,12 +84,12 @@ http::response<http::string_body> request(int port, http::verb verb, const std::
 struct Client {
   net::io_context ioc;
   websocket::stream<tcp::socket> ws{ioc};
-  Client(int port, const std::string& host, const std::string& origin) {
+  Client(int port, const std::string& host, const std::string& origin, const std::string& path = "/ws") {
     ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port)));
     ws.set_option(websocket::stream_base::decorator([origin](websocket::request_type& req) {
       if (!origin.empty()) req.set(http::field::origin, origin);
     }));
-    ws.handshake(host, "/ws");
+    ws.handshake(host, path);
   }
   /// The next text message (binary frames skipped).
   json next_text() {
@@ -192,6 +192,11 @@ TEST(ViewServer, ServesThePageOnlyToRequestsNamingIt) {
                                                  std::optional<std::string>("127.0.0.1"),
                                                  std::optional<std::string>(std::nullopt)})
     EXPECT_EQ(request(port, http::verb::get, "/", host).result(), http::status::forbidden) << host.value_or("(none)");
+  // A refused Host is not copied into the answer's security policy (it was, whatever it said).
+  const auto refused = request(port, http::verb::get, "/", std::string("evil.example; script-src *"));
+  EXPECT_EQ(refused.result(), http::status::forbidden);
+  EXPECT_EQ(std::string(refused["Content-Security-Policy"]).find("evil"), std::string::npos) << refused["Content-Security-Policy"];
+  EXPECT_NE(std::string(page["Content-Security-Policy"]).find("connect-src 'self' ws://" + s.host()), std::string::npos);
   EXPECT_EQ(request(port, http::verb::get, "/../../etc/passwd", s.host()).result(), http::status::not_found);
   EXPECT_EQ(request(port, http::verb::get, "/nothing.js", s.host()).result(), http::status::not_found);
   EXPECT_EQ(request(port, http::verb::post, "/", s.host()).result(), http::status::method_not_allowed);
@@ -203,6 +208,7 @@ TEST(ViewServer, RefusesWebSocketsFromForeignOrigins) {
   EXPECT_THROW(Client(port, s.host(), "http://evil.example"), beast::system_error);
   EXPECT_THROW(Client(port, s.host(), "http://localhost:" + std::to_string(port + 1)), beast::system_error);
   EXPECT_THROW(Client(port, "evil.example:" + std::to_string(port), ""), beast::system_error);
+  EXPECT_THROW(Client(port, s.host(), "", "/nope"), beast::system_error); // the page's socket is at /ws only
   Client ok(port, s.host(), "http://127.0.0.1:" + std::to_string(port));
   const json hello = ok.next("hello");
   EXPECT_EQ(hello["vertices"], 49);

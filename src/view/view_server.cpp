@@ -368,7 +368,12 @@ private:
                      "gshell view: refused: the Host header does not name this server\n", "text/plain; charset=utf-8",
                      false);
     }
+    std::string path(req.target());
+    path = path.substr(0, path.find_first_of("?#"));
     if (websocket::is_upgrade(req)) {
+      if (path != "/ws") // the page's socket; anywhere else an upgrade is no request of ours
+        return respond(req, http::status::not_found, "gshell view: WebSocket only at /ws\n", "text/plain; charset=utf-8",
+                       false);
       const auto origin = req.find(http::field::origin);
       const bool present = origin != req.end();
       if (!server_.guard->origin_allowed(present ? std::string_view(origin->value().data(), origin->value().size()) : "",
@@ -385,8 +390,6 @@ private:
     if (req.method() != http::verb::get && req.method() != http::verb::head)
       return respond(req, http::status::method_not_allowed, "gshell view: only GET and HEAD\n",
                      "text/plain; charset=utf-8", req.keep_alive());
-    std::string path(req.target());
-    path = path.substr(0, path.find_first_of("?#"));
     if (path == "/") path = "/index.html";
     for (const WebAsset& asset : web_assets())
       if (asset.path == path)
@@ -403,10 +406,12 @@ private:
     res->set("X-Content-Type-Options", "nosniff");
     res->set("X-Frame-Options", "DENY");
     res->set("Referrer-Policy", "no-referrer");
-    // Only our own files, no inline script, sockets only back to this server.
+    // Only our own files, no inline script, sockets only back to this server. The Host goes into the
+    // policy only once checked: a refused request's Host ("evil; script-src *") was copied in.
     const std::string host(req[http::field::host]);
+    const std::string sockets = server_.guard->host_allowed(host) ? " ws://" + host : std::string();
     res->set("Content-Security-Policy", "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: "
-                                        "blob:; connect-src 'self' ws://" + host +
+                                        "blob:; connect-src 'self'" + sockets +
                                             "; base-uri 'none'; form-action 'none'; frame-ancestors 'none'");
     res->keep_alive(keep_alive);
     const bool head = req.method() == http::verb::head;
