@@ -108,7 +108,20 @@ std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std:
     command = named.front();
     add_long_options(*command);
   }
-  return what + " (see gshell " + (command ? command->get_name() + " " : "") + "--help)";
+  std::string message = what;
+  // CLI11's "Could not convert: --steps = 99999999999999" says neither what is wrong nor the range.
+  if (const std::string prefix = "Could not convert: "; what.rfind(prefix, 0) == 0) {
+    std::string rest = what.substr(prefix.size());
+    const auto eq = rest.find(" = ");
+    const std::string name = rest.substr(0, eq);
+    if (eq != std::string::npos) rest.replace(eq, 3, " ");
+    const CLI::Option* option = command ? command->get_option_no_throw(name) : nullptr;
+    if (!option) option = app.get_option_no_throw(name);
+    const std::string type = option ? option->get_type_name() : "";
+    message = rest + (type == "INT" ? ": expected a whole number from -2147483648 to 2147483647"
+                                    : type == "FLOAT" ? ": expected a number" : ": not a value this option takes");
+  }
+  return message + " (see gshell " + (command ? command->get_name() + " " : "") + "--help)";
 }
 
 } // namespace

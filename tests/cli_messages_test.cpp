@@ -113,6 +113,11 @@ TEST(CliMessages, OtherArgumentErrorsKeepTheirMessage) {
   expect_error_line("info", "MESH is required (see gshell info --help)");
   expect_error_line("pose --handles h.json -o out", "--shell is required (see gshell pose --help)");
   expect_error_line("", "A subcommand is required (see gshell --help)");
+  // Values that do not convert say what the option takes (CLI11: "Could not convert: --steps = ...").
+  expect_error_line("animate builtin:plane:4 --bend 30 -o out --frames 99999999999",
+                    "--frames 99999999999: expected a whole number from -2147483648 to 2147483647 (see gshell animate --help)");
+  expect_error_line("generate builtin:sphere -o out --thickness-ratio abc",
+                    "--thickness-ratio abc: expected a number (see gshell generate --help)");
   // Correct spellings still work after the check.
   EXPECT_EQ(run_cli("--quiet info builtin:sphere:1 --json").exit_code, 0);
 }

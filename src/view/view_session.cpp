@@ -405,8 +405,9 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
     DragSession& d = s.posable(type);
     s.group(drag->handle);
     const Eigen::Vector3d translate = drag->translate / s.unit; // page units -> model units
-    if (translate.norm() > kMaxMotionRadii * s.radius)
-      throw InputError("drag: a translation of " + format_number(translate.norm()) +
+    // stableNorm: norm() squares first, and [1e300, 0, 0] was "a translation of inf".
+    if (translate.stableNorm() > kMaxMotionRadii * s.radius)
+      throw InputError("drag: a translation of " + format_number(translate.stableNorm()) +
                        " is more than 1000 times the shell's size");
     d.set_motion(drag->handle, translate, drag->axis, drag->degrees);
     s.pending = true;
