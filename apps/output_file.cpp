@@ -13,7 +13,8 @@ namespace fs = std::filesystem;
 
 void check_output_file(const std::string& output, const std::string& extension, const std::vector<std::string>& inputs) {
   std::string ext = fs::path(output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (!extension.empty() && ext != extension)
     throw InputError(with_file(output, "the output is written as " + extension.substr(1) + ": give it a " + extension +
                                            " name"));

@@ -34,7 +34,8 @@ void require_frame_for_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
     check_thickness_scale(V, F, thickness);
   } catch (const InputError& e) {
     // The shell keeps its thickness: a frame this far from the rest's size is most likely in other units.
-    throw InputError(with_file(name, std::string("the shell's thickness does not fit this frame (other units?): ") + e.what()));
+    throw InputError(
+        with_file(name, std::string("the shell's thickness does not fit this frame (other units?): ") + e.what()));
   }
 }
 

@@ -99,10 +99,12 @@ std::vector<int> explicit_vertices(const json& value, int num_vertices, const st
   for (const auto& id : value) {
     if (!id.is_number_integer()) r.fail(where, "vertex id " + id.dump() + " is not an integer");
     // Unsigned first: get<long long> of 2^63 and above wraps to a negative id.
-    const bool in_range = id.is_number_unsigned() ? id.get<unsigned long long>() < static_cast<unsigned long long>(num_vertices)
-                                                  : id.get<long long>() >= 0 && id.get<long long>() < num_vertices;
+    const bool in_range = id.is_number_unsigned()
+                              ? id.get<unsigned long long>() < static_cast<unsigned long long>(num_vertices)
+                              : id.get<long long>() >= 0 && id.get<long long>() < num_vertices;
     if (!in_range)
-      r.fail(where, "unknown vertex id " + id.dump() + " (the shell has vertices 0.." + std::to_string(num_vertices - 1) + ")");
+      r.fail(where, "unknown vertex id " + id.dump() + " (the shell has vertices 0.." +
+                        std::to_string(num_vertices - 1) + ")");
     const auto v = id.get<long long>();
     ids.push_back(static_cast<int>(v));
   }

@@ -138,9 +138,10 @@ TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<st
                           std::to_string(n) + " vertices (line " + std::to_string(triangle_lines[i / 3]) + ")");
   if (!all_faces_textured || b.corners.empty()) {
     if (warnings && textured_polygons > 0)
-      warnings->push_back(with_file(path, std::to_string(polygons - textured_polygons) + " of " + std::to_string(polygons) +
-                                              " faces have no texture coordinates: all are dropped (a texture needs every "
-                                              "face in the UV layout)"));
+      warnings->push_back(with_file(path, std::to_string(polygons - textured_polygons) + " of " +
+                                              std::to_string(polygons) +
+                                              " faces have no texture coordinates: all are dropped (a texture "
+                                              "needs every face in the UV layout)"));
     b.uv.clear();
     b.uv_corners.clear();
   } else {

@@ -28,11 +28,11 @@ public:
   /// Frames given in memory (n x 3 each), held.
   explicit BaseFrames(std::vector<Eigen::MatrixXd> frames) : held_(std::move(frames)) {}
 
-  /// Reads every frame file (any mesh format read_mesh knows) and checks each against the shell's
-  /// base faces F (n vertices) and thickness: same vertex count, identical faces,
-  /// require_frame_for_shell, all before returning, so a bad frame fails before any work is done. Keeps the coordinates when the whole
-  /// sequence takes at most `held_bytes`, else only the paths, and get() reads a frame again
-  /// (and checks it again) when asked for it.
+  /// Reads every frame file (any mesh format read_mesh knows, or a builtin: spec) and checks each
+  /// against the shell's base faces F (n vertices) and thickness: same vertex count, identical
+  /// faces, require_frame_for_shell, all before returning, so a bad frame fails before any work
+  /// is done. Keeps the coordinates when the whole sequence takes at most `held_bytes`, else only
+  /// the paths, and get() reads a frame again (and checks it again) when asked for it.
   /// \throws InputError "FRAME: problem" for the first bad frame (unreadable, unknown format,
   ///         other vertex count or faces, beyond the limits), or when `paths` is empty.
   static BaseFrames load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n, double thickness,
