@@ -1,5 +1,6 @@
 // `gshell curvature MESH -o OUT.ply`: normal-cycle principal curvatures as PLY properties.
 #include "command_registry.h"
+#include "output_file.h"
 #include "progress.h"
 #include "surface_input.h"
 
@@ -8,10 +9,8 @@
 #include <gshell/io/write_mesh.h>
 #include <gshell/seconds_since.h>
 
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -46,11 +45,7 @@ void add_curvature_scalars(std::vector<std::pair<std::string, Eigen::VectorXd>>&
 }
 
 void run_curvature(const CurvatureArgs& args) {
-  std::string ext = std::filesystem::path(args.output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (ext != ".ply")
-    throw InputError(with_file(args.output, "curvature output must be a .ply file (it carries the curvature "
-                                            "as PLY properties)"));
+  check_output_file(args.output, ".ply", {args.input}); // PLY: it carries the curvature as properties
   const TriMesh mesh = cli::load_surface(args.input, "curvature");
   const auto start = std::chrono::steady_clock::now();
   const FaceCurvature faces = face_curvature(mesh.V, mesh.F, args.options);
