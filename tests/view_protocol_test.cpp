@@ -190,6 +190,19 @@ TEST(ViewProtocol, AFrameRequestTheNextOneReplacesIsSkipped) {
   EXPECT_EQ(view_messages_to_act_on({batch[0]}, limits()), std::vector<bool>{true});
 }
 
+TEST(ViewProtocol, MessagesThatLeaveTheShellAloneAreKnown) {
+  for (const char* alone : {R"({"type":"release"})", R"({"type":"save_handles"})", R"({"type":"certify"})",
+                            R"({"type":"save_shell","folder":"a"})", R"({"type":"drawn"})",
+                            R"({"type":"drag","seq":1})", "not json"})
+    EXPECT_TRUE(view_message_leaves_shell_alone(alone, limits())) << alone;
+  for (const char* moves :
+       {R"({"type":"drag","seq":1,"handle":0,"translate":[0,0,1]})", R"({"type":"grab","handle":0})",
+        R"({"type":"undo"})", R"({"type":"reset"})", R"({"type":"add_handle","vertices":[1]})",
+        R"({"type":"remove_handle","handle":0})", R"({"type":"set_handle_vertices","handle":0,"vertices":[1]})",
+        R"({"type":"load_handles","name":"h.json","text":"{}"})", R"({"type":"frame","index":1})"})
+    EXPECT_FALSE(view_message_leaves_shell_alone(moves, limits())) << moves;
+}
+
 TEST(ViewProtocol, BinaryFramesCarryHeaderAndPayload) {
   Eigen::MatrixXd X(2, 3);
   X << 1, 2, 3, 4.5, -5, 1e-3;

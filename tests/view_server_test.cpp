@@ -377,3 +377,60 @@ TEST(ViewServer, APageHearsNothingOfTheSessionBeforeItsWelcome) {
     page.ws.close(websocket::close_code::normal);
   }
 }
+
+TEST(ViewServer, PagesJoiningOrAskingDuringASettleDoNotRestartIt) {
+  // A settle stops for the next message that moves the shell; a page joining, a handle file or a
+  // save asked for are answered while it runs (an interrupted guarded settle goes back to its last
+  // valid state: pages that kept asking kept the shell from ever settling).
+  ViewInputOptions o;
+  o.generate.thickness.thickness = 0.05;
+  const int res = 30, n = res + 1, base = n * n;
+  test::TempDir out;
+  ViewSessionOptions session_options;
+  session_options.output_dir = out.path().string();
+  ViewServerOptions so;
+  so.port = 0;
+  ViewServer server(ViewSession(load_view_input({"builtin:plane:" + std::to_string(res)}, o), session_options), so);
+  std::thread thread([&] { server.run(); });
+  const std::string host = "127.0.0.1:" + std::to_string(server.port());
+  {
+    Client tool(server.port(), host, "");
+    tool.next("stats");
+    // Two opposite edges: one held, the other lifted and turned, so the shell bends.
+    const auto edge = [&](int j) {
+      std::string ids;
+      for (int i = 0; i < n; ++i)
+        for (const int layer : {0, base}) ids += (ids.empty() ? "" : ",") + std::to_string(layer + j * n + i);
+      return ids;
+    };
+    tool.send(R"({"type":"add_handle","name":"held","vertices":[)" + edge(0) + "]}");
+    tool.send(R"({"type":"add_handle","name":"pulled","vertices":[)" + edge(res) + "]}");
+    tool.next("handles", [](const json& j) { return j["handles"]["handles"].size() == 2; });
+    tool.send(R"({"type":"grab","handle":1})");
+    tool.send(R"({"type":"drag","seq":1,"handle":1,"translate":[0,-0.8,0.9],"axis":[1,0,0],"degrees":120})");
+    // From its answer on, only the release and the pages below reach the solver.
+    tool.next("stats", [](const json& j) { return j["step"].is_object() && j["step"]["seq"] == 1; });
+    tool.send(R"({"type":"release"})");
+    // Pages come and ask until the shell has settled; none of them may find the settle interrupted,
+    // and a save is refused until it has settled.
+    int joined_while_settling = 0;
+    for (int k = 0;; ++k) {
+      Client page(server.port(), host, "");
+      const json stats = page.next("stats");
+      EXPECT_NE(stats["phase"], "interrupted") << stats.dump();
+      if (stats["phase"] == "settling") ++joined_while_settling;
+      page.send(R"({"type":"save_handles"})");
+      EXPECT_EQ(page.next("handles_file")["handles"]["handles"].size(), 2u);
+      page.send(R"({"type":"save_shell","folder":"pose)" + std::to_string(k) + "\"}");
+      json answer;
+      do answer = page.next_text();
+      while (answer["type"] != "error" && answer["type"] != "saved");
+      if (answer["type"] == "saved" || stats["phase"] == "interrupted") break;
+      EXPECT_NE(answer["message"].get<std::string>().find("still moving"), std::string::npos) << answer.dump();
+      page.ws.close(websocket::close_code::normal);
+    }
+    std::printf("pages joined while the shell settled: %d\n", joined_while_settling);
+  }
+  server.stop();
+  thread.join();
+}

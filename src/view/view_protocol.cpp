@@ -212,6 +212,16 @@ std::vector<bool> view_messages_to_act_on(const std::vector<std::string_view>& b
   return act;
 }
 
+bool view_message_leaves_shell_alone(std::string_view bytes, const ViewMessageLimits& limits) {
+  try {
+    const ViewMessage m = parse_view_message(bytes, limits);
+    return std::holds_alternative<ViewRelease>(m) || std::holds_alternative<ViewSaveHandles>(m) || std::holds_alternative<ViewSaveShell>(m) ||
+           std::holds_alternative<ViewCertify>(m) || std::holds_alternative<ViewDrawn>(m);
+  } catch (const InputError&) {
+    return true;
+  }
+}
+
 bool is_plain_folder_name(std::string_view name) {
   if (name.empty() || name.size() > kViewNameLength || name.front() == '.' || name.front() == '-') return false;
   for (const char c : name)

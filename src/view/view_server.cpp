@@ -168,6 +168,9 @@ struct ServerCore {
   void solver_loop();
   void skip_superseded_frame_requests(std::deque<Item>& items) const;
   void process(Item& item);
+  /// Whether the settle may answer `item` and go on (view_message_leaves_shell_alone; welcomes and
+  /// check results too).
+  bool leaves_shell_alone(const Item& item) const;
   void check_loop();
 
   void thread_finished() {
@@ -502,6 +505,10 @@ void ServerCore::route(int target, const Outgoing& out) {
 
 // ---- solver thread -------------------------------------------------------------------------------
 
+bool ServerCore::leaves_shell_alone(const Item& item) const {
+  return item.kind != Item::Message || view_message_leaves_shell_alone(item.bytes, session.limits());
+}
+
 void ServerCore::process(Item& item) {
   switch (item.kind) {
   case Item::Welcome: session.welcome(sink(item.page)); break;
@@ -531,7 +538,6 @@ void ServerCore::solver_loop() {
   const ViewSink everyone = sink(0);
   const auto rest = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.rest_seconds));
   Clock::time_point last_drag = Clock::now() - rest;
-  const auto interrupt = [this] { return stopping.load() || inbox_nonempty.load(); };
   std::string last_logged;
   auto report = [&](const char* request, const std::string& message) {
     // Also on the terminal, once in a row (a drag and its settle fail alike): a solve started
@@ -545,6 +551,31 @@ void ServerCore::solver_loop() {
     everyone({nlohmann::json{{"type", "error"}, {"request", request}, {"message", message}}.dump(
                   -1, ' ', false, nlohmann::json::error_handler_t::replace),
               false, false});
+  };
+  // A settle stops for the next item that moves the shell; items ahead of it that leave the shell
+  // alone (a page joining, a check's result, a handle file asked for) are answered meanwhile.
+  const auto interrupt = [&] {
+    while (!stopping && inbox_nonempty) {
+      std::deque<Item> items;
+      {
+        std::lock_guard lock(mutex);
+        items.swap(inbox);
+        inbox_nonempty = false;
+      }
+      for (; !items.empty() && leaves_shell_alone(items.front()); items.pop_front()) {
+        try {
+          process(items.front());
+        } catch (const std::exception& e) {
+          report(nullptr, std::string("internal error: ") + e.what());
+        }
+      }
+      if (items.empty()) continue; // more may have come meanwhile
+      std::lock_guard lock(mutex);
+      inbox.insert(inbox.begin(), std::make_move_iterator(items.begin()), std::make_move_iterator(items.end()));
+      inbox_nonempty = true;
+      return true;
+    }
+    return stopping.load();
   };
   while (!stopping) {
     std::deque<Item> items;

@@ -531,6 +531,7 @@ bool ViewSession::settle(const ViewSink& send, const std::function<bool()>& inte
   s.solver_note.clear();
   s.last_step = step;
   s.settle_pending = false; // converged, or stopped at the iteration limit: either way done
+  s.settle_requested = false; // a release answered while it ran asked for this very settle
   s.phase = step->converged ? "settled" : "stopped";
   s.send_positions(send, static_cast<float>(1000 * step->seconds), 0);
   s.send_values(send);

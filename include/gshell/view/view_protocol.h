@@ -127,6 +127,13 @@ bool is_view_message(std::string_view bytes, const ViewMessageLimits& limits) {
 /// slider. Messages that do not parse are kept (they are answered with their error).
 std::vector<bool> view_messages_to_act_on(const std::vector<std::string_view>& batch, const ViewMessageLimits& limits);
 
+/// Whether answering `bytes` leaves the shell and its targets as they are: a release (settle now),
+/// a handle file asked for, a save (refused while the shell moves), a certificate asked for, a
+/// "drawn", or a message that does not parse (answered with its error). A viewer answers these while a settle runs
+/// instead of interrupting it: a guarded settle that is interrupted starts again from its last
+/// valid state, so pages asking such things every few seconds kept the shell from ever settling.
+bool view_message_leaves_shell_alone(std::string_view bytes, const ViewMessageLimits& limits);
+
 /// A folder name a page may ask the server to write: 1..64 characters of [A-Za-z0-9._-], not
 /// starting with '.' or '-' (so never "..", a hidden file, an option or a path).
 bool is_plain_folder_name(std::string_view name);

@@ -9,7 +9,8 @@
 //  - the solver thread owns the ViewSession: it applies page messages in order, solves one drag
 //    event for the latest targets (drags that arrived meanwhile coalesce), and when the mouse
 //    rests (no drag for rest_seconds, or a release) settles to convergence, interrupted by the
-//    next message; then it builds solvers for new handle groups and hands a snapshot to
+//    next message that moves the shell (others, e.g. a page joining, are answered meanwhile:
+//    view_message_leaves_shell_alone); then it builds solvers for new handle groups and hands a snapshot to
 //  - the check thread, which measures validity (inverted tets, intersections) at low priority
 //    on one core, off the interactive path.
 // Every page shares the one session: a second tab shows the same shell and may drag it too.
