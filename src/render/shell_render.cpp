@@ -12,6 +12,8 @@
 #include <gshell/shell/prism_tets.h>
 #include <gshell/solver/rest_tets.h>
 
+#include "run/output_folder_files.h"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -277,7 +279,7 @@ PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
 
 std::string render_shell_preview(const std::string& dir, const std::string& name, const ViewDirection& view) {
   const PreviewPanels panels = preview_panels(dir, name);
-  const std::string out = (fs::path(dir) / "preview.png").string();
+  const std::string out = (fs::path(dir) / kPreviewFile).string();
   ShellRenderOptions options;
   options.figure.view = view;
   write_png(out, render_subjects(panels.subjects, panels.captions, options));

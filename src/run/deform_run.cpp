@@ -14,6 +14,7 @@
 #include <gshell/shell/prism_tets.h>
 
 #include "invalid_items_warning.h"
+#include "run/output_folder_files.h"
 
 #include <algorithm>
 #include <chrono>
@@ -47,7 +48,7 @@ void write_frame(const fs::path& dir, const DeformInput& input, const RestTets& 
   if (!input.detail_name.empty()) {
     TriMesh carried = input.detail;
     carried.V = carry(embedding, X);
-    write_mesh((dir / "detail.obj").string(), carried);
+    write_mesh((dir / kDetailFile).string(), carried);
   }
   TetMesh tet_mesh;
   tet_mesh.T = tets;
@@ -194,7 +195,7 @@ nlohmann::ordered_json DeformRun::to_json() const {
 bool holds_only_deform_output(const fs::path& dir) {
   for (const auto& entry : fs::directory_iterator(dir)) {
     const std::string name = entry.path().filename().string();
-    if (name != "report.json" && name != "preview.png" && !(entry.is_directory() && frame_number(name)))
+    if (name != kReportFile && name != kPreviewFile && !(entry.is_directory() && frame_number(name)))
       return false;
   }
   return true;
@@ -269,7 +270,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
   }
   if (writing.valid()) writing.get();
   if (staged) {
-    write_report(staged->path() / "report.json", run.to_json());
+    write_report(staged->path() / kReportFile, run.to_json());
     if (before_commit) before_commit(staged->path());
     staged->commit(holds_only_deform_output);
   }

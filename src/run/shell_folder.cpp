@@ -1,6 +1,7 @@
 #include <gshell/run/shell_folder.h>
 
 #include "io/json_input.h"
+#include "run/output_folder_files.h"
 
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
@@ -27,8 +28,6 @@ namespace gshell {
 namespace fs = std::filesystem;
 
 namespace {
-
-const std::array<const char*, 5> kShellFiles = {"base.obj", "top.obj", "shell.vtu", "report.json", "preview.png"};
 
 // Base faces of a prism shell recovered from its tets (3 per face): the three base ids of the
 // prism, oriented so that the top lies on the side of the face normal.
@@ -90,10 +89,10 @@ long long report_count(const nlohmann::ordered_json& report, const char* key) {
 
 // The report that describes DIR: its own, or for a deform frame its run's.
 fs::path report_folder(const fs::path& dir) {
-  if (fs::exists(dir / "report.json")) return dir;
+  if (fs::exists(dir / kReportFile)) return dir;
   fs::path normal = dir.lexically_normal();
   if (normal.filename().empty()) normal = normal.parent_path();
-  if (frame_number(normal.filename().string()) && fs::exists(normal.parent_path() / "report.json"))
+  if (frame_number(normal.filename().string()) && fs::exists(normal.parent_path() / kReportFile))
     return normal.parent_path();
   return {};
 }
@@ -101,7 +100,7 @@ fs::path report_folder(const fs::path& dir) {
 } // namespace
 
 nlohmann::ordered_json read_report(const fs::path& dir) {
-  const fs::path path = dir / "report.json";
+  const fs::path path = dir / kReportFile;
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(with_file(path.string(), "cannot open (is " + dir.string() + " a gshell output folder?)"));
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -149,11 +148,10 @@ bool is_shell_folder(const fs::path& dir) {
 
 bool is_output_folder_file(const fs::path& file) {
   const std::string name = file.filename().string();
-  if (name != "base.obj" && name != "top.obj" && name != "shell.vtu" && name != "report.json" && name != "detail.obj")
-    return false;
+  if (!is_shell_file(name) && name != kDetailFile) return false;
   const fs::path dir = file.has_parent_path() ? file.parent_path() : fs::path(".");
   std::error_code ec;
-  return is_shell_folder(dir) || fs::exists(dir / "report.json", ec);
+  return is_shell_folder(dir) || fs::exists(dir / kReportFile, ec);
 }
 
 ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderReadOptions& options) {
@@ -206,7 +204,7 @@ ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderRead
 
   const std::optional<double> eta = report_thickness(out.report);
   if (eta && !(*eta > 0 && std::isfinite(*eta)))
-    throw InputError(with_file((report_dir / "report.json").string(), "thickness must be positive and finite"));
+    throw InputError(with_file((report_dir / kReportFile).string(), "thickness must be positive and finite"));
   if (!eta && options.require_thickness)
     throw InputError(with_file(dir_text, report_dir.empty() ? "not a shell folder (report.json missing)"
                                                             : "report.json gives no thickness"));
@@ -220,7 +218,7 @@ ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderRead
         if (name == "stretch" && values.rows() == 3 * m && values.cols() == 1) out.tet_stretch = values.col(0);
     }
   }
-  if (fs::exists(dir / "detail.obj")) out.detail = read_mesh((dir / "detail.obj").string());
+  if (fs::exists(dir / kDetailFile)) out.detail = read_mesh((dir / kDetailFile).string());
   return out;
 }
 
@@ -238,7 +236,7 @@ void write_shell_files(const fs::path& dir, const ShellFolderContents& c) {
   tets.T = build_prism_tets(c.surface.F, n);
   tets.cell_data = c.cell_data;
   write_tet_mesh((dir / "shell.vtu").string(), tets);
-  write_report(dir / "report.json", c.report);
+  write_report(dir / kReportFile, c.report);
 }
 
 std::string shell_output_command(const nlohmann::ordered_json& report) {
@@ -250,9 +248,7 @@ std::string shell_output_command(const nlohmann::ordered_json& report) {
 bool holds_shell_output_of(const fs::path& dir, const std::string& command) {
   for (const auto& entry : fs::directory_iterator(dir)) {
     const std::string name = entry.path().filename().string();
-    if (std::find_if(kShellFiles.begin(), kShellFiles.end(), [&](const char* f) { return name == f; }) ==
-        kShellFiles.end())
-      return false;
+    if (!is_shell_file(name) && name != kPreviewFile) return false;
   }
   try {
     return shell_output_command(read_report(dir)) == command;

@@ -3,6 +3,8 @@
 #include <gshell/error.h>
 #include <gshell/run/frames.h>
 
+#include "run/output_folder_files.h"
+
 #include <algorithm>
 #include <random>
 #include <string>
@@ -46,8 +48,7 @@ std::vector<std::string> foreign_entries(const fs::path& dir) {
   std::error_code ec;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
-    const bool ours = name == "base.obj" || name == "top.obj" || name == "shell.vtu" || name == "report.json" ||
-                      name == "preview.png" || frame_number(name) || frame_number(name, ".obj");
+    const bool ours = is_shell_file(name) || name == kPreviewFile || frame_number(name) || frame_number(name, ".obj");
     if (!ours) out.push_back(name);
   }
   std::sort(out.begin(), out.end());
