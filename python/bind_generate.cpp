@@ -5,6 +5,7 @@
 #include "gil_probe.h"
 #include "progress_watch.h"
 
+#include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/quality/shell_metrics.h>
 #include <gshell/run/generate_run.h>
@@ -69,7 +70,8 @@ ShellObject load_shell_py(const std::filesystem::path& dir) {
 
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
                         std::optional<double> thickness_ratio, const std::string& method, int iterations,
-                        double tolerance, int anderson, double start_smoothing, double s_min, double s_max,
+                        double tolerance, int anderson, double start_smoothing, std::optional<double> s_min,
+                        std::optional<double> s_max,
                         bool count_intersections, bool allow_invalid, const py::object& progress) {
   TriMesh mesh = checked_mesh(V, F);
   GenerateRunOptions options;
@@ -79,8 +81,12 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   options.generate.solve.tolerance = tolerance;
   options.generate.solve.anderson_history = anderson;
   options.generate.guard.start_smoothing = start_smoothing;
-  options.generate.s_min = s_min;
-  options.generate.s_max = s_max;
+  // As the CLI's --s-min / --s-max: a clamp given to a method that has none is a mistake to say.
+  for (const auto& [name, value] : {std::pair{"s_min", s_min}, std::pair{"s_max", s_max}})
+    if (value && options.generate.method != ShellMethod::Curvature)
+      throw InputError(std::string(name) + " applies only to method='curvature'");
+  if (s_min) options.generate.s_min = *s_min;
+  if (s_max) options.generate.s_max = *s_max;
   options.generate.count_intersections = count_intersections;
   options.generate.allow_invalid = allow_invalid;
   options.check();
@@ -169,7 +175,9 @@ stretch and report are measured as by metrics() without intersection counts.)")
         py::arg("iterations") = defaults.solve.max_iterations, py::arg("tolerance") = defaults.solve.tolerance,
         py::arg("anderson") = defaults.solve.anderson_history,
         py::arg("start_smoothing") = defaults.guard.start_smoothing,
-        py::arg("s_min") = defaults.s_min, py::arg("s_max") = defaults.s_max,
+        // None: the library's default, shown in the signature (given with another method: an error).
+        py::arg_v("s_min", py::none(), py::repr(py::float_(defaults.s_min)).cast<std::string>().c_str()),
+        py::arg_v("s_max", py::none(), py::repr(py::float_(defaults.s_max)).cast<std::string>().c_str()),
         py::arg("count_intersections") = defaults.count_intersections,
         py::arg("allow_invalid") = defaults.allow_invalid, py::arg("progress") = py::none(),
         R"(Generate the shell of a triangle surface (paper section 4.1), as `gshell generate` does.
@@ -190,7 +198,7 @@ Args:
         this fraction of the thickness (>= 0; 0: the raw normals, the paper's offset surface;
         allow_invalid always starts there).
     s_min, s_max: curvature method: the clamp of the in-plane scales of the top triangles
-        (0 < s_min <= 1 <= s_max).
+        (0 < s_min <= 1 <= s_max); given with another method: ValueError.
     count_intersections: run the certificate's exact pair tests (top/top, top/base, side
         walls, base/base) for the report; when False their counts are None and report["valid"]
         is None, or False if a tet is inverted (the tets are always checked). A guarded result

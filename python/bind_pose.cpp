@@ -6,10 +6,12 @@
 #include "progress_watch.h"
 #include "shell_object.h"
 
+#include <gshell/error.h>
 #include <gshell/deform/handles.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
 
+#include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
 #include <cmath>
@@ -29,12 +31,14 @@ struct PoserObject {
   ObjectLock lock{"the Poser"}; ///< solve() runs without the GIL
 };
 
-std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, int levels,
+std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, std::optional<int> levels,
                                         bool allow_invalid) {
   PoseOptions options;
   options.allow_invalid = allow_invalid;
   options.solver = parse_pose_solver(solver);
-  options.hierarchy.levels = levels;
+  if (levels && options.solver != PoseSolverKind::Hierarchical) // as the CLI's --levels
+    throw InputError("levels applies only to solver='hierarchical'");
+  if (levels) options.hierarchy.levels = *levels;
   options.check();
   auto p = std::make_unique<PoserObject>(DragSession(shell.shell, options));
   p->session.set_undo_depth(0); // Poser has no undo: keep no copies of the shell
@@ -119,7 +123,7 @@ Handles are a dict in the handle-file format of `gshell pose --handles` (docs/ha
          "rotate": {"axis": [0, 1, 0], "degrees": 30}}]}
 (shell vertex ids: base 0..n-1, top n..2n-1), the same as JSON text, or the path of such a file.)")
       .def(py::init(&make_poser), py::arg("shell"), py::arg("solver") = pose_solver_name(defaults.solver),
-           py::arg("levels") = defaults.hierarchy.levels, py::kw_only(),
+           py::arg_v("levels", py::none(), std::to_string(defaults.hierarchy.levels).c_str()), py::kw_only(),
            py::arg("allow_invalid") = defaults.allow_invalid,
            R"(Prepare direct deformation of `shell` (the rest shell).
 
@@ -130,10 +134,11 @@ gives the unguarded steps, as `gshell pose --allow-invalid`.
 Args:
     shell: the rest Shell.
     solver: "hierarchical" (default) or "single" (plain local/global over all vertices).
-    levels: levels of the hierarchical solver including the full one (>= 1).
+    levels: levels of the hierarchical solver including the full one (>= 1; with solver="single":
+        ValueError).
 
 Raises:
-    ValueError: unknown solver, levels < 1.)")
+    ValueError: unknown solver, levels < 1 or given with solver="single".)")
       .def("solve", &poser_solve, py::arg("handles"), py::kw_only(), py::arg("fraction") = 1.0,
            py::arg("steps") = defaults.steps, py::arg("iterations") = defaults.solve.max_iterations,
            py::arg("tolerance") = defaults.solve.tolerance, py::arg("progress") = py::none(),

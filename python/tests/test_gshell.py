@@ -331,6 +331,16 @@ class GenerateTest(TempDirTest):
         with self.assertRaises(ValueError) as cm:
             gshell.generate(V, F, thickness=0.3, method="curvature", s_min=1.2)
         self.assertIn("s_min", str(cm.exception))
+        # A clamp given to a method without one is refused, as the CLI refuses it (it was ignored);
+        # left out, the curvature method uses the default the signature shows.
+        for method in ("rigid", "offset"):
+            for clamp in ("s_min", "s_max"):
+                with self.subTest(method=method, clamp=clamp), \
+                        self.assertRaisesRegex(ValueError, "^" + clamp + " applies only to method='curvature'$"):
+                    gshell.generate(V, F, thickness=0.3, method=method, **{clamp: 1.0})
+        c = gshell.generate(V, F, thickness=0.3, method="curvature").report["curvature"]
+        defaults = keyword_defaults(gshell.generate)
+        self.assertEqual((c["s_min"], c["s_max"]), (defaults["s_min"], defaults["s_max"]))
 
     def test_shell_properties(self):
         V, F = gshell.builtin("sphere:2")
@@ -713,7 +723,8 @@ class PoseTest(TempDirTest):
                 cli_top, _ = gshell.read_mesh(os.path.join(self.path("posed"), "top.obj"))
                 with open(os.path.join(self.path("posed"), "report.json")) as f:
                     cli = json.load(f)
-                poser = gshell.Poser(shell, solver=solver, levels=3)
+                levels = {"levels": 3} if solver == "hierarchical" else {}
+                poser = gshell.Poser(shell, solver=solver, **levels)
                 base, top = poser.solve(HANDLES, iterations=20, steps=2)
                 np.testing.assert_allclose(base, cli_base, atol=1e-9)
                 np.testing.assert_allclose(top, cli_top, atol=1e-9)
@@ -735,7 +746,7 @@ class PoseTest(TempDirTest):
                 with open(handles) as f:
                     text = "\n  " + f.read()
                 for source in (handles, text):
-                    base2, top2 = gshell.Poser(shell, solver=solver, levels=3).solve(source, iterations=20, steps=2)
+                    base2, top2 = gshell.Poser(shell, solver=solver, **levels).solve(source, iterations=20, steps=2)
                     np.testing.assert_array_equal(base2, base)
                     np.testing.assert_array_equal(top2, top)
 
@@ -814,6 +825,9 @@ class PoseTest(TempDirTest):
             gshell.Poser(self.shell, solver="multigrid")
         with self.assertRaises(ValueError):
             gshell.Poser(self.shell, levels=0)
+        # As `gshell pose --solver single --levels 3`: refused, not ignored.
+        with self.assertRaisesRegex(ValueError, "^levels applies only to solver='hierarchical'$"):
+            gshell.Poser(self.shell, solver="single", levels=3)
         # What JSON cannot write is one line naming the argument, not a traceback.
         with self.assertRaisesRegex(ValueError, "^handles cannot be written as JSON: Object of type object is not "
                                                 "JSON serializable$"):
