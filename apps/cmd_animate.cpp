@@ -75,7 +75,7 @@ void run_animate(const AnimateArgs& args) {
       if (crossing_frames++ == 0) first_crossing = k;
       most_crossings = std::max(most_crossings, c);
     }
-    gshell::write_mesh((staged.path() / gshell::frame_name(k, ".obj", args.frames)).string(), mesh);
+    staged.write([&] { gshell::write_mesh((staged.path() / gshell::frame_name(k, ".obj", args.frames)).string(), mesh); });
     progress.update("frame " + std::to_string(k) + "/" + std::to_string(args.frames));
   }
   staged.commit(holds_only_frames);

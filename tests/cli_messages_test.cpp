@@ -6,9 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <sstream>
 #include <string>
+
+#include <sys/wait.h>
 
 using gshell::test::count_entries;
 using gshell::test::run_cli;
@@ -361,4 +364,21 @@ TEST(CliMessages, ProgressInALogIsOneLinePerUpdate) {
                             quoted(dir.file("posed")));
   ASSERT_EQ(pose.exit_code, 0) << pose.err;
   expect_log_lines(pose.err, "pose", 3); // the setup line and 2 steps
+}
+
+TEST(CliMessages, AWriteThatFailsNamesTheOutputNotItsHiddenStagingFolder) {
+  // Past a file size limit (as on a full disk) the write fails: one line naming the file in the
+  // folder asked for (it named "./.big.tmp-141687477/shell.vtu"), exit 1, nothing left behind.
+  TempDir dir;
+  const std::string cmd = "cd " + quoted(dir.path().string()) + " && ulimit -f 64 && '" GSHELL_CLI_PATH
+                          "' generate builtin:sphere:5 --thickness-ratio 0.02 -o big --quiet 2>err";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  const std::string err = gshell::test::read_text(dir.file("err"));
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_NE(err.find(": big/"), std::string::npos) << err;
+  EXPECT_NE(err.find("write failed"), std::string::npos) << err;
+  EXPECT_EQ(err.find(".tmp"), std::string::npos) << err;
+  EXPECT_EQ(count_entries(dir.path()), 1); // err alone
 }

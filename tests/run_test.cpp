@@ -172,6 +172,26 @@ TEST(StagedFolder, AFailureLeavesNothingBehind) {
   EXPECT_THROW(check_output_folder(tmp.file("mine/notes.txt")), InputError);
 }
 
+TEST(StagedFolder, WriteErrorsNameTheDestinationNotTheHiddenFolder) {
+  test::TempDir tmp;
+  const std::string dir = tmp.file("shell");
+  const auto fail = [](const fs::path& staging) {
+    throw InputError(with_file((staging / "preview.png").string(), "write failed (disk full?)"));
+  };
+  try {
+    write_shell_folder(dir, cylinder_contents(0.1), fail);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), (fs::path(dir) / "preview.png").string() + ": write failed (disk full?)");
+  }
+  EXPECT_TRUE(entries(tmp.path()).empty());
+  // Every mention, and nothing else.
+  StagedFolder staged(dir);
+  const std::string hidden = staged.path().string();
+  EXPECT_EQ(staged.at_destination(hidden + "/a and " + hidden + "/b, not " + tmp.path().string()),
+            dir + "/a and " + dir + "/b, not " + tmp.path().string());
+}
+
 TEST(GenerateRun, OptionsReportAndFolder) {
   GenerateRunOptions o;
   EXPECT_THROW(o.check(), InputError); // no thickness

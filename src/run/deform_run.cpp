@@ -260,7 +260,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
       record.offset = stretch_stats(deformer.rest_tets(), X);
     }
     if (staged) {
-      if (writing.valid()) writing.get();
+      if (writing.valid()) staged->write([&] { writing.get(); });
       writing = std::async(std::launch::async, write_frame, staged->path() / frame_name(k + 1, {}, count),
                            std::cref(input), std::cref(deformer.rest_tets()), deformer.current(), std::cref(tets),
                            std::cref(embedding));
@@ -268,10 +268,12 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
     run.frames.push_back(std::move(record));
     if (progress) progress(run, count);
   }
-  if (writing.valid()) writing.get();
   if (staged) {
-    write_report(staged->path() / kReportFile, run.to_json());
-    if (before_commit) before_commit(staged->path());
+    staged->write([&] {
+      if (writing.valid()) writing.get();
+      write_report(staged->path() / kReportFile, run.to_json());
+      if (before_commit) before_commit(staged->path());
+    });
     staged->commit(holds_only_deform_output);
   }
   return run;

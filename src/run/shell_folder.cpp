@@ -259,8 +259,10 @@ bool holds_shell_output_of(const fs::path& dir, const std::string& command) {
 
 void write_shell_folder(const std::string& dir, const ShellFolderContents& contents, const BeforeCommit& before_commit) {
   StagedFolder staged(dir);
-  write_shell_files(staged.path(), contents);
-  if (before_commit) before_commit(staged.path());
+  staged.write([&] {
+    write_shell_files(staged.path(), contents);
+    if (before_commit) before_commit(staged.path());
+  });
   const std::string command = shell_output_command(contents.report);
   staged.commit([&](const fs::path& d) { return holds_shell_output_of(d, command); });
 }

@@ -88,6 +88,13 @@ StagedFolder::StagedFolder(const fs::path& destination) : destination_(folder_na
   registered_.emplace(staging_);
 }
 
+std::string StagedFolder::at_destination(std::string message) const {
+  const std::string from = staging_.string(), to = destination_.string();
+  for (std::size_t at = message.find(from); at != std::string::npos; at = message.find(from, at + to.size()))
+    message.replace(at, from.size(), to);
+  return message;
+}
+
 StagedFolder::~StagedFolder() {
   if (!registered_) return; // committed
   std::error_code ec;

@@ -1,6 +1,7 @@
 #pragma once
 // Output folders written in one piece: everything goes into a hidden temporary folder beside the
 // destination, which is renamed into place only when complete. A failure leaves nothing behind.
+#include <gshell/error.h>
 #include <gshell/io/temporary_outputs.h>
 
 #include <filesystem>
@@ -29,6 +30,20 @@ public:
 
   /// Where to write: the temporary folder.
   const std::filesystem::path& path() const { return staging_; }
+
+  /// Runs `write`, which writes into path(). An InputError it throws names the file where the user
+  /// will look for it ("out/base.obj: write failed ..."), not in the hidden temporary folder
+  /// ("./.out.tmp-141687477/base.obj: ...").
+  template <class Write>
+  decltype(auto) write(Write&& write) const {
+    try {
+      return write();
+    } catch (const InputError& e) {
+      throw InputError(at_destination(e.what()));
+    }
+  }
+  /// `message` with the temporary folder's path replaced by the destination's.
+  std::string at_destination(std::string message) const;
 
   /// Renames the temporary folder to the destination. An existing destination is replaced when it
   /// is an empty folder or `is_previous_output(destination)` says it holds an earlier output of the
