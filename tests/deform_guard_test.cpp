@@ -870,6 +870,13 @@ TEST(PoseSolver, EveryPartNeedsAHandleVertexAndTheFreeOneIsNamed) {
   second.vertices = {2 * half + half};
   handles.handles = {first, second};
   EXPECT_NO_THROW(PoseSolver(rest, handles, PoseSolverKind::Single));
+  // A set built in code is checked as a file is: an id past the shell's 2n vertices crashed.
+  for (const int bad : {4 * half, 100000, -1}) {
+    second.vertices = {bad};
+    handles.handles = {first, second};
+    for (const PoseSolverKind kind : {PoseSolverKind::Single, PoseSolverKind::Hierarchical})
+      EXPECT_THROW(PoseSolver(rest, handles, kind), InputError) << bad;
+  }
 }
 
 TEST(PoseGuard, APartMovedWholeIntoAnotherPartsLayerIsRefused) {

@@ -65,9 +65,10 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
   s.handles = handles;
   s.rest_vertices = rest.vertices();
   s.rest_shell = rest;
+  const int n = rest.num_base_vertices();
+  check_handles(handles, 2 * n); // a set built in code: an id past 2n wrote out of bounds
   s.constrained = handles.constrained_vertices();
   if (s.constrained.empty()) throw InputError("no handle vertices");
-  const int n = rest.num_base_vertices();
   require_anchored_components(rest.F, n, s.constrained);
   // As the deformer's: a generated shell's few flat or inverted tets (next to unextrudable vertices
   // or base crossings) take their ideal shape, so such shells can be posed too. One matrix per
