@@ -46,7 +46,7 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
   const int n = d.deformer.rest_shell().num_base_vertices();
   const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
   // Here, to name the argument: solve would say "the new base".
-  require_frame_for_shell(base, d.deformer.rest_shell().F, d.deformer.rest_shell().thickness, "new_base");
+  require_frame_for_shell(base, d.deformer.rest_shell(), "new_base");
   DeformOptions options;
   options.max_iterations = iterations;
   options.tolerance = tolerance;
@@ -96,7 +96,7 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames, const
   for (std::size_t k = 0; k < py::len(frames); ++k) {
     const std::string name = "frames[" + std::to_string(k) + "]";
     bases.push_back(to_matrix(frames[k], name.c_str(), 3, n));
-    require_frame_for_shell(bases.back(), shell.shell.F, shell.shell.thickness, name);
+    require_frame_for_shell(bases.back(), shell.shell, name);
     input.frame_names.push_back(name);
   }
   input.frames = BaseFrames(std::move(bases));

@@ -3,6 +3,7 @@
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/deform/synthetic_motion.h>
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/shell/ideal_prisms.h>
@@ -182,21 +183,33 @@ TEST(ShellDeformer, BadFramesAreRejectedAndLeaveTheStateAlone) {
   EXPECT_THROW(deformer.solve(rest.base * 1e-45), InputError);
   EXPECT_THROW(deformer.solve(rest.base * 0.0), InputError);
   EXPECT_THROW(deformer.solve(rest.base * 1e60), InputError); // beyond the coordinate limit
-  // A frame the shell's thickness does not fit: shrunk 1000 times, it would carry a layer 70 times
-  // its bounding radius, past the 10 generation builds (a frame of plane:8 shrunk so ran for
-  // minutes); moved 1e12 away, one double precision cannot offset by the thickness.
-  for (const Eigen::MatrixXd& frame : {Eigen::MatrixXd(rest.base * 1e-3), Eigen::MatrixXd(rest.base.array() + 1e12)}) {
+  // A frame in other units: the shell keeps its thickness, so a frame 1000 times larger stretched
+  // every prism a thousandfold (a bowl ran for over a minute to a "valid" frame of stretch 2e6)
+  // and one 1000 times smaller carried a layer 70 times its size (plane:8 ran for minutes).
+  for (const double scale : {1e3, 1e-3, 10.5, 1 / 10.5}) {
     try {
-      deformer.solve(frame);
-      ADD_FAILURE() << "frame accepted";
+      deformer.solve(rest.base * scale);
+      ADD_FAILURE() << "frame accepted at scale " << scale;
     } catch (const InputError& e) {
-      EXPECT_EQ(std::string(e.what()).rfind("the new base: the shell's thickness does not fit this frame", 0), 0u) << e.what();
+      EXPECT_EQ(std::string(e.what()).rfind("the new base: the frame is " + format_number(scale) +
+                                                " times the size of the rest shell's base (other units?)", 0),
+                0u)
+          << e.what();
     }
+  }
+  // Moved 1e12 away, the size is the rest's, but a double cannot offset it by the thickness.
+  try {
+    deformer.solve(rest.base.array() + 1e12);
+    ADD_FAILURE() << "frame accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("the new base: the shell's thickness does not fit this frame", 0), 0u) << e.what();
   }
   EXPECT_TRUE(deformer.current().isApprox(rest.vertices()));
   const FrameResult r = deformer.solve(rest.base);
   EXPECT_LT((r.top - rest.top).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_LT(r.stretch.max, 1e-20);
+  // Within 10 times either way: a growth or a shrink is carried.
+  for (const double scale : {9.5, 1 / 9.5}) EXPECT_NO_THROW(ShellDeformer(rest).solve(rest.base * scale)) << scale;
 }
 
 TEST(ShellDeformer, FramesChainAndResetReturnsToTheRest) {

@@ -341,8 +341,8 @@ TEST(DeformRun, FramesReadAgainWhenTooLargeToHoldGiveTheSameRun) {
     paths.push_back(tmp.file("base" + std::to_string(k) + ".obj"));
     write_mesh(paths.back(), frame);
   }
-  const BaseFrames held = BaseFrames::load(paths, cylinder.F, rest.num_base_vertices(), rest.thickness);
-  const BaseFrames read_again = BaseFrames::load(paths, cylinder.F, rest.num_base_vertices(), rest.thickness, 0);
+  const BaseFrames held = BaseFrames::load(paths, rest);
+  const BaseFrames read_again = BaseFrames::load(paths, rest, 0);
   ASSERT_TRUE(held.held());
   ASSERT_FALSE(read_again.held());
   ASSERT_EQ(read_again.size(), 3);
@@ -366,7 +366,7 @@ TEST(DeformRun, FramesReadAgainWhenTooLargeToHoldGiveTheSameRun) {
   test::write_text(tmp.file("bad.obj"), "v 0 0 0\n");
   std::vector<std::string> with_bad = paths;
   with_bad.push_back(tmp.file("bad.obj"));
-  EXPECT_THROW(BaseFrames::load(with_bad, cylinder.F, rest.num_base_vertices(), rest.thickness, 0), InputError);
+  EXPECT_THROW(BaseFrames::load(with_bad, rest, 0), InputError);
 
   // The last frame's file replaced by a mesh of another size after the load: the run stops there.
   write_mesh(paths.back(), make_cylinder(8));

@@ -626,7 +626,9 @@ class DeformTest(TempDirTest):
             gshell.Deformer("not a shell")
         # Frames beyond the limits are named by their argument, the same in Deformer and deform.
         for scale, problem in ((1e60, "has a coordinate of magnitude"), (1e-45, "the mesh is too small"),
-                               (0.0, "every vertex is at one point"), (1e-3, "thickness does not fit this frame")):
+                               (0.0, "every vertex is at one point"),
+                               (1e-3, "the frame is 0.001 times the size of the rest shell's base"),
+                               (1e3, "the frame is 1000 times the size of the rest shell's base")):
             with self.subTest(scale=scale):
                 with self.assertRaisesRegex(ValueError, "^new_base: .*" + problem):
                     d.solve(V * scale)

@@ -303,7 +303,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   if (new_base.rows() != n || new_base.cols() != 3)
     throw InputError("the new base has " + std::to_string(new_base.rows()) + " vertices, the shell's base has " +
                      std::to_string(n));
-  require_frame_for_shell(new_base, rest_.F, rest_.thickness, "the new base");
+  require_frame_for_shell(new_base, rest_, "the new base");
   options.check();
 
   const auto start = Clock::now();

@@ -71,7 +71,7 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   input.surface = std::move(folder.surface);
   input.rest_warning = invalid_rest_shell_warning(shell_dir, folder.report, "frame");
   input.frame_names = frames;
-  input.frames = BaseFrames::load(frames, input.shell.F, input.shell.num_base_vertices(), input.shell.thickness);
+  input.frames = BaseFrames::load(frames, input.shell);
   if (!embed.empty()) {
     input.detail = read_mesh_or_builtin(embed);
     require_usable_coordinates(input.detail.V, embed);

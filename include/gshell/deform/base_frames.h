@@ -1,5 +1,7 @@
 #pragma once
 // The base frames that drive a deformation, read and checked up front.
+#include <gshell/shell/shell.h>
+
 #include <Eigen/Core>
 #include <cstddef>
 #include <string>
@@ -7,14 +9,18 @@
 
 namespace gshell {
 
-/// What a new pose of a shell's base (faces F, `thickness` the rest shell's eta) must meet:
-/// require_usable_frame, and a thickness generation would build on it (check_thickness_scale):
-/// the shell keeps its thickness, and a frame shrunk by 1000 under a shell of ratio 0.05 puts a
-/// layer 50 times its size on it (every top triangle then near every other: a guarded frame of
-/// 81 vertices ran for minutes).
+/// Frames may be at most this many times larger or smaller than the rest base (bounding box
+/// diagonals). The shell keeps its thickness: a frame in millimetres under a shell built in metres
+/// stretched every prism a thousandfold and ran for over a minute (bowl, 4K vertices) to a
+/// "valid" frame of stretch 2e6.
+constexpr double kMaxFrameScale = 10;
+
+/// What a new pose V of the base of `rest` must meet: require_usable_frame, a size within
+/// kMaxFrameScale of the rest base's, and a thickness generation would build on it
+/// (check_thickness_scale; e.g. a frame moved 1e12 away, where a double cannot tell the top from
+/// the base).
 /// \throws InputError "NAME: problem".
-void require_frame_for_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double thickness,
-                             const std::string& name);
+void require_frame_for_shell(const Eigen::MatrixXd& V, const Shell& rest, const std::string& name);
 
 /// The base frames of a deformation, in order: held in memory, or, for a sequence too large to
 /// hold (a long animation of a sculpt: 1,000 frames of a million vertices are 24 GB), read
@@ -29,13 +35,13 @@ public:
   explicit BaseFrames(std::vector<Eigen::MatrixXd> frames) : held_(std::move(frames)) {}
 
   /// Reads every frame file (any mesh format read_mesh knows, or a builtin: spec) and checks each
-  /// against the shell's base faces F (n vertices) and thickness: same vertex count, identical
-  /// faces, require_frame_for_shell, all before returning, so a bad frame fails before any work
+  /// against the rest shell: same vertex count, identical faces, require_frame_for_shell, all
+  /// before returning, so a bad frame fails before any work
   /// is done. Keeps the coordinates when the whole sequence takes at most `held_bytes`, else only
   /// the paths, and get() reads a frame again (and checks it again) when asked for it.
   /// \throws InputError "FRAME: problem" for the first bad frame (unreadable, unknown format,
   ///         other vertex count or faces, beyond the limits), or when `paths` is empty.
-  static BaseFrames load(const std::vector<std::string>& paths, const Eigen::MatrixXi& F, int n, double thickness,
+  static BaseFrames load(const std::vector<std::string>& paths, const Shell& rest,
                          std::size_t held_bytes = kHeldBytes);
 
   int size() const { return static_cast<int>(held() ? held_.size() : paths_.size()); }
@@ -52,6 +58,7 @@ private:
   Eigen::MatrixXi F_;              // to check the files read again
   int n_ = 0;
   double thickness_ = 0;
+  double rest_diagonal_ = 0; // of the rest base's bounding box
 };
 
 } // namespace gshell
