@@ -176,6 +176,18 @@ TEST(ShellDeformer, BadFramesAreRejectedAndLeaveTheStateAlone) {
   const Shell rest = flat_plane_shell(4, 0.1);
   ShellDeformer deformer(rest);
   EXPECT_THROW(deformer.solve(rest.base.topRows(3)), InputError);
+  try { // named by its columns (it said "has 25 vertices, the shell's base has 25")
+    deformer.solve(rest.base.leftCols(2));
+    ADD_FAILURE() << "two columns accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "the new base has 2 coordinates per vertex, not 3");
+  }
+  // vertex_rings checks its faces (an id past n wrote out of bounds).
+  Eigen::MatrixXi bad_faces = rest.F;
+  bad_faces(0, 0) = rest.num_base_vertices() + 100;
+  EXPECT_THROW(vertex_rings(bad_faces, rest.num_base_vertices()), InputError);
+  bad_faces(0, 0) = -1;
+  EXPECT_THROW(vertex_rings(bad_faces, rest.num_base_vertices()), InputError);
   Eigen::MatrixXd bad = rest.base;
   bad(2, 1) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(deformer.solve(bad), InputError);

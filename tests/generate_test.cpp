@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <functional>
+#include <limits>
 
 using namespace gshell;
 using gshell::test::generate_options;
@@ -155,6 +157,22 @@ TEST(Generate, MethodsAndBadOptions) {
   EXPECT_THROW(generate_shell(mesh.V, mesh.F, deep), InputError);
   deep.solve.anderson_history = kMaxAndersonHistory;
   EXPECT_TRUE(generate_shell(mesh.V, mesh.F, deep).metrics.certificate.valid());
+  // A non-finite vertex is named as such (it was "rest tet 0 has non-positive volume (nan)", or a
+  // thickness "0 times" an infinite size), and a thickness ratio does not leave it out.
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    Eigen::MatrixXd V = mesh.V;
+    V(1, 2) = bad;
+    for (const auto& run : std::vector<std::function<void()>>{
+             [&] { generate_shell(V, mesh.F, generate_options(ShellMethod::Rigid, 0.1)); },
+             [&] { thickness_from_ratio(V, 0.1); }, [&] { thickness_from_ratio(V, mesh.F, 0.1); }}) {
+      try {
+        run();
+        ADD_FAILURE() << "accepted " << bad;
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("vertex 1 has a non-finite coordinate"), std::string::npos) << e.what();
+      }
+    }
+  }
 }
 
 TEST(Generate, ReportHasEveryField) {

@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <thread>
@@ -153,6 +154,21 @@ TEST(ShellSolver, SoftConstraintsPullTowardTargets) {
   EXPECT_LT(r.energy.back(), 1e-8 * r.energy.front());
   EXPECT_LT((X - target).cwiseAbs().maxCoeff(), 1e-3);
   EXPECT_THROW(solver.solve(X, options), InputError); // targets are required
+  // Non-finite numbers are errors, not NaN shells (a NaN in a fixed row reached every row).
+  Eigen::MatrixXd bad = rest_X;
+  bad(n + 3, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(solver.solve(bad, options, P), InputError);
+  Eigen::MatrixXd bad_targets = P;
+  bad_targets(1, 2) = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(solver.solve(X, options, bad_targets), InputError);
+  // A negative weight is named (it was "the shell system is singular").
+  soft.weight = -1;
+  try {
+    ShellSolver(rest, 2 * n, {}, soft);
+    ADD_FAILURE() << "a negative weight was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("weight must be >= 0 and finite (got -1)"), std::string::npos) << e.what();
+  }
 }
 
 TEST(ShellSolver, SoftAndFixedTogether) {

@@ -157,6 +157,9 @@ int count_thinned_vertices(const Eigen::MatrixXd& base, const Eigen::MatrixXd& t
 VertexRings vertex_rings(const Eigen::MatrixXi& F, int n) {
   // Compressed from the start (both directions of every face edge, counted, placed, then sorted
   // and made unique per vertex in parallel): a vector per vertex cost an allocation each.
+  if (n < 0) throw InputError("vertex_rings: negative vertex count");
+  if (F.size() > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= n))
+    throw InputError("vertex_rings: a face refers to a vertex outside 0.." + std::to_string(n - 1));
   VertexRings out;
   std::vector<int> start(n + 1, 0);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
@@ -300,7 +303,9 @@ void ShellDeformer::reset() {
 
 FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOptions& options) {
   const int n = rest_.num_base_vertices();
-  if (new_base.rows() != n || new_base.cols() != 3)
+  if (new_base.cols() != 3)
+    throw InputError("the new base has " + std::to_string(new_base.cols()) + " coordinates per vertex, not 3");
+  if (new_base.rows() != n)
     throw InputError("the new base has " + std::to_string(new_base.rows()) + " vertices, the shell's base has " +
                      std::to_string(n));
   require_frame_for_shell(new_base, rest_, "the new base");

@@ -4,6 +4,7 @@
 #include <gshell/format_number.h>
 #include <gshell/geometry/curvature.h>
 #include <gshell/geometry/mesh_topology.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/seconds_since.h>
 #include <gshell/shell/curvature_prisms.h>
 #include <gshell/shell/offset_shell.h>
@@ -26,6 +27,8 @@ using Clock = std::chrono::steady_clock;
 
 void check_shapes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   if (V.cols() != 3 || F.cols() != 3 || F.rows() == 0) throw InputError("generate: need an n x 3 V and a non-empty m x 3 F");
+  // Else a NaN or infinity surfaced as a "non-positive volume" or a thickness "0 times" the size.
+  require_usable_coordinates(V, "generate");
 }
 
 Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& top, double eta) {
@@ -202,11 +205,13 @@ void GenerateOptions::check() const {
 
 double thickness_from_ratio(const Eigen::MatrixXd& V, double ratio) {
   if (V.rows() == 0) throw InputError("thickness ratio of an empty mesh");
+  require_usable_coordinates(V, "thickness ratio"); // a NaN vertex was left out of the size
   return thickness_for(ratio, extent_of(V));
 }
 
 double thickness_from_ratio(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double ratio) {
   if (V.rows() == 0) throw InputError("thickness ratio of an empty mesh");
+  require_usable_coordinates(V, "thickness ratio");
   const std::vector<char> used = used_vertices(F, V.rows());
   return thickness_for(ratio, extent_of(V, &used));
 }

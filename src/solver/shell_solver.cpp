@@ -1,6 +1,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/seconds_since.h>
 
 #include "geometry/first_touch.h"
@@ -331,12 +332,16 @@ struct ShellSolver::Impl {
   void check_positions(const Eigen::MatrixXd& X, const char* where) const {
     if (X.rows() != N || X.cols() != 3)
       throw InputError(std::string("ShellSolver::") + where + ": expected " + std::to_string(N) + " x 3 positions");
+    // A NaN in a fixed row reached every row through the solve, without an error.
+    if (!X.allFinite()) throw InputError(std::string("ShellSolver::") + where + ": a position is not finite");
   }
   void check_soft_targets(const Eigen::MatrixXd& targets, const char* where) const {
     if (!soft_free.empty() &&
         (targets.rows() != static_cast<Eigen::Index>(soft.vertices.size()) || targets.cols() != 3))
       throw InputError(std::string("ShellSolver::") + where + ": expected " + std::to_string(soft.vertices.size()) +
                        " x 3 soft constraint targets");
+    if (!soft_free.empty() && !targets.allFinite())
+      throw InputError(std::string("ShellSolver::") + where + ": a soft constraint target is not finite");
   }
   void check_step(const LocalStep& step, const char* where) const {
     if (step.Q.size() != 9 * static_cast<std::size_t>(K))
@@ -949,6 +954,9 @@ ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices,
   if (!(linear.cg_relative_tolerance >= 0 && linear.cg_relative_tolerance < 1))
     throw InputError("ShellSolver: the relative CG tolerance must be in [0, 1)");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
+  if (!soft.vertices.empty() && !(soft.weight >= 0 && std::isfinite(soft.weight)))
+    throw InputError("ShellSolver: the soft constraint weight must be >= 0 and finite (got " +
+                     format_number(soft.weight) + ")");
   if (!impl_->rest->complete())
     throw InputError("ShellSolver: rest tets are incomplete");
   impl_->setup(fixed);
