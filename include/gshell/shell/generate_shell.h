@@ -105,7 +105,8 @@ struct CurvatureGeneration {
 struct GenerateResult {
   Shell shell;
   ShellMethod method = ShellMethod::Rigid;
-  /// energy[0] = offset start; for Offset only energy[0] (no iterations). Guarded: the paper's
+  /// energy[0] = the start (the offset along normals smoothed over guard.start_smoothing; the
+  /// paper's offset when that is 0 or unguarded); for Offset only energy[0] (no iterations). Guarded: the paper's
   /// iterations the guard starts from (its repair iterations are in guard.solve).
   SolveResult solve;
   GenerateTimings seconds;
