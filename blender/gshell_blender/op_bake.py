@@ -42,14 +42,48 @@ def evaluated_base_positions(base, depsgraph, num_vertices):
         evaluated.to_mesh_clear()
 
 
+def cache_names(objects, reserved=()):
+    """Names for the objects' cache files (or folders), distinct from each other's and from `reserved`,
+    case aside (case-insensitive file systems). Blender's names are distinct but their clean names need
+    not be ('ball 1' and 'ball_1' are both ball_1): a clash takes the first free .001, .002, ... as
+    Blender numbers duplicates. The name an object's last bake gave it (gshell.cache_name) stays its own
+    while it still fits the object's name and is free, and is served first, so objects coming and going
+    never move another's cache; a duplicated object carries its original's and gets its own."""
+    def fits(obj, name):
+        stem = bpy.path.clean_name(obj.name)
+        return name == stem or (name.startswith(stem + ".") and name[len(stem) + 1:].isdigit())
+
+    taken = {name.casefold() for name in reserved}
+    names = [None] * len(objects)
+    for i, obj in enumerate(objects):
+        name = obj.gshell.cache_name
+        if fits(obj, name) and name.casefold() not in taken:
+            names[i] = name
+            taken.add(name.casefold())
+    for i, obj in enumerate(objects):
+        if names[i] is None:
+            stem = name = bpy.path.clean_name(obj.name)
+            number = 0
+            while name.casefold() in taken:
+                number += 1
+                name = f"{stem}.{number:03d}"
+            names[i] = name
+            taken.add(name.casefold())
+    return names
+
+
 def cache_directory(base, directory):
-    """(absolute folder for this base's caches, warning or None)."""
+    """(absolute folder for this base's caches, its name, warning or None)."""
     warning = None
     if directory.startswith("//") and not bpy.data.filepath:
         warning = ("the .blend file is not saved: the caches are in Blender's temporary folder, deleted when "
                    "Blender quits (save the file and bake again to keep them)")
         directory = bpy.app.tempdir
-    return os.path.join(bpy.path.abspath(directory), bpy.path.clean_name(base.name)), warning
+    # Every other base keeps its folder: the one its last bake gave it, else the one it would get.
+    others = [o.gshell.cache_name or bpy.path.clean_name(o.name) for o in bpy.data.objects
+              if o.gshell.role == "BASE" and o != base]
+    name = cache_names([base], others)[0]
+    return os.path.join(bpy.path.abspath(directory), name), name, warning
 
 
 class Bake:
@@ -70,19 +104,25 @@ class Bake:
         self.allow_invalid = allow_invalid
         self.deformer = gshell.Deformer(shell, allow_invalid=True) if allow_invalid else gshell.Deformer(shell)
         self.details = [d for d in shell_store.details_of(base, self.scene) if len(d.data.vertices)]
-        self.embeddings = [gshell.embed(shell, shell_store.detail_rest_points(d)) for d in self.details]
-        self.folder, self.warning = cache_directory(base, directory)
+        # Checked before anything is written, naming the detail (one that changed since it was bound).
+        embedded = [shell_store.embed_detail(gshell, shell, d, d.gshell.bind_matrix) for d in self.details]
+        self.embeddings = [embedding for embedding, _ in embedded]
+        self.to_detail = [back for _, back in embedded]
+        self.objects = [self.top] + self.details
+        self.folder, folder_name, self.warning = cache_directory(base, directory)
+        # Distinct names, so distinct files: kept on the objects only when the bake completes.
+        self.names = [folder_name] + cache_names(self.objects)
         self.writers = []
         try:
-            for obj in [self.top] + self.details:
-                path = os.path.join(self.folder, bpy.path.clean_name(obj.name) + ".pc2")
+            for obj, name in zip(self.objects, self.names[1:]):
+                path = os.path.join(self.folder, name + ".pc2")
                 self.writers.append(point_cache.PointCacheWriter(path, len(obj.data.vertices), frame_start,
                                                                  len(self.frames)))
         except OSError as e:
             self.cancel()
             raise shell_store.ShellError(f"cannot write the cache: {e}") from e
         # Earlier caches of these objects would be evaluated at every frame for nothing.
-        self.muted = [m for m in (o.modifiers.get(point_cache.MODIFIER_NAME) for o in [self.top] + self.details)
+        self.muted = [m for m in (o.modifiers.get(point_cache.MODIFIER_NAME) for o in self.objects)
                       if m is not None and m.show_viewport]
         for modifier in self.muted:
             modifier.show_viewport = False
@@ -107,8 +147,8 @@ class Bake:
         carried = [e.carry(X) for e in self.embeddings]
         carry = lap()
         self.writers[0].write(top)
-        for detail, P, writer in zip(self.details, carried, self.writers[1:]):
-            writer.write(shell_store.detail_local_points(detail, P))
+        for to_detail, P, writer in zip(self.to_detail, carried, self.writers[1:]):
+            writer.write(shell_store.transform(to_detail, P))
         write = lap()
         last = self.deformer.last
         self.frame_stats.append({
@@ -122,9 +162,13 @@ class Bake:
 
     def finish(self):
         """Puts the caches in place and attaches them; returns the status line."""
-        for writer in self.writers:
-            writer.commit()
-        for obj, writer in zip([self.top] + self.details, self.writers):
+        try:
+            point_cache.commit_all(self.writers)
+        except point_cache.CommitError as e:
+            raise shell_store.ShellError(f"'{self.objects[e.index].name}': {e}") from e
+        for obj, name in zip([self.base] + self.objects, self.names):
+            obj.gshell.cache_name = name
+        for obj, writer in zip(self.objects, self.writers):
             point_cache.attach(obj, writer.path, self.frames[0]).show_viewport = True
         self.scene.frame_set(self.frame_before)
         seconds = sorted(s["seconds"]["total"] for s in self.frame_stats)
@@ -198,9 +242,9 @@ class OBJECT_OT_gshell_bake(bpy.types.Operator):
     def _finish(self):
         try:
             self.report({"INFO"}, self._bake.finish())
-        except (OSError, RuntimeError) as e:
+        except shell_store.ShellError as e:  # says what became of the earlier caches
             self._bake.cancel()
-            self.report({"ERROR"}, f"gshell: {e}; nothing was baked")
+            self.report({"ERROR"}, f"gshell: {e}")
             return {"CANCELLED"}
         return {"FINISHED"}
 

@@ -24,6 +24,7 @@ class OBJECT_OT_gshell_bind(bpy.types.Operator):
         try:
             gshell = gshell_module.get()
             shell = shell_store.rest_shell(gshell, base)
+            to_base = shell_store.inverted(base, base.matrix_world)
         except (gshell_module.ModuleUnavailable, shell_store.ShellError) as e:
             self.report({"ERROR"}, f"gshell: {e}")
             return {"CANCELLED"}
@@ -32,28 +33,37 @@ class OBJECT_OT_gshell_bind(bpy.types.Operator):
         if not details:
             self.report({"ERROR"}, f"gshell: select the detail objects, then the shell of '{base.name}' last (active)")
             return {"CANCELLED"}
-        problems = [f"'{o.name}' is not a mesh" for o in details if o.type != "MESH"]
-        problems += [f"'{o.name}' is part of a shell ({o.gshell.role.lower()})" for o in details
-                     if o.gshell.role in ("BASE", "TOP")]
+        # Every detail is checked (embedded) before any is changed: one bound half way would make
+        # every later bake of the base fail on it.
+        problems, bindings = [], []
+        for o in details:
+            if o.type != "MESH":
+                problems.append(f"'{o.name}' is not a mesh")
+            elif o.gshell.role in ("BASE", "TOP"):
+                problems.append(f"'{o.name}' is part of a shell ({o.gshell.role.lower()})")
+            else:
+                matrix = to_base @ o.matrix_world
+                try:
+                    bindings.append((o, matrix, shell_store.embed_detail(gshell, shell, o, matrix)[0]))
+                except shell_store.ShellError as e:
+                    problems.append(str(e))
         if problems:
             self.report({"ERROR"}, "gshell: cannot bind: " + "; ".join(problems))
             return {"CANCELLED"}
 
         points = outside = 0
         farthest = 0.0
-        to_base = base.matrix_world.inverted()
-        for detail in details:
+        for detail, matrix, embedding in bindings:
             detail.gshell.role = "DETAIL"
             detail.gshell.base = base
-            detail.gshell.bind_matrix = to_base @ detail.matrix_world
-            embedding = gshell.embed(shell, shell_store.detail_rest_points(detail))
+            detail.gshell.bind_matrix = matrix
             points += len(embedding)
             outside += len(embedding.outside)
             farthest = max(farthest, embedding.max_outside_distance)
             if self.parent and detail.parent != base:
                 world = detail.matrix_world.copy()
                 detail.parent = base
-                detail.matrix_parent_inverse = base.matrix_world.inverted()
+                detail.matrix_parent_inverse = to_base
                 detail.matrix_world = world
         message = f"gshell: bound {len(details)} object(s), {points} vertices, to the shell of '{base.name}'"
         if outside:

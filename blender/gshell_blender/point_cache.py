@@ -2,9 +2,11 @@
 
 PC2 (3ds Max's point cache 2, read by Blender's Mesh Cache modifier): a 32-byte little-endian
 header (b"POINTCACHE2\\0", version 1, point count, start frame, sample rate, sample count), then
-per sample the points' float32 x, y, z. Files are written under a temporary name and renamed when
-complete, so a cancelled or failed bake leaves any earlier cache untouched.
+per sample the points' float32 x, y, z. Files are written under a temporary name and put in place
+together when all are complete (commit_all), so a cancelled or failed bake leaves the earlier caches
+untouched.
 """
+import contextlib
 import os
 import struct
 
@@ -17,7 +19,7 @@ _HEADER = struct.Struct("<12siiffi")
 
 
 class PointCacheWriter:
-    """Writes one PC2 file sample by sample; commit() puts it in place, discard() drops it."""
+    """Writes one PC2 file sample by sample; commit_all() puts it in place, discard() drops it."""
 
     def __init__(self, path, num_points, start_frame, num_samples):
         self.path = path
@@ -35,17 +37,60 @@ class PointCacheWriter:
         self._file.write(P.tobytes())
         self.written += 1
 
-    def commit(self):
-        self._file.close()
-        if self.written != self.num_samples:
-            os.remove(self._tmp)
-            raise RuntimeError(f"{self.path}: {self.written} of {self.num_samples} samples written")
-        os.replace(self._tmp, self.path)
-
     def discard(self):
         self._file.close()
         if os.path.exists(self._tmp):
             os.remove(self._tmp)
+
+
+class CommitError(Exception):
+    """writers[index]'s file could not be put in place; the message says what became of the others."""
+
+    def __init__(self, index, message):
+        super().__init__(message)
+        self.index = index
+
+
+def commit_all(writers):
+    """Puts every writer's file in place, or none: the caches of one bake belong together (a top and
+    its detail playing different bakes drift apart). The files they replace are moved aside first and
+    put back if one cannot go in. Raises CommitError; the caller discards the writers then."""
+    for index, writer in enumerate(writers):
+        writer._file.close()
+        if writer.written != writer.num_samples:
+            raise CommitError(index, f"{writer.path}: {writer.written} of {writer.num_samples} samples written; "
+                                     f"nothing was baked")
+    moved = []  # (path, where its earlier file is, or None)
+    for index, writer in enumerate(writers):
+        try:
+            aside = writer.path + ".old" if os.path.exists(writer.path) else None
+            if aside:
+                os.replace(writer.path, aside)
+            moved.append((writer.path, aside))
+            os.replace(writer._tmp, writer.path)
+        except OSError as e:
+            stuck = _put_back(moved)
+            raise CommitError(index, f"cannot put {writer.path} in place ({e.strerror or e}); " + (
+                f"the earlier caches {', '.join(stuck)} could not be put back: bake again" if stuck else
+                "nothing was baked, the earlier caches are as they were")) from e
+    for _, aside in moved:
+        if aside:
+            with contextlib.suppress(OSError):  # the bake is in place; a leftover .old harms nothing
+                os.remove(aside)
+
+
+def _put_back(moved):
+    """Undoes commit_all's moves; returns the paths it could not restore."""
+    stuck = []
+    for path, aside in reversed(moved):
+        try:
+            if aside:
+                os.replace(aside, path)
+            elif os.path.exists(path):
+                os.remove(path)
+        except OSError:
+            stuck.append(path)
+    return stuck
 
 
 def read(path):

@@ -10,6 +10,8 @@ A shell joins three kinds of objects, marked by `Object.gshell.role`:
           JSON text).
   DETAIL  an object bound with Bind: `gshell.base` points to the base; `gshell.bind_matrix` maps its
           local coordinates into the base's local space as they were at binding time.
+A baked object also keeps `gshell.cache_name`, the name of its cache file (a base: of its cache
+folder), so that it keeps the file while other objects come and go (see op_bake.cache_names).
 Everything the shell solver sees is in the base's local space (object transforms are not part of
 the shell), so a moved, rotated or scaled base carries its shell along.
 """
@@ -45,6 +47,10 @@ class GShellObjectSettings(bpy.types.PropertyGroup):
     bind_matrix: bpy.props.FloatVectorProperty(
         name="Bind matrix", size=(4, 4), subtype="MATRIX",
         description="Detail local space to base local space at binding time")
+    cache_name: bpy.props.StringProperty(
+        name="Cache name",
+        description="File name of this object's baked cache (a base: of its cache folder), given by its last "
+                    "completed bake and kept so that no other object's cache takes it")
 
 
 def base_of(obj):
@@ -89,16 +95,29 @@ def details_of(base, scene):
     return [o for o in scene.objects if o.gshell.role == "DETAIL" and o.gshell.base == base and o.type == "MESH"]
 
 
-def _apply(matrix, P):
+def transform(matrix, P):
+    """Points (k, 3) mapped by a 4x4 affine matrix."""
     A = np.array(matrix, dtype=np.float64)
     return P @ A[:3, :3].T + A[:3, 3]
 
 
-def detail_rest_points(detail):
-    """float64 (k, 3): the detail's vertices in its base's local space, as bound."""
-    return _apply(detail.gshell.bind_matrix, mesh_arrays.vertex_positions(detail.data))
+def inverted(obj, matrix):
+    """matrix.inverted(), or a ShellError naming obj: a scale of 0 (its own or a parent's) flattens it
+    for good, and a detail's carried points go back to it through the inverse of its bind matrix."""
+    try:
+        return matrix.inverted()
+    except ValueError:
+        raise ShellError(f"'{obj.name}': flattened by a scale of 0 (its own or a parent's), its transform has "
+                         f"no inverse") from None
 
 
-def detail_local_points(detail, P):
-    """Points in the base's local space -> the detail's local space (inverse of the binding)."""
-    return _apply(detail.gshell.bind_matrix.inverted(), P)
+def embed_detail(gshell, shell, detail, bind_matrix):
+    """(gshell.embed of the detail's vertices mapped by bind_matrix, the matrix back to its local space),
+    or a ShellError naming the detail. Bind checks every detail with it before binding any, and the bake
+    before writing anything, so neither fails half way."""
+    back = inverted(detail, bind_matrix)
+    try:
+        return gshell.embed(shell, transform(bind_matrix, mesh_arrays.vertex_positions(detail.data))), back
+    except ValueError as e:  # e.g. a non-finite vertex
+        raise ShellError(f"'{detail.name}': gshell.embed refuses its vertices (points[i] is vertex i, in the "
+                         f"base's local space): {e}") from e

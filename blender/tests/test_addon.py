@@ -7,10 +7,13 @@ the top of a quad UV sphere equals the Python module's shell of the same mesh cu
 a baked bend carries the top (about the thickness above the base, equal to gshell.Deformer fed the
 same base positions) and the bound detail (equal to embed().carry in world space); meshes the
 module rejects (non-manifold, degenerate) and topology-changing modifiers give an error and change
-nothing.
+nothing, as do details Bind cannot carry (flattened, non-finite); objects and bases whose clean names
+clash bake to caches of their own; a bake's caches are all put in place or none.
 """
 import json
+import math
 import os
+import pathlib
 import sys
 import tempfile
 import unittest
@@ -235,6 +238,8 @@ class AddonTest(unittest.TestCase):
 
     def test_bake_of_a_saved_file_is_kept_next_to_it(self):
         import gshell_blender
+        # Later tests want an unsaved file again: the folder saved to here is deleted.
+        self.addCleanup(bpy.ops.wm.read_homefile, use_empty=True)
         sphere = uv_sphere(segments=12, rings=6)
         bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
         addon_session.animate_bend(sphere, 60, 1, 4)
@@ -274,6 +279,136 @@ class AddonTest(unittest.TestCase):
         subdivision.show_viewport = False
         self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=3), {"FINISHED"})
         self.assertIn("gshell bake", top.modifiers)
+
+    def test_bind_refuses_a_flattened_or_unembeddable_detail_and_changes_nothing(self):
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        eta = sphere.gshell.top.gshell.thickness
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(1 + 0.5 * eta, 0, 0))
+        good = bpy.context.active_object
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(0, 1 + 0.5 * eta, 0))
+        flat = bpy.context.active_object
+        flat.scale = (1, 1, 0)  # its world matrix has no inverse: carried points could not go back to it
+        mesh = bpy.data.meshes.new("nan")
+        mesh.from_pydata([(0, 0, 1 + 0.5 * eta)], [], [])
+        mesh.vertices[0].co.x = float("nan")
+        unembeddable = bpy.data.objects.new("nan", mesh)
+        bpy.context.collection.objects.link(unembeddable)
+        bpy.context.view_layer.update()
+        for refused, words in ((flat, ["flattened", "scale of 0"]), (unembeddable, ["not finite"])):
+            addon_session.select([good, refused], sphere)
+            with self.assertRaises(RuntimeError) as error:
+                bpy.ops.object.gshell_bind()
+            for word in [f"'{refused.name}'"] + words:
+                self.assertIn(word, str(error.exception))
+            for obj in (good, refused):  # neither is bound, not even the good one
+                self.assertEqual((obj.gshell.role, obj.gshell.base, obj.parent), ("NONE", None, None), obj.name)
+
+        # The good one alone binds and bakes; edited past embedding afterwards, the bake names it.
+        addon_session.select([good], sphere)
+        self.assertEqual(bpy.ops.object.gshell_bind(), {"FINISHED"})
+        addon_session.animate_bend(sphere, 60, 1, 2)
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=2), {"FINISHED"})
+        good.data.vertices[0].co.y = float("nan")
+        with self.assertRaises(RuntimeError) as error:
+            bpy.ops.object.gshell_bake(frame_start=1, frame_end=2)
+        self.assertIn(f"'{good.name}'", str(error.exception))
+        self.assertIn("not finite", str(error.exception))
+
+    def played_cache(self, obj, frame):
+        """obj's evaluated vertices at frame, checked to be its own cache file's sample (right size)."""
+        import gshell_blender
+        start, samples = gshell_blender.point_cache.read(bpy.path.abspath(obj.modifiers["gshell bake"].filepath))
+        self.assertEqual(samples.shape[1], len(obj.data.vertices), obj.name)
+        bpy.context.scene.frame_set(frame)
+        played = evaluated_positions(obj)
+        np.testing.assert_allclose(played, samples[frame - int(start)], atol=1e-6, err_msg=obj.name)
+        return played
+
+    def test_bake_gives_details_whose_clean_names_clash_caches_of_their_own(self):
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        eta = sphere.gshell.top.gshell.thickness
+        bend = addon_session.animate_bend(sphere, 90, 1, 4)
+        balls = []
+        with tempfile.TemporaryDirectory() as folder:
+            # 'ball 1' and 'ball_1' are both ball_1 to bpy.path.clean_name; the second comes after a bake.
+            for name, subdivisions, direction, degrees in (("ball 1", 1, (0, 0.6, 0.8), 90),
+                                                           ("ball_1", 2, (0, -0.6, 0.8), 140)):
+                bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=subdivisions, radius=0.01,
+                                                      location=Vector(direction) * (1 + 0.5 * eta))
+                balls.append(bpy.context.active_object)
+                balls[-1].name = name
+                addon_session.select(balls[-1:], sphere)
+                self.assertEqual(bpy.ops.object.gshell_bind(), {"FINISHED"})
+                bend.angle = math.radians(degrees)  # the second bake replaces a different motion
+                bend.keyframe_insert("angle", frame=4)
+                self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=4, directory=folder + "/"),
+                                 {"FINISHED"})
+            self.assertEqual([os.path.basename(b.modifiers["gshell bake"].filepath) for b in balls],
+                             ["ball_1.pc2", "ball_1.001.pc2"])  # the first keeps its file
+            for ball in balls:
+                rest = positions(ball.data)
+                self.assertGreater(np.linalg.norm(self.played_cache(ball, 4) - rest, axis=1).min(), 0.05, ball.name)
+
+    def test_bake_gives_bases_whose_clean_names_clash_folders_of_their_own(self):
+        bases = []
+        for name, x, degrees in (("Tube 1", 0, 90), ("Tube_1", 5, -60)):
+            base = uv_sphere(name, segments=12, rings=6)
+            base.location.x = x
+            bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+            addon_session.animate_bend(base, degrees, 1, 4)
+            bases.append(base)
+        with tempfile.TemporaryDirectory() as folder:
+            for base in bases:
+                addon_session.select([base], base)
+                self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=4, directory=folder + "/"),
+                                 {"FINISHED"})
+            self.assertEqual(sorted(os.listdir(folder)), ["Tube_1", "Tube_1.001"])
+            paths = [bpy.path.abspath(b.gshell.top.modifiers["gshell bake"].filepath) for b in bases]
+            self.assertNotEqual(paths[0], paths[1])
+            second = pathlib.Path(paths[1]).read_bytes()
+            addon_session.select(bases[:1], bases[0])  # baked again, the first keeps its folder
+            self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=4, directory=folder + "/"),
+                             {"FINISHED"})
+            self.assertEqual(bpy.path.abspath(bases[0].gshell.top.modifiers["gshell bake"].filepath), paths[0])
+            self.assertEqual(pathlib.Path(paths[1]).read_bytes(), second)
+            for base in bases:  # each top follows its own base's bend, about eta above it
+                top = base.gshell.top
+                gap = np.linalg.norm(self.played_cache(top, 4) - evaluated_positions(base), axis=1)
+                self.assertLess(gap.max(), 2 * top.gshell.thickness, base.name)
+
+    def test_bake_puts_every_cache_in_place_or_none(self):
+        from unittest import mock
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        top = sphere.gshell.top
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01,
+                                              location=(1 + 0.5 * top.gshell.thickness, 0, 0))
+        ball = bpy.context.active_object
+        addon_session.select([ball], sphere)
+        bpy.ops.object.gshell_bind()
+        bend = addon_session.animate_bend(sphere, 60, 1, 3)
+        with tempfile.TemporaryDirectory() as folder:
+            self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=3, directory=folder + "/"),
+                             {"FINISHED"})
+            paths = [bpy.path.abspath(o.modifiers["gshell bake"].filepath) for o in (top, ball)]
+            before = [pathlib.Path(p).read_bytes() for p in paths]
+            bend.angle = -1.0
+            bend.keyframe_insert("angle", frame=3)
+            replace = os.replace
+
+            def refuse_the_ball(source, destination):  # the top's new cache goes in first, then this fails
+                if destination == paths[1] and source.endswith(".part"):
+                    raise PermissionError(13, "Permission denied")
+                return replace(source, destination)
+            with mock.patch.object(os, "replace", refuse_the_ball), self.assertRaises(RuntimeError) as error:
+                bpy.ops.object.gshell_bake(frame_start=1, frame_end=3, directory=folder + "/")
+            for words in (f"'{ball.name}'", paths[1], "Permission denied", "nothing was baked"):
+                self.assertIn(words, str(error.exception))
+            self.assertEqual([pathlib.Path(p).read_bytes() for p in paths], before)
+            self.assertEqual(sorted(os.listdir(os.path.dirname(paths[0]))), sorted(map(os.path.basename, paths)))
+            self.assertTrue(all(o.modifiers["gshell bake"].show_viewport for o in (top, ball)))
 
     def check_rejected(self, name, V, F, words):
         mesh = bpy.data.meshes.new(name)
