@@ -5,6 +5,7 @@
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/quality/shell_metrics.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>
 #include <gshell/render/annotate.h>
@@ -483,16 +484,25 @@ TEST(ShellRender, FacesAreRecoveredFromTetsWhenOnlyShellVtuIsThere) {
   EXPECT_NEAR(subject.face_stretch.maxCoeff(), 0, 1e-12);
 }
 
-TEST(ShellRender, ThicknessRatioPerVertex) {
+TEST(ShellRender, ThicknessRatioPerVertexIsTheReportsThickness) {
+  // A plane's top 0.1 above it, with its centre vertex slid sideways to 0.01 above the plane: the
+  // colour is the distance to the base over eta, as the report's thickness (the offset length
+  // |top_i - base_i| showed the slid vertex 2.5 eta thick).
+  const TriMesh plane = make_plane(2);
   Shell shell;
-  shell.base = Eigen::MatrixXd::Zero(2, 3);
-  shell.top = shell.base;
-  shell.top(0, 2) = 0.1;
-  shell.top(1, 0) = 0.25;
+  shell.base = plane.V;
+  shell.F = plane.F;
+  shell.top = plane.V.rowwise() + Eigen::RowVector3d(0, 0, 0.1);
+  const int centre = 4;
+  ASSERT_TRUE(plane.V.row(centre).isZero());
+  shell.top.row(centre) << 0.5, 0, 0.01;
   shell.thickness = 0.2;
   const Eigen::VectorXd t = vertex_thickness_ratio(shell);
-  EXPECT_DOUBLE_EQ(t[0], 0.5);
-  EXPECT_DOUBLE_EQ(t[1], 1.25);
+  const ShellMetrics m = shell_metrics(shell.base, shell.F, shell.top, shell.thickness, false);
+  for (int i = 0; i < 9; ++i) {
+    EXPECT_NEAR(t[i], i == centre ? 0.05 : 0.5, 1e-12) << i;
+    EXPECT_NEAR(t[i], m.vertex_thickness[i], 1e-12) << i;
+  }
 }
 
 TEST(RenderCli, WritesAPngOfTheRequestedSize) {

@@ -5,6 +5,7 @@
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/quality/thickness.h>
 #include <gshell/render/color_map.h>
 #include <gshell/run/frames.h>
 #include <gshell/run/shell_folder.h>
@@ -88,7 +89,10 @@ Eigen::VectorXd face_stretch_from_tets(const Eigen::MatrixXd& X, const Eigen::Ma
 
 Eigen::VectorXd vertex_thickness_ratio(const Shell& shell) {
   if (!(shell.thickness > 0)) throw InputError("thickness colors need the shell's thickness eta");
-  return (shell.top - shell.base).rowwise().norm() / shell.thickness;
+  // The report's measure (distance to the base surface on the top's side), not the offset
+  // length |top_i - base_i|: at a squeezed corner that length stayed near 0.7 eta while the top
+  // lay 0.06 eta from the base, so the picture hid the thinning the report counts.
+  return vertex_thickness(shell.base, shell.F, shell.top) / shell.thickness;
 }
 
 RenderSubject load_render_subject(const std::string& input) {
@@ -234,7 +238,7 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   if (color_by == ColorBy::Stretch && figure.footnote.empty())
     figure.footnote = "stretch = \u03a3\u1d62 (\u03c3\u1d62 \u2212 1)\u00b2 per tet; faces show their prism's volume-weighted mean";
   if (color_by == ColorBy::Thickness && figure.footnote.empty())
-    figure.footnote = "thickness = |top\u1d62 \u2212 base\u1d62| / \u03b7 per vertex";
+    figure.footnote = "thickness = distance of top vertex i to the base / \u03b7";
   return render_figure(panels, figure, layout);
 }
 

@@ -144,6 +144,7 @@ struct ViewSession::Impl {
     Shell shell;
     shell.base = x.topRows(n);
     shell.top = x.bottomRows(n);
+    shell.F = input.shell.F;
     shell.thickness = input.shell.thickness;
     vertex_values = vertex_thickness_ratio(shell);
     values_version = version;

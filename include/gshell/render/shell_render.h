@@ -41,7 +41,8 @@ RenderSubject load_render_subject(const std::string& input);
 Eigen::VectorXd face_stretch_from_tets(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T,
                                        const Eigen::VectorXd& tet_stretch);
 
-/// Per-vertex thickness |top_i - base_i| / eta (1 = the requested thickness).
+/// Per-vertex thickness / eta as the report measures it (vertex_thickness: the distance of top
+/// vertex i to the base surface on its side; 1 = the requested thickness).
 /// \throws InputError when shell.thickness is not positive.
 Eigen::VectorXd vertex_thickness_ratio(const Shell& shell);
 
