@@ -277,6 +277,20 @@ TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
 
 // Frames and pose steps that are not valid are named in one warning line, by what explains them;
 // the line goes into report.json too (the CLI prints it even with --quiet).
+TEST(DeformRun, DetailFarOutsideTheShellIsAWarning) {
+  // Points outside every tet follow their nearest tet's map extrapolated: a detail in other units
+  // (1e45 away in the hunt) was carried without a word but the report's count.
+  DeformRun run;
+  run.thickness = 0.1;
+  run.embed = DeformRun::Embed{"detail.obj", 10, 2, 0.05};
+  EXPECT_TRUE(run.warnings().empty()); // within one thickness: rounding or a detail on the top
+  run.embed->max_outside_distance = 0.5;
+  ASSERT_EQ(run.warnings().size(), 1u);
+  EXPECT_EQ(run.warnings()[0].rfind("2 of 10 detail vertices of detail.obj lie outside the shell, up to 0.5 from it "
+                                    "(5 times its thickness)", 0), 0u) << run.warnings()[0];
+  EXPECT_EQ(run.to_json()["warnings"].size(), 1u);
+}
+
 TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
   DeformRun run;
   auto add = [&](bool valid, int crossings, std::vector<int> unextrudable) {

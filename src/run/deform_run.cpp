@@ -2,6 +2,7 @@
 
 #include <gshell/deform/base_frames.h>
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/tet_mesh_io.h>
@@ -119,10 +120,17 @@ std::vector<std::string> DeformRun::warnings() const {
     if (!f.result.valid)
       invalid.add(f.frame, f.result.certificate.base_self_intersections > 0, !f.result.unextrudable_vertices.empty(),
                   f.result.rest_faults_only);
+  std::vector<std::string> out;
   const std::string line =
       detail::invalid_items_warning(invalid, static_cast<int>(frames.size()), "frame", options.frame.allow_invalid);
-  if (line.empty()) return {};
-  return {line};
+  if (!line.empty()) out.push_back(line);
+  if (embed && embed->max_outside_distance > thickness)
+    out.push_back(std::to_string(embed->outside) + " of " + std::to_string(embed->points) + " detail vertices of " +
+                  embed->detail + " lie outside the shell, up to " + format_number(embed->max_outside_distance) +
+                  " from it (" + format_number(embed->max_outside_distance / thickness) +
+                  " times its thickness): they follow their nearest tet extrapolated, so far ones move "
+                  "far from the shell (other units?)");
+  return out;
 }
 
 nlohmann::ordered_json DeformRun::to_json() const {

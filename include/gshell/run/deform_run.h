@@ -82,7 +82,9 @@ struct DeformRun {
 
   /// What a user must hear even with progress off: one line naming the frames that are not valid
   /// and why (the base crosses itself, unextrudable base vertices, unguarded by allow_invalid, or
-  /// none of those: the guard could not make them valid); empty when every frame is valid.
+  /// none of those: the guard could not make them valid), and one when detail points lie farther
+  /// than the thickness outside the shell (they follow their nearest tet's map extrapolated, so
+  /// their error grows with that distance); empty when neither holds.
   std::vector<std::string> warnings() const;
 
   /// report.json: command, shell, base_vertices, tets, thickness, tolerance, max_iterations,
