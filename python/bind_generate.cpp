@@ -47,6 +47,33 @@ ShellObject measured_shell(Shell shell) {
   return s;
 }
 
+// Pickling (multiprocessing, joblib, caches): the arrays, the thickness, the per-tet stretch and
+// the report as they are, so an unpickled shell is the same shell without measuring it again.
+constexpr int kShellStateVersion = 1;
+
+py::tuple shell_state(const ShellObject& s) {
+  return py::make_tuple(kShellStateVersion, from_matrix(s.shell.base), from_indices(s.shell.F), from_matrix(s.shell.top),
+                        s.shell.thickness, from_vector(s.stretch), s.report.dump(), s.folder);
+}
+
+ShellObject shell_from_state(const py::tuple& t) {
+  if (t.size() != 8 || !py::isinstance<py::int_>(t[0]) || t[0].cast<int>() != kShellStateVersion)
+    value_error("Shell: not the state of a pickled gshell.Shell of this version");
+  ShellObject s;
+  s.shell.base = to_matrix(t[1], "base", 3);
+  const int n = static_cast<int>(s.shell.base.rows());
+  s.shell.F = to_indices(t[2], "faces", 3, n);
+  s.shell.top = to_matrix(t[3], "top", 3, n);
+  s.shell.thickness = t[4].cast<double>();
+  if (!(s.shell.thickness > 0) || !std::isfinite(s.shell.thickness)) value_error("Shell: thickness must be positive");
+  const int tets = 3 * static_cast<int>(s.shell.F.rows());
+  s.stretch = to_matrix(t[5].attr("reshape")(-1, 1), "stretch", 1, tets).col(0);
+  s.report = nlohmann::json::parse(t[6].cast<std::string>());
+  s.folder = t[7].cast<std::string>();
+  s.tets = build_prism_tets(s.shell.F, n);
+  return s;
+}
+
 ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayArg& top, double thickness) {
   const TriMesh mesh = checked_mesh(base, faces, "base", "faces");
   Shell shell;
@@ -164,6 +191,7 @@ stretch and report are measured as by metrics() without intersection counts.)")
       .def_property_readonly("report", [](const ShellObject& s) { return to_python(s.report); },
                              "dict: the report, with the fields of the CLI's report.json (generate() fills "
                              "iterations, energy, seconds; other shells have the metrics part only).")
+      .def(py::pickle(&shell_state, &shell_from_state))
       .def("__repr__", [](const ShellObject& s) {
         return "<gshell.Shell: " + std::to_string(s.shell.num_base_vertices()) + " base vertices, " +
                std::to_string(s.shell.F.rows()) + " faces, thickness " + std::to_string(s.shell.thickness) + ">";

@@ -9,6 +9,7 @@ import ast
 import json
 import math
 import os
+import pickle
 import re
 import shutil
 import subprocess
@@ -341,6 +342,20 @@ class GenerateTest(TempDirTest):
         c = gshell.generate(V, F, thickness=0.3, method="curvature").report["curvature"]
         defaults = keyword_defaults(gshell.generate)
         self.assertEqual((c["s_min"], c["s_max"]), (defaults["s_min"], defaults["s_max"]))
+
+    def test_shells_pickle_as_they_are(self):
+        # multiprocessing and caches pickle shells: the same arrays, stretch and report come back,
+        # without measuring again, and the copy deforms as the original does.
+        V, F = gshell.builtin("sphere:2")
+        shell = gshell.generate(V, F, thickness=0.1)
+        copy = pickle.loads(pickle.dumps(shell))
+        for name in ("base", "top", "faces", "tets", "stretch"):
+            np.testing.assert_array_equal(getattr(copy, name), getattr(shell, name), err_msg=name)
+        self.assertEqual(copy.thickness, shell.thickness)
+        self.assertEqual(copy.report, shell.report)
+        np.testing.assert_array_equal(gshell.Deformer(copy).solve(V * 1.05), gshell.Deformer(shell).solve(V * 1.05))
+        with self.assertRaisesRegex(ValueError, "not the state of a pickled gshell.Shell"):
+            gshell.Shell.__new__(gshell.Shell).__setstate__((0,))
 
     def test_shell_properties(self):
         V, F = gshell.builtin("sphere:2")
