@@ -88,7 +88,7 @@ void print_json(const std::string& name, const TriMesh& mesh, const MeshStats& s
   j["problems"] = nlohmann::json::array();
   for (const auto& p : problems)
     j["problems"].push_back({{"severity", severity_name(p.severity)}, {"message", p.message}, {"count", p.count}});
-  std::cout << j.dump(2) << "\n";
+  std::cout << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n"; // a non-UTF-8 file name
 }
 
 void run_info(const InfoArgs& args) {

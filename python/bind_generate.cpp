@@ -53,7 +53,8 @@ constexpr int kShellStateVersion = 1;
 
 py::tuple shell_state(const ShellObject& s) {
   return py::make_tuple(kShellStateVersion, from_matrix(s.shell.base), from_indices(s.shell.F), from_matrix(s.shell.top),
-                        s.shell.thickness, from_vector(s.stretch), s.report.dump(), s.folder);
+                        s.shell.thickness, from_vector(s.stretch),
+                        s.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), s.folder);
 }
 
 ShellObject shell_from_state(const py::tuple& t) {

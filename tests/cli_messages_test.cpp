@@ -382,3 +382,23 @@ TEST(CliMessages, AWriteThatFailsNamesTheOutputNotItsHiddenStagingFolder) {
   EXPECT_EQ(err.find(".tmp"), std::string::npos) << err;
   EXPECT_EQ(count_entries(dir.path()), 1); // err alone
 }
+
+TEST(CliMessages, FileNamesThatAreNotUtf8AreWrittenIntoJsonWithReplacementCharacters) {
+  // Linux file names are bytes: a Latin-1 folder name made `info --json`, `generate` (after all
+  // its work) and `deform` end in "internal error: [json.exception.type_error.316]".
+  TempDir dir;
+  const std::string latin1 = dir.file("lat\xe9"), mesh = latin1 + "/m\xff.off";
+  std::filesystem::create_directory(latin1);
+  ASSERT_EQ(run_cli("convert builtin:sphere:1 " + quoted(mesh) + " -q").exit_code, 0);
+  const auto info = run_cli("info " + quoted(mesh) + " --json");
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("m\xef\xbf\xbd.off"), std::string::npos) << info.out; // U+FFFD
+  const auto generated = run_cli("generate " + quoted(mesh) + " --thickness-ratio 0.05 -q -o " + quoted(latin1 + "/sh"));
+  ASSERT_EQ(generated.exit_code, 0) << generated.err;
+  EXPECT_NE(gshell::test::read_text(latin1 + "/sh/report.json").find("lat\xef\xbf\xbd/m\xef\xbf\xbd.off"),
+            std::string::npos);
+  const auto deformed = run_cli("deform --shell " + quoted(latin1 + "/sh") + " --base " + quoted(mesh) + " -q -o " +
+                                quoted(latin1 + "/def"));
+  EXPECT_EQ(deformed.exit_code, 0) << deformed.err;
+  EXPECT_EQ(run_cli("report " + quoted(latin1 + "/sh") + " -q -o " + quoted(latin1 + "/r.html")).exit_code, 0);
+}

@@ -87,7 +87,7 @@ std::string format_value(const json& v) {
     for (const auto& x : v) out += (out.empty() ? "" : " ") + format_value(x);
     return "[" + out + "]";
   }
-  return xml_escape(v.dump()); // objects inside lists: rare, shown verbatim
+  return xml_escape(v.dump(-1, ' ', false, json::error_handler_t::replace)); // objects inside lists: rare, verbatim
 }
 
 // Leaves of a nested object as ("a.b", value); lists are leaves.

@@ -114,7 +114,10 @@ nlohmann::ordered_json read_report(const fs::path& dir) {
 }
 
 void write_report(const fs::path& path, const nlohmann::ordered_json& report) {
-  write_file_atomically(path.string(), [&](std::ostream& out) { out << report.dump(2) << "\n"; });
+  // File names are bytes: one that is not UTF-8 (a Latin-1 folder) is written with U+FFFD for its
+  // bad bytes, not an "internal error" after the whole run.
+  const std::string text = report.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
+  write_file_atomically(path.string(), [&](std::ostream& out) { out << text << "\n"; });
 }
 
 std::string invalid_rest_shell_warning(const std::string& dir, const nlohmann::ordered_json& report,
