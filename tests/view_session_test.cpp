@@ -662,3 +662,19 @@ TEST(ViewSession, LoadedHandlesAreSolvedLikeADrag) {
   for (int v : ids) EXPECT_NEAR(d.vertices()(v, 2) - X(v, 2), 0.5, 1e-12);
   EXPECT_THROW(session.load_handles("{", "broken.json", out.sink()), InputError);
 }
+
+TEST(ViewSession, TheStoredStretchIsNamedByWhatTheInputMeasuredItAgainst) {
+  // A generated shell stores its stretch against the ideal prisms, deform and pose outputs against
+  // their rest shell: the page was told "ideal prisms" for all three.
+  const PlateFolder plate;
+  for (const auto& [made_by, against] : std::vector<std::pair<std::string, std::string>>{
+           {"rigid", "input"}, {"deform", "input rest shell"}, {"pose", "input rest shell"}}) {
+    ViewInput input = load_view_input({plate.dir});
+    input.made_by = made_by;
+    ViewSession session(std::move(input), tight_options(plate.tmp.path().string()));
+    Outbox out;
+    session.welcome(out.sink());
+    ASSERT_FALSE(out.messages("stats").empty());
+    EXPECT_EQ(out.messages("stats").back()["stretch"]["against"], against) << made_by;
+  }
+}

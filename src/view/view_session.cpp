@@ -156,7 +156,12 @@ struct ViewSession::Impl {
     double max = 0;
     for (Eigen::Index f = 0; f < face_values.size(); ++f)
       if (std::isfinite(face_values[f])) max = std::max(max, face_values[f]);
-    return {{"against", at_rest ? "input" : "rest shell"}, {"mean", face_values.mean()}, {"max", max}};
+    // At rest the input's own stretch: against the ideal prisms for a generated shell, against its
+    // rest shell for deform and pose outputs (their shell.vtu stores that).
+    const bool deformed = input.made_by == "deform" || input.made_by == "pose";
+    return {{"against", !at_rest ? "rest shell" : deformed ? "input rest shell" : "input"},
+            {"mean", face_values.mean()},
+            {"max", max}};
   }
 
   ojson stats() const {

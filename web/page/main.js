@@ -132,6 +132,11 @@ view.onDrawn((seq, now, applyMs, renderMs) => {
 
 // ---- display -------------------------------------------------------------------------------------
 
+// What the shown stretch is measured against (the server's stats.stretch.against).
+function stretchAgainst(against) {
+  return { input: 'the ideal prisms, as stored in the input', 'input rest shell': 'the rest shell, as stored in the input' }[against] ?? 'the loaded shell';
+}
+
 function colorScale() {
   const mode = $('color-by').value;
   if (!state.hello || mode === 'none') return null;
@@ -164,7 +169,7 @@ function applyColors() {
     g.fillRect(x, 0, 1, canvas.height);
   }
   const fmt = (v) => Number(v.toPrecision(4)).toString();
-  $('colorbar-label').textContent = scale.label + (mode === 'stretch' && state.stats?.stretch ? ` (against ${state.stats.stretch.against === 'input' ? 'the ideal prisms, as stored in the input' : 'the loaded shell'})` : '');
+  $('colorbar-label').textContent = scale.label + (mode === 'stretch' && state.stats?.stretch ? ` (against ${stretchAgainst(state.stats.stretch.against)})` : '');
   $('colorbar-min').textContent = fmt(scale.min);
   $('colorbar-mid').textContent = fmt((scale.min + scale.max) / 2);
   $('colorbar-max').textContent = `${fmt(scale.max)}+`;
@@ -178,7 +183,7 @@ function showStats() {
   const num = (v, digits = 4) => (v === null || v === undefined || Number.isNaN(v) ? '–' : Number(v.toPrecision(digits)).toString());
   rows.push(['vertices', s.vertices], ['tets', s.tets]);
   if (s.handles !== undefined) rows.push(['handles', `${s.handles} groups, ${s.handle_vertices} vertices`]);
-  if (s.stretch) rows.push([`stretch (${s.stretch.against === 'input' ? 'input' : 'vs loaded'})`, `mean ${num(s.stretch.mean)}, max ${num(s.stretch.max)}`]);
+  if (s.stretch) rows.push([`stretch (${s.stretch.against.startsWith('input') ? 'input' : 'vs loaded'})`, `mean ${num(s.stretch.mean)}, max ${num(s.stretch.max)}`]);
   const v = s.validity;
   if (v && !v.error) {
     // The exact shell certificate (docs/validity.md): counts decided by exact predicates.
@@ -219,7 +224,7 @@ function showStats() {
 function applyColorbarLabel() {
   const s = state.stats, scale = colorScale();
   if (!scale || !s || !s.stretch) return;
-  $('colorbar-label').textContent = `${scale.label} (against ${s.stretch.against === 'input' ? 'the ideal prisms, as stored in the input' : 'the loaded shell'})`;
+  $('colorbar-label').textContent = `${scale.label} (against ${stretchAgainst(s.stretch.against)})`;
 }
 
 setInterval(() => {
