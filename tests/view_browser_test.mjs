@@ -119,15 +119,22 @@ try {
   const panel = await page.$eval('#stats-body', (el) => el.textContent);
   check(validity.certificate && validity.certificate.exact === true && validity.valid === true && validity.certificate.inverted_tets === 0 &&
         /valid \(exact\)yes/.test(panel), `the panel shows the certificate of the dragged shell (${JSON.stringify(validity.certificate)})`);
-  // Nothing is drawn over the shell: the panels lie beside the canvas, not on it (1280 x 800).
-  const overlaps = await page.evaluate(() => {
-    const canvas = document.querySelector('#view canvas').getBoundingClientRect();
-    return ['panel', 'stats', 'colorbar'].filter((id) => {
-      const r = document.getElementById(id).getBoundingClientRect();
-      return r.width > 0 && r.left < canvas.right - 0.5 && r.right > canvas.left + 0.5 && r.top < canvas.bottom - 0.5 && r.bottom > canvas.top + 0.5;
+  // Nothing is drawn over the shell: the panels lie beside the canvas, not on it, and the shell
+  // keeps a usable part of narrow windows (at 500 px wide the three fixed columns left it none).
+  for (const [width, height] of [[1280, 800], [800, 600], [500, 400]]) {
+    await page.setViewport({ width, height });
+    const layout = await page.evaluate(() => {
+      const canvas = document.querySelector('#view canvas').getBoundingClientRect();
+      const overlaps = ['panel', 'stats', 'colorbar'].filter((id) => {
+        const r = document.getElementById(id).getBoundingClientRect();
+        return r.width > 0 && r.left < canvas.right - 0.5 && r.right > canvas.left + 0.5 && r.top < canvas.bottom - 0.5 && r.bottom > canvas.top + 0.5;
+      });
+      return { overlaps, width: canvas.width, height: canvas.height }; // CSS pixels, laid out at once
     });
-  });
-  check(overlaps.length === 0, `no panel covers the shell's canvas${overlaps.length ? ': ' + overlaps.join(', ') + ' do' : ''}`);
+    check(layout.overlaps.length === 0, `${width} x ${height}: no panel covers the shell's canvas${layout.overlaps.length ? ': ' + layout.overlaps.join(', ') + ' do' : ''}`);
+    check(layout.width >= 0.3 * width && layout.height >= 0.5 * height, `${width} x ${height}: the shell's canvas is ${Math.round(layout.width)} x ${Math.round(layout.height)}`);
+  }
+  await page.setViewport({ width: 1280, height: 800 });
   const shot = path.join(outDir, scale === 1 ? 'view_browser_dragged.png' : `view_browser_dragged_${scale}.png`);
   await page.screenshot({ path: shot });
   check(fs.statSync(shot).size > 10000, `screenshot of the dragged shell: ${shot}`);
