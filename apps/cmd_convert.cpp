@@ -23,7 +23,9 @@ void add_convert_command(CLI::App& app) {
   auto opt = std::make_shared<ConvertOptions>();
   CLI::App* cmd = app.add_subcommand(
       "convert", "Convert a surface mesh between formats (read: .obj .off .ply .stl or builtin:NAME; "
-                 "write: .obj .off .ply). Vertex order is kept; the input is validated first.");
+                 "write: .obj .off .ply). Vertex order is kept; the input is validated first. Positions, "
+                 "faces (polygons split into triangles) and, OBJ to OBJ, texture coordinates are kept; "
+                 "colors and normals are not.");
   cmd->add_option("input", opt->input, "Input mesh file or builtin:NAME[:RES]")->required();
   cmd->add_option("output", opt->output, "Output mesh file (.obj, .off or .ply)")->required();
   cmd->add_flag("--ascii", opt->ascii, "Write PLY as ASCII instead of binary little endian");
@@ -43,6 +45,10 @@ void add_convert_command(CLI::App& app) {
       warnings = require_valid_mesh(mesh, opt->input + " after --weld");
       progress.line("welded " + std::to_string(merged) + " vertices");
     }
+    // Only OBJ holds them: said, not silently dropped.
+    if (mesh.has_uv() && cli::lower_extension(opt->output) != ".obj")
+      warnings.push_back(opt->input + ": its texture coordinates are not written to " + opt->output +
+                         " (only OBJ holds them)");
     cli::print_warnings("convert", warnings);
     write_mesh(opt->output, mesh, {}, opt->ascii);
     progress.line("wrote " + opt->output + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +

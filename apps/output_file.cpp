@@ -11,10 +11,14 @@ namespace gshell::cli {
 
 namespace fs = std::filesystem;
 
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
 void check_output_file(const std::string& output, const std::string& extension, const std::vector<std::string>& inputs) {
-  std::string ext = fs::path(output).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string ext = lower_extension(output);
   if (!extension.empty() && ext != extension)
     throw InputError(with_file(output, "the output is written as " + extension.substr(1) + ": give it a " + extension +
                                            " name"));

@@ -13,4 +13,7 @@ namespace gshell::cli {
 /// from, `texture -o DIR/top.obj` the shell's top.
 void check_output_file(const std::string& output, const std::string& extension, const std::vector<std::string>& inputs);
 
+/// The extension of `path` with its dot, lower-cased ("x.PLY" -> ".ply"; "" when none).
+std::string lower_extension(const std::string& path);
+
 } // namespace gshell::cli

@@ -402,3 +402,18 @@ TEST(CliMessages, FileNamesThatAreNotUtf8AreWrittenIntoJsonWithReplacementCharac
   EXPECT_EQ(deformed.exit_code, 0) << deformed.err;
   EXPECT_EQ(run_cli("report " + quoted(latin1 + "/sh") + " -q -o " + quoted(latin1 + "/r.html")).exit_code, 0);
 }
+
+TEST(CliMessages, ConvertSaysWhenTextureCoordinatesAreDropped) {
+  TempDir dir;
+  const std::string obj = dir.file("uv.obj");
+  write_text(obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\n");
+  const auto to_ply = run_cli("convert " + quoted(obj) + " " + quoted(dir.file("uv.ply")));
+  EXPECT_EQ(to_ply.exit_code, 0) << to_ply.err;
+  EXPECT_NE(to_ply.err.find(obj + ": its texture coordinates are not written to " + dir.file("uv.ply") +
+                            " (only OBJ holds them)"),
+            std::string::npos)
+      << to_ply.err;
+  const auto to_obj = run_cli("convert " + quoted(obj) + " " + quoted(dir.file("copy.OBJ")));
+  EXPECT_EQ(to_obj.exit_code, 0) << to_obj.err;
+  EXPECT_EQ(to_obj.err.find("warning"), std::string::npos) << to_obj.err;
+}
