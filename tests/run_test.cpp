@@ -149,10 +149,10 @@ TEST(StagedFolder, AFailureLeavesNothingBehind) {
   // no staging folder.
   EXPECT_THROW(write_shell_folder(dir, c, [](const fs::path&) { throw InputError("no preview"); }), InputError);
   EXPECT_TRUE(entries(tmp.path()).empty());
-  // A failure while writing (a report that is not valid UTF-8 cannot be dumped) too.
+  // A failure while writing (shell.vtu refuses cell data of the wrong size, after the OBJs) too.
   ShellFolderContents bad = c;
-  bad.report["name"] = std::string("\xff\xfe");
-  EXPECT_ANY_THROW(write_shell_folder(dir, bad));
+  bad.cell_data = {{"stretch", Eigen::MatrixXd::Zero(1, 1)}};
+  EXPECT_THROW(write_shell_folder(dir, bad), InputError);
   EXPECT_TRUE(entries(tmp.path()).empty());
   // An earlier output survives a failed replacement, unchanged.
   write_shell_folder(dir, c);
