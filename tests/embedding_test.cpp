@@ -118,17 +118,21 @@ TEST(Embedding, NearestTetOfAnOutsidePointIsTheClosestOne) {
   std::normal_distribution<double> g(0.0, 1.0);
   for (int k = 0; k < 200; ++k) {
     Eigen::Vector3d p(g(rng), g(rng), g(rng));
-    p = p.normalized() * (1.6 + 0.5 * std::abs(g(rng))); // outside the shell (radius <= ~1.2)
+    // Beyond the shell (radius <= ~1.2), or in the hollow inside it (radius >= ~0.95).
+    p = p.normalized() * (k % 2 ? 1.6 + 0.5 * std::abs(g(rng)) : 0.9 * std::abs(std::tanh(g(rng))));
     const TetHit hit = locator.locate(p);
     ASSERT_FALSE(hit.inside);
-    double brute = std::numeric_limits<double>::infinity();
-    for (int t = 0; t < T.rows(); ++t) {
+    const auto distance_to_tet = [&](int t) {
       static constexpr int faces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+      double d = std::numeric_limits<double>::infinity();
       for (const auto& f : faces)
-        brute = std::min(brute, (closest_point_on_triangle(p, X.row(T(t, f[0])), X.row(T(t, f[1])),
-                                                           X.row(T(t, f[2]))) - p).norm());
-    }
+        d = std::min(d, (closest_point_on_triangle(p, X.row(T(t, f[0])), X.row(T(t, f[1])), X.row(T(t, f[2]))) - p).norm());
+      return d;
+    };
+    double brute = std::numeric_limits<double>::infinity();
+    for (int t = 0; t < T.rows(); ++t) brute = std::min(brute, distance_to_tet(t));
     EXPECT_NEAR(hit.distance, brute, 1e-12);
+    EXPECT_NEAR(distance_to_tet(hit.tet), brute, 1e-12); // the tet it is bound to is a nearest one
   }
 }
 

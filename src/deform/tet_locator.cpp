@@ -1,17 +1,30 @@
 #include <gshell/deform/tet_locator.h>
 
 #include <gshell/error.h>
-#include <gshell/geometry/closest_point.h>
+
+#include "quality/face_bvh.h"
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <mutex>
+#include <optional>
 
 namespace gshell {
 
-TetLocator::TetLocator(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T) : X_(X), T_(T) {
+struct TetLocator::Boundary {
+  std::once_flag built;
+  std::vector<int> tet_of; ///< per boundary face, the usable tet it bounds
+  std::optional<detail::FaceBvh> bvh;
+};
+
+TetLocator::TetLocator(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T)
+    : X_(X), T_(T), boundary_(std::make_shared<Boundary>()) {
   if (X.cols() != 3 || (T.size() > 0 && T.cols() != 4))
     throw InputError("TetLocator: X must be N x 3 and T K x 4");
   if (T.size() > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= X.rows()))
@@ -82,17 +95,40 @@ Eigen::Vector4d TetLocator::affine_coordinates(int t, const Eigen::Vector3d& p) 
   return Eigen::Vector4d(1.0 - l.sum(), l.x(), l.y(), l.z());
 }
 
-double TetLocator::distance_to_tet(int t, const Eigen::Vector3d& p) const {
-  if (affine_coordinates(t, p).minCoeff() >= 0) return 0;
-  static constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
-  double best = std::numeric_limits<double>::infinity();
-  for (const auto& f : kFaces) {
-    const Eigen::Vector3d q = closest_point_on_triangle(p, X_.row(T_(t, f[0])).transpose(),
-                                                        X_.row(T_(t, f[1])).transpose(),
-                                                        X_.row(T_(t, f[2])).transpose());
-    best = std::min(best, (q - p).norm());
-  }
-  return best;
+const TetLocator::Boundary& TetLocator::boundary() const {
+  std::call_once(boundary_->built, [this] {
+    // A face of one usable tet only lies on the boundary of their union; the nearest point of the
+    // union to a point outside it lies on such a face, in the tet that face bounds.
+    struct TetFace {
+      std::array<int, 3> ids; // sorted
+      int tet, corner;        // the face is tet's face opposite `corner`
+    };
+    std::vector<TetFace> faces;
+    faces.reserve(4 * usable_.size());
+    for (const int t : usable_)
+      for (int corner = 0; corner < 4; ++corner) {
+        std::array<int, 3> ids;
+        for (int k = 0, m = 0; k < 4; ++k)
+          if (k != corner) ids[m++] = T_(t, k);
+        std::sort(ids.begin(), ids.end());
+        faces.push_back({ids, t, corner});
+      }
+    tbb::parallel_sort(faces.begin(), faces.end(), [](const TetFace& a, const TetFace& b) { return a.ids < b.ids; });
+    std::vector<int> rows;
+    for (std::size_t a = 0, b = 0; a < faces.size(); a = b) {
+      for (b = a + 1; b < faces.size() && faces[b].ids == faces[a].ids;) ++b;
+      if (b == a + 1) rows.push_back(static_cast<int>(a));
+    }
+    Eigen::MatrixXi F(static_cast<Eigen::Index>(rows.size()), 3);
+    boundary_->tet_of.resize(rows.size());
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      const TetFace& f = faces[rows[r]];
+      F.row(static_cast<Eigen::Index>(r)) << f.ids[0], f.ids[1], f.ids[2];
+      boundary_->tet_of[r] = f.tet;
+    }
+    boundary_->bvh.emplace(X_, F, detail::FaceBvh::Use::distances);
+  });
+  return *boundary_;
 }
 
 TetHit TetLocator::locate(const Eigen::Vector3d& p) const {
@@ -114,38 +150,14 @@ TetHit TetLocator::locate(const Eigen::Vector3d& p) const {
     hit.inside = true;
     return hit;
   }
-  // Outside every tet of its cell: search rings of cells around it for the nearest tet. Tets not
-  // registered within ring r have bounding boxes outside the (2r+1)^3 block, hence lie farther
-  // than r * min(cell size) from p.
-  double best = std::numeric_limits<double>::infinity();
-  int best_tet = -1;
-  auto visit = [&](const Cell& cell) {
-    if (const auto* list = tets_in(cell))
-      for (int t : *list) {
-        const double d = distance_to_tet(t, p);
-        if (d < best || (d == best && t < best_tet)) {
-          best = d;
-          best_tet = t;
-        }
-      }
-  };
-  const double step = cell_size_.minCoeff();
-  std::int64_t max_r = 0;
-  for (int a = 0; a < 3; ++a) max_r = std::max({max_r, std::abs(c[a] - lo_[a]), std::abs(hi_[a] - c[a])});
-  for (std::int64_t r = 0; r <= max_r; ++r) {
-    const std::int64_t x0 = std::max(c.x() - r, lo_.x()), x1 = std::min(c.x() + r, hi_.x());
-    const std::int64_t y0 = std::max(c.y() - r, lo_.y()), y1 = std::min(c.y() + r, hi_.y());
-    for (auto i = x0; i <= x1; ++i)
-      for (auto j = y0; j <= y1; ++j) {
-        if (std::abs(i - c.x()) == r || std::abs(j - c.y()) == r) {
-          for (auto k = std::max(c.z() - r, lo_.z()); k <= std::min(c.z() + r, hi_.z()); ++k) visit(Cell(i, j, k));
-        } else {
-          visit(Cell(i, j, c.z() - r));
-          if (r > 0) visit(Cell(i, j, c.z() + r));
-        }
-      }
-    if (best_tet >= 0 && best <= static_cast<double>(r) * step) break;
-  }
+  // Outside every tet of its cell, so outside every tet (a tet holding p has p's cell in its
+  // box): the nearest tet is the one whose boundary face is nearest.
+  const Boundary& b = boundary();
+  int face = -1;
+  const double d2 = b.bvh->squared_distance(p, std::numeric_limits<double>::infinity(), [](int) { return true; }, &face);
+  if (face < 0) return {}; // p not finite
+  const int best_tet = b.tet_of[static_cast<std::size_t>(face)];
+  const double best = std::sqrt(d2);
   hit.tet = best_tet;
   hit.bary = affine_coordinates(best_tet, p);
   hit.distance = best;

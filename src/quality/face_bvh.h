@@ -156,8 +156,10 @@ public:
   /// Needs Use::distances.
   /// A good bound2 (e.g. the squared distance to a known point of the surface) prunes the search.
   double squared_distance(const Eigen::Vector3d& q, double bound2) const;
-  /// The same over the faces f for which counts(f) is true (asked only of faces within the bound).
-  template <class Counts> double squared_distance(const Eigen::Vector3d& q, double bound2, Counts&& counts) const;
+  /// The same over the faces f for which counts(f) is true (asked only of faces within the bound);
+  /// `nearest` (if not null) gets the face at that distance (unchanged when none is nearer than bound2).
+  template <class Counts>
+  double squared_distance(const Eigen::Vector3d& q, double bound2, Counts&& counts, int* nearest = nullptr) const;
 
 private:
   // Node boxes are floats rounded outwards (conservative, half the memory of doubles).
@@ -363,7 +365,7 @@ void FaceBvh::for_each_overlapping_leaf_pair(const FaceBvh& other, Visit&& visit
 }
 
 template <class Counts>
-double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2, Counts&& counts) const {
+double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2, Counts&& counts, int* nearest) const {
   assert(slot_triangle_.size() == slot_face_.size() && "FaceBvh built without Use::distances");
   double best = bound2;
   if (nodes_.empty()) return best;
@@ -382,7 +384,10 @@ double FaceBvh::squared_distance(const Eigen::Vector3d& q, double bound2, Counts
     if (node.leaf()) {
       for (int s = node.begin; s < node.end; ++s)
         if (slot_box_[s].squaredExteriorDistance(q) < best && counts(slot_face_[s]))
-          best = std::min(best, face_squared_distance(slot_triangle_[s], q));
+          if (const double d2 = face_squared_distance(slot_triangle_[s], q); d2 < best) {
+            best = d2;
+            if (nearest) *nearest = slot_face_[s];
+          }
       continue;
     }
     const Entry l{e.node + 1, node_lower_bound(e.node + 1, at)};
