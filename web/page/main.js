@@ -57,8 +57,10 @@ function connect() {
   socket.binaryType = 'arraybuffer';
   socket.onmessage = (event) => (typeof event.data === 'string' ? onText(JSON.parse(event.data)) : onFrame(decodeFrame(event.data)));
   socket.onclose = (event) => {
-    const why = event.code === 1009 ? 'a message was too big' : event.code === 1001 ? 'the server stopped' : event.reason || `code ${event.code}`;
-    status(`disconnected from gshell view (${why}); reload the page once it runs again`, true, 3600);
+    // 1013 (try again later): the server runs but has its most pages open; it said so just before.
+    const full = event.code === 1013;
+    const why = event.code === 1009 ? 'a message was too big' : event.code === 1001 ? 'the server stopped' : full ? 'too many pages open' : event.reason || `code ${event.code}`;
+    status(`disconnected from gshell view (${why}); ${full ? 'close another page of it, then reload this one' : 'reload the page once it runs again'}`, true, 3600);
     $('input-name').textContent = 'disconnected';
   };
 }
@@ -205,7 +207,7 @@ function showStats() {
   // Whatever else a step reports (e.g. contact warnings from later solvers) is shown as is.
   // (The guard's fields of a settled step are shown by the certificate rows above; contact is news.)
   if (s.step) for (const [key, value] of Object.entries(s.step))
-    if (!['fraction', 'iterations', 'energy', 'seconds', 'converged', 'seq', 'latency_ms', 'guarded', 'valid', 'method', 'guarded_iterations', 'certificate'].includes(key) && (key !== 'blocked_by_contact' || value))
+    if (!['fraction', 'iterations', 'energy', 'seconds', 'converged', 'seq', 'latency_ms', 'guarded', 'valid', 'method', 'guarded_iterations', 'certificate', 'drag_start', 'base_self_intersections', 'rest_faults_only'].includes(key) && (key !== 'blocked_by_contact' || value))
       rows.push([key.replaceAll('_', ' '), typeof value === 'object' ? JSON.stringify(value) : String(value), value ? 'bad' : '']);
   if (s.solver) rows.push(['solver', s.solver, 'bad']);
   const body = $('stats-body');
