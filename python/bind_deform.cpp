@@ -11,6 +11,7 @@
 #include <gshell/run/deform_run.h>
 
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include <cmath>
 #include <memory>
@@ -75,8 +76,8 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
   return from_matrix(top);
 }
 
-py::object deform_py(const ShellObject& shell, const py::sequence& frames, const std::optional<std::string>& output,
-                     int iterations, double tolerance, const std::string& warm_start, bool compare_offset,
+py::object deform_py(const ShellObject& shell, const py::sequence& frames,
+                     const std::optional<std::filesystem::path>& output, int iterations, double tolerance, const std::string& warm_start, bool compare_offset,
                      bool allow_invalid, const py::object& progress) {
   DeformRunOptions options;
   options.frame.allow_invalid = allow_invalid;
@@ -117,7 +118,7 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames, const
   nlohmann::ordered_json report;
   {
     py::gil_scoped_release release;
-    report = run_deform(input, options, output.value_or(""), frame_done).to_json();
+    report = run_deform(input, options, output ? output->string() : std::string(), frame_done).to_json();
     pass_gil_probe();
   }
   return to_python(report);

@@ -51,12 +51,12 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles) {
   const Shell& rest = p.session.rest();
   // A handle file's text pasted as a str is JSON, not a file name: no path starts with '{', and
   // treating it as one answered "cannot open handle file" followed by the whole text.
-  if (py::isinstance<py::str>(handles)) {
-    std::string text = handles.cast<std::string>();
-    if (const auto first = text.find_first_not_of(" \t\r\n"); first != std::string::npos && text[first] == '{') {
-      py::gil_scoped_release release;
-      return parse_handles(text, "handles argument", rest);
-    }
+  // Asked in Python first: a file name with bytes that are not UTF-8 (os.fsdecode's surrogates)
+  // has no UTF-8 std::string, only a path.
+  if (py::isinstance<py::str>(handles) && handles.attr("lstrip")().attr("startswith")("{").cast<bool>()) {
+    const std::string text = handles.cast<std::string>();
+    py::gil_scoped_release release;
+    return parse_handles(text, "handles argument", rest);
   }
   if (py::isinstance<py::str>(handles) || py::hasattr(handles, "__fspath__")) {
     const auto path = handles.cast<std::filesystem::path>();

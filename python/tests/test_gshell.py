@@ -9,6 +9,7 @@ import ast
 import json
 import math
 import os
+import pathlib
 import pickle
 import re
 import shutil
@@ -606,6 +607,11 @@ class DeformTest(TempDirTest):
             mine_top, _ = gshell.read_mesh(os.path.join(mine_dir, f"frame_{k:04d}", "top.obj"))
             cli_top, _ = gshell.read_mesh(os.path.join(result, f"frame_{k:04d}", "top.obj"))
             np.testing.assert_allclose(mine_top, cli_top, atol=1e-9)
+        # output is a path like every other: pathlib, and names that are not UTF-8 (os.fsdecode).
+        latin1 = os.fsdecode(os.fsencode(self.path("")) + b"lat\xe9")
+        for output in (pathlib.Path(self.path("as_path")), latin1):
+            gshell.deform(gshell.load_shell(out), frames[:1], output=output, iterations=5)
+            self.assertTrue(os.path.exists(os.path.join(output, "frame_0001", "top.obj")), output)
 
     def test_reset_and_threads(self):
         d = gshell.Deformer(self.shell)
