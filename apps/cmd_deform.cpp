@@ -102,7 +102,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   const DeformRun run = run_deform(input, options, a.out, report, cli::preview_writer(a.render, a.out, view));
   const auto summary = run.to_json()["summary"];
   char text[200];
-  std::snprintf(text, sizeof text, "%zu frames (%d valid), median %.3g ms and %g iterations per frame; wrote %s",
+  std::snprintf(text, sizeof text, "%zu frames (%d valid), median %.1f ms and %g iterations per frame; wrote %s",
                 run.frames.size(), summary["valid_frames"].get<int>(), 1e3 * summary["median_seconds"].get<double>(),
                 summary["median_iterations"].get<double>(), a.out.c_str());
   progress.line(text);

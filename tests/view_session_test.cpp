@@ -678,3 +678,19 @@ TEST(ViewSession, TheStoredStretchIsNamedByWhatTheInputMeasuredItAgainst) {
     EXPECT_EQ(out.messages("stats").back()["stretch"]["against"], against) << made_by;
   }
 }
+
+TEST(ViewSession, PagesHearThatTheShellIsSettling) {
+  // The pages kept showing "dragging" for the whole settle (95 s on sphere:8): its start is said.
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  add_plate_groups(session, session.input().shell, out);
+  session.receive(drag_message(1, 1, Eigen::Vector3d(0, 0, 0.3), 0), out.sink());
+  session.solve_drag(out.sink());
+  out.clear();
+  ASSERT_TRUE(session.settle(out.sink(), never));
+  const auto stats = out.messages("stats");
+  ASSERT_GE(stats.size(), 2u);
+  EXPECT_EQ(stats.front()["phase"], "settling");
+  EXPECT_EQ(stats.back()["phase"], "settled");
+}

@@ -513,6 +513,7 @@ bool ViewSession::settle(const ViewSink& send, const std::function<bool()>& inte
   if (!settle_pending()) return true;
   s.settle_requested = false;
   s.phase = "settling";
+  s.send_stats(send); // the pages showed "dragging" for the whole settle (95 s on sphere:8)
   SolveOptions limits = s.options.pose.solve;
   auto last_stream = Clock::now();
   limits.progress = [&](int, double, double seconds) {
