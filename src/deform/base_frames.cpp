@@ -10,7 +10,8 @@ namespace gshell {
 
 namespace {
 
-double diagonal(const Eigen::MatrixXd& V) { return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm(); }
+// stableNorm, as require_usable_frame's: the squares of a tiny frame's sides underflow.
+double diagonal(const Eigen::MatrixXd& V) { return (V.colwise().maxCoeff() - V.colwise().minCoeff()).stableNorm(); }
 
 // require_frame_for_shell, with the rest base's bounding box diagonal given.
 void check_frame(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, double thickness, double rest_diagonal,

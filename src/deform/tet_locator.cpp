@@ -101,7 +101,7 @@ const TetLocator::Boundary& TetLocator::boundary() const {
     // union to a point outside it lies on such a face, in the tet that face bounds.
     struct TetFace {
       std::array<int, 3> ids; // sorted
-      int tet, corner;        // the face is tet's face opposite `corner`
+      int tet;
     };
     std::vector<TetFace> faces;
     faces.reserve(4 * usable_.size());
@@ -111,7 +111,7 @@ const TetLocator::Boundary& TetLocator::boundary() const {
         for (int k = 0, m = 0; k < 4; ++k)
           if (k != corner) ids[m++] = T_(t, k);
         std::sort(ids.begin(), ids.end());
-        faces.push_back({ids, t, corner});
+        faces.push_back({ids, t});
       }
     tbb::parallel_sort(faces.begin(), faces.end(), [](const TetFace& a, const TetFace& b) { return a.ids < b.ids; });
     std::vector<int> rows;

@@ -171,7 +171,7 @@ function applyColors() {
     g.fillRect(x, 0, 1, canvas.height);
   }
   const fmt = (v) => Number(v.toPrecision(4)).toString();
-  $('colorbar-label').textContent = scale.label + (mode === 'stretch' && state.stats?.stretch ? ` (against ${stretchAgainst(state.stats.stretch.against)})` : '');
+  applyColorbarLabel();
   $('colorbar-min').textContent = fmt(scale.min);
   $('colorbar-mid').textContent = fmt((scale.min + scale.max) / 2);
   $('colorbar-max').textContent = `${fmt(scale.max)}+`;
@@ -224,9 +224,10 @@ function showStats() {
 }
 
 function applyColorbarLabel() {
-  const s = state.stats, scale = colorScale();
-  if (!scale || !s || !s.stretch) return;
-  $('colorbar-label').textContent = `${scale.label} (against ${stretchAgainst(s.stretch.against)})`;
+  const stretch = state.stats?.stretch, scale = colorScale();
+  if (!scale) return;
+  const against = $('color-by').value === 'stretch' && stretch ? ` (against ${stretchAgainst(stretch.against)})` : '';
+  $('colorbar-label').textContent = scale.label + against;
 }
 
 setInterval(() => {
