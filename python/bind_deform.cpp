@@ -1,5 +1,6 @@
 // Deformer and deform (base-driven deformation), Embedding and embed (detail carried by a shell).
 #include "bindings.h"
+#include "count_arg.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"
 #include "gil_probe.h"
@@ -42,14 +43,14 @@ std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell, bool all
   return std::make_unique<DeformerObject>(shell.shell, allow_invalid);
 }
 
-py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterations, double tolerance,
+py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, CountArg iterations, double tolerance,
                          const std::string& warm_start, const py::object& progress) {
   const int n = d.deformer.rest_shell().num_base_vertices();
   const Eigen::MatrixXd base = to_matrix(new_base, "new_base", 3, n);
   // Here, to name the argument: solve would say "the new base".
   require_frame_for_shell(base, d.deformer.rest_shell(), "new_base");
   DeformOptions options;
-  options.max_iterations = iterations;
+  options.max_iterations = iterations.checked("iterations");
   options.tolerance = tolerance;
   options.warm_start = parse_warm_start(warm_start);
   options.allow_invalid = d.allow_invalid;
@@ -77,11 +78,11 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, int iterat
 }
 
 py::object deform_py(const ShellObject& shell, const py::sequence& frames,
-                     const std::optional<std::filesystem::path>& output, int iterations, double tolerance, const std::string& warm_start, bool compare_offset,
+                     const std::optional<std::filesystem::path>& output, CountArg iterations, double tolerance, const std::string& warm_start, bool compare_offset,
                      bool allow_invalid, const py::object& progress) {
   DeformRunOptions options;
   options.frame.allow_invalid = allow_invalid;
-  options.frame.max_iterations = iterations;
+  options.frame.max_iterations = iterations.checked("iterations");
   options.frame.tolerance = tolerance;
   options.frame.warm_start = parse_warm_start(warm_start);
   options.compare_offset = compare_offset;

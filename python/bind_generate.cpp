@@ -1,5 +1,6 @@
 // Shell, generate, metrics, load_shell.
 #include "bindings.h"
+#include "count_arg.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"
 #include "gil_probe.h"
@@ -97,17 +98,17 @@ ShellObject load_shell_py(const std::filesystem::path& dir) {
 }
 
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
-                        std::optional<double> thickness_ratio, const std::string& method, int iterations,
-                        double tolerance, int anderson, double start_smoothing, std::optional<double> s_min,
+                        std::optional<double> thickness_ratio, const std::string& method, CountArg iterations,
+                        double tolerance, CountArg anderson, double start_smoothing, std::optional<double> s_min,
                         std::optional<double> s_max,
                         bool count_intersections, bool allow_invalid, const py::object& progress) {
   TriMesh mesh = checked_mesh(V, F);
   GenerateRunOptions options;
   options.thickness = {thickness, thickness_ratio};
   options.generate.method = parse_shell_method(method);
-  options.generate.solve.max_iterations = iterations;
+  options.generate.solve.max_iterations = iterations.checked("iterations");
   options.generate.solve.tolerance = tolerance;
-  options.generate.solve.anderson_history = anderson;
+  options.generate.solve.anderson_history = anderson.checked("anderson");
   options.generate.guard.start_smoothing = start_smoothing;
   // As the CLI's --s-min / --s-max: a clamp given to a method that has none is a mistake to say.
   for (const auto& [name, value] : {std::pair{"s_min", s_min}, std::pair{"s_max", s_max}})

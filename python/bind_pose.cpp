@@ -1,6 +1,7 @@
 // Poser: direct shell deformation with handles (paper §4.2 second type, §5 hierarchy), a thin
 // layer over the library's DragSession.
 #include "bindings.h"
+#include "count_arg.h"
 #include "gil_probe.h"
 #include "numpy_arrays.h"
 #include "progress_watch.h"
@@ -31,14 +32,14 @@ struct PoserObject {
   ObjectLock lock{"the Poser"}; ///< solve() runs without the GIL
 };
 
-std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, std::optional<int> levels,
+std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, std::optional<CountArg> levels,
                                         bool allow_invalid) {
   PoseOptions options;
   options.allow_invalid = allow_invalid;
   options.solver = parse_pose_solver(solver);
   if (levels && options.solver != PoseSolverKind::Hierarchical) // as the CLI's --levels
     throw InputError("levels applies only to solver='hierarchical'");
-  if (levels) options.hierarchy.levels = *levels;
+  if (levels) options.hierarchy.levels = levels->checked("levels");
   options.check();
   auto p = std::make_unique<PoserObject>(DragSession(shell.shell, options));
   p->session.set_undo_depth(0); // Poser has no undo: keep no copies of the shell
@@ -70,17 +71,17 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles) {
   return parse_handles(text, "handles argument", rest);
 }
 
-py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction, int steps, int iterations,
+py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction, CountArg steps, CountArg iterations,
                       double tolerance, const py::object& progress) {
   if (!(fraction >= 0 && fraction <= 1)) value_error("fraction must be in [0, 1] (got " + std::to_string(fraction) + ")");
   PoseOptions options;
-  options.steps = steps;
-  options.solve.max_iterations = iterations;
+  options.steps = steps.checked("steps");
+  options.solve.max_iterations = iterations.checked("iterations");
   options.solve.tolerance = tolerance;
   options.check();
   const HandleSet set = handles_from(p, handles);
   ProgressWatch watch(progress, "gshell.Poser.solve");
-  options.step_progress = [&watch, steps](int step, int iteration, double energy, double seconds) {
+  options.step_progress = [&watch, steps = options.steps](int step, int iteration, double energy, double seconds) {
     watch.report({{"step", step}, {"steps", steps}, {"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
   };
   Eigen::MatrixXd X;

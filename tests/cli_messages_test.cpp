@@ -401,6 +401,11 @@ TEST(CliMessages, FileNamesThatAreNotUtf8AreWrittenIntoJsonWithReplacementCharac
                                 quoted(latin1 + "/def"));
   EXPECT_EQ(deformed.exit_code, 0) << deformed.err;
   EXPECT_EQ(run_cli("report " + quoted(latin1 + "/sh") + " -q -o " + quoted(latin1 + "/r.html")).exit_code, 0);
+  // The page is XHTML: it names the folder with U+FFFD too (it copied the raw bytes, which
+  // browsers' XML parser refuses).
+  const std::string page = gshell::test::read_text(latin1 + "/r.html");
+  EXPECT_NE(page.find("lat\xef\xbf\xbd/sh"), std::string::npos);
+  EXPECT_EQ(page.find("lat\xe9"), std::string::npos);
 }
 
 TEST(CliMessages, ConvertSaysWhenTextureCoordinatesAreDropped) {

@@ -1,5 +1,6 @@
 // `gshell report`: the page is well-formed, self-contained, and shows every figure of report.json
 // (generation runs, and deformation runs with per-frame records).
+#include <gshell/io/xml_escape.h>
 #include <gshell/render/html_report.h>
 #include <gshell/render/scene.h>
 #include <gshell/render/svg_plot.h>
@@ -154,6 +155,17 @@ TEST(SvgPlot, IsBalancedAndEscapesText) {
   EXPECT_NE(svg.find("a &lt; b &amp; c"), std::string::npos);
   EXPECT_NE(svg.find("<polyline"), std::string::npos);
   EXPECT_EQ(tag_balance_problem(svg_line_plot(std::vector<double>{}, options)), ""); // no data: still a valid element
+}
+
+TEST(XmlEscape, WritesOnlyUtf8WithoutControlCharacters) {
+  EXPECT_EQ(xml_escape("a<b>&\"'"), "a&lt;b&gt;&amp;&quot;&apos;");
+  const std::string fffd = "\xef\xbf\xbd";
+  EXPECT_EQ(xml_escape("caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x90\x9a"), "caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x90\x9a"); // kept
+  EXPECT_EQ(xml_escape("lat\xe9/m\xff.off"), "lat" + fffd + "/m" + fffd + ".off");                 // Latin-1 bytes
+  EXPECT_EQ(xml_escape("\xc0\xaf"), fffd + fffd);                                                // overlong '/'
+  EXPECT_EQ(xml_escape("\xed\xa0\x80"), fffd + fffd + fffd);                                    // a surrogate
+  EXPECT_EQ(xml_escape("\xe2\x82"), fffd + fffd);                                                // cut short
+  EXPECT_EQ(xml_escape("a\x01\tb\n"), "a" + fffd + "\tb\n");
 }
 
 TEST(ReportCli, GenerateRunGivesAWellFormedPageWithEveryFigure) {

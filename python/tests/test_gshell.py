@@ -851,6 +851,18 @@ class PoseTest(TempDirTest):
         # As `gshell pose --solver single --levels 3`: refused, not ignored.
         with self.assertRaisesRegex(ValueError, "^levels applies only to solver='hierarchical'$"):
             gshell.Poser(self.shell, solver="single", levels=3)
+        # A count past C++ int's range is one line naming the argument (it was pybind11's
+        # "incompatible function arguments" TypeError listing the whole signature).
+        for call, name in ((lambda: gshell.Poser(self.shell, levels=2**40), "levels"),
+                           (lambda: poser.solve(HANDLES, steps=2**31), "steps"),
+                           (lambda: poser.solve(HANDLES, iterations=-2**70), "iterations"),
+                           (lambda: gshell.generate(self.shell.base, self.shell.faces, thickness=0.1, anderson=2**40),
+                            "anderson"),
+                           (lambda: gshell.Deformer(self.shell).solve(self.shell.base, iterations=2**40), "iterations")):
+            with self.subTest(name=name), self.assertRaisesRegex(ValueError, "^" + name + " is out of range \\(got -?[0-9]+; "
+                                                                             "at most 2147483647"):
+                call()
+        poser.solve(HANDLES, steps=np.int64(1), iterations=np.int32(2))  # NumPy integers are counts too
         # What JSON cannot write is one line naming the argument, not a traceback.
         with self.assertRaisesRegex(ValueError, "^handles cannot be written as JSON: Object of type object is not "
                                                 "JSON serializable$"):

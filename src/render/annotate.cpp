@@ -2,6 +2,8 @@
 
 #include <gshell/error.h>
 
+#include "io/utf8_code_points.h"
+
 #include <stb_truetype.h> // implementation in Debian's libstb
 
 #include <algorithm>
@@ -31,25 +33,6 @@ const stbtt_fontinfo& font() {
   return info;
 }
 
-// Unicode code points of UTF-8 text; a malformed byte becomes U+FFFD.
-std::vector<int> code_points(const std::string& text) {
-  std::vector<int> out;
-  for (std::size_t i = 0; i < text.size();) {
-    const unsigned char c = static_cast<unsigned char>(text[i]);
-    const int length = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
-    int cp = length == 1 ? c : length == 2 ? c & 0x1F : length == 3 ? c & 0x0F : c & 0x07;
-    bool ok = length > 0 && i + length <= text.size();
-    for (int k = 1; ok && k < length; ++k) {
-      const unsigned char next = static_cast<unsigned char>(text[i + k]);
-      ok = (next >> 6) == 0x2;
-      cp = (cp << 6) | (next & 0x3F);
-    }
-    out.push_back(ok ? cp : 0xFFFD);
-    i += ok ? length : 1;
-  }
-  return out;
-}
-
 // One line of text laid out at `size`: glyphs at fractional pen positions from x = 0 on the
 // baseline, and the horizontal extent of everything drawn (advances and ink).
 struct LineLayout {
@@ -72,7 +55,7 @@ LineLayout layout(const std::string& text, int size) {
   line.ascent = static_cast<int>(std::lround(ascent * line.scale));
   float pen = 0;
   int previous = -1;
-  for (int cp : code_points(text)) {
+  for (int cp : utf8_code_points(text)) {
     const int glyph = stbtt_FindGlyphIndex(&f, cp);
     if (previous >= 0) pen += line.scale * static_cast<float>(stbtt_GetGlyphKernAdvance(&f, previous, glyph));
     int advance = 0, bearing = 0;
