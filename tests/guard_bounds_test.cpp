@@ -174,6 +174,32 @@ TEST(TetStepBound, TetsCuttingAStepAreThoseWhoseOwnRootIsBelowIt) {
   EXPECT_THROW(tets_cutting_step(s.T, s.X.topRows(8), s.D.topRows(8), 0.1, 1.0), InputError);
 }
 
+TEST(TetStepBound, ATurnByMoreThan143DegreesIsBoundedOnItsPathButKeptAtItsEnd) {
+  // Turned by theta about an axis, the straight path's mid-point holds cos^2(theta / 2) of the
+  // volume: below a tenth past 143.1 degrees. The end keeps all of it.
+  const Eigen::MatrixXd X = unit_tet();
+  for (double degrees : {140.0, 146.0, 180.0}) {
+    SCOPED_TRACE(degrees);
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(degrees * M_PI / 180, Eigen::Vector3d(1, 2, 3).normalized()).matrix();
+    const Eigen::MatrixXd turned = X * R.transpose();
+    const double mid = std::pow(std::cos(degrees * M_PI / 360), 2);
+    EXPECT_NEAR(volume6(0.5 * (X + turned)), mid * volume6(X), 1e-12);
+    EXPECT_EQ(tet_step_bound(one_tet(), X, turned - X, 0.1, 1.0).step == 1.0, mid > 0.1);
+    EXPECT_TRUE(tets_keep_volume(one_tet(), X, turned, 0.1));
+  }
+  // The end alone decides: flattened to a twentieth, or inverted, it is not kept; skipped, it is.
+  Eigen::MatrixXd flat = X;
+  flat(3, 2) = 0.05;
+  EXPECT_TRUE(tets_keep_volume(one_tet(), X, flat, 0.04));
+  EXPECT_FALSE(tets_keep_volume(one_tet(), X, flat, 0.1));
+  flat(3, 2) = -1;
+  EXPECT_FALSE(tets_keep_volume(one_tet(), X, flat, 0.1));
+  const std::vector<char> skip = {1};
+  EXPECT_TRUE(tets_keep_volume(one_tet(), X, flat, 0.1, &skip));
+  EXPECT_TRUE(tets_keep_volume(one_tet(), flat, X, 0.1)); // not positive at the start: not bounded
+  EXPECT_THROW(tets_keep_volume(one_tet(), X, X.topRows(3), 0.1), InputError);
+}
+
 RestTets unit_rest() { return rest_tets_from_positions(unit_tet(), one_tet()); }
 
 // tet_step_bound reads X and D through T's ids: a motion for fewer vertices, or a tet list of

@@ -47,12 +47,12 @@ public:
   /// Whether this guard was built with these options.
   bool built_with(const GuardOptions& options) const;
 
-  /// Whether X1 can be taken as the next frame after X0 (a frame made by this guard): the
-  /// straight path from X0 to X1 keeps every guarded tet above keep_fraction of its volume and,
-  /// with `contacts` (X0 free of contacts), X1's exact certificate (base/base pairs included
-  /// where the base moves; returned in `certificate`, also when X1 is refused) finds no
-  /// intersection the guard keeps apart. X1 is then a valid
-  /// start for the guarded solver, as X0 is.
+  /// Whether X1 can be taken as the next frame after X0 (a frame made by this guard). With
+  /// `contacts` (X0 free of contacts): X1's exact certificate (base/base pairs included where the
+  /// base moves; returned in `certificate`, also when X1 is refused) finds nothing the guard keeps
+  /// right, and every guarded tet keeps above keep_fraction of its X0 volume at X1 (the path to
+  /// it does not matter). Without: the straight path from X0 to X1 keeps every guarded tet above
+  /// keep_fraction of its volume. X1 is then a valid start for the guarded solver, as X0 is.
   bool accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts, ShellCertificate* certificate);
   /// The largest fraction t tried of the straight path from X0 to X1 whose end X0 + t (X1 - X0)
   /// this guard accepts (as `accepts` does: the path keeps every guarded tet above keep_fraction

@@ -229,6 +229,29 @@ TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, 
   return least_bound([&](int v, int a) { return X(v, a); }, [&](int v, int a) { return D(v, a); });
 }
 
+bool tets_keep_volume(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1,
+                      double keep_fraction, const std::vector<char>* skip) {
+  check_shapes("tets_keep_volume", T, X0, X1, skip);
+  const int K = static_cast<int>(T.rows()), N = static_cast<int>(X0.rows());
+  if (K > 0 && (T.minCoeff() < 0 || T.maxCoeff() >= N))
+    throw InputError("tets_keep_volume: T must be K x 4 with vertex ids in 0..N-1");
+  const auto six_volume = [&T](const Eigen::MatrixXd& X, int t) {
+    const Eigen::Vector3d x0 = X.row(T(t, 0)).transpose();
+    return det3(X.row(T(t, 1)).transpose() - x0, X.row(T(t, 2)).transpose() - x0, X.row(T(t, 3)).transpose() - x0);
+  };
+  return tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, K, 4096), true,
+      [&](const tbb::blocked_range<int>& r, bool kept) {
+        for (int t = r.begin(); kept && t < r.end(); ++t) {
+          if (skip && (*skip)[t]) continue;
+          const double before = six_volume(X0, t);
+          kept = !(before > 0) || six_volume(X1, t) > keep_fraction * before;
+        }
+        return kept;
+      },
+      [](bool a, bool b) { return a && b; });
+}
+
 std::vector<int> tets_cutting_step(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                                    double keep_fraction, double max_step, const std::vector<char>* skip) {
   check_shapes("tets_cutting_step", T, X, D, skip);

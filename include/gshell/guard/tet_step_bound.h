@@ -32,6 +32,14 @@ struct TetStepBound {
 TetStepBound tet_step_bound(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
                             double keep_fraction, double max_step, const std::vector<char>* skip = nullptr);
 
+/// Whether every tet of T that tet_step_bound would bound (positive at X0, not skipped) keeps more
+/// than keep_fraction of its volume at X1: the condition of tet_step_bound at the end of the path
+/// alone, whatever happens on the way (a rigid turn by more than 143 degrees keeps every volume at
+/// its end while the straight path flattens tets half-way). X0, X1: N x 3. Runs in parallel.
+/// \throws InputError as tet_step_bound.
+bool tets_keep_volume(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1,
+                      double keep_fraction, const std::vector<char>* skip = nullptr);
+
 /// The tets whose own bound (as in tet_step_bound) is below max_step, in increasing order: those
 /// that would cut a step of max_step. Same preconditions and errors as tet_step_bound.
 std::vector<int> tets_cutting_step(const Eigen::MatrixXi& T, const Eigen::MatrixXd& X, const Eigen::MatrixXd& D,
