@@ -339,6 +339,12 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
   pose.steps.back().rest_faults_only = true; // invalid only where the rest shell is
   EXPECT_EQ(pose.warnings()[1], "2 of 4 pose steps are not valid: the base crosses itself in pose step 3; pose step "
                                 "4 keeps the rest shell's own faults (report.json has each pose step's certificate)");
+  // Soft handles are cut back, not dragged: contact is not the only cause to name.
+  pose.mode = ConstraintMode::Soft;
+  pose.steps[1].drag_start = 0.0824;
+  EXPECT_EQ(pose.warnings()[0], "pose step 2: the solver's step was not valid and could not be mended, so 8.24 % of it "
+                                "was kept, short of the handles' targets (soft handles are cut back, not dragged; "
+                                "blocked_by_contact in report.json)");
 }
 
 // A sequence too large to hold is read again frame by frame: the same run, bit for bit. Its files

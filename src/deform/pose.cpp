@@ -141,8 +141,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   out = ValidStep{};
   const bool hard = s.handles.mode == ConstraintMode::Hard;
   if (!s.guard || !s.guard->built_with(guard))
-    s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard,
-                                           hard ? s.constrained : std::vector<int>{}, true);
+    s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard, s.constrained, true);
   const Eigen::MatrixXd start = from;
   SolveResult result = solve(X, P, options);
   // The guarded solver's iterations (a mend's, then a drag's) can be many times the solve's: they
@@ -164,7 +163,9 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   bool settled = s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate);
   if (settled) {
     out.method = FrameMethod::Bounded;
-  } else if (hard && guard.mend_rings >= 0) {
+  } else if (guard.mend_rings >= 0) {
+    // Soft handles too, their vertices held where the solve put them (the guarded solver has no
+    // springs); the mend is weighed with the springs' energy, as every mend is weighed.
     mended = s.guard->weighed_mend(X, guard.mend_rings, guard.mend_max_rise, solve, &out.certificate,
                                    [&](const Eigen::MatrixXd& Y) { return energy(Y, P); });
     if (mended.within_rise) {
@@ -216,9 +217,17 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     Eigen::MatrixXd Y = start;
     out.drag_start =
         s.guard->accepted_fraction(start, X, s.guard->guards_contacts(), kMinSoftStep, Y, &out.certificate);
-    X = std::move(Y);
-    out.method = FrameMethod::Bounded;
-    out.blocked_by_contact = true;
+    if (mended.X.rows() > 0 && energy(Y, P) > mended.energy) { // a mend above the rise beats a cut
+      X = std::move(mended.X);
+      out.method = FrameMethod::Mended;
+      out.guarded_iterations = mended.iterations;
+      out.drag_start = 0;
+      returned_energy = mended.energy;
+    } else {
+      X = std::move(Y);
+      out.method = FrameMethod::Bounded;
+      out.blocked_by_contact = true;
+    }
   }
   if (out.method == FrameMethod::Mended) {
     out.certificate = std::move(mended.certificate);

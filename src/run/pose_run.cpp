@@ -1,6 +1,7 @@
 #include <gshell/run/pose_run.h>
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/quality/certificate_report.h>
 #include <gshell/quality/stretch_report.h>
 #include <gshell/run/drag_session.h>
@@ -55,7 +56,14 @@ std::vector<std::string> PoseResult::warnings() const {
     if (!s.guarded) continue;
     ++guarded;
     const int step = static_cast<int>(k) + 1;
-    if (s.blocked_by_contact)
+    // Soft handles are cut back along the step rather than dragged, so contact is not the only
+    // cause there: any fault the mend could not take out.
+    if (s.blocked_by_contact && mode == ConstraintMode::Soft)
+      lines.push_back("pose step " + std::to_string(step) + ": the solver's step was not valid and could not be " +
+                      "mended, so " + format_number(100 * s.drag_start, 3) +
+                      " % of it was kept, short of the handles' targets (soft handles are cut back, not dragged; "
+                      "blocked_by_contact in report.json)");
+    else if (s.blocked_by_contact)
       lines.push_back("pose step " + std::to_string(step) +
                       ": the handles force the shell into itself or squeeze a tet between them flat; stopped short "
                       "of them (blocked_by_contact in report.json)");
