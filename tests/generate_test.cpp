@@ -289,4 +289,14 @@ TEST(Generate, WarningNamesWhatTheValidStartCouldNotMend) {
   }
   EXPECT_NE(w[1].find("(near what the start could not mend)"), std::string::npos) << w[1];
   EXPECT_EQ(generate_report(r, "builtin:torus:24", 0.02)["guard"]["start_unmended_tets"], 1);
+  // Wide cones everywhere: nothing is folded, so the cause named is parts of the base nearly
+  // touching (two spheres 1e-12 apart were said to have "faces folded nearly flat", margin 1).
+  r.guard.directions.margin.setConstant(0.95);
+  r.guard.start.rounds = 40;
+  const std::string touching = generate_warnings(r)[0];
+  EXPECT_EQ(touching.find("folded nearly flat"), std::string::npos) << touching;
+  EXPECT_NE(touching.find("parts of the base lie closer to each other than the start could thin the layer to in 40 "
+                          "rounds, nearly touching; their faces are not folded: smallest extrusion margin 0.95"),
+            std::string::npos)
+      << touching;
 }
