@@ -61,9 +61,9 @@ void run(const CLI::App& cmd, PoseArgs& a) {
       std::snprintf(dragged, sizeof dragged, " + %d guarded", s.guarded_iterations);
     std::snprintf(text, sizeof text, "step %zu/%zu: %d iterations%s, energy %g, %.3f s%s%s", k + 1, result.steps.size(),
                   s.iterations, dragged, s.energy, s.seconds, s.converged ? "" : " (not converged)",
-                  !s.guarded ? "" : s.valid ? ", valid" : ", INVALID");
+                  !s.certified ? "" : s.valid ? ", valid" : ", INVALID");
     std::string line = text;
-    if (s.guarded && !s.valid) {
+    if (s.certified && !s.valid) {
       line += " (" + std::to_string(s.inverted_tets) + " inverted tets, " + std::to_string(s.intersections) +
               " intersecting face pairs";
       const std::string faults = unavoidable_faults(s.base_self_intersections);

@@ -1101,6 +1101,18 @@ TEST(PoseGuard, ARefusedStepOfSoftHandlesIsMendedWhereTheSolvePutThem) {
   options.allow_invalid = true;
   const PoseResult unguarded = run_pose(rest, handles, options);
   ASSERT_FALSE(certify_shell(unguarded.X.topRows(n), unguarded.X.bottomRows(n), rest.F).valid());
+  // Unguarded steps are certified all the same, and the report says they are not valid (it said
+  // nothing: no `valid`, no certificate, no warning).
+  const PoseStepReport& u = unguarded.steps.at(0);
+  EXPECT_TRUE(u.certified && !u.guarded && !u.valid);
+  EXPECT_GT(u.inverted_tets + u.intersections, 0);
+  const nlohmann::ordered_json step_json = unguarded.to_json()["steps"][0];
+  EXPECT_EQ(step_json["valid"], false);
+  EXPECT_EQ(step_json["method"], "unguarded");
+  EXPECT_EQ(step_json["certificate"]["inverted_tets"], u.inverted_tets);
+  ASSERT_EQ(unguarded.warnings().size(), 1u);
+  EXPECT_NE(unguarded.warnings()[0].find("pose step 1 unguarded (allow_invalid)"), std::string::npos)
+      << unguarded.warnings()[0];
   options.allow_invalid = false;
   const PoseResult r = run_pose(rest, handles, options);
   ASSERT_EQ(r.steps.size(), 1u);

@@ -319,7 +319,7 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
   PoseResult pose;
   auto step = [&](bool valid, bool blocked, int crossings) {
     PoseStepReport s;
-    s.guarded = true;
+    s.guarded = s.certified = true;
     s.valid = valid;
     s.blocked_by_contact = blocked;
     s.base_self_intersections = crossings;

@@ -1020,8 +1020,14 @@ class PoseGuardTest(TempDirTest):
                 self.assertTrue(m["valid"])
                 self.assertEqual(m["base_self_intersections"], 0)
                 last, m = self.squeeze(solver, True)
-                self.assertNotIn("valid", last["steps"][-1])  # unguarded steps are not certified
+                # Unguarded steps are certified too (the report said nothing of them), and agree
+                # with metrics().
+                step = last["steps"][-1]
+                self.assertEqual((step["valid"], step["method"]), (False, "unguarded"))
+                self.assertNotIn("blocked_by_contact", step)
+                self.assertEqual(step["certificate"]["inverted_tets"], m["certificate"]["inverted_tets"])
                 self.assertFalse(m["valid"] and m["base_self_intersections"] == 0)
+                self.assertIn("unguarded (allow_invalid)", " ".join(last["warnings"]))
 
 
 

@@ -137,17 +137,12 @@ struct DragSession::Impl {
   PoseStepReport mark_guarded(const ValidStep& v) {
     PoseStepReport& step = state.steps.back();
     step.guarded = true;
+    step.record_certificate(v.certificate);
     step.valid = v.valid;
     step.blocked_by_contact = v.blocked_by_contact;
     step.method = v.method;
     step.guarded_iterations = v.guarded_iterations;
     step.drag_start = v.drag_start;
-    step.inverted_tets = v.certificate.inverted_tets;
-    step.intersections = v.certificate.intersections_tested()
-                             ? static_cast<int>(v.certificate.intersections.size())
-                             : -1;
-    step.nested_parts = v.certificate.nested_parts;
-    step.base_self_intersections = v.certificate.base_self_intersections;
     step.rest_faults_only = v.rest_faults_only;
     return step;
   }

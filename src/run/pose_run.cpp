@@ -3,6 +3,7 @@
 #include <gshell/error.h>
 #include <gshell/format_number.h>
 #include <gshell/quality/certificate_report.h>
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch_report.h>
 #include <gshell/run/drag_session.h>
 
@@ -29,19 +30,34 @@ void PoseOptions::check() const {
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a number >= 0");
 }
 
+void PoseStepReport::record_certificate(const ShellCertificate& c) {
+  certified = true;
+  valid = c.valid() && c.base_self_intersections == 0;
+  inverted_tets = c.inverted_tets;
+  intersections = c.intersections_tested() ? static_cast<int>(c.intersections.size()) : -1;
+  nested_parts = c.nested_parts;
+  base_self_intersections = c.base_self_intersections;
+}
+
 nlohmann::ordered_json PoseStepReport::to_json() const {
   nlohmann::ordered_json j{{"fraction", fraction}, {"iterations", iterations}, {"energy", energy}, {"seconds", seconds},
                            {"converged", converged}};
-  if (guarded) {
+  if (certified) {
     j["valid"] = valid;
     j["method"] = frame_method_name(method);
+  }
+  if (guarded) {
     j["blocked_by_contact"] = blocked_by_contact;
     j["guarded_iterations"] = guarded_iterations;
     j["drag_start"] = drag_start;
+  }
+  if (certified) {
     j["certificate"] = {{"inverted_tets", inverted_tets},
                         {"intersections", intersections},
                         {"nested_parts", count_or_null(nested_parts)}};
     j["base_self_intersections"] = count_or_null(base_self_intersections);
+  }
+  if (guarded) {
     j["rest_faults_only"] = rest_faults_only;
   }
   return j;
@@ -50,11 +66,13 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
 std::vector<std::string> PoseResult::warnings() const {
   std::vector<std::string> lines;
   detail::InvalidItems invalid;
-  int guarded = 0;
+  int certified = 0;
+  bool unguarded = false;
   for (std::size_t k = 0; k < steps.size(); ++k) {
     const PoseStepReport& s = steps[k];
-    if (!s.guarded) continue;
-    ++guarded;
+    if (!s.certified) continue;
+    ++certified;
+    unguarded = unguarded || !s.guarded;
     const int step = static_cast<int>(k) + 1;
     // Soft handles are cut back along the step rather than dragged, so contact is not the only
     // cause there: any fault the mend could not take out.
@@ -69,7 +87,7 @@ std::vector<std::string> PoseResult::warnings() const {
                       "of them (blocked_by_contact in report.json)");
     if (!s.valid) invalid.add(step, s.base_self_intersections > 0, false, s.rest_faults_only);
   }
-  const std::string line = detail::invalid_items_warning(invalid, guarded, "pose step", false);
+  const std::string line = detail::invalid_items_warning(invalid, certified, "pose step", unguarded);
   if (!line.empty()) lines.push_back(line);
   return lines;
 }
@@ -102,14 +120,23 @@ PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_
   options.check();
   const double from = session.fraction();
   const std::size_t first = session.result_step_count();
+  std::vector<ShellCertificate> unguarded; // each unguarded (allow_invalid) step's state
   for (int step = 1; step <= options.steps; ++step) {
     SolveOptions so = options.solve;
     so.progress = nullptr;
     if (options.step_progress)
       so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
-    session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
+    const PoseStepReport made = session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
+    if (!made.guarded) { // as deform certifies its unguarded frames: the report says what they are
+      const Eigen::MatrixXd& X = session.vertices();
+      const Eigen::Index n = X.rows() / 2;
+      unguarded.push_back(certify_shell(X.topRows(n), X.bottomRows(n), session.rest().F));
+    }
   }
-  return session.result(first);
+  PoseResult result = session.result(first);
+  for (std::size_t k = 0, u = 0; k < result.steps.size() && u < unguarded.size(); ++k)
+    if (!result.steps[k].guarded) result.steps[k].record_certificate(unguarded[u++]);
+  return result;
 }
 
 PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options) {

@@ -38,8 +38,8 @@ struct PoseOptions {
   /// Per step (a drag event solves with these too unless told otherwise): up to 500 iterations,
   /// until the relative energy change per iteration is below 1e-6.
   SolveOptions solve = {500, 1e-6, {}};
-  /// Today's unguarded steps (may invert tets or pass the shell through itself), for comparison.
-  /// Off (the default): every step is valid (PoseSolver::solve_valid), stopping at contact when
+  /// Today's unguarded steps (may invert tets or pass the shell through itself), for comparison;
+  /// run_pose still certifies each step's state and says which are not valid. Off (the default): every step is valid (PoseSolver::solve_valid), stopping at contact when
   /// the handles force a collision.
   bool allow_invalid = false;
   /// With the guard on: DragSession::drag() steps are guarded too. Off (the viewer's choice, where
@@ -68,21 +68,27 @@ struct PoseStepReport {
   double seconds = 0;    ///< wall time of the step: start prediction and solve
   bool converged = false;
   bool guarded = false;            ///< made by solve_valid (not allow_invalid)
-  bool valid = false;              ///< guarded: the step's certificate holds
+  /// valid and the certificate's counts below hold: guarded steps, and run_pose's unguarded ones
+  bool certified = false;
+  bool valid = false;              ///< certified: the step's certificate holds
   bool blocked_by_contact = false; ///< guarded: the handles forced a collision; the step stopped at contact
   FrameMethod method = FrameMethod::Unguarded;
   int guarded_iterations = 0;
   double drag_start = 0; ///< guarded: ValidStep::drag_start
-  int inverted_tets = -1, intersections = -1; ///< guarded: the certificate's counts (all pair kinds)
-  int nested_parts = -1;                      ///< guarded: sheets inside another part's layer
-  /// guarded: face pairs where the posed base crosses itself (-1 = not tested); a step is valid
+  int inverted_tets = -1, intersections = -1; ///< certified: the certificate's counts (all pair kinds)
+  int nested_parts = -1;                      ///< certified: sheets inside another part's layer
+  /// certified: face pairs where the posed base crosses itself (-1 = not tested); a step is valid
   /// only without them
   int base_self_intersections = -1;
   /// guarded, not valid: only where the rest shell is not valid itself (ValidStep::rest_faults_only)
   bool rest_faults_only = false;
-  /// {fraction, iterations, energy, seconds, converged} and, guarded, {valid, method,
-  /// blocked_by_contact, guarded_iterations, drag_start, certificate {inverted_tets, intersections,
-  /// nested_parts}, base_self_intersections, rest_faults_only}
+  /// Sets `certified` and what the certificate of the step's state says (valid: conditions 1-4
+  /// hold and the base does not cross itself).
+  void record_certificate(const ShellCertificate& certificate);
+  /// {fraction, iterations, energy, seconds, converged}; certified, {valid, method ("unguarded"
+  /// where not guarded)}; guarded, {blocked_by_contact, guarded_iterations, drag_start};
+  /// certified, {certificate {inverted_tets, intersections, nested_parts}, base_self_intersections};
+  /// guarded, {rest_faults_only}
   nlohmann::ordered_json to_json() const;
 };
 
