@@ -161,6 +161,10 @@ TEST(Handles, BadFilesAreClearErrors) {
   // 2^63 and 2^64 - 1 are unsigned in JSON and named as written, not wrapped to negative ids.
   expect_error(R"({"handles": [{"vertices": [9223372036854775808]}]})", "unknown vertex id 9223372036854775808 ");
   expect_error(R"({"handles": [{"vertices": [18446744073709551615]}]})", "unknown vertex id 18446744073709551615 ");
+  // Past 2^64 JSON readers hold it as a float: still an id out of range, not "not an integer".
+  expect_error(R"({"handles": [{"vertices": [18446744073709551617]}]})", "unknown vertex id 1.8446744073709552e+19 ");
+  expect_error(R"({"handles": [{"vertices": [-18446744073709551617]}]})", "unknown vertex id -1.8446744073709552e+19 ");
+  expect_error(R"({"handles": [{"vertices": [1.0]}]})", "vertex id 1.0 is not an integer");
 }
 
 TEST(Handles, ExtremeButAcceptedNumbersGiveFiniteTargets) {

@@ -1015,7 +1015,9 @@ class PoseGuardTest(TempDirTest):
                     for key in ("valid", "method", "blocked_by_contact", "guarded_iterations", "certificate"):
                         self.assertIn(key, step)
                     self.assertTrue(step["valid"], step)
-                    self.assertEqual(step["certificate"], {"inverted_tets": 0, "intersections": 0, "nested_parts": 0})
+                    self.assertEqual(step["certificate"], {"inverted_tets": 0, "top_self_intersections": 0,
+                                                           "top_base_intersections": 0, "wall_intersections": 0,
+                                                           "intersections": 0, "nested_parts": 0})
                 self.assertTrue(any(step["blocked_by_contact"] for step in last["steps"]))
                 self.assertTrue(m["valid"])
                 self.assertEqual(m["base_self_intersections"], 0)
@@ -1026,6 +1028,8 @@ class PoseGuardTest(TempDirTest):
                 self.assertEqual((step["valid"], step["method"]), (False, "unguarded"))
                 self.assertNotIn("blocked_by_contact", step)
                 self.assertEqual(step["certificate"]["inverted_tets"], m["certificate"]["inverted_tets"])
+                for kind in ("top_self_intersections", "top_base_intersections", "wall_intersections"):
+                    self.assertEqual(step["certificate"][kind], m["certificate"][kind])
                 self.assertFalse(m["valid"] and m["base_self_intersections"] == 0)
                 self.assertIn("unguarded (allow_invalid)", " ".join(last["warnings"]))
 

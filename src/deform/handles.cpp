@@ -97,6 +97,11 @@ std::vector<int> explicit_vertices(const json& value, int num_vertices, const st
   if (!value.is_array()) r.fail(where, "\"vertices\" must be an array of vertex ids");
   std::vector<int> ids;
   for (const auto& id : value) {
+    // An integer past 64 bits is read as a float (2^64 + 1 as 1.8446744073709552e+19): it is an
+    // integer, just far out of range.
+    if (id.is_number_float() && std::abs(id.get<double>()) >= 0x1p63 && std::isfinite(id.get<double>()))
+      r.fail(where, "unknown vertex id " + id.dump() + " (the shell has vertices 0.." + std::to_string(num_vertices - 1) +
+                        ")");
     if (!id.is_number_integer()) r.fail(where, "vertex id " + id.dump() + " is not an integer");
     // Unsigned first: get<long long> of 2^63 and above wraps to a negative id.
     const bool in_range = id.is_number_unsigned()

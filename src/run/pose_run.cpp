@@ -35,6 +35,9 @@ void PoseStepReport::record_certificate(const ShellCertificate& c) {
   valid = c.valid() && c.base_self_intersections == 0;
   inverted_tets = c.inverted_tets;
   intersections = c.intersections_tested() ? static_cast<int>(c.intersections.size()) : -1;
+  top_self_intersections = c.top_self_intersections;
+  top_base_intersections = c.top_base_intersections;
+  wall_intersections = c.wall_intersections;
   nested_parts = c.nested_parts;
   base_self_intersections = c.base_self_intersections;
 }
@@ -53,7 +56,10 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
   }
   if (certified) {
     j["certificate"] = {{"inverted_tets", inverted_tets},
-                        {"intersections", intersections},
+                        {"top_self_intersections", count_or_null(top_self_intersections)},
+                        {"top_base_intersections", count_or_null(top_base_intersections)},
+                        {"wall_intersections", count_or_null(wall_intersections)},
+                        {"intersections", count_or_null(intersections)},
                         {"nested_parts", count_or_null(nested_parts)}};
     j["base_self_intersections"] = count_or_null(base_self_intersections);
   }

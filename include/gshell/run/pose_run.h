@@ -76,6 +76,8 @@ struct PoseStepReport {
   int guarded_iterations = 0;
   double drag_start = 0; ///< guarded: ValidStep::drag_start
   int inverted_tets = -1, intersections = -1; ///< certified: the certificate's counts (all pair kinds)
+  /// certified: the pairs by kind, as deform's frames and generate report them (-1 = not tested)
+  int top_self_intersections = -1, top_base_intersections = -1, wall_intersections = -1;
   int nested_parts = -1;                      ///< certified: sheets inside another part's layer
   /// certified: face pairs where the posed base crosses itself (-1 = not tested); a step is valid
   /// only without them
@@ -87,7 +89,9 @@ struct PoseStepReport {
   void record_certificate(const ShellCertificate& certificate);
   /// {fraction, iterations, energy, seconds, converged}; certified, {valid, method ("unguarded"
   /// where not guarded)}; guarded, {blocked_by_contact, guarded_iterations, drag_start};
-  /// certified, {certificate {inverted_tets, intersections, nested_parts}, base_self_intersections};
+  /// certified, {certificate {inverted_tets, top_self_intersections, top_base_intersections,
+  /// wall_intersections, intersections (every kind, base/base too), nested_parts},
+  /// base_self_intersections};
   /// guarded, {rest_faults_only}
   nlohmann::ordered_json to_json() const;
 };
