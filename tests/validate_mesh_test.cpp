@@ -228,6 +228,11 @@ TEST(ValidateMesh, ZeroAreaFacesRelativeToTheMeshScale) {
   EXPECT_TRUE(of_severity(validate_mesh(m), Severity::Error).empty());
   m.V(2, 1) = 1e-14;
   EXPECT_TRUE(contains(only_error(m), "face 0 "));
+  // zero_area_faces (for deformation frames, which may have them) follows the same rule.
+  EXPECT_EQ(zero_area_faces(m.V, m.F), std::vector<int>{0});
+  m.V(2, 1) = 1e-9;
+  EXPECT_TRUE(zero_area_faces(m.V, m.F).empty());
+  EXPECT_TRUE(zero_area_faces(tiny.V, tiny.F).empty());
 }
 
 TEST(ValidateMesh, NonManifoldEdge) {

@@ -19,6 +19,11 @@ namespace {
 
 using Severity = MeshProblem::Severity;
 
+// Twice a face's area at most this times the squared bounding-box diagonal is zero: collinear
+// points give a cross product of rounding size (~1e-16 diag^2), and anything below this is too
+// small to carry a normal or a prism.
+constexpr double kZeroDoubleArea = 1e-12;
+
 /// Collects problems of one kind, listing the first few places and summarising the rest, so a
 /// broken mesh with a million bad faces still gives a readable report.
 class ProblemList {
@@ -145,6 +150,18 @@ const char* severity_name(MeshProblem::Severity severity) {
   }
 }
 
+std::vector<int> zero_area_faces(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  if (V.rows() == 0) return {};
+  const double diagonal = (V.colwise().maxCoeff() - V.colwise().minCoeff()).stableNorm();
+  const double min_double_area = kZeroDoubleArea * diagonal * diagonal;
+  std::vector<int> out;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    if ((b - a).cross(c - a).norm() <= min_double_area) out.push_back(static_cast<int>(f));
+  }
+  return out;
+}
+
 std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   std::vector<MeshProblem> problems;
   const Eigen::MatrixXd& V = mesh.V;
@@ -188,9 +205,7 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   if (too_small)
     list.add(Severity::Error, "too small mesh",
              too_small_message(diagonal));
-  // Collinear points give a cross product of rounding size (~1e-16 diag^2); anything below this
-  // is too small to carry a normal or a prism.
-  const double min_double_area = 1e-12 * diagonal * diagonal;
+  const double min_double_area = kZeroDoubleArea * diagonal * diagonal;
 
   for (int f = 0; f < m; ++f) {
     bool indices_ok = true;

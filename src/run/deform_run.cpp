@@ -110,6 +110,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
 nlohmann::ordered_json DeformFrameRecord::to_json() const {
   nlohmann::ordered_json j{{"frame", frame}, {"base", base}};
   j.update(frame_json(result));
+  j["zero_area_faces"] = zero_area_faces;
   if (offset) j["offset"] = stretch_report(*offset);
   return j;
 }
@@ -124,6 +125,22 @@ std::vector<std::string> DeformRun::warnings() const {
   const std::string line =
       detail::invalid_items_warning(invalid, static_cast<int>(frames.size()), "frame", options.frame.allow_invalid);
   if (!line.empty()) out.push_back(line);
+  std::vector<int> degenerate;
+  int most = 0;
+  for (const DeformFrameRecord& f : frames)
+    if (f.zero_area_faces > 0) {
+      degenerate.push_back(f.frame);
+      most = std::max(most, f.zero_area_faces);
+    }
+  if (!degenerate.empty()) {
+    std::string names;
+    for (std::size_t k = 0; k < degenerate.size() && k < 10; ++k) names += (k ? ", " : " ") + std::to_string(degenerate[k]);
+    if (degenerate.size() > 10) names += ", ...";
+    out.push_back(std::string(degenerate.size() == 1 ? "frame" : "frames") + names +
+                  (degenerate.size() == 1 ? " has" : " have") + " base faces of zero area (up to " +
+                  std::to_string(most) + " a frame: a collapsed edge or collinear corners): no prism over such a face "
+                  "has a valid shape, and the base crossings counted there are those faces touching their neighbours");
+  }
   if (embed && embed->max_outside_distance > thickness)
     out.push_back(std::to_string(embed->outside) + " of " + std::to_string(embed->points) + " detail vertices of " +
                   embed->detail + " lie outside the shell, up to " + format_number(embed->max_outside_distance) +
@@ -261,6 +278,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
     const Eigen::MatrixXd base = next.valid() ? next.get() : input.frames.get(k);
     if (!input.frames.held() && k + 1 < count) next = std::async(std::launch::async, read_frame, k + 1);
     record.result = deformer.solve(base, options.frame);
+    record.zero_area_faces = static_cast<int>(zero_area_faces(base, shell.F).size());
     record.result.top.resize(0, 3); // in the folder, not in memory
     if (options.compare_offset) {
       Eigen::MatrixXd X(2 * n, 3);

@@ -59,6 +59,12 @@ void require_usable_texture_coordinates(const TriMesh& mesh, const std::string& 
 /// \throws InputError naming `name`.
 void require_usable_frame(const Eigen::MatrixXd& V, const std::string& name);
 
+/// Faces of V (usable coordinates, as require_usable_frame) with zero area by validate_mesh's
+/// rule (twice the area at most 1e-12 of the squared bounding-box diagonal: coincident or
+/// collinear corners), ascending. A frame may have them (an edge collapsed in an animation);
+/// an input mesh may not.
+std::vector<int> zero_area_faces(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+
 /// Throws InputError "NAME: <first error> (and K more problems)" if validate_mesh finds an error;
 /// K counts the other errors and warnings. Otherwise returns the warnings, one line per kind:
 /// "NAME: <first> (and K more <kind>)".

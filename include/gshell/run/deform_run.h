@@ -61,7 +61,8 @@ struct DeformFrameRecord {
   std::string base;                   ///< the frame's name
   FrameResult result;                 ///< without the top (written to the folder instead)
   std::optional<StretchStats> offset; ///< compare_offset: stretch of the re-extruded offset shell
-  /// {frame, base, frame_json..., offset {stretch, inverted_tets}}
+  int zero_area_faces = 0;            ///< base faces of zero area in this frame (zero_area_faces)
+  /// {frame, base, frame_json..., zero_area_faces, offset {stretch, inverted_tets}}
   nlohmann::ordered_json to_json() const;
 };
 
@@ -82,7 +83,8 @@ struct DeformRun {
 
   /// What a user must hear even with progress off: one line naming the frames that are not valid
   /// and why (the base crosses itself, unextrudable base vertices, unguarded by allow_invalid, or
-  /// none of those: the guard could not make them valid), and one when detail points lie farther
+  /// none of those: the guard could not make them valid), one naming frames whose base has faces
+  /// of zero area (their crossings are those faces'), and one when detail points lie farther
   /// than the thickness outside the shell (they follow their nearest tet's map extrapolated, so
   /// their error grows with that distance); empty when neither holds.
   std::vector<std::string> warnings() const;
