@@ -200,7 +200,7 @@ Releases the GIL while it runs.)")
            },
            "dict about the last solve (None before the first): iterations, converged, energy (list, "
            "energy[0] at the warm start), stretch {mean, volume_mean, max, p99} against the rest shell, "
-           "inverted_tets, seconds, valid, method, resumed, fresh_top, substeps, guarded_iterations, thinned_vertices, "
+           "inverted_tets, seconds, valid, method, resumed, fresh_top, substeps, guarded_iterations, thinned_vertices, zero_area_faces, "
            "certificate {...}, base_self_intersections, unextrudable_vertices. The fields of a frame in `gshell deform`'s report.json.")
       .def_property_readonly("factor_seconds", [](const DeformerObject& d) { return d.deformer.factor_seconds(); },
                              "Seconds spent assembling and factoring the system matrix.")

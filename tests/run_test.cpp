@@ -316,7 +316,7 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
   run.options.frame.allow_invalid = true; // unexplained frames were not guarded at all
   EXPECT_NE(run.warnings()[0].find("frame 3 unguarded (allow_invalid)"), std::string::npos) << run.warnings()[0];
   // A frame with faces of zero area (an edge collapsed onto itself) was said only to cross itself.
-  run.frames[1].zero_area_faces = 2;
+  run.frames[1].result.zero_area_faces = 2;
   ASSERT_EQ(run.warnings().size(), 2u);
   EXPECT_EQ(run.warnings()[1].rfind("frame 2 has base faces of zero area (up to 2 a frame: a collapsed edge or "
                                     "collinear corners)", 0), 0u) << run.warnings()[1];

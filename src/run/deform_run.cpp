@@ -93,6 +93,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
   j["substeps"] = r.substeps;
   j["guarded_iterations"] = r.guarded_iterations;
   j["thinned_vertices"] = r.thinned_vertices;
+  j["zero_area_faces"] = r.zero_area_faces;
   const ShellCertificate& c = r.certificate;
   j["certificate"] = nlohmann::ordered_json{{"inverted_tets", c.inverted_tets},
                                             {"top_self_intersections", count_or_null(c.top_self_intersections)},
@@ -110,7 +111,6 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
 nlohmann::ordered_json DeformFrameRecord::to_json() const {
   nlohmann::ordered_json j{{"frame", frame}, {"base", base}};
   j.update(frame_json(result));
-  j["zero_area_faces"] = zero_area_faces;
   if (offset) j["offset"] = stretch_report(*offset);
   return j;
 }
@@ -128,9 +128,9 @@ std::vector<std::string> DeformRun::warnings() const {
   std::vector<int> degenerate;
   int most = 0;
   for (const DeformFrameRecord& f : frames)
-    if (f.zero_area_faces > 0) {
+    if (f.result.zero_area_faces > 0) {
       degenerate.push_back(f.frame);
-      most = std::max(most, f.zero_area_faces);
+      most = std::max(most, f.result.zero_area_faces);
     }
   if (!degenerate.empty()) {
     std::string names;
@@ -278,7 +278,6 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
     const Eigen::MatrixXd base = next.valid() ? next.get() : input.frames.get(k);
     if (!input.frames.held() && k + 1 < count) next = std::async(std::launch::async, read_frame, k + 1);
     record.result = deformer.solve(base, options.frame);
-    record.zero_area_faces = static_cast<int>(zero_area_faces(base, shell.F).size());
     record.result.top.resize(0, 3); // in the folder, not in memory
     if (options.compare_offset) {
       Eigen::MatrixXd X(2 * n, 3);

@@ -61,8 +61,7 @@ struct DeformFrameRecord {
   std::string base;                   ///< the frame's name
   FrameResult result;                 ///< without the top (written to the folder instead)
   std::optional<StretchStats> offset; ///< compare_offset: stretch of the re-extruded offset shell
-  int zero_area_faces = 0;            ///< base faces of zero area in this frame (zero_area_faces)
-  /// {frame, base, frame_json..., zero_area_faces, offset {stretch, inverted_tets}}
+  /// {frame, base, frame_json..., offset {stretch, inverted_tets}}
   nlohmann::ordered_json to_json() const;
 };
 
