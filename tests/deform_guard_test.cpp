@@ -1040,15 +1040,21 @@ TEST(FrameGuardMend, ABaseCrossingItselfIsLeftToTheDrag) {
 // solver's state is refused, mended, exactly certified valid, handles on their targets, and its
 // energy within 1e-4 of the drag's (0.0076176427 against 0.0076176369 when written, in 11
 // guarded iterations against 43).
-TEST(PoseGuard, ARefusedStepIsMendedInPlaceToTheDragsMinimum) {
-  const Shell rest = offset_shell(test::folded_plane(16, 120), 0.15);
-  const int n = rest.num_base_vertices();
+// The folded plane's ends held, one turned back by 70 degrees: the solver's step inverts tets.
+HandleSet folded_plane_turn(const Shell& rest) {
   HandleSet handles;
   handles.handles = {x_end_handle(rest, -1, 0.7), x_end_handle(rest, 1, 0.7)};
   Handle& turned = handles.handles[1];
   turned.axis = Eigen::Vector3d::UnitY();
   turned.degrees = -70;
   turned.center = Eigen::Vector3d::Zero();
+  return handles;
+}
+
+TEST(PoseGuard, ARefusedStepIsMendedInPlaceToTheDragsMinimum) {
+  const Shell rest = offset_shell(test::folded_plane(16, 120), 0.15);
+  const int n = rest.num_base_vertices();
+  const HandleSet handles = folded_plane_turn(rest);
   PoseOptions options;
   options.steps = 1;
   ASSERT_GE(options.guard.mend_rings, 0);
@@ -1088,14 +1094,9 @@ TEST(PoseGuard, ARefusedStepIsMendedInPlaceToTheDragsMinimum) {
 TEST(PoseGuard, ARefusedStepOfSoftHandlesIsMendedWhereTheSolvePutThem) {
   const Shell rest = offset_shell(test::folded_plane(16, 120), 0.15);
   const int n = rest.num_base_vertices();
-  HandleSet handles;
+  HandleSet handles = folded_plane_turn(rest);
   handles.mode = ConstraintMode::Soft;
   handles.weight = 1000;
-  handles.handles = {x_end_handle(rest, -1, 0.7), x_end_handle(rest, 1, 0.7)};
-  Handle& turned = handles.handles[1];
-  turned.axis = Eigen::Vector3d::UnitY();
-  turned.degrees = -70;
-  turned.center = Eigen::Vector3d::Zero();
   PoseOptions options;
   options.steps = 1;
   options.allow_invalid = true;
