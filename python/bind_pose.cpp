@@ -203,7 +203,8 @@ Releases the GIL while it runs.)")
                              "dict about the last solve (None before the first): the fields of `gshell pose`'s "
                              "report.json (solver, levels, mode, handle_vertices, setup_seconds, tolerance, "
                              "max_iterations, steps [{fraction, iterations, energy, seconds, converged, valid, "
-                             "method, certificate, ...}] of this solve, warnings, stretch {mean, volume_mean, max, p99} against the rest shell, inverted_tets, ...).");
+                             "method, certificate, ...}] of this solve, warnings, stretch {mean, volume_mean, "
+                             "max, p99} against the rest shell, inverted_tets, ...).");
 }
 
 } // namespace gshell::python

@@ -39,7 +39,8 @@ struct PoseOptions {
   /// until the relative energy change per iteration is below 1e-6.
   SolveOptions solve = {500, 1e-6, {}};
   /// Today's unguarded steps (may invert tets or pass the shell through itself), for comparison;
-  /// run_pose still certifies each step's state and says which are not valid. Off (the default): every step is valid (PoseSolver::solve_valid), stopping at contact when
+  /// run_pose still certifies each step's state and says which are not valid. Off (the
+  /// default): every step is valid (PoseSolver::solve_valid), stopping at contact when
   /// the handles force a collision.
   bool allow_invalid = false;
   /// With the guard on: DragSession::drag() steps are guarded too. Off (the viewer's choice, where
