@@ -232,32 +232,27 @@ GuardedSolver& FrameGuard::tets_only() {
 
 bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
                          ShellCertificate* certificate) {
-  // The end state certified exactly (the base against itself left out when the caller moves the
-  // base: a base crossing itself is then the caller's). Cheaper than continuous collision
-  // detection along the path, and what matters is the frame, not the way to it: a certified frame
-  // is a valid start for the next one. The tet step bound and the certificate run side by side:
-  // most frames pass both, and the two fill each other's idle threads (serial parts of the
-  // certificate's tree passes).
-  const bool certify = contacts && guards_contacts();
-  TetStepBound tets;
+  // Without the contacts guarded, the straight path's tet bound is the test.
+  if (!(contacts && guards_contacts()))
+    return tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step >= 1;
+  // Otherwise the end state is certified exactly (the base against itself left out when the caller
+  // moves the base: a base crossing itself is then the caller's) and its tets' volumes checked
+  // against X0's. Cheaper than continuous collision detection along the path, and what matters is
+  // the frame, not the way to it: a certified frame is a valid start for the next one. Until
+  // session 84 the path's tet bound was asked as well, and a shell turned by more than 143
+  // degrees between frames (its path flattens every tet half-way; the paper's solve is exact
+  // there) was dragged over 20 sub-steps, minutes on 10K vertices. The two run side by side,
+  // filling each other's idle threads (serial parts of the certificate's tree passes).
+  bool kept = false;
   ShellCertificate c;
-  auto bound = [&] {
-    tets = tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets);
-  };
-  auto certify_end = [&] {
-    CertifyOptions options;
-    options.base_self_intersections = moving_base_;
-    c = certifier_.certify(X1.topRows(n_), X1.bottomRows(n_), options);
-  };
-  if (certify) tbb::parallel_invoke(bound, certify_end);
-  else bound();
-  if (!certify) return tets.step >= 1;
-  // With the end certified, the path's bound is not needed: a frame whose straight path flattens
-  // tets on the way but not at its end (a shell turned by more than 143 degrees between frames,
-  // where the paper's solve is exact) was dragged over 20 sub-steps, minutes on 10K vertices.
-  const bool ok = only_unguarded_faults(c) &&
-                  (tets.step >= 1 || tets_keep_volume(rest_tets_.T, X0, X1, parameters_.keep_fraction,
-                                                      &parameters_.skip_tets));
+  tbb::parallel_invoke(
+      [&] { kept = tets_keep_volume(rest_tets_.T, X0, X1, parameters_.keep_fraction, &parameters_.skip_tets); },
+      [&] {
+        CertifyOptions options;
+        options.base_self_intersections = moving_base_;
+        c = certifier_.certify(X1.topRows(n_), X1.bottomRows(n_), options);
+      });
+  const bool ok = kept && only_unguarded_faults(c);
   if (certificate) *certificate = std::move(c);
   return ok;
 }

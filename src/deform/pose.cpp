@@ -159,6 +159,12 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   // of lower energy is returned (GuardOptions::mend_max_rise; as for deformation frames).
   FrameMend mended; // X empty: none kept aside
   std::optional<double> returned_energy; // of the state returned, where already evaluated
+  const auto take_mended = [&] { // the step returns the mend (its guarded iterations counted apart)
+    X = std::move(mended.X);
+    returned_energy = mended.energy;
+    out.method = FrameMethod::Mended;
+    out.drag_start = 0;
+  };
   // Settled by the solve's own step, or by its mend.
   bool settled = s.guard->accepts(start, X, s.guard->guards_contacts(), &out.certificate);
   if (settled) {
@@ -169,10 +175,8 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     mended = s.guard->weighed_mend(X, guard.mend_rings, guard.mend_max_rise, solve, &out.certificate,
                                    [&](const Eigen::MatrixXd& Y) { return energy(Y, P); });
     if (mended.within_rise) {
-      X = std::move(mended.X);
-      out.method = FrameMethod::Mended;
       out.guarded_iterations = mended.iterations;
-      returned_energy = mended.energy;
+      take_mended();
       settled = true;
     }
   }
@@ -202,10 +206,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     const bool reached = outcome.method == FrameMethod::Guarded && !outcome.blocked;
     if (mended.X.rows() > 0 && reached) returned_energy = energy(Y, P);
     if (mended.X.rows() > 0 && (!reached || *returned_energy > mended.energy)) {
-      X = std::move(mended.X);
-      returned_energy = mended.energy;
-      out.method = FrameMethod::Mended;
-      out.drag_start = 0;
+      take_mended();
     } else {
       out.method = outcome.method;
       out.blocked_by_contact = outcome.blocked;
@@ -218,11 +219,8 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     out.drag_start =
         s.guard->accepted_fraction(start, X, s.guard->guards_contacts(), kMinSoftStep, Y, &out.certificate);
     if (mended.X.rows() > 0 && energy(Y, P) > mended.energy) { // a mend above the rise beats a cut
-      X = std::move(mended.X);
-      out.method = FrameMethod::Mended;
       out.guarded_iterations = mended.iterations;
-      out.drag_start = 0;
-      returned_energy = mended.energy;
+      take_mended();
     } else {
       X = std::move(Y);
       out.method = FrameMethod::Bounded;

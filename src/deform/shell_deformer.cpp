@@ -354,7 +354,6 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
     result.stretch = stretch_stats(solver_.rest(), X);
     result.stretch_seconds = seconds_since(stretch_start);
   }
-  result.zero_area_faces = static_cast<int>(zero_area_faces(new_base, rest_.F).size());
   result.thinned_vertices = count_thinned_vertices(X.topRows(n), X.bottomRows(n), rest_.base, rest_.top);
   if (options.certify) {
     const auto certify_start = Clock::now();
@@ -368,6 +367,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
     result.valid = result.certificate.valid();
     if (!result.valid) {
       result.unextrudable_vertices = extrusion_directions(X.topRows(n), rest_.F).unextrudable;
+      result.zero_area_faces = static_cast<int>(zero_area_faces(new_base, rest_.F).size());
       result.rest_faults_only = guard_ && !options.allow_invalid && result.method != FrameMethod::Failed &&
                                 guard_->only_rest_faults(result.certificate);
     }

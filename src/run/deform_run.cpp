@@ -133,10 +133,7 @@ std::vector<std::string> DeformRun::warnings() const {
       most = std::max(most, f.result.zero_area_faces);
     }
   if (!degenerate.empty()) {
-    std::string names;
-    for (std::size_t k = 0; k < degenerate.size() && k < 10; ++k) names += (k ? ", " : " ") + std::to_string(degenerate[k]);
-    if (degenerate.size() > 10) names += ", ...";
-    out.push_back(std::string(degenerate.size() == 1 ? "frame" : "frames") + names +
+    out.push_back(std::string(degenerate.size() == 1 ? "frame " : "frames ") + first_ids(degenerate) +
                   (degenerate.size() == 1 ? " has" : " have") + " base faces of zero area (up to " +
                   std::to_string(most) + " a frame: a collapsed edge or collinear corners): no prism over such a face "
                   "has a valid shape, and the base crossings counted there are those faces touching their neighbours");

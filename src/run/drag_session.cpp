@@ -137,8 +137,7 @@ struct DragSession::Impl {
   PoseStepReport mark_guarded(const ValidStep& v) {
     PoseStepReport& step = state.steps.back();
     step.guarded = true;
-    step.record_certificate(v.certificate);
-    step.valid = v.valid;
+    step.record_certificate(v.certificate); // its `valid` is v.valid
     step.blocked_by_contact = v.blocked_by_contact;
     step.method = v.method;
     step.guarded_iterations = v.guarded_iterations;

@@ -132,8 +132,8 @@ struct FrameResult {
   int substeps = 0;            ///< sub-steps of a guarded frame (0 when the paper's solve was taken)
   int guarded_iterations = 0;  ///< iterations of the guarded solver over all sub-steps
   int thinned_vertices = 0;    ///< count_thinned_vertices of the frame
-  /// base faces of zero area in the frame (zero_area_faces: a collapsed edge or collinear corners;
-  /// no prism over them has a valid shape)
+  /// certified and not valid: base faces of zero area in the frame (zero_area_faces: a collapsed
+  /// edge or collinear corners). Their prisms' tets are flat, so a frame with one is never valid.
   int zero_area_faces = 0;
   /// The exact certificate of the frame (options.certify; counts -1 = not tested otherwise).
   ShellCertificate certificate;
