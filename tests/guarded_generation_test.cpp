@@ -718,3 +718,47 @@ TEST(GuardedGeneration, ASphereInsideASphereKeepsItsTopInsideTheOuterBase) {
   }
   for (int i = half; i < n; ++i) EXPECT_GT((g.shell.top.row(i) - m.V.row(i)).norm(), 0.9 * eta) << "outer " << i;
 }
+
+TEST(GuardedGeneration, APartTooSmallForTheThicknessKeepsTheValidStart) {
+  // A unit sphere and, apart from it, a speck of radius 1e-3 (scan debris), eta 0.03: 30 times
+  // the speck's size. Its prisms have no valid top near them; it keeps the valid start's layer
+  // (repairing it put every pair of its boundary in contact range), the sphere is generated as
+  // alone.
+  const TriMesh big = make_sphere(3, 1.0), speck = make_sphere(2, 1e-3);
+  const int nb = static_cast<int>(big.V.rows()), ns = static_cast<int>(speck.V.rows());
+  TriMesh m;
+  m.V.resize(nb + ns, 3);
+  m.V << big.V, speck.V.rowwise() + Eigen::RowVector3d(3, 0, 0);
+  m.F.resize(big.F.rows() + speck.F.rows(), 3);
+  m.F << big.F, speck.F.array() + nb;
+  const double eta = 0.03;
+  const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta));
+  expect_valid(g);
+  std::vector<int> speck_ids(ns);
+  std::iota(speck_ids.begin(), speck_ids.end(), nb);
+  EXPECT_EQ(g.guard.small_part_vertices, speck_ids);
+  EXPECT_DOUBLE_EQ(g.guard.small_part_radius, eta / 10);
+  for (int v : speck_ids) EXPECT_EQ(g.shell.top.row(v), g.guard.start.top.row(v)) << v;
+  EXPECT_EQ(g.guard.repaired_vertices, 0); // the sphere's paper top is valid
+  EXPECT_TRUE(g.guard.start.scale.tail(ns).minCoeff() < 1); // the start had to pull it in
+  for (int v = 0; v < nb; ++v) EXPECT_GT((g.shell.top.row(v) - m.V.row(v)).norm(), 0.9 * eta) << v;
+  const std::vector<std::string> warnings = generate_warnings(g);
+  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [&](const std::string& w) {
+    return w.find(std::to_string(ns) + " base vertices (" + std::to_string(nb)) == 0 &&
+           w.find("smaller than the thickness allows") != std::string::npos;
+  }));
+  EXPECT_EQ(generate_report(g, "in.obj")["guard"]["small_part_vertices"], ns);
+
+  // Held only below eta / small_part_ratio; 0 holds nothing.
+  GenerateOptions o = options_for(ShellMethod::Rigid, eta);
+  o.guard.small_part_ratio = 20; // 0.03 / 20 = 1.5e-3 > 1e-3: held
+  EXPECT_EQ(generate_shell(m.V, m.F, o).guard.small_part_vertices.size(), static_cast<std::size_t>(ns));
+  o.guard.small_part_ratio = 40; // 0.03 / 40 = 7.5e-4 < 1e-3: not held, so repaired (slowly: a few
+  o.guard.repair_iterations = 2;  // iterations show it, and that it stays valid)
+  const GenerateResult free_speck = generate_shell(m.V, m.F, o);
+  EXPECT_TRUE(free_speck.guard.small_part_vertices.empty());
+  EXPECT_GT(free_speck.guard.repaired_vertices, 0);
+  expect_valid(free_speck);
+  o.guard.small_part_ratio = 0;
+  EXPECT_TRUE(generate_shell(m.V, m.F, o).guard.small_part_vertices.empty());
+}

@@ -9,6 +9,7 @@
 #include "geometry/faces_touching.h"
 #include "guard/lift_thin_tops.h"
 #include "guard/shell_part.h"
+#include "guard/small_parts.h"
 #include "guard/valid_start_with.h"
 
 #include <Eigen/Geometry>
@@ -159,6 +160,7 @@ std::vector<char> liftable_vertices(const GuardedShell& g, const ShellBoundary& 
   std::vector<char> movable(n, 1);
   for (int v : g.directions.unextrudable) movable[v] = 0;
   for (int v : g.blocked_rim_vertices) movable[v] = 0;
+  for (int v : g.small_part_vertices) movable[v] = 0;
   const Eigen::MatrixXi& T = checker.tets();
   for (int t = 0; t < T.rows(); ++t)
     if (g.parameters.skip_tets[t])
@@ -268,6 +270,7 @@ void check_guard_options(const GuardOptions& o) {
   require(o.start_margin > 0 && o.start_margin <= 1, "start_margin", "in (0, 1]");
   require(o.unextrudable_thickness > 0 && o.unextrudable_thickness <= 1, "unextrudable_thickness", "in (0, 1]");
   require(o.repair_rings >= 0, "repair_rings", ">= 0");
+  require(o.small_part_ratio >= 0 && std::isfinite(o.small_part_ratio), "small_part_ratio", ">= 0");
   require(o.repair_min_scale >= 0 && o.repair_min_scale < 1, "repair_min_scale", "in [0, 1)");
   require(o.repair_iterations >= -1, "repair_iterations", ">= -1");
   require(o.repair_budget >= 0 && std::isfinite(o.repair_budget), "repair_budget", ">= 0");
@@ -425,6 +428,12 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   for (int v : g.directions.unextrudable) in_region[v] = 0;
   grow_by_rings(F, options.repair_rings, in_region);
   for (int v : g.directions.unextrudable) in_region[v] = 0;
+  // Parts too small for the thickness keep the start (rings grow within a part only).
+  if (options.small_part_ratio > 0) {
+    g.small_part_radius = eta / options.small_part_ratio;
+    g.small_part_vertices = detail::small_part_vertices(V, F, g.small_part_radius);
+  }
+  for (int v : g.small_part_vertices) in_region[v] = 0;
   // Top vertices the start had to pull nearly onto their base stay there: their pairs with the
   // base triangles around them can be closer than the contact step bound resolves in floating
   // point (it then returns 0 and the whole repair stands still), and their violations came from

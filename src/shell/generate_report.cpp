@@ -79,6 +79,7 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                   {"lift_candidates", g.lift.candidates},
                   {"lift_moves", g.lift.moves},
                   {"held_vertices", g.held_vertices},
+                  {"small_part_vertices", g.small_part_vertices.size()},
                   {"lift_only", g.lift_only},
                   {"start_unmended_tets", g.start.inverted_tets.size()},
                   {"start_unmended_pairs", g.start.intersections.size()},
@@ -114,6 +115,11 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
                 "; no direction sees all their faces from the positive side, or on the rim their side walls "
                 "cut through their own faces): prisms around them may stay inverted");
   }
+  if (r.guarded && !r.guard.small_part_vertices.empty())
+    w.push_back(std::to_string(r.guard.small_part_vertices.size()) + " base vertices (" +
+                first_ids(r.guard.small_part_vertices) + ") lie on parts of the base smaller than the thickness allows (bounding radius below " +
+                format("%.3g", r.guard.small_part_radius) + "): their layer is the valid start's, thinner than asked; "
+                "prisms many times a part's own size have no valid top near them");
   const ValidStart& start = r.guard.start;
   const bool unmended = r.guarded && (!start.inverted_tets.empty() || !start.intersections.empty());
   if (unmended) {

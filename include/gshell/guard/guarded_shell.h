@@ -94,6 +94,14 @@ struct GuardOptions {
   /// The guarded solver moves the top vertices the start pulled in and this many rings of
   /// neighbours around them; the rest keeps the paper's result (>= 0).
   int repair_rings = 3;
+  /// A connected part of the base whose bounding radius is below eta / small_part_ratio keeps the
+  /// valid start's top: it is neither repaired nor lifted (GuardedShell::small_part_vertices).
+  /// Prisms many times a part's own size have no valid top near them, and a repair of such a part
+  /// has all its boundary pairs in contact range (CGAL's elephant beside a speck of radius 1e-4:
+  /// 10-20 s per repair iteration -> the whole generation in 0.4 s). The default is the ratio
+  /// generation refuses for a whole mesh (kMaxThicknessRatio), so a single-part mesh is never
+  /// held. >= 0; 0: no part is held.
+  double small_part_ratio = 10;
   /// Top vertices the start pulled below this fraction of their wanted offset are held where the
   /// start put them (their pairs with the base nearby are too close for the contact step bound to
   /// resolve in floating point), in [0, 1).
@@ -183,6 +191,10 @@ struct GuardedShell {
   int repaired_vertices = 0;           ///< top vertices the guarded solver moved
   /// Top vertices of the repair's region held where the start put them (GuardOptions::repair_min_scale).
   int held_vertices = 0;
+  /// Base vertices of the parts too small for the thickness (GuardOptions::small_part_ratio),
+  /// ascending: their tops are the valid start's.
+  std::vector<int> small_part_vertices;
+  double small_part_radius = 0; ///< eta / small_part_ratio (model units; 0: no part is held)
   /// The top is the start lifted with no repair before (GuardOptions::try_lift_only): it ended
   /// at the lower energy. repaired_vertices, solve and relax are then those of no repair.
   bool lift_only = false;
