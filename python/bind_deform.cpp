@@ -279,23 +279,33 @@ Returns:
       .def("__len__", [](const EmbeddingObject& e) { return e.embedding.size(); }, "Number of embedded points.");
 
   m.def("embed",
-        [](const ShellObject& shell, const ArrayArg& points) {
+        [](const ShellObject& shell, const ArrayArg& points, const py::object& progress) {
           const Eigen::MatrixXd P = to_positions(points, "points");
           EmbeddingObject e;
+          ProgressWatch watch(progress, "gshell.embed");
           {
             py::gil_scoped_release release;
-            e.embedding = embed_points(shell.shell.vertices(), shell.tets, P);
+            e.embedding = embed_points(shell.shell.vertices(), shell.tets, P, [&watch](int located, int total) {
+              nlohmann::ordered_json update;
+              update["located"] = located;
+              update["points"] = total;
+              watch.report(update);
+            });
           }
           e.shell_vertices = 2 * shell.shell.num_base_vertices();
           return e;
         },
-        py::arg("shell"), py::arg("points"),
+        py::arg("shell"), py::arg("points"), py::arg("progress") = py::none(),
         R"(Embed points in a rest shell: each is stored as (tet, barycentric coordinates).
 
 Args:
     shell: the rest Shell.
     points: float array (P, 3), every |x| < 1e50. Points outside the shell are bound to the
         nearest tet (see Embedding.outside).
+    progress: None (default), True to print a line on sys.stderr after each block of 65,536
+        points, or a callable called then with {"located", "points"} (points located so far, all
+        points). Ctrl-C (KeyboardInterrupt) ends the call after the block under way, as does an
+        exception the callable raises.
 
 Returns:
     Embedding; .carry(deformed shell) gives the points' new positions.

@@ -1117,6 +1117,24 @@ class ProgressTest(TempDirTest):
         np.testing.assert_array_equal(base, fresh_base)
         np.testing.assert_array_equal(top, fresh_top)
 
+    def test_embed_reports_each_block_and_ends_on_ctrl_c(self):
+        import _thread
+        rng = np.random.default_rng(3)
+        points = self.shell.base[rng.integers(0, len(self.shell.base), 150000)] * 1.01
+        updates = []
+        embedded = gshell.embed(self.shell, points, progress=updates.append)
+        self.assertEqual([u["located"] for u in updates], [65536, 131072, 150000])
+        self.assertTrue(all(u["points"] == 150000 for u in updates))
+        np.testing.assert_array_equal(embedded.bary, gshell.embed(self.shell, points).bary)
+        calls = []
+
+        def interrupt_at_first(update):
+            calls.append(update)
+            _thread.interrupt_main()  # as Ctrl-C does
+        with self.assertRaises(KeyboardInterrupt):
+            gshell.embed(self.shell, points, progress=interrupt_at_first)
+        self.assertEqual(len(calls), 1)
+
     def test_ctrl_c_ends_a_call_without_progress(self):
         # A thread presses Ctrl-C once the deform has written a frame into its staging folder; the
         # call must end there: no output folder, nothing left beside it. (A call that ignored the

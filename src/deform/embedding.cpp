@@ -5,11 +5,13 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <string>
 
 namespace gshell {
 
-Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, const Eigen::MatrixXd& P) {
+Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, const Eigen::MatrixXd& P,
+                       const EmbedProgress& progress) {
   if (P.cols() != 3) throw InputError("embedded points must have 3 coordinates");
   for (Eigen::Index p = 0; p < P.rows(); ++p)
     if (!P.row(p).allFinite())
@@ -24,14 +26,20 @@ Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, 
   e.bary.resize(n, 4);
   std::vector<char> is_outside(n, 0);
   Eigen::VectorXd distance = Eigen::VectorXd::Zero(n);
-  tbb::parallel_for(0, n, [&](int p) {
-    const TetHit hit = locator.locate(P.row(p).transpose());
-    e.tet(p) = hit.tet;
-    e.vertices.row(p) = T.row(hit.tet);
-    e.bary.row(p) = hit.bary.transpose();
-    is_outside[p] = hit.inside ? 0 : 1;
-    distance(p) = hit.distance;
-  });
+  // 2M points around bunny00's shell took 5.7 s: blocks of 2^16 report about every 0.2 s.
+  constexpr int kBlock = 1 << 16;
+  for (int begin = 0; begin < n; begin += kBlock) {
+    const int end = std::min(n, begin + kBlock);
+    tbb::parallel_for(begin, end, [&](int p) {
+      const TetHit hit = locator.locate(P.row(p).transpose());
+      e.tet(p) = hit.tet;
+      e.vertices.row(p) = T.row(hit.tet);
+      e.bary.row(p) = hit.bary.transpose();
+      is_outside[p] = hit.inside ? 0 : 1;
+      distance(p) = hit.distance;
+    });
+    if (progress) progress(end, n);
+  }
   for (int p = 0; p < n; ++p)
     if (is_outside[p]) {
       e.outside.push_back(p);
