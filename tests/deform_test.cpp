@@ -6,6 +6,7 @@
 #include <gshell/format_number.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
@@ -111,6 +112,31 @@ TEST(ShellDeformer, InvertedRestTetsTakeTheirIdealShape) {
   // A sound shell keeps all of its own tets.
   deformation_rest_tets(flat_plane_shell(6, 0.1), &replaced);
   EXPECT_EQ(replaced, 0);
+}
+
+TEST(ShellDeformer, APartTooSmallForTheThicknessKeepsItsOwnThinRestTets) {
+  // Generation leaves such a part (a speck of radius 1e-3 at eta 0.03) with the valid start's thin
+  // layer, its tets far below kMinRestVolumeRatio of eta's prisms yet proper. Replaced by those
+  // prisms, a frame as still as the rest would push its top out to eta, into itself.
+  const TriMesh m = test::sphere_with_speck(1e-3);
+  GenerateOptions o;
+  o.thickness = 0.03;
+  const GenerateResult g = generate_shell(m.V, m.F, o);
+  ASSERT_FALSE(g.guard.small_part_vertices.empty());
+  int replaced = -1;
+  deformation_rest_tets(g.shell, &replaced);
+  EXPECT_EQ(replaced, 0);
+  ShellDeformer deformer(g.shell);
+  const FrameResult still = deformer.solve(g.shell.base, DeformOptions{});
+  EXPECT_TRUE(still.valid);
+  EXPECT_EQ(still.guarded_iterations, 0);
+  EXPECT_LT((still.top - g.shell.top).cwiseAbs().maxCoeff(), 1e-9 * o.thickness);
+  // Its flat or inverted tets are still replaced: a speck's top vertex pushed through its base.
+  Shell broken = g.shell;
+  const int v = g.guard.small_part_vertices.front();
+  broken.top.row(v) = broken.base.row(v) - 0.5 * (broken.top.row(v) - broken.base.row(v));
+  deformation_rest_tets(broken, &replaced);
+  EXPECT_GT(replaced, 0);
 }
 
 TEST(ShellDeformer, RestTetsAreTheShellsOwnOrTheirNormalPrismsTet) {

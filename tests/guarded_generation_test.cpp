@@ -724,13 +724,8 @@ TEST(GuardedGeneration, APartTooSmallForTheThicknessKeepsTheValidStart) {
   // the speck's size. Its prisms have no valid top near them; it keeps the valid start's layer
   // (repairing it put every pair of its boundary in contact range), the sphere is generated as
   // alone.
-  const TriMesh big = make_sphere(3, 1.0), speck = make_sphere(2, 1e-3);
-  const int nb = static_cast<int>(big.V.rows()), ns = static_cast<int>(speck.V.rows());
-  TriMesh m;
-  m.V.resize(nb + ns, 3);
-  m.V << big.V, speck.V.rowwise() + Eigen::RowVector3d(3, 0, 0);
-  m.F.resize(big.F.rows() + speck.F.rows(), 3);
-  m.F << big.F, speck.F.array() + nb;
+  const TriMesh m = test::sphere_with_speck(1e-3);
+  const int nb = 642, ns = static_cast<int>(m.V.rows()) - nb;
   const double eta = 0.03;
   const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta));
   expect_valid(g);

@@ -14,6 +14,8 @@
 #include <gshell/shell/ideal_prisms.h>
 #include <gshell/shell/prism_tets.h>
 
+#include "guard/small_parts.h"
+
 #include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -53,6 +55,15 @@ RestTets deformation_rest_tets(const Shell& shell, int* replaced) {
   // Row-major copies: a tet reads whole points, at random places in millions of them.
   using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
   const Points base = shell.base;
+  // Parts of the base too small for the thickness kept the valid start's thin layer in generation
+  // (GuardOptions::small_part_ratio): their tets, however thin against eta, are their own proper
+  // shapes. Replaced, a frame as still as the rest pushed such a part's top out to eta, into
+  // itself, and every frame was a guarded one: CGAL's elephant beside a speck of radius 1e-4, 60 s
+  // for the identity frame. Only a flat or inverted one of theirs is replaced.
+  std::vector<char> on_small_part(n, 0);
+  const double small_part_ratio = GuardOptions{}.small_part_ratio;
+  if (small_part_ratio > 0)
+    for (int v : detail::small_part_vertices(shell.base, shell.F, eta / small_part_ratio)) on_small_part[v] = 1;
   // The positions form: the rest shell's own tets need no matrix each (1.1 GB at 15.7M tets), only
   // the few replaced by their ideal shape. The ideal corners are normal_prisms's: a base vertex
   // itself, a top vertex eta along the unit normal of the tet's face above its base vertex.
@@ -66,7 +77,9 @@ RestTets deformation_rest_tets(const Shell& shell, int* replaced) {
           const int v = ids[k];
           ideal.row(k) = v < n ? base.row(v) : Eigen::RowVector3d(base.row(v - n) + lift);
         }
-        if (!(six_volume(U) < kMinRestVolumeRatio * six_volume(ideal))) return false;
+        const double volume = six_volume(U);
+        const bool flat = on_small_part[shell.F(f, 0)] ? volume <= 0 : volume < kMinRestVolumeRatio * six_volume(ideal);
+        if (!flat) return false;
         U = ideal;
         return true;
       });

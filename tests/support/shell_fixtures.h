@@ -73,6 +73,19 @@ inline TriMesh nested_spheres(int level, double outer) {
   return m;
 }
 
+/// A unit builtin:sphere:3 (vertices 0..641) and, centred at (3, 0, 0), a builtin:sphere:2 of
+/// radius `speck` (vertices 642..803): scan debris beside a model.
+inline TriMesh sphere_with_speck(double speck) {
+  const TriMesh big = make_sphere(3, 1.0), small = make_sphere(2, speck);
+  const int nb = static_cast<int>(big.V.rows()), ns = static_cast<int>(small.V.rows());
+  TriMesh m;
+  m.V.resize(nb + ns, 3);
+  m.V << big.V, small.V.rowwise() + Eigen::RowVector3d(3, 0, 0);
+  m.F.resize(big.F.rows() + small.F.rows(), 3);
+  m.F << big.F, (small.F.array() + nb).matrix();
+  return m;
+}
+
 /// A z = 0 grid over [-1, 1]^2 (builtin:plane:RES, normals +z) folded about the y axis into a V
 /// of opening angle `degrees`, both halves' normals facing into the V.
 inline TriMesh folded_plane(int res, double degrees) {
