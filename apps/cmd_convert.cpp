@@ -25,7 +25,7 @@ void add_convert_command(CLI::App& app) {
       "convert", "Convert a surface mesh between formats (read: .obj .off .ply .stl or builtin:NAME; "
                  "write: .obj .off .ply). Vertex order is kept; the input is validated first. Positions, "
                  "faces (polygons split into triangles) and, OBJ to OBJ, texture coordinates are kept; "
-                 "colors and normals are not.");
+                 "colors, normals and other properties are not (a warning names those the input held).");
   cmd->add_option("input", opt->input, "Input mesh file or builtin:NAME[:RES]")->required();
   cmd->add_option("output", opt->output, "Output mesh file (.obj, .off or .ply)")->required();
   cmd->add_flag("--ascii", opt->ascii, "Write PLY as ASCII instead of binary little endian");
@@ -36,8 +36,8 @@ void add_convert_command(CLI::App& app) {
     using namespace gshell;
     // Over its own input is allowed (the file is written whole, then renamed), not over a shell's.
     cli::check_output_file(opt->output, "", {});
-    std::vector<std::string> warnings;
-    TriMesh mesh = load_mesh(opt->input, opt->weld ? nullptr : &warnings);
+    std::vector<std::string> warnings, skipped;
+    TriMesh mesh = load_mesh(opt->input, opt->weld ? nullptr : &warnings, &skipped);
     cli::Progress progress("convert");
     if (opt->weld) {
       int merged = 0;
@@ -49,6 +49,13 @@ void add_convert_command(CLI::App& app) {
     if (mesh.has_uv() && cli::lower_extension(opt->output) != ".obj")
       warnings.push_back(opt->input + ": its texture coordinates are not written to " + opt->output +
                          " (only OBJ holds them)");
+    // What no TriMesh holds is lost whatever the output: said too.
+    if (!skipped.empty()) {
+      std::string what = skipped[0];
+      for (std::size_t k = 1; k < skipped.size(); ++k) what += (k + 1 == skipped.size() ? " and " : ", ") + skipped[k];
+      warnings.push_back(opt->input + ": its " + what + " are not written to " + opt->output +
+                         " (convert keeps positions, faces and, OBJ to OBJ, texture coordinates)");
+    }
     cli::print_warnings("convert", warnings);
     write_mesh(opt->output, mesh, {}, opt->ascii);
     progress.line("wrote " + opt->output + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +

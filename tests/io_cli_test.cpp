@@ -44,6 +44,16 @@ TEST(ConvertCli, ConvertsBetweenAllFormatsKeepingTheMesh) {
   EXPECT_TRUE(uv.has_uv() && uv.UV == torus.UV && uv.FUV == torus.FUV);
 }
 
+TEST(ConvertCli, SaysWhichDataOfTheInputItDoesNotWrite) {
+  TempDir dir;
+  write_text(dir.file("c.off"), "COFF\n3 1 0\n0 0 0 1 0 0 1\n1 0 0 1 0 0 1\n0 1 0 1 0 0 1\n3 0 1 2 255 0 0\n");
+  const auto r = run_cli("convert " + shell_quoted(dir.file("c.off")) + " " + shell_quoted(dir.file("c.obj")));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("c.off: its vertex colors and face colors are not written to"), std::string::npos) << r.err;
+  const auto plain = run_cli("convert builtin:sphere:1 " + shell_quoted(dir.file("s.off")));
+  EXPECT_EQ(plain.err.find("not written"), std::string::npos) << plain.err;
+}
+
 TEST(ConvertCli, AcceptsBuiltinInputAndQuietMode) {
   TempDir dir;
   const auto r = run_cli("convert builtin:sphere:2 " + shell_quoted(dir.file("s.ply")) + " --quiet");

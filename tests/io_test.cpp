@@ -456,6 +456,43 @@ TEST(IoPly, ReadsAsciiWithExtraElementsAndProperties) {
   expect_square(read_text_mesh(dir, "a.ply", header + body));
 }
 
+TEST(IoRead, NamesTheDataItDoesNotKeepOnceEach) {
+  TempDir dir;
+  auto skipped = [&](const std::string& name, const std::string& content) {
+    write_text(dir.file(name), content);
+    std::vector<std::string> names;
+    read_mesh(dir.file(name), nullptr, &names);
+    return names;
+  };
+  using Names = std::vector<std::string>;
+  const std::string tri = "3 0 1 2";
+  EXPECT_EQ(skipped("plain.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n" + tri + "\n"), Names{});
+  EXPECT_EQ(skipped("c.off", "COFF\n3 1 0\n0 0 0 1 0 0 1\n1 0 0 1 0 0 1\n0 1 0 1 0 0 1\n" + tri + " 255 0 0\n"),
+            (Names{"vertex colors", "face colors"}));
+  EXPECT_EQ(skipped("cn.off", "CNOFF\n3 1 0\n0 0 0 0 0 1 1 1 1\n1 0 0 0 0 1 1 1 1\n0 1 0 0 0 1 1 1 1\n" + tri + "\n"),
+            Names{"normals and vertex colors"});
+  // OBJ: a fourth value is a weight, three or more a color.
+  EXPECT_EQ(skipped("w.obj", "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n"), Names{});
+  EXPECT_EQ(skipped("c.obj", "mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0 1 0 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"),
+            (Names{"materials", "vertex colors", "normals"}));
+  const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                             "property float z\nproperty float nx\nelement face 1\n"
+                             "property list uchar int vertex_indices\nproperty uchar red\n";
+  EXPECT_EQ(skipped("a.ply", header + "element edge 0\nproperty int a\nend_header\n0 0 0 1\n1 0 0 1\n0 1 0 1\n3 0 1 2 9\n"),
+            (Names{"vertex property 'nx'", "face property 'red'"}));
+  EXPECT_EQ(skipped("b.ply", header + "element edge 1\nproperty int a\nend_header\n0 0 0 1\n1 0 0 1\n0 1 0 1\n3 0 1 2 9\n5\n"),
+            (Names{"vertex property 'nx'", "face property 'red'", "'edge' elements"}));
+  // At most 16 names, however many properties a header lists.
+  std::string many = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+  for (int k = 0; k < 40; ++k) many += "property float p" + std::to_string(k) + "\n";
+  many += "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string zeros;
+  for (int k = 0; k < 40; ++k) zeros += " 0";
+  many += "0 0 0" + zeros + "\n1 0 0" + zeros + "\n0 1 0" + zeros + "\n";
+  many += tri + "\n";
+  EXPECT_EQ(skipped("many.ply", many).size(), 16u);
+}
+
 TEST(IoPly, MalformedFilesAreErrors) {
   TempDir dir;
   const std::string good = binary_ply(false, false, "uchar", "int");

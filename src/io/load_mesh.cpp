@@ -6,13 +6,14 @@
 
 namespace gshell {
 
-TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings) {
-  return is_builtin_spec(input) ? make_builtin(input) : read_mesh(input, warnings);
+TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings,
+                             std::vector<std::string>* skipped) {
+  return is_builtin_spec(input) ? make_builtin(input) : read_mesh(input, warnings, skipped);
 }
 
-TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings) {
+TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings, std::vector<std::string>* skipped) {
   std::vector<std::string> read_warnings;
-  TriMesh mesh = read_mesh_or_builtin(input, &read_warnings);
+  TriMesh mesh = read_mesh_or_builtin(input, &read_warnings, skipped);
   std::vector<std::string> found = require_valid_mesh(mesh, input);
   if (warnings) {
     *warnings = std::move(read_warnings);

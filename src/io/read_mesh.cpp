@@ -26,19 +26,16 @@
 
 namespace gshell {
 
-TriMesh read_mesh(const std::string& path, std::vector<std::string>* warnings) {
+TriMesh read_mesh(const std::string& path, std::vector<std::string>* warnings, std::vector<std::string>* skipped) {
   const std::string ext = io_detail::lower_extension(path);
-  using Reader = TriMesh (*)(const std::string&, std::string_view);
-  Reader reader = nullptr;
-  if (ext == "obj") return io_detail::read_obj(path, io_detail::FileBytes(path), warnings);
-  if (ext == "off") reader = io_detail::read_off;
-  else if (ext == "ply") reader = io_detail::read_ply;
-  else if (ext == "stl") reader = io_detail::read_stl;
-  else
+  if (ext != "obj" && ext != "off" && ext != "ply" && ext != "stl")
     throw InputError(with_file(path, "unknown mesh format '" + (ext.empty() ? std::string("(no extension)") : "." + ext) +
                                          "' (supported: .obj .off .ply .stl)"));
   const io_detail::FileBytes bytes(path);
-  return reader(path, bytes);
+  if (ext == "obj") return io_detail::read_obj(path, bytes, warnings, skipped);
+  if (ext == "off") return io_detail::read_off(path, bytes, skipped);
+  if (ext == "ply") return io_detail::read_ply(path, bytes, skipped);
+  return io_detail::read_stl(path, bytes);
 }
 
 } // namespace gshell

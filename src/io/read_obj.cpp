@@ -65,7 +65,9 @@ Corner parse_corner(std::string_view token, long long num_v, long long num_vt, c
 
 } // namespace
 
-TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<std::string>* warnings) {
+TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<std::string>* warnings,
+                 std::vector<std::string>* skipped_names) {
+  SkippedData skipped(skipped_names);
   TextScanner s(bytes, path, '#');
   s.allow_line_continuation();
   SurfaceBuilder b;
@@ -86,8 +88,10 @@ TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<st
         if (t.empty()) s.fail("vertex with fewer than 3 coordinates");
         x = s.to_double(t, "a vertex coordinate");
       }
-      for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line())
+      int extra = 0; // one: a weight (rational curves); three or more: a color (a common extension)
+      for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line(), ++extra)
         s.to_double(t, "a vertex weight or color");
+      if (extra >= 3) skipped.add("vertex colors");
       if (b.num_vertices() >= max_element_count) s.fail("too many vertices");
       b.xyz.insert(b.xyz.end(), p.begin(), p.end());
     } else if (key == "vt") {
@@ -124,6 +128,8 @@ TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<st
       triangle_lines.insert(triangle_lines.end(), (b.corners.size() - before) / 3, s.line());
       if (b.corners.size() / 3 >= static_cast<std::size_t>(max_element_count)) s.fail("too many faces");
     } else if (is_ignored_statement(key)) {
+      if (key == "vn") skipped.add("normals");
+      else if (key == "usemtl" || key == "mtllib") skipped.add("materials");
       s.skip_rest_of_line();
     } else {
       s.fail("unknown OBJ statement '" + std::string(key.substr(0, 40)) + "' (not an OBJ file?)");

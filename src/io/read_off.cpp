@@ -30,12 +30,23 @@ bool is_off_keyword(std::string_view key) {
 
 } // namespace
 
-TriMesh read_off(const std::string& path, std::string_view bytes) {
+TriMesh read_off(const std::string& path, std::string_view bytes, std::vector<std::string>* skipped_names) {
+  SkippedData skipped(skipped_names);
   TextScanner s(bytes, path, '#');
   std::string_view token = s.next_token();
   if (token.empty()) s.fail_without_line("empty file, expected an OFF header");
+  // What the values after a vertex's coordinates are, by the header's prefix ([ST][C][N]OFF).
+  std::string vertex_extras = "vertex colors";
   if (is_off_keyword(token)) {
     const std::string_view key = token;
+    std::vector<std::string> kinds;
+    if (key.find("N") != std::string_view::npos) kinds.push_back("normals");
+    if (key.find("C") != std::string_view::npos) kinds.push_back("vertex colors");
+    if (key.find("ST") != std::string_view::npos) kinds.push_back("texture coordinates");
+    if (!kinds.empty()) {
+      vertex_extras = kinds[0];
+      for (std::size_t k = 1; k < kinds.size(); ++k) vertex_extras += (k + 1 == kinds.size() ? " and " : ", ") + kinds[k];
+    }
     if (key.find('4') != std::string_view::npos || key.find('n') != std::string_view::npos)
       s.fail("'" + std::string(key) + "' (4D/nD OFF) is not supported, only 3D surfaces");
     token = s.next_token();
@@ -72,8 +83,10 @@ TriMesh read_off(const std::string& path, std::string_view bytes) {
       if (t.empty()) s.fail("vertex " + std::to_string(i) + " has fewer than 3 coordinates");
       b.xyz.push_back(s.to_double(t, "a vertex coordinate"));
     }
-    for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line())
+    for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line()) {
       s.to_double(t, "a vertex normal, color or texture value");
+      skipped.add(vertex_extras);
+    }
   }
   std::vector<int> polygon;
   for (long long f = 0; f < nf; ++f) {
@@ -94,8 +107,10 @@ TriMesh read_off(const std::string& path, std::string_view bytes) {
                std::to_string(nv) + " vertices");
       polygon.push_back(static_cast<int>(id));
     }
-    for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line())
+    for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line()) {
       s.to_double(t, "a face color value");
+      skipped.add("face colors");
+    }
     SurfaceBuilder::add_fan(b.corners, polygon);
     if (b.corners.size() / 3 >= static_cast<std::size_t>(max_element_count)) s.fail("too many faces");
   }

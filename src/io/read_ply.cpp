@@ -355,8 +355,21 @@ TriMesh read_body(Body& body, const Header& h, const std::string& path) {
 
 } // namespace
 
-TriMesh read_ply(const std::string& path, std::string_view bytes) {
+TriMesh read_ply(const std::string& path, std::string_view bytes, std::vector<std::string>* skipped_names) {
   const Header h = parse_header(path, bytes);
+  SkippedData skipped(skipped_names);
+  for (const Element& e : h.elements) {
+    if (e.count == 0) continue;
+    const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
+    if (!is_vertex && !is_face) {
+      skipped.add("'" + e.name + "' elements");
+      continue;
+    }
+    for (const Property& p : e.properties)
+      if (!(is_vertex && !p.is_list && (p.name == "x" || p.name == "y" || p.name == "z")) &&
+          !(is_face && p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index")))
+        skipped.add(e.name + " property '" + p.name + "'");
+  }
   if (h.encoding == Encoding::Ascii) {
     AsciiBody body(path, bytes, h.body_offset, h.body_line);
     TriMesh mesh = read_body(body, h, path);

@@ -8,14 +8,17 @@ namespace gshell {
 /// The one entry point for surface inputs of subcommands: a `builtin:...` spec or a file path.
 /// The result is validated (require_valid_mesh); `warnings` (if not null) receives what reading
 /// (read_mesh) and the validation warn of, one line per kind, each naming the input.
+/// `skipped`: as read_mesh's (nothing for a builtin).
 /// \throws InputError naming the input when it cannot be read (read_mesh, make_builtin) or is
 ///         not a valid mesh (require_valid_mesh).
-TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings = nullptr);
+TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings = nullptr,
+                  std::vector<std::string>* skipped = nullptr);
 
 /// The same input, read (make_builtin or read_mesh, whose warnings go to `warnings`) but not
 /// validated as a surface: for meshes checked for their own use (deformation frames, embedded
 /// detail, a shell's top in metrics).
 /// \throws InputError naming the input when it cannot be read.
-TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings = nullptr);
+TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings = nullptr,
+                             std::vector<std::string>* skipped = nullptr);
 
 } // namespace gshell
