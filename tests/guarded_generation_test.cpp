@@ -737,12 +737,29 @@ TEST(GuardedGeneration, APartTooSmallForTheThicknessKeepsTheValidStart) {
   EXPECT_EQ(g.guard.repaired_vertices, 0); // the sphere's paper top is valid
   EXPECT_TRUE(g.guard.start.scale.tail(ns).minCoeff() < 1); // the start had to pull it in
   for (int v = 0; v < nb; ++v) EXPECT_GT((g.shell.top.row(v) - m.V.row(v)).norm(), 0.9 * eta) << v;
-  const std::vector<std::string> warnings = generate_warnings(g);
-  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [&](const std::string& w) {
-    return w.find(std::to_string(ns) + " base vertices (" + std::to_string(nb)) == 0 &&
-           w.find("smaller than the thickness allows") != std::string::npos;
-  }));
-  EXPECT_EQ(generate_report(g, "in.obj")["guard"]["small_part_vertices"], ns);
+  auto small_part_warning = [](const GenerateResult& r) {
+    const std::vector<std::string> warnings = generate_warnings(r);
+    const auto w = std::find_if(warnings.begin(), warnings.end(), [](const std::string& line) {
+      return line.find("thinner than asked on parts of the base smaller than the thickness allows") != std::string::npos;
+    });
+    return w == warnings.end() ? std::string() : *w;
+  };
+  int thinned = 0;
+  for (int v : speck_ids) thinned += g.metrics.vertex_thickness[v] < kThinnedFraction;
+  ASSERT_GT(thinned, 0);
+  EXPECT_EQ(small_part_warning(g).find(std::to_string(thinned) + " top vertices (" + std::to_string(nb)), 0u)
+      << small_part_warning(g);
+  EXPECT_EQ(generate_report(g, "in.obj")["guard"]["small_part_vertices"], speck_ids);
+  // A part held whose start keeps the whole thickness is not said to be thinner: one small
+  // triangle (flat, its prism valid at any height).
+  TriMesh with_triangle = test::sphere_with_speck(1e-3);
+  with_triangle.V.conservativeResize(nb + 3, 3);
+  with_triangle.V.bottomRows(3) << 3, 0, 0, 3.002, 0, 0, 3, 0.002, 0;
+  with_triangle.F.conservativeResize(make_sphere(3, 1.0).F.rows() + 1, 3);
+  with_triangle.F.bottomRows(1) << nb, nb + 1, nb + 2;
+  const GenerateResult t = generate_shell(with_triangle.V, with_triangle.F, options_for(ShellMethod::Rigid, eta));
+  EXPECT_EQ(t.guard.small_part_vertices, (std::vector<int>{nb, nb + 1, nb + 2}));
+  EXPECT_EQ(small_part_warning(t), "");
 
   // Held only below eta / small_part_ratio; 0 holds nothing.
   GenerateOptions o = options_for(ShellMethod::Rigid, eta);

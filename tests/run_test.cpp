@@ -192,6 +192,25 @@ TEST(StagedFolder, WriteErrorsNameTheDestinationNotTheHiddenFolder) {
             dir + "/a and " + dir + "/b, not " + tmp.path().string());
 }
 
+TEST(StagedFolder, AFileWhereAFolderIsWantedIsNamedAsSuch) {
+  test::TempDir tmp;
+  test::write_text(tmp.file("afile"), "x");
+  auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message([&] { check_output_folder(tmp.file("afile") + "/sub", {}); }),
+            tmp.file("afile") + "/sub: parent " + tmp.file("afile") + " is not a folder");
+  EXPECT_EQ(message([&] { check_output_folder(tmp.file("none") + "/sub", {}); }),
+            tmp.file("none") + "/sub: parent folder does not exist");
+  EXPECT_NE(message([&] { read_shell_folder(tmp.file("afile")); }).find("not a shell folder (a file;"), std::string::npos);
+  EXPECT_NE(message([&] { read_shell_folder(tmp.file("none")); }).find("(no such directory)"), std::string::npos);
+}
+
 TEST(GenerateRun, OptionsReportAndFolder) {
   GenerateRunOptions o;
   EXPECT_THROW(o.check(), InputError); // no thickness

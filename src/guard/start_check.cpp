@@ -81,17 +81,39 @@ const Eigen::MatrixXi& StartChecker::tets() const {
 
 StartChecker::~StartChecker() = default;
 
-std::vector<int> StartChecker::parts_to_thin(const std::vector<std::pair<int, int>>& nested) const {
-  if (nested.empty()) return {};
+void StartChecker::nesting_to_thin(const std::vector<std::pair<int, int>>& nested, const Eigen::MatrixXd& X,
+                                   StartViolations& v) const {
+  if (nested.empty()) return;
   const Parts& p = this->parts();
-  std::vector<int> parts;
-  for (const auto& [v, t] : nested) {
-    const int own = p.parts.of_vertex[v < n_ ? v : v - n_], holder = p.parts.of_vertex[F_(t / 3, 0)];
-    if (!p.excluded[own] && !p.excluded[holder]) parts.push_back(v < n_ ? holder : own);
+  // Per holder part, the boxes of the base parts inside its layer.
+  std::vector<std::vector<Eigen::AlignedBox3d>> inside(p.parts.count());
+  for (const auto& [probe, t] : nested) {
+    const int own = p.parts.of_vertex[probe < n_ ? probe : probe - n_], holder = p.parts.of_vertex[F_(t / 3, 0)];
+    if (p.excluded[own] || p.excluded[holder]) continue;
+    if (probe >= n_) {
+      v.nested_parts.push_back(own);
+      continue;
+    }
+    Eigen::AlignedBox3d box;
+    for (int i : p.vertices.items_of({own})) box.extend(X.row(i).transpose());
+    inside[holder].push_back(box);
   }
-  std::sort(parts.begin(), parts.end());
-  parts.erase(std::unique(parts.begin(), parts.end()), parts.end());
-  return parts;
+  std::sort(v.nested_parts.begin(), v.nested_parts.end());
+  v.nested_parts.erase(std::unique(v.nested_parts.begin(), v.nested_parts.end()), v.nested_parts.end());
+  std::vector<char> thin(n_, 0);
+  for (Eigen::Index f = 0; f < F_.rows(); ++f) {
+    const std::vector<Eigen::AlignedBox3d>& boxes = inside[p.parts.of_vertex[F_(f, 0)]];
+    if (boxes.empty()) continue;
+    Eigen::AlignedBox3d prism;
+    for (int k = 0; k < 3; ++k) {
+      prism.extend(X.row(F_(f, k)).transpose());
+      prism.extend(X.row(n_ + F_(f, k)).transpose());
+    }
+    if (std::any_of(boxes.begin(), boxes.end(), [&](const Eigen::AlignedBox3d& b) { return b.intersects(prism); }))
+      for (int k = 0; k < 3; ++k) thin[F_(f, k)] = 1;
+  }
+  for (int i = 0; i < n_; ++i)
+    if (thin[i]) v.nested_tops.push_back(i);
 }
 
 ShellCertificate StartChecker::certify(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top,
@@ -121,7 +143,7 @@ StartViolations StartChecker::violations(ShellCertificate certificate) const {
     if (!skip_[t]) v.inverted_tets.push_back(t);
   for (const BoundaryIntersection& p : c.intersections)
     if (!excluded_[p.a] && !excluded_[p.b]) v.intersections.emplace_back(p.a, p.b);
-  if (v.inverted_tets.empty() && v.intersections.empty()) v.nested_parts = parts_to_thin(c.nested);
+  if (v.inverted_tets.empty() && v.intersections.empty()) nesting_to_thin(c.nested, X_, v);
   return v;
 }
 
@@ -183,7 +205,7 @@ StartViolations StartChecker::check(const Eigen::MatrixXd& base, const Eigen::Ma
   // whole shell (a pass over its tets, only where it has several parts) once nothing else is
   // found, as the one-vertex-per-sheet test presumes.
   if (v.inverted_tets.empty() && v.intersections.empty())
-    v.nested_parts = parts_to_thin(nested_probes(base, top, F_, parts().parts));
+    nesting_to_thin(nested_probes(base, top, F_, parts().parts), X_, v);
   return v;
 }
 

@@ -84,7 +84,7 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
   std::vector<char> thin(n), moved(n, 0);
-  bool nested = false; // a part still inside another's layer (StartViolations::nested_parts)
+  bool nested = false; // a part still inside another's layer (StartViolations::nested_parts, nested_tops)
   for (s.rounds = 1;; ++s.rounds) {
     if (s.rounds == 1)
       s.top = P;
@@ -98,7 +98,7 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
     s.intersections = found.intersections;
     std::fill(thin.begin(), thin.end(), 0);
     checker.for_each_top_vertex(found, [&](int i) { thin[i] = 1; });
-    nested = !found.nested_parts.empty();
+    nested = !found.nested_parts.empty() || !found.nested_tops.empty();
     const bool clean = s.inverted_tets.empty() && s.intersections.empty() && !nested;
     if (s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
     if (clean || s.rounds >= options.max_rounds) break;

@@ -160,7 +160,10 @@ bool is_output_folder_file(const fs::path& file) {
 ShellFolder read_shell_folder(const std::string& dir_text, const ShellFolderReadOptions& options) {
   const fs::path dir(dir_text);
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw InputError(with_file(dir_text, "not a shell folder (no such directory)"));
+  if (!fs::is_directory(dir, ec))
+    throw InputError(with_file(dir_text, fs::exists(dir, ec) ? "not a shell folder (a file; a shell is the folder "
+                                                               "gshell generate writes)"
+                                                             : "not a shell folder (no such directory)"));
   ShellFolder out;
   const fs::path report_dir = report_folder(dir);
   if (!report_dir.empty()) out.report = read_report(report_dir);

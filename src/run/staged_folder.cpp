@@ -74,7 +74,9 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
   const fs::path d = folder_name(destination);
   const fs::path parent = d.parent_path().empty() ? fs::path(".") : d.parent_path();
   std::error_code ec;
-  if (!fs::is_directory(parent, ec)) throw InputError(with_file(d.string(), "parent folder does not exist"));
+  if (!fs::is_directory(parent, ec))
+    throw InputError(with_file(d.string(), fs::exists(parent, ec) ? "parent " + parent.string() + " is not a folder"
+                                                                  : std::string("parent folder does not exist")));
   if (fs::exists(d, ec) && !fs::is_directory(d, ec)) throw InputError(with_file(d.string(), "exists and is not a folder"));
   if (is_previous_output && !replaceable(d, is_previous_output)) throw not_replaceable(d);
 }

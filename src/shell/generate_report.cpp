@@ -79,7 +79,7 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
                   {"lift_candidates", g.lift.candidates},
                   {"lift_moves", g.lift.moves},
                   {"held_vertices", g.held_vertices},
-                  {"small_part_vertices", g.small_part_vertices.size()},
+                  {"small_part_vertices", g.small_part_vertices},
                   {"lift_only", g.lift_only},
                   {"start_unmended_tets", g.start.inverted_tets.size()},
                   {"start_unmended_pairs", g.start.intersections.size()},
@@ -115,11 +115,18 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
                 "; no direction sees all their faces from the positive side, or on the rim their side walls "
                 "cut through their own faces): prisms around them may stay inverted");
   }
-  if (r.guarded && !r.guard.small_part_vertices.empty())
-    w.push_back(std::to_string(r.guard.small_part_vertices.size()) + " base vertices (" +
-                first_ids(r.guard.small_part_vertices) + ") lie on parts of the base smaller than the thickness allows (bounding radius below " +
-                format("%.3g", r.guard.small_part_radius) + "): their layer is the valid start's, thinner than asked; "
-                "prisms many times a part's own size have no valid top near them");
+  if (r.guarded && !r.guard.small_part_vertices.empty()) {
+    // Only where it matters: a part's start can keep its whole thickness (one small triangle).
+    std::vector<int> thinned;
+    const Eigen::VectorXd& t = r.metrics.vertex_thickness;
+    for (int v : r.guard.small_part_vertices)
+      if (v < t.size() && t[v] < kThinnedFraction) thinned.push_back(v);
+    if (!thinned.empty())
+      w.push_back(std::to_string(thinned.size()) + " top vertices (" + first_ids(thinned) +
+                  ") are thinner than asked on parts of the base smaller than the thickness allows (bounding radius below " +
+                  format("%.3g", r.guard.small_part_radius) + "): those parts keep the valid start's layer, as "
+                  "prisms many times a part's own size have no valid top near them (report: guard.small_part_vertices)");
+  }
   const ValidStart& start = r.guard.start;
   const bool unmended = r.guarded && (!start.inverted_tets.empty() || !start.intersections.empty());
   if (unmended) {
