@@ -79,7 +79,9 @@ ShellObject shell_from_state(const py::tuple& t) {
 ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayArg& top, double thickness) {
   const TriMesh mesh = checked_mesh(base, faces, "base", "faces");
   Shell shell;
-  shell.top = to_matrix(top, "top", 3, static_cast<int>(mesh.V.rows()));
+  // The top held to usable coordinates as a shell folder's is (read_shell_folder), the thickness to
+  // what generation builds (check_thickness_scale): beyond them the stretch came back None.
+  shell.top = to_positions(top, "top", static_cast<int>(mesh.V.rows()));
   if (!(thickness > 0) || !std::isfinite(thickness))
     value_error("thickness must be positive and finite (got " + std::to_string(thickness) + ")");
   shell.base = mesh.V;
@@ -87,6 +89,7 @@ ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayA
   shell.thickness = thickness;
   py::gil_scoped_release release;
   require_valid_mesh(mesh, "base");
+  check_thickness_scale(mesh.V, mesh.F, thickness);
   return measured_shell(std::move(shell));
 }
 
@@ -137,7 +140,7 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
 py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, std::optional<double> thickness,
                     std::optional<double> thickness_ratio, bool count_intersections) {
   const TriMesh base = checked_mesh(Vb, F, "Vb", "F");
-  const Eigen::MatrixXd top = to_matrix(Vt, "Vt", 3, base.num_vertices());
+  const Eigen::MatrixXd top = to_positions(Vt, "Vt", base.num_vertices());
   const ThicknessChoice choice{thickness, thickness_ratio};
   choice.check();
   ShellMetrics m;

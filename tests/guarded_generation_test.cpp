@@ -774,3 +774,23 @@ TEST(GuardedGeneration, APartTooSmallForTheThicknessKeepsTheValidStart) {
   o.guard.small_part_ratio = 0;
   EXPECT_TRUE(generate_shell(m.V, m.F, o).guard.small_part_vertices.empty());
 }
+
+TEST(GuardedGeneration, APartInsideAnotherLayerThinsThatLayerOnlyAroundIt) {
+  // Scan debris just off a surface: a small sphere (radius 0.02, not held: 0.02 > eta / 10) 0.05
+  // above a unit sphere, inside its layer (eta 0.1). The start pulls in the unit sphere's top
+  // only over the prisms that reach the speck, not all of it.
+  TriMesh m = test::sphere_with_speck(0.02);
+  const int nb = 642;
+  for (Eigen::Index v = nb; v < m.V.rows(); ++v) m.V.row(v) += Eigen::RowVector3d(1.07 - 3, 0, 0);
+  const double eta = 0.1;
+  const GenerateResult g = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, eta));
+  expect_valid(g);
+  EXPECT_TRUE(g.guard.small_part_vertices.empty());
+  int pulled_on_sphere = 0;
+  for (int v = 0; v < nb; ++v) pulled_on_sphere += g.guard.start.scale[v] < 1;
+  EXPECT_GT(pulled_on_sphere, 0);
+  EXPECT_LT(pulled_on_sphere, nb / 10);
+  // Far from the speck the sphere keeps its whole thickness.
+  for (int v = 0; v < nb; ++v)
+    if (m.V(v, 0) < 0.5) EXPECT_GT((g.shell.top.row(v) - m.V.row(v)).norm(), 0.9 * eta) << v;
+}

@@ -532,9 +532,18 @@ class MetricsTest(TempDirTest):
         V, F = gshell.builtin("sphere:1")
         for args, kwargs in [((V, F, V[:-1], 0.1), {}), ((V, F, V, 0.1), dict(thickness_ratio=0.1)),
                              ((V, F, V), {}), ((V, F, np.full_like(V, np.nan), 0.1), {}),
-                             ((V, F, V.astype(np.int32), 0.1), {}), ((V, F + 1, V, 0.1), {})]:
+                             ((V, F, V.astype(np.int32), 0.1), {}), ((V, F + 1, V, 0.1), {}),
+                             ((V, F, V * 1e200, 0.1), {})]:
             with self.subTest(kwargs=kwargs), self.assertRaises(ValueError):
                 gshell.metrics(*args, **kwargs)
+
+    def test_a_shell_from_arrays_is_held_to_what_generation_builds(self):
+        V, F = gshell.builtin("sphere:1")
+        for top, thickness, says in [(V * 1e200, 0.1, "gshell needs |x| < 1e+50"),
+                                     (V * 1.1, 1e300, "gshell builds layers up to 10 times it"),
+                                     (V * 1.1, 1e-300, "double precision cannot tell")]:
+            with self.subTest(says=says), self.assertRaisesRegex(ValueError, says):
+                gshell.Shell(V, F, top, thickness)
 
 
 class DeformTest(TempDirTest):
