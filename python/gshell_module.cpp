@@ -34,4 +34,5 @@ release the GIL, take a `progress` argument and end at Ctrl-C (KeyboardInterrupt
   gshell::python::bind_deform(m);
   gshell::python::bind_pose(m);
   gshell::python::bind_gil_probe(m);
+  gshell::python::shorten_argument_type_errors(m);
 }

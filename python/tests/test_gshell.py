@@ -405,6 +405,30 @@ class GenerateTest(TempDirTest):
             self.assertIsNone(s.report["valid"])  # pair tests skipped, no tet inverted
             self.assertEqual(s.report["certificate"]["inverted_tets"], 0)
 
+    def test_arguments_of_the_wrong_type_get_one_short_line(self):
+        V, F = gshell.builtin("sphere:2")
+        shell = gshell.generate(V, F, thickness=0.1)
+        calls = {
+            "thickness=str": lambda: gshell.generate(V, F, thickness="0.1"),
+            "foo=int": lambda: gshell.generate(V, F, thickness=0.1, foo=1),
+            "tolerance=str": lambda: gshell.Deformer(shell).solve(V, tolerance="1"),
+            "(Shell, ndarray, ndarray, ndarray, str)": lambda: gshell.Shell(V, F, shell.top, "x"),
+            "(Deformer, ndarray)": lambda: gshell.Deformer(V),
+        }
+        for given, call in calls.items():
+            with self.subTest(given), self.assertRaises(TypeError) as caught:
+                call()
+            text = str(caught.exception)
+            self.assertNotIn("\n", text)
+            self.assertLess(len(text), 600)
+            self.assertIn(given, text)
+            self.assertNotIn("0.52573111", text)  # no array printed
+        # A TypeError raised inside a call (here by the progress callable) passes unchanged.
+        def progress(update):
+            raise TypeError("mine")
+        with self.assertRaisesRegex(TypeError, "^mine$"):
+            gshell.generate(V, F, thickness=0.1, progress=progress)
+
     def test_bad_arguments_raise_value_error(self):
         V, F = gshell.builtin("sphere:1")
         cases = {
