@@ -640,3 +640,30 @@ TEST(HierarchicalSolver, ExactLevelEnergyHoldsForTetsWithRestShapesOfTheirOwn) {
     EXPECT_NEAR(solver.level_energy(l, p.targets), expected, 1e-9 * expected) << "level " << l;
   }
 }
+
+TEST(HierarchicalSolver, AFlatRestShellBuildsNoReducedLevelAndSolvesAsTheFullLevel) {
+  // Top = base: the rest tets are the faces' normal prisms (deformation_rest_tets), but the rest
+  // positions the clusters' affine maps are fitted to lie in one plane, so no map is determined.
+  // That gave "reduced matrix is not positive definite"; now the full level solves alone.
+  Shell flat = offset_shell(make_plane(8), 0.1);
+  flat.top = flat.base;
+  const Eigen::MatrixXd X0 = flat.vertices();
+  const int n = flat.num_base_vertices();
+  PositionConstraints constraints;
+  constraints.hard = true;
+  Eigen::MatrixXd targets(2, 3);
+  constraints.vertices = {0, n - 1};
+  targets << X0.row(0), X0.row(n - 1) + Eigen::RowVector3d(0, 0, 0.3);
+  const ClusterTree tree = build_cluster_tree(X0, flat.F);
+  EXPECT_FALSE(tree.spans_3d);
+  HierarchicalSolver solver(deformation_rest_tets(flat), X0, flat.F, constraints);
+  EXPECT_EQ(solver.num_levels(), 1);
+  Eigen::MatrixXd X = X0;
+  SolveOptions options;
+  options.max_iterations = 20;
+  solver.solve(X, targets, options);
+  EXPECT_LT((X.row(n - 1) - targets.row(1)).norm(), 1e-9);
+  EXPECT_GT(X(n / 2, 2), 0.0); // the middle follows the pulled corner up
+  // A shell with thickness spans 3D at its root.
+  EXPECT_TRUE(build_cluster_tree(offset_shell(make_plane(8), 0.1).vertices(), flat.F).spans_3d);
+}

@@ -118,6 +118,7 @@ ClusterTree build_cluster_tree(const Eigen::MatrixXd& shell_rest, const Eigen::M
   std::vector<std::vector<int>> clusters(1);
   clusters[0].resize(n);
   std::iota(clusters[0].begin(), clusters[0].end(), 0);
+  tree.spans_3d = n > 0 && spans_3d(shell_rest, n, clusters[0]);
   tree.cluster_of.emplace_back(n, 0);
   tree.parent.push_back({-1});
 

@@ -330,7 +330,9 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   s.tree = build_cluster_tree(rest_vertices, F, tree_options);
   const double weight = constraints.hard ? options.reduced_hard_weight * mean_stiffness(s.rest, s.num_vertices())
                                          : constraints.weight;
-  for (int l = 0; l < reduced_levels; ++l) {
+  // A flat rest shell (top = base) determines no cluster's affine map: the full level alone, as
+  // the single-level solver (its rest tets are replaced by normal prisms, so it solves).
+  for (int l = 0; l < reduced_levels && s.tree.spans_3d; ++l) {
     const int d = first + l * split;
     if (d > tree_options.depth || (l > 0 && s.tree.num_clusters(d) == s.reduced.back().num_clusters())) break;
     s.depth_of_level.push_back(d);

@@ -18,6 +18,10 @@ struct ClusterTreeOptions {
 struct ClusterTree {
   std::vector<std::vector<int>> cluster_of; ///< [d][i]: cluster of base vertex i at depth d
   std::vector<std::vector<int>> parent;     ///< [d][c]: cluster of depth d-1 holding cluster c of depth d (-1 at d = 0)
+  /// Whether the root's base and top vertices span 3D. Every cluster below it does when it does
+  /// (a half is kept only if it does); where not (a flat shell, top = base) no cluster's affine
+  /// map is determined and no reduced level can be built on the tree.
+  bool spans_3d = true;
 
   int num_depths() const { return static_cast<int>(parent.size()); }
   int num_clusters(int d) const { return static_cast<int>(parent[d].size()); }
