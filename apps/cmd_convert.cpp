@@ -9,6 +9,7 @@
 #include <gshell/geometry/weld_vertices.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
+#include <gshell/word_list.h>
 
 #include <memory>
 
@@ -50,12 +51,9 @@ void add_convert_command(CLI::App& app) {
       warnings.push_back(opt->input + ": its texture coordinates are not written to " + opt->output +
                          " (only OBJ holds them)");
     // What no TriMesh holds is lost whatever the output: said too.
-    if (!skipped.empty()) {
-      std::string what = skipped[0];
-      for (std::size_t k = 1; k < skipped.size(); ++k) what += (k + 1 == skipped.size() ? " and " : ", ") + skipped[k];
-      warnings.push_back(opt->input + ": its " + what + " are not written to " + opt->output +
+    if (!skipped.empty())
+      warnings.push_back(opt->input + ": its " + word_list(skipped) + " are not written to " + opt->output +
                          " (convert keeps positions, faces and, OBJ to OBJ, texture coordinates)");
-    }
     cli::print_warnings("convert", warnings);
     write_mesh(opt->output, mesh, {}, opt->ascii);
     progress.line("wrote " + opt->output + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +

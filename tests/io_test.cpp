@@ -470,7 +470,7 @@ TEST(IoRead, NamesTheDataItDoesNotKeepOnceEach) {
   EXPECT_EQ(skipped("c.off", "COFF\n3 1 0\n0 0 0 1 0 0 1\n1 0 0 1 0 0 1\n0 1 0 1 0 0 1\n" + tri + " 255 0 0\n"),
             (Names{"vertex colors", "face colors"}));
   EXPECT_EQ(skipped("cn.off", "CNOFF\n3 1 0\n0 0 0 0 0 1 1 1 1\n1 0 0 0 0 1 1 1 1\n0 1 0 0 0 1 1 1 1\n" + tri + "\n"),
-            Names{"normals and vertex colors"});
+            (Names{"normals", "vertex colors"}));
   // OBJ: a fourth value is a weight, three or more a color.
   EXPECT_EQ(skipped("w.obj", "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n"), Names{});
   EXPECT_EQ(skipped("c.obj", "mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0 1 0 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"),

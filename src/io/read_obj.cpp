@@ -68,6 +68,12 @@ Corner parse_corner(std::string_view token, long long num_v, long long num_vt, c
 TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<std::string>* warnings,
                  std::vector<std::string>* skipped_names) {
   SkippedData skipped(skipped_names);
+  // Each kind named once, when first met (not looked up again at every line that has it).
+  bool vertex_colors = false, normals = false, materials = false;
+  auto note = [&](bool& seen, const char* name) {
+    if (!seen) skipped.add(name);
+    seen = true;
+  };
   TextScanner s(bytes, path, '#');
   s.allow_line_continuation();
   SurfaceBuilder b;
@@ -91,7 +97,7 @@ TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<st
       int extra = 0; // one: a weight (rational curves); three or more: a color (a common extension)
       for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line(), ++extra)
         s.to_double(t, "a vertex weight or color");
-      if (extra >= 3) skipped.add("vertex colors");
+      if (extra >= 3) note(vertex_colors, "vertex colors");
       if (b.num_vertices() >= max_element_count) s.fail("too many vertices");
       b.xyz.insert(b.xyz.end(), p.begin(), p.end());
     } else if (key == "vt") {
@@ -128,8 +134,8 @@ TriMesh read_obj(const std::string& path, std::string_view bytes, std::vector<st
       triangle_lines.insert(triangle_lines.end(), (b.corners.size() - before) / 3, s.line());
       if (b.corners.size() / 3 >= static_cast<std::size_t>(max_element_count)) s.fail("too many faces");
     } else if (is_ignored_statement(key)) {
-      if (key == "vn") skipped.add("normals");
-      else if (key == "usemtl" || key == "mtllib") skipped.add("materials");
+      if (key == "vn") note(normals, "normals");
+      else if (key == "usemtl" || key == "mtllib") note(materials, "materials");
       s.skip_rest_of_line();
     } else {
       s.fail("unknown OBJ statement '" + std::string(key.substr(0, 40)) + "' (not an OBJ file?)");

@@ -31,22 +31,18 @@ bool is_off_keyword(std::string_view key) {
 } // namespace
 
 TriMesh read_off(const std::string& path, std::string_view bytes, std::vector<std::string>* skipped_names) {
-  SkippedData skipped(skipped_names);
   TextScanner s(bytes, path, '#');
   std::string_view token = s.next_token();
   if (token.empty()) s.fail_without_line("empty file, expected an OFF header");
   // What the values after a vertex's coordinates are, by the header's prefix ([ST][C][N]OFF).
-  std::string vertex_extras = "vertex colors";
+  std::vector<std::string> vertex_extras{"vertex colors"};
   if (is_off_keyword(token)) {
     const std::string_view key = token;
     std::vector<std::string> kinds;
     if (key.find("N") != std::string_view::npos) kinds.push_back("normals");
     if (key.find("C") != std::string_view::npos) kinds.push_back("vertex colors");
     if (key.find("ST") != std::string_view::npos) kinds.push_back("texture coordinates");
-    if (!kinds.empty()) {
-      vertex_extras = kinds[0];
-      for (std::size_t k = 1; k < kinds.size(); ++k) vertex_extras += (k + 1 == kinds.size() ? " and " : ", ") + kinds[k];
-    }
+    if (!kinds.empty()) vertex_extras = std::move(kinds);
     if (key.find('4') != std::string_view::npos || key.find('n') != std::string_view::npos)
       s.fail("'" + std::string(key) + "' (4D/nD OFF) is not supported, only 3D surfaces");
     token = s.next_token();
@@ -70,6 +66,7 @@ TriMesh read_off(const std::string& path, std::string_view bytes, std::vector<st
   s.skip_rest_of_line();
 
   SurfaceBuilder b;
+  bool vertex_values = false, face_values = false; // beyond the coordinates and the indices
   b.xyz.reserve(static_cast<std::size_t>(3 * nv));
   b.corners.reserve(static_cast<std::size_t>(3 * nf));
   for (long long i = 0; i < nv; ++i) {
@@ -85,7 +82,7 @@ TriMesh read_off(const std::string& path, std::string_view bytes, std::vector<st
     }
     for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line()) {
       s.to_double(t, "a vertex normal, color or texture value");
-      skipped.add(vertex_extras);
+      vertex_values = true;
     }
   }
   std::vector<int> polygon;
@@ -109,7 +106,7 @@ TriMesh read_off(const std::string& path, std::string_view bytes, std::vector<st
     }
     for (std::string_view t = s.next_token_on_line(); !t.empty(); t = s.next_token_on_line()) {
       s.to_double(t, "a face color value");
-      skipped.add("face colors");
+      face_values = true;
     }
     SurfaceBuilder::add_fan(b.corners, polygon);
     if (b.corners.size() / 3 >= static_cast<std::size_t>(max_element_count)) s.fail("too many faces");
@@ -118,6 +115,10 @@ TriMesh read_off(const std::string& path, std::string_view bytes, std::vector<st
     s.next_token();
     s.fail("unexpected data after the " + std::to_string(nf) + " faces the header announced (wrong counts?)");
   }
+  SkippedData skipped(skipped_names);
+  if (vertex_values)
+    for (const std::string& name : vertex_extras) skipped.add(name);
+  if (face_values) skipped.add("face colors");
   return b.finish();
 }
 

@@ -2,6 +2,7 @@
 
 #include <gshell/quality/certificate_report.h>
 #include <gshell/quality/stretch_report.h>
+#include <gshell/word_list.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -155,9 +156,7 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
       if (c.base_self_intersections > 0) causes.push_back("the base's crossings");
       if (!r.unextrudable_vertices.empty()) causes.push_back("unextrudable vertices");
       if (unmended) causes.push_back("what the start could not mend");
-      where = " (near ";
-      for (std::size_t i = 0; i < causes.size(); ++i) where += (i == 0 ? "" : i + 1 == causes.size() ? " and " : ", ") + causes[i];
-      where += ")";
+      where = " (near " + word_list(causes) + ")";
     }
     w.push_back(std::string("the shell is not valid: ") + std::to_string(c.inverted_tets) + " inverted tets, " +
                 std::to_string(c.top_self_intersections) + " top/top, " + std::to_string(c.top_base_intersections) +
