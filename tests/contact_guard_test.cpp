@@ -791,6 +791,8 @@ TEST(ContactGuard, GradientAndHessianOfTheSumMatchFiniteDifferences) {
   const Eigen::MatrixXd dense(H);
   EXPECT_NEAR((dense - dense.transpose()).norm(), 0, 1e-12 * dense.norm());
   EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense).eigenvalues().minCoeff(), -1e-9 * dense.norm());
+  std::set<std::pair<int, int>> entries; // one triplet per entry: the pairs' terms come summed
+  for (const auto& t : triplets) EXPECT_TRUE(entries.insert({t.row(), t.col()}).second) << t.row() << " " << t.col();
 
   // Only the blocks between kept vertices (a solver's free ones), in the same order, either form.
   std::vector<char> kept(2 * s.n, 1);

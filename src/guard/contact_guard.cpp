@@ -5,6 +5,7 @@
 #include <gshell/guard/pair_ccd.h>
 
 #include "guard/contact_pairs.h"
+#include "guard/vertex_block_sum.h"
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -412,32 +413,41 @@ void ContactGuard::add_hessian(const Eigen::MatrixXd& X, double scale, std::vect
   auto kept = [&](int vertex) { return !kept_vertices || (*kept_vertices)[vertex]; };
   m.scan(X);
   const int n = static_cast<int>(m.active.size());
-  std::vector<std::vector<Eigen::Triplet<double>>> block_triplets((n + kBlock - 1) / kBlock);
-  for_blocks(n, [&](int begin, int end, int b) {
-    std::vector<Eigen::Triplet<double>>& out = block_triplets[b];
-    Matrix12d h;
-    for (int i = begin; i < end; ++i) {
-      const Impl::Active& active = m.active[i];
-      const Ids& ids = m.ids(active);
-      if (std::none_of(ids.begin(), ids.end(), kept)) continue; // writes nothing
-      if (projected) {
-        h.setZero(); // stays zero for a touching pair
-        pair_barrier(active.kind, m.points(ids), active.support, nullptr, &h);
-        project_to_psd(h);
-      } else {
-        h = pair_barrier_gauss_newton(active.kind, m.points(ids), active.support);
+  // The pairs' blocks are made in parallel, a chunk at a time, and summed per vertex pair in list
+  // order: the matrix a caller builds is the one the pairs' own triplets gave, bit for bit, from a
+  // fraction of the triplets where pairs crowd (a thin strand's top vertices have hundreds each;
+  // their triplets and the sort that summed them were half of such a repair's time).
+  detail::VertexBlockSum sum(4 * static_cast<std::size_t>(n));
+  const int chunk = std::min(n, 4 * kBlock);
+  std::vector<Matrix12d> h(chunk);
+  std::vector<char> writes(chunk);
+  for (int first = 0; first < n; first += chunk) {
+    const int count = std::min(chunk, n - first);
+    for_blocks(count, [&](int begin, int end, int) {
+      for (int k = begin; k < end; ++k) {
+        const Impl::Active& active = m.active[first + k];
+        const Ids& ids = m.ids(active);
+        writes[k] = std::any_of(ids.begin(), ids.end(), kept);
+        if (!writes[k]) continue;
+        if (projected) {
+          h[k].setZero(); // stays zero for a touching pair
+          pair_barrier(active.kind, m.points(ids), active.support, nullptr, &h[k]);
+          project_to_psd(h[k]);
+        } else {
+          h[k] = pair_barrier_gauss_newton(active.kind, m.points(ids), active.support);
+        }
+        h[k] *= m.weight(active.support);
       }
-      h *= m.weight(active.support);
-      for (int k = 0; k < 4; ++k)
-        for (int l = 0; l < 4; ++l)
-          if (kept(ids[k]) && kept(ids[l]))
-            for (int a = 0; a < 3; ++a)
-              for (int c = 0; c < 3; ++c)
-                if (const double v = h(3 * k + a, 3 * l + c); v != 0)
-                  out.emplace_back(3 * ids[k] + a, 3 * ids[l] + c, scale * v);
+    });
+    for (int k = 0; k < count; ++k) {
+      if (!writes[k]) continue;
+      const Ids& ids = m.ids(m.active[first + k]);
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b)
+          if (kept(ids[a]) && kept(ids[b])) sum.add(ids[a], ids[b], h[k].block<3, 3>(3 * a, 3 * b), scale);
     }
-  });
-  for (const auto& out : block_triplets) H.insert(H.end(), out.begin(), out.end()); // list order
+  }
+  sum.append_to(H);
 }
 
 double ContactGuard::step_bound(const Eigen::MatrixXd& X, const Eigen::MatrixXd& D, double max_step,

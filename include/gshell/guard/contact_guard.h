@@ -82,7 +82,9 @@ public:
   void add_gradient(const Eigen::MatrixXd& X, double scale, Eigen::MatrixXd& G);
   /// Appends scale * H, H a positive semi-definite approximation of d^2B/dX^2 (each pair's block
   /// projected onto its positive eigenvalues), as triplets indexed 3 * vertex + axis (fixed
-  /// vertices included: a solver drops the rows it does not solve for).
+  /// vertices included: a solver drops the rows it does not solve for), one per entry: the
+  /// pairs' terms are summed in list order, so the matrix is bit for bit the one their own
+  /// triplets would give.
   /// With `projected` false, each pair's block is pair_barrier_gauss_newton instead (no
   /// eigen-decomposition: the cost of a Hessian falls several-fold).
   /// With `kept_vertices` (one flag per vertex), only the 3 x 3 blocks of two flagged vertices
