@@ -136,6 +136,30 @@ bool never() { return false; }
 
 } // namespace
 
+TEST(ViewSession, AReleaseTellsEveryPageWhereTheDragLeftTheGroups) {
+  // A second page drags a group from the motion it holds: it must learn the first page's drag,
+  // or its first nudge would send the group back towards rest.
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  session.welcome(out.sink());
+  add_plate_groups(session, session.input().shell, out);
+  session.receive(R"({"type":"grab","handle":1})", out.sink());
+  out.clear();
+  session.receive(drag_message(1, 1, Eigen::Vector3d(0.1, 0, 0.3), -20), out.sink());
+  session.solve_drag(out.sink());
+  EXPECT_TRUE(out.messages("handles").empty()); // not at every drag event: the file lists every vertex
+  session.receive(R"({"type":"release"})", out.sink());
+  ASSERT_EQ(out.messages("handles").size(), 1u);
+  for (const ViewOutgoing& m : out.sent)
+    if (!m.binary && json::parse(m.bytes)["type"] == "handles") EXPECT_FALSE(m.to_sender); // for every page
+  const json pull = out.messages("handles")[0]["handles"]["handles"][1];
+  ASSERT_TRUE(pull.contains("translate") && pull.contains("rotate")) << pull.dump();
+  EXPECT_NEAR(pull["translate"][0].get<double>(), 0.1, 1e-12); // page units, as the drag's
+  EXPECT_NEAR(pull["translate"][2].get<double>(), 0.3, 1e-12);
+  EXPECT_NEAR(pull["rotate"]["degrees"].get<double>(), -20, 1e-12);
+}
+
 TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
   const PlateFolder plate;
   ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));

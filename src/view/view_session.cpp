@@ -423,6 +423,9 @@ void ViewSession::apply(const ViewMessage& m, const ViewSink& send, Clock::time_
   } else if (std::holds_alternative<ViewRelease>(m)) {
     s.posable(type);
     s.settle_requested = true;
+    // Every page learns the groups' motions where the drag left them: another page measures its
+    // next drag of a group from the motion it holds, and would otherwise pull it back to rest.
+    s.send_handles(send);
   } else if (std::holds_alternative<ViewUndo>(m)) {
     if (!s.posable(type).undo()) throw InputError("undo: nothing to undo");
     s.pending = false;
