@@ -123,7 +123,7 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   options.generate.allow_invalid = allow_invalid;
   options.check();
   ProgressWatch watch(progress, "gshell.generate");
-  watch.watch(options.generate.solve);
+  watch.watch(options.generate.solve, "paper"); // the documented keys, also where the guard is off
   py::gil_scoped_release release;
   // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
   std::vector<std::string> input_warnings = require_valid_mesh(mesh, "mesh (V, F)");

@@ -64,7 +64,8 @@ void ProgressWatch::with_python(const std::function<void()>& work) {
   }
 }
 
-void ProgressWatch::watch(SolveOptions& solve) {
+void ProgressWatch::watch(SolveOptions& solve, std::string first_stage) {
+  stage_ = std::move(first_stage);
   solve.stage = [this](const char* name) { stage_ = name; };
   solve.progress = [this](int iteration, double energy, double seconds) {
     nlohmann::ordered_json update;

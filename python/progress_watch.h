@@ -37,8 +37,9 @@ public:
   /// call whose updates are coarser (deform's frames). \throws PythonErrorPending as report().
   void check_signals();
   /// Hooks solve.progress and solve.stage to report {"stage"?, "iteration", "energy", "seconds"}
-  /// ("stage": the solve's stage name, e.g. paper, repair, relax, when it names one).
-  void watch(SolveOptions& solve);
+  /// ("stage": the solve's stage name, e.g. paper, repair, relax, when it names one; before it
+  /// names one, `first_stage` if not empty: an unguarded generation names none).
+  void watch(SolveOptions& solve, std::string first_stage = {});
 
 private:
   std::string line(const nlohmann::ordered_json& update) const; ///< for progress=True

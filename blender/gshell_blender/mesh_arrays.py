@@ -51,6 +51,15 @@ def mesh_like(source, name, V):
     """
     start, total, loops = polygon_loops(source)
     mesh = bpy.data.meshes.new(name)
+    try:
+        _fill_like(mesh, source, V, start, total, loops)
+    except Exception:  # nothing half-made stays in the file
+        bpy.data.meshes.remove(mesh)
+        raise
+    return mesh
+
+
+def _fill_like(mesh, source, V, start, total, loops):
     mesh.vertices.add(len(source.vertices))
     mesh.vertices.foreach_set("co", np.ascontiguousarray(V, dtype=np.float32).ravel())
     mesh.loops.add(len(loops))
@@ -66,4 +75,3 @@ def mesh_like(source, name, V):
         layer.data.foreach_get("uv", uv)
         mesh.uv_layers.new(name=layer.name).data.foreach_set("uv", uv)
     mesh.update(calc_edges=True)
-    return mesh

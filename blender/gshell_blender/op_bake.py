@@ -75,6 +75,11 @@ def cache_names(objects, reserved=()):
 def cache_directory(base, directory):
     """(absolute folder for this base's caches, its name, warning or None)."""
     warning = None
+    # Empty is the default folder, "~" the home folder, and other relative paths are relative to the
+    # .blend file, as Blender's own: never to the folder Blender happened to be started in.
+    directory = os.path.expanduser(directory.strip()) or DEFAULT_DIRECTORY
+    if not directory.startswith("//") and not os.path.isabs(directory):
+        directory = "//" + directory
     if directory.startswith("//") and not bpy.data.filepath:
         warning = ("the .blend file is not saved: the caches are in Blender's temporary folder, deleted when "
                    "Blender quits (save the file and bake again to keep them)")

@@ -41,6 +41,9 @@ class OBJECT_OT_gshell_bind(bpy.types.Operator):
                 problems.append(f"'{o.name}' is not a mesh")
             elif o.gshell.role in ("BASE", "TOP"):
                 problems.append(f"'{o.name}' is part of a shell ({o.gshell.role.lower()})")
+            elif self.parent and _ancestor(o, base):  # Blender would refuse the loop without a word
+                problems.append(f"'{o.name}' is a parent of '{base.name}' and cannot also be its child (untick "
+                                f"Parent, or clear the parenting first)")
             else:
                 matrix = to_base @ o.matrix_world
                 try:
@@ -71,6 +74,16 @@ class OBJECT_OT_gshell_bind(bpy.types.Operator):
                         f"and follow the nearest tet")
         self.report({"WARNING"} if outside else {"INFO"}, message)
         return {"FINISHED"}
+
+
+def _ancestor(obj, of):
+    """Whether obj is a parent of `of`, directly or through others."""
+    p = of.parent
+    while p is not None:
+        if p == obj:
+            return True
+        p = p.parent
+    return False
 
 
 class OBJECT_OT_gshell_unbind(bpy.types.Operator):

@@ -45,20 +45,44 @@ def generate_properties(cls):
 
 def in_polygons(message, polygon):
     """The module numbers the triangles it was given; name the Blender polygons they came from."""
+    def known(ts):
+        return all(0 <= t < len(polygon) for t in ts)
+
+    def polygons(ts, joiner):
+        ps = [str(polygon[t]) for t in ts]
+        return f"polygon {ps[0]}" if len(set(ps)) == 1 else f"polygons {joiner.join(ps)}"
+
     def triangle(match):
         t = int(match.group(1))
-        if not 0 <= t < len(polygon):
+        if not known([t]):
             return match.group(0)
         return f"triangle {t}{match.group(2) or ''} of polygon {polygon[t]}"
 
-    def triangles(match):
-        ts = [int(t) for t in match.group(1).split(",")]
-        if not all(0 <= t < len(polygon) for t in ts):
+    def pair(match):  # orientation clashes and duplicated faces
+        ts = [int(match.group(1)), int(match.group(2))]
+        if not known(ts):
             return match.group(0)
-        return f"triangles ({match.group(1)}) of polygons ({', '.join(str(polygon[t]) for t in ts)})"
+        return f"triangles {ts[0]} and {ts[1]} of {polygons(ts, ' and ')}"
 
+    def triangles(match):  # non-manifold edges: "faces (a, b, c)", or "(a, ..., f, ...)" past six
+        listed = match.group(1)
+        ts = [int(t) for t in re.findall(r"\d+", listed)]
+        if not known(ts):
+            return match.group(0)
+        more = ", ..." if listed.endswith("...") else ""
+        return f"triangles ({listed}) of polygons ({', '.join(str(polygon[t]) for t in ts)}{more})"
+
+    message = re.sub(r"\bfaces (\d+) and (\d+)\b", pair, message)
     message = re.sub(r"\bface (\d+)( \([\d, ]+\))?", triangle, message)
-    return re.sub(r"\bfaces \(([\d, ]+)\)", triangles, message)
+    return re.sub(r"\bfaces \(([\d, ]+(?:, \.\.\.)?)\)", triangles, message)
+
+
+def for_blender(message, polygon=None):
+    """A module message in Blender's terms: without the module's name for its arguments, polygons
+    for the triangles it numbers, and Blender's tool where the CLI's is advised."""
+    message = message.removeprefix("mesh (V, F): ")
+    message = message.replace("`gshell convert --weld` joins them", "Merge by Distance (Mesh > Clean Up) joins them")
+    return in_polygons(message, polygon) if polygon is not None else message
 
 
 def inverted_tets(report):
@@ -93,16 +117,24 @@ def _top_object(base, name, mesh, context):
         top.data = mesh
         if old.users == 0:
             bpy.data.meshes.remove(old)
-        point_cache.detach(top)  # a bake of the previous shell
-        return top
-    top = bpy.data.objects.new(name, mesh)
-    for collection in base.users_collection or [context.collection]:
-        collection.objects.link(top)
+        # The bakes of the previous shell, the top's and its details' (they play together or not at all).
+        for obj in [top] + shell_store.details_of(base, context.scene):
+            point_cache.detach(obj)
+        if not top.users_collection:  # deleted from the scene (base.gshell.top kept it in the file)
+            _link(top, base, context)
+    else:
+        top = bpy.data.objects.new(name, mesh)
+        _link(top, base, context)
+        top.display_type = "WIRE"  # the base and the detail inside stay visible
     top.parent = base  # the same transform as the base, always
     top.matrix_parent_inverse = Matrix.Identity(4)
     top.matrix_basis = Matrix.Identity(4)
-    top.display_type = "WIRE"  # the base and the detail inside stay visible
     return top
+
+
+def _link(top, base, context):
+    for collection in base.users_collection or [context.collection]:
+        collection.objects.link(top)
 
 
 @generate_properties
@@ -130,9 +162,21 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
 
     def execute(self, context):
         base = context.active_object
+        # In Edit Mode a mesh's data lags the edits and its UV layers read as empty: generate in
+        # Object Mode and go back.
+        editing = base.mode == "EDIT"
+        if editing:
+            bpy.ops.object.mode_set(mode="OBJECT")
+        try:
+            return self._execute(context, base)
+        finally:
+            if editing:
+                bpy.ops.object.mode_set(mode="EDIT")
+
+    def _execute(self, context, base):
         try:
             gshell = gshell_module.get()
-            shell, faces = self._generate(gshell, base)
+            shell, V, faces, polygon = self._generate(gshell, base)
         except (gshell_module.ModuleUnavailable, shell_store.ShellError) as e:
             self.report({"ERROR"}, f"gshell: {e}")
             return {"CANCELLED"}
@@ -141,6 +185,7 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         top = _top_object(base, f"{base.name}.top", mesh, context)
         top[shell_store.FACES_KEY] = faces.ravel()
         top[shell_store.REPORT_KEY] = json.dumps(shell.report, indent=1)
+        top[shell_store.REST_BASE_KEY] = shell_store.rest_fingerprint(V)
         top.gshell.role = "TOP"
         top.gshell.base = base
         top.gshell.thickness = shell.thickness
@@ -149,11 +194,12 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
 
         self.report({"INFO"}, f"gshell: '{top.name}': {summary(shell.report)}")
         for warning in shell.report.get("warnings", []):  # base crossings, unextrudable vertices, not valid
-            self.report({"WARNING"}, f"gshell: '{base.name}': {warning}")
+            self.report({"WARNING"}, f"gshell: '{base.name}': {for_blender(warning, polygon)}")
         scale = base.matrix_world.to_scale()
         if max(scale) > 1.0001 * min(scale):
             self.report({"WARNING"}, f"gshell: '{base.name}' is scaled unevenly {tuple(round(s, 3) for s in scale)}: "
-                                     f"the shell is even in local units, not in the scene (apply the scale first)")
+                                     f"the shell is even in local units, not in the scene (apply the scale to "
+                                     f"'{base.name}', then Generate Shell again)")
         return {"FINISHED"}
 
     def _generate(self, gshell, base):
@@ -161,8 +207,6 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
             owner = base.gshell.base.name if base.gshell.base else "?"
             kind = "the top of" if base.gshell.role == "TOP" else "bound as detail to"
             raise shell_store.ShellError(f"'{base.name}' is {kind} the shell of '{owner}'")
-        if base.mode == "EDIT":
-            base.update_from_editmode()
         V = mesh_arrays.vertex_positions(base.data)
         F, polygon = mesh_arrays.triangles(base.data)
         if len(F) == 0:
@@ -177,15 +221,14 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         wm = bpy.context.window_manager
 
         def show(update):  # the paper's iterations as the cursor's number while the UI waits
-            if update["stage"] == "paper":
+            if update.get("stage", "paper") == "paper":  # (older modules named no stage unguarded)
                 wm.progress_update(update["iteration"])
         if gshell_module.supports(gshell.generate, "progress"):
             kwargs["progress"] = show
         wm.progress_begin(0, self.iterations)
         try:
-            return gshell.generate(V, F, **kwargs), F
+            return gshell.generate(V, F, **kwargs), V, F, polygon
         except ValueError as e:
-            message = str(e).removeprefix("mesh (V, F): ")  # the module's name for its arguments
-            raise shell_store.ShellError(f"'{base.name}': {in_polygons(message, polygon)}") from e
+            raise shell_store.ShellError(f"'{base.name}': {for_blender(str(e), polygon)}") from e
         finally:
             wm.progress_end()

@@ -6,8 +6,9 @@ A shell joins three kinds of objects, marked by `Object.gshell.role`:
   TOP     "<base>.top", made by Generate: same vertices in the same order as the base, parented to
           the base with an identity transform (it always has the base's transform). Its mesh data
           is the rest top; it keeps the shell's triangles (ID property "gshell_faces", int32 3m: the
-          base's polygons as cut by Generate), the thickness and the generate report ("gshell_report",
-          JSON text).
+          base's polygons as cut by Generate), the thickness, the generate report ("gshell_report",
+          JSON text) and a digest of the base's positions then ("gshell_rest_base"): a base edited
+          since, or with a transform applied, no longer fits its top and must be generated again.
   DETAIL  an object bound with Bind: `gshell.base` points to the base; `gshell.bind_matrix` maps its
           local coordinates into the base's local space as they were at binding time.
 A baked object also keeps `gshell.cache_name`, the name of its cache file (a base: of its cache
@@ -15,6 +16,8 @@ folder), so that it keeps the file while other objects come and go (see op_bake.
 Everything the shell solver sees is in the base's local space (object transforms are not part of
 the shell), so a moved, rotated or scaled base carries its shell along.
 """
+import hashlib
+
 import numpy as np
 
 import bpy
@@ -23,6 +26,7 @@ from . import mesh_arrays
 
 FACES_KEY = "gshell_faces"
 REPORT_KEY = "gshell_report"
+REST_BASE_KEY = "gshell_rest_base"  # rest_fingerprint of the base's positions at Generate
 BAKE_REPORT_KEY = "gshell_bake"
 
 
@@ -76,6 +80,15 @@ def shell_faces(top):
     return np.asarray(top[FACES_KEY], dtype=np.int64).reshape(-1, 3)
 
 
+def rest_fingerprint(V):
+    """A digest of rest base positions (n, 3) as Blender stores them (float32)."""
+    return hashlib.sha256(np.ascontiguousarray(V, dtype="<f4").tobytes()).hexdigest()
+
+
+def _identity(matrix):
+    return all(abs(matrix[i][j] - (i == j)) <= 1e-6 for i in range(4) for j in range(4))
+
+
 def rest_shell(gshell, base):
     """gshell.Shell of `base` at rest (base and top mesh data, stored faces and thickness)."""
     top = top_of(base)
@@ -85,6 +98,13 @@ def rest_shell(gshell, base):
     if len(V) != len(T) or (len(F) and F.max() >= len(V)):
         raise ShellError(f"'{base.name}' has {len(V)} vertices but its shell '{top.name}' {len(T)}: the meshes were "
                          f"edited since the shell was made; run Generate Shell again")
+    # Files from before the digest have none: they are taken as they are.
+    if top.get(REST_BASE_KEY, rest_fingerprint(V)) != rest_fingerprint(V):
+        raise ShellError(f"'{base.name}' was changed since its shell was made (its mesh edited, or a transform "
+                         f"applied to it): its top no longer fits; run Generate Shell again")
+    if top.parent != base or not _identity(top.matrix_parent_inverse) or not _identity(top.matrix_basis):
+        raise ShellError(f"'{top.name}' no longer has the transform of '{base.name}' (it was moved, re-parented, or "
+                         f"a transform was applied to '{base.name}'): run Generate Shell again")
     try:
         return gshell.Shell(V, F, T, top.gshell.thickness)
     except ValueError as e:

@@ -436,6 +436,141 @@ class AddonTest(unittest.TestCase):
         F = [(0, 1, 2), (0, 2, 3)]
         self.check_rejected("Sliver", V, F, ["zero area", "polygon 0"])
 
+    def test_inconsistent_orientation_names_the_polygons(self):
+        # A cube with its first quad flipped: the module numbers triangles, the user sees polygons.
+        V = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+        F = [(0, 1, 2, 3), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7), (4, 5, 6, 7)]
+        mesh = bpy.data.meshes.new("Mixed")
+        mesh.from_pydata(V, [], F)
+        obj = bpy.data.objects.new("Mixed", mesh)
+        bpy.context.collection.objects.link(obj)
+        addon_session.select([obj], obj)
+        with self.assertRaises(RuntimeError) as error:
+            bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        message = str(error.exception)
+        self.assertIn("oriented inconsistently", message)
+        self.assertRegex(message, r"triangles \d+ and \d+ of polygons \d and \d")
+        self.assertNotRegex(message, r"faces \d+ and \d+")
+
+    def test_module_messages_are_put_in_blenders_terms(self):
+        from gshell_blender.op_generate import for_blender
+        polygon = [0, 0, 1, 1, 2, 2, 3]
+        self.assertEqual(for_blender("mesh (V, F): vertex 8 is used by no face"), "vertex 8 is used by no face")
+        self.assertEqual(for_blender("faces 1 and 3 use the same three vertices (0, 1, 2): a face is duplicated", polygon),
+                         "triangles 1 and 3 of polygons 0 and 1 use the same three vertices (0, 1, 2): a face is duplicated")
+        self.assertEqual(for_blender("faces 2 and 3 are oriented inconsistently", polygon),
+                         "triangles 2 and 3 of polygon 1 are oriented inconsistently")
+        self.assertEqual(for_blender("shared by 7 faces (0, 1, 2, 3, 4, 5, ...)", polygon),
+                         "shared by 7 triangles (0, 1, 2, 3, 4, 5, ...) of polygons (0, 0, 1, 1, 2, 2, ...)")
+        self.assertEqual(for_blender("face 9 (1, 2, 3) has zero area", polygon), "face 9 (1, 2, 3) has zero area")
+        welded = for_blender("mesh (V, F): 4 edges ... seams; the shell gets walls along the cut; "
+                             "`gshell convert --weld` joins them)")
+        self.assertIn("Merge by Distance", welded)
+        self.assertNotIn("gshell convert", welded)
+
+    def test_generate_allow_invalid_gives_the_unguarded_shell(self):
+        gshell = the_module()
+        sphere = uv_sphere(segments=12, rings=6)
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO, allow_invalid=True),
+                         {"FINISHED"})
+        expected = gshell.generate(positions(sphere.data), np.asarray(sphere.gshell.top["gshell_faces"]).reshape(-1, 3),
+                                   thickness_ratio=THICKNESS_RATIO, allow_invalid=True)
+        np.testing.assert_allclose(positions(sphere.gshell.top.data), expected.top, atol=1e-6)
+
+    def test_generate_in_edit_mode_reads_the_edits_and_stays_in_edit_mode(self):
+        sphere = uv_sphere(segments=12, rings=6)  # with a UV map, as Blender's primitives
+        self.assertTrue(sphere.data.uv_layers)
+        bpy.ops.object.mode_set(mode="EDIT")
+        bpy.ops.mesh.select_all(action="SELECT")
+        bpy.ops.transform.resize(value=(2, 2, 2))  # an edit not yet written to the mesh data
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO), {"FINISHED"})
+        self.assertEqual(sphere.mode, "EDIT")
+        bpy.ops.object.mode_set(mode="OBJECT")
+        top = sphere.gshell.top
+        self.assertGreater(np.linalg.norm(positions(sphere.data), axis=1).min(), 1.9)
+        self.assertGreater(np.linalg.norm(positions(top.data), axis=1).min(), 2.0)
+        self.assertEqual(len(top.data.uv_layers), len(sphere.data.uv_layers))
+        self.assertEqual(sorted(m.name for m in bpy.data.meshes), sorted([sphere.data.name, top.data.name]))
+
+    def test_generate_again_after_deleting_the_top_makes_a_visible_top(self):
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        top = sphere.gshell.top
+        addon_session.select([top], top)
+        bpy.ops.object.delete()
+        addon_session.select([sphere], sphere)
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO), {"FINISHED"})
+        top = sphere.gshell.top
+        self.assertIn(top.name, bpy.context.scene.objects)
+        self.assertEqual(top.parent, sphere)
+
+    def test_generate_again_drops_the_details_bakes_with_the_tops(self):
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        eta = sphere.gshell.top.gshell.thickness
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(1 + 0.5 * eta, 0, 0))
+        detail = bpy.context.active_object
+        addon_session.select([detail, sphere], sphere)
+        self.assertEqual(bpy.ops.object.gshell_bind(), {"FINISHED"})
+        addon_session.animate_bend(sphere, 60, 1, 3)
+        self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=3), {"FINISHED"})
+        self.assertIn("gshell bake", detail.modifiers)
+        addon_session.select([sphere], sphere)
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=2 * THICKNESS_RATIO), {"FINISHED"})
+        self.assertNotIn("gshell bake", sphere.gshell.top.modifiers)
+        self.assertNotIn("gshell bake", detail.modifiers)  # it belonged to the old shell too
+
+    def test_a_base_changed_since_generate_is_refused_until_generated_again(self):
+        for change in ("edit", "apply scale"):
+            with self.subTest(change=change):
+                self.setUp()
+                sphere = uv_sphere(segments=12, rings=6)
+                sphere.scale = (2.0, 1.0, 1.0)
+                bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+                if change == "edit":
+                    sphere.data.vertices[0].co *= 1.2  # same vertex count
+                else:
+                    addon_session.select([sphere], sphere)
+                    bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
+                addon_session.animate_bend(sphere, 60, 1, 3)
+                with self.assertRaises(RuntimeError) as error:
+                    bpy.ops.object.gshell_bake(frame_start=1, frame_end=3)
+                self.assertIn("run Generate Shell again", str(error.exception))
+                self.assertNotIn("gshell bake", sphere.gshell.top.modifiers)
+                addon_session.select([sphere], sphere)
+                bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+                self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=3), {"FINISHED"})
+
+    def test_bind_refuses_to_parent_a_detail_to_its_own_child(self):
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        eta = sphere.gshell.top.gshell.thickness
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(1 + 0.5 * eta, 0, 0))
+        holder = bpy.context.active_object
+        sphere.parent = holder
+        addon_session.select([holder, sphere], sphere)
+        with self.assertRaises(RuntimeError) as error:
+            bpy.ops.object.gshell_bind(parent=True)
+        self.assertIn("is a parent of", str(error.exception))
+        self.assertEqual(holder.gshell.role, "NONE")
+
+    def test_bake_folder_empty_or_relative_is_never_the_working_folder(self):
+        import gshell_blender
+        sphere = uv_sphere(segments=8, rings=4)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        self.addCleanup(bpy.ops.wm.read_homefile, use_empty=True)
+        with tempfile.TemporaryDirectory() as folder, tempfile.TemporaryDirectory() as cwd:
+            bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, "scene.blend"))
+            before = os.getcwd()
+            os.chdir(cwd)
+            try:
+                for directory, expected in (("", os.path.join(folder, "gshell_cache", "Sphere")),
+                                            ("caches/", os.path.join(folder, "caches", "Sphere")),
+                                            ("~/x/", os.path.join(os.path.expanduser("~"), "x", "Sphere"))):
+                    self.assertEqual(gshell_blender.op_bake.cache_directory(sphere, directory)[0], expected)
+            finally:
+                os.chdir(before)
+
 
 if __name__ == "__main__":
     addon_session.install_addon(addon_session.script_args()[0])

@@ -1090,6 +1090,14 @@ class ProgressTest(TempDirTest):
         self.assertEqual(energies, sorted(energies, reverse=True))  # the energy never rises
         for u in updates:
             self.assertEqual(set(u), {"stage", "iteration", "energy", "seconds"})
+        # Unguarded, the same keys: the paper's iterations are all there is (the Blender add-on
+        # read update["stage"] and failed on every Generate with "allow invalid").
+        unguarded = []
+        gshell.generate(V, F, thickness=1.3, allow_invalid=True, progress=unguarded.append)
+        self.assertTrue(unguarded)
+        for u in unguarded:
+            self.assertEqual(set(u), {"stage", "iteration", "energy", "seconds"})
+            self.assertEqual(u["stage"], "paper")
 
     def test_progress_true_prints_one_line_per_update(self):
         import contextlib
