@@ -80,6 +80,19 @@ try {
   }
   const groups = await page.evaluate(() => window.gshellView.groups);
   check(groups.length === 2 && groups[0].name === 'hold' && groups[1].name === 'pull', `the server made the groups ${JSON.stringify(groups)}`);
+  // A group the server refuses (it overlaps 'pull') leaves the selection and the name to mend.
+  await boxAround(endOf(1));
+  await page.type('#group-name', 'again');
+  await page.click('#make-group');
+  await page.waitForFunction(() => [...document.querySelectorAll('#status .error')].some((e) => /overlap/.test(e.textContent)), { timeout: 10000 });
+  const refused = await page.evaluate(() => ({
+    selected: window.gshellView.selected, name: document.getElementById('group-name').value, groups: window.gshellView.groups.length,
+    error: [...document.querySelectorAll('#status .error')].map((e) => e.textContent).join(' | '),
+  }));
+  check(refused.selected >= endOf(1).length && refused.name === 'again' && refused.groups === 2 && /'pull'/.test(refused.error),
+    `a refused group keeps the selection and the name, and the error names the group (${JSON.stringify(refused)})`);
+  await page.click('#clear-selection');
+  await page.$eval('#group-name', (el) => { el.value = ''; });
 
   // Drag the pull group up the screen with the mouse, in many small moves, then let go.
   await page.click('input[name=mode][value=drag]');

@@ -552,6 +552,31 @@ TEST(ViewSession, SequencesShowFramesAndCannotBePosed) {
   EXPECT_THROW(load_view_input({plate.tmp.file("missing")}), InputError);
 }
 
+// Shell folders of different thickness compared as frames (two generate outputs): each frame's
+// thickness colors are against its own eta, not the first frame's.
+TEST(ViewSession, FramesOfDifferentThicknessAreColoredAgainstTheirOwn) {
+  const PlateFolder plate; // thickness 0.1
+  const std::string thick = plate.tmp.file("thick");
+  ASSERT_EQ(test::run_cli("generate builtin:plane:10 --thickness 0.25 -q -o '" + thick + "'").exit_code, 0);
+  ViewSession session(load_view_input({plate.dir, thick}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  session.welcome(out.sink());
+  session.receive(R"({"type":"frame","index":1})", out.sink());
+  const std::vector<std::string> values = out.frames(ViewFrameKind::Values);
+  ASSERT_EQ(values.size(), 2u);
+  const std::size_t m = session.input().shell.F.rows(), n = session.input().shell.num_base_vertices();
+  for (const std::string& frame : values) {
+    ASSERT_EQ(frame.size(), kViewFrameHeaderBytes + 4 * (m + n));
+    double mean = 0;
+    for (std::size_t v = 0; v < n; ++v) {
+      float t;
+      std::memcpy(&t, frame.data() + kViewFrameHeaderBytes + 4 * (m + v), 4);
+      mean += t / static_cast<double>(n);
+    }
+    EXPECT_NEAR(mean, 1.0, 1e-3); // a flat plate's rigid shell is its eta thick (frame 1 was 2.5)
+  }
+}
+
 // A sequence too large to hold (here: any, with a budget of one byte) keeps only its first frame
 // and reads the others when shown: the page gets the same positions and colors as from a held
 // sequence, and a frame that turns out not to belong is an error that leaves the shown one.

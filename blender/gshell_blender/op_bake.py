@@ -91,6 +91,18 @@ def cache_directory(base, directory):
     return os.path.join(bpy.path.abspath(directory), name), name, warning
 
 
+def frame_ranges(frames):
+    """Ascending frame numbers as "frames 3-5, 9" ("frame 3" for one)."""
+    runs = []
+    for f in frames:
+        if runs and f == runs[-1][1] + 1:
+            runs[-1][1] = f
+        else:
+            runs.append([f, f])
+    text = ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+    return ("frame " if len(frames) == 1 else "frames ") + text
+
+
 class Bake:
     """One bake: the rest shell and embeddings prepared once, then step() solves one frame."""
 
@@ -160,13 +172,15 @@ class Bake:
             "frame": frame, "iterations": last["iterations"], "converged": last["converged"],
             "stretch_max": last["stretch"]["max"], "inverted_tets": last["inverted_tets"],
             "valid": last.get("valid"), "method": last.get("method"),
+            "base_self_intersections": last.get("base_self_intersections"),
             "seconds": {"total": clock[-1] - clock[0], "evaluate": evaluate, "solve": solve, "carry": carry,
                         "write": write}})
         self.done += 1
         return self.done == len(self.frames)
 
     def finish(self):
-        """Puts the caches in place and attaches them; returns the status line."""
+        """Puts the caches in place and attaches them; returns (level, status line): a WARNING that
+        names the frames a guarded bake could not keep valid, and why."""
         try:
             point_cache.commit_all(self.writers)
         except point_cache.CommitError as e:
@@ -187,10 +201,24 @@ class Bake:
             "factor_seconds": self.deformer.factor_seconds, "median_seconds_per_frame": per_frame,
             "allow_invalid": self.allow_invalid, "invalid_frames": invalid,
             "frames": self.frame_stats}, indent=1)
-        return (f"gshell: baked frames {self.frames[0]}-{self.frames[-1]} of '{self.base.name}' (top and "
+        line = (f"gshell: baked frames {self.frames[0]}-{self.frames[-1]} of '{self.base.name}' (top and "
                 f"{len(self.details)} detail object(s)): {per_frame:.3g} s per frame, max stretch {worst:.3g}, "
                 f"{'no' if inverted == 0 else 'up to ' + str(inverted)} inverted tets, "
                 f"{invalid} invalid frame(s){' (allow invalid)' if self.allow_invalid else ''}; caches in {self.folder}")
+        # Bound inside a shell generated again since, thinner, say: Bind warned of those outside then.
+        strayed = [f"'{d.name}' {len(e.outside)} (at binding {d[shell_store.OUTSIDE_KEY]})"
+                   for d, e in zip(self.details, self.embeddings)
+                   if len(e.outside) > d.get(shell_store.OUTSIDE_KEY, len(e.outside))]
+        if strayed:
+            line += (f"; more detail vertices than at binding lie outside the shell (it was generated again since?) "
+                     f"and follow the nearest tet: {', '.join(strayed)}")
+        if not invalid or self.allow_invalid:
+            return ("WARNING" if strayed else "INFO"), line
+        bad = [s for s in self.frame_stats if s["valid"] is False]
+        crossing = max((s["base_self_intersections"] or 0) for s in bad)
+        why = (f"the animated base intersects itself there (up to {crossing} face pairs): no shell over it can be "
+               f"valid" if crossing else "the guard could not keep them valid (per frame: the top's gshell_bake)")
+        return "WARNING", f"{line}. Not valid: {frame_ranges([s['frame'] for s in bad])}: {why}"
 
     def cancel(self):
         for writer in self.writers:
@@ -246,7 +274,8 @@ class OBJECT_OT_gshell_bake(bpy.types.Operator):
 
     def _finish(self):
         try:
-            self.report({"INFO"}, self._bake.finish())
+            level, line = self._bake.finish()
+            self.report({level}, line)
         except shell_store.ShellError as e:  # says what became of the earlier caches
             self._bake.cancel()
             self.report({"ERROR"}, f"gshell: {e}")

@@ -60,6 +60,7 @@ class OBJECT_OT_gshell_bind(bpy.types.Operator):
             detail.gshell.role = "DETAIL"
             detail.gshell.base = base
             detail.gshell.bind_matrix = matrix
+            detail[shell_store.OUTSIDE_KEY] = len(embedding.outside)  # a bake warns if more are later
             points += len(embedding)
             outside += len(embedding.outside)
             farthest = max(farthest, embedding.max_outside_distance)

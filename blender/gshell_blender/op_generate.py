@@ -203,8 +203,8 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         return {"FINISHED"}
 
     def _generate(self, gshell, base):
-        if base.gshell.role in ("TOP", "DETAIL"):
-            owner = base.gshell.base.name if base.gshell.base else "?"
+        if base.gshell.role in ("TOP", "DETAIL") and base.gshell.base is not None:  # a base gone: a plain mesh
+            owner = base.gshell.base.name
             kind = "the top of" if base.gshell.role == "TOP" else "bound as detail to"
             raise shell_store.ShellError(f"'{base.name}' is {kind} the shell of '{owner}'")
         V = mesh_arrays.vertex_positions(base.data)

@@ -27,6 +27,7 @@ from . import mesh_arrays
 FACES_KEY = "gshell_faces"
 REPORT_KEY = "gshell_report"
 REST_BASE_KEY = "gshell_rest_base"  # rest_fingerprint of the base's positions at Generate
+OUTSIDE_KEY = "gshell_outside"  # on a detail: how many of its vertices lay outside the shell at Bind
 BAKE_REPORT_KEY = "gshell_bake"
 
 

@@ -236,6 +236,31 @@ class AddonTest(unittest.TestCase):
             expected = deformer.solve(evaluated_positions(sphere))
             np.testing.assert_allclose(evaluated_positions(top), expected, atol=1e-5, err_msg=f"frame {frame}")
 
+    def test_a_bake_with_invalid_frames_warns_naming_them_and_why(self):
+        from gshell_blender import op_bake
+        self.assertEqual(op_bake.frame_ranges([3, 4, 5, 9]), "frames 3-5, 9")
+        self.assertEqual(op_bake.frame_ranges([2]), "frame 2")
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        addon_session.animate_bend(sphere, 270, 1, 4)  # the bent sphere runs into itself
+        bake = op_bake.Bake(the_module(), bpy.context, sphere, 1, 4, op_bake.DEFAULT_DIRECTORY)
+        while not bake.step():
+            pass
+        level, line = bake.finish()
+        invalid = [s["frame"] for s in json.loads(sphere.gshell.top["gshell_bake"])["frames"] if s["valid"] is False]
+        self.assertTrue(invalid)
+        self.assertEqual(level, "WARNING")
+        self.assertIn(f"Not valid: {op_bake.frame_ranges(invalid)}: the animated base intersects itself", line)
+
+    def test_a_top_whose_base_is_gone_is_a_plain_mesh_again(self):
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        top = sphere.gshell.top
+        bpy.data.objects.remove(sphere)
+        addon_session.select([top], top)
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO), {"FINISHED"})
+        self.assertEqual(top.gshell.role, "BASE")
+
     def test_bake_of_a_saved_file_is_kept_next_to_it(self):
         import gshell_blender
         # Later tests want an unsaved file again: the folder saved to here is deleted.
@@ -519,6 +544,15 @@ class AddonTest(unittest.TestCase):
         self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=2 * THICKNESS_RATIO), {"FINISHED"})
         self.assertNotIn("gshell bake", sphere.gshell.top.modifiers)
         self.assertNotIn("gshell bake", detail.modifiers)  # it belonged to the old shell too
+        # Generated again thinner, the detail now pokes out: the bake says so.
+        from gshell_blender import op_bake
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=0.2 * THICKNESS_RATIO), {"FINISHED"})
+        bake = op_bake.Bake(the_module(), bpy.context, sphere, 1, 3, op_bake.DEFAULT_DIRECTORY)
+        while not bake.step():
+            pass
+        level, line = bake.finish()
+        self.assertEqual(level, "WARNING")
+        self.assertRegex(line, rf"lie outside the shell .*'{detail.name}' \d+ \(at binding 0\)")
 
     def test_a_base_changed_since_generate_is_refused_until_generated_again(self):
         for change in ("edit", "apply scale"):

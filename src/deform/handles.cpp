@@ -248,16 +248,22 @@ void check_handles(const HandleSet& set, int shell_vertices) {
   if (set.mode == ConstraintMode::Soft && !(set.weight >= kMinSoftWeight && set.weight <= kMaxSoftWeight))
     throw InputError("handles: weight must be in [1e-12, 1e12]");
   std::vector<int> owner(std::max(shell_vertices, 0), -1);
+  // By index (the file's order, from 0) and by name where it has one: the viewer lists groups by
+  // name, counting from 1.
+  auto label = [&](size_t k) {
+    const std::string& name = set.handles[k].name;
+    return "handle " + std::to_string(k) + (name.empty() ? "" : " ('" + name + "')");
+  };
   for (size_t k = 0; k < set.handles.size(); ++k) {
     const Handle& h = set.handles[k];
-    const std::string where = "handle " + std::to_string(k) + ": ";
+    const std::string where = label(k) + ": ";
     if (h.vertices.empty()) throw InputError(where + "no vertices");
     for (int v : h.vertices) {
       if (v < 0 || v >= shell_vertices)
         throw InputError(where + "unknown vertex id " + std::to_string(v) + " (the shell has vertices 0.." +
                          std::to_string(shell_vertices - 1) + ")");
       if (owner[v] >= 0)
-        throw InputError(where + "vertex " + std::to_string(v) + " is in handle " + std::to_string(owner[v]) +
+        throw InputError(where + "vertex " + std::to_string(v) + " is in " + label(static_cast<size_t>(owner[v])) +
                          " too (handles must not overlap)");
       owner[v] = static_cast<int>(k);
     }

@@ -94,7 +94,7 @@ ViewInput from_folders(const std::vector<std::string>& dirs, const std::string& 
     } else {
       check_same_shell(dirs[k], f.shell, in.shell, dirs[0]);
     }
-    in.frames.push_back({dirs[k], f.shell.vertices(), std::move(loaded.face_stretch)});
+    in.frames.push_back({dirs[k], f.shell.vertices(), std::move(loaded.face_stretch), f.shell.thickness});
     if (options.frame_progress && dirs.size() > 1) options.frame_progress(static_cast<int>(k) + 1, static_cast<int>(dirs.size()));
     if (!in.frames_held) { // the first frame only (the shell the page opens on); the others are named
       in.tets = std::move(f.tets);
@@ -162,7 +162,7 @@ ViewFrame read_view_frame(const ViewInput& input, int k) {
   if (std::optional<ViewFrame> read = read_frame_vtu(frame.name, input)) return std::move(*read);
   LoadedFolder loaded = load_folder(frame.name);
   check_same_shell(frame.name, loaded.folder.shell, input.shell, input.frames[0].name);
-  return {frame.name, loaded.folder.shell.vertices(), std::move(loaded.face_stretch)};
+  return {frame.name, loaded.folder.shell.vertices(), std::move(loaded.face_stretch), loaded.folder.shell.thickness};
 }
 
 } // namespace gshell

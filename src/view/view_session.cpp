@@ -145,7 +145,8 @@ struct ViewSession::Impl {
     shell.base = x.topRows(n);
     shell.top = x.bottomRows(n);
     shell.F = input.shell.F;
-    shell.thickness = input.shell.thickness;
+    const double frame_thickness = drag ? 0.0 : shown_frame().thickness;
+    shell.thickness = frame_thickness > 0 ? frame_thickness : input.shell.thickness;
     vertex_values = vertex_thickness_ratio(shell);
     values_version = version;
     if (!at_rest) values_seconds = std::chrono::duration<double>(Clock::now() - start).count();

@@ -15,6 +15,7 @@ const state = {
   vertexValues: null,
   groups: [],
   active: -1,
+  addingGroup: undefined, // groups.length when "make group" was sent, until the server answers
   stats: null,
   answered: 0,
   solveMs: NaN,
@@ -70,7 +71,9 @@ function onText(m) {
     case 'hello': return onHello(m);
     case 'handles': return onHandles(m.handles);
     case 'stats': state.stats = m; return showStats();
-    case 'error': return status(m.message, true);
+    case 'error':
+      if (m.request === 'add_handle') state.addingGroup = undefined; // refused: the selection stays
+      return status(m.message, true);
     case 'saved': return status(`saved ${m.path}`);
     case 'handles_file':
       state.handlesFile = m.handles;
@@ -258,6 +261,12 @@ function onHandles(file) {
     };
     return group;
   });
+  if (state.addingGroup !== undefined && state.groups.length > state.addingGroup) {
+    state.active = state.addingGroup; // the new group
+    state.addingGroup = undefined;
+    $('group-name').value = '';
+    tools.setSelection(new Set());
+  }
   if (state.active >= state.groups.length) state.active = state.groups.length - 1;
   view.setGroups(state.groups);
   renderGroups();
@@ -332,9 +341,9 @@ $('clear-selection').onclick = () => tools.setSelection(new Set());
 $('make-group').onclick = () => {
   if (!tools.selection.size) return status('select vertices first (box or brush mode)', true);
   send(JSON.stringify({ type: 'add_handle', name: $('group-name').value.trim(), vertices: [...tools.selection] }));
-  $('group-name').value = '';
-  tools.setSelection(new Set());
-  state.active = state.groups.length; // the new group, once the server has it
+  // The selection and the name stay until the server has the group: a refused one (overlapping
+  // another group) is then mended, not selected again from scratch.
+  state.addingGroup = state.groups.length;
 };
 $('undo').onclick = () => send(JSON.stringify({ type: 'undo' }));
 $('reset').onclick = () => send(JSON.stringify({ type: 'reset' }));
@@ -368,7 +377,11 @@ $('play').onclick = () => {
 
 window.addEventListener('keydown', (e) => {
   if (e.target.tagName === 'INPUT' && e.target.type !== 'radio' && e.target.type !== 'checkbox') return;
-  if ((e.ctrlKey || e.metaKey) && e.key === 'z') { send(JSON.stringify({ type: 'undo' })); e.preventDefault(); return; }
+  if ((e.ctrlKey || e.metaKey) && e.key === 'z') {
+    if (state.hello && state.hello.posable) send(JSON.stringify({ type: 'undo' })); // a sequence has nothing to undo
+    e.preventDefault();
+    return;
+  }
   const modes = { o: 'orbit', b: 'box', p: 'brush', d: 'drag' };
   if (modes[e.key] && state.hello && state.hello.posable) {
     document.querySelector(`input[name=mode][value=${modes[e.key]}]`).checked = true;

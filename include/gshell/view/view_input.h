@@ -42,6 +42,9 @@ struct ViewFrame {
   std::string name;             ///< the folder as given / frame_NNNN
   Eigen::MatrixXd X;            ///< 2n x 3 shell vertices (base rows, then top rows); empty if not held
   Eigen::VectorXd face_stretch; ///< per face, as gshell render colors it (m); empty if not held
+  /// The eta its thickness colors are measured against: its folder's (several generate outputs
+  /// compared side by side differ), or 0 for the input shell's (a frame read from its shell.vtu).
+  double thickness = 0;
 };
 
 struct ViewInput {
