@@ -52,18 +52,25 @@ std::vector<std::pair<int, int>> nested_probes(const Eigen::MatrixXd& base, cons
   using RowMajorPoints = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
   const RowMajorPoints B = base, T = top;
   // The probes sorted by x: a tet visits only those within its box's x range.
+  // Each with what the scan reads (its point and part), not indices into the shell: a face
+  // scans a few to tens of them.
   struct Probe {
-    double x;
+    double x, y, z;
     int vertex; // shell vertex: base i or top n + i
+    int part;
   };
   std::vector<Probe> probes;
-  for (int i : parts.probe)
-    for (int v : {i, n + i}) probes.push_back({v < n ? B(v, 0) : T(v - n, 0), v});
+  for (int k = 0; k < parts.count(); ++k) {
+    const int i = parts.probe[k];
+    probes.push_back({B(i, 0), B(i, 1), B(i, 2), i, k});
+    probes.push_back({T(i, 0), T(i, 1), T(i, 2), n + i, k});
+  }
   std::sort(probes.begin(), probes.end(), [](const Probe& a, const Probe& b) { return a.x < b.x; });
   auto point = [&](int v) { return v < n ? B.row(v).data() : T.row(v - n).data(); };
 
   tbb::enumerable_thread_specific<std::vector<std::pair<int, int>>> found;
   tbb::parallel_for(tbb::blocked_range<int>(0, m, 4096), [&](const tbb::blocked_range<int>& r) {
+    std::vector<int> near; // probes of other parts in the prism's box
     for (int f = r.begin(); f < r.end(); ++f) {
       const int part = parts.of_vertex[F(f, 0)];
       const double* corner[6];
@@ -71,24 +78,29 @@ std::vector<std::pair<int, int>> nested_probes(const Eigen::MatrixXd& base, cons
         corner[k] = B.row(F(f, k)).data();
         corner[k + 3] = T.row(F(f, k)).data();
       }
+      // The prism's box first: it holds most probes' x range empty, and its three tets would
+      // each have made a box and searched the probes (called at every check of the valid start
+      // and of the lifting, on a shell with hundreds of parts this pass was a quarter of the run).
+      Eigen::Array3d lo = Eigen::Array3d::Constant(INFINITY), hi = -lo;
+      for (const double* p : corner) {
+        const Eigen::Array3d q(p[0], p[1], p[2]);
+        lo = lo.min(q);
+        hi = hi.max(q);
+      }
+      near.clear();
+      auto k = std::lower_bound(probes.begin(), probes.end(), lo[0], [](const Probe& p, double x) { return p.x < x; });
+      for (; k != probes.end() && k->x <= hi[0]; ++k)
+        if (k->part != part && k->y >= lo[1] && k->y <= hi[1] && k->z >= lo[2] && k->z <= hi[2])
+          near.push_back(k->vertex);
+      if (near.empty()) continue;
       const auto tets = prism_corner_tets(F(f, 0), F(f, 1), F(f, 2));
       for (int t = 0; t < 3; ++t) {
         const std::array<const double*, 4> c = {corner[tets[t][0]], corner[tets[t][1]], corner[tets[t][2]],
                                                 corner[tets[t][3]]};
-        Eigen::Array3d lo = Eigen::Array3d::Constant(INFINITY), hi = -lo;
-        for (const double* p : c) {
-          const Eigen::Array3d q(p[0], p[1], p[2]);
-          lo = lo.min(q);
-          hi = hi.max(q);
-        }
-        auto k = std::lower_bound(probes.begin(), probes.end(), lo[0], [](const Probe& p, double x) { return p.x < x; });
-        for (; k != probes.end() && k->x <= hi[0]; ++k) {
-          const int v = k->vertex, i = v < n ? v : v - n;
-          if (parts.of_vertex[i] == part) continue;
-          const double* p = point(v);
-          if (p[1] < lo[1] || p[1] > hi[1] || p[2] < lo[2] || p[2] > hi[2]) continue;
-          if (orientation_sign(c[0], c[1], c[2], c[3]) <= 0) break; // inverted or flat: no inside
+        if (orientation_sign(c[0], c[1], c[2], c[3]) <= 0) continue; // inverted or flat: no inside
+        for (const int v : near) {
           // Inside the closed tet: on the positive side of (or on) each of its four faces.
+          const double* p = point(v);
           if (orientation_sign(p, c[1], c[2], c[3]) >= 0 && orientation_sign(c[0], p, c[2], c[3]) >= 0 &&
               orientation_sign(c[0], c[1], p, c[3]) >= 0 && orientation_sign(c[0], c[1], c[2], p) >= 0)
             found.local().emplace_back(v, 3 * f + t);
