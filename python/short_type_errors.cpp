@@ -12,9 +12,44 @@ void shorten_argument_type_errors(pybind11::module_& m) {
   pybind11::exec(R"py(
 import functools
 
-def _shorten(function):
+def _bool_parameters(function):
+    """{position or name: name} of the parameters the signature types as bool (pybind11's bool
+    takes None as False: allow_invalid=None would quietly mean False)."""
+    doc = (function.__doc__ or "").split("\n", 1)[0]
+    if "(" not in doc or doc.startswith("Overloaded"):
+        return {}
+    inside = doc[doc.index("(") + 1:doc.rfind(") ->") if ") ->" in doc else len(doc)]
+    parts, depth, start = [], 0, 0
+    for i, c in enumerate(inside):
+        depth += c in "[(" and 1 or c in "])" and -1 or 0
+        if c == "," and depth == 0:
+            parts.append(inside[start:i].strip())
+            start = i + 1
+    parts.append(inside[start:].strip())
+    found, position = {}, 0
+    for part in parts:
+        if part == "*":
+            position = None
+            continue
+        name, _, rest = part.partition(":")
+        if rest.split("=")[0].strip() == "bool":
+            found[name.strip()] = name.strip()
+            if position is not None:
+                found[position] = name.strip()
+        if position is not None:
+            position += 1
+    return found
+
+def _shorten(function, owner=None):
+    bools = _bool_parameters(function)
+    name = (function.__doc__ or "").split("(", 1)[0].strip() or getattr(function, "__name__", "function")
+    label = owner if owner and name == "__init__" else f"{owner}.{name}" if owner else name
+
     @functools.wraps(function)
     def call(*args, **kwargs):
+        for key, value in list(enumerate(args)) + list(kwargs.items()):
+            if value is None and key in bools:
+                raise TypeError(f"{label}(): {bools[key]} must be True or False, not None")
         try:
             return function(*args, **kwargs)
         except TypeError as error:
@@ -35,7 +70,7 @@ for _name, _value in list(vars(module).items()):
         for _method_name, _method in list(vars(_value).items()):
             if (_method_name == "__init__" or not _method_name.startswith("_")) and \
                     type(_method).__name__ == "instancemethod":
-                setattr(_value, _method_name, _shorten(_method))
+                setattr(_value, _method_name, _shorten(_method, _value.__name__))
 )py",
                  scope);
 }

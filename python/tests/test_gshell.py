@@ -423,6 +423,15 @@ class GenerateTest(TempDirTest):
             self.assertLess(len(text), 600)
             self.assertIn(given, text)
             self.assertNotIn("0.52573111", text)  # no array printed
+        # None for a bool parameter is not False (pybind11 alone would take it so), by keyword or position.
+        for call, words in ((lambda: gshell.generate(V, F, thickness=0.1, allow_invalid=None), "generate(): allow_invalid"),
+                            (lambda: gshell.Deformer(shell, allow_invalid=None), "Deformer(): allow_invalid"),
+                            (lambda: gshell.generate(V, F, thickness=0.1, count_intersections=None),
+                             "generate(): count_intersections")):
+            with self.subTest(words), self.assertRaises(TypeError) as caught:
+                call()
+            self.assertEqual(str(caught.exception), words + " must be True or False, not None")
+        gshell.generate(V, F, thickness=0.1, allow_invalid=np.bool_(False))  # numpy's bools are still bools
         # A TypeError raised inside a call (here by the progress callable) passes unchanged.
         def progress(update):
             raise TypeError("mine")
