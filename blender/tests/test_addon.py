@@ -75,6 +75,15 @@ def bounding_radius(V):
     return np.linalg.norm(V - centre, axis=1).max()
 
 
+def shell_and_ball(direction=(1, 0, 0)):
+    """A 12 x 6 UV sphere with its shell, and a ball of radius 0.01 halfway up its layer along `direction`."""
+    sphere = uv_sphere(segments=12, rings=6)
+    bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+    eta = sphere.gshell.top.gshell.thickness
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=Vector(direction) * (1 + 0.5 * eta))
+    return sphere, bpy.context.active_object
+
+
 class AddonTest(unittest.TestCase):
     def setUp(self):
         for obj in list(bpy.data.objects):
@@ -306,11 +315,8 @@ class AddonTest(unittest.TestCase):
         self.assertIn("gshell bake", top.modifiers)
 
     def test_bind_refuses_a_flattened_or_unembeddable_detail_and_changes_nothing(self):
-        sphere = uv_sphere(segments=12, rings=6)
-        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        sphere, good = shell_and_ball()
         eta = sphere.gshell.top.gshell.thickness
-        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(1 + 0.5 * eta, 0, 0))
-        good = bpy.context.active_object
         bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(0, 1 + 0.5 * eta, 0))
         flat = bpy.context.active_object
         flat.scale = (1, 1, 0)  # its world matrix has no inverse: carried points could not go back to it
@@ -530,11 +536,7 @@ class AddonTest(unittest.TestCase):
         self.assertEqual(top.parent, sphere)
 
     def test_generate_again_drops_the_details_bakes_with_the_tops(self):
-        sphere = uv_sphere(segments=12, rings=6)
-        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
-        eta = sphere.gshell.top.gshell.thickness
-        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(1 + 0.5 * eta, 0, 0))
-        detail = bpy.context.active_object
+        sphere, detail = shell_and_ball()
         addon_session.select([detail, sphere], sphere)
         self.assertEqual(bpy.ops.object.gshell_bind(), {"FINISHED"})
         addon_session.animate_bend(sphere, 60, 1, 3)
@@ -576,11 +578,7 @@ class AddonTest(unittest.TestCase):
                 self.assertEqual(bpy.ops.object.gshell_bake(frame_start=1, frame_end=3), {"FINISHED"})
 
     def test_bind_refuses_to_parent_a_detail_to_its_own_child(self):
-        sphere = uv_sphere(segments=12, rings=6)
-        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
-        eta = sphere.gshell.top.gshell.thickness
-        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.01, location=(1 + 0.5 * eta, 0, 0))
-        holder = bpy.context.active_object
+        sphere, holder = shell_and_ball()
         sphere.parent = holder
         addon_session.select([holder, sphere], sphere)
         with self.assertRaises(RuntimeError) as error:
