@@ -426,6 +426,28 @@ ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::Matr
   return guard_->certify(Y);
 }
 
+namespace {
+
+// Carries a frame the guard made valid on its own terms forward (the next frame starts from it)
+// when the guard's choice of what to leave out is the rest shell's. A frame made with more left out
+// (the tets at vertices its base makes unextrudable, the triangles around its base's crossings) may
+// keep faults there, and the next frame, starting from it, would leave them out again and keep
+// them for good: one frame whose base crossed itself left an inverted tet in every later frame of
+// CGAL's homer bent by 120 degrees, their bases clean. The next frame then starts from the last
+// frame clean on the rest's terms (`last`, or the one kept from before), unless the certificate
+// finds this one valid after all (ShellDeformer::deform).
+void carry_forward(const FrameGuard& guard, const Eigen::MatrixXd& last, bool& clean, Eigen::MatrixXd& resume) {
+  if (!guard.leaves_out_beyond_rest()) {
+    clean = true;
+    resume.resize(0, 3);
+    return;
+  }
+  if (resume.rows() == 0) resume = last;
+  clean = false;
+}
+
+} // namespace
+
 void ShellDeformer::take_mended(Eigen::MatrixXd& X, FrameMend& mended, int iterations, FrameResult& result) {
   X = std::move(mended.X);
   result.method = FrameMethod::Mended;
@@ -435,8 +457,7 @@ void ShellDeformer::take_mended(Eigen::MatrixXd& X, FrameMend& mended, int itera
   result.certificate = std::move(mended.certificate);
   result.certified = true;
   result.energy.push_back(mended.energy);
-  current_clean_ = true;
-  resume_.resize(0, 3);
+  carry_forward(*guard_, current_, current_clean_, resume_); // current_: the frame it was mended from
 }
 
 void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X, const DeformOptions& options,
@@ -464,8 +485,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
       result.certificate = std::move(certificate);
       result.certified = true;
     }
-    current_clean_ = true;
-    resume_.resize(0, 3);
+    carry_forward(*guard_, last, current_clean_, resume_);
     return;
   }
   GuardedSolveOptions solve;
@@ -573,8 +593,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   result.guarded_iterations = mended.iterations + outcome.iterations; // a declined mend's too
   result.valid = dragged_valid;
   if (result.valid) {
-    current_clean_ = true;
-    resume_.resize(0, 3);
+    carry_forward(*guard_, last, current_clean_, resume_);
   } else {
     // The frame returned (tets only, or the paper's solve) is not carried forward: the next frame
     // starts from the last valid one (where this one started).
