@@ -286,6 +286,33 @@ TEST(DragSession, HandlesJsonIsTheHandleFileFormat) {
   EXPECT_LT(max_distance(back.targets(X, 1.0), session.handles().targets(X, 1.0)), 1e-14);
 }
 
+TEST(DragSession, UnguardedStepsAreCertifiedInTheResultAndTheWrittenReport) {
+  // allow_invalid: the steps are the solver's own, each still certified, as deform's unguarded
+  // frames are; the folder's report.json (what `pose --allow-invalid` and Poser.write write) says so
+  // (it listed only iterations and energy, and no warning).
+  const Plate plate;
+  PoseOptions o;
+  o.solver = PoseSolverKind::Single;
+  o.allow_invalid = true;
+  o.steps = 2;
+  DragSession session(plate.shell, o);
+  session.set_handles(plate.handles);
+  const PoseResult r = run_pose(session, o);
+  ASSERT_EQ(r.steps.size(), 2u);
+  for (const PoseStepReport& s : r.steps) {
+    EXPECT_FALSE(s.guarded);
+    EXPECT_TRUE(s.certified);
+  }
+  test::TempDir tmp;
+  session.write(tmp.file("posed"));
+  const auto report = read_report(tmp.file("posed"));
+  ASSERT_EQ(report["steps"].size(), 2u);
+  for (const auto& step : report["steps"]) {
+    EXPECT_EQ(step["method"], "unguarded") << step.dump();
+    EXPECT_TRUE(step.contains("valid") && step.contains("certificate")) << step.dump();
+  }
+}
+
 TEST(DragSession, WritesThePoseFolder) {
   const Plate plate;
   PoseOptions o;

@@ -3,6 +3,7 @@
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
+#include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/run/staged_folder.h>
 #include <gshell/shell/prism_tets.h>
@@ -279,7 +280,13 @@ PoseStepReport DragSession::drag(double fraction, const std::optional<SolveOptio
   st.targets = P;
   st.fraction = fraction;
   st.version_of_last = st.motion_version;
-  return s.record(fraction, r, r.seconds + predict_seconds);
+  PoseStepReport step = s.record(fraction, r, r.seconds + predict_seconds);
+  if (!s.guarded()) { // as deform certifies its unguarded frames: the report says what each step is
+    const Eigen::Index n = st.X.rows() / 2;
+    step.record_certificate(certify_shell(st.X.topRows(n), st.X.bottomRows(n), s.rest.F));
+    st.steps.back() = step; // what result() and write() report
+  }
+  return step;
 }
 
 PoseStepReport DragSession::preview(double fraction, int iterations) {

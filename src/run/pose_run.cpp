@@ -126,23 +126,14 @@ PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_
   options.check();
   const double from = session.fraction();
   const std::size_t first = session.result_step_count();
-  std::vector<ShellCertificate> unguarded; // each unguarded (allow_invalid) step's state
   for (int step = 1; step <= options.steps; ++step) {
     SolveOptions so = options.solve;
     so.progress = nullptr;
     if (options.step_progress)
       so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
-    const PoseStepReport made = session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
-    if (!made.guarded) { // as deform certifies its unguarded frames: the report says what they are
-      const Eigen::MatrixXd& X = session.vertices();
-      const Eigen::Index n = X.rows() / 2;
-      unguarded.push_back(certify_shell(X.topRows(n), X.bottomRows(n), session.rest().F));
-    }
+    session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
   }
-  PoseResult result = session.result(first);
-  for (std::size_t k = 0, u = 0; k < result.steps.size() && u < unguarded.size(); ++k)
-    if (!result.steps[k].guarded) result.steps[k].record_certificate(unguarded[u++]);
-  return result;
+  return session.result(first);
 }
 
 PoseResult run_pose(const Shell& rest, const HandleSet& handles, const PoseOptions& options) {
