@@ -89,8 +89,9 @@ std::vector<std::string> PoseResult::warnings() const {
                       "blocked_by_contact in report.json)");
     else if (s.blocked_by_contact)
       lines.push_back("pose step " + std::to_string(step) +
-                      ": the handles force the shell into itself or squeeze a tet between them flat; stopped short "
-                      "of them (blocked_by_contact in report.json)");
+                      ": stopped short of the handles' targets, valid: the guarded drag stalled (the handles may "
+                      "force the shell into itself or squeeze a tet between them flat; if they do not, more --steps "
+                      "may reach them) (blocked_by_contact in report.json)");
     if (!s.valid) invalid.add(step, s.base_self_intersections > 0, false, s.rest_faults_only);
   }
   const std::string line = detail::invalid_items_warning(invalid, certified, "pose step", unguarded);
