@@ -559,6 +559,26 @@ TEST(DeformGuard, AFrameAfterAnInvalidOneStartsFromTheLastValidState) {
   expect_valid_frame(deformer, second, shut);
 }
 
+TEST(DeformGuard, ABaseCrossingItselfNearlyEverywhereIsThePapersSolveAtOnce) {
+  // A plane collapsed onto a line (an animation's glitch, or a squash to zero): its faces cross
+  // their neighbours everywhere, no valid shell exists, and the guard has nothing to keep clean.
+  // The frame is the paper's solve, reported not valid, with no guarded iteration spent (they ran
+  // for 14 s here, for minutes on bunny00 squashed flat); the next frame starts from the last
+  // valid one and is valid. (A fold through itself is still guarded: the test below.)
+  const Shell rest = flat_plane_shell(16, 0.2);
+  ShellDeformer deformer(rest);
+  Eigen::MatrixXd collapsed = rest.base;
+  collapsed.col(1).setZero();
+  const FrameResult r = deformer.solve(collapsed);
+  EXPECT_EQ(r.method, FrameMethod::Failed);
+  EXPECT_FALSE(r.valid);
+  EXPECT_EQ(r.guarded_iterations, 0);
+  EXPECT_GT(r.certificate.base_self_intersections, rest.F.rows());
+  const FrameResult back = deformer.solve(rest.base);
+  EXPECT_TRUE(back.resumed);
+  expect_valid_frame(deformer, back, rest.base);
+}
+
 TEST(DeformGuard, AllowInvalidReproducesTheUnguardedFramesBitForBit) {
   // The unguarded frame rebuilt by hand: the rotated-offset warm start, then the paper's solve.
   const Shell rest = flat_plane_shell(12, 0.2);
