@@ -294,6 +294,32 @@ TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
   EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"run"});
 }
 
+// A negative scale turns the base inside out: the top follows the faces' winding to the other side,
+// inside a closed base, which a user must hear of (the frame itself may well be valid).
+TEST(DeformRun, AMirroredFrameIsAWarning) {
+  const TriMesh cylinder = make_cylinder(16);
+  DeformInput input;
+  input.shell_name = "rest";
+  input.shell = test::offset_shell(cylinder, 0.1);
+  input.surface = cylinder;
+  Eigen::MatrixXd mirrored = input.shell.base, squashed = input.shell.base;
+  mirrored.col(0) *= -1;
+  squashed.col(2) *= 0.5;
+  input.frames = BaseFrames(std::vector<Eigen::MatrixXd>{input.shell.base, mirrored, squashed});
+  input.frame_names = {"rest", "mirror", "squash"};
+  const DeformRun run = run_deform(input, DeformRunOptions{});
+  ASSERT_EQ(run.frames.size(), 3u);
+  EXPECT_FALSE(run.frames[0].mirrored);
+  EXPECT_TRUE(run.frames[1].mirrored);
+  EXPECT_FALSE(run.frames[2].mirrored);
+  const std::vector<std::string> w = run.warnings();
+  EXPECT_EQ(std::count_if(w.begin(), w.end(), [](const std::string& line) {
+              return line.rfind("frame 2 mirrors the rest base", 0) == 0;
+            }),
+            1)
+      << ::testing::PrintToString(w);
+}
+
 // Frames and pose steps that are not valid are named in one warning line, by what explains them;
 // the line goes into report.json too (the CLI prints it even with --quiet).
 TEST(DeformRun, DetailFarOutsideTheShellIsAWarning) {

@@ -17,6 +17,8 @@
 #include "invalid_items_warning.h"
 #include "run/output_folder_files.h"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -36,6 +38,17 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t h = v.size() / 2;
   return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
+}
+
+// Whether `frame` is `rest` turned inside out: the least-squares linear map between them about
+// their centroids, A = M C^-1 with C = sum (r - a)(r - a)^T > 0, has det A < 0, i.e. det M < 0.
+// Relative to M's size, so that a rest base flat to rounding (a plane, where a mirror is a turn
+// and the top rightly follows) or a frame squashed flat does not count.
+bool mirrors(const Eigen::MatrixXd& rest, const Eigen::MatrixXd& frame) {
+  const Eigen::RowVector3d a = rest.colwise().mean(), b = frame.colwise().mean();
+  const Eigen::Matrix3d M = (frame.rowwise() - b).transpose() * (rest.rowwise() - a);
+  const double size = M.norm();
+  return M.determinant() < -1e-6 * size * size * size;
 }
 
 // Writes frame folder `dir` for the shell vertices X (2n x 3).
@@ -138,6 +151,14 @@ std::vector<std::string> DeformRun::warnings() const {
                   std::to_string(most) + " a frame: a collapsed edge or collinear corners): no prism over such a face "
                   "has a valid shape, and the base crossings counted there are those faces touching their neighbours");
   }
+  std::vector<int> mirrored;
+  for (const DeformFrameRecord& f : frames)
+    if (f.mirrored) mirrored.push_back(f.frame);
+  if (!mirrored.empty())
+    out.push_back(std::string(mirrored.size() == 1 ? "frame " : "frames ") + first_ids(mirrored) +
+                  (mirrored.size() == 1 ? " mirrors" : " mirror") + " the rest base (a negative scale: the best "
+                  "linear map from the rest base reverses orientation): the faces wind the other way round, so the "
+                  "top lies on the other side of the base, inside a closed one, and the detail in it too");
   if (embed && embed->max_outside_distance > thickness)
     out.push_back(std::to_string(embed->outside) + " of " + std::to_string(embed->points) + " detail vertices of " +
                   embed->detail + " lie outside the shell, up to " + format_number(embed->max_outside_distance) +
@@ -274,6 +295,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
     record.base = input.frame_names[k];
     const Eigen::MatrixXd base = next.valid() ? next.get() : input.frames.get(k);
     if (!input.frames.held() && k + 1 < count) next = std::async(std::launch::async, read_frame, k + 1);
+    record.mirrored = mirrors(shell.base, base);
     record.result = deformer.solve(base, options.frame);
     record.result.top.resize(0, 3); // in the folder, not in memory
     if (options.compare_offset) {

@@ -61,6 +61,9 @@ struct DeformFrameRecord {
   std::string base;                   ///< the frame's name
   FrameResult result;                 ///< without the top (written to the folder instead)
   std::optional<StretchStats> offset; ///< compare_offset: stretch of the re-extruded offset shell
+  /// The frame's base is the rest base turned inside out (a negative scale: the best linear map
+  /// from the rest base to it reverses orientation), so its top lies on the other side (a warning).
+  bool mirrored = false;
   /// {frame, base, frame_json..., offset {stretch, inverted_tets}}
   nlohmann::ordered_json to_json() const;
 };
@@ -83,7 +86,8 @@ struct DeformRun {
   /// What a user must hear even with progress off: one line naming the frames that are not valid
   /// and why (the base crosses itself, unextrudable base vertices, unguarded by allow_invalid, or
   /// none of those: the guard could not make them valid), one naming frames whose base has faces
-  /// of zero area (their crossings are those faces'), and one when detail points lie farther
+  /// of zero area (their crossings are those faces'), one naming mirrored frames (their tops lie on
+  /// the other side of the base: inside a closed one), and one when detail points lie farther
   /// than the thickness outside the shell (they follow their nearest tet's map extrapolated, so
   /// their error grows with that distance); empty when neither holds.
   std::vector<std::string> warnings() const;
