@@ -374,6 +374,7 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
     s.valid = valid;
     s.blocked_by_contact = blocked;
     s.base_self_intersections = crossings;
+    s.converged = true;
     pose.steps.push_back(s);
   };
   step(true, false, 0);
@@ -388,6 +389,12 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
   EXPECT_EQ(p[1], "1 of 3 pose steps is not valid: the base crosses itself in pose step 3 (report.json has each "
                   "pose step's certificate)");
   EXPECT_EQ(pose.to_json()["warnings"], nlohmann::ordered_json(p));
+  // A step that ran out of iterations may be far from the pose's minimum: said so too.
+  pose.max_iterations = 500;
+  pose.steps[0].converged = false;
+  ASSERT_EQ(pose.warnings().size(), 3u);
+  EXPECT_EQ(pose.warnings()[2].rfind("pose step 1 ran out of iterations before converging (--iterations 500)", 0), 0u)
+      << pose.warnings()[2];
   step(false, false, 0);
   pose.steps.back().rest_faults_only = true; // invalid only where the rest shell is
   EXPECT_EQ(pose.warnings()[1], "2 of 4 pose steps are not valid: the base crosses itself in pose step 3; pose step "

@@ -96,6 +96,16 @@ std::vector<std::string> PoseResult::warnings() const {
   }
   const std::string line = detail::invalid_items_warning(invalid, certified, "pose step", unguarded);
   if (!line.empty()) lines.push_back(line);
+  // A step that ran out of iterations may lie far from the pose's minimum (the plain single-level
+  // solver on a bowl swung about its held bottom: ten thicknesses away after 500 iterations).
+  std::vector<int> capped;
+  for (std::size_t k = 0; k < steps.size(); ++k)
+    if (!steps[k].converged) capped.push_back(static_cast<int>(k) + 1);
+  if (!capped.empty())
+    lines.push_back(std::string(capped.size() == 1 ? "pose step " : "pose steps ") + first_ids(capped) +
+                    " ran out of iterations before converging (--iterations " +
+                    std::to_string(max_iterations) + "): the shell may be short of the pose's minimum; more "
+                    "iterations, or the hierarchical solver, get closer");
   return lines;
 }
 
