@@ -28,6 +28,7 @@ struct AnimateArgs {
   double bend = NAN, twist = NAN;
   double band = 1.0;
   int frames = 30;
+  std::string axis = "auto"; ///< x, y, z, or auto: the longest bounding-box axis
   std::string out;
 };
 
@@ -53,7 +54,8 @@ void run_animate(const AnimateArgs& args) {
   // Before any frame is made: a folder that cannot be replaced fails at once, not after them all.
   gshell::check_output_folder(args.out, holds_only_frames);
   gshell::TriMesh mesh = gshell::cli::load_surface(args.base, "animate");
-  const gshell::MotionFrame frame = gshell::motion_frame(mesh.V);
+  const gshell::MotionFrame frame =
+      args.axis == "auto" ? gshell::motion_frame(mesh.V) : gshell::motion_frame(mesh.V, args.axis[0] - 'x');
   const Eigen::MatrixXd rest = mesh.V;
 
   // A bend or twist far enough makes a base pass through itself (a rotor's blades twisted into
@@ -87,8 +89,9 @@ void run_animate(const AnimateArgs& args) {
                        std::to_string(most_crossings) + " intersecting face pairs, the input " +
                        std::to_string(rest_crossings) + "); no shell stays clean where its base crosses itself");
   std::ostringstream done;
-  done << "wrote " << args.frames << " frames of a " << (bending ? "bend" : "twist") << " to " << degrees
-       << " degrees to " << args.out;
+  done << "wrote " << args.frames << (args.frames == 1 ? " frame" : " frames") << " of a " << (bending ? "bend" : "twist")
+       << " to " << degrees << " degrees " << (bending ? "along" : "about") << " the " << "xyz"[frame.long_axis]
+       << " axis to " << args.out;
   progress.line(done.str());
 }
 
@@ -97,10 +100,13 @@ void add_animate_command(CLI::App& parent) {
   auto* cmd = parent.add_subcommand(
       "animate", "Write K frames of a smooth bend or twist of a base mesh (input for `gshell deform`)");
   cmd->add_option("base", args->base, "Base mesh (file or builtin:NAME[:RES])")->required();
-  auto* bend = cmd->add_option("--bend", args->bend,
-                               "Bend the longest bounding-box axis into an arc of A degrees in total");
-  auto* twist = cmd->add_option("--twist", args->twist,
-                                "Twist about the longest bounding-box axis by A degrees end to end");
+  auto* bend = cmd->add_option("--bend", args->bend, "Bend the axis (--axis) into an arc of A degrees in total");
+  auto* twist = cmd->add_option("--twist", args->twist, "Twist about the axis (--axis) by A degrees end to end");
+  cmd->add_option("--axis", args->axis,
+                  "Axis to bend or twist: x, y, z, or auto, the longest side of the bounding box (ties: x before y "
+                  "before z)")
+      ->check(CLI::IsMember({"auto", "x", "y", "z"}))
+      ->capture_default_str();
   cmd->add_option("--band", args->band,
                   "With --bend: fraction of the long axis that bends (a fold when < 1), centred")
       ->capture_default_str();

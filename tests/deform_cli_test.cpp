@@ -52,6 +52,18 @@ TEST(AnimateCli, WritesKFramesOfABendOrTwist) {
   const auto t = run_cli("animate builtin:cylinder:12 --twist 60 --frames 2 -o '" + tmp.file("twist") + "' -q");
   ASSERT_EQ(t.exit_code, 0) << t.err;
   EXPECT_TRUE(fs::exists(tmp.file("twist") + "/frame_0002.obj"));
+
+  // The built-in cylinder's box is a cube: the longest side ties, x is taken, and the tube is
+  // wrung across. --axis z twists it about its own axis: every vertex keeps its height and its
+  // distance from the axis.
+  const auto z = run_cli("animate builtin:cylinder:12 --twist 60 --frames 1 --axis z -o '" + tmp.file("z") + "' -q");
+  ASSERT_EQ(z.exit_code, 0) << z.err;
+  const TriMesh tube = make_builtin("builtin:cylinder:12"), twisted = read_mesh(tmp.file("z") + "/frame_0001.obj");
+  ASSERT_EQ(twisted.num_vertices(), tube.num_vertices());
+  EXPECT_LT((twisted.V.col(2) - tube.V.col(2)).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((twisted.V.leftCols(2).rowwise().norm() - tube.V.leftCols(2).rowwise().norm()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_GT((twisted.V - tube.V).cwiseAbs().maxCoeff(), 0.1);
+  EXPECT_NE(run_cli("animate builtin:cylinder:12 --twist 60 --axis w -o '" + tmp.file("w") + "'").exit_code, 0);
 }
 
 TEST(AnimateCli, ProgressInALogIsOneLinePerFrame) {
@@ -61,7 +73,8 @@ TEST(AnimateCli, ProgressInALogIsOneLinePerFrame) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
   EXPECT_EQ(r.err, "gshell animate: frame 1/3\ngshell animate: frame 2/3\ngshell animate: frame 3/3\n"
-                   "gshell animate: wrote 3 frames of a twist to 30 degrees to " + tmp.file("twist") + "\n");
+                   "gshell animate: wrote 3 frames of a twist to 30 degrees about the x axis to " + tmp.file("twist") +
+                       "\n");
 }
 
 // Ten thousand frames: every name has five digits, so the names sort as text (the order a

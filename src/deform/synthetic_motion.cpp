@@ -1,5 +1,7 @@
 #include <gshell/deform/synthetic_motion.h>
 
+#include <gshell/error.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -7,20 +9,34 @@
 
 namespace gshell {
 
-MotionFrame motion_frame(const Eigen::MatrixXd& V) {
+namespace {
+
+// The frame with the axes in `order` (long, middle, short).
+MotionFrame frame_along(const Eigen::MatrixXd& V, std::array<int, 3> order, bool sort_all) {
   MotionFrame frame;
   if (V.rows() == 0) return frame;
   const Eigen::Vector3d lo = V.colwise().minCoeff().transpose(), hi = V.colwise().maxCoeff().transpose();
   const Eigen::Vector3d extent = hi - lo;
-  std::array<int, 3> order{0, 1, 2};
   // Stable, so ties (a square plane) keep the x, y, z order.
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return extent[a] > extent[b]; });
+  std::stable_sort(order.begin() + (sort_all ? 0 : 1), order.end(),
+                   [&](int a, int b) { return extent[a] > extent[b]; });
   frame.center = 0.5 * (lo + hi);
   frame.long_axis = order[0];
   frame.middle_axis = order[1];
   frame.short_axis = order[2];
   frame.length = extent[order[0]];
   return frame;
+}
+
+} // namespace
+
+MotionFrame motion_frame(const Eigen::MatrixXd& V) { return frame_along(V, {0, 1, 2}, true); }
+
+MotionFrame motion_frame(const Eigen::MatrixXd& V, int long_axis) {
+  if (long_axis < 0 || long_axis > 2) throw InputError("motion_frame: the axis must be 0, 1 or 2 (x, y, z)");
+  std::array<int, 3> order{long_axis, (long_axis + 1) % 3, (long_axis + 2) % 3};
+  if (order[1] > order[2]) std::swap(order[1], order[2]); // ties among the others in x, y, z order
+  return frame_along(V, order, false);
 }
 
 Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees, double band) {

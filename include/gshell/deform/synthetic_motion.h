@@ -11,6 +11,9 @@ struct MotionFrame {
   double length = 0;                                ///< bounding box extent along the long axis
 };
 MotionFrame motion_frame(const Eigen::MatrixXd& V);
+/// The same with the long (bend/twist) axis chosen (0, 1, 2: x, y, z), the other two sorted by
+/// extent. \throws InputError for another axis.
+MotionFrame motion_frame(const Eigen::MatrixXd& V, int long_axis);
 
 /// Bends the long axis into a circular arc of total angle `degrees` (rotation about the middle
 /// axis, the mesh curling towards +short axis for positive angles, the other way for negative).
