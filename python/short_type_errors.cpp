@@ -19,25 +19,26 @@ def _bool_parameters(function):
     if "(" not in doc or doc.startswith("Overloaded"):
         return {}
     inside = doc[doc.index("(") + 1:doc.rfind(") ->") if ") ->" in doc else len(doc)]
-    parts, depth, start = [], 0, 0
+    parts, depth, start = [], 0, 0  # split at the commas outside brackets (Optional[...] etc.)
     for i, c in enumerate(inside):
-        depth += c in "[(" and 1 or c in "])" and -1 or 0
-        if c == "," and depth == 0:
+        if c in "[(":
+            depth += 1
+        elif c in "])":
+            depth -= 1
+        elif c == "," and depth == 0:
             parts.append(inside[start:i].strip())
             start = i + 1
     parts.append(inside[start:].strip())
-    found, position = {}, 0
-    for part in parts:
-        if part == "*":
-            position = None
+    found, positional = {}, True
+    for position, part in enumerate(parts):
+        if part == "*":  # keyword-only from here
+            positional = False
             continue
         name, _, rest = part.partition(":")
         if rest.split("=")[0].strip() == "bool":
             found[name.strip()] = name.strip()
-            if position is not None:
+            if positional:
                 found[position] = name.strip()
-        if position is not None:
-            position += 1
     return found
 
 def _shorten(function, owner=None):

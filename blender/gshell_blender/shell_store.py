@@ -99,8 +99,8 @@ def rest_shell(gshell, base):
     if len(V) != len(T) or (len(F) and F.max() >= len(V)):
         raise ShellError(f"'{base.name}' has {len(V)} vertices but its shell '{top.name}' {len(T)}: the meshes were "
                          f"edited since the shell was made; run Generate Shell again")
-    # Files from before the digest have none: they are taken as they are.
-    if top.get(REST_BASE_KEY, rest_fingerprint(V)) != rest_fingerprint(V):
+    stored = top.get(REST_BASE_KEY)  # files from before the digest have none: taken as they are
+    if stored is not None and stored != rest_fingerprint(V):
         raise ShellError(f"'{base.name}' was changed since its shell was made (its mesh edited, or a transform "
                          f"applied to it): its top no longer fits; run Generate Shell again")
     if top.parent != base or not _identity(top.matrix_parent_inverse) or not _identity(top.matrix_basis):

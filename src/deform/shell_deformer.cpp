@@ -434,23 +434,21 @@ namespace {
 // (a plane bent by 240 degrees: 0.15), and there the guard still keeps every tet positive.
 constexpr double kHopelessCrossingsPerFace = 1;
 
-// Carries a frame the guard made valid on its own terms forward (the next frame starts from it)
-// when the guard's choice of what to leave out is the rest shell's. A frame made with more left out
-// (the tets at vertices its base makes unextrudable, the triangles around its base's crossings) may
-// keep faults there, and the next frame, starting from it, would leave them out again and keep
-// them for good: one frame whose base crossed itself left an inverted tet in every later frame of
-// CGAL's homer bent by 120 degrees, their bases clean. The next frame then starts from the last
-// frame clean on the rest's terms (`last`, or the one kept from before), unless the certificate
-// finds this one valid after all (ShellDeformer::deform).
-void carry_forward(const FrameGuard& guard, const Eigen::MatrixXd& last, bool& clean, Eigen::MatrixXd& resume) {
-  if (!guard.leaves_out_beyond_rest()) {
-    clean = true;
-    resume.resize(0, 3);
-    return;
-  }
-  if (resume.rows() == 0) resume = last;
-  clean = false;
+// Where the next guarded frame starts: from this one when it is clean, else from the last clean
+// frame (`last`, where this one started, or the one kept from before it). A frame the guard made
+// valid is clean only while the guard's choice of what to leave out is the rest shell's
+// (clean_on_rest_terms): one made with more left out (the tets at vertices its base makes
+// unextrudable, the triangles around its base's crossings) may keep faults there, which the next
+// frame, starting from it, would leave out again and keep for good (one frame whose base crossed
+// itself left an inverted tet in every later frame of CGAL's homer bent by 120 degrees, their bases
+// clean). The certificate may still find such a frame valid (ShellDeformer::deform).
+void carry_forward(bool clean, const Eigen::MatrixXd& last, bool& current_clean, Eigen::MatrixXd& resume) {
+  current_clean = clean;
+  if (clean) resume.resize(0, 3);
+  else if (resume.rows() == 0) resume = last;
 }
+
+bool clean_on_rest_terms(const FrameGuard& guard) { return !guard.leaves_out_beyond_rest(); }
 
 } // namespace
 
@@ -463,7 +461,7 @@ void ShellDeformer::take_mended(Eigen::MatrixXd& X, FrameMend& mended, int itera
   result.certificate = std::move(mended.certificate);
   result.certified = true;
   result.energy.push_back(mended.energy);
-  carry_forward(*guard_, current_, current_clean_, resume_); // current_: the frame it was mended from
+  carry_forward(clean_on_rest_terms(*guard_), current_, current_clean_, resume_); // current_: where it started
 }
 
 void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X, const DeformOptions& options,
@@ -491,7 +489,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
       result.certificate = std::move(certificate);
       result.certified = true;
     }
-    carry_forward(*guard_, last, current_clean_, resume_);
+    carry_forward(clean_on_rest_terms(*guard_), last, current_clean_, resume_);
     return;
   }
   // The mend, the drag and their retries found nothing on such a base, in minutes: CGAL's bunny00
@@ -503,8 +501,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
       kHopelessCrossingsPerFace * static_cast<double>(rest_.F.rows())) {
     result.method = FrameMethod::Failed;
     result.valid = false;
-    if (!resumed) resume_ = last;
-    current_clean_ = false;
+    carry_forward(false, last, current_clean_, resume_);
     return;
   }
   GuardedSolveOptions solve;
@@ -611,14 +608,8 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   result.substeps = outcome.substeps;
   result.guarded_iterations = mended.iterations + outcome.iterations; // a declined mend's too
   result.valid = dragged_valid;
-  if (result.valid) {
-    carry_forward(*guard_, last, current_clean_, resume_);
-  } else {
-    // The frame returned (tets only, or the paper's solve) is not carried forward: the next frame
-    // starts from the last valid one (where this one started).
-    if (!resumed) resume_ = last;
-    current_clean_ = false;
-  }
+  // The frame returned when not valid (tets only, or the paper's solve) is never carried forward.
+  carry_forward(result.valid && clean_on_rest_terms(*guard_), last, current_clean_, resume_);
   if (outcome.method != FrameMethod::Failed || fresh_returned) { // else the paper's solve stands
     X = std::move(Y);
     result.energy.push_back(dragged_energy ? *dragged_energy : solver_.energy(X)); // the returned state's

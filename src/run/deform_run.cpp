@@ -40,13 +40,13 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
 }
 
-// Whether `frame` is `rest` turned inside out: the least-squares linear map between them about
-// their centroids, A = M C^-1 with C = sum (r - a)(r - a)^T > 0, has det A < 0, i.e. det M < 0.
-// Relative to M's size, so that a rest base flat to rounding (a plane, where a mirror is a turn
-// and the top rightly follows) or a frame squashed flat does not count.
-bool mirrors(const Eigen::MatrixXd& rest, const Eigen::MatrixXd& frame) {
-  const Eigen::RowVector3d a = rest.colwise().mean(), b = frame.colwise().mean();
-  const Eigen::Matrix3d M = (frame.rowwise() - b).transpose() * (rest.rowwise() - a);
+// Whether `frame` is the rest base turned inside out (`rest_centred`: the rest base minus its
+// centroid a): the least-squares linear map between them about their centroids, A = M C^-1 with
+// C = sum (r - a)(r - a)^T > 0, has det A < 0, i.e. det M < 0. Relative to M's size, so that a rest
+// base flat to rounding (a plane, where a mirror is a turn and the top rightly follows) or a frame
+// squashed flat does not count.
+bool mirrors(const Eigen::MatrixXd& rest_centred, const Eigen::MatrixXd& frame) {
+  const Eigen::Matrix3d M = (frame.rowwise() - frame.colwise().mean()).transpose() * rest_centred;
   const double size = M.norm();
   return M.determinant() < -1e-6 * size * size * size;
 }
@@ -277,6 +277,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
   run.factor_seconds = deformer.factor_seconds();
   run.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const int count = input.frames.size();
+  const Eigen::MatrixXd rest_centred = shell.base.rowwise() - shell.base.colwise().mean();
   if (progress) progress(run, count);
 
   // Frames read again from their files (a sequence too large to hold): the next one is read while
@@ -295,7 +296,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
     record.base = input.frame_names[k];
     const Eigen::MatrixXd base = next.valid() ? next.get() : input.frames.get(k);
     if (!input.frames.held() && k + 1 < count) next = std::async(std::launch::async, read_frame, k + 1);
-    record.mirrored = mirrors(shell.base, base);
+    record.mirrored = mirrors(rest_centred, base);
     record.result = deformer.solve(base, options.frame);
     record.result.top.resize(0, 3); // in the folder, not in memory
     if (options.compare_offset) {
