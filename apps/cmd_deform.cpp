@@ -43,23 +43,27 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   // A long frame (a guarded one of a large shell, one whose guard regenerates its top) shows its
   // iterations as well, once it has run a second and then at most once a second, so a terminal
   // or a log shows it is alive; short frames show only their summary line. The count runs over
-  // all of the frame's solves (paper, guarded sub-steps, a fresh top's), which each restart theirs.
+  // all of the frame's solves (paper, guarded sub-steps, a fresh top's), which each restart theirs;
+  // the line names the one running.
   using Clock = std::chrono::steady_clock;
   Clock::time_point frame_began = Clock::now(), last_shown = frame_began; // last_shown: the frame's start at first
   int frame_iterations = 0;
-  std::string frame_label;
-  DeformRunOptions options = a.options; // with the status callback, which refers to this call's locals
-  if (progress.enabled())
+  std::string frame_label, frame_stage; // frame_stage: "paper", "drag 3/17", ... (DeformOptions::stage)
+  DeformRunOptions options = a.options; // with the status callbacks, which refer to this call's locals
+  if (progress.enabled()) {
+    options.frame.stage = [&](const char* name) { frame_stage = name; };
     options.frame.progress = [&](int, double energy, double) {
       ++frame_iterations;
       const auto now = Clock::now();
       if (now - last_shown < std::chrono::seconds(1)) return;
       last_shown = now;
       char text[160];
-      std::snprintf(text, sizeof text, "%s: iteration %d  energy %.6g  %.1f s", frame_label.c_str(), frame_iterations,
-                    energy, std::chrono::duration<double>(now - frame_began).count());
+      std::snprintf(text, sizeof text, "%s %s: iteration %d  energy %.6g  %.1f s", frame_label.c_str(),
+                    frame_stage.c_str(), frame_iterations, energy,
+                    std::chrono::duration<double>(now - frame_began).count());
       progress.update(text);
     };
+  }
   auto report = [&](const DeformRun& run, int count) {
     frame_began = last_shown = Clock::now();
     frame_iterations = 0;
@@ -116,7 +120,7 @@ void add_deform_command(CLI::App& parent) {
   auto* cmd = parent.add_subcommand(
       "deform", "Deform a shell by a sequence of deformed bases; the top follows with the least stretch");
   cmd->add_option("--shell", a->shell, "Shell folder written by `gshell generate`")->required();
-  cmd->add_option("--base", a->frames, "Deformed base frames (same vertex count and faces as the shell's base)")
+  cmd->add_option("--base", a->frames, "Deformed base frames (same vertex count and faces as the shell's base), or folders of them (frame_NNNN.obj, as `gshell animate` writes)")
       ->required()
       ->expected(1, -1);
   cmd->add_option("-o,--output", a->out,

@@ -44,12 +44,16 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   progress.line(std::to_string(rest.shell.num_base_vertices() * 2) + " shell vertices, " +
                 std::to_string(handles.constrained_vertices().size()) + " handle vertices (" +
                 (handles.mode == ConstraintMode::Hard ? "hard" : "soft") + "), " + a.solver + " solver");
-  if (progress.enabled())
+  std::string stage; // "paper", "mend", "drag 3/17" (PoseSolver::solve_valid): the energy of a drag climbs
+  if (progress.enabled()) {
+    a.options.solve.stage = [&](const char* name) { stage = name; };
     a.options.step_progress = [&](int step, int it, double energy, double) {
-      char text[128];
-      std::snprintf(text, sizeof text, "step %d/%d iteration %d energy %.6g", step, a.options.steps, it, energy);
+      char text[160];
+      std::snprintf(text, sizeof text, "step %d/%d %s: iteration %d energy %.6g", step, a.options.steps, stage.c_str(),
+                    it, energy);
       progress.update(text);
     };
+  }
   DragSession session(rest.shell, a.options, rest.surface);
   session.set_names(a.shell_dir, a.handles);
   session.set_handles(handles);

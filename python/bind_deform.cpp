@@ -17,6 +17,7 @@
 #include <cmath>
 #include <memory>
 #include <optional>
+#include <string>
 
 namespace gshell::python {
 
@@ -56,8 +57,10 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, CountArg i
   options.allow_invalid = d.allow_invalid;
   options.check();
   ProgressWatch watch(progress, "gshell.Deformer.solve");
-  options.progress = [&watch](int iteration, double energy, double seconds) {
-    watch.report({{"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
+  std::string stage;
+  options.stage = [&stage](const char* name) { stage = name; };
+  options.progress = [&watch, &stage](int iteration, double energy, double seconds) {
+    watch.report({{"stage", stage}, {"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
   };
   Eigen::MatrixXd top;
   {
@@ -166,9 +169,10 @@ Args:
         (previous top moved with the base) or "previous" (previous top as is), as
         `gshell deform --warm-start`.
     progress: None (default), True to print each iteration on sys.stderr, or a callable called
-        after every iteration with a dict {"iteration", "energy", "seconds"} (the frame's solve,
-        then, where the guard works, each guarded sub-step and a fresh top, each counting from 1
-        again). Either way Ctrl-C ends the call at its next iteration with KeyboardInterrupt, as
+        after every iteration with a dict {"stage", "iteration", "energy", "seconds"} (stage:
+        "paper", the frame's solve, then, where the guard works, "mend", "drag K/N" for each
+        guarded sub-step, "regenerate paper|repair|relax" and "polish" for a fresh top; each
+        counts from 1 again). Either way Ctrl-C ends the call at its next iteration with KeyboardInterrupt, as
         does an exception the callable raises; the Deformer then starts from the rest shell
         again, as after reset().
 

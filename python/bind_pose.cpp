@@ -18,6 +18,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 namespace gshell::python {
 
@@ -81,8 +82,16 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   options.check();
   const HandleSet set = handles_from(p, handles);
   ProgressWatch watch(progress, "gshell.Poser.solve");
-  options.step_progress = [&watch, steps = options.steps](int step, int iteration, double energy, double seconds) {
-    watch.report({{"step", step}, {"steps", steps}, {"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
+  std::string stage;
+  options.solve.stage = [&stage](const char* name) { stage = name; };
+  options.step_progress = [&watch, &stage, steps = options.steps](int step, int iteration, double energy,
+                                                                  double seconds) {
+    watch.report({{"step", step},
+                  {"steps", steps},
+                  {"stage", stage},
+                  {"iteration", iteration},
+                  {"energy", energy},
+                  {"seconds", seconds}});
   };
   Eigen::MatrixXd X;
   {
@@ -153,7 +162,10 @@ Args:
     iterations: maximum iterations per step (>= 1).
     tolerance: stop a step when the relative energy change per iteration is below this.
     progress: None (default), True to print each iteration on sys.stderr, or a callable called
-        after every iteration with a dict {"step", "steps", "iteration", "energy", "seconds"}.
+        after every iteration with a dict {"step", "steps", "stage", "iteration", "energy",
+        "seconds"} (stage: "paper", the solver's iterations, then, where the guard refuses them,
+        "mend" and "drag K/N", the guarded drag's sub-steps, whose energy includes the barriers
+        and climbs as the handles move; the iteration count goes on through them).
         Either way Ctrl-C ends the call at its next iteration with KeyboardInterrupt, as does an
         exception the callable raises; the Poser then starts from the rest shell again, as after
         reset().

@@ -144,6 +144,39 @@ DeformOptions drag_only() {
   return o;
 }
 
+// The stages a solve named (DeformOptions::stage, SolveOptions::stage) and the progress calls
+// within each, for tests of what a progress line says.
+struct StageLog {
+  std::vector<std::string> names;
+  std::vector<int> iterations; ///< progress calls after each name
+
+  template <class Options> void hook(Options& options) {
+    options.stage = [this](const char* name) {
+      names.emplace_back(name);
+      iterations.push_back(0);
+    };
+    options.progress = [this](int, double, double) {
+      ASSERT_FALSE(names.empty()) << "an iteration before any stage was named";
+      ++iterations.back();
+    };
+  }
+  // Every "drag K/N" named, in order: N the same throughout, K running 1..N (a retried sub-step
+  // may be named again). Returns N (0: no drag).
+  int drag_substeps() const {
+    int last = 0, of = 0;
+    for (const std::string& name : names) {
+      int k = 0, n = 0;
+      if (std::sscanf(name.c_str(), "drag %d/%d", &k, &n) != 2) continue;
+      EXPECT_TRUE(of == 0 || n == of) << name;
+      EXPECT_TRUE(k == last || k == last + 1) << name << " after drag " << last;
+      last = k;
+      of = n;
+    }
+    EXPECT_EQ(last, of);
+    return of;
+  }
+};
+
 TEST(DeformGuard, AFarJumpIsValidThroughSubsteps) {
   const Shell rest = flat_plane_shell(16, 0.2);
   ShellDeformer deformer(rest);
@@ -191,6 +224,39 @@ TEST(DeformGuard, SubStepsSolvedLooselyEndWhereTightOnesDoInFewerIterations) {
   expect_valid_frame(b, l, base);
   EXPECT_LT(l.guarded_iterations, t.guarded_iterations);
   EXPECT_NEAR(l.energy.back(), t.energy.back(), 1e-5 * t.energy.back());
+}
+
+// Progress names each of a frame's solves, whose iteration counts each start from 1: a user
+// watching a guarded frame sees which sub-step of how many it is in.
+TEST(DeformGuard, EachSolveOfAGuardedFrameIsNamedForProgress) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  const Eigen::MatrixXd base = bend(rest.base, motion_frame(rest.base), 150.0, 0.3);
+  {
+    SCOPED_TRACE("dragged");
+    StageLog log;
+    DeformOptions options = drag_only();
+    log.hook(options);
+    ShellDeformer deformer(rest);
+    const FrameResult r = deformer.solve(base, options);
+    ASSERT_EQ(r.method, FrameMethod::Guarded);
+    ASSERT_FALSE(log.names.empty());
+    EXPECT_EQ(log.names.front(), "paper");
+    EXPECT_EQ(log.iterations.front(), r.iterations);
+    EXPECT_EQ(log.drag_substeps(), r.substeps);
+    int dragged = 0;
+    for (std::size_t k = 1; k < log.names.size(); ++k) dragged += log.iterations[k];
+    EXPECT_EQ(dragged, r.guarded_iterations);
+  }
+  {
+    SCOPED_TRACE("mended");
+    StageLog log;
+    DeformOptions options;
+    log.hook(options);
+    ShellDeformer deformer(rest);
+    const FrameResult r = deformer.solve(base, options);
+    ASSERT_EQ(r.method, FrameMethod::Mended);
+    EXPECT_EQ(log.names, (std::vector<std::string>{"paper", "mend"}));
+  }
 }
 
 // The same far jump, refused, is mended where the paper's solve went wrong instead of dragged
@@ -795,6 +861,38 @@ TEST(PoseGuard, APairTouchingToRoundingAtRestDoesNotHoldThePoseStill) {
   const Eigen::MatrixXi T = build_prism_tets(rest.F, n);
   const ShellCertificate c = certify_shell(r.X.topRows(n), r.X.bottomRows(n), rest.F);
   for (int t : c.inverted_tet_ids) EXPECT_TRUE((T.row(t).array() == n + v).any()) << "tet " << t;
+}
+
+// A pose step the guard drags names its sub-steps for progress, where the iteration count goes on
+// from the solver's and the energy (with the barriers) climbs as the handles move.
+TEST(PoseGuard, EachSolveOfAGuardedStepIsNamedForProgress) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  HandleSet handles;
+  handles.handles = {x_end_handle(rest, -1, 0.8), x_end_handle(rest, 1, 0.8)};
+  Handle& turned = handles.handles[1];
+  turned.axis = Eigen::Vector3d(0, 1, 0);
+  turned.degrees = 190;
+  turned.center = Eigen::Vector3d(0.5, 0, 0);
+  PoseOptions options;
+  options.steps = 1;
+  options.solve.max_iterations = 100;
+  options.solve.tolerance = 1e-5;
+  StageLog log;
+  log.hook(options.solve);
+  int calls = 0;
+  options.step_progress = [&](int, int, double, double) {
+    ++calls;
+    ASSERT_FALSE(log.iterations.empty());
+    ++log.iterations.back();
+  };
+  const PoseResult r = run_pose(rest, handles, options);
+  ASSERT_EQ(r.steps.size(), 1u);
+  ASSERT_EQ(r.steps[0].method, FrameMethod::Guarded);
+  ASSERT_FALSE(log.names.empty());
+  EXPECT_EQ(log.names.front(), "paper");
+  EXPECT_EQ(log.iterations.front(), r.steps[0].iterations);
+  EXPECT_GT(log.drag_substeps(), 1);
+  EXPECT_EQ(calls - log.iterations.front(), r.steps[0].guarded_iterations);
 }
 
 // FrameGuard::accepted_fraction, where a refused pose step's drag begins. A flat plane's shell

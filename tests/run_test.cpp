@@ -3,6 +3,7 @@
 #include "shell_fixtures.h"
 #include "test_support.h"
 
+#include <gshell/deform/synthetic_motion.h>
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/write_mesh.h>
@@ -74,6 +75,38 @@ TEST(Frames, NamesNumbersAndScanOrder) {
   for (const fs::path& p : list_frames(tmp.path(), ".obj")) files.push_back(p.filename().string());
   EXPECT_EQ(files, (std::vector<std::string>{"frame_0001.obj", "frame_0003.obj"}));
   EXPECT_TRUE(list_frames(tmp.path() / "missing").empty());
+}
+
+// `gshell deform --base DIR` takes what `gshell animate -o DIR` wrote: a folder stands for its
+// frame files in order, a file for itself, in the order given.
+TEST(Frames, AFolderArgumentIsItsFrameFiles) {
+  test::TempDir tmp;
+  const fs::path objs = tmp.path() / "objs", offs = tmp.path() / "offs", none = tmp.path() / "none";
+  for (const fs::path& dir : {objs, offs, none}) fs::create_directory(dir);
+  for (const char* file : {"frame_0002.obj", "frame_0001.obj", "frame_0010.obj", "notes.obj", "frame_0003.off"})
+    test::write_text((objs / file).string(), "");
+  for (const char* file : {"frame_0002.off", "frame_0001.off"}) test::write_text((offs / file).string(), "");
+  const std::string single = tmp.file("single.obj");
+  const std::vector<std::string> got = expand_frame_arguments({single, objs.string(), offs.string()});
+  EXPECT_EQ(got, (std::vector<std::string>{single, (objs / "frame_0001.obj").string(), (objs / "frame_0002.obj").string(),
+                                           (objs / "frame_0010.obj").string(), (offs / "frame_0001.off").string(),
+                                           (offs / "frame_0002.off").string()}));
+  // A missing file is left for the reader to name.
+  EXPECT_EQ(expand_frame_arguments({tmp.file("missing.obj")}), std::vector<std::string>{tmp.file("missing.obj")});
+  try {
+    expand_frame_arguments({none.string()});
+    ADD_FAILURE() << "a folder without frames was taken";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(none.string() + ": a folder holding no frame files", 0), 0u) << e.what();
+  }
+  // A shell folder given by mistake: the message names its base.
+  write_shell_folder(tmp.file("shell"), cylinder_contents(0.1));
+  try {
+    expand_frame_arguments({tmp.file("shell")});
+    ADD_FAILURE() << "a shell folder was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("give " + tmp.file("shell") + "/base.obj"), std::string::npos) << e.what();
+  }
 }
 
 TEST(ShellFolder, WriteReadRoundTrip) {
@@ -320,6 +353,40 @@ TEST(DeformRun, AMirroredFrameIsAWarning) {
       << ::testing::PrintToString(w);
 }
 
+// A frame cut off by the iteration cap may be far from its minimum: a warning names it, as it names
+// pose steps; frames that converged are not named.
+TEST(DeformRun, FramesThatRanOutOfIterationsAreAWarning) {
+  const TriMesh cylinder = make_cylinder(16);
+  DeformInput input;
+  input.shell_name = "rest";
+  input.shell = test::offset_shell(cylinder, 0.1);
+  input.surface = cylinder;
+  const MotionFrame frame = motion_frame(cylinder.V);
+  input.frames = BaseFrames(std::vector<Eigen::MatrixXd>{twist(cylinder.V, frame, 30), twist(cylinder.V, frame, 60)});
+  input.frame_names = {"twist 30", "twist 60"};
+  const auto capped_line = [](const DeformRun& run) {
+    std::string found;
+    for (const std::string& line : run.warnings())
+      if (line.find("ran out of iterations") != std::string::npos) found = line;
+    return found;
+  };
+  DeformRunOptions cut;
+  cut.frame.max_iterations = 2;
+  cut.frame.tolerance = 1e-9;
+  const DeformRun short_run = run_deform(input, cut);
+  ASSERT_EQ(short_run.frames.size(), 2u);
+  ASSERT_FALSE(short_run.frames[1].result.converged);
+  const std::string line = capped_line(short_run);
+  const std::string named = short_run.frames[0].result.converged ? "frame 2 " : "frames 1, 2 ";
+  EXPECT_EQ(line.rfind(named + "ran out of iterations before converging (--iterations 2)", 0), 0u) << line;
+
+  DeformRunOptions enough;
+  enough.frame.max_iterations = 1000;
+  const DeformRun full_run = run_deform(input, enough);
+  for (const DeformFrameRecord& f : full_run.frames) ASSERT_TRUE(f.result.converged) << f.frame;
+  EXPECT_EQ(capped_line(full_run), "");
+}
+
 // Frames and pose steps that are not valid are named in one warning line, by what explains them;
 // the line goes into report.json too (the CLI prints it even with --quiet).
 TEST(DeformRun, DetailFarOutsideTheShellIsAWarning) {
@@ -342,6 +409,7 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
     DeformFrameRecord f;
     f.frame = static_cast<int>(run.frames.size()) + 1;
     f.result.valid = valid;
+    f.result.converged = true;
     f.result.certificate.base_self_intersections = crossings;
     f.result.unextrudable_vertices = std::move(unextrudable);
     run.frames.push_back(f);

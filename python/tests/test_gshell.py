@@ -1235,6 +1235,27 @@ class ProgressTest(TempDirTest):
         np.testing.assert_array_equal(guarded.vertices, np.vstack([self.shell.base, self.shell.top]))
         np.testing.assert_array_equal(guarded.solve(new_base), gshell.Deformer(self.shell).solve(new_base))
 
+    def test_guarded_solves_name_their_stages(self):
+        # A guarded frame's or step's iterations come from several solves; "stage" tells them apart.
+        squashed = self.V * np.array([1.0, 0.03, 1.0])  # thinner than the layer: the guard mends it
+        deformer = gshell.Deformer(self.shell)
+        updates = []
+        deformer.solve(squashed, progress=updates.append)
+        self.assertEqual(deformer.last["method"], "mended")
+        paper = [u for u in updates if u["stage"] == "paper"]
+        self.assertEqual(updates[:len(paper)], paper)
+        self.assertEqual([u["iteration"] for u in paper], list(range(1, deformer.last["iterations"] + 1)))
+        self.assertEqual({u["stage"] for u in updates[len(paper):]}, {"mend"})
+        self.assertEqual(len(updates) - len(paper), deformer.last["guarded_iterations"])
+
+        poser = gshell.Poser(self.shell, solver="single")
+        updates = []
+        poser.solve(HANDLES, steps=1, progress=updates.append)
+        self.assertEqual(updates[0]["stage"], "paper")
+        for u in updates:
+            self.assertEqual(set(u), {"step", "steps", "stage", "iteration", "energy", "seconds"})
+            self.assertRegex(u["stage"], r"^(paper|mend|drag( \d+/\d+)?)$")
+
     def test_bad_progress_raises_value_error(self):
         with self.assertRaises(ValueError):
             gshell.generate(self.V, self.F, thickness=0.05, progress=3)

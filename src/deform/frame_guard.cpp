@@ -23,6 +23,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <string>
 
 namespace gshell {
 
@@ -414,7 +415,8 @@ int FrameGuard::substeps_between(const Eigen::MatrixXd& from, const Eigen::Matri
 
 FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts,
                                      bool fall_back_to_tets, const GuardedSolveOptions& solve,
-                                     double substep_tolerance, const std::function<bool()>& other_way) {
+                                     double substep_tolerance, const std::function<bool()>& other_way,
+                                     const std::function<void(const char*)>& stage) {
   Outcome out;
   GuardedSolver* solver = nullptr;
   if (contacts && guards_contacts() && std::isfinite(contact_solver().energy(X))) solver = &contact_solver();
@@ -443,6 +445,11 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
       if (k == substeps) {
         const long long share = static_cast<long long>(substeps) * solve.max_iterations - out.iterations;
         last.max_iterations = static_cast<int>(std::clamp<long long>(share, solve.max_iterations, INT_MAX));
+      }
+      if (stage) {
+        std::string name = substeps > 1 ? "drag " + std::to_string(k) + "/" + std::to_string(substeps) : "drag";
+        if (solver != contact_.get() && guards_contacts()) name += " (tets only)";
+        stage(name.c_str());
       }
       const GuardedSolveResult r = solver->solve(X, k < substeps ? on_the_way : last, step_targets);
       out.iterations += r.iterations;

@@ -138,9 +138,11 @@ public:
   /// the tets: true means the caller has the frame by other means, and the drag ends there
   /// (`superseded`, X left where it stopped); false lets the drag go on (the caller may have
   /// changed the guard's choice of tets, leave_out, from X as it stands).
+  /// `stage` (optional) is told each sub-step's name before its iterations, "drag K/N" (or
+  /// "drag" for a single one), with " (tets only)" after the fall-back, for progress reports.
   Outcome drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, int substeps, bool contacts, bool fall_back_to_tets,
                const GuardedSolveOptions& solve, double substep_tolerance,
-               const std::function<bool()>& other_way = {});
+               const std::function<bool()>& other_way = {}, const std::function<void(const char*)>& stage = {});
 
 private:
   GuardedSolver& tets_only();

@@ -117,6 +117,7 @@ SolveResult PoseSolver::solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& P, cons
   Impl& s = *impl_;
   check_state(X, s.rest_vertices);
   check_targets(P, s.constrained);
+  if (options.stage) options.stage("paper");
   if (s.hierarchical) return s.hierarchical->solve(X, P, options);
   if (s.handles.mode == ConstraintMode::Hard) {
     for (size_t r = 0; r < s.constrained.size(); ++r) X.row(s.constrained[r]) = P.row(r);
@@ -172,6 +173,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   } else if (guard.mend_rings >= 0) {
     // Soft handles too, their vertices held where the solve put them (the guarded solver has no
     // springs); the mend is weighed with the springs' energy, as every mend is weighed.
+    if (options.stage) options.stage("mend");
     mended = s.guard->weighed_mend(X, guard.mend_rings, guard.mend_max_rise, solve, &out.certificate,
                                    [&](const Eigen::MatrixXd& Y) { return energy(Y, P); });
     if (mended.within_rise) {
@@ -192,7 +194,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     const DeformOptions schedule; // the deformation frames' sub-steps
     const auto drag = [&] { // Y from where it is to the targets
       return s.guard->drag(Y, targets, s.guard->substeps_between(Y, X, schedule), s.guard->guards_contacts(), false,
-                           solve, schedule.substep_tolerance);
+                           solve, schedule.substep_tolerance, {}, options.stage);
     };
     FrameGuard::Outcome outcome = drag();
     if (outcome.method == FrameMethod::Failed && out.drag_start > 0) { // then the drag from the start

@@ -26,6 +26,7 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
+#include <string>
 
 namespace gshell {
 
@@ -353,6 +354,7 @@ FrameResult ShellDeformer::solve(const Eigen::MatrixXd& new_base, const DeformOp
   solve_options.max_iterations = options.max_iterations;
   solve_options.tolerance = options.tolerance;
   solve_options.progress = options.progress;
+  if (options.stage) options.stage("paper");
   const SolveResult solved = solver_.solve(X, solve_options);
 
   FrameResult result;
@@ -417,6 +419,8 @@ ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::Matr
   SolveOptions paper;
   paper.max_iterations = options.max_iterations;
   paper.progress = options.progress;
+  if (options.stage)
+    paper.stage = [&options](const char* name) { options.stage(("regenerate " + std::string(name)).c_str()); };
   // From the frame's own solve rather than the offset: on CGAL's bull (frame 3 of a twist) the
   // fresh top's stretch came out 0.0042 instead of 0.0048, before the polish in guard_frame.
   const GuardedShell fresh = guarded_shell(X.topRows(n), rest_.F, solver_.rest(), rest_.thickness,
@@ -525,6 +529,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     GuardedSolveOptions mend = solve;
     mend.tolerance = 0.1 * options.tolerance;
     mend.max_iterations = substeps * options.max_iterations;
+    if (options.stage) options.stage("mend");
     mended = guard_->weighed_mend(X, options.guard.mend_rings, options.guard.mend_max_rise, mend, &certificate,
                                   [this](const Eigen::MatrixXd& Y) { return solver_.energy(Y); });
     if (mended.within_rise) {
@@ -569,7 +574,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     return false;
   };
   FrameGuard::Outcome outcome =
-      guard_->drag(Y, X, substeps, contacts, true, solve, options.substep_tolerance, other_way);
+      guard_->drag(Y, X, substeps, contacts, true, solve, options.substep_tolerance, other_way, options.stage);
   // A drag that ends invalid takes the fresh top if it is clean on the terms now in effect (made at
   // the first stall, or here when the drag failed before any stall).
   if (!outcome.superseded && (outcome.method == FrameMethod::Failed || outcome.method == FrameMethod::TetsOnly) &&
@@ -583,7 +588,10 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     // one sequence differ by the base's motion, not by how each was made. On CGAL's bull (twist,
     // curvature 0.05 shell) the regenerated frames 4 and 5 then have the dragged frames' stretch to
     // the digits printed (0.0098 and 0.0174, against 0.0137 and 0.0231 without).
-    outcome.iterations += guard_->drag(Y, X, 1, contacts, false, solve, options.substep_tolerance).iterations;
+    const auto polish = [&options](const char*) {
+      if (options.stage) options.stage("polish");
+    };
+    outcome.iterations += guard_->drag(Y, X, 1, contacts, false, solve, options.substep_tolerance, {}, polish).iterations;
   } else if (outcome.method == FrameMethod::Failed && guard_->accepts(previous, X, false, nullptr)) {
     // Not even the tets could follow the drag: the paper's solve is still taken as tets-only when
     // the straight path to it keeps every guarded tet positive (it then inverts none of them).

@@ -84,8 +84,8 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   input.shell = std::move(folder.shell);
   input.surface = std::move(folder.surface);
   input.rest_warning = invalid_rest_shell_warning(shell_dir, folder.report, "frame");
-  input.frame_names = frames;
-  input.frames = BaseFrames::load(frames, input.shell);
+  input.frame_names = expand_frame_arguments(frames);
+  input.frames = BaseFrames::load(input.frame_names, input.shell);
   if (!embed.empty()) {
     input.detail = read_mesh_or_builtin(embed);
     require_usable_coordinates(input.detail.V, embed);
@@ -159,6 +159,15 @@ std::vector<std::string> DeformRun::warnings() const {
                   (mirrored.size() == 1 ? " mirrors" : " mirror") + " the rest base (a negative scale: the best "
                   "linear map from the rest base reverses orientation): the faces wind the other way round, so the "
                   "top lies on the other side of the base, inside a closed one, and the detail in it too");
+  // As for pose steps: a frame cut off by the iteration cap may keep more stretch than its minimum.
+  std::vector<int> capped;
+  for (const DeformFrameRecord& f : frames)
+    if (!f.result.converged) capped.push_back(f.frame);
+  if (!capped.empty())
+    out.push_back(std::string(capped.size() == 1 ? "frame " : "frames ") + first_ids(capped) +
+                  " ran out of iterations before converging (--iterations " +
+                  std::to_string(options.frame.max_iterations) +
+                  "): the top may be short of the frame's minimum; more iterations get closer");
   if (embed && embed->max_outside_distance > thickness)
     out.push_back(std::to_string(embed->outside) + " of " + std::to_string(embed->points) + " detail vertices of " +
                   embed->detail + " lie outside the shell, up to " + format_number(embed->max_outside_distance) +

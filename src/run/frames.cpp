@@ -1,5 +1,8 @@
 #include <gshell/run/frames.h>
 
+#include <gshell/error.h>
+#include <gshell/run/shell_folder.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -38,6 +41,27 @@ std::vector<fs::path> list_frames(const fs::path& dir, const std::string& extens
   std::sort(found.begin(), found.end());
   std::vector<fs::path> frames;
   for (auto& [k, path] : found) frames.push_back(std::move(path));
+  return frames;
+}
+
+std::vector<std::string> expand_frame_arguments(const std::vector<std::string>& arguments) {
+  std::vector<std::string> frames;
+  for (const std::string& argument : arguments) {
+    std::error_code ec;
+    if (!fs::is_directory(argument, ec)) {
+      frames.push_back(argument);
+      continue;
+    }
+    std::vector<fs::path> found;
+    for (const char* extension : {".obj", ".off", ".ply", ".stl"})
+      if (found.empty()) found = list_frames(argument, extension);
+    if (found.empty())
+      throw InputError(argument + ": a folder holding no frame files (frame_0001.obj .., as gshell animate writes)" +
+                       (is_shell_folder(argument) ? "; it is a shell folder: give " +
+                                                        (fs::path(argument) / "base.obj").string() + " for its base"
+                                                  : std::string()));
+    for (const fs::path& path : found) frames.push_back(path.string());
+  }
   return frames;
 }
 

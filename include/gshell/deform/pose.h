@@ -60,7 +60,8 @@ public:
 
   /// Solves for the handle vertices at `targets` (one row per constrained_vertices() entry) from
   /// the state X (2n x 3, updated in place). The hierarchical solver keeps its levels' state from
-  /// the previous call. \throws InputError when X or targets have the wrong shape.
+  /// the previous call. options.stage, where set, is told "paper" first.
+  /// \throws InputError when X or targets have the wrong shape.
   SolveResult solve(Eigen::MatrixXd& X, const Eigen::MatrixXd& targets, const SolveOptions& options = {});
   /// The same for the handles at `fraction` of their motion: solve(X, targets(fraction), options).
   /// \throws InputError as solve().
@@ -77,7 +78,9 @@ public:
   /// valid (blocked_by_contact if it had to be). Never leaves X invalid when it started valid.
   /// Returns the solver's result; where X is not the solver's state, its energy gets one more
   /// entry, the energy of X (so energy.back() is the returned state's), and a step short of its
-  /// targets or left where it was is not `converged`.
+  /// targets or left where it was is not `converged`. options.progress counts on through the
+  /// guard's iterations; options.stage, where set, names them: "mend", then "drag K/N" (the drag's
+  /// sub-steps; "drag" for one).
   /// \throws InputError when `from`, X or targets have the wrong shape, or as GuardedSolver.
   SolveResult solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd& X, const Eigen::MatrixXd& targets,
                           const SolveOptions& options, const GuardOptions& guard, ValidStep* step);

@@ -42,7 +42,8 @@ struct DeformInput {
   TriMesh detail;
 };
 
-/// Reads the rest shell folder, every base frame (BaseFrames::load) and the detail mesh (if any).
+/// Reads the rest shell folder, every base frame (BaseFrames::load; a folder of frames stands for
+/// its frame files, expand_frame_arguments) and the detail mesh (if any).
 /// \throws InputError naming the first folder or file that cannot be used.
 DeformInput load_deform_input(const std::string& shell_dir, const std::vector<std::string>& frames,
                               const std::string& embed = {});

@@ -22,4 +22,10 @@ std::optional<int> frame_number(const std::string& name, const std::string& exte
 /// `extension` is empty, files with that extension otherwise. Empty when `dir` is not a folder.
 std::vector<std::filesystem::path> list_frames(const std::filesystem::path& dir, const std::string& extension = {});
 
+/// Base frames named on a command line: a file as it is; a folder as its frame files in order
+/// (frame_NNNN.obj, or .off, .ply, .stl where it holds no .obj ones), so that `gshell deform --base
+/// DIR` takes what `gshell animate -o DIR` wrote.
+/// \throws InputError naming a folder that holds no frame files (a shell folder: naming its base.obj).
+std::vector<std::string> expand_frame_arguments(const std::vector<std::string>& arguments);
+
 } // namespace gshell
