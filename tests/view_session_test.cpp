@@ -160,6 +160,29 @@ TEST(ViewSession, AReleaseTellsEveryPageWhereTheDragLeftTheGroups) {
   EXPECT_NEAR(pull["rotate"]["degrees"].get<double>(), -20, 1e-12);
 }
 
+TEST(ViewSession, APageLeavingMidDragTellsTheOthersWhereItLeftTheGroups) {
+  // The dragging page's tab closed before its release: the others hear of the groups' motions
+  // then, or their next nudge would pull the group back to rest.
+  const PlateFolder plate;
+  ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));
+  Outbox out;
+  session.welcome(out.sink());
+  add_plate_groups(session, session.input().shell, out);
+  out.clear();
+  session.page_left(out.sink()); // nothing dragged: nothing to tell
+  EXPECT_TRUE(out.messages("handles").empty());
+  session.receive(R"({"type":"grab","handle":1})", out.sink());
+  session.receive(drag_message(1, 1, Eigen::Vector3d(0.1, 0, 0.3), -20), out.sink());
+  session.solve_drag(out.sink());
+  out.clear();
+  session.page_left(out.sink());
+  ASSERT_EQ(out.messages("handles").size(), 1u);
+  for (const ViewOutgoing& m : out.sent) EXPECT_FALSE(m.to_sender);
+  const json pull = out.messages("handles")[0]["handles"]["handles"][1];
+  ASSERT_TRUE(pull.contains("translate")) << pull.dump();
+  EXPECT_NEAR(pull["translate"][2].get<double>(), 0.3, 1e-12);
+}
+
 TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
   const PlateFolder plate;
   ViewSession session(load_view_input({plate.dir}), tight_options(plate.tmp.path().string()));

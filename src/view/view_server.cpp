@@ -66,7 +66,7 @@ std::uint32_t frame_kind_of(const std::string& bytes) {
 
 /// What the solver thread is given to do, in order.
 struct Item {
-  enum Kind { Welcome, Message, Certified } kind = Message;
+  enum Kind { Welcome, Message, Certified, PageLeft } kind = Message;
   int page = 0;
   std::string bytes;
   Clock::time_point received{};
@@ -480,6 +480,10 @@ void ServerCore::page_closed(int id) {
   if (network_stopping && pages.empty()) return ioc.stop();
   log("page " + std::to_string(id) + " left (" + std::to_string(pages.size()) + " open)");
   broadcast_pages();
+  Item item;
+  item.kind = Item::PageLeft;
+  item.page = id;
+  post(std::move(item));
 }
 
 void ServerCore::broadcast_pages() {
@@ -513,6 +517,7 @@ void ServerCore::process(Item& item) {
   switch (item.kind) {
   case Item::Welcome: session.welcome(sink(item.page)); break;
   case Item::Message: session.receive(item.bytes, sink(item.page), item.received); break;
+  case Item::PageLeft: session.page_left(sink(0)); break;
   case Item::Certified: // the check thread is free again once its result is in
     check_busy = false;
     session.certified(item.version, std::move(item.validity), sink(0));

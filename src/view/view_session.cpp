@@ -301,6 +301,11 @@ const ViewInput& ViewSession::input() const { return impl_->input; }
 const ViewMessageLimits& ViewSession::limits() const { return impl_->options.limits; }
 const DragSession* ViewSession::drag_session() const { return impl_->drag ? &*impl_->drag : nullptr; }
 
+void ViewSession::page_left(const ViewSink& send) {
+  const Impl& s = *impl_;
+  if (s.drag && s.phase == "dragging") s.send_handles(send);
+}
+
 void ViewSession::welcome(const ViewSink& send) {
   Impl& s = *impl_;
   const ViewInput& in = s.input;

@@ -97,6 +97,11 @@ public:
   /// colors, the handle groups and the statistics.
   void welcome(const ViewSink& send);
 
+  /// A page went away (a closed tab, a reload). It may have gone mid-drag, without the release
+  /// that tells the other pages where the drag left the groups: they are told now (the settle
+  /// follows when no drag comes for the rest time, as after any drag).
+  void page_left(const ViewSink& send);
+
   /// One message from a page: parsed (parse_view_message) and applied. A bad message, or one the
   /// session cannot carry out (an unknown group, handles leaving a part of the shell free, a
   /// folder that exists...), gets an "error" message to the sender and changes nothing.
