@@ -72,9 +72,6 @@ void run(const CLI::App& cmd, DeformArgs& a) {
       progress.line("shell " + std::to_string(run.base_vertices) + " base vertices, " + std::to_string(run.tets) +
                     " tets, factored in " + std::to_string(run.factor_seconds) + " s; " + std::to_string(count) +
                     " frames");
-      if (run.replaced_rest_tets > 0)
-        progress.line(std::to_string(run.replaced_rest_tets) +
-                      " flat or inverted shell tets use their normal prism as rest shape");
       if (run.embed)
         progress.line("embedded " + std::to_string(run.embed->points) + " detail vertices, " +
                       std::to_string(run.embed->outside) + " outside the shell");
@@ -133,7 +130,7 @@ void add_deform_command(CLI::App& parent) {
   cmd->add_option("--warm-start", a->warm_start, "Start of each frame: extrapolated, rotated, translated or previous")
       ->capture_default_str();
   cmd->add_flag("--allow-invalid", a->options.frame.allow_invalid,
-                "Today's unguarded frames (may hold inverted tets and intersections), for comparison; by default "
+                "The paper's unguarded frames (may hold inverted tets and intersections), for comparison; by default "
                 "every frame is valid by construction (step bounds, guarded sub-steps)");
   cmd->add_flag("--compare-offset", a->options.compare_offset,
                 "Also report the stretch of re-extruding each frame by the plain vertex-normal offset");

@@ -103,7 +103,7 @@ void add_pose_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--iterations", a->options.solve.max_iterations, "Maximum iterations per step")->capture_default_str();
   cmd->add_flag("--allow-invalid", a->options.allow_invalid,
-                "Today's unguarded steps (may invert tets or pass the shell through itself), for comparison; by "
+                "The paper's unguarded steps (may invert tets or pass the shell through itself), for comparison; by "
                 "default every step is valid and stops at contact when the handles force a collision");
   cmd->add_option("-o,--output", a->output,
                   "Output folder (an earlier pose output there is replaced; a folder of other files is an error)")

@@ -28,6 +28,7 @@ struct ViewArgs {
   gshell::ViewInputOptions input;
   gshell::ViewSessionOptions session;
   gshell::ViewServerOptions server;
+  bool full_events = false; ///< --full-events: session.reduced_events off
 };
 
 std::string read_file(const std::string& path) {
@@ -41,6 +42,7 @@ std::string read_file(const std::string& path) {
 void run(const CLI::App& cmd, ViewArgs& a) {
   using namespace gshell;
   cli::check_flags(cmd, [&] {
+    if (a.full_events) a.session.reduced_events = false;
     a.session.pose.solver = parse_pose_solver(a.solver);
     cli::check_applies(cmd, "--levels", a.session.pose.solver == PoseSolverKind::Hierarchical, "--solver hierarchical");
     a.session.check();
@@ -119,7 +121,7 @@ void add_view_command(CLI::App& app) {
                   "Iterations per drag event before the page gets the shell: of the hierarchy's finest reduced level, "
                   "or with --full-events of the full solver (the settle finishes the job)")
       ->capture_default_str();
-  cmd->add_flag("--full-events{false}", a->session.reduced_events,
+  cmd->add_flag("--full-events", a->full_events,
                 "Answer drag events with full-level iterations from the drag-extrapolated start (as pose --steps) "
                 "instead of the reduced level's preview (slower on big shells)");
   cmd->callback([a, cmd] { run(*cmd, *a); });

@@ -16,8 +16,8 @@
 // ratios per 4x vertices. --subdivide K also runs every --mesh split K times (each triangle into
 // four at its edge midpoints, case FILE@k: the same surface, finer against the same layer; growth
 // per split printed as for the sphere levels). --anderson and --cg-relative override generation's Anderson history and
-// the CG's relative stopping test (--anderson 0 --cg-relative 0: the iteration before session 21);
-// --start-smoothing the radius of the start's normal smoothing (0: the offset surface, before session 34);
+// the CG's relative stopping test (--anderson 0 --cg-relative 0: the plain iteration with an absolute CG stop);
+// --start-smoothing the radius of the start's normal smoothing (0: the offset surface);
 // --method curvature generates towards the curvature-sensitive prisms instead (their making,
 // principal curvatures included, is the column curv_s and part of total_s).
 #include "bench_main.h"

@@ -153,8 +153,10 @@ Every frame is valid by construction (no inverted tet, no intersection of the la
 certified exactly in .last) unless allow_invalid=True, which gives the unguarded frames, as
 `gshell deform --allow-invalid`.
 
-Raises:
-    ValueError: the shell has a tet of non-positive volume.)")
+A rest shell's flat or inverted tets (below 1e-3 of their normal prism's volume) take that prism's
+shape as their rest shape, so the frames push them back to a proper prism (replaced_rest_tets
+counts them; gshell.deform and `gshell deform` warn of them). A rest top lying on the wrong side
+of its base comes out on the other side in the first frame.)")
       .def("solve", &deformer_solve, py::arg("new_base"), py::kw_only(), py::arg("iterations") = defaults.max_iterations,
            py::arg("tolerance") = defaults.tolerance, py::arg("warm_start") = warm_start_name(defaults.warm_start),
            py::arg("progress") = py::none(),
@@ -206,6 +208,8 @@ Releases the GIL while it runs.)")
            "energy[0] at the warm start), stretch {mean, volume_mean, max, p99} against the rest shell, "
            "inverted_tets, seconds, valid, method, resumed, fresh_top, substeps, guarded_iterations, thinned_vertices, zero_area_faces, "
            "certificate {...}, base_self_intersections, unextrudable_vertices. The fields of a frame in `gshell deform`'s report.json.")
+      .def_property_readonly("replaced_rest_tets", [](const DeformerObject& d) { return d.deformer.replaced_rest_tets(); },
+                             "Flat or inverted rest tets deformed with their normal prism's shape as rest shape.")
       .def_property_readonly("factor_seconds", [](const DeformerObject& d) { return d.deformer.factor_seconds(); },
                              "Seconds spent assembling and factoring the system matrix.")
 ;
@@ -315,8 +319,8 @@ Returns:
     Embedding; .carry(deformed shell) gives the points' new positions.
 
 Raises:
-    ValueError: bad array, NaN or a coordinate of 1e50 or more, or a shell without any tet of
-        positive volume.
+    ValueError: bad array, NaN or a coordinate of 1e50 or more, or a shell whose tets are all
+        flat (none can carry affine coordinates).
 
 Releases the GIL while it runs.)");
 }

@@ -225,13 +225,14 @@ Args:
         optimisation) or "curvature" (optimised towards prisms scaled by the surface's curvature).
     iterations: maximum local/global iterations (>= 0).
     tolerance: stop when the relative energy change is below this.
-    anderson: Anderson acceleration of the local/global iterations, iterates combined (>= 0; 0:
+    anderson: Anderson acceleration of the local/global iterations, iterates combined (0 to 100; 0:
         the paper's plain iteration; allow_invalid always runs the plain iteration).
     start_smoothing: start the iterations from the offset along vertex normals smoothed over
         this fraction of the thickness (>= 0; 0: the raw normals, the paper's offset surface;
         allow_invalid always starts there).
     s_min, s_max: curvature method: the clamp of the in-plane scales of the top triangles
-        (0 < s_min <= 1 <= s_max); given with another method: ValueError.
+        (0 < s_min <= 1 <= s_max). The signature shows the curvature method's defaults; left
+        out, they apply to it alone: given with another method (even at those values), ValueError.
     count_intersections: run the certificate's exact pair tests (top/top, top/base, side
         walls, base/base) for the report; when False their counts are None and report["valid"]
         is None, or False if a tet is inverted (the tets are always checked). A guarded result

@@ -144,8 +144,8 @@ gives the unguarded steps, as `gshell pose --allow-invalid`.
 Args:
     shell: the rest Shell.
     solver: "hierarchical" (default) or "single" (plain local/global over all vertices).
-    levels: levels of the hierarchical solver including the full one (>= 1; with solver="single":
-        ValueError).
+    levels: levels of the hierarchical solver including the full one (>= 1). The signature shows
+        its default; given with solver="single" (even at that value): ValueError.
 
 Raises:
     ValueError: unknown solver, levels < 1 or given with solver="single".)")

@@ -634,6 +634,11 @@ TEST(IoErrors, MissingFileUnknownExtensionFolder) {
   expect_input_error(dir.file("noextension"), "unknown mesh format");
   std::filesystem::create_directory(dir.file("folder.off"));
   expect_input_error(dir.file("folder.off"), "directory");
+  // Without an extension: a missing path (a mistyped folder) or a folder is named as such, not
+  // as a file of an unknown format.
+  expect_input_error(dir.file("missing"), "no such file");
+  std::filesystem::create_directory(dir.file("folder"));
+  expect_input_error(dir.file("folder"), "is a directory");
 }
 
 // Regular files are mapped, anything else (a pipe here) is read into memory: both give the same

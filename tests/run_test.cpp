@@ -387,11 +387,36 @@ TEST(DeformRun, FramesThatRanOutOfIterationsAreAWarning) {
   EXPECT_EQ(capped_line(full_run), "");
 }
 
+// A rest shell whose top lies inside its base (every tet inverted) deforms with normal-prism rest
+// shapes: its frames' tops come out on the other side, which a warning must say.
+TEST(DeformRun, InvertedRestTetsAreAWarning) {
+  const TriMesh sphere = make_sphere(2);
+  DeformInput input;
+  input.shell_name = "inside out";
+  input.shell = test::offset_shell(sphere, 0.05);
+  input.surface = sphere;
+  input.frames = BaseFrames(std::vector<Eigen::MatrixXd>{sphere.V * 1.01});
+  input.frame_names = {"grown"};
+  const DeformRun right = run_deform(input, DeformRunOptions{});
+  EXPECT_EQ(right.replaced_rest_tets, 0);
+  for (const std::string& line : right.warnings()) EXPECT_EQ(line.find("rest shell tets"), std::string::npos) << line;
+
+  input.shell.top = sphere.V * 0.95;
+  const DeformRun run = run_deform(input, DeformRunOptions{});
+  ASSERT_EQ(run.replaced_rest_tets, run.tets);
+  const std::string expected = std::to_string(run.tets) + " of " + std::to_string(run.tets) +
+                               " rest shell tets are flat or inverted";
+  const std::vector<std::string> w = run.warnings();
+  ASSERT_FALSE(w.empty());
+  EXPECT_EQ(w[0].rfind(expected, 0), 0u) << w[0];
+  EXPECT_NE(w[0].find("wrong side of the base"), std::string::npos) << w[0];
+}
+
 // Frames and pose steps that are not valid are named in one warning line, by what explains them;
 // the line goes into report.json too (the CLI prints it even with --quiet).
 TEST(DeformRun, DetailFarOutsideTheShellIsAWarning) {
   // Points outside every tet follow their nearest tet's map extrapolated: a detail in other units
-  // (1e45 away in the hunt) was carried without a word but the report's count.
+  // (1e45 away in one case) was carried without a word but the report's count.
   DeformRun run;
   run.thickness = 0.1;
   run.embed = DeformRun::Embed{"detail.obj", 10, 2, 0.05};

@@ -239,8 +239,8 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   // Otherwise the end state is certified exactly (the base against itself left out when the caller
   // moves the base: a base crossing itself is then the caller's) and its tets' volumes checked
   // against X0's. Cheaper than continuous collision detection along the path, and what matters is
-  // the frame, not the way to it: a certified frame is a valid start for the next one. Until
-  // session 84 the path's tet bound was asked as well, and a shell turned by more than 143
+  // the frame, not the way to it: a certified frame is a valid start for the next one. When the
+  // path's tet bound was asked as well, a shell turned by more than 143
   // degrees between frames (its path flattens every tet half-way; the paper's solve is exact
   // there) was dragged over 20 sub-steps, minutes on 10K vertices. The two run side by side,
   // filling each other's idle threads (serial parts of the certificate's tree passes).

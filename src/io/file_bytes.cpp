@@ -14,11 +14,15 @@ namespace gshell::io_detail {
 
 namespace fs = std::filesystem;
 
-FileBytes::FileBytes(const std::string& path) {
+void require_file(const std::string& path) {
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
   if (!fs::exists(status)) throw InputError(with_file(path, "no such file"));
   if (fs::is_directory(status)) throw InputError(with_file(path, "is a directory, expected a mesh file"));
+}
+
+FileBytes::FileBytes(const std::string& path) {
+  require_file(path);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw InputError(with_file(path, std::string("cannot open (") + std::strerror(errno) + ")"));
   struct stat st {};

@@ -29,6 +29,10 @@ private:
   std::string copy_;
 };
 
+/// Throws InputError "PATH: no such file" or "PATH: is a directory, expected a mesh file": the
+/// checks FileBytes makes first, for readers that look at a path before opening it (its format).
+void require_file(const std::string& path);
+
 /// Lower-cased extension without the dot ("mesh.PLY" -> "ply"); empty when there is none.
 std::string lower_extension(const std::string& path);
 

@@ -28,9 +28,12 @@ namespace gshell {
 
 TriMesh read_mesh(const std::string& path, std::vector<std::string>* warnings, std::vector<std::string>* skipped) {
   const std::string ext = io_detail::lower_extension(path);
-  if (ext != "obj" && ext != "off" && ext != "ply" && ext != "stl")
+  if (ext != "obj" && ext != "off" && ext != "ply" && ext != "stl") {
+    // A mistyped or missing folder (no extension) is missing, not a file of an unknown format.
+    io_detail::require_file(path);
     throw InputError(with_file(path, "unknown mesh format '" + (ext.empty() ? std::string("(no extension)") : "." + ext) +
                                          "' (supported: .obj .off .ply .stl)"));
+  }
   const io_detail::FileBytes bytes(path);
   if (ext == "obj") return io_detail::read_obj(path, bytes, warnings, skipped);
   if (ext == "off") return io_detail::read_off(path, bytes, skipped);

@@ -159,6 +159,16 @@ std::vector<std::string> DeformRun::warnings() const {
                   (mirrored.size() == 1 ? " mirrors" : " mirror") + " the rest base (a negative scale: the best "
                   "linear map from the rest base reverses orientation): the faces wind the other way round, so the "
                   "top lies on the other side of the base, inside a closed one, and the detail in it too");
+  // A rest shell with flat or inverted tets deforms with their normal prisms as rest shapes
+  // (deformation_rest_tets): each frame pushes them back to a proper prism, so the frames differ
+  // from the rest shell there, and a rest top on the wrong side of its base turns right side out.
+  if (replaced_rest_tets > 0)
+    out.push_back(std::to_string(replaced_rest_tets) + " of " + std::to_string(tets) +
+                  " rest shell tets are flat or inverted: they deform with their normal prism's shape as "
+                  "rest shape, so the frames push them back to a proper prism" +
+                  (2 * replaced_rest_tets > tets ? " (most are: is the rest top on the wrong side of the base? "
+                                                   "the frames' tops will be on the other side)"
+                                                 : ""));
   // As for pose steps: a frame cut off by the iteration cap may keep more stretch than its minimum.
   std::vector<int> capped;
   for (const DeformFrameRecord& f : frames)

@@ -198,7 +198,7 @@ void GenerateOptions::check() const {
     throw InputError("thickness must be positive and finite (got " + format_number(thickness) + ")");
   if (solve.max_iterations < 0) throw InputError("iterations must not be negative");
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a non-negative number");
-  check_anderson_history(solve.anderson_history, "the Anderson history");
+  check_anderson_history(solve.anderson_history, "anderson (the Anderson history)");
   check_curvature_clamp(s_min, s_max);
   if (!allow_invalid && method != ShellMethod::Offset) check_guard_options(guard);
 }

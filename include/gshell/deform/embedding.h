@@ -29,7 +29,7 @@ using EmbedProgress = std::function<void(int located, int total)>;
 /// with a hashed grid (TetLocator), in parallel, in blocks of points (`progress` after each: about
 /// 0.2 s of work on two cores; millions of points take seconds).
 /// \throws InputError when P is not P x 3 or has a non-finite coordinate, as TetLocator's
-///         constructor (X_rest, T shapes and ids), or when no tet has positive volume; whatever
+///         constructor (X_rest, T shapes and ids), or when every tet is flat (TetLocator); whatever
 ///         `progress` throws.
 Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, const Eigen::MatrixXd& P,
                        const EmbedProgress& progress = {});

@@ -55,7 +55,7 @@ struct DeformOptions {
   double tolerance = 1e-4; ///< relative energy change |E_k - E_{k-1}| / E_{k-1} that stops a frame
   WarmStart warm_start = WarmStart::Extrapolated;
   bool measure_stretch = true; ///< fill FrameResult::stretch (one more pass over the tets)
-  /// Today's frames, unguarded: the paper's solve from the warm start, nothing more (frames may
+  /// The paper's frames, unguarded: the paper's solve from the warm start, nothing more (frames may
   /// hold inverted tets and intersections). Off (the default): every frame is valid by
   /// construction (docs/valid-deformation.md): the paper's result is taken only when the straight
   /// path from the previous frame to it keeps every tet positive (step bound) and its exact

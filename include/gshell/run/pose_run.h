@@ -38,7 +38,7 @@ struct PoseOptions {
   /// Per step (a drag event solves with these too unless told otherwise): up to 500 iterations,
   /// until the relative energy change per iteration is below 1e-6.
   SolveOptions solve = {500, 1e-6, {}};
-  /// Today's unguarded steps (may invert tets or pass the shell through itself), for comparison;
+  /// The paper's unguarded steps (may invert tets or pass the shell through itself), for comparison;
   /// run_pose still certifies each step's state and says which are not valid. Off (the
   /// default): every step is valid (PoseSolver::solve_valid), stopping at contact when
   /// the handles force a collision.
