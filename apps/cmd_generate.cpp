@@ -32,8 +32,15 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
     a.options.generate.method = parse_shell_method(a.method);
     a.options.check();
   });
+  // Options a run would ignore are mistakes to be told of: the offset is not optimised, and the
+  // unguarded run is the paper's plain iteration from the plain offset.
+  const ShellMethod method = a.options.generate.method;
   for (const char* flag : {"--s-min", "--s-max"})
-    cli::check_applies(cmd, flag, a.options.generate.method == ShellMethod::Curvature, "--method curvature");
+    cli::check_applies(cmd, flag, method == ShellMethod::Curvature, "--method curvature");
+  for (const char* flag : {"--iterations", "--tolerance", "--anderson", "--start-smoothing", "--allow-invalid"})
+    cli::check_applies(cmd, flag, method != ShellMethod::Offset, "--method rigid or curvature");
+  for (const char* flag : {"--anderson", "--start-smoothing"})
+    cli::check_applies(cmd, flag, !a.options.generate.allow_invalid, "guarded runs (not with --allow-invalid)");
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, [](const std::filesystem::path& d) { return gshell::holds_shell_output_of(d, "generate"); });
   std::vector<std::string> input_warnings;

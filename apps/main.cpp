@@ -121,6 +121,11 @@ std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std:
     message = rest + (type == "INT" ? ": expected a whole number from -2147483648 to 2147483647"
                                     : type == "FLOAT" ? ": expected a number" : ": not a value this option takes");
   }
+  // CLI11's "--thickness-ratio: At Most 1 required but received 2": an option given twice.
+  if (const std::string marker = ": At Most 1 required but received "; what.find(marker) != std::string::npos) {
+    const auto at = what.find(marker);
+    message = what.substr(0, at) + " is given " + what.substr(at + marker.size()) + " times (once at most)";
+  }
   return message + " (see gshell " + (command ? command->get_name() + " " : "") + "--help)";
 }
 

@@ -121,6 +121,8 @@ TEST(CliMessages, OtherArgumentErrorsKeepTheirMessage) {
                     "--frames 99999999999: expected a whole number from -2147483648 to 2147483647 (see gshell animate --help)");
   expect_error_line("generate builtin:sphere -o out --thickness-ratio abc",
                     "--thickness-ratio abc: expected a number (see gshell generate --help)");
+  expect_error_line("generate builtin:sphere -o out --thickness-ratio 0.03 --thickness-ratio 0.05",
+                    "--thickness-ratio is given 2 times (once at most) (see gshell generate --help)");
   // Correct spellings still work after the check.
   EXPECT_EQ(run_cli("--quiet info builtin:sphere:1 --json").exit_code, 0);
 }
@@ -235,6 +237,15 @@ TEST(CliMessages, OptionsThatWouldBeIgnoredAreErrors) {
                     "--s-min applies only to --method curvature");
   expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --method offset --s-max 1.5" + out,
                     "--s-max applies only to --method curvature");
+  // The offset is not optimised; the unguarded run is the plain iteration from the plain offset.
+  for (const char* flag : {"--iterations 3", "--tolerance 1e-3", "--anderson 2", "--start-smoothing 0.1", "--allow-invalid"})
+    expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --method offset " + std::string(flag) + out,
+                      std::string(flag).substr(0, std::string(flag).find(' ')) +
+                          " applies only to --method rigid or curvature");
+  for (const char* flag : {"--anderson 2", "--start-smoothing 0.1"})
+    expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --allow-invalid " + std::string(flag) + out,
+                      std::string(flag).substr(0, std::string(flag).find(' ')) +
+                          " applies only to guarded runs (not with --allow-invalid)");
   expect_error_line("pose --shell " + quoted(dir.file("no_shell")) + " --handles h.json --solver single --levels 3" + out,
                     "--levels applies only to --solver hierarchical");
   expect_error_line("view builtin:plane:4 --solver single --levels 3", "--levels applies only to --solver hierarchical");

@@ -8,6 +8,7 @@
 #include <gshell/guard/guarded_shell.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/shell_metrics.h>
+#include <gshell/quality/stretch.h>
 #include <gshell/shell/generate_report.h>
 #include <gshell/shell/generate_shell.h>
 #include <gshell/shell/ideal_prisms.h>
@@ -522,6 +523,9 @@ TEST(GuardedGeneration, LiftingRaisesHeldTopsByValidMovesThatLowerTheEnergy) {
   EXPECT_NEAR(energy.energy(before) - energy.energy(after), lifted.guard.lift.energy_drop,
               1e-9 * energy.energy(before));
   EXPECT_LT(lifted.metrics.stretch.volume_mean, held.metrics.stretch.volume_mean);
+  // The reported smallest relative volume is the returned shell's, the lifted tops' tets included.
+  const double smallest = tet_deformation_determinants(rest, after).minCoeff();
+  EXPECT_NEAR(lifted.guard.solve.min_relative_volume, smallest, 1e-12 * std::abs(smallest));
   // Only tops thinner than 0.9 of the paper's (the unguarded result) moved.
   const GenerateResult paper = generate_shell(m.V, m.F, options_for(ShellMethod::Rigid, o.thickness, true));
   int thin = 0;

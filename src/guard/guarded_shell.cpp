@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -239,6 +240,15 @@ Mended mend(const MendInputs& in, const std::vector<char>& region, const Eigen::
                                *in.lift_checker, in.options.lift_sweeps, top);
     out.X.bottomRows(n) = top;
     out.lift = {lifted.candidates, lifted.lifted, lifted.checks, lifted.energy_drop, seconds_since(lift_start)};
+  }
+  if (out.repaired_vertices > 0) {
+    // The repair's figure covers its part before the lifting; the report's is the returned shell's:
+    // every guarded tet, the lifted tops' included (they may thin a neighbour's tet).
+    const Eigen::VectorXd det = tet_deformation_determinants(ideal, out.X);
+    double smallest = std::numeric_limits<double>::infinity();
+    for (Eigen::Index t = 0; t < det.size(); ++t)
+      if (p.skip_tets.empty() || !p.skip_tets[t]) smallest = std::min(smallest, det[t]);
+    out.solve.min_relative_volume = smallest;
   }
   return out;
 }
