@@ -44,6 +44,18 @@ ShellFolderContents cylinder_contents(double eta) {
   return c;
 }
 
+// A deform job over the offset shell of `surface` (thickness eta) along the named base frames.
+DeformInput offset_shell_input(const TriMesh& surface, double eta, std::vector<Eigen::MatrixXd> frames,
+                               std::vector<std::string> names) {
+  DeformInput input;
+  input.shell_name = "rest";
+  input.shell = test::offset_shell(surface, eta);
+  input.surface = surface;
+  input.frames = BaseFrames(std::move(frames));
+  input.frame_names = std::move(names);
+  return input;
+}
+
 } // namespace
 
 TEST(Frames, NamesNumbersAndScanOrder) {
@@ -331,15 +343,11 @@ TEST(DeformRun, RigidFramesMoveTheTopRigidlyAndTheFolderHoldsEveryFrame) {
 // inside a closed base, which a user must hear of (the frame itself may well be valid).
 TEST(DeformRun, AMirroredFrameIsAWarning) {
   const TriMesh cylinder = make_cylinder(16);
-  DeformInput input;
-  input.shell_name = "rest";
-  input.shell = test::offset_shell(cylinder, 0.1);
-  input.surface = cylinder;
-  Eigen::MatrixXd mirrored = input.shell.base, squashed = input.shell.base;
+  Eigen::MatrixXd mirrored = cylinder.V, squashed = cylinder.V;
   mirrored.col(0) *= -1;
   squashed.col(2) *= 0.5;
-  input.frames = BaseFrames(std::vector<Eigen::MatrixXd>{input.shell.base, mirrored, squashed});
-  input.frame_names = {"rest", "mirror", "squash"};
+  const DeformInput input =
+      offset_shell_input(cylinder, 0.1, {cylinder.V, mirrored, squashed}, {"rest", "mirror", "squash"});
   const DeformRun run = run_deform(input, DeformRunOptions{});
   ASSERT_EQ(run.frames.size(), 3u);
   EXPECT_FALSE(run.frames[0].mirrored);
@@ -357,13 +365,9 @@ TEST(DeformRun, AMirroredFrameIsAWarning) {
 // pose steps; frames that converged are not named.
 TEST(DeformRun, FramesThatRanOutOfIterationsAreAWarning) {
   const TriMesh cylinder = make_cylinder(16);
-  DeformInput input;
-  input.shell_name = "rest";
-  input.shell = test::offset_shell(cylinder, 0.1);
-  input.surface = cylinder;
   const MotionFrame frame = motion_frame(cylinder.V);
-  input.frames = BaseFrames(std::vector<Eigen::MatrixXd>{twist(cylinder.V, frame, 30), twist(cylinder.V, frame, 60)});
-  input.frame_names = {"twist 30", "twist 60"};
+  const DeformInput input = offset_shell_input(cylinder, 0.1, {twist(cylinder.V, frame, 30), twist(cylinder.V, frame, 60)},
+                                               {"twist 30", "twist 60"});
   const auto capped_line = [](const DeformRun& run) {
     std::string found;
     for (const std::string& line : run.warnings())
@@ -391,12 +395,7 @@ TEST(DeformRun, FramesThatRanOutOfIterationsAreAWarning) {
 // shapes: its frames' tops come out on the other side, which a warning must say.
 TEST(DeformRun, InvertedRestTetsAreAWarning) {
   const TriMesh sphere = make_sphere(2);
-  DeformInput input;
-  input.shell_name = "inside out";
-  input.shell = test::offset_shell(sphere, 0.05);
-  input.surface = sphere;
-  input.frames = BaseFrames(std::vector<Eigen::MatrixXd>{sphere.V * 1.01});
-  input.frame_names = {"grown"};
+  DeformInput input = offset_shell_input(sphere, 0.05, {sphere.V * 1.01}, {"grown"});
   const DeformRun right = run_deform(input, DeformRunOptions{});
   EXPECT_EQ(right.replaced_rest_tets, 0);
   for (const std::string& line : right.warnings()) EXPECT_EQ(line.find("rest shell tets"), std::string::npos) << line;
