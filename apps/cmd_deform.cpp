@@ -117,7 +117,9 @@ void add_deform_command(CLI::App& parent) {
   auto* cmd = parent.add_subcommand(
       "deform", "Deform a shell by a sequence of deformed bases; the top follows with the least stretch");
   cmd->add_option("--shell", a->shell, "Shell folder written by `gshell generate`")->required();
-  cmd->add_option("--base", a->frames, "Deformed base frames (same vertex count and faces as the shell's base), or folders of them (frame_NNNN.obj, as `gshell animate` writes)")
+  cmd->add_option("--base", a->frames,
+                  "Deformed base frames (same vertex count and faces as the shell's base), or folders of them "
+                  "(frame_NNNN.obj, as `gshell animate` writes)")
       ->required()
       ->expected(1, -1);
   cmd->add_option("-o,--output", a->out,

@@ -77,8 +77,8 @@ void add_generate_command(CLI::App& app) {
   cmd->add_option("--tolerance", a->options.generate.solve.tolerance, "Stop when the relative energy change is below this")
       ->capture_default_str();
   cmd->add_option("--anderson", a->options.generate.solve.anderson_history,
-                  "Anderson acceleration of the local/global iterations: iterates combined, 0 to 100 (0: the paper's plain "
-                  "iteration; --allow-invalid always runs the plain iteration)")
+                  "Anderson acceleration of the local/global iterations: iterates combined, 0 to 100 (0: the "
+                  "paper's plain iteration; --allow-invalid always runs the plain iteration)")
       ->capture_default_str();
   cmd->add_option("--start-smoothing", a->options.generate.guard.start_smoothing,
                   "Start the local/global iterations from the offset along vertex normals smoothed over this "

@@ -208,8 +208,9 @@ Releases the GIL while it runs.)")
            "energy[0] at the warm start), stretch {mean, volume_mean, max, p99} against the rest shell, "
            "inverted_tets, seconds, valid, method, resumed, fresh_top, substeps, guarded_iterations, thinned_vertices, zero_area_faces, "
            "certificate {...}, base_self_intersections, unextrudable_vertices. The fields of a frame in `gshell deform`'s report.json.")
-      .def_property_readonly("replaced_rest_tets", [](const DeformerObject& d) { return d.deformer.replaced_rest_tets(); },
-                             "Flat or inverted rest tets deformed with their normal prism's shape as rest shape.")
+      .def_property_readonly(
+          "replaced_rest_tets", [](const DeformerObject& d) { return d.deformer.replaced_rest_tets(); },
+          "Flat or inverted rest tets deformed with their normal prism's shape as rest shape.")
       .def_property_readonly("factor_seconds", [](const DeformerObject& d) { return d.deformer.factor_seconds(); },
                              "Seconds spent assembling and factoring the system matrix.")
 ;

@@ -17,7 +17,8 @@ Embedding embed_points(const Eigen::MatrixXd& X_rest, const Eigen::MatrixXi& T, 
     if (!P.row(p).allFinite())
       throw InputError("embedded point " + std::to_string(p) + " has a non-finite coordinate");
   const TetLocator locator(X_rest, T);
-  if (locator.usable_tets() == 0) throw InputError("the shell has no tet of non-zero volume to embed points in (all are flat)");
+  if (locator.usable_tets() == 0)
+    throw InputError("the shell has no tet of non-zero volume to embed points in (all are flat)");
 
   const int n = static_cast<int>(P.rows());
   Embedding e;

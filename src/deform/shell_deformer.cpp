@@ -591,7 +591,8 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     const auto polish = [&options](const char*) {
       if (options.stage) options.stage("polish");
     };
-    outcome.iterations += guard_->drag(Y, X, 1, contacts, false, solve, options.substep_tolerance, {}, polish).iterations;
+    outcome.iterations +=
+        guard_->drag(Y, X, 1, contacts, false, solve, options.substep_tolerance, {}, polish).iterations;
   } else if (outcome.method == FrameMethod::Failed && guard_->accepts(previous, X, false, nullptr)) {
     // Not even the tets could follow the drag: the paper's solve is still taken as tets-only when
     // the straight path to it keeps every guarded tet positive (it then inverts none of them).

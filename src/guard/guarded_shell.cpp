@@ -391,8 +391,9 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
 
   // Valid start: that top, pulled towards the base only where it is not valid. Its first check
   // certifies the paper's top whole and finds the base's own crossings in the same pass, over the
-  // certificate's tree of the base triangles (docs/scale.md, "The base's crossings from the start's first check"): around them no top can
-  // be clean, so the triangles of the faces touching a crossing face see no contacts.
+  // certificate's tree of the base triangles (docs/scale.md, "The base's crossings from the
+  // start's first check"): around them no top can be clean, so the triangles of the faces
+  // touching a crossing face see no contacts.
   const ValidStartOptions start_options = valid_start_options(options, eta);
   {
     // Scoped: its trees over all boundary rows are freed once the start is made, as before.
