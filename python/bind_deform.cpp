@@ -17,7 +17,6 @@
 #include <cmath>
 #include <memory>
 #include <optional>
-#include <string>
 
 namespace gshell::python {
 
@@ -57,10 +56,9 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, CountArg i
   options.allow_invalid = d.allow_invalid;
   options.check();
   ProgressWatch watch(progress, "gshell.Deformer.solve");
-  std::string stage;
-  options.stage = [&stage](const char* name) { stage = name; };
-  options.progress = [&watch, &stage](int iteration, double energy, double seconds) {
-    watch.report({{"stage", stage}, {"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
+  options.stage = watch.stage_hook();
+  options.progress = [&watch](int iteration, double energy, double seconds) {
+    watch.report({{"stage", watch.stage()}, {"iteration", iteration}, {"energy", energy}, {"seconds", seconds}});
   };
   Eigen::MatrixXd top;
   {

@@ -18,7 +18,6 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <string>
 
 namespace gshell::python {
 
@@ -82,13 +81,11 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   options.check();
   const HandleSet set = handles_from(p, handles);
   ProgressWatch watch(progress, "gshell.Poser.solve");
-  std::string stage;
-  options.solve.stage = [&stage](const char* name) { stage = name; };
-  options.step_progress = [&watch, &stage, steps = options.steps](int step, int iteration, double energy,
-                                                                  double seconds) {
+  options.solve.stage = watch.stage_hook();
+  options.step_progress = [&watch, steps = options.steps](int step, int iteration, double energy, double seconds) {
     watch.report({{"step", step},
                   {"steps", steps},
-                  {"stage", stage},
+                  {"stage", watch.stage()},
                   {"iteration", iteration},
                   {"energy", energy},
                   {"seconds", seconds}});

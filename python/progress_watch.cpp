@@ -66,7 +66,7 @@ void ProgressWatch::with_python(const std::function<void()>& work) {
 
 void ProgressWatch::watch(SolveOptions& solve, std::string first_stage) {
   stage_ = std::move(first_stage);
-  solve.stage = [this](const char* name) { stage_ = name; };
+  solve.stage = stage_hook();
   solve.progress = [this](int iteration, double energy, double seconds) {
     nlohmann::ordered_json update;
     if (!stage_.empty()) update["stage"] = stage_;

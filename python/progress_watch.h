@@ -40,6 +40,12 @@ public:
   /// ("stage": the solve's stage name, e.g. paper, repair, relax, when it names one; before it
   /// names one, `first_stage` if not empty: an unguarded generation names none).
   void watch(SolveOptions& solve, std::string first_stage = {});
+  /// For calls whose updates add fields of their own (a pose step's number, a frame's): a
+  /// callback for the job's `stage` option, and the stage it last named (empty before any).
+  std::function<void(const char*)> stage_hook() {
+    return [this](const char* name) { stage_ = name; };
+  }
+  const std::string& stage() const { return stage_; }
 
 private:
   std::string line(const nlohmann::ordered_json& update) const; ///< for progress=True

@@ -146,19 +146,19 @@ std::vector<std::string> DeformRun::warnings() const {
       most = std::max(most, f.result.zero_area_faces);
     }
   if (!degenerate.empty()) {
-    out.push_back(std::string(degenerate.size() == 1 ? "frame " : "frames ") + first_ids(degenerate) +
-                  (degenerate.size() == 1 ? " has" : " have") + " base faces of zero area (up to " +
-                  std::to_string(most) + " a frame: a collapsed edge or collinear corners): no prism over such a face "
-                  "has a valid shape, and the base crossings counted there are those faces touching their neighbours");
+    out.push_back(detail::named_items("frame", degenerate) + (degenerate.size() == 1 ? " has" : " have") +
+                  " base faces of zero area (up to " + std::to_string(most) +
+                  " a frame: a collapsed edge or collinear corners): no prism over such a face has a valid shape, "
+                  "and the base crossings counted there are those faces touching their neighbours");
   }
   std::vector<int> mirrored;
   for (const DeformFrameRecord& f : frames)
     if (f.mirrored) mirrored.push_back(f.frame);
   if (!mirrored.empty())
-    out.push_back(std::string(mirrored.size() == 1 ? "frame " : "frames ") + first_ids(mirrored) +
-                  (mirrored.size() == 1 ? " mirrors" : " mirror") + " the rest base (a negative scale: the best "
-                  "linear map from the rest base reverses orientation): the faces wind the other way round, so the "
-                  "top lies on the other side of the base, inside a closed one, and the detail in it too");
+    out.push_back(detail::named_items("frame", mirrored) + (mirrored.size() == 1 ? " mirrors" : " mirror") +
+                  " the rest base (a negative scale: the best linear map from the rest base reverses orientation): "
+                  "the faces wind the other way round, so the top lies on the other side of the base, inside a "
+                  "closed one, and the detail in it too");
   // A rest shell with flat or inverted tets deforms with their normal prisms as rest shapes
   // (deformation_rest_tets): each frame pushes them back to a proper prism, so the frames differ
   // from the rest shell there, and a rest top on the wrong side of its base turns right side out.
@@ -173,11 +173,10 @@ std::vector<std::string> DeformRun::warnings() const {
   std::vector<int> capped;
   for (const DeformFrameRecord& f : frames)
     if (!f.result.converged) capped.push_back(f.frame);
-  if (!capped.empty())
-    out.push_back(std::string(capped.size() == 1 ? "frame " : "frames ") + first_ids(capped) +
-                  " ran out of iterations before converging (--iterations " +
-                  std::to_string(options.frame.max_iterations) +
-                  "): the top may be short of the frame's minimum; more iterations get closer");
+  const std::string unconverged =
+      detail::unconverged_items_warning("frame", capped, options.frame.max_iterations,
+                                        "the top may be short of the frame's minimum; more iterations get closer");
+  if (!unconverged.empty()) out.push_back(unconverged);
   if (embed && embed->max_outside_distance > thickness)
     out.push_back(std::to_string(embed->outside) + " of " + std::to_string(embed->points) + " detail vertices of " +
                   embed->detail + " lie outside the shell, up to " + format_number(embed->max_outside_distance) +

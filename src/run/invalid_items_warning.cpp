@@ -4,9 +4,20 @@
 
 namespace gshell::detail {
 
+std::string named_items(const std::string& noun, const std::vector<int>& ids) {
+  return noun + (ids.size() == 1 ? " " : "s ") + first_ids(ids);
+}
+
+std::string unconverged_items_warning(const std::string& noun, const std::vector<int>& ids, int max_iterations,
+                                      const std::string& consequence) {
+  if (ids.empty()) return {};
+  return named_items(noun, ids) + " ran out of iterations before converging (--iterations " +
+         std::to_string(max_iterations) + "): " + consequence;
+}
+
 std::string invalid_items_warning(const InvalidItems& items, int total, const std::string& noun, bool unguarded) {
   if (items.all.empty()) return {};
-  const auto named = [&](const std::vector<int>& ids) { return noun + (ids.size() == 1 ? " " : "s ") + first_ids(ids); };
+  const auto named = [&](const std::vector<int>& ids) { return named_items(noun, ids); };
   std::vector<std::string> causes;
   if (!items.crossing.empty()) causes.push_back("the base crosses itself in " + named(items.crossing));
   if (!items.unextrudable.empty()) causes.push_back("base vertices cannot be extruded in " + named(items.unextrudable));

@@ -1,7 +1,7 @@
 #pragma once
-// The warning line of a run whose frames or pose steps are not all valid (DeformRun::warnings,
-// PoseResult::warnings): printed even with progress off, since report.json is otherwise the only
-// place that says so.
+// The warning lines of a run whose frames or pose steps are not all valid, or not all converged
+// (DeformRun::warnings, PoseResult::warnings): printed even with progress off, since report.json
+// is otherwise the only place that says so.
 #include <string>
 #include <vector>
 
@@ -24,6 +24,14 @@ struct InvalidItems {
     if (!base_crosses && !has_unextrudable && !only_rest_faults) unexplained.push_back(id);
   }
 };
+
+/// "frame 3", "frames 1, 2" (first_ids: up to ten, then "..."); `noun`: "frame" or "pose step".
+std::string named_items(const std::string& noun, const std::vector<int>& ids);
+
+/// "frames 1, 2 ran out of iterations before converging (--iterations N): CONSEQUENCE", or empty
+/// when `ids` is.
+std::string unconverged_items_warning(const std::string& noun, const std::vector<int>& ids, int max_iterations,
+                                      const std::string& consequence);
 
 /// E.g. "2 of 4 frames are not valid: the base crosses itself in frames 3, 4; the guard could not
 /// make frame 2 valid (report.json has each frame's certificate)"; items with only the rest

@@ -101,11 +101,10 @@ std::vector<std::string> PoseResult::warnings() const {
   std::vector<int> capped;
   for (std::size_t k = 0; k < steps.size(); ++k)
     if (!steps[k].converged) capped.push_back(static_cast<int>(k) + 1);
-  if (!capped.empty())
-    lines.push_back(std::string(capped.size() == 1 ? "pose step " : "pose steps ") + first_ids(capped) +
-                    " ran out of iterations before converging (--iterations " +
-                    std::to_string(max_iterations) + "): the shell may be short of the pose's minimum; more "
-                    "iterations, or the hierarchical solver, get closer");
+  const std::string unconverged = detail::unconverged_items_warning(
+      "pose step", capped, max_iterations,
+      "the shell may be short of the pose's minimum; more iterations, or the hierarchical solver, get closer");
+  if (!unconverged.empty()) lines.push_back(unconverged);
   return lines;
 }
 
