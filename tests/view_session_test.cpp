@@ -134,6 +134,26 @@ void add_plate_groups(ViewSession& session, const Shell& shell, Outbox& out) {
 
 bool never() { return false; }
 
+// A drag of the pull group (grab, one drag event, its solve), made after add_plate_groups.
+void drag_the_pull_group(ViewSession& session, Outbox& out) {
+  session.receive(R"({"type":"grab","handle":1})", out.sink());
+  session.receive(drag_message(1, 1, Eigen::Vector3d(0.1, 0, 0.3), -20), out.sink());
+  session.solve_drag(out.sink());
+}
+
+// `out` holds one "handles" message, for every page, with drag_the_pull_group's motion of the pull
+// group in page units.
+void expect_the_pull_groups_motion_for_every_page(const Outbox& out) {
+  ASSERT_EQ(out.messages("handles").size(), 1u);
+  for (const ViewOutgoing& m : out.sent)
+    if (!m.binary && json::parse(m.bytes)["type"] == "handles") EXPECT_FALSE(m.to_sender);
+  const json pull = out.messages("handles")[0]["handles"]["handles"][1];
+  ASSERT_TRUE(pull.contains("translate") && pull.contains("rotate")) << pull.dump();
+  EXPECT_NEAR(pull["translate"][0].get<double>(), 0.1, 1e-12); // page units, as the drag's
+  EXPECT_NEAR(pull["translate"][2].get<double>(), 0.3, 1e-12);
+  EXPECT_NEAR(pull["rotate"]["degrees"].get<double>(), -20, 1e-12);
+}
+
 } // namespace
 
 TEST(ViewSession, AReleaseTellsEveryPageWhereTheDragLeftTheGroups) {
@@ -144,20 +164,11 @@ TEST(ViewSession, AReleaseTellsEveryPageWhereTheDragLeftTheGroups) {
   Outbox out;
   session.welcome(out.sink());
   add_plate_groups(session, session.input().shell, out);
-  session.receive(R"({"type":"grab","handle":1})", out.sink());
   out.clear();
-  session.receive(drag_message(1, 1, Eigen::Vector3d(0.1, 0, 0.3), -20), out.sink());
-  session.solve_drag(out.sink());
+  drag_the_pull_group(session, out);
   EXPECT_TRUE(out.messages("handles").empty()); // not at every drag event: the file lists every vertex
   session.receive(R"({"type":"release"})", out.sink());
-  ASSERT_EQ(out.messages("handles").size(), 1u);
-  for (const ViewOutgoing& m : out.sent)
-    if (!m.binary && json::parse(m.bytes)["type"] == "handles") EXPECT_FALSE(m.to_sender); // for every page
-  const json pull = out.messages("handles")[0]["handles"]["handles"][1];
-  ASSERT_TRUE(pull.contains("translate") && pull.contains("rotate")) << pull.dump();
-  EXPECT_NEAR(pull["translate"][0].get<double>(), 0.1, 1e-12); // page units, as the drag's
-  EXPECT_NEAR(pull["translate"][2].get<double>(), 0.3, 1e-12);
-  EXPECT_NEAR(pull["rotate"]["degrees"].get<double>(), -20, 1e-12);
+  expect_the_pull_groups_motion_for_every_page(out);
 }
 
 TEST(ViewSession, APageLeavingMidDragTellsTheOthersWhereItLeftTheGroups) {
@@ -171,16 +182,10 @@ TEST(ViewSession, APageLeavingMidDragTellsTheOthersWhereItLeftTheGroups) {
   out.clear();
   session.page_left(out.sink()); // nothing dragged: nothing to tell
   EXPECT_TRUE(out.messages("handles").empty());
-  session.receive(R"({"type":"grab","handle":1})", out.sink());
-  session.receive(drag_message(1, 1, Eigen::Vector3d(0.1, 0, 0.3), -20), out.sink());
-  session.solve_drag(out.sink());
+  drag_the_pull_group(session, out);
   out.clear();
   session.page_left(out.sink());
-  ASSERT_EQ(out.messages("handles").size(), 1u);
-  for (const ViewOutgoing& m : out.sent) EXPECT_FALSE(m.to_sender);
-  const json pull = out.messages("handles")[0]["handles"]["handles"][1];
-  ASSERT_TRUE(pull.contains("translate")) << pull.dump();
-  EXPECT_NEAR(pull["translate"][2].get<double>(), 0.3, 1e-12);
+  expect_the_pull_groups_motion_for_every_page(out);
 }
 
 TEST(ViewSession, ScriptedDragEndsWhereGshellPoseEnds) {
