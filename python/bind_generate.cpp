@@ -26,6 +26,9 @@ namespace gshell::python {
 
 namespace {
 
+/// A default as the signature shows it (Python's repr of the float).
+std::string shown_default(double value) { return py::repr(py::float_(value)).cast<std::string>(); }
+
 /// The report's "input" for arrays handed in from Python (the CLI writes the file or spec there).
 constexpr const char* kArrayInput = "<numpy arrays>";
 
@@ -101,22 +104,36 @@ ShellObject load_shell_py(const std::filesystem::path& dir) {
 }
 
 ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<double> thickness,
-                        std::optional<double> thickness_ratio, const std::string& method, CountArg iterations,
-                        double tolerance, CountArg anderson, double start_smoothing, std::optional<double> s_min,
-                        std::optional<double> s_max,
+                        std::optional<double> thickness_ratio, const std::string& method,
+                        std::optional<CountArg> iterations, std::optional<double> tolerance,
+                        std::optional<CountArg> anderson, std::optional<double> start_smoothing,
+                        std::optional<double> s_min, std::optional<double> s_max,
                         bool count_intersections, bool allow_invalid, const py::object& progress) {
   TriMesh mesh = checked_mesh(V, F);
   GenerateRunOptions options;
   options.thickness = {thickness, thickness_ratio};
   options.generate.method = parse_shell_method(method);
-  options.generate.solve.max_iterations = iterations.checked("iterations");
-  options.generate.solve.tolerance = tolerance;
-  options.generate.solve.anderson_history = anderson.checked("anderson");
-  options.generate.guard.start_smoothing = start_smoothing;
-  // As the CLI's --s-min / --s-max: a clamp given to a method that has none is a mistake to say.
-  for (const auto& [name, value] : {std::pair{"s_min", s_min}, std::pair{"s_max", s_max}})
-    if (value && options.generate.method != ShellMethod::Curvature)
-      throw InputError(std::string(name) + " applies only to method='curvature'");
+  // As the CLI: an option the run would ignore is a mistake to say, given even at its default.
+  // The offset is not optimised; the unguarded run is the paper's plain iteration from the offset.
+  const auto require_applies = [](const char* name, bool given, bool applies, const char* when) {
+    if (given && !applies) throw InputError(std::string(name) + " applies only to " + when);
+  };
+  require_applies("s_min", s_min.has_value(), options.generate.method == ShellMethod::Curvature, "method='curvature'");
+  require_applies("s_max", s_max.has_value(), options.generate.method == ShellMethod::Curvature, "method='curvature'");
+  const bool optimised = options.generate.method != ShellMethod::Offset;
+  const char* const optimised_methods = "method='rigid' or 'curvature'";
+  require_applies("iterations", iterations.has_value(), optimised, optimised_methods);
+  require_applies("tolerance", tolerance.has_value(), optimised, optimised_methods);
+  require_applies("anderson", anderson.has_value(), optimised, optimised_methods);
+  require_applies("start_smoothing", start_smoothing.has_value(), optimised, optimised_methods);
+  require_applies("allow_invalid", allow_invalid, optimised, optimised_methods);
+  const char* const guarded = "guarded runs (not with allow_invalid=True)";
+  require_applies("anderson", anderson.has_value(), !allow_invalid, guarded);
+  require_applies("start_smoothing", start_smoothing.has_value(), !allow_invalid, guarded);
+  if (iterations) options.generate.solve.max_iterations = iterations->checked("iterations");
+  if (tolerance) options.generate.solve.tolerance = *tolerance;
+  if (anderson) options.generate.solve.anderson_history = anderson->checked("anderson");
+  if (start_smoothing) options.generate.guard.start_smoothing = *start_smoothing;
   if (s_min) options.generate.s_min = *s_min;
   if (s_max) options.generate.s_max = *s_max;
   options.generate.count_intersections = count_intersections;
@@ -205,12 +222,13 @@ stretch and report are measured as by metrics() without intersection counts.)")
   const GenerateOptions defaults; // the only source of the defaults, as for the CLI
   m.def("generate", &generate_py, py::arg("V"), py::arg("F"), py::arg("thickness") = py::none(), py::kw_only(),
         py::arg("thickness_ratio") = py::none(), py::arg("method") = to_string(defaults.method),
-        py::arg("iterations") = defaults.solve.max_iterations, py::arg("tolerance") = defaults.solve.tolerance,
-        py::arg("anderson") = defaults.solve.anderson_history,
-        py::arg("start_smoothing") = defaults.guard.start_smoothing,
-        // None: the library's default, shown in the signature (given with another method: an error).
-        py::arg_v("s_min", py::none(), py::repr(py::float_(defaults.s_min)).cast<std::string>().c_str()),
-        py::arg_v("s_max", py::none(), py::repr(py::float_(defaults.s_max)).cast<std::string>().c_str()),
+        // None: the library's default, shown in the signature (given where it does not apply: an error).
+        py::arg_v("iterations", py::none(), std::to_string(defaults.solve.max_iterations).c_str()),
+        py::arg_v("tolerance", py::none(), shown_default(defaults.solve.tolerance).c_str()),
+        py::arg_v("anderson", py::none(), std::to_string(defaults.solve.anderson_history).c_str()),
+        py::arg_v("start_smoothing", py::none(), shown_default(defaults.guard.start_smoothing).c_str()),
+        py::arg_v("s_min", py::none(), shown_default(defaults.s_min).c_str()),
+        py::arg_v("s_max", py::none(), shown_default(defaults.s_max).c_str()),
         py::arg("count_intersections") = defaults.count_intersections,
         py::arg("allow_invalid") = defaults.allow_invalid, py::arg("progress") = py::none(),
         R"(Generate the shell of a triangle surface (paper section 4.1), as `gshell generate` does.
@@ -225,6 +243,10 @@ Args:
         optimisation) or "curvature" (optimised towards prisms scaled by the surface's curvature).
     iterations: maximum local/global iterations (>= 0).
     tolerance: stop when the relative energy change is below this.
+    iterations, tolerance, anderson, start_smoothing, allow_invalid: rigid and curvature only;
+        anderson and start_smoothing also not with allow_invalid=True. As s_min and s_max, the
+        signature shows the defaults; given where they do not apply (even at those values),
+        ValueError, as the CLI's flags.
     anderson: Anderson acceleration of the local/global iterations, iterates combined (0 to 100; 0:
         the paper's plain iteration; allow_invalid always runs the plain iteration).
     start_smoothing: start the iterations from the offset along vertex normals smoothed over

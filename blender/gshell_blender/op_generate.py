@@ -153,10 +153,12 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         layout.prop(self, "thickness_mode", expand=True)
         layout.prop(self, "thickness_ratio" if self.thickness_mode == "RATIO" else "thickness")
         layout.prop(self, "method")
-        layout.prop(self, "iterations")
+        optimised = layout.column()
+        optimised.enabled = self.method != "offset"  # the offset is not optimised
+        optimised.prop(self, "iterations")
         try:
             if gshell_module.supports(gshell_module.get().generate, "allow_invalid"):
-                layout.prop(self, "allow_invalid")
+                optimised.prop(self, "allow_invalid")
         except gshell_module.ModuleUnavailable:
             pass
 
@@ -211,12 +213,16 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         F, polygon = mesh_arrays.triangles(base.data)
         if len(F) == 0:
             raise shell_store.ShellError(f"'{base.name}' has no faces")
-        kwargs = {"method": self.method, "iterations": self.iterations}
+        # The offset is not optimised: the module refuses iteration options with it.
+        optimised = self.method != "offset"
+        kwargs = {"method": self.method}
+        if optimised:
+            kwargs["iterations"] = self.iterations
         if self.thickness_mode == "RATIO":
             kwargs["thickness_ratio"] = self.thickness_ratio
         else:
             kwargs["thickness"] = self.thickness
-        if gshell_module.supports(gshell.generate, "allow_invalid"):
+        if optimised and gshell_module.supports(gshell.generate, "allow_invalid"):
             kwargs["allow_invalid"] = self.allow_invalid
         wm = bpy.context.window_manager
 

@@ -508,6 +508,18 @@ class AddonTest(unittest.TestCase):
                                    thickness_ratio=THICKNESS_RATIO, allow_invalid=True)
         np.testing.assert_allclose(positions(sphere.gshell.top.data), expected.top, atol=1e-6)
 
+    def test_generate_offset_gives_the_modules_offset_shell(self):
+        # The panel's iterations and allow_invalid do not apply to the offset, and the module
+        # refuses them with it: the operator must leave them out, whatever their values.
+        gshell = the_module()
+        sphere = uv_sphere(segments=12, rings=6)
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO, method="offset",
+                                                        iterations=3, allow_invalid=True), {"FINISHED"})
+        expected = gshell.generate(positions(sphere.data), np.asarray(sphere.gshell.top["gshell_faces"]).reshape(-1, 3),
+                                   thickness_ratio=THICKNESS_RATIO, method="offset")
+        np.testing.assert_allclose(positions(sphere.gshell.top.data), expected.top, atol=1e-6)
+        self.assertEqual(json.loads(sphere.gshell.top["gshell_report"])["method"], "offset")
+
     def test_generate_in_edit_mode_reads_the_edits_and_stays_in_edit_mode(self):
         sphere = uv_sphere(segments=12, rings=6)  # with a UV map, as Blender's primitives
         self.assertTrue(sphere.data.uv_layers)

@@ -346,6 +346,27 @@ class GenerateTest(TempDirTest):
         defaults = keyword_defaults(gshell.generate)
         self.assertEqual((c["s_min"], c["s_max"]), (defaults["s_min"], defaults["s_max"]))
 
+    def test_options_a_run_would_ignore_are_errors(self):
+        # As the CLI's flags: the offset is not optimised, and the unguarded run is the paper's plain
+        # iteration from the plain offset. Given even at the signature's default, they are refused.
+        V, F = gshell.builtin("sphere:1")
+        defaults = keyword_defaults(gshell.generate)
+        optimised = "applies only to method='rigid' or 'curvature'$"
+        for name in ("iterations", "tolerance", "anderson", "start_smoothing"):
+            with self.subTest(name=name), self.assertRaisesRegex(ValueError, "^" + name + " " + optimised):
+                gshell.generate(V, F, thickness=0.1, method="offset", **{name: defaults[name]})
+        with self.assertRaisesRegex(ValueError, "^allow_invalid " + optimised):
+            gshell.generate(V, F, thickness=0.1, method="offset", allow_invalid=True)
+        for name in ("anderson", "start_smoothing"):
+            with self.subTest(name=name), self.assertRaisesRegex(
+                    ValueError, "^" + name + r" applies only to guarded runs \(not with allow_invalid=True\)$"):
+                gshell.generate(V, F, thickness=0.1, allow_invalid=True, **{name: defaults[name]})
+        # Where they apply, given at their defaults they are the run left alone.
+        given = gshell.generate(V, F, thickness=0.1, **{name: defaults[name] for name in
+                                                     ("iterations", "tolerance", "anderson", "start_smoothing")})
+        np.testing.assert_array_equal(given.top, gshell.generate(V, F, thickness=0.1).top)
+        gshell.generate(V, F, thickness=0.1, method="offset", allow_invalid=False)
+
     def test_shells_pickle_as_they_are(self):
         # multiprocessing and caches pickle shells: the same arrays, stretch and report come back,
         # without measuring again, and the copy deforms as the original does.
