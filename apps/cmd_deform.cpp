@@ -51,18 +51,26 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   std::string frame_label, frame_stage; // frame_stage: "paper", "drag 3/17", ... (DeformOptions::stage)
   DeformRunOptions options = a.options; // with the status callbacks, which refer to this call's locals
   if (progress.enabled()) {
-    options.frame.stage = [&](const char* name) { frame_stage = name; };
-    options.frame.progress = [&](int, double energy, double) {
-      ++frame_iterations;
+    // The status of the frame's solve running now; `iteration` 0 names the stage alone (the guard's
+    // setup and test run no iterations and took seconds of silence on large shells).
+    const auto show = [&](int iteration, double energy) {
       const auto now = Clock::now();
       if (now - last_shown < std::chrono::seconds(1)) return;
       last_shown = now;
       char text[160];
-      std::snprintf(text, sizeof text, "%s %s: iteration %d  energy %.6g  %.1f s", frame_label.c_str(),
-                    frame_stage.c_str(), frame_iterations, energy,
-                    std::chrono::duration<double>(now - frame_began).count());
+      const double seconds = std::chrono::duration<double>(now - frame_began).count();
+      if (iteration > 0)
+        std::snprintf(text, sizeof text, "%s %s: iteration %d  energy %.6g  %.1f s", frame_label.c_str(),
+                      frame_stage.c_str(), iteration, energy, seconds);
+      else
+        std::snprintf(text, sizeof text, "%s %s  %.1f s", frame_label.c_str(), frame_stage.c_str(), seconds);
       progress.update(text);
     };
+    options.frame.stage = [&, show](const char* name) {
+      frame_stage = name;
+      show(0, 0);
+    };
+    options.frame.progress = [&, show](int, double energy, double) { show(++frame_iterations, energy); };
   }
   auto report = [&](const DeformRun& run, int count) {
     frame_began = last_shown = Clock::now();

@@ -57,6 +57,9 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   DragSession session(rest.shell, a.options, rest.surface);
   session.set_names(a.shell_dir, a.handles);
   session.set_handles(handles);
+  // The solver is built at the first step: its factor (and the hierarchy's levels) take seconds
+  // on large shells, which the first iteration's line would leave silent.
+  progress.update("setting up the " + a.solver + " solver");
   const PoseResult result = run_pose(session, a.options);
   for (size_t k = 0; k < result.steps.size(); ++k) {
     const PoseStepReport& s = result.steps[k];

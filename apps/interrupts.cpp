@@ -54,6 +54,9 @@ void watch_signals() {
   }
 }
 
+// The signals whose handler catch_interrupts installed (the others are the libraries' to set).
+std::atomic<bool> g_kept[NSIG];
+
 bool ignored_at_start(int signal) {
   struct sigaction current {};
   return sigaction(signal, nullptr, &current) == 0 && current.sa_handler == SIG_IGN;
@@ -71,9 +74,9 @@ void catch_interrupts() {
   // does: by default they killed it and left its hidden staging folder behind. SIGINT and SIGHUP
   // ignored at the start (a background job, nohup) stay ignored.
   for (const int signal : {SIGINT, SIGHUP})
-    if (!ignored_at_start(signal)) sigaction(signal, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
-  sigaction(SIGQUIT, &action, nullptr);
+    if (!ignored_at_start(signal) && sigaction(signal, &action, nullptr) == 0) g_kept[signal] = true;
+  for (const int signal : {SIGTERM, SIGQUIT})
+    if (sigaction(signal, &action, nullptr) == 0) g_kept[signal] = true;
   // Past a file size limit (ulimit -f) a write should fail, and the command report it and remove
   // what it was writing, instead of the process being killed in the middle of it.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -91,3 +94,37 @@ void on_next_interrupt(std::function<void()> stop) {
 }
 
 } // namespace gshell::cli
+
+// METIS, which CHOLMOD calls to order large factors (pose and the viewer's drags), installs a
+// handler of its own for SIGTERM while it runs (GKlib's gk_sigtrap, through signal(), which its C
+// build binds to __sysv_signal) that longjmps out of METIS: a SIGTERM then was swallowed (the run
+// went on, wrote its output and exited 0), and taken on another thread it crashed the process.
+// The executable's definitions are found before libc's by every library (they are exported:
+// --export-dynamic-symbol in CMakeLists.txt), so a library can no longer replace the handlers
+// above; any other request is done as libc does it.
+namespace {
+
+__sighandler_t set_handler(int signal, __sighandler_t handler, bool system_v) noexcept {
+  if (signal > 0 && signal < NSIG && gshell::cli::g_kept[signal]) return gshell::cli::on_signal;
+  struct sigaction action {}, before {};
+  action.sa_handler = handler;
+  sigemptyset(&action.sa_mask);
+  if (system_v) {
+    action.sa_flags = SA_RESETHAND | SA_NODEFER; // one delivery, then the default
+  } else {
+    if (signal > 0 && signal < NSIG) sigaddset(&action.sa_mask, signal); // BSD: blocked in its handler
+    action.sa_flags = SA_RESTART;
+  }
+  if (sigaction(signal, &action, &before) != 0) return SIG_ERR;
+  return before.sa_handler;
+}
+
+} // namespace
+
+extern "C" __sighandler_t signal(int signal, __sighandler_t handler) noexcept {
+  return set_handler(signal, handler, false);
+}
+
+extern "C" __sighandler_t __sysv_signal(int signal, __sighandler_t handler) noexcept {
+  return set_handler(signal, handler, true);
+}

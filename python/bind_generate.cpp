@@ -73,7 +73,8 @@ ShellObject shell_from_state(const py::tuple& t) {
   if (!(s.shell.thickness > 0) || !std::isfinite(s.shell.thickness)) value_error("Shell: thickness must be positive");
   const int tets = 3 * static_cast<int>(s.shell.F.rows());
   s.stretch = to_matrix(t[5].attr("reshape")(-1, 1), "stretch", 1, tets).col(0);
-  s.report = nlohmann::json::parse(t[6].cast<std::string>());
+  s.report = nlohmann::json::parse(t[6].cast<std::string>(), nullptr, false);
+  if (!s.report.is_object()) value_error("Shell: the pickled report is not a JSON object");
   s.folder = t[7].cast<std::string>();
   s.tets = build_prism_tets(s.shell.F, n);
   return s;

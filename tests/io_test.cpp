@@ -228,6 +228,15 @@ TEST(IoRoundTrip, WritersRejectInconsistentArgumentsAsInputErrorsAndWriteNothing
   TriMesh bad_index = m;
   bad_index.F(0, 1) = static_cast<int>(m.V.rows());
   EXPECT_THROW(write_mesh(dir.file("x.obj"), bad_index), InputError);
+  // No vertices: every reader refuses such a file, so it is not written (with vertices and no
+  // faces it reads back).
+  for (const char* name : {"x.obj", "x.off", "x.ply"})
+    EXPECT_THROW(write_mesh(dir.file(name), TriMesh{}), InputError) << name;
+  TempDir other;
+  TriMesh points;
+  points.V = m.V;
+  write_mesh(other.file("points.obj"), points);
+  EXPECT_EQ(read_mesh(other.file("points.obj")).V.rows(), m.V.rows());
   TetMesh tets;
   tets.X = Eigen::MatrixXd::Zero(4, 3);
   tets.T = (Eigen::MatrixXi(1, 4) << 0, 1, 2, 4).finished(); // vertex 4 of 4

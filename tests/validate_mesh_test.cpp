@@ -235,6 +235,38 @@ TEST(ValidateMesh, ZeroAreaFacesRelativeToTheMeshScale) {
   EXPECT_TRUE(zero_area_faces(tiny.V, tiny.F).empty());
 }
 
+TEST(ValidateMesh, AVertexNoFaceUsesDoesNotSetTheScaleOfZeroArea) {
+  // A stray vertex a million sizes away (a leftover pivot) made every face "zero area" against the
+  // box it widened; it is a warning, and the faces are measured against the surface's own box.
+  TriMesh m = tetrahedron();
+  const Eigen::Index stray = m.V.rows();
+  m.V.conservativeResize(stray + 1, 3);
+  m.V.row(stray) << 1e7, 0, 0;
+  const std::vector<MeshProblem> problems = validate_mesh(m);
+  EXPECT_TRUE(of_severity(problems, Severity::Error).empty());
+  const auto warnings = of_severity(problems, Severity::Warning);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_TRUE(contains(warnings[0].message, "used by no face")) << warnings[0].message;
+  EXPECT_TRUE(zero_area_faces(m.V, m.F).empty());
+  // A really flat face of that surface is still one.
+  m.V.row(3) = m.V.row(0);
+  EXPECT_FALSE(of_severity(validate_mesh(m), Severity::Error).empty());
+  EXPECT_FALSE(zero_area_faces(m.V, m.F).empty());
+}
+
+TEST(ValidateMesh, ZeroAreaFacesRefusesIndicesOutOfRange) {
+  TriMesh m = tetrahedron();
+  m.F(2, 1) = 99999;
+  try {
+    zero_area_faces(m.V, m.F);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_TRUE(contains(e.what(), "face 2 has vertex index 99999 out of range [0, 4)")) << e.what();
+  }
+  m.F(2, 1) = -1;
+  EXPECT_THROW(zero_area_faces(m.V, m.F), InputError);
+}
+
 TEST(ValidateMesh, NonManifoldEdge) {
   // Three triangles on edge (0, 1).
   const TriMesh m = mesh_of({{0, 0, 0}, {1, 0, 0}, {0.5, 1, 0}, {0.5, -1, 0}, {0.5, 0, 1}},

@@ -470,6 +470,8 @@ void ShellDeformer::take_mended(Eigen::MatrixXd& X, FrameMend& mended, int itera
 
 void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X, const DeformOptions& options,
                                 FrameResult& result) {
+  // Building the guard (the first frame) and testing the frame are seconds on large shells.
+  if (options.stage) options.stage("guard");
   if (!guard_ || !guard_->built_with(options.guard))
     guard_ = std::make_unique<FrameGuard>(rest_, solver_.rest(), options.guard, base_ids(rest_.num_base_vertices()),
                                           false);

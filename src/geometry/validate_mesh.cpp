@@ -151,8 +151,20 @@ const char* severity_name(MeshProblem::Severity severity) {
 }
 
 std::vector<int> zero_area_faces(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  if (V.rows() == 0) return {};
-  const double diagonal = (V.colwise().maxCoeff() - V.colwise().minCoeff()).stableNorm();
+  if (F.rows() == 0) return {};
+  if (V.cols() != 3 || F.cols() != 3) throw InputError("zero_area_faces: V and F need 3 columns");
+  const Eigen::Index n = V.rows();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      if (F(f, k) < 0 || F(f, k) >= n)
+        throw InputError("zero_area_faces: face " + std::to_string(f) + " has vertex index " +
+                         std::to_string(F(f, k)) + " out of range [0, " + std::to_string(n) + ")");
+      lo = lo.cwiseMin(V.row(F(f, k)).transpose());
+      hi = hi.cwiseMax(V.row(F(f, k)).transpose());
+    }
+  // The box of the faces' vertices, as validate_mesh's: a vertex no face uses is not the surface's size.
+  const double diagonal = (hi - lo).stableNorm();
   const double min_double_area = kZeroDoubleArea * diagonal * diagonal;
   std::vector<int> out;
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
@@ -185,18 +197,23 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
   // usable[v]: finite and within max_coordinate_magnitude. Faces at other vertices are not
   // measured: their areas would be NaN or overflow, and the vertex is already reported.
   std::vector<char> usable(n, 1);
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
   for (int v = 0; v < n; ++v) {
     const Eigen::Vector3d p = P.row(v).transpose();
     if (std::string problem = coordinate_problem(p, v); !problem.empty()) {
       usable[v] = 0;
       list.add(Severity::Error, p.allFinite() ? "vertices with too large coordinates" : "vertices with non-finite coordinates",
                std::move(problem));
-      continue;
     }
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
   }
+  // The size areas are measured against: the box of the vertices faces use. A vertex no face uses
+  // (a stray pivot far away) is a warning below, not a reason to call every face flat.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (const int v = T(f, k); v >= 0 && v < n && usable[v]) {
+        lo = lo.cwiseMin(P.row(v).transpose());
+        hi = hi.cwiseMax(P.row(v).transpose());
+      }
   // stableNorm: norm() squares first, and the square of a diagonal of 1e-200 underflows to 0.
   const double diagonal = (hi - lo).allFinite() ? (hi - lo).stableNorm() : 0.0;
   // A mesh this small cannot be measured: areas and volumes underflow, and every face would be

@@ -61,6 +61,8 @@ void check_writable(const TriMesh& mesh, const MeshAttributes& a) {
   const Eigen::Index n = mesh.V.rows(), m = mesh.F.rows();
   if (mesh.V.cols() != 3 || (m > 0 && mesh.F.cols() != 3))
     throw InputError("write_mesh: V must be n x 3 and F m x 3");
+  // The readers refuse a file without vertices: what they refuse is not written either.
+  if (n == 0) throw InputError("write_mesh: the mesh has no vertices");
   if (m > 0 && (mesh.F.minCoeff() < 0 || mesh.F.maxCoeff() >= n))
     throw InputError("write_mesh: face index out of range");
   if (mesh.has_uv() && (mesh.UV.cols() != 2 || mesh.FUV.cols() != 3 ||

@@ -60,9 +60,10 @@ void require_usable_texture_coordinates(const TriMesh& mesh, const std::string& 
 void require_usable_frame(const Eigen::MatrixXd& V, const std::string& name);
 
 /// Faces of V (usable coordinates, as require_usable_frame) with zero area by validate_mesh's
-/// rule (twice the area at most 1e-12 of the squared bounding-box diagonal: coincident or
-/// collinear corners), ascending. A frame may have them (an edge collapsed in an animation);
-/// an input mesh may not.
+/// rule (twice the area at most 1e-12 of the squared diagonal of the box of the faces' vertices:
+/// coincident or collinear corners), ascending. A frame may have them (an edge collapsed in an
+/// animation); an input mesh may not.
+/// \throws InputError if V or F has not 3 columns or a face index is out of range.
 std::vector<int> zero_area_faces(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
 /// Throws InputError "NAME: <first error> (and K more problems)" if validate_mesh finds an error;
