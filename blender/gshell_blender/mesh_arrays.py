@@ -19,8 +19,9 @@ def set_vertex_positions(mesh, V):
 def triangles(mesh):
     """The mesh cut into triangles without touching its vertices: (F int32 (m, 3), polygon int32 (m,)).
 
-    Blender's own triangulation (the one the viewport draws): quads split along their 0-2 diagonal,
-    n-gons by ear clipping; winding kept, so F is counter-clockwise where the polygons are. polygon[t]
+    Blender's own triangulation (the one the viewport draws) for triangles and quads (split along
+    their 0-2 diagonal); n-gons by Blender's Beauty triangulation (_beauty_ngon_triangles). Winding
+    kept, so F is counter-clockwise where the polygons are; triangles in polygon order. polygon[t]
     is the polygon triangle t came from (to name polygons in error messages).
     """
     mesh.calc_loop_triangles()
@@ -29,7 +30,44 @@ def triangles(mesh):
     mesh.loop_triangles.foreach_get("vertices", F)
     polygon = np.empty(m, dtype=np.int32)
     mesh.loop_triangles.foreach_get("polygon_index", polygon)
-    return F.reshape(-1, 3), polygon
+    F = F.reshape(-1, 3)
+    total = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", total)
+    ngons = np.flatnonzero(total > 4)
+    if ngons.size == 0:
+        return F, polygon
+    beauty_F, beauty_polygon = _beauty_ngon_triangles(mesh, ngons)
+    keep = total[polygon] <= 4
+    F = np.concatenate([F[keep], beauty_F])
+    polygon = np.concatenate([polygon[keep], beauty_polygon])
+    order = np.argsort(polygon, kind="stable")
+    return np.ascontiguousarray(F[order]), np.ascontiguousarray(polygon[order])
+
+
+def _beauty_ngon_triangles(mesh, ngons):
+    """The n-gons `ngons` (polygon ids) cut by Blender's Beauty triangulation: (F (k, 3), polygon (k,)).
+
+    The viewport's ear clipping cuts off three consecutive corners even where they lie on one line,
+    as every side of a subdivided cap does (a cylinder's 24-gon cut 6 times: 73 flat triangles),
+    and a flat triangle carries no prism. Beauty keeps the polygon's vertices as well and avoids
+    them.
+    """
+    import bmesh
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(mesh)
+        bm.faces.ensure_lookup_table()
+        layer = bm.faces.layers.int.new("gshell_polygon")  # copied to each triangle a face is cut into
+        faces = [bm.faces[int(i)] for i in ngons]
+        for face in faces:
+            face[layer] = face.index
+        result = bmesh.ops.triangulate(bm, faces=faces, quad_method="BEAUTY", ngon_method="BEAUTY")
+        cut = list(result["faces"])
+        F = np.array([[v.index for v in face.verts] for face in cut], dtype=np.int32).reshape(-1, 3)
+        polygon = np.array([face[layer] for face in cut], dtype=np.int32)
+        return F, polygon
+    finally:
+        bm.free()
 
 
 def polygon_loops(mesh):

@@ -253,6 +253,7 @@ class OBJECT_OT_gshell_bake(bpy.types.Operator):
             if not self.properties.is_property_set(name):
                 setattr(self, name, getattr(context.scene, name))
         base = shell_store.base_of(context.active_object)
+        shell_store.flush_edits(context)
         try:
             self._bake = Bake(gshell_module.get(), context, base, self.frame_start, self.frame_end, self.directory,
                               self.allow_invalid)

@@ -21,6 +21,7 @@ class OBJECT_OT_gshell_bind(bpy.types.Operator):
 
     def execute(self, context):
         base = shell_store.base_of(context.active_object)
+        shell_store.flush_edits(context)
         try:
             gshell = gshell_module.get()
             shell = shell_store.rest_shell(gshell, base)

@@ -19,6 +19,12 @@ THICKNESS_MODES = [
 ]
 
 
+def axis_scales(matrix):
+    """The scale of each local axis in the world: the lengths of the matrix's axes. (to_scale() gives a
+    mirror's sign to every axis, so a mirrored object, scale (-1, 1, 1), read as (-1, -1, -1).)"""
+    return [matrix.col[axis].xyz.length for axis in range(3)]
+
+
 def generate_properties(cls):
     """The generate options, shared by the operator and the sidebar's scene settings."""
     if "__annotations__" not in cls.__dict__:
@@ -197,7 +203,7 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         self.report({"INFO"}, f"gshell: '{top.name}': {summary(shell.report)}")
         for warning in shell.report.get("warnings", []):  # base crossings, unextrudable vertices, not valid
             self.report({"WARNING"}, f"gshell: '{base.name}': {for_blender(warning, polygon)}")
-        scale = base.matrix_world.to_scale()
+        scale = axis_scales(base.matrix_world)
         if max(scale) > 1.0001 * min(scale):
             self.report({"WARNING"}, f"gshell: '{base.name}' is scaled unevenly {tuple(round(s, 3) for s in scale)}: "
                                      f"the shell is even in local units, not in the scene (apply the scale to "

@@ -58,6 +58,15 @@ class GShellObjectSettings(bpy.types.PropertyGroup):
                     "completed bake and kept so that no other object's cache takes it")
 
 
+def flush_edits(context):
+    """Writes what Edit Mode holds into the meshes, staying in Edit Mode: a mesh's data lags its edits
+    until then, so a base edited and not yet left read as unchanged (its rest check passed) while
+    its animated frames carried the edit."""
+    for obj in context.objects_in_mode or ():
+        if obj.type == "MESH" and obj.mode == "EDIT":
+            obj.update_from_editmode()
+
+
 def base_of(obj):
     """The base of the shell `obj` belongs to (obj itself for a base), or None."""
     if obj is None:

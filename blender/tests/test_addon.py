@@ -508,6 +508,37 @@ class AddonTest(unittest.TestCase):
                                    thickness_ratio=THICKNESS_RATIO, allow_invalid=True)
         np.testing.assert_allclose(positions(sphere.gshell.top.data), expected.top, atol=1e-6)
 
+    def test_ngons_with_corners_on_a_line_are_cut_without_flat_triangles(self):
+        # A cylinder's 24-gon caps cut 6 times: 168 corners, seven on each side's line. The
+        # viewport's ear clipping made 73 flat triangles of them, which no prism can stand on.
+        bpy.ops.mesh.primitive_cylinder_add(vertices=24, depth=4, end_fill_type="NGON")
+        cylinder = bpy.context.active_object
+        bpy.ops.object.mode_set(mode="EDIT")
+        bpy.ops.mesh.select_all(action="SELECT")
+        bpy.ops.mesh.subdivide(number_cuts=6)
+        bpy.ops.object.mode_set(mode="OBJECT")
+        from gshell_blender import mesh_arrays
+        F, polygon = mesh_arrays.triangles(cylinder.data)
+        sizes = [len(p.vertices) for p in cylinder.data.polygons]
+        self.assertIn(168, sizes)
+        self.assertEqual(len(F), sum(k - 2 for k in sizes))  # no vertex added
+        self.assertTrue(np.all(np.diff(polygon) >= 0))
+        for p in cylinder.data.polygons:  # every polygon cut into triangles of its own corners
+            self.assertTrue(set(F[polygon == p.index].ravel()) <= set(p.vertices))
+        V = positions(cylinder.data)
+        doubled = np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+        self.assertGreater(doubled.min(), 1e-6)
+        self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO), {"FINISHED"})
+        self.assertEqual(json.loads(cylinder.gshell.top["gshell_report"])["certificate"]["inverted_tets"], 0)
+
+    def test_a_mirror_is_not_an_uneven_scale(self):
+        from gshell_blender import op_generate
+        sphere = uv_sphere(segments=12, rings=6)
+        for scale, expected in (((-1, 1, 1), (1, 1, 1)), ((-2, -2, -2), (2, 2, 2)), ((2, -3, 1), (2, 3, 1))):
+            sphere.scale = scale
+            bpy.context.view_layer.update()
+            np.testing.assert_allclose(op_generate.axis_scales(sphere.matrix_world), expected, rtol=1e-6)
+
     def test_generate_offset_gives_the_modules_offset_shell(self):
         # The panel's iterations and allow_invalid do not apply to the offset, and the module
         # refuses them with it: the operator must leave them out, whatever their values.
@@ -519,6 +550,29 @@ class AddonTest(unittest.TestCase):
                                    thickness_ratio=THICKNESS_RATIO, method="offset")
         np.testing.assert_allclose(positions(sphere.gshell.top.data), expected.top, atol=1e-6)
         self.assertEqual(json.loads(sphere.gshell.top["gshell_report"])["method"], "offset")
+
+    def test_bake_and_bind_in_edit_mode_see_the_edits(self):
+        # A base edited in Edit Mode and not yet left: its mesh data lagged, so the bake's check that
+        # the base is unchanged passed while its frames carried the edit (a top pulled out of shape).
+        import bmesh
+        sphere = uv_sphere(segments=12, rings=6)
+        bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO)
+        ball = bpy.data.objects.new("Ball", bpy.data.meshes.new("Ball"))
+        bpy.context.collection.objects.link(ball)
+        bpy.ops.object.mode_set(mode="EDIT")
+        edit = bmesh.from_edit_mesh(sphere.data)
+        edit.verts.ensure_lookup_table()
+        edit.verts[5].co.x += 0.5
+        bmesh.update_edit_mesh(sphere.data)
+        with tempfile.TemporaryDirectory() as folder:
+            with self.assertRaisesRegex(RuntimeError, "'Sphere' was changed since its shell was made"):
+                bpy.ops.object.gshell_bake(frame_start=1, frame_end=2, directory=folder)
+            self.assertEqual(os.listdir(folder), [])
+        self.assertEqual(sphere.mode, "EDIT")
+        ball.select_set(True)
+        with self.assertRaisesRegex(RuntimeError, "'Sphere' was changed since its shell was made"):
+            bpy.ops.object.gshell_bind()
+        self.assertEqual(ball.gshell.role, "NONE")
 
     def test_generate_in_edit_mode_reads_the_edits_and_stays_in_edit_mode(self):
         sphere = uv_sphere(segments=12, rings=6)  # with a UV map, as Blender's primitives

@@ -380,6 +380,10 @@ class GenerateTest(TempDirTest):
         np.testing.assert_array_equal(gshell.Deformer(copy).solve(V * 1.05), gshell.Deformer(shell).solve(V * 1.05))
         with self.assertRaisesRegex(ValueError, "not the state of a pickled gshell.Shell"):
             gshell.Shell.__new__(gshell.Shell).__setstate__((0,))
+        state = list(shell.__getstate__())
+        state[6] = "{not json"
+        with self.assertRaisesRegex(ValueError, "^Shell: the pickled report is not a JSON object$"):
+            gshell.Shell.__new__(gshell.Shell).__setstate__(tuple(state))
 
     def test_shell_properties(self):
         V, F = gshell.builtin("sphere:2")
