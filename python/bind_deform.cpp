@@ -38,6 +38,15 @@ struct EmbeddingObject {
   int shell_vertices = 0; ///< 2n of the shell it was made in: carry() needs that many rows
 };
 
+} // namespace
+} // namespace gshell::python
+
+GSHELL_PYTHON_REQUIRE_INITIALISED(gshell::python::DeformerObject, "Deformer")
+GSHELL_PYTHON_REQUIRE_INITIALISED(gshell::python::EmbeddingObject, "Embedding")
+
+namespace gshell::python {
+namespace {
+
 std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell, bool allow_invalid) {
   py::gil_scoped_release release;
   return std::make_unique<DeformerObject>(shell.shell, allow_invalid);

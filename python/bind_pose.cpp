@@ -32,6 +32,14 @@ struct PoserObject {
   ObjectLock lock{"the Poser"}; ///< solve() runs without the GIL
 };
 
+} // namespace
+} // namespace gshell::python
+
+GSHELL_PYTHON_REQUIRE_INITIALISED(gshell::python::PoserObject, "Poser")
+
+namespace gshell::python {
+namespace {
+
 std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::string& solver, std::optional<CountArg> levels,
                                         bool allow_invalid) {
   PoseOptions options;

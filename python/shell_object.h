@@ -1,6 +1,8 @@
 #pragma once
 // What the Python `Shell` class holds: the library's Shell plus what a Python user wants next to
 // it (tets, per-tet stretch, the report). Deformer, Poser and embed take it.
+#include "initialised_caster.h"
+
 #include <gshell/shell/shell.h>
 
 #include <Eigen/Core>
@@ -19,3 +21,5 @@ struct ShellObject {
 };
 
 } // namespace gshell::python
+
+GSHELL_PYTHON_REQUIRE_INITIALISED(gshell::python::ShellObject, "Shell")

@@ -385,6 +385,22 @@ class GenerateTest(TempDirTest):
         with self.assertRaisesRegex(ValueError, "^Shell: the pickled report is not a JSON object$"):
             gshell.Shell.__new__(gshell.Shell).__setstate__(tuple(state))
 
+    def test_objects_made_without_init_are_refused(self):
+        # pickle and copy make objects with __new__; used before __setstate__ (or __init__) they held
+        # uninitialised memory ("array is too big", bad_alloc, embed running on garbage).
+        message = r"^gshell\.{} object is not initialised \(made by __new__ without __init__ or __setstate__\)$"
+        bare = gshell.Shell.__new__(gshell.Shell)
+        for call in (lambda: bare.faces, lambda: repr(bare), lambda: gshell.Deformer(bare),
+                     lambda: gshell.embed(bare, np.zeros((1, 3)))):
+            with self.assertRaisesRegex(TypeError, message.format("Shell")):
+                call()
+        with self.assertRaisesRegex(TypeError, message.format("Deformer")):
+            gshell.Deformer.__new__(gshell.Deformer).solve(np.zeros((3, 3)))
+        with self.assertRaisesRegex(TypeError, message.format("Poser")):
+            gshell.Poser.__new__(gshell.Poser).reset()
+        with self.assertRaisesRegex(TypeError, message.format("Embedding")):
+            gshell.Embedding.__new__(gshell.Embedding).carry(np.zeros((3, 3)))
+
     def test_shell_properties(self):
         V, F = gshell.builtin("sphere:2")
         shell = gshell.generate(V, F, thickness=0.1)
