@@ -118,8 +118,13 @@ std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std:
     const CLI::Option* option = command ? command->get_option_no_throw(name) : nullptr;
     if (!option) option = app.get_option_no_throw(name);
     const std::string type = option ? option->get_type_name() : "";
-    message = rest + (type == "INT" ? ": expected a whole number from -2147483648 to 2147483647"
-                                    : type == "FLOAT" ? ": expected a number" : ": not a value this option takes");
+    // The bound on the side the value went past (counts are refused below 0 next anyway).
+    const std::string value = eq == std::string::npos ? std::string() : what.substr(prefix.size() + eq + 3);
+    const bool whole = !value.empty() && value.find_first_not_of("+-0123456789") == std::string::npos;
+    const std::string int_range = !whole             ? ": expected a whole number"
+                                  : value[0] == '-' ? ": expected a whole number of at least -2147483648"
+                                                    : ": expected a whole number of at most 2147483647";
+    message = rest + (type == "INT" ? int_range : type == "FLOAT" ? ": expected a number" : ": not a value this option takes");
   }
   // CLI11's "--thickness-ratio: At Most 1 required but received 2": an option given twice.
   if (const std::string marker = ": At Most 1 required but received "; what.find(marker) != std::string::npos) {

@@ -118,7 +118,11 @@ TEST(CliMessages, OtherArgumentErrorsKeepTheirMessage) {
   expect_error_line("", "A subcommand is required (see gshell --help)");
   // Values that do not convert say what the option takes (CLI11: "Could not convert: --steps = ...").
   expect_error_line("animate builtin:plane:4 --bend 30 -o out --frames 99999999999",
-                    "--frames 99999999999: expected a whole number from -2147483648 to 2147483647 (see gshell animate --help)");
+                    "--frames 99999999999: expected a whole number of at most 2147483647 (see gshell animate --help)");
+  expect_error_line("animate builtin:plane:4 --bend 30 -o out --frames -99999999999",
+                    "--frames -99999999999: expected a whole number of at least -2147483648 (see gshell animate --help)");
+  expect_error_line("animate builtin:plane:4 --bend 30 -o out --frames 2.5",
+                    "--frames 2.5: expected a whole number (see gshell animate --help)");
   expect_error_line("generate builtin:sphere -o out --thickness-ratio abc",
                     "--thickness-ratio abc: expected a number (see gshell generate --help)");
   expect_error_line("generate builtin:sphere -o out --thickness-ratio 0.03 --thickness-ratio 0.05",
