@@ -83,6 +83,8 @@ def top_of(base):
     top = base.gshell.top
     if base.gshell.role != "BASE" or top is None or top.gshell.base != base or FACES_KEY not in top:
         raise ShellError(f"'{base.name}' has no shell: run Generate Shell on it first")
+    if not top.users_collection:  # deleted from the scene; base.gshell.top keeps it in the file
+        raise ShellError(f"the top of '{base.name}' was deleted: run Generate Shell on it again")
     return top
 
 

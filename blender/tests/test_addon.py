@@ -596,6 +596,11 @@ class AddonTest(unittest.TestCase):
         addon_session.select([top], top)
         bpy.ops.object.delete()
         addon_session.select([sphere], sphere)
+        # A bake then has no top to carry (it wrote a cache for the deleted one and said it baked).
+        with tempfile.TemporaryDirectory() as folder:
+            with self.assertRaisesRegex(RuntimeError, "the top of 'Sphere' was deleted: run Generate Shell"):
+                bpy.ops.object.gshell_bake(frame_start=1, frame_end=2, directory=folder)
+            self.assertEqual(os.listdir(folder), [])
         self.assertEqual(bpy.ops.object.gshell_generate(thickness_ratio=THICKNESS_RATIO), {"FINISHED"})
         top = sphere.gshell.top
         self.assertIn(top.name, bpy.context.scene.objects)
