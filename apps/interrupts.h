@@ -9,10 +9,11 @@
 
 namespace gshell::cli {
 
-/// Installs the handlers; main calls it once. From then on a library calling signal() cannot replace
-/// them (METIS did, for SIGTERM, while CHOLMOD ordered a factor; interrupts.cpp says how). A SIGINT or SIGHUP that was ignored when the process
-/// started (a background job of a non-interactive shell, nohup) stays ignored. SIGXFSZ is ignored:
-/// a write past `ulimit -f` then fails as any failed write does.
+/// Installs the handlers; main calls it once. From then on a library calling signal() cannot
+/// replace them (METIS did, for SIGTERM, while CHOLMOD ordered a factor; interrupts.cpp says how).
+/// A SIGINT or SIGHUP that was ignored when the process started (a background job of a
+/// non-interactive shell, nohup) stays ignored. SIGXFSZ is ignored: a write past `ulimit -f` then
+/// fails as any failed write does.
 void catch_interrupts();
 
 /// Never returns once a signal is ending the process: main calls it before it reports an error,
