@@ -133,6 +133,21 @@ std::vector<std::string> warnings_by_kind(const std::vector<MeshProblem>& proble
   return lines;
 }
 
+/// The diagonal of the box of the vertices the faces use, those `counts(v)` accepts: the size a
+/// face's area is measured against (a vertex no face uses, a stray pivot far away, is not the
+/// surface's size). stableNorm: norm() squares first, and a diagonal of 1e-200 squared underflows.
+template <class Points, class Faces, class Counts>
+double face_box_diagonal(const Points& P, const Faces& T, Counts counts) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
+  for (Eigen::Index f = 0; f < T.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (const int v = T(f, k); counts(v)) {
+        lo = lo.cwiseMin(P.row(v).transpose());
+        hi = hi.cwiseMax(P.row(v).transpose());
+      }
+  return (hi - lo).allFinite() ? (hi - lo).stableNorm() : 0.0;
+}
+
 } // namespace
 
 std::string too_large_coordinate(const Eigen::Vector3d& p) {
@@ -154,17 +169,12 @@ std::vector<int> zero_area_faces(const Eigen::MatrixXd& V, const Eigen::MatrixXi
   if (F.rows() == 0) return {};
   if (V.cols() != 3 || F.cols() != 3) throw InputError("zero_area_faces: V and F need 3 columns");
   const Eigen::Index n = V.rows();
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
   for (Eigen::Index f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < 3; ++k)
       if (F(f, k) < 0 || F(f, k) >= n)
         throw InputError("zero_area_faces: face " + std::to_string(f) + " has vertex index " +
                          std::to_string(F(f, k)) + " out of range [0, " + std::to_string(n) + ")");
-      lo = lo.cwiseMin(V.row(F(f, k)).transpose());
-      hi = hi.cwiseMax(V.row(F(f, k)).transpose());
-    }
-  // The box of the faces' vertices, as validate_mesh's: a vertex no face uses is not the surface's size.
-  const double diagonal = (hi - lo).stableNorm();
+  const double diagonal = face_box_diagonal(V, F, [](int) { return true; });
   const double min_double_area = kZeroDoubleArea * diagonal * diagonal;
   std::vector<int> out;
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
@@ -205,17 +215,8 @@ std::vector<MeshProblem> validate_mesh(const TriMesh& mesh) {
                std::move(problem));
     }
   }
-  // The size areas are measured against: the box of the vertices faces use. A vertex no face uses
-  // (a stray pivot far away) is a warning below, not a reason to call every face flat.
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = Eigen::Vector3d::Constant(-INFINITY);
-  for (int f = 0; f < m; ++f)
-    for (int k = 0; k < 3; ++k)
-      if (const int v = T(f, k); v >= 0 && v < n && usable[v]) {
-        lo = lo.cwiseMin(P.row(v).transpose());
-        hi = hi.cwiseMax(P.row(v).transpose());
-      }
-  // stableNorm: norm() squares first, and the square of a diagonal of 1e-200 underflows to 0.
-  const double diagonal = (hi - lo).allFinite() ? (hi - lo).stableNorm() : 0.0;
+  // Faces at out-of-range indices are reported below; a vertex no face uses is a warning there.
+  const double diagonal = face_box_diagonal(P, T, [&](int v) { return v >= 0 && v < n && usable[v]; });
   // A mesh this small cannot be measured: areas and volumes underflow, and every face would be
   // reported as having zero area. (All vertices at one point is a different problem: zero area.)
   const bool too_small = diagonal > 0 && diagonal < min_mesh_size;

@@ -88,10 +88,10 @@ struct DeformOptions {
   /// Called, where set, with the name of each of the frame's solves before its iterations, so
   /// that progress counting from 1 again reads as the next one: "paper" (the paper's solve),
   /// "guard" (unless allow_invalid: the guard built, at the first frame, and the frame tested; no
-  /// iterations), then where the guard works "mend" (a refused frame mended in place), "drag K/N" (the guarded
-  /// sub-steps; "drag" for one, " (tets only)" once contacts are given up), "regenerate paper",
-  /// "regenerate repair", "regenerate relax" (a fresh top over the new base, generation's stages)
-  /// and "polish" (the fresh top brought to the frames' minimum).
+  /// iterations), then where the guard works "mend" (a refused frame mended in place), "drag K/N"
+  /// (the guarded sub-steps; "drag" for one, " (tets only)" once contacts are given up),
+  /// "regenerate paper", "regenerate repair", "regenerate relax" (a fresh top over the new base,
+  /// generation's stages) and "polish" (the fresh top brought to the frames' minimum).
   std::function<void(const char*)> stage;
 
   /// \throws InputError naming the parameter (iterations, tolerance, guard options, substeps)
