@@ -604,6 +604,45 @@ TEST(IoStl, ReadsAsciiAndBinaryMergingCornersInOrder) {
   EXPECT_TRUE(std::isnan(with_nan.V(1, 0)));
 }
 
+// Thousands of corners: the merge's table grows many times over (ASCII, whose triangle count is
+// not known ahead) or is sized once (binary). Every corner is the one vertex of its position, the
+// vertices numbered in order of first appearance.
+TEST(IoStl, ManyCornersMergeIntoOneVertexEachInOrderOfFirstAppearance) {
+  TempDir dir;
+  const TriMesh sphere = make_sphere(4);
+  std::string ascii = "solid sphere\n";
+  Bytes binary;
+  binary.s.resize(80, ' ');
+  binary.put<std::uint32_t>(static_cast<std::uint32_t>(sphere.F.rows()), false);
+  std::vector<int> first_seen(sphere.V.rows(), -1); // sphere vertex -> expected id
+  std::vector<int> order;
+  char line[128];
+  for (Eigen::Index f = 0; f < sphere.F.rows(); ++f) {
+    ascii += "facet normal 0 0 0\nouter loop\n";
+    for (int k = 0; k < 3; ++k) binary.put<float>(0, false);
+    for (int k = 0; k < 3; ++k) {
+      const int v = sphere.F(f, k);
+      if (first_seen[v] < 0) first_seen[v] = static_cast<int>(order.size()), order.push_back(v);
+      const Eigen::RowVector3f p = sphere.V.row(v).cast<float>(); // exact in both files
+      std::snprintf(line, sizeof line, "vertex %.17g %.17g %.17g\n", double(p(0)), double(p(1)), double(p(2)));
+      ascii += line;
+      for (int c = 0; c < 3; ++c) binary.put<float>(p(c), false);
+    }
+    ascii += "endloop\nendfacet\n";
+    binary.put<std::uint16_t>(0, false);
+  }
+  ascii += "endsolid sphere\n";
+  for (const std::string& bytes : {ascii, binary.s}) {
+    const TriMesh m = read_text_mesh(dir, "s.stl", bytes);
+    ASSERT_EQ(m.V.rows(), static_cast<Eigen::Index>(order.size()));
+    for (std::size_t i = 0; i < order.size(); ++i)
+      ASSERT_EQ(m.V.row(static_cast<Eigen::Index>(i)), sphere.V.row(order[i]).cast<float>().cast<double>());
+    ASSERT_EQ(m.F.rows(), sphere.F.rows());
+    for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(m.F(f, k), first_seen[sphere.F(f, k)]);
+  }
+}
+
 TEST(IoStl, MalformedFilesAreErrors) {
   TempDir dir;
   auto check = [&](const std::string& content, const std::string& fragment = "") {

@@ -14,41 +14,67 @@
 #include <bit>
 #include <cctype>
 #include <cstdint>
-#include <unordered_map>
+#include <vector>
 
 namespace gshell::io_detail {
 
 namespace {
 
-// Merges equal corner points by exact value, keeping the order of first appearance.
+// Merges equal corner points by exact value, keeping the order of first appearance. An open-
+// addressing table of vertex ids (linear probing, keys read back from the vertices themselves):
+// a node per vertex, as std::unordered_map allocates, made the weld of millions of corners the
+// reader's slowest part, its cost growing faster than the file with cache misses.
 class CornerMerger {
 public:
-  explicit CornerMerger(SurfaceBuilder& b) : b_(b) {}
+  explicit CornerMerger(SurfaceBuilder& b) : b_(b) { rehash(64); }
   void reserve(std::size_t triangles) {
-    ids_.reserve(triangles / 2 + 3);
-    b_.xyz.reserve(3 * (triangles / 2 + 3));
+    const std::size_t vertices = triangles / 2 + 3; // a closed surface has about half as many
+    if (2 * vertices > slots_.size()) rehash(std::bit_ceil(2 * vertices));
+    b_.xyz.reserve(3 * vertices);
     b_.corners.reserve(3 * triangles);
   }
   void add_corner(double x, double y, double z) {
     const Key key{bits(x), bits(y), bits(z)};
-    const auto [it, inserted] = ids_.try_emplace(key, b_.num_vertices());
-    if (inserted) b_.xyz.insert(b_.xyz.end(), {x, y, z});
-    b_.corners.push_back(it->second);
+    std::size_t s = hash(key) & mask_;
+    for (; slots_[s] >= 0; s = (s + 1) & mask_) {
+      if (key_of(slots_[s]) == key) {
+        b_.corners.push_back(slots_[s]);
+        return;
+      }
+    }
+    const int id = b_.num_vertices();
+    slots_[s] = id;
+    b_.xyz.insert(b_.xyz.end(), {x, y, z});
+    b_.corners.push_back(id);
+    if (2 * static_cast<std::size_t>(id + 1) > slots_.size()) rehash(2 * slots_.size()); // load <= 1/2
   }
 
 private:
   using Key = std::array<std::uint64_t, 3>;
-  struct KeyHash {
-    std::size_t operator()(const Key& k) const {
-      std::uint64_t h = 0x9e3779b97f4a7c15ULL;
-      for (std::uint64_t v : k) h = (h ^ v) * 0xff51afd7ed558ccdULL, h ^= h >> 32;
-      return static_cast<std::size_t>(h);
-    }
-  };
+  static std::size_t hash(const Key& k) {
+    std::uint64_t h = 0x9e3779b97f4a7c15ULL;
+    for (std::uint64_t v : k) h = (h ^ v) * 0xff51afd7ed558ccdULL, h ^= h >> 32;
+    return static_cast<std::size_t>(h);
+  }
+  /// +0 and -0 are one key; NaNs are keys by their bits.
   static std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v == 0.0 ? 0.0 : v); }
+  Key key_of(int id) const {
+    const double* p = b_.xyz.data() + 3 * static_cast<std::size_t>(id);
+    return {bits(p[0]), bits(p[1]), bits(p[2])};
+  }
+  void rehash(std::size_t size) { // size: a power of two above twice the vertex count
+    slots_.assign(size, -1);
+    mask_ = size - 1;
+    for (int id = 0; id < b_.num_vertices(); ++id) {
+      std::size_t s = hash(key_of(id)) & mask_;
+      while (slots_[s] >= 0) s = (s + 1) & mask_;
+      slots_[s] = id;
+    }
+  }
 
   SurfaceBuilder& b_;
-  std::unordered_map<Key, int, KeyHash> ids_;
+  std::vector<int> slots_; ///< vertex id per slot, -1 where empty
+  std::size_t mask_ = 0;
 };
 
 bool equals_word(std::string_view token, std::string_view word) {
