@@ -70,6 +70,10 @@ void run(const CLI::App& cmd, PoseArgs& a) {
                   s.iterations, dragged, s.energy, s.seconds, s.converged ? "" : " (not converged)",
                   !s.certified ? "" : s.valid ? ", valid" : ", INVALID");
     std::string line = text;
+    if (s.guard_setup_seconds > 0) { // kept out of the step's seconds, as the solver's setup is
+      std::snprintf(text, sizeof text, " (and %.3f s setting up the guard)", s.guard_setup_seconds);
+      line += text;
+    }
     if (s.certified && !s.valid) {
       line += " (" + std::to_string(s.inverted_tets) + " inverted tets, " + std::to_string(s.intersections) +
               " intersecting face pairs";

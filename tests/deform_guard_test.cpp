@@ -263,6 +263,25 @@ TEST(DeformGuard, EachSolveOfAGuardedFrameIsNamedForProgress) {
   }
 }
 
+// Building the guard is setup, timed apart from the frame that builds it: the first guarded
+// frame, and a frame whose guard options differ from those it was built with; never an
+// unguarded frame.
+TEST(DeformGuard, BuildingTheGuardIsTimedApartFromTheFrames) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  ShellDeformer deformer(rest);
+  DeformOptions unguarded;
+  unguarded.allow_invalid = true;
+  const MotionFrame frame = motion_frame(rest.base);
+  EXPECT_EQ(deformer.solve(bend(rest.base, frame, 10.0, 0.3), unguarded).guard_setup_seconds, 0);
+  const FrameResult first = deformer.solve(bend(rest.base, frame, 20.0, 0.3));
+  EXPECT_GT(first.guard_setup_seconds, 0);
+  EXPECT_GE(first.seconds, 0); // the frame's own time, the setup taken out
+  EXPECT_EQ(deformer.solve(bend(rest.base, frame, 30.0, 0.3)).guard_setup_seconds, 0);
+  DeformOptions other;
+  other.guard.contact_weight *= 2;
+  EXPECT_GT(deformer.solve(bend(rest.base, frame, 40.0, 0.3), other).guard_setup_seconds, 0);
+}
+
 // The same far jump, refused, is mended where the paper's solve went wrong instead of dragged
 // there in sub-steps: valid, with the drag's energy to 1 %, in fewer guarded iterations.
 TEST(DeformGuard, AFarJumpRefusedIsMendedInPlaceNearTheDragsMinimum) {
@@ -897,6 +916,23 @@ TEST(PoseGuard, EachSolveOfAGuardedStepIsNamedForProgress) {
   EXPECT_EQ(log.iterations.front(), r.steps[0].iterations);
   EXPECT_GT(log.drag_substeps(), 1);
   EXPECT_EQ(calls - log.iterations.front(), r.steps[0].guarded_iterations);
+}
+
+// As for deformation frames: the first guarded step builds the guard, and its report keeps that
+// time apart from the step's.
+TEST(PoseGuard, BuildingTheGuardIsTimedApartFromTheSteps) {
+  const Shell rest = flat_plane_shell(16, 0.2);
+  HandleSet handles;
+  handles.handles = {x_end_handle(rest, -1, 0.8), x_end_handle(rest, 1, 0.8)};
+  handles.handles[1].translate = Eigen::Vector3d(0, 0, 0.2);
+  PoseOptions options;
+  options.steps = 2;
+  const PoseResult r = run_pose(rest, handles, options);
+  ASSERT_EQ(r.steps.size(), 2u);
+  ASSERT_TRUE(r.steps[0].guarded);
+  EXPECT_GT(r.steps[0].guard_setup_seconds, 0);
+  EXPECT_EQ(r.steps[1].guard_setup_seconds, 0);
+  EXPECT_EQ(r.to_json()["steps"][0]["guard_setup_seconds"].get<double>(), r.steps[0].guard_setup_seconds);
 }
 
 // FrameGuard::accepted_fraction, where a refused pose step's drag begins. A flat plane's shell

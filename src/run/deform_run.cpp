@@ -99,6 +99,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
   nlohmann::ordered_json j{{"iterations", r.iterations}, {"converged", r.converged}, {"energy", r.energy}};
   j.update(stretch_report(r.stretch));
   j["seconds"] = r.seconds;
+  j["guard_setup_seconds"] = r.guard_setup_seconds;
   j["valid"] = r.valid;
   j["method"] = frame_method_name(r.method);
   j["resumed"] = r.resumed;
@@ -189,7 +190,7 @@ std::vector<std::string> DeformRun::warnings() const {
 nlohmann::ordered_json DeformRun::to_json() const {
   using json = nlohmann::ordered_json;
   std::vector<double> seconds, iterations;
-  double volume_mean_sum = 0, max_stretch = 0, offset_volume_mean_sum = 0, offset_max = 0;
+  double guard_setup_seconds = 0, volume_mean_sum = 0, max_stretch = 0, offset_volume_mean_sum = 0, offset_max = 0;
   int inverted = 0, offset_inverted = 0, unconverged = 0, valid = 0, guarded = 0, max_substeps = 0,
       certified_inverted = 0;
   for (const DeformFrameRecord& f : frames) {
@@ -198,6 +199,7 @@ nlohmann::ordered_json DeformRun::to_json() const {
     max_substeps = std::max(max_substeps, f.result.substeps);
     certified_inverted += f.result.certificate.inverted_tets;
     seconds.push_back(f.result.seconds);
+    guard_setup_seconds += f.result.guard_setup_seconds;
     iterations.push_back(f.result.iterations);
     max_stretch = std::max(max_stretch, f.result.stretch.max);
     volume_mean_sum += f.result.stretch.volume_mean;
@@ -213,6 +215,7 @@ nlohmann::ordered_json DeformRun::to_json() const {
   json summary{{"frames", frames.size()},
                {"median_seconds", median(seconds)},
                {"total_seconds", std::accumulate(seconds.begin(), seconds.end(), 0.0)},
+               {"guard_setup_seconds", guard_setup_seconds},
                {"median_iterations", median(iterations)},
                {"max_iterations", iterations.empty() ? 0.0 : *std::max_element(iterations.begin(), iterations.end())},
                {"unconverged_frames", unconverged},

@@ -53,6 +53,7 @@ nlohmann::ordered_json PoseStepReport::to_json() const {
     j["blocked_by_contact"] = blocked_by_contact;
     j["guarded_iterations"] = guarded_iterations;
     j["drag_start"] = drag_start;
+    j["guard_setup_seconds"] = guard_setup_seconds;
   }
   if (certified) {
     j["certificate"] = {{"inverted_tets", inverted_tets},

@@ -42,6 +42,9 @@ struct ValidStep {
   /// what the guard leaves out; the posed base not crossing itself), the step not Failed.
   bool rest_faults_only = false;
   ShellCertificate certificate;  ///< of the step's result, base/base pairs included
+  /// Building the validity guard, which the first guarded step does (and a step whose guard
+  /// options differ from the last): setup, like setup_seconds(), not the step's own work.
+  double guard_setup_seconds = 0;
 };
 
 class PoseSolver {
@@ -108,6 +111,9 @@ public:
   const RestTets& rest_tets() const;
   PoseSolverKind kind() const;
   double setup_seconds() const;
+  /// Seconds spent building the validity guard (solve_valid builds it at its first call and
+  /// again when the guard options change), summed; 0 before any guarded step.
+  double guard_setup_seconds() const;
   /// The hierarchical solver (null for the single-level one), e.g. to read its levels.
   const HierarchicalSolver* hierarchical() const;
   HierarchicalSolver* hierarchical(); ///< for its interactive previews (anchor_preview, preview)

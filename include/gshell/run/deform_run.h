@@ -50,7 +50,8 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
 
 /// One frame's figures, as `gshell deform` reports it and Python's Deformer.last shows it:
 /// {iterations, converged, energy [start, then per iteration], stretch {mean, volume_mean, max,
-/// p99} against the rest shell, inverted_tets (against the rest shell), seconds, valid, method
+/// p99} against the rest shell, inverted_tets (against the rest shell), seconds, guard_setup_seconds
+/// (building the guard, the first guarded frame: not in seconds), valid, method
 /// (unguarded, bounded, guarded, tets_only, failed), substeps, guarded_iterations,
 /// thinned_vertices, certificate {inverted_tets, top_self_intersections, top_base_intersections,
 /// wall_intersections, nested_parts, exact, seconds}, base_self_intersections (the frame's base against itself),
@@ -96,7 +97,7 @@ struct DeformRun {
   /// report.json: command, shell, base_vertices, tets, thickness, tolerance, max_iterations,
   /// warm_start, allow_invalid, replaced_rest_tets, factor_seconds, setup_seconds, embed {detail,
   /// points, outside, max_outside_distance}, summary {frames, median_seconds, total_seconds,
-  /// median_iterations, max_iterations, unconverged_frames, mean_volume_stretch, max_stretch,
+  /// guard_setup_seconds (kept out of the frames' seconds: FrameResult::guard_setup_seconds), median_iterations, max_iterations, unconverged_frames, mean_volume_stretch, max_stretch,
   /// inverted_tets, valid_frames, invalid_frames, certificate_inverted_tets, guarded_frames,
   /// max_substeps, offset {...}}, warnings [warnings()], frames [DeformFrameRecord::to_json].
   nlohmann::ordered_json to_json() const;

@@ -76,6 +76,9 @@ struct PoseStepReport {
   FrameMethod method = FrameMethod::Unguarded;
   int guarded_iterations = 0;
   double drag_start = 0; ///< guarded: ValidStep::drag_start
+  /// guarded: building the validity guard at this step (ValidStep::guard_setup_seconds), not
+  /// counted in `seconds`
+  double guard_setup_seconds = 0;
   int inverted_tets = -1, intersections = -1; ///< certified: the certificate's counts (all pair kinds)
   /// certified: the pairs by kind, as deform's frames and generate report them (-1 = not tested)
   int top_self_intersections = -1, top_base_intersections = -1, wall_intersections = -1;
@@ -89,7 +92,7 @@ struct PoseStepReport {
   /// hold and the base does not cross itself).
   void record_certificate(const ShellCertificate& certificate);
   /// {fraction, iterations, energy, seconds, converged}; certified, {valid, method ("unguarded"
-  /// where not guarded)}; guarded, {blocked_by_contact, guarded_iterations, drag_start};
+  /// where not guarded)}; guarded, {blocked_by_contact, guarded_iterations, drag_start, guard_setup_seconds};
   /// certified, {certificate {inverted_tets, top_self_intersections, top_base_intersections,
   /// wall_intersections, intersections (every kind, base/base too), nested_parts},
   /// base_self_intersections};
