@@ -37,6 +37,7 @@ void add_convert_command(CLI::App& app) {
     using namespace gshell;
     // Over its own input is allowed (the file is written whole, then renamed), not over a shell's.
     cli::check_output_file(opt->output, "", {});
+    check_mesh_output_format(opt->output); // before the input's warnings: one error line
     std::vector<std::string> warnings, skipped;
     TriMesh mesh = load_mesh(opt->input, opt->weld ? nullptr : &warnings, &skipped);
     cli::Progress progress("convert");

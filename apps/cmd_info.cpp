@@ -79,7 +79,10 @@ void print_json(const std::string& name, const TriMesh& mesh, const MeshStats& s
   j["boundary_edges"] = s.boundary_edges;
   j["components"] = s.components;
   j["euler_characteristic"] = s.euler_characteristic;
-  j["genus"] = s.genus;
+  // A whole genus is an integer for JSON readers too (genus 0, not 0.0); a half one (a surface
+  // that is not a manifold) stays a number with its fraction.
+  if (s.genus == std::floor(s.genus) && std::abs(s.genus) < 1e15) j["genus"] = static_cast<long long>(s.genus);
+  else j["genus"] = s.genus;
   j["bbox_min"] = {s.bbox_min.x(), s.bbox_min.y(), s.bbox_min.z()};
   j["bbox_max"] = {s.bbox_max.x(), s.bbox_max.y(), s.bbox_max.z()};
   j["mean_edge_length"] = s.mean_edge_length;

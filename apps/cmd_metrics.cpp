@@ -16,6 +16,8 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -29,7 +31,8 @@ void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
   cli::check_flags(cmd, [&] { o.thickness.check(); });
   if (!o.output.empty()) cli::check_output_file(o.output, ".json", {o.base, o.top});
 
-  const TriMesh base = cli::load_surface(o.base, "metrics");
+  std::vector<std::string> warnings;
+  const TriMesh base = cli::load_surface(o.base, "metrics", &warnings);
   // The top is not validated as a surface: a bad shell may well have degenerate top faces.
   const TriMesh top = read_mesh_or_builtin(o.top);
   if (top.V.rows() != base.V.rows() || top.F.rows() != base.F.rows() || top.F != base.F)
@@ -40,8 +43,10 @@ void run_metrics(const CLI::App& cmd, const MetricsCliOptions& o) {
   const ShellMetrics m = shell_metrics(base.V, base.F, top.V, eta, true);
   if (!o.output.empty()) {
     nlohmann::json report = metrics_report(m, base.num_vertices(), base.num_faces(), eta, o.thickness.thickness_ratio);
+    report["gshell_version"] = GSHELL_VERSION;
     report["base"] = o.base;
     report["top"] = o.top;
+    report["warnings"] = warnings; // the base's, as printed
     write_report(o.output, nlohmann::ordered_json(report));
   }
   std::cout << metrics_summary(m, base.num_vertices(), base.num_faces(), eta);

@@ -27,6 +27,7 @@ void run_texture(const TextureArgs& args) {
   if (args.repeat.size() != 2 || args.repeat[0] < 1 || args.repeat[1] < 1)
     throw gshell::InputError("--repeat needs two counts >= 1");
   gshell::cli::check_output_file(args.out, "", {args.shell, args.tile});
+  gshell::check_mesh_output_format(args.out); // before the work
   const gshell::ShellFolder folder = gshell::read_shell_folder(args.shell);
   const gshell::Shell& shell = folder.shell;
   const gshell::TriMesh& uv_source = folder.surface;
@@ -49,9 +50,13 @@ void run_texture(const TextureArgs& args) {
   gshell::cli::Progress progress("texture");
   if (progress.enabled()) {
     std::ostringstream line;
-    line << args.repeat[0] << " x " << args.repeat[1] << " tiles, " << texture.points
-              << " vertices, " << texture.mesh.num_faces() << " faces over UV [" << texture.uv_min.x() << ", "
-              << texture.uv_max.x() << "] x [" << texture.uv_min.y() << ", " << texture.uv_max.y() << "]";
+    line << args.repeat[0] << " x " << args.repeat[1] << " tiles, " << texture.mesh.num_vertices() << " vertices ("
+         << texture.joined << " joined where tiles meet), " << texture.mesh.num_faces() << " faces over UV ["
+         << texture.uv_min.x() << ", " << texture.uv_max.x() << "] x [" << texture.uv_min.y() << ", "
+         << texture.uv_max.y() << "]";
+    if (texture.reversed_faces > 0)
+      line << "; " << texture.reversed_faces
+           << " faces over mirrored UV islands wound the other way round, to face as in the tile";
     if (texture.outside > 0)
       line << "; " << texture.outside << " vertices outside the UV prisms (extrapolated, up to "
                 << texture.max_outside_distance << " in texture space)";

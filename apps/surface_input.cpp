@@ -7,10 +7,11 @@
 
 namespace gshell::cli {
 
-TriMesh load_surface(const std::string& input, const std::string& command) {
-  std::vector<std::string> warnings;
-  TriMesh mesh = load_mesh(input, &warnings);
-  print_warnings(command, warnings);
+TriMesh load_surface(const std::string& input, const std::string& command, std::vector<std::string>* warnings) {
+  std::vector<std::string> found;
+  TriMesh mesh = load_mesh(input, &found);
+  print_warnings(command, found);
+  if (warnings) warnings->insert(warnings->end(), found.begin(), found.end());
   return mesh;
 }
 

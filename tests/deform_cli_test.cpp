@@ -268,7 +268,9 @@ TEST(DeformCli, EndToEndFromGenerate) {
   EXPECT_TRUE(read_mesh(out + "/frame_0002/top.obj").has_uv()); // textures still apply to the deformed top
   const auto t = run_cli("texture --shell '" + shell + "' --tile builtin:bumps:6 --repeat 8 2 -o '" + tmp.file("tex.ply") + "' -q");
   ASSERT_EQ(t.exit_code, 0) << t.err;
-  EXPECT_EQ(read_mesh(tmp.file("tex.ply")).num_vertices(), 16 * 49);
+  // The 8 x 2 copies' 7 x 7 grids joined into one grid of 8 * 6 columns (around the cylinder, its
+  // UV seam closed) and 2 * 6 + 1 rows.
+  EXPECT_EQ(read_mesh(tmp.file("tex.ply")).num_vertices(), 48 * 13);
 }
 
 
@@ -390,7 +392,7 @@ TEST(TextureCli, TilesBumpsOverThePlaneShell) {
   const auto r = run_cli("texture --shell '" + shell + "' --tile builtin:bumps:4 --repeat 3 2 -o '" + tmp.file("t.obj") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const TriMesh tex = read_mesh(tmp.file("t.obj"));
-  EXPECT_EQ(tex.num_vertices(), 6 * 25);
+  EXPECT_EQ(tex.num_vertices(), 13 * 9); // the 3 x 2 copies' 5 x 5 grids joined into one grid
   EXPECT_EQ(tex.num_faces(), 6 * 32);
   // Flat shell, identity UVs: x, y span the plane and heights span [0.1, 0.9] * eta.
   EXPECT_NEAR(tex.V.col(0).minCoeff(), -1.0, 1e-9);

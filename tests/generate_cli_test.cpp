@@ -78,8 +78,9 @@ TEST(GenerateCli, WritesAShellFolderThatParsesBack) {
                                std::to_string(eta) + " -o '" + json + "'");
   ASSERT_EQ(mr.exit_code, 0) << mr.err;
   const nlohmann::json metrics = nlohmann::json::parse(read_text(json));
-  for (const char* key : {"valid", "certificate", "base_self_intersections", "thinned_vertices"})
+  for (const char* key : {"valid", "certificate", "base_self_intersections", "thinned_vertices", "gshell_version"})
     EXPECT_EQ(metrics[key], report[key]) << key;
+  EXPECT_EQ(metrics["warnings"], nlohmann::json::array()); // a clean base: none
   EXPECT_NEAR(metrics["stretch"]["volume_mean"].get<double>(), report["stretch"]["volume_mean"].get<double>(),
               1e-6 * report["stretch"]["volume_mean"].get<double>() + 1e-12);
   EXPECT_NE(mr.out.find("valid        "), std::string::npos) << mr.out;

@@ -43,6 +43,7 @@ TEST_P(InfoOnBuiltins, ReportsTheAnalyticCounts) {
   EXPECT_EQ(j["components"], 1);
   EXPECT_EQ(j["euler_characteristic"], e.chi);
   EXPECT_EQ(j["genus"].get<double>(), e.genus);
+  EXPECT_TRUE(j["genus"].is_number_integer()) << j["genus"]; // 1, not 1.0, for strict readers
   EXPECT_EQ(e.vertices - e.edges + e.faces, e.chi); // the expectations themselves are consistent
   for (const auto& p : j["problems"]) EXPECT_EQ(p["severity"], "info") << p["message"];
   EXPECT_EQ(j["problems"].size(), e.boundary_loops > 0 ? 1u : 0u);

@@ -101,8 +101,10 @@ TEST(ConvertCli, BadInputsExitOneWithOneLineAndNoOutput) {
 
 TEST(ConvertCli, BadOutputsExitOneAndLeaveNothing) {
   TempDir dir;
+  // builtin:torus has texture coordinates, which only OBJ keeps: the format's error comes alone,
+  // not after a warning that they would be dropped.
   for (const std::string out : {"x.stl", "x.abc", "no/such/folder/x.obj"}) {
-    const auto r = run_cli("convert builtin:sphere:1 " + shell_quoted(dir.file(out)));
+    const auto r = run_cli("convert builtin:torus " + shell_quoted(dir.file(out)));
     EXPECT_EQ(r.exit_code, 1) << out << ": " << r.err;
     EXPECT_EQ(count_lines(r.err), 1) << r.err;
     EXPECT_NE(r.err.find(dir.file(out)), std::string::npos) << r.err;

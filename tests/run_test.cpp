@@ -97,12 +97,13 @@ TEST(Frames, AFolderArgumentIsItsFrameFiles) {
   for (const fs::path& dir : {objs, offs, none}) fs::create_directory(dir);
   for (const char* file : {"frame_0002.obj", "frame_0001.obj", "frame_0010.obj", "notes.obj", "frame_0003.off"})
     test::write_text((objs / file).string(), "");
-  for (const char* file : {"frame_0002.off", "frame_0001.off"}) test::write_text((offs / file).string(), "");
+  // Extensions in any case, as the readers take them.
+  for (const char* file : {"frame_0002.OFF", "frame_0001.off"}) test::write_text((offs / file).string(), "");
   const std::string single = tmp.file("single.obj");
   const std::vector<std::string> got = expand_frame_arguments({single, objs.string(), offs.string()});
   EXPECT_EQ(got, (std::vector<std::string>{single, (objs / "frame_0001.obj").string(), (objs / "frame_0002.obj").string(),
                                            (objs / "frame_0010.obj").string(), (offs / "frame_0001.off").string(),
-                                           (offs / "frame_0002.off").string()}));
+                                           (offs / "frame_0002.OFF").string()}));
   // A missing file is left for the reader to name.
   EXPECT_EQ(expand_frame_arguments({tmp.file("missing.obj")}), std::vector<std::string>{tmp.file("missing.obj")});
   try {
@@ -110,6 +111,7 @@ TEST(Frames, AFolderArgumentIsItsFrameFiles) {
     ADD_FAILURE() << "a folder without frames was taken";
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()).rfind(none.string() + ": a folder holding no frame files", 0), 0u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("given as files, e.g. " + (none / "*.obj").string()), std::string::npos);
   }
   // A shell folder given by mistake: the message names its base.
   write_shell_folder(tmp.file("shell"), cylinder_contents(0.1));

@@ -4,6 +4,7 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/shell/prism_tets.h>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 #include "shell_fixtures.h"
@@ -41,7 +42,12 @@ TEST(GeometricTexture, FlatShellWithIdentityUVsGivesTheAnalyticPlacement) {
   const int U = 3, V = 2;
   const GeometricTexture tex = map_geometric_texture(flat_shell(plane, eta), plane, tile, U, V);
   EXPECT_EQ(tex.outside, 0);
-  ASSERT_EQ(tex.mesh.num_vertices(), U * V * tile.num_vertices());
+  EXPECT_EQ(tex.reversed_faces, 0);
+  ASSERT_EQ(tex.points, U * V * tile.num_vertices());
+  ASSERT_EQ(static_cast<int>(tex.vertex_of_point.size()), tex.points);
+  // The copies' 8 x 8 grids joined where they meet: one (7U + 1) x (7V + 1) grid.
+  EXPECT_EQ(tex.mesh.num_vertices(), (7 * U + 1) * (7 * V + 1));
+  EXPECT_EQ(tex.mesh.num_vertices(), tex.points - tex.joined);
   ASSERT_EQ(tex.mesh.num_faces(), U * V * tile.num_faces());
   int copy = 0;
   for (int j = 0; j < V; ++j)
@@ -49,12 +55,50 @@ TEST(GeometricTexture, FlatShellWithIdentityUVsGivesTheAnalyticPlacement) {
       for (int v = 0; v < tile.num_vertices(); ++v) {
         const Eigen::RowVector3d expected(2.0 * (i + tile.V(v, 0)) / U - 1.0, 2.0 * (j + tile.V(v, 1)) / V - 1.0,
                                           eta * tile.V(v, 2));
-        EXPECT_LT((tex.mesh.V.row(copy * tile.num_vertices() + v) - expected).norm(), 1e-12);
+        EXPECT_LT((tex.mesh.V.row(tex.vertex_of_point[copy * tile.num_vertices() + v]) - expected).norm(), 1e-12);
       }
   for (int f = 0; f < tex.mesh.num_faces(); ++f)
-    EXPECT_TRUE((tex.mesh.F.row(f).array() ==
-                 tile.F.row(f % tile.num_faces()).array() + (f / tile.num_faces()) * tile.num_vertices())
-                    .all());
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(tex.mesh.F(f, k),
+                tex.vertex_of_point[tile.F(f % tile.num_faces(), k) + (f / tile.num_faces()) * tile.num_vertices()]);
+}
+
+/// Signed volume enclosed by the faces f0 .. f0 + count - 1 of `mesh` (positive: facing outwards).
+double enclosed_volume(const TriMesh& mesh, int f0, int count) {
+  double v = 0;
+  for (int f = f0; f < f0 + count; ++f) {
+    const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)), c = mesh.V.row(mesh.F(f, 2));
+    v += a.dot(b.cross(c)) / 6;
+  }
+  return v;
+}
+
+// A UV layout mirrored (u -> 1 - u: every UV triangle wound against its face) maps texture space
+// into the shell reversing orientation. A closed tile (a ball, facing outwards) still comes out
+// facing outwards in every copy, its faces wound the other way round, and its texture
+// coordinates follow its corners.
+TEST(GeometricTexture, TilesOverAMirroredUvLayoutKeepFacingAsInTheTile) {
+  TriMesh ball = make_sphere(1);
+  ball.V = (ball.V * 0.3).array() + 0.5;
+  ball.UV = ball.V.leftCols(2);
+  ball.FUV = ball.F;
+  ASSERT_GT(enclosed_volume(ball, 0, ball.num_faces()), 0);
+  const TriMesh plane = make_plane(6);
+  TriMesh mirrored = plane;
+  mirrored.UV.col(0) = 1.0 - plane.UV.col(0).array();
+  const Shell shell = flat_shell(plane, 0.2);
+  const int U = 3, V = 2, nf = ball.num_faces();
+  for (const TriMesh* layout : {&plane, static_cast<const TriMesh*>(&mirrored)}) {
+    SCOPED_TRACE(layout == &plane ? "as made" : "mirrored");
+    const GeometricTexture tex = map_geometric_texture(shell, *layout, ball, U, V);
+    EXPECT_EQ(tex.reversed_faces, layout == &plane ? 0 : U * V * nf);
+    EXPECT_EQ(tex.joined, 0); // closed copies have no border to join
+    for (int c = 0; c < U * V; ++c) EXPECT_GT(enclosed_volume(tex.mesh, c * nf, nf), 0) << "copy " << c;
+    ASSERT_TRUE(tex.mesh.has_uv());
+    for (int f = 0; f < tex.mesh.num_faces(); ++f)
+      for (int k = 0; k < 3; ++k) // each corner keeps its own texture coordinates
+        EXPECT_EQ(tex.mesh.UV.row(tex.mesh.FUV(f, k)), ball.UV.row(tex.mesh.F(f, k) % ball.num_vertices()));
+  }
 }
 
 TEST(GeometricTexture, TextureSpaceTetsMatchTheShellTetsAndArePositive) {
@@ -102,7 +146,8 @@ TEST(GeometricTexture, SharedTextureSpacePointsMapToOnePoint) {
         const int w = v - 5;                     // same row, x = 0 (grid of 6 x 6 vertices)
         ASSERT_EQ(tile.V(w, 0), 0.0);
         ASSERT_EQ(tile.V(w, 1), tile.V(v, 1));
-        const Eigen::RowVector3d a = tex.mesh.V.row((i + j * U) * nv + v), b = tex.mesh.V.row(right * nv + w);
+        const int p = (i + j * U) * nv + v, q = right * nv + w;
+        const Eigen::RowVector3d a = tex.mesh.V.row(tex.vertex_of_point[p]), b = tex.mesh.V.row(tex.vertex_of_point[q]);
         EXPECT_LT((a - b).norm(), 1e-12) << "copy " << i << "," << j << " vertex " << v;
         ++checked;
       }
@@ -147,7 +192,8 @@ TEST(GeometricTexture, MapIsContinuousAcrossPrismBorders) {
   EXPECT_EQ(tex.outside, 0);
   ASSERT_GT(probes.V.rows(), 100);
   for (int i = 0; i + 1 < probes.V.rows(); i += 2)
-    EXPECT_LT((tex.mesh.V.row(i) - tex.mesh.V.row(i + 1)).norm(), 1e-6) << "probe pair " << i / 2;
+    EXPECT_LT((tex.mesh.V.row(tex.vertex_of_point[i]) - tex.mesh.V.row(tex.vertex_of_point[i + 1])).norm(), 1e-6)
+        << "probe pair " << i / 2;
 }
 
 TEST(GeometricTexture, HeightZeroLiesOnTheBaseAndOneOnTheTop) {
@@ -166,8 +212,8 @@ TEST(GeometricTexture, HeightZeroLiesOnTheBaseAndOneOnTheTop) {
   for (int f = 0; f < cylinder.F.rows(); ++f)
     for (int c = 0; c < 3; ++c) {
       const int uv = cylinder.FUV(f, c), v = cylinder.F(f, c);
-      EXPECT_LT((tex.mesh.V.row(uv) - shell.base.row(v)).norm(), 1e-12);
-      EXPECT_LT((tex.mesh.V.row(k + uv) - shell.top.row(v)).norm(), 1e-12);
+      EXPECT_LT((tex.mesh.V.row(tex.vertex_of_point[uv]) - shell.base.row(v)).norm(), 1e-12);
+      EXPECT_LT((tex.mesh.V.row(tex.vertex_of_point[k + uv]) - shell.top.row(v)).norm(), 1e-12);
     }
 }
 

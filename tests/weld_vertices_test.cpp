@@ -53,6 +53,31 @@ TEST(WeldVertices, ASeamSplitPatchWeldsBackToTheSameMeshAndVertexOrder) {
   EXPECT_TRUE(welded.F == plane.F);
 }
 
+// The cut's copies moved off by rounding-sized amounts: apart for the exact weld, joined within a
+// tolerance, each to the vertex it copies (the lower id), whose position is kept; `ids` maps
+// every vertex of the cut to the plane's.
+TEST(WeldVertices, ATolerancedWeldJoinsCopiesMovedByRounding) {
+  int copies = 0;
+  TriMesh cut = cut_plane(8, &copies);
+  const Eigen::Index n = cut.V.rows() - copies;
+  for (Eigen::Index v = n; v < cut.V.rows(); ++v) cut.V(v, (v % 3)) += (v % 2 ? 1 : -1) * 3e-14;
+  int merged = -1;
+  weld_boundary_vertices(cut, &merged);
+  EXPECT_EQ(merged, 0);
+  std::vector<int> ids;
+  const TriMesh welded = weld_boundary_vertices(cut, &merged, &ids, 1e-13);
+  EXPECT_EQ(merged, copies);
+  const TriMesh plane = make_plane(8);
+  EXPECT_TRUE(welded.V == plane.V);
+  EXPECT_TRUE(welded.F == plane.F);
+  ASSERT_EQ(static_cast<Eigen::Index>(ids.size()), cut.V.rows());
+  for (Eigen::Index v = 0; v < cut.V.rows(); ++v)
+    EXPECT_LT((plane.V.row(ids[v]) - cut.V.row(v)).norm(), 1e-13) << v;
+  // Below the offsets, nothing is joined.
+  weld_boundary_vertices(cut, &merged, nullptr, 1e-15);
+  EXPECT_EQ(merged, 0);
+}
+
 TEST(WeldVertices, ATriangleSoupWeldsBackToAClosedSurfaceWithTheSameFaces) {
   const TriMesh sphere = make_sphere(2);
   const TriMesh soup = test::triangle_soup(sphere);

@@ -1,6 +1,7 @@
 """object.gshell_generate: the shell of the active mesh object, as a new object "<name>.top"."""
 import json
 import re
+import struct
 
 import bpy
 from mathutils import Matrix
@@ -17,6 +18,17 @@ THICKNESS_MODES = [
     ("RATIO", "Ratio", "Thickness relative to the radius of the mesh's bounding sphere"),
     ("ABSOLUTE", "Absolute", "Thickness in the object's local units"),
 ]
+
+
+def as_typed(value):
+    """The shortest decimal that rounds to the same single-precision float as `value` (a float
+    property's value): 0.03 for the 0.029999999329447746 that Blender holds of a typed 0.03."""
+    single = struct.unpack("f", struct.pack("f", value))[0]
+    for digits in range(1, 10):
+        shortest = float(f"{single:.{digits}g}")
+        if struct.unpack("f", struct.pack("f", shortest))[0] == single:
+            return shortest
+    return single
 
 
 def axis_scales(matrix):
@@ -224,10 +236,12 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
         kwargs = {"method": self.method}
         if optimised:
             kwargs["iterations"] = self.iterations
+        # Blender keeps float properties in single precision: 0.03 is 0.029999999329447746. The
+        # value typed is the one meant, so it goes on as the shortest decimal that float holds.
         if self.thickness_mode == "RATIO":
-            kwargs["thickness_ratio"] = self.thickness_ratio
+            kwargs["thickness_ratio"] = as_typed(self.thickness_ratio)
         else:
-            kwargs["thickness"] = self.thickness
+            kwargs["thickness"] = as_typed(self.thickness)
         if optimised and gshell_module.supports(gshell.generate, "allow_invalid"):
             kwargs["allow_invalid"] = self.allow_invalid
         wm = bpy.context.window_manager

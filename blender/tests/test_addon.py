@@ -135,6 +135,8 @@ class AddonTest(unittest.TestCase):
         np.testing.assert_array_equal(np.asarray(top["gshell_faces"]).reshape(-1, 3), F)
         self.assertAlmostEqual(top.gshell.thickness, expected.thickness, places=6)
         self.assertEqual(json.loads(top["gshell_report"])["certificate"]["inverted_tets"], 0)
+        # The ratio typed, not its single-precision neighbour 0.05000000074505806.
+        self.assertEqual(json.loads(top["gshell_report"])["thickness"]["ratio"], THICKNESS_RATIO)
         # the top is the same surface over the same vertices, with the same transform
         self.assertEqual([tuple(p.vertices) for p in top.data.polygons],
                          [tuple(p.vertices) for p in sphere.data.polygons])

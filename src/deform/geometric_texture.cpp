@@ -2,7 +2,10 @@
 
 #include <gshell/deform/embedding.h>
 #include <gshell/error.h>
+#include <gshell/geometry/weld_vertices.h>
 #include <gshell/shell/prism_tets.h>
+
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +14,15 @@
 #include <numbers>
 
 namespace gshell {
+
+namespace {
+
+double signed_volume(const Eigen::MatrixXd& X, const Eigen::RowVector4i& tet) {
+  const Eigen::Vector3d a = X.row(tet(0)), b = X.row(tet(1)), c = X.row(tet(2)), d = X.row(tet(3));
+  return (b - a).cross(c - a).dot(d - a);
+}
+
+} // namespace
 
 TextureSpaceTets texture_space_tets(const Eigen::MatrixXi& F, const Eigen::MatrixXd& UV, const Eigen::MatrixXi& FUV) {
   const int k = static_cast<int>(UV.rows());
@@ -53,6 +65,13 @@ TriMesh tile_texture_space(const TriMesh& tile, int repeat_u, int repeat_v, cons
       }
       out.F.middleRows(static_cast<Eigen::Index>(copy) * nf, nf) = tile.F.array() + copy * nv;
     }
+  if (tile.has_uv()) { // each copy has the tile's own texture coordinates: a tile's image repeats with it
+    const int nt = static_cast<int>(tile.UV.rows());
+    out.UV = tile.UV.replicate(copies, 1);
+    out.FUV.resize(out.F.rows(), 3);
+    for (int c = 0; c < copies; ++c)
+      out.FUV.middleRows(static_cast<Eigen::Index>(c) * nf, nf) = tile.FUV.array() + c * nt;
+  }
   return out;
 }
 
@@ -100,10 +119,32 @@ GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_sou
     throw InputError("every UV triangle of the base is degenerate");
   }
   const Eigen::MatrixXi shell_tets = build_prism_tets(shell.F, shell.num_base_vertices());
-  for (int p = 0; p < e.size(); ++p) e.vertices.row(p) = shell_tets.row(e.tet(p));
+  const Eigen::MatrixXd X = shell.vertices();
+  // Where a texture tet and its shell tet have opposite orientations (a mirrored UV island: its
+  // UV triangles wound against their faces), the map turns what it carries inside out.
+  std::vector<char> reverses(e.size());
+  for (int p = 0; p < e.size(); ++p) {
+    const int t = e.tet(p);
+    e.vertices.row(p) = shell_tets.row(t);
+    reverses[p] = signed_volume(tex.X, tex.T.row(t)) * signed_volume(X, shell_tets.row(t)) < 0;
+  }
 
-  out.mesh.V = carry(e, shell.vertices());
-  out.mesh.F = tiled.F;
+  TriMesh mapped = tiled;
+  mapped.V = carry(e, X);
+  // A face most of whose corners the map reverses is wound the other way round, so that it keeps
+  // the side it faces in the tile (outwards, for a closed tile): the map reverses the whole face.
+  for (Eigen::Index f = 0; f < mapped.F.rows(); ++f) {
+    if (reverses[mapped.F(f, 0)] + reverses[mapped.F(f, 1)] + reverses[mapped.F(f, 2)] < 2) continue;
+    ++out.reversed_faces;
+    std::swap(mapped.F(f, 1), mapped.F(f, 2));
+    if (mapped.has_uv()) std::swap(mapped.FUV(f, 1), mapped.FUV(f, 2));
+  }
+  // Neighbouring copies share the points of their common border, which map to one position: joined
+  // there, the tiles make one surface instead of a patch per tile. Where a UV seam cuts the layout
+  // (around a cylinder: u = 0 and u = 1), the two sides' points map through different texture
+  // tets to one position up to rounding, hence the tolerance.
+  const double diagonal = (mapped.V.colwise().maxCoeff() - mapped.V.colwise().minCoeff()).norm();
+  out.mesh = weld_boundary_vertices(mapped, &out.joined, &out.vertex_of_point, 1e-12 * diagonal);
   out.points = e.size();
   out.outside = static_cast<int>(e.outside.size());
   out.max_outside_distance = e.max_outside_distance;

@@ -80,14 +80,18 @@ void check_writable(const TriMesh& mesh, const MeshAttributes& a) {
 
 } // namespace
 
-void write_mesh(const std::string& path, const TriMesh& mesh, const MeshAttributes& attributes, bool ascii_ply) {
+void check_mesh_output_format(const std::string& path) {
   const std::string ext = io_detail::lower_extension(path);
-  if (ext != "obj" && ext != "off" && ext != "ply") {
-    const std::string why = ext == "stl" ? " (STL cannot keep the vertex order; use .obj, .off or .ply)"
-                                         : " (supported for writing: .obj .off .ply)";
-    throw InputError(with_file(path, "cannot write format '" + (ext.empty() ? std::string("(no extension)") : "." + ext) +
-                                         "'" + why));
-  }
+  if (ext == "obj" || ext == "off" || ext == "ply") return;
+  const std::string why = ext == "stl" ? " (STL cannot keep the vertex order; use .obj, .off or .ply)"
+                                       : " (supported for writing: .obj .off .ply)";
+  throw InputError(with_file(path, "cannot write format '" + (ext.empty() ? std::string("(no extension)") : "." + ext) +
+                                       "'" + why));
+}
+
+void write_mesh(const std::string& path, const TriMesh& mesh, const MeshAttributes& attributes, bool ascii_ply) {
+  check_mesh_output_format(path);
+  const std::string ext = io_detail::lower_extension(path);
   check_writable(mesh, attributes);
   const bool binary = ext == "ply" && !ascii_ply;
   write_file_atomically(

@@ -22,9 +22,12 @@ std::string frame_name(int k, const std::string& extension, int count) {
 
 std::optional<int> frame_number(const std::string& name, const std::string& extension) {
   static const std::string prefix = "frame_";
-  if (name.size() < prefix.size() + 4 + extension.size() || name.compare(0, prefix.size(), prefix) != 0 ||
-      name.compare(name.size() - extension.size(), extension.size(), extension) != 0)
+  if (name.size() < prefix.size() + 4 + extension.size() || name.compare(0, prefix.size(), prefix) != 0)
     return std::nullopt;
+  // The extension in any case, as every reader takes it (frame_0001.OBJ from another tool).
+  for (std::size_t i = 0; i < extension.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(name[name.size() - extension.size() + i])) != extension[i])
+      return std::nullopt;
   const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - extension.size());
   if (digits.size() > 9 || !std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }))
     return std::nullopt;
@@ -56,7 +59,9 @@ std::vector<std::string> expand_frame_arguments(const std::vector<std::string>& 
     for (const char* extension : {".obj", ".off", ".ply", ".stl"})
       if (found.empty()) found = list_frames(argument, extension);
     if (found.empty())
-      throw InputError(argument + ": a folder holding no frame files (frame_0001.obj .., as gshell animate writes)" +
+      throw InputError(argument + ": a folder holding no frame files (frame_0001.obj .., as gshell animate writes; "
+                                  "frames named otherwise are given as files, e.g. " +
+                       (fs::path(argument) / "*.obj").string() + ")" +
                        (is_shell_folder(argument) ? "; it is a shell folder: give " +
                                                         (fs::path(argument) / "base.obj").string() + " for its base"
                                                   : std::string()));

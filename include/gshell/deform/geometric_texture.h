@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 namespace gshell {
 
@@ -23,21 +24,34 @@ TextureSpaceTets texture_space_tets(const Eigen::MatrixXi& F, const Eigen::Matri
 
 /// repeat_u x repeat_v copies of a tile (x, y in [0,1], z = height) laid side by side over the
 /// rectangle `uv_min`..`uv_max` of texture space; copy (i, j) covers
-/// [i/U, (i+1)/U] x [j/V, (j+1)/V] of that rectangle. Heights are kept. UVs of the tile are dropped.
+/// [i/U, (i+1)/U] x [j/V, (j+1)/V] of that rectangle. Heights are kept; the tile's texture
+/// coordinates, if it has any, are every copy's (corner by corner).
 TriMesh tile_texture_space(const TriMesh& tile, int repeat_u, int repeat_v, const Eigen::Vector2d& uv_min,
                            const Eigen::Vector2d& uv_max);
 
 struct GeometricTexture {
-  TriMesh mesh;                    ///< the tiled texture mapped into the shell
-  int points = 0;                  ///< tiled vertices mapped
+  /// The tiled texture mapped into the shell, with the tile's texture coordinates; copies that
+  /// meet are joined (weld_boundary_vertices)
+  TriMesh mesh;
+  int points = 0;                  ///< tiled vertices mapped (before the join)
+  int joined = 0;                  ///< of them, removed by the join: border points of neighbouring copies
+  /// Per tiled vertex (copy c = i + j * repeat_u holds tile vertex v at c * tile vertices + v),
+  /// its vertex in `mesh`.
+  std::vector<int> vertex_of_point;
+  /// Faces wound the other way round from the tile's, to face as they do in the tile: those over
+  /// mirrored UV islands (UV triangles wound against their faces), which the map turns inside out.
+  int reversed_faces = 0;
   int outside = 0;                 ///< of them, outside every texture-space prism (extrapolated from the nearest tet)
   double max_outside_distance = 0; ///< in texture-space units
   Eigen::Vector2d uv_min = Eigen::Vector2d::Zero(), uv_max = Eigen::Vector2d::Ones(); ///< the tiled UV rectangle
 };
 
 /// Tiles `tile` repeat_u x repeat_v times over the bounding rectangle of the base's UVs
-/// (`uv_source` has the shell's faces and vertex count, with UV/FUV; see read_shell_folder) and maps
-/// every tiled vertex tet by tet into the shell.
+/// (`uv_source` has the shell's faces and vertex count, with UV/FUV; see read_shell_folder), maps
+/// every tiled vertex tet by tet into the shell, winds faces the map reverses the other way round
+/// and joins the border points that neighbouring copies share (any boundary vertices of the
+/// result within 1e-12 of its bounding box diagonal of each other: a tile whose borders match
+/// gives one surface, closed across the layout's UV seams where the base is).
 /// \throws InputError when the base has no UVs or a non-finite one, its faces differ from the
 ///         shell's, every UV triangle is degenerate, the tile is empty, non-finite or has a face
 ///         id out of range, a repeat count is < 1, or the tiles would hold more vertices or

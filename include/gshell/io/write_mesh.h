@@ -17,6 +17,10 @@ struct MeshAttributes {
   std::vector<std::pair<std::string, Eigen::VectorXd>> face_scalars;   ///< name, m values
 };
 
+/// What write_mesh checks of `path` first, for commands to check before their work.
+/// \throws InputError naming `path` when its extension is not .obj, .off or .ply (any case).
+void check_mesh_output_format(const std::string& path);
+
 /// Writes OBJ (with vt when the mesh has UVs), OFF or PLY (binary little endian unless
 /// `ascii_ply`), chosen by extension. Atomic (temporary file + rename). Vertex order is kept.
 /// \throws InputError naming `path` on an unknown extension (also .stl: it cannot keep vertex

@@ -14,8 +14,9 @@ namespace gshell {
 /// sequence's frame count) where it has more than four. 0 <= k <= count where count is given.
 std::string frame_name(int k, const std::string& extension = {}, int count = 0);
 
-/// The number of a name made by frame_name with this extension ("frame_0012.obj" -> 12), or
-/// nothing when the name is not a frame name.
+/// The number of a name made by frame_name with this extension ("frame_0012.obj" -> 12;
+/// `extension` in lower case matches the name's in any case: "frame_0012.OBJ"), or nothing when
+/// the name is not a frame name.
 std::optional<int> frame_number(const std::string& name, const std::string& extension = {});
 
 /// The frames in `dir`, ordered by number (frame_9999 before frame_10000): folders when
