@@ -292,11 +292,15 @@ TEST(Generate, WarningNamesWhatTheValidStartCouldNotMend) {
   // Wide cones everywhere: nothing is folded, so the cause named is parts of the base nearly
   // touching (two spheres 1e-12 apart were said to have "faces folded nearly flat", margin 1).
   r.guard.directions.margin.setConstant(0.95);
-  r.guard.start.rounds = 40;
+  r.guard.start.rounds = 57;
+  r.guard.start.scale.setOnes();
+  r.guard.start.scale[narrowest] = std::ldexp(1.0, -39); // the thinnest of the vertices named
+  r.guard.start.scale[100] = 1e-20;                      // not one of them
   const std::string touching = generate_warnings(r)[0];
   EXPECT_EQ(touching.find("folded nearly flat"), std::string::npos) << touching;
-  EXPECT_NE(touching.find("parts of the base lie closer to each other than the start could thin the layer to in 40 "
-                          "rounds, nearly touching; their faces are not folded: smallest extrusion margin 0.95"),
+  EXPECT_NE(touching.find("parts of the base lie closer to each other than the start could thin the layer to "
+                          "(1.8e-12 of it, after 57 rounds), nearly touching; their faces are not folded: smallest "
+                          "extrusion margin 0.95"),
             std::string::npos)
       << touching;
 }

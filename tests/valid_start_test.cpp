@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 using namespace gshell;
 
 namespace {
@@ -68,4 +70,39 @@ TEST(ValidStart, BackoffLowersOnlyPulledInVerticesAndStaysValid) {
     if (a.scale[i] == 1) EXPECT_EQ(b.scale[i], 1.0) << i;
     else EXPECT_LE(b.scale[i], a.scale[i]) << i;
   }
+}
+
+// The start gives up on a violation once its vertices have been thinned max_rounds - 1 times, not
+// after max_rounds rounds in all: where the layer is much thicker than the base's features, it
+// thins as a front spreading a ring or so per round, each vertex thinned a few times only, and
+// ending it after max_rounds rounds left a start that was not valid through no fault of the base.
+TEST(ValidStart, AThinningFrontLongerThanMaxRoundsStillEndsValid) {
+  // A corrugated sheet of thin triangles (5:1) under a layer far thicker than its ridges are
+  // deep: thinning a vertex shears the thin prisms towards its unthinned neighbours into new
+  // inverted tets, so the thinning spreads ring by ring.
+  TriMesh m = make_plane(32);
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    m.V(i, 2) = 0.02 * std::sin(12 * m.V(i, 0)) * std::cos(9 * m.V(i, 1));
+    m.V(i, 1) *= 0.2;
+  }
+  const double eta = 2;
+  const Eigen::MatrixXd P = offset_top(m.V, m.F, eta);
+  const ExtrusionDirections d = extrusion_directions(m.V, m.F);
+  ValidStartOptions options;
+  options.fallback_length = eta;
+  const ValidStart all = valid_start(m.V, m.F, P, d, {}, {}, options);
+  expect_certified_valid(m, all);
+  const int thinnings = static_cast<int>(std::lround(-std::log2(all.scale.minCoeff()))); // the most of one vertex
+  ASSERT_GT(all.rounds, thinnings + 2) << "the case no longer thins as a front";
+  // Rounds enough for every vertex's thinnings, fewer than the front needs in all: the same start.
+  options.max_rounds = thinnings + 2;
+  const ValidStart front = valid_start(m.V, m.F, P, d, {}, {}, options);
+  expect_certified_valid(m, front);
+  EXPECT_EQ(front.rounds, all.rounds);
+  EXPECT_TRUE(front.scale == all.scale);
+  // No thinning allowed: given up at the first check, with what it found reported.
+  options.max_rounds = 1;
+  const ValidStart none = valid_start(m.V, m.F, P, d, {}, {}, options);
+  EXPECT_EQ(none.rounds, 1);
+  EXPECT_FALSE(none.inverted_tets.empty());
 }

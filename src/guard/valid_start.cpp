@@ -16,6 +16,8 @@ namespace gshell {
 
 namespace {
 
+constexpr int kMaxRoundsFactor = 10; // rounds in all, in units of max_rounds (a front that never settles)
+
 // The paths of the header: per vertex, the wanted offset's unit u and length, the direction d, and
 // whether the straight line serves.
 struct Paths {
@@ -83,6 +85,7 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
 
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
+  const double floor = std::pow(options.thinning, options.max_rounds - 1); // s_i after max_rounds - 1 thinnings
   std::vector<char> thin(n), moved(n, 0);
   bool nested = false; // a part still inside another's layer (StartViolations::nested_parts, nested_tops)
   for (s.rounds = 1;; ++s.rounds) {
@@ -101,7 +104,16 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
     nested = !found.nested_parts.empty() || !found.nested_tops.empty();
     const bool clean = s.inverted_tets.empty() && s.intersections.empty() && !nested;
     if (s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
-    if (clean || s.rounds >= options.max_rounds) break;
+    if (clean) break;
+    // The start gives up once a vertex of a violation has been thinned max_rounds - 1 times, not
+    // after max_rounds rounds in all: a layer much thicker than the base's features (blade.off at
+    // ratio 1) thins as a front moving out ring by ring, new violations at its edge each round,
+    // which 40 rounds did not see through (9 tets were left inverted by no fault of the base).
+    // A violation from the base itself (a rim folded flat, parts touching) has its vertices
+    // thinned every round, so it ends the start at round max_rounds, as before.
+    bool exhausted = false;
+    for (int i = 0; i < n && !exhausted; ++i) exhausted = thin[i] && s.scale[i] <= floor;
+    if (exhausted || s.rounds >= kMaxRoundsFactor * options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
     for (int i = 0; i < n; ++i)
       if (thin[i]) s.scale[i] *= options.thinning;

@@ -136,15 +136,19 @@ std::vector<std::string> generate_warnings(const GenerateResult& r) {
     std::vector<int> vertices = unmended_vertices(start, r.shell.F, static_cast<int>(r.shell.base.rows()));
     const Eigen::VectorXd& margin = r.guard.directions.margin;
     std::stable_sort(vertices.begin(), vertices.end(), [&](int a, int b) { return margin[a] < margin[b]; });
-    // Where even the narrowest cone is wide, nothing is folded: the start thinned its tops to
-    // 2^-max_rounds of the thickness and parts of the base still lie closer (nearly touching).
+    // Where even the narrowest cone is wide, nothing is folded: the start thinned its tops there
+    // as far as it goes (2^-(max_rounds - 1) of the thickness) and parts of the base still lie
+    // closer (nearly touching).
     const double least = vertices.empty() ? 0.0 : margin[vertices.front()];
+    double thinnest = 1;
+    for (int v : vertices) thinnest = std::min(thinnest, start.scale[v]);
     const std::string cause =
         least < generation_guard_options().start_margin
             ? format("smallest extrusion margin %.2g: faces folded nearly flat onto each other", least)
-            : format("parts of the base lie closer to each other than the start could thin the layer to in %.0f "
-                     "rounds, nearly touching; their faces are not folded: smallest extrusion margin %.2g",
-                     start.rounds, least);
+            : format("parts of the base lie closer to each other than the start could thin the layer to (%.2g "
+                     "of it, after %.0f rounds), nearly touching; their faces are not folded: smallest extrusion "
+                     "margin %.2g",
+                     thinnest, start.rounds, least);
     w.push_back("the valid start could not mend " + std::to_string(start.inverted_tets.size()) + " tets and " +
                 std::to_string(start.intersections.size()) + " boundary triangle pairs around base vertices " +
                 first_ids(vertices) + " (" + cause + "), the shell is guarded everywhere else");

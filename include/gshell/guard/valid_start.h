@@ -36,8 +36,11 @@ struct ValidStartOptions {
   /// After the bisection, pulled-in s_i are lowered by this factor where that stays valid (a
   /// margin from the validity boundary the bisection ends next to), in (0, 1]; 1: none.
   double backoff = 1;
-  int max_rounds = 40;   ///< rounds before giving up (a violation that survives 2^-40 of the target
-                         ///< thickness comes from the base itself, e.g. touching input triangles)
+  /// Thinnings of a vertex, plus one, before the start gives up (a violation that survives 2^-39
+  /// of the target thickness comes from the base itself, e.g. touching input triangles): it gives
+  /// up when a vertex of what is left has been thinned max_rounds - 1 times, or after
+  /// 10 x max_rounds rounds in all.
+  int max_rounds = 40;
 };
 
 struct ValidStart {
