@@ -22,7 +22,8 @@ std::vector<std::pair<int, int>> nearby_vertices(const Eigen::MatrixXd& V, std::
   };
   for (std::size_t i = 0; i < candidates.size(); ++i)
     for (std::size_t j = i + 1; j < candidates.size() && V(candidates[j], 0) - V(candidates[i], 0) <= tolerance; ++j)
-      if ((V.row(candidates[i]) - V.row(candidates[j])).norm() <= tolerance) root[find(static_cast<int>(i))] = find(static_cast<int>(j));
+      if ((V.row(candidates[i]) - V.row(candidates[j])).norm() <= tolerance)
+        root[find(static_cast<int>(i))] = find(static_cast<int>(j));
   std::vector<int> lowest(candidates.size(), -1); // per set root: its lowest vertex id
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     int& l = lowest[find(static_cast<int>(i))];

@@ -85,8 +85,8 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
 
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
-  const double floor = std::pow(options.thinning, options.max_rounds - 1); // s_i after max_rounds - 1 thinnings
   std::vector<char> thin(n), moved(n, 0);
+  std::vector<int> thinnings(n, 0);
   bool nested = false; // a part still inside another's layer (StartViolations::nested_parts, nested_tops)
   for (s.rounds = 1;; ++s.rounds) {
     if (s.rounds == 1)
@@ -112,11 +112,11 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
     // A violation from the base itself (a rim folded flat, parts touching) has its vertices
     // thinned every round, so it ends the start at round max_rounds, as before.
     bool exhausted = false;
-    for (int i = 0; i < n && !exhausted; ++i) exhausted = thin[i] && s.scale[i] <= floor;
+    for (int i = 0; i < n && !exhausted; ++i) exhausted = thin[i] && thinnings[i] >= options.max_rounds - 1;
     if (exhausted || s.rounds >= kMaxRoundsFactor * options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
     for (int i = 0; i < n; ++i)
-      if (thin[i]) s.scale[i] *= options.thinning;
+      if (thin[i]) s.scale[i] *= options.thinning, ++thinnings[i];
     // Thickness steps between neighbours shear the prisms between them into new violations: keep
     // s_j <= spread * s_i along every edge, so a pulled-in spot slopes into its surroundings.
     if (options.spread > 1)

@@ -422,7 +422,8 @@ std::optional<PoseStepReport> DragSession::settle(const std::optional<SolveOptio
                      : s.solver->solve_valid(from, st.X, P, limits, s.options.guard, &valid);
     // A guarded solve's seconds are the whole of it (mend, drag, certificate; SolveResult's are
     // the solver's alone), but for building the guard, which is setup.
-    if (s.guarded()) r.seconds = std::chrono::duration<double>(Clock::now() - solve_start).count() - valid.guard_setup_seconds;
+    if (s.guarded())
+      r.seconds = std::chrono::duration<double>(Clock::now() - solve_start).count() - valid.guard_setup_seconds;
   } catch (const Interrupted&) {
     if (s.guarded()) st.X = from;
     s.valid_before_preview.reset();

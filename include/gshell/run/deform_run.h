@@ -97,7 +97,8 @@ struct DeformRun {
   /// report.json: command, shell, base_vertices, tets, thickness, tolerance, max_iterations,
   /// warm_start, allow_invalid, replaced_rest_tets, factor_seconds, setup_seconds, embed {detail,
   /// points, outside, max_outside_distance}, summary {frames, median_seconds, total_seconds,
-  /// guard_setup_seconds (kept out of the frames' seconds: FrameResult::guard_setup_seconds), median_iterations, max_iterations, unconverged_frames, mean_volume_stretch, max_stretch,
+  /// guard_setup_seconds (kept out of the frames' seconds: FrameResult::guard_setup_seconds),
+  /// median_iterations, max_iterations, unconverged_frames, mean_volume_stretch, max_stretch,
   /// inverted_tets, valid_frames, invalid_frames, certificate_inverted_tets, guarded_frames,
   /// max_substeps, offset {...}}, warnings [warnings()], frames [DeformFrameRecord::to_json].
   nlohmann::ordered_json to_json() const;
