@@ -90,14 +90,13 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     // The paper's iterations, and the guard's after them (the status above counted both).
     std::string iterations = std::to_string(f.result.iterations);
     if (f.result.guarded_iterations > 0) iterations += " + " + std::to_string(f.result.guarded_iterations) + " guarded";
-    std::snprintf(text, sizeof text, "frame %d/%d: %s iterations, %.1f ms, stretch %.3g, %s (%s", f.frame, count,
-                  iterations.c_str(), 1e3 * f.result.seconds, f.result.stretch.volume_mean,
+    char setup[48] = ""; // building the guard: kept out of the frame's time, as the factorisation is
+    if (f.result.guard_setup_seconds > 0)
+      std::snprintf(setup, sizeof setup, " and %.1f s setting up the guard", f.result.guard_setup_seconds);
+    std::snprintf(text, sizeof text, "frame %d/%d: %s iterations, %.1f ms%s, stretch %.3g, %s (%s", f.frame, count,
+                  iterations.c_str(), 1e3 * f.result.seconds, setup, f.result.stretch.volume_mean,
                   f.result.valid ? "valid" : "INVALID", frame_method_name(f.result.method));
     std::string line = text;
-    if (f.result.guard_setup_seconds > 0) { // kept out of the frame's time, as the factorisation is
-      std::snprintf(text, sizeof text, " and %.1f s setting up the guard", f.result.guard_setup_seconds);
-      line.insert(line.find(" ms,") + 3, text);
-    }
     if (f.result.substeps > 1) line += ", " + std::to_string(f.result.substeps) + " sub-steps";
     if (f.result.method == FrameMethod::Failed && f.result.fresh_top) line += ", fresh top";
     line += ")";

@@ -52,7 +52,6 @@ struct PoseSolver::Impl {
   std::unique_ptr<HierarchicalSolver> hierarchical;
   std::unique_ptr<ShellSolver> single;
   double setup_seconds = 0;
-  double guard_setup_seconds = 0; // summed over the guard's builds
   Shell rest_shell;
   std::unique_ptr<FrameGuard> guard; ///< built at the first solve_valid
 };
@@ -146,7 +145,6 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
     const auto setup_start = std::chrono::steady_clock::now();
     s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard, s.constrained, true);
     out.guard_setup_seconds = seconds_since(setup_start);
-    s.guard_setup_seconds += out.guard_setup_seconds;
   }
   const Eigen::MatrixXd start = from;
   SolveResult result = solve(X, P, options);
@@ -286,7 +284,6 @@ const Eigen::MatrixXd& PoseSolver::rest_vertices() const { return impl_->rest_ve
 const RestTets& PoseSolver::rest_tets() const { return impl_->rest; }
 PoseSolverKind PoseSolver::kind() const { return impl_->kind; }
 double PoseSolver::setup_seconds() const { return impl_->setup_seconds; }
-double PoseSolver::guard_setup_seconds() const { return impl_->guard_setup_seconds; }
 const HierarchicalSolver* PoseSolver::hierarchical() const { return impl_->hierarchical.get(); }
 HierarchicalSolver* PoseSolver::hierarchical() { return impl_->hierarchical.get(); }
 

@@ -111,9 +111,6 @@ public:
   const RestTets& rest_tets() const;
   PoseSolverKind kind() const;
   double setup_seconds() const;
-  /// Seconds spent building the validity guard (solve_valid builds it at its first call and
-  /// again when the guard options change), summed; 0 before any guarded step.
-  double guard_setup_seconds() const;
   /// The hierarchical solver (null for the single-level one), e.g. to read its levels.
   const HierarchicalSolver* hierarchical() const;
   HierarchicalSolver* hierarchical(); ///< for its interactive previews (anchor_preview, preview)
