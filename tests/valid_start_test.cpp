@@ -9,9 +9,11 @@
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/shell/offset_shell.h>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 using namespace gshell;
 
@@ -105,4 +107,80 @@ TEST(ValidStart, AThinningFrontLongerThanMaxRoundsStillEndsValid) {
   const ValidStart none = valid_start(m.V, m.F, P, d, {}, {}, options);
   EXPECT_EQ(none.rounds, 1);
   EXPECT_FALSE(none.inverted_tets.empty());
+}
+
+// Two flat slabs (2 x 2 x 0.01) lying on each other 1e-7 apart, shifted, under a layer of 0.15:
+// every top of the lower slab's upper face and of the upper slab's lower face must come down to
+// the gap, about 2^-21 of the layer, while a front spreads over the slabs' edges and sides. A top
+// behind the front stays in a crossing pair only through a triangle that reaches the front, and
+// once it has been thinned max_rounds - 1 times it waits there while the front thins on: giving up
+// then (as the start did until 2026-12-07) left 187 crossing pairs.
+TEST(ValidStart, AVertexThinnedAsOftenAsItMayWaitsWhileTheFrontGoesOn) {
+  TriMesh cube;
+  cube.V.resize(8, 3);
+  for (int i = 0; i < 8; ++i) cube.V.row(i) << (i & 1), (i >> 1) & 1, (i >> 2) & 1;
+  cube.F.resize(12, 3);
+  cube.F << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5;
+  const TriMesh c = midpoint_subdivision(cube, 3);
+  const Eigen::Index n = c.V.rows();
+  TriMesh m;
+  m.V.resize(2 * n, 3);
+  m.F.resize(2 * c.F.rows(), 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    m.V.row(i) << 2 * c.V(i, 0) - 1, 2 * c.V(i, 1) - 1, 0.01 * c.V(i, 2);
+    m.V.row(n + i) << m.V(i, 0) + 0.3, m.V(i, 1) + 0.2, m.V(i, 2) + 0.01 + 1e-7;
+  }
+  m.F << c.F, c.F.array() + static_cast<int>(n);
+  ASSERT_TRUE(certify_shell(m.V, m.V, m.F).base_self_intersections == 0) << "the slabs touch";
+  const double eta = 0.15;
+  const Eigen::MatrixXd P = offset_top(m.V, m.F, eta);
+  const ExtrusionDirections d = extrusion_directions(m.V, m.F);
+  ValidStartOptions options;
+  options.fallback_length = eta;
+  const ValidStart s = valid_start(m.V, m.F, P, d, {}, {}, options);
+  expect_certified_valid(m, s);
+  // Every vertex thinned at most max_rounds - 1 times, and one as often as that, before the end.
+  EXPECT_EQ(s.scale.minCoeff(), std::pow(options.thinning, options.max_rounds - 1));
+  EXPECT_GT(s.rounds, options.max_rounds);
+  EXPECT_LE(s.rounds, 10 * options.max_rounds);
+}
+
+// On the rim of an open surface the straight path back to the base can be blocked: near the
+// vertex the side wall over a boundary edge is the sector between the edge and the path's
+// direction, and where that sector cuts another of the vertex's faces the two meet however thin
+// the layer. There the path ends along the extrusion direction instead (CGAL's
+// double-torus-3-holes at curvature 0.3 kept a wall through vertex 52's own face).
+TEST(ValidStart, ARimVertexWhoseStraightPathIsBlockedLeavesAlongItsDirection) {
+  // An open fan of three faces around vertex 0; its wanted top lies along u, which sees every
+  // face (margin 0.27) but whose wall over a boundary edge cuts the fan.
+  TriMesh m;
+  m.V.resize(5, 3);
+  m.V << 0, 0, 0, //
+      0.998, 0.059, 0.087, //
+      -0.415, 0.91, 0.93, //
+      -0.315, -0.949, -1.485, //
+      -0.052, -0.999, 0.369;
+  m.F.resize(3, 3);
+  m.F << 0, 1, 2, //
+      0, 2, 3, //
+      0, 3, 4;
+  const Eigen::RowVector3d u = Eigen::RowVector3d(-0.698, -0.648, -0.304).normalized();
+  const double eta = 0.3;
+  Eigen::MatrixXd P = offset_top(m.V, m.F, eta);
+  P.row(0) = eta * u;
+  const ExtrusionDirections d = extrusion_directions(m.V, m.F);
+  Eigen::MatrixXd along_u = d.direction;
+  along_u.row(0) = u;
+  ASSERT_EQ(rim_vertices_with_blocked_walls(m.V, m.F, along_u, {0}), std::vector<int>{0}) << "the case no longer blocks";
+  ASSERT_TRUE(rim_vertices_with_blocked_walls(m.V, m.F, d.direction, {0, 1, 2, 3, 4}).empty());
+  for (int f = 0; f < 3; ++f) {
+    const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+    ASSERT_GT((b - a).cross(c - a).normalized().dot(u.transpose()), 0.2) << "u no longer sees face " << f;
+  }
+  ValidStartOptions options;
+  options.fallback_length = eta;
+  const ValidStart s = valid_start(m.V, m.F, P, d, {}, {}, options);
+  expect_certified_valid(m, s);
+  EXPECT_LT(s.scale[0], 1);
+  EXPECT_GT(s.scale[0], 1e-3) << "thinned far more than the fan needs";
 }

@@ -34,7 +34,7 @@ struct Paths {
 };
 
 Paths make_paths(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen::MatrixXd& P,
-                 const ExtrusionDirections& directions, const ValidStartOptions& options) {
+                 const ExtrusionDirections& directions, const std::vector<int>& rim, const ValidStartOptions& options) {
   const int n = static_cast<int>(V.rows());
   Paths p;
   p.d = directions.direction;
@@ -59,7 +59,52 @@ Paths make_paths(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
     for (int k = 0; k < 3; ++k) margin[F(f, k)] = std::min(margin[F(f, k)], p.u.row(F(f, k)).dot(normal));
   }
   for (int i = 0; i < n; ++i) p.straight[i] = margin[i] >= options.straight_margin;
+  // On the rim a straight path can still be blocked: near b_i the side wall over a boundary edge
+  // is the sector between the edge and u_i, and where that cuts another face at i the two meet
+  // however thin the layer (double-torus-3-holes at curvature 0.3: vertex 52's wall cut its own
+  // face at 2^-39 of eta). The bent path ends along d_i instead.
+  std::vector<int> straight_rim;
+  for (int i : rim)
+    if (p.straight[i]) straight_rim.push_back(i);
+  for (int i : rim_vertices_with_blocked_walls(V, F, p.u, straight_rim)) p.straight[i] = 0;
   return p;
+}
+
+// The base vertices on the rim of an open surface (those the side walls stand on), ascending.
+std::vector<int> rim_vertices(const ShellBoundary& boundary, int n) {
+  std::vector<char> rim(n, 0);
+  for (int r = 0; r < boundary.size(); ++r)
+    if (boundary.part[r] == BoundaryPart::Wall)
+      for (int k = 0; k < 3; ++k)
+        if (boundary.F(r, k) < n) rim[boundary.F(r, k)] = 1;
+  std::vector<int> vertices;
+  for (int i = 0; i < n; ++i)
+    if (rim[i]) vertices.push_back(i);
+  return vertices;
+}
+
+// The violations of the last round none of whose top vertices moved since (those of vertices
+// thinned as often as they may be) are still there, though a check of what moved does not see
+// them: they join `found`, which then asks for no part to be thinned whole (the check asks that
+// only when it finds nothing else).
+void keep_unmoved(const detail::StartChecker& checker, const std::vector<char>& moved, const ValidStart& last,
+                  detail::StartViolations& found) {
+  const int n = static_cast<int>(moved.size());
+  auto unmoved = [&](int v) { return v < n || !moved[v - n]; };
+  const Eigen::MatrixXi& T = checker.tets();
+  const Eigen::MatrixXi& B = checker.boundary().F;
+  const std::size_t tets = found.inverted_tets.size(), pairs = found.intersections.size();
+  for (int t : last.inverted_tets)
+    if (unmoved(T(t, 0)) && unmoved(T(t, 1)) && unmoved(T(t, 2)) && unmoved(T(t, 3))) found.inverted_tets.push_back(t);
+  for (const auto& [a, b] : last.intersections)
+    if (unmoved(B(a, 0)) && unmoved(B(a, 1)) && unmoved(B(a, 2)) && unmoved(B(b, 0)) && unmoved(B(b, 1)) &&
+        unmoved(B(b, 2)))
+      found.intersections.emplace_back(a, b);
+  if (found.inverted_tets.size() == tets && found.intersections.size() == pairs) return;
+  std::sort(found.inverted_tets.begin(), found.inverted_tets.end());
+  std::sort(found.intersections.begin(), found.intersections.end());
+  found.nested_parts.clear();
+  found.nested_tops.clear();
 }
 
 } // namespace
@@ -81,7 +126,7 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
     throw InputError("valid_start: expected one wanted top vertex and one direction per base vertex");
   if (!(options.thinning > 0 && options.thinning < 1)) throw InputError("valid_start: thinning must be in (0, 1)");
   if (!(options.fallback_length > 0)) throw InputError("valid_start: fallback_length must be positive");
-  const Paths paths = make_paths(V, F, P, directions, options);
+  const Paths paths = make_paths(V, F, P, directions, rim_vertices(checker.boundary(), n), options);
 
   ValidStart s;
   s.scale = Eigen::VectorXd::Ones(n);
@@ -97,6 +142,7 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
     // The first round checks everything, later ones what the last thinning moved.
     detail::StartViolations found = s.rounds == 1 && first ? checker.violations(*std::move(first))
                                                            : checker.check(V, s.top, s.rounds == 1 ? nullptr : &moved);
+    if (s.rounds > 1) keep_unmoved(checker, moved, s, found);
     s.inverted_tets = found.inverted_tets;
     s.intersections = found.intersections;
     std::fill(thin.begin(), thin.end(), 0);
@@ -105,18 +151,21 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
     const bool clean = s.inverted_tets.empty() && s.intersections.empty() && !nested;
     if (s.rounds == 1) s.certificate = std::move(found.certificate); // of P itself
     if (clean) break;
-    // The start gives up once a vertex of a violation has been thinned max_rounds - 1 times, not
-    // after max_rounds rounds in all: a layer much thicker than the base's features (blade.off at
-    // ratio 1) thins as a front moving out ring by ring, new violations at its edge each round,
-    // which 40 rounds did not see through (9 tets were left inverted by no fault of the base).
-    // A violation from the base itself (a rim folded flat, parts touching) has its vertices
-    // thinned every round, so it ends the start at round max_rounds, as before.
-    bool exhausted = false;
-    for (int i = 0; i < n && !exhausted; ++i) exhausted = thin[i] && thinnings[i] >= options.max_rounds - 1;
-    if (exhausted || s.rounds >= kMaxRoundsFactor * options.max_rounds) break;
+    // A vertex of a violation is thinned at most max_rounds - 1 times; the start gives up when
+    // every vertex of what is left has been, not after max_rounds rounds in all. A layer much
+    // thicker than the base's features (blade.off at ratio 1, sheets folded close) thins as a
+    // front moving out ring by ring, new violations at its edge each round, which 40 rounds did
+    // not see through. A vertex behind the front can stay in a violation only because a triangle
+    // it shares reaches a vertex of the front: it stops at its last thinning while the front
+    // goes on. A violation from the base itself (a rim folded flat, parts touching) has its
+    // vertices thinned every round, so it ends the start at round max_rounds, as before; thinning
+    // those on would only shear their neighbours into new violations.
+    if (s.rounds >= kMaxRoundsFactor * options.max_rounds) break;
     const Eigen::VectorXd before = s.scale;
+    bool thinned = false;
     for (int i = 0; i < n; ++i)
-      if (thin[i]) s.scale[i] *= options.thinning, ++thinnings[i];
+      if (thin[i] && thinnings[i] < options.max_rounds - 1) s.scale[i] *= options.thinning, ++thinnings[i], thinned = true;
+    if (!thinned) break;
     // Thickness steps between neighbours shear the prisms between them into new violations: keep
     // s_j <= spread * s_i along every edge, so a pulled-in spot slopes into its surroundings.
     if (options.spread > 1)

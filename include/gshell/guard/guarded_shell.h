@@ -80,9 +80,10 @@ struct GuardOptions {
   double start_spread = 0;     ///< ValidStartOptions::spread
   int start_refine = 6;        ///< ValidStartOptions::refine_passes (>= 0)
   double start_backoff = 0.7;  ///< ValidStartOptions::backoff, in (0, 1]
-  /// ValidStartOptions::max_rounds (>= 1): the start gives up when a vertex has been thinned one
-  /// time fewer, and leaves what it could not mend out of the guard (then reported,
-  /// `GuardedShell::start`). 40 reach 2^-39 of eta; only a degenerate base needs them all.
+  /// ValidStartOptions::max_rounds (>= 1): a vertex is thinned at most one time fewer; the start
+  /// gives up when every vertex of what is left has been, and leaves what it could not mend out
+  /// of the guard (then reported, `GuardedShell::start`). 40 reach 2^-39 of eta; only a
+  /// degenerate base needs them all.
   int start_max_rounds = 40;
   /// The start pulls an invalid top vertex towards its base vertex along the line joining them
   /// when that line sees every incident face with at least this cosine margin, otherwise along a

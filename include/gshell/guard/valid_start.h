@@ -36,10 +36,9 @@ struct ValidStartOptions {
   /// After the bisection, pulled-in s_i are lowered by this factor where that stays valid (a
   /// margin from the validity boundary the bisection ends next to), in (0, 1]; 1: none.
   double backoff = 1;
-  /// Thinnings of a vertex, plus one, before the start gives up (a violation that survives 2^-39
-  /// of the target thickness comes from the base itself, e.g. touching input triangles): it gives
-  /// up when a vertex of what is left has been thinned max_rounds - 1 times, or after
-  /// 10 x max_rounds rounds in all.
+  /// A vertex is thinned at most max_rounds - 1 times (a violation that survives 2^-39 of the
+  /// target thickness comes from the base itself, e.g. touching input triangles). The start gives
+  /// up when every top vertex of what is left has been, or after 10 x max_rounds rounds in all.
   int max_rounds = 40;
 };
 
@@ -47,7 +46,7 @@ struct ValidStart {
   Eigen::MatrixXd top;        ///< n x 3
   Eigen::VectorXd scale;      ///< s_i
   int rounds = 0;             ///< checks run
-  /// What the last check still found (empty unless max_rounds ran out): tets that are not skipped
+  /// What the last check still found (empty unless the start gave up): tets that are not skipped
   /// and pairs of boundary rows of which neither is excluded (base/base pairs are not reported).
   std::vector<int> inverted_tets;
   std::vector<std::pair<int, int>> intersections;
