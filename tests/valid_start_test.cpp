@@ -25,6 +25,12 @@ void expect_certified_valid(const TriMesh& m, const ValidStart& s) {
   EXPECT_TRUE(s.inverted_tets.empty() && s.intersections.empty());
 }
 
+// The start from the offset surface at thickness eta, with the extrusion directions of (V, F).
+ValidStart start_of_offset(const TriMesh& m, double eta, ValidStartOptions options = {}) {
+  options.fallback_length = eta;
+  return valid_start(m.V, m.F, offset_top(m.V, m.F, eta), extrusion_directions(m.V, m.F), {}, {}, options);
+}
+
 } // namespace
 
 TEST(ValidStart, BisectionRaisesThePulledInVerticesAndStaysValid) {
@@ -88,23 +94,20 @@ TEST(ValidStart, AThinningFrontLongerThanMaxRoundsStillEndsValid) {
     m.V(i, 1) *= 0.2;
   }
   const double eta = 2;
-  const Eigen::MatrixXd P = offset_top(m.V, m.F, eta);
-  const ExtrusionDirections d = extrusion_directions(m.V, m.F);
   ValidStartOptions options;
-  options.fallback_length = eta;
-  const ValidStart all = valid_start(m.V, m.F, P, d, {}, {}, options);
+  const ValidStart all = start_of_offset(m, eta, options);
   expect_certified_valid(m, all);
   const int thinnings = static_cast<int>(std::lround(-std::log2(all.scale.minCoeff()))); // the most of one vertex
   ASSERT_GT(all.rounds, thinnings + 2) << "the case no longer thins as a front";
   // Rounds enough for every vertex's thinnings, fewer than the front needs in all: the same start.
   options.max_rounds = thinnings + 2;
-  const ValidStart front = valid_start(m.V, m.F, P, d, {}, {}, options);
+  const ValidStart front = start_of_offset(m, eta, options);
   expect_certified_valid(m, front);
   EXPECT_EQ(front.rounds, all.rounds);
   EXPECT_TRUE(front.scale == all.scale);
   // No thinning allowed: given up at the first check, with what it found reported.
   options.max_rounds = 1;
-  const ValidStart none = valid_start(m.V, m.F, P, d, {}, {}, options);
+  const ValidStart none = start_of_offset(m, eta, options);
   EXPECT_EQ(none.rounds, 1);
   EXPECT_FALSE(none.inverted_tets.empty());
 }
@@ -132,12 +135,8 @@ TEST(ValidStart, AVertexThinnedAsOftenAsItMayWaitsWhileTheFrontGoesOn) {
   }
   m.F << c.F, c.F.array() + static_cast<int>(n);
   ASSERT_TRUE(certify_shell(m.V, m.V, m.F).base_self_intersections == 0) << "the slabs touch";
-  const double eta = 0.15;
-  const Eigen::MatrixXd P = offset_top(m.V, m.F, eta);
-  const ExtrusionDirections d = extrusion_directions(m.V, m.F);
-  ValidStartOptions options;
-  options.fallback_length = eta;
-  const ValidStart s = valid_start(m.V, m.F, P, d, {}, {}, options);
+  const ValidStartOptions options;
+  const ValidStart s = start_of_offset(m, 0.15, options);
   expect_certified_valid(m, s);
   // Every vertex thinned at most max_rounds - 1 times, and one as often as that, before the end.
   EXPECT_EQ(s.scale.minCoeff(), std::pow(options.thinning, options.max_rounds - 1));
