@@ -235,6 +235,11 @@ TEST(PoseCli, WritesTheDeformedShellAndAReport) {
     last = step["energy"].get<double>();
     EXPECT_GE(step["seconds"].get<double>(), 0);
   }
+  // The shell written is the last step's, and so is the validity at the top of the report.
+  EXPECT_EQ(report["valid"], report["steps"][2]["valid"]);
+  EXPECT_EQ(report["certificate"], report["steps"][2]["certificate"]);
+  EXPECT_TRUE(report["valid"].get<bool>());
+  EXPECT_EQ(report["certificate"]["inverted_tets"].get<int>(), 0);
   EXPECT_EQ(report["solver"], "hierarchical");
   EXPECT_EQ(report["mode"], "hard");
   EXPECT_EQ(report["thickness"].get<double>(), s.thickness);

@@ -17,9 +17,12 @@
 #include "invalid_items_warning.h"
 #include "run/output_folder_files.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <Eigen/SVD>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -41,14 +44,21 @@ double median(std::vector<double> v) {
 }
 
 // Whether `frame` is the rest base turned inside out (`rest_centred`: the rest base minus its
-// centroid a): the least-squares linear map between them about their centroids, A = M C^-1 with
-// C = sum (r - a)(r - a)^T > 0, has det A < 0, i.e. det M < 0. Relative to M's size, so that a rest
-// base flat to rounding (a plane, where a mirror is a turn and the top rightly follows) or a frame
-// squashed flat does not count.
+// centroid a): the least-squares linear map between them about their centroids,
+// A = M C^+ with M = sum (f - f_mean)(r - a)^T and C = sum (r - a)(r - a)^T, reverses orientation
+// clearly: det A < -0.1 sigma_max(A)^3. On a rest base flat to rounding (a plane, where a mirror
+// is a turn and the top rightly follows) A has rank 2 and det 0; a frame squashed flat, or twisted
+// by whole turns about an axis (A's block across the axis then averages to about zero: the sign
+// of det M was rounding for `animate --twist 720`), is not a mirror either.
 bool mirrors(const Eigen::MatrixXd& rest_centred, const Eigen::MatrixXd& frame) {
   const Eigen::Matrix3d M = (frame.rowwise() - frame.colwise().mean()).transpose() * rest_centred;
-  const double size = M.norm();
-  return M.determinant() < -1e-6 * size * size * size;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> C(rest_centred.transpose() * rest_centred);
+  Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k)
+    if (C.eigenvalues()[k] > 1e-12 * C.eigenvalues()[2]) inverse[k] = 1 / C.eigenvalues()[k];
+  const Eigen::Matrix3d A = M * C.eigenvectors() * inverse.asDiagonal() * C.eigenvectors().transpose();
+  const double largest = Eigen::JacobiSVD<Eigen::Matrix3d>(A).singularValues()[0];
+  return A.determinant() < -0.1 * largest * largest * largest;
 }
 
 // Writes frame folder `dir` for the shell vertices X (2n x 3).
@@ -139,6 +149,18 @@ std::vector<std::string> DeformRun::warnings() const {
   const std::string line =
       detail::invalid_items_warning(invalid, static_cast<int>(frames.size()), "frame", options.frame.allow_invalid);
   if (!line.empty()) out.push_back(line);
+  // The outputs are numbered by position: a folder whose frame numbers skip (frame_0001,
+  // frame_0003) ran without a word, its frame_0003 written as frame_0002.
+  for (const DeformFrameRecord& f : frames) {
+    std::string extension = fs::path(f.base).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (const std::optional<int> k = frame_number(fs::path(f.base).filename().string(), extension); k && *k != f.frame) {
+      out.push_back("the frames' numbers do not run 1, 2, 3 ...: " + f.base + " is frame " + std::to_string(f.frame) +
+                    " of the run, and the outputs are numbered by position (" + frame_name(f.frame) + ")");
+      break;
+    }
+  }
   std::vector<int> degenerate;
   int most = 0;
   for (const DeformFrameRecord& f : frames)

@@ -128,6 +128,14 @@ nlohmann::ordered_json PoseResult::to_json() const {
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (const PoseStepReport& s : steps) list.push_back(s.to_json());
   j["steps"] = list;
+  // The shell written is the last step's: its validity also at the top, where generate, deform's
+  // summary and metrics put theirs (a reader looking for `valid` found none).
+  if (!steps.empty() && steps.back().certified) {
+    const nlohmann::ordered_json last = list.back();
+    j["valid"] = last["valid"];
+    j["certificate"] = last["certificate"];
+    j["base_self_intersections"] = last["base_self_intersections"];
+  }
   j["warnings"] = warnings();
   j.update(stretch_report(stretch));
   return j;
