@@ -98,12 +98,14 @@ void run(const CLI::App& cmd, DeformArgs& a) {
                   f.result.valid ? "valid" : "INVALID", frame_method_name(f.result.method));
     std::string line = text;
     if (f.result.substeps > 1) line += ", " + std::to_string(f.result.substeps) + " sub-steps";
-    if (f.result.method == FrameMethod::Failed && f.result.fresh_top) line += ", fresh top";
+    if ((f.result.method == FrameMethod::Failed || f.result.method == FrameMethod::TetsOnly) && f.result.fresh_top)
+      line += ", fresh top";
     line += ")";
     if (f.result.certificate.inverted_tets > 0) line += ", " + std::to_string(f.result.certificate.inverted_tets) + " inverted";
     if (!f.result.valid) {
       const std::string faults = unavoidable_faults(f.result.certificate.base_self_intersections, f.result.unextrudable_vertices);
       if (!faults.empty()) line += "; " + faults;
+      else if (f.result.base_nearly_touching) line += "; parts of its base nearly touch";
     }
     if (f.offset) {
       std::snprintf(text, sizeof text, " | offset %.3g, %d inverted", f.offset->volume_mean, f.offset->inverted);

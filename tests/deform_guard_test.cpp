@@ -1312,5 +1312,60 @@ TEST(PoseGuard, GuardOptionsOutOfRangeAreAnInputErrorNamingThem) {
   expect_named("mend_max_rise", [](GuardOptions& g) { g.mend_max_rise = std::nan(""); });
 }
 
+// A plane folded through itself by 200 degrees in one frame (`gshell animate --bend 200 --band
+// 0.2`): the drag stalls at the new crossings and the frame is invalid whatever is made of it.
+// Finished by the tets-only drag, which guards no pair, it kept top/base and wall pairs across the
+// fold's whole inner band (415 pairs more than a ring from the crossings); the fresh top, made as
+// generation makes one and clean on generation's terms, keeps every pair next to them and is
+// returned instead.
+TEST(DeformGuard, AFoldThroughItselfKeepsItsFaultsNextToTheCrossings) {
+  const Shell rest = flat_plane_shell(32, 0.0707);
+  const int n = rest.num_base_vertices();
+  const Eigen::MatrixXd folded = bend(rest.base, motion_frame(rest.base), 200, 0.2);
+  ShellDeformer deformer(rest);
+  const FrameResult r = deformer.solve(folded);
+  const ShellCertificate c = certify_shell(folded, r.top, rest.F);
+  ASSERT_GT(c.base_self_intersections, 0);
+  EXPECT_FALSE(r.valid);
+  EXPECT_EQ(c.inverted_tets, 0);
+  EXPECT_TRUE(r.fresh_top) << frame_method_name(r.method);
+  // Within a ring of the crossing faces' vertices, as generation over the same base keeps them.
+  std::vector<char> near(n, 0);
+  for (const auto& [f, g] : surface_self_intersections(folded, rest.F))
+    for (int k = 0; k < 3; ++k) near[rest.F(f, k)] = near[rest.F(g, k)] = 1;
+  std::vector<char> ring = near;
+  for (int f = 0; f < rest.F.rows(); ++f)
+    if (near[rest.F(f, 0)] || near[rest.F(f, 1)] || near[rest.F(f, 2)])
+      for (int k = 0; k < 3; ++k) ring[rest.F(f, k)] = 1;
+  const ShellBoundary boundary = shell_boundary(rest.F, n);
+  const auto close = [&](int row) {
+    const int f = boundary.face[row];
+    return ring[rest.F(f, 0)] || ring[rest.F(f, 1)] || ring[rest.F(f, 2)];
+  };
+  int away = 0;
+  for (const BoundaryIntersection& pair : c.intersections) away += !close(pair.a) && !close(pair.b);
+  EXPECT_EQ(away, 0) << "of " << c.intersections.size() << " intersecting pairs";
+}
+
+// A plane bent by exactly 360 degrees: its two ends meet to rounding, which the exact test does not
+// count as a crossing, and no layer fits between them. The frame is not valid and says why (the
+// fresh top's valid start could not thin the layer enough there), rather than that the guard
+// failed for no reason.
+TEST(DeformGuard, ABaseWhoseEndsTouchIsNamedAsTouching) {
+  const Shell rest = flat_plane_shell(16, 0.07);
+  const Eigen::MatrixXd closed = bend(rest.base, motion_frame(rest.base), 360);
+  ShellDeformer deformer(rest);
+  const FrameResult r = deformer.solve(closed);
+  const ShellCertificate c = certify_shell(closed, r.top, rest.F);
+  ASSERT_EQ(c.base_self_intersections, 0) << "the ends cross: the case no longer touches";
+  ASSERT_FALSE(r.valid) << frame_method_name(r.method);
+  EXPECT_TRUE(r.base_nearly_touching);
+  EXPECT_EQ(c.inverted_tets, 0);
+  // A frame that does fit keeps no such flag.
+  const FrameResult open = deformer.solve(bend(rest.base, motion_frame(rest.base), 300));
+  EXPECT_TRUE(open.valid);
+  EXPECT_FALSE(open.base_nearly_touching);
+}
+
 } // namespace
 } // namespace gshell

@@ -482,6 +482,16 @@ TEST(DeformRun, InvalidFramesAreNamedInAWarningByCause) {
   EXPECT_EQ(run.warnings()[1].rfind("frame 2 has base faces of zero area (up to 2 a frame: a collapsed edge or "
                                     "collinear corners)", 0), 0u) << run.warnings()[1];
   EXPECT_EQ(run.to_json()["frames"][1]["zero_area_faces"], 2);
+  // A base whose parts touch to rounding crosses nothing by the exact test, yet no layer fits
+  // between them (a plane bent by exactly 360 degrees): named as such, not as the guard's failure;
+  // a frame whose base also crosses itself is named for the crossing alone.
+  run.frames[2].result.base_nearly_touching = true;
+  run.frames[4].result.base_nearly_touching = true;
+  EXPECT_EQ(run.warnings()[0], "3 of 5 frames are not valid: the base crosses itself in frames 2, 5; base vertices "
+                               "cannot be extruded in frame 5; parts of the base touch or nearly touch in frame 3 "
+                               "(closer than the layer can thin between them) (report.json has each frame's "
+                               "certificate)");
+  EXPECT_EQ(run.to_json()["frames"][2]["base_nearly_touching"], true);
 
   PoseResult pose;
   auto step = [&](bool valid, bool blocked, int crossings) {

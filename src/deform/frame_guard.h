@@ -68,8 +68,11 @@ public:
   ShellCertificate certify(const Eigen::MatrixXd& X);
   /// Whether a certificate finds nothing wrong that this guard keeps right: every inverted tet is
   /// one it leaves out (flat at rest, or at an unextrudable vertex), every intersecting pair
-  /// touches a triangle it leaves out (around the rest's own intersections).
-  bool only_unguarded_faults(const ShellCertificate& certificate) const;
+  /// touches a triangle it leaves out (around the rest's own intersections). With
+  /// `near_left_out`, on guarded generation's terms instead: every pair touches a triangle that
+  /// shares a vertex with one left out (those the contact guard cannot protect:
+  /// GuardedShell::unprotected_triangles).
+  bool only_unguarded_faults(const ShellCertificate& certificate, bool near_left_out = false) const;
   /// Chooses what the guard leaves out from the state `from` (2n x 3, a frame made by this guard)
   /// on: what the rest shell leaves out (above); the tets not positive at `from` (left inverted
   /// by an earlier choice) and, where the last choice left out more triangles than the rest's,

@@ -414,7 +414,8 @@ bool fewer_faults(const ShellCertificate& a, const ShellCertificate& b) {
 
 } // namespace
 
-ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options) {
+ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options,
+                                           bool& start_gave_up) {
   const int n = rest_.num_base_vertices();
   SolveOptions paper;
   paper.max_iterations = options.max_iterations;
@@ -427,6 +428,7 @@ ShellCertificate ShellDeformer::regenerate(const Eigen::MatrixXd& X, Eigen::Matr
                                            generation_guard_options(), paper, {}, X.bottomRows(n));
   Y.resize(2 * n, 3);
   Y << X.topRows(n), fresh.top;
+  start_gave_up = !fresh.start.inverted_tets.empty() || !fresh.start.intersections.empty();
   return guard_->certify(Y);
 }
 
@@ -566,9 +568,9 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   // still fails, the fresh top is taken when it is clean on the new terms.
   Eigen::MatrixXd fresh;
   ShellCertificate fresh_certificate;
-  bool left_out = false, regeneration_tried = false, fresh_returned = false;
+  bool left_out = false, regeneration_tried = false, fresh_returned = false, start_gave_up = false;
   const auto regenerated = [&] {
-    if (!regeneration_tried) fresh_certificate = regenerate(X, fresh, options);
+    if (!regeneration_tried) fresh_certificate = regenerate(X, fresh, options, start_gave_up);
     regeneration_tried = true;
     return guard_->only_unguarded_faults(fresh_certificate);
   };
@@ -598,6 +600,16 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     };
     outcome.iterations +=
         guard_->drag(Y, X, 1, contacts, false, solve, options.substep_tolerance, {}, polish).iterations;
+  } else if ((outcome.method == FrameMethod::Failed || outcome.method == FrameMethod::TetsOnly) &&
+             regeneration_tried && fresh.rows() > 0 &&
+             guard_->only_unguarded_faults(fresh_certificate, /*near_left_out=*/true)) {
+    // Invalid either way, the fresh top is returned where it is clean on guarded generation's
+    // terms (its faults at most a vertex away from what is left out): the tets-only drag guards
+    // no pair, and its faults spread (a plane folded through itself by 200 degrees in one frame:
+    // top/base and wall pairs 12 rings, 1.7 eta, from the crossings; the fresh top's all within
+    // one ring). Not carried forward: its method stays tets_only or failed.
+    Y = std::move(fresh);
+    fresh_returned = true;
   } else if (outcome.method == FrameMethod::Failed && guard_->accepts(previous, X, false, nullptr)) {
     // Not even the tets could follow the drag: the paper's solve is still taken as tets-only when
     // the straight path to it keeps every guarded tet positive (it then inverts none of them).
@@ -622,6 +634,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   result.substeps = outcome.substeps;
   result.guarded_iterations = mended.iterations + outcome.iterations; // a declined mend's too
   result.valid = dragged_valid;
+  result.base_nearly_touching = !dragged_valid && start_gave_up;
   // The frame returned when not valid (tets only, or the paper's solve) is never carried forward.
   carry_forward(result.valid && clean_on_rest_terms(*guard_), last, current_clean_, resume_);
   if (outcome.method != FrameMethod::Failed || fresh_returned) { // else the paper's solve stands

@@ -114,6 +114,7 @@ nlohmann::ordered_json frame_json(const FrameResult& r) {
   j["method"] = frame_method_name(r.method);
   j["resumed"] = r.resumed;
   j["fresh_top"] = r.fresh_top;
+  j["base_nearly_touching"] = r.base_nearly_touching;
   j["substeps"] = r.substeps;
   j["guarded_iterations"] = r.guarded_iterations;
   j["thinned_vertices"] = r.thinned_vertices;
@@ -144,7 +145,7 @@ std::vector<std::string> DeformRun::warnings() const {
   for (const DeformFrameRecord& f : frames)
     if (!f.result.valid)
       invalid.add(f.frame, f.result.certificate.base_self_intersections > 0, !f.result.unextrudable_vertices.empty(),
-                  f.result.rest_faults_only);
+                  f.result.rest_faults_only, f.result.base_nearly_touching);
   std::vector<std::string> out;
   const std::string line =
       detail::invalid_items_warning(invalid, static_cast<int>(frames.size()), "frame", options.frame.allow_invalid);

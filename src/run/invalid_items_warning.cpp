@@ -25,6 +25,9 @@ std::string invalid_items_warning(const InvalidItems& items, int total, const st
     const char* verb = items.rest_faults.size() == 1 ? " keeps" : " keep";
     causes.push_back(named(items.rest_faults) + verb + " the rest shell's own faults");
   }
+  if (!items.touching.empty())
+    causes.push_back("parts of the base touch or nearly touch in " + named(items.touching) +
+                     " (closer than the layer can thin between them)");
   if (!items.unexplained.empty())
     causes.push_back(unguarded ? named(items.unexplained) + " unguarded (allow_invalid)"
                                : "the guard could not make " + named(items.unexplained) + " valid");

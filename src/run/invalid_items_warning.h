@@ -14,14 +14,17 @@ struct InvalidItems {
   std::vector<int> crossing;     ///< the base crosses itself there
   std::vector<int> unextrudable; ///< base vertices that cannot be extruded there
   std::vector<int> rest_faults;  ///< invalid only where the rest shell is not valid itself
+  std::vector<int> touching;     ///< parts of the base nearly touch (closer than the layer can thin)
   std::vector<int> unexplained;  ///< none of these: left invalid by the guard (or unguarded)
   /// Files an invalid item under its causes.
-  void add(int id, bool base_crosses, bool has_unextrudable, bool only_rest_faults) {
+  void add(int id, bool base_crosses, bool has_unextrudable, bool only_rest_faults, bool base_touches = false) {
     all.push_back(id);
     if (base_crosses) crossing.push_back(id);
     if (has_unextrudable) unextrudable.push_back(id);
     if (only_rest_faults) rest_faults.push_back(id);
-    if (!base_crosses && !has_unextrudable && !only_rest_faults) unexplained.push_back(id);
+    // Touching explains a frame only where nothing above does (a base crossing itself touches too).
+    if (base_touches && !base_crosses && !has_unextrudable && !only_rest_faults) touching.push_back(id);
+    else if (!base_crosses && !has_unextrudable && !only_rest_faults) unexplained.push_back(id);
   }
 };
 

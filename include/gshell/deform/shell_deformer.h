@@ -171,6 +171,11 @@ struct FrameResult {
   /// The frame's top is the one made afresh over the new base (method Regenerated, or a Failed
   /// frame where that top had fewer faults than the paper's solve), not a solve from the last frame.
   bool fresh_top = false;
+  /// The top made afresh over this frame's base (tried when the drag stalled) could not be made
+  /// valid by thinning: parts of the base lie closer to each other than 2^-39 of the layer
+  /// (touching, e.g. the ends of a plane bent by exactly 360 degrees), which a frame not valid for
+  /// no other reason names as its cause.
+  bool base_nearly_touching = false;
 };
 
 /// Rest shapes for deforming a shell: its own 3m tets (no cracks). A generated shell may hold a
@@ -224,8 +229,10 @@ private:
   void take_mended(Eigen::MatrixXd& X, FrameMend& mended, int iterations, FrameResult& result);
   // After a stalled drag: Y = the top over X's base made afresh (guarded_shell towards the
   // solver's rest shapes, its paper iterations started from X's top, the frame's own solve), and
-  // its exact certificate.
-  ShellCertificate regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options);
+  // its exact certificate. `start_gave_up`: its valid start could not mend everything (parts of the
+  // base nearly touching).
+  ShellCertificate regenerate(const Eigen::MatrixXd& X, Eigen::MatrixXd& Y, const DeformOptions& options,
+                              bool& start_gave_up);
 
   std::unique_ptr<FrameGuard> guard_; ///< built at the first guarded frame
   bool current_clean_ = true; ///< current_ is valid for the guard (not after TetsOnly or Failed)
