@@ -157,6 +157,28 @@ TEST(SvgPlot, IsBalancedAndEscapesText) {
   EXPECT_EQ(tag_balance_problem(svg_line_plot(std::vector<double>{}, options)), ""); // no data: still a valid element
 }
 
+// Counts that stay zero over a run (base crossings per frame) are drawn on an axis from 0, not
+// from -1 as if negative counts were possible; a negative constant keeps room below.
+TEST(SvgPlot, AConstantSeriesKeepsItsSignOnTheAxis) {
+  const auto tick_labels = [](const std::string& svg) {
+    std::vector<std::string> labels;
+    for (std::size_t at = svg.find("text-anchor=\"end\">"); at != std::string::npos;
+         at = svg.find("text-anchor=\"end\">", at + 1)) {
+      const std::size_t from = svg.find('>', at) + 1;
+      labels.push_back(svg.substr(from, svg.find('<', from) - from));
+    }
+    return labels;
+  };
+  const std::vector<std::string> zeros = tick_labels(svg_line_plot({0, 0, 0, 0}, PlotOptions{}));
+  ASSERT_FALSE(zeros.empty());
+  EXPECT_EQ(zeros.front(), "0");
+  for (const std::string& label : zeros) EXPECT_NE(label.front(), '-') << label;
+  const std::vector<std::string> negative = tick_labels(svg_line_plot({-2, -2, -2}, PlotOptions{}));
+  ASSERT_FALSE(negative.empty());
+  EXPECT_EQ(negative.front().front(), '-');
+  EXPECT_LT(std::stod(negative.front()), -2);
+}
+
 TEST(XmlEscape, WritesOnlyUtf8WithoutControlCharacters) {
   EXPECT_EQ(xml_escape("a<b>&\"'"), "a&lt;b&gt;&amp;&quot;&apos;");
   const std::string fffd = "\xef\xbf\xbd";

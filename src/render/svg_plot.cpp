@@ -67,8 +67,10 @@ std::string svg_line_plot(const std::vector<PlotSeries>& series, const PlotOptio
   } else {
     if (y_lo > 0 && y_lo < 0.5 * y_hi) y_lo = 0; // start at zero unless the data sits far from it
     if (!(y_hi > y_lo)) {
+      // A constant series (counts that stay 0) is padded, but not below zero when it is not
+      // negative: an axis from -1 suggested negative counts were possible.
       const double pad = std::abs(y_hi) > 0 ? 0.1 * std::abs(y_hi) : 1;
-      y_lo -= pad;
+      y_lo = y_lo >= 0 ? std::max(0.0, y_lo - pad) : y_lo - pad;
       y_hi += pad;
     }
     const std::vector<double> t = linear_ticks(y_lo, y_hi, 5);
