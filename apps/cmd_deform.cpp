@@ -32,12 +32,15 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   cli::check_flags(cmd, [&] {
     a.options.frame.warm_start = parse_warm_start(a.warm_start);
     a.options.check();
+    // An empty name (an unset shell variable) ran without detail and without a word.
+    if (cmd.count("--embed") > 0 && a.embed.empty()) throw InputError("--embed: the detail mesh's name is empty");
   });
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   // Everything that can be wrong with the input is found before any work or output.
   check_output_folder(a.out, holds_only_deform_output);
   const DeformInput input = load_deform_input(a.shell, a.frames, a.embed);
   if (!input.rest_warning.empty()) cli::print_warning("deform", input.rest_warning);
+  cli::print_warnings("deform", input.detail_warnings);
 
   cli::Progress progress("deform");
   // A long frame (a guarded one of a large shell, one whose guard regenerates its top) shows its

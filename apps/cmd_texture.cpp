@@ -2,10 +2,12 @@
 #include "command_registry.h"
 #include "output_file.h"
 #include "progress.h"
+#include "warnings.h"
 
 #include <gshell/deform/geometric_texture.h>
 #include <gshell/error.h>
 #include <gshell/geometry/validate_mesh.h>
+#include <gshell/io/load_mesh.h>
 #include <gshell/io/read_mesh.h>
 #include <gshell/io/write_mesh.h>
 #include <gshell/run/shell_folder.h>
@@ -33,11 +35,15 @@ void run_texture(const TextureArgs& args) {
   const gshell::TriMesh& uv_source = folder.surface;
   if (!uv_source.has_uv())
     throw gshell::InputError(gshell::with_file(args.shell, "base.obj has no texture coordinates (vt)"));
-  const gshell::TriMesh tile =
-      gshell::is_builtin_tile(args.tile) ? gshell::make_builtin_tile(args.tile) : gshell::read_mesh(args.tile);
+  std::vector<std::string> tile_warnings, skipped;
+  const gshell::TriMesh tile = gshell::is_builtin_tile(args.tile) ? gshell::make_builtin_tile(args.tile)
+                                                                  : gshell::read_mesh(args.tile, &tile_warnings, &skipped);
   if (tile.num_vertices() == 0 || tile.num_faces() == 0)
     throw gshell::InputError(gshell::with_file(args.tile, "the tile has no faces"));
   gshell::require_usable_coordinates(tile.V, args.tile);
+  gshell::require_usable_texture_coordinates(tile, args.tile);
+  if (!skipped.empty()) tile_warnings.push_back(gshell::carried_data_warning(args.tile, skipped, args.out));
+  gshell::cli::print_warnings("texture", tile_warnings);
   // What is left to go wrong is the base's UV layout (every UV triangle degenerate) or the number
   // of tiles over it: named by the shell folder, the input that holds the layout.
   gshell::GeometricTexture texture;

@@ -100,8 +100,7 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames,
   DeformInput input;
   input.shell_name = "<gshell.Shell>";
   input.shell = shell.shell;
-  input.surface.V = shell.shell.base;
-  input.surface.F = shell.shell.F;
+  input.surface = shell.surface();
   const int n = shell.shell.num_base_vertices();
   if (py::len(frames) == 0) value_error("frames is empty: give at least one new base");
   std::vector<Eigen::MatrixXd> bases;

@@ -53,16 +53,18 @@ ShellObject measured_shell(Shell shell) {
 
 // Pickling (multiprocessing, joblib, caches): the arrays, the thickness, the per-tet stretch and
 // the report as they are, so an unpickled shell is the same shell without measuring it again.
-constexpr int kShellStateVersion = 1;
+constexpr int kShellStateVersion = 2; // 2: with the base's texture coordinates
 
 py::tuple shell_state(const ShellObject& s) {
   return py::make_tuple(kShellStateVersion, from_matrix(s.shell.base), from_indices(s.shell.F), from_matrix(s.shell.top),
                         s.shell.thickness, from_vector(s.stretch),
-                        s.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), s.folder);
+                        s.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), s.folder,
+                        s.uv.size() ? py::object(from_matrix(s.uv)) : py::none(),
+                        s.fuv.size() ? py::object(from_indices(s.fuv)) : py::none());
 }
 
 ShellObject shell_from_state(const py::tuple& t) {
-  if (t.size() != 8 || !py::isinstance<py::int_>(t[0]) || t[0].cast<int>() != kShellStateVersion)
+  if (t.size() != 10 || !py::isinstance<py::int_>(t[0]) || t[0].cast<int>() != kShellStateVersion)
     value_error("Shell: not the state of a pickled gshell.Shell of this version");
   ShellObject s;
   s.shell.base = to_matrix(t[1], "base", 3);
@@ -76,6 +78,11 @@ ShellObject shell_from_state(const py::tuple& t) {
   s.report = nlohmann::json::parse(t[6].cast<std::string>(), nullptr, false);
   if (!s.report.is_object()) value_error("Shell: the pickled report is not a JSON object");
   s.folder = t[7].cast<std::string>();
+  if (!t[8].is_none() || !t[9].is_none()) {
+    s.uv = to_matrix(t[8], "uv", 2);
+    s.fuv = to_indices(t[9], "uv faces", 3, static_cast<int>(s.uv.rows()));
+    if (s.fuv.rows() != s.shell.F.rows()) value_error("Shell: the pickled uv faces do not match the faces");
+  }
   s.tets = build_prism_tets(s.shell.F, n);
   return s;
 }
@@ -99,8 +106,11 @@ ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayA
 
 ShellObject load_shell_py(const std::filesystem::path& dir) {
   py::gil_scoped_release release;
-  ShellObject s = measured_shell(read_shell_folder(dir.string()).shell);
+  ShellFolder folder = read_shell_folder(dir.string());
+  ShellObject s = measured_shell(std::move(folder.shell));
   s.folder = dir.string(); // Poser.write refuses it, as gshell pose refuses -o equal to --shell
+  s.uv = std::move(folder.surface.UV);
+  s.fuv = std::move(folder.surface.FUV);
   return s;
 }
 

@@ -49,7 +49,7 @@ std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::str
     throw InputError("levels applies only to solver='hierarchical'");
   if (levels) options.hierarchy.levels = levels->checked("levels");
   options.check();
-  auto p = std::make_unique<PoserObject>(DragSession(shell.shell, options));
+  auto p = std::make_unique<PoserObject>(DragSession(shell.shell, options, shell.surface()));
   p->session.set_undo_depth(0); // Poser has no undo: keep no copies of the shell
   // As gshell pose: the report names the rest shell's folder, and write() refuses to replace it.
   p->session.set_names(shell.folder, "");

@@ -3,6 +3,7 @@
 // it (tets, per-tet stretch, the report). Deformer, Poser and embed take it.
 #include "initialised_caster.h"
 
+#include <gshell/mesh.h>
 #include <gshell/shell/shell.h>
 
 #include <Eigen/Core>
@@ -18,6 +19,20 @@ struct ShellObject {
   Eigen::VectorXd stretch;    ///< per tet, against the normal prisms of thickness eta
   nlohmann::json report;      ///< generate_report for generated shells, metrics_report otherwise
   std::string folder;         ///< the folder load_shell read it from; empty for shells made in Python
+  /// The base's texture coordinates and their corners (TriMesh::UV, FUV) where the folder's
+  /// base.obj had them, so that what Poser.write and deform(output=) save keeps them as the
+  /// CLI's folders do (`gshell texture` reads them there); empty otherwise.
+  Eigen::MatrixXd uv;
+  Eigen::MatrixXi fuv;
+  /// The base as a surface: faces, and the texture coordinates above.
+  TriMesh surface() const {
+    TriMesh m;
+    m.V = shell.base;
+    m.F = shell.F;
+    m.UV = uv;
+    m.FUV = fuv;
+    return m;
+  }
 };
 
 } // namespace gshell::python

@@ -343,6 +343,25 @@ TEST(CliMessages, TextureCoordinatesAndTexturesNameTheirFile) {
 
   const std::string shell = dir.file("plane"), tiled = " -o " + quoted(dir.file("t.obj"));
   ASSERT_EQ(run_cli("generate builtin:plane:4 --thickness-ratio 0.05 -q -o " + quoted(shell)).exit_code, 0);
+  // A tile or a detail mesh is carried into an output: a NaN texture coordinate is an error (it
+  // was written out as `vt nan`), data it holds that the output does not (normals, materials)
+  // and a partial set of texture coordinates are warnings (they were dropped without a word).
+  expect_error_line("texture --shell " + quoted(shell) + " --tile " + quoted(nan_uv) + tiled, message);
+  const std::string deformed = " -o " + quoted(dir.file("d")) + " --embed ";
+  const std::string deform = "deform --shell " + quoted(shell) + " --base " + quoted(shell + "/base.obj");
+  expect_error_line(deform + deformed + quoted(nan_uv), message);
+  expect_error_line(deform + deformed + "''", "--embed: the detail mesh's name is empty");
+  const std::string normals = dir.file("normals.obj");
+  write_text(normals, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\n"
+                      "f 1//1 3//1 2//1\nf 1//1 2//1 4//1\nf 1//1 4//1 3//1\nf 2//1 3//1 4//1\n");
+  const auto carried = run_cli(deform + deformed + quoted(normals) + " -q");
+  EXPECT_EQ(carried.exit_code, 0) << carried.err;
+  EXPECT_NE(carried.err.find("gshell deform: warning: " + normals + ": its normals are not carried into detail.obj"),
+            std::string::npos) << carried.err;
+  const auto partly = run_cli("texture --shell " + quoted(shell) + " --tile " + quoted(partial) + tiled + " -q");
+  EXPECT_EQ(partly.exit_code, 0) << partly.err;
+  EXPECT_NE(partly.err.find("gshell texture: warning: " + partial + ": " + dropped), std::string::npos) << partly.err;
+  std::filesystem::remove(dir.file("t.obj"));
   expect_error_line("texture --shell " + quoted(shell) + " --tile builtin:sphere:1" + tiled,
                     "builtin:sphere:1: unknown tile (built-in tiles: builtin:bumps[:N])");
   expect_error_containing("texture --shell " + quoted(shell) + " --tile builtin:bumps:4 --repeat 100000 100000" + tiled,

@@ -2,6 +2,7 @@
 #include <gshell/deform/geometric_texture.h>
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/shell/offset_shell.h>
 #include <gshell/shell/prism_tets.h>
 
 #include <Eigen/Geometry>
@@ -99,6 +100,55 @@ TEST(GeometricTexture, TilesOverAMirroredUvLayoutKeepFacingAsInTheTile) {
       for (int k = 0; k < 3; ++k) // each corner keeps its own texture coordinates
         EXPECT_EQ(tex.mesh.UV.row(tex.mesh.FUV(f, k)), ball.UV.row(tex.mesh.F(f, k) % ball.num_vertices()));
   }
+}
+
+/// Edges of `mesh` used by one face only.
+int boundary_edges(const TriMesh& mesh) {
+  std::map<std::pair<int, int>, int> uses;
+  for (int f = 0; f < mesh.num_faces(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3);
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  int once = 0;
+  for (const auto& [edge, count] : uses) once += count == 1;
+  return once;
+}
+
+// Tiles with matching borders over a torus close up across its UV seams, wherever the torus is:
+// the seam's points map through different texture tets to one position up to a rounding that
+// grows with the coordinates, and 1e5 from the origin it outgrew a tolerance of the output's size
+// alone (holes and non-manifold vertices along the seams).
+TEST(GeometricTexture, ATorusFarFromTheOriginStillClosesAcrossItsSeams) {
+  const TriMesh torus = make_torus(24);
+  const TriMesh tile = make_builtin_tile("builtin:bumps:8");
+  for (double away : {0.0, 1e5, 1e7}) {
+    SCOPED_TRACE(away);
+    Shell shell;
+    shell.base = torus.V.array() + away;
+    shell.top = offset_top(shell.base, torus.F, 0.07);
+    shell.F = torus.F;
+    shell.thickness = 0.07;
+    TriMesh layout = torus;
+    layout.V = shell.base;
+    const GeometricTexture tex = map_geometric_texture(shell, layout, tile, 3, 5);
+    EXPECT_EQ(boundary_edges(tex.mesh), 0);
+    EXPECT_EQ(tex.mesh.num_vertices(), 3 * 5 * 8 * 8); // every border point once
+  }
+}
+
+// Only copies are joined, where they meet: points a tile itself keeps apart inside it (two
+// triangles touching at a corner, a cut) stay apart, as `gshell info` shows them in the tile.
+TEST(GeometricTexture, CoincidentPointsInsideATileStayApart) {
+  TriMesh bowtie;
+  bowtie.V.resize(6, 3);
+  bowtie.V << 0.2, 0.2, 0.5, 0.5, 0.2, 0.5, 0.5, 0.5, 0.5, //
+      0.5, 0.5, 0.5, 0.8, 0.5, 0.5, 0.8, 0.8, 0.5;
+  bowtie.F.resize(2, 3);
+  bowtie.F << 0, 1, 2, 3, 4, 5;
+  const GeometricTexture tex = map_geometric_texture(flat_shell(make_plane(4), 0.2), make_plane(4), bowtie, 2, 2);
+  EXPECT_EQ(tex.joined, 0);
+  EXPECT_EQ(tex.mesh.num_vertices(), 4 * 6);
 }
 
 TEST(GeometricTexture, TextureSpaceTetsMatchTheShellTetsAndArePositive) {

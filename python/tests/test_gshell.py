@@ -808,6 +808,40 @@ HANDLES = {"handles": [
 ]}
 
 
+class TextureCoordinatesTest(TempDirTest):
+    def test_folders_written_from_a_loaded_shell_keep_its_uvs(self):
+        # Poser.write and deform(output=) wrote base.obj / top.obj without the base's `vt`, so
+        # `gshell texture` refused the folders the CLI's pose and deform would have written.
+        out = self.path("plane")
+        run_cli("generate", "builtin:plane:8", "-o", out, "--thickness", "0.1", "--quiet")
+        shell = gshell.load_shell(out)
+        lift = {"handles": [{"select": {"surface": "both", "box": [-2, -2, -1, -0.5, 2, 1]}},
+                            {"select": {"surface": "both", "box": [0.5, -2, -1, 2, 2, 1]}, "translate": [0, 0, 0.3]}]}
+
+        def vt_lines(path):
+            with open(path) as f:
+                return [line for line in f if line.startswith("vt ")]
+
+        expected = vt_lines(os.path.join(out, "base.obj"))
+        self.assertEqual(len(expected), 81)
+        for copy in (shell, pickle.loads(pickle.dumps(shell))):
+            posed = self.path("posed")
+            shutil.rmtree(posed, ignore_errors=True)
+            poser = gshell.Poser(copy, solver="single")
+            poser.solve(lift, iterations=20, steps=1)
+            poser.write(posed)
+            for name in ("base.obj", "top.obj"):
+                self.assertEqual(vt_lines(os.path.join(posed, name)), expected, name)
+            run_cli("texture", "--shell", posed, "--tile", "builtin:bumps:4", "-o", self.path("tiled.obj"), "--quiet")
+        V, _ = gshell.read_mesh(os.path.join(out, "base.obj"))
+        frames = self.path("frames")
+        gshell.deform(shell, [V + [0, 0, 0.2]], output=frames, iterations=5)
+        self.assertEqual(vt_lines(os.path.join(frames, "frame_0001", "top.obj")), expected)
+        # A shell made from arrays has none to keep.
+        made = gshell.Shell(shell.base, shell.faces, shell.top, shell.thickness)
+        self.assertEqual(pickle.loads(pickle.dumps(made)).faces.shape, shell.faces.shape)
+
+
 class PoseTest(TempDirTest):
     @classmethod
     def setUpClass(cls):

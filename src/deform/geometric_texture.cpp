@@ -140,11 +140,21 @@ GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_sou
     if (mapped.has_uv()) std::swap(mapped.FUV(f, 1), mapped.FUV(f, 2));
   }
   // Neighbouring copies share the points of their common border, which map to one position: joined
-  // there, the tiles make one surface instead of a patch per tile. Where a UV seam cuts the layout
-  // (around a cylinder: u = 0 and u = 1), the two sides' points map through different texture
-  // tets to one position up to rounding, hence the tolerance.
+  // there, the tiles make one surface instead of a patch per tile. Only points on the tile's
+  // border are: a tile's own coincident points inside it (two triangles touching at a corner, a
+  // deliberate cut) stay apart, as in the tile. Where a UV seam cuts the layout (around a
+  // cylinder: u = 0 and u = 1), the two sides' points map through different texture tets to one
+  // position up to rounding, which grows with the coordinates (a torus 1e5 from the origin: its
+  // seam points 1.5e-11 apart), hence a tolerance of the output's size or its farthest
+  // coordinate, whichever is larger.
+  const int nv = tile.num_vertices();
+  std::vector<char> on_tile_border(mapped.V.rows());
+  const auto at_edge = [](double x) { return std::abs(x) < 1e-9 || std::abs(x - 1) < 1e-9; };
+  for (Eigen::Index p = 0; p < mapped.V.rows(); ++p)
+    on_tile_border[p] = at_edge(tile.V(p % nv, 0)) || at_edge(tile.V(p % nv, 1));
   const double diagonal = (mapped.V.colwise().maxCoeff() - mapped.V.colwise().minCoeff()).norm();
-  out.mesh = weld_boundary_vertices(mapped, &out.joined, &out.vertex_of_point, 1e-12 * diagonal);
+  const double size = std::max(diagonal, mapped.V.cwiseAbs().maxCoeff());
+  out.mesh = weld_boundary_vertices(mapped, &out.joined, &out.vertex_of_point, 1e-12 * size, on_tile_border);
   out.points = e.size();
   out.outside = static_cast<int>(e.outside.size());
   out.max_outside_distance = e.max_outside_distance;

@@ -57,7 +57,8 @@ std::vector<std::pair<int, int>> coincident_vertices(const Eigen::MatrixXd& V, s
   return pairs;
 }
 
-TriMesh weld_boundary_vertices(const TriMesh& mesh, int* merged, std::vector<int>* ids, double tolerance) {
+TriMesh weld_boundary_vertices(const TriMesh& mesh, int* merged, std::vector<int>* ids, double tolerance,
+                               const std::vector<char>& joinable) {
   const int n = mesh.num_vertices();
   const EdgeIncidence incidence = edge_incidence(mesh.F, n);
   std::vector<char> on_boundary(n, 0);
@@ -65,7 +66,7 @@ TriMesh weld_boundary_vertices(const TriMesh& mesh, int* merged, std::vector<int
     if (incidence.valence(e) == 1) on_boundary[incidence.edges(e, 0)] = on_boundary[incidence.edges(e, 1)] = 1;
   std::vector<int> candidates;
   for (int v = 0; v < n; ++v)
-    if (on_boundary[v]) candidates.push_back(v);
+    if (on_boundary[v] && (joinable.empty() || joinable[v])) candidates.push_back(v);
   std::vector<int> target(n);
   for (int v = 0; v < n; ++v) target[v] = v;
   const auto pairs = coincident_vertices(mesh.V, std::move(candidates), tolerance);

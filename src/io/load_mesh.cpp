@@ -3,12 +3,19 @@
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/io/read_mesh.h>
+#include <gshell/word_list.h>
 
 namespace gshell {
 
 TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings,
                              std::vector<std::string>* skipped) {
   return is_builtin_spec(input) ? make_builtin(input) : read_mesh(input, warnings, skipped);
+}
+
+std::string carried_data_warning(const std::string& input, const std::vector<std::string>& skipped,
+                                 const std::string& output) {
+  return input + ": its " + word_list(skipped) + (skipped.size() == 1 && skipped[0].back() != 's' ? " is" : " are") +
+         " not carried into " + output + " (positions, faces and texture coordinates are)";
 }
 
 TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings, std::vector<std::string>* skipped) {

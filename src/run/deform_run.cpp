@@ -97,8 +97,11 @@ DeformInput load_deform_input(const std::string& shell_dir, const std::vector<st
   input.frame_names = expand_frame_arguments(frames);
   input.frames = BaseFrames::load(input.frame_names, input.shell);
   if (!embed.empty()) {
-    input.detail = read_mesh_or_builtin(embed);
+    std::vector<std::string> skipped;
+    input.detail = read_mesh_or_builtin(embed, &input.detail_warnings, &skipped);
     require_usable_coordinates(input.detail.V, embed);
+    require_usable_texture_coordinates(input.detail, embed);
+    if (!skipped.empty()) input.detail_warnings.push_back(carried_data_warning(embed, skipped, "detail.obj"));
     input.detail_name = embed;
   }
   return input;

@@ -20,10 +20,12 @@ std::vector<std::pair<int, int>> coincident_vertices(const Eigen::MatrixXd& V, s
 /// position of a lower-numbered boundary vertex replaced by it and removed; the other vertices keep
 /// their order. Faces keep their order and texture coordinates (which are per corner). `merged`
 /// (if not null) receives the number of vertices removed, `ids` (if not null) every input
-/// vertex's id in the result. `tolerance`: as for coincident_vertices. The result is not validated: joining
-/// two patches that touch at one corner makes a non-manifold vertex (require_valid_mesh says so).
-/// Preconditions: face ids in [0, V.rows()).
+/// vertex's id in the result. `tolerance`: as for coincident_vertices. `joinable` (one flag per
+/// vertex, or empty for all): only flagged boundary vertices are joined. The result is not
+/// validated: joining two patches that touch at one corner makes a non-manifold vertex
+/// (require_valid_mesh says so).
+/// Preconditions: face ids in [0, V.rows()); `joinable` empty or of V.rows() flags.
 TriMesh weld_boundary_vertices(const TriMesh& mesh, int* merged = nullptr, std::vector<int>* ids = nullptr,
-                               double tolerance = 0);
+                               double tolerance = 0, const std::vector<char>& joinable = {});
 
 } // namespace gshell

@@ -21,4 +21,10 @@ TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings =
 TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>* warnings = nullptr,
                              std::vector<std::string>* skipped = nullptr);
 
+/// "INPUT: its normals and materials are not carried into OUTPUT (positions, faces and texture
+/// coordinates are)", for a mesh carried into an output (embedded detail, a texture tile) whose
+/// reading skipped that data (read_mesh's `skipped`, not empty).
+std::string carried_data_warning(const std::string& input, const std::vector<std::string>& skipped,
+                                 const std::string& output);
+
 } // namespace gshell

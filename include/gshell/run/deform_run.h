@@ -40,6 +40,9 @@ struct DeformInput {
   BaseFrames frames;                      ///< n x 3 each (long sequences of large bases read as needed)
   std::string detail_name;                ///< the embedded detail mesh, or empty
   TriMesh detail;
+  /// What reading the detail read past (read_mesh's warnings) and the data it holds that the
+  /// carried copy does not (normals, colors, materials: carried_data_warning).
+  std::vector<std::string> detail_warnings;
 };
 
 /// Reads the rest shell folder, every base frame (BaseFrames::load; a folder of frames stands for
