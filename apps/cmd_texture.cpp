@@ -36,8 +36,9 @@ void run_texture(const TextureArgs& args) {
   if (!uv_source.has_uv())
     throw gshell::InputError(gshell::with_file(args.shell, "base.obj has no texture coordinates (vt)"));
   std::vector<std::string> tile_warnings, skipped;
-  const gshell::TriMesh tile = gshell::is_builtin_tile(args.tile) ? gshell::make_builtin_tile(args.tile)
-                                                                  : gshell::read_mesh(args.tile, &tile_warnings, &skipped);
+  const gshell::TriMesh tile = gshell::is_builtin_tile(args.tile)
+                                   ? gshell::make_builtin_tile(args.tile)
+                                   : gshell::read_mesh(args.tile, &tile_warnings, &skipped);
   if (tile.num_vertices() == 0 || tile.num_faces() == 0)
     throw gshell::InputError(gshell::with_file(args.tile, "the tile has no faces"));
   gshell::require_usable_coordinates(tile.V, args.tile);

@@ -164,7 +164,11 @@ ValidStart detail::valid_start_with(const Eigen::MatrixXd& V, const Eigen::Matri
     const Eigen::VectorXd before = s.scale;
     bool thinned = false;
     for (int i = 0; i < n; ++i)
-      if (thin[i] && thinnings[i] < options.max_rounds - 1) s.scale[i] *= options.thinning, ++thinnings[i], thinned = true;
+      if (thin[i] && thinnings[i] < options.max_rounds - 1) {
+        s.scale[i] *= options.thinning;
+        ++thinnings[i];
+        thinned = true;
+      }
     if (!thinned) break;
     // Thickness steps between neighbours shear the prisms between them into new violations: keep
     // s_j <= spread * s_i along every edge, so a pulled-in spot slopes into its surroundings.

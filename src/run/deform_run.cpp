@@ -159,7 +159,8 @@ std::vector<std::string> DeformRun::warnings() const {
     std::string extension = fs::path(f.base).extension().string();
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (const std::optional<int> k = frame_number(fs::path(f.base).filename().string(), extension); k && *k != f.frame) {
+    const std::optional<int> k = frame_number(fs::path(f.base).filename().string(), extension);
+    if (k && *k != f.frame) {
       out.push_back("the frames' numbers do not run 1, 2, 3 ...: " + f.base + " is frame " + std::to_string(f.frame) +
                     " of the run, and the outputs are numbered by position (" + frame_name(f.frame) + ")");
       break;
