@@ -29,6 +29,7 @@ struct PoserObject {
   /// The handle set of the last solve (with its motions): the same set again continues the drag.
   std::optional<HandleSet> handles;
   nlohmann::ordered_json last; ///< null before the first solve
+  std::string shell_folder;    ///< the rest shell's folder (load_shell), named in the report
   ObjectLock lock{"the Poser"}; ///< solve() runs without the GIL
 };
 
@@ -53,6 +54,7 @@ std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::str
   p->session.set_undo_depth(0); // Poser has no undo: keep no copies of the shell
   // As gshell pose: the report names the rest shell's folder, and write() refuses to replace it.
   p->session.set_names(shell.folder, "");
+  p->shell_folder = shell.folder;
   return p;
 }
 
@@ -88,6 +90,12 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   options.solve.tolerance = tolerance;
   options.check();
   const HandleSet set = handles_from(p, handles);
+  // The report names a handle file as the CLI's does (it said '' for one); handles given as a
+  // dict or JSON text have no name.
+  std::string handles_name;
+  if (!py::isinstance<py::str>(handles) ? py::hasattr(handles, "__fspath__")
+                                        : !handles.attr("lstrip")().attr("startswith")("{").cast<bool>())
+    handles_name = handles.cast<std::filesystem::path>().string();
   ProgressWatch watch(progress, "gshell.Poser.solve");
   options.solve.stage = watch.stage_hook();
   options.step_progress = [&watch, steps = options.steps](int step, int iteration, double energy, double seconds) {
@@ -102,6 +110,7 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   {
     py::gil_scoped_release release;
     const ObjectLock::Held held(p.lock);
+    p.session.set_names(p.shell_folder, handles_name);
     if (!p.handles || !(*p.handles == set)) { // other handles: from the rest shell again
       p.session.reset();
       p.session.set_handles(set);

@@ -888,9 +888,13 @@ class PoseTest(TempDirTest):
                 with open(handles) as f:
                     text = "\n  " + f.read()
                 for source in (handles, text):
-                    base2, top2 = gshell.Poser(shell, solver=solver, **levels).solve(source, iterations=20, steps=2)
+                    named = gshell.Poser(shell, solver=solver, **levels)
+                    base2, top2 = named.solve(source, iterations=20, steps=2)
                     np.testing.assert_array_equal(base2, base)
                     np.testing.assert_array_equal(top2, top)
+                    # A handle file is named in the report as the CLI names it; JSON text is not.
+                    self.assertEqual(named.last["handles"], handles if source == handles else "")
+                self.assertEqual(cli["handles"], handles)
 
     def test_rigid_handle_moves_everything_rigidly(self):
         everything = {"handles": [{"select": {"box": [-5, -5, -5, 5, 5, 5]}, "translate": [1, 2, 3],
