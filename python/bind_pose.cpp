@@ -58,7 +58,9 @@ std::unique_ptr<PoserObject> make_poser(const ShellObject& shell, const std::str
   return p;
 }
 
-HandleSet handles_from(const PoserObject& p, const py::object& handles) {
+/// The handle set `handles` gives; `file` receives the handle file's name when it is one (the
+/// report names it, as the CLI's does), else is left empty (a dict or JSON text).
+HandleSet handles_from(const PoserObject& p, const py::object& handles, std::string& file) {
   const Shell& rest = p.session.rest();
   // A handle file's text pasted as a str is JSON, not a file name: no path starts with '{', and
   // treating it as one answered "cannot open handle file" followed by the whole text.
@@ -70,9 +72,9 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles) {
     return parse_handles(text, "handles argument", rest);
   }
   if (py::isinstance<py::str>(handles) || py::hasattr(handles, "__fspath__")) {
-    const auto path = handles.cast<std::filesystem::path>();
+    file = handles.cast<std::filesystem::path>().string();
     py::gil_scoped_release release;
-    return read_handles(path.string(), rest);
+    return read_handles(file, rest);
   }
   if (!py::isinstance<py::dict>(handles))
     value_error("handles must be a dict in the handle-file format or the path of a handle file");
@@ -89,13 +91,8 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   options.solve.max_iterations = iterations.checked("iterations");
   options.solve.tolerance = tolerance;
   options.check();
-  const HandleSet set = handles_from(p, handles);
-  // The report names a handle file as the CLI's does (it said '' for one); handles given as a
-  // dict or JSON text have no name.
-  std::string handles_name;
-  if (!py::isinstance<py::str>(handles) ? py::hasattr(handles, "__fspath__")
-                                        : !handles.attr("lstrip")().attr("startswith")("{").cast<bool>())
-    handles_name = handles.cast<std::filesystem::path>().string();
+  std::string handles_file;
+  const HandleSet set = handles_from(p, handles, handles_file);
   ProgressWatch watch(progress, "gshell.Poser.solve");
   options.solve.stage = watch.stage_hook();
   options.step_progress = [&watch, steps = options.steps](int step, int iteration, double energy, double seconds) {
@@ -110,7 +107,7 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   {
     py::gil_scoped_release release;
     const ObjectLock::Held held(p.lock);
-    p.session.set_names(p.shell_folder, handles_name);
+    p.session.set_names(p.shell_folder, handles_file);
     if (!p.handles || !(*p.handles == set)) { // other handles: from the rest shell again
       p.session.reset();
       p.session.set_handles(set);

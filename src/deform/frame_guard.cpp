@@ -286,19 +286,11 @@ double FrameGuard::accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::Mat
 bool FrameGuard::only_unguarded_faults(const ShellCertificate& c, bool near_left_out) const {
   for (int t : c.inverted_tet_ids)
     if (!parameters_.skip_tets[t]) return false;
-  std::vector<char> corner;
-  if (near_left_out) {
-    corner.assign(2 * n_, 0);
-    for (int r = 0; r < boundary_.size(); ++r)
-      if (parameters_.excluded_triangles[r])
-        for (int k = 0; k < 3; ++k) corner[boundary_.F(r, k)] = 1;
-  }
-  const auto unguarded = [&](int row) {
-    if (parameters_.excluded_triangles[row]) return true;
-    return near_left_out && (corner[boundary_.F(row, 0)] || corner[boundary_.F(row, 1)] || corner[boundary_.F(row, 2)]);
-  };
+  std::vector<char> near;
+  if (near_left_out) near = unprotected_rows(boundary_, parameters_.excluded_triangles, 2 * n_);
+  const std::vector<char>& unguarded = near_left_out ? near : parameters_.excluded_triangles;
   for (const BoundaryIntersection& pair : c.intersections)
-    if (!unguarded(pair.a) && !unguarded(pair.b)) return false;
+    if (!unguarded[pair.a] && !unguarded[pair.b]) return false;
   if (c.nested.empty()) return true;
   // A part carried whole into another's layer crosses no triangle (a step accepted as the solver
   // made it jumps; the guarded solver's continuous bounds never get there). Unguarded only where

@@ -601,11 +601,11 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
     outcome.iterations +=
         guard_->drag(Y, X, 1, contacts, false, solve, options.substep_tolerance, {}, polish).iterations;
   } else if ((outcome.method == FrameMethod::Failed || outcome.method == FrameMethod::TetsOnly) &&
-             regeneration_tried && fresh.rows() > 0 &&
              guard_->only_unguarded_faults(fresh_certificate, /*near_left_out=*/true)) {
-    // Invalid either way, the fresh top is returned where it is clean on guarded generation's
-    // terms (its faults at most a vertex away from what is left out): the tets-only drag guards
-    // no pair, and its faults spread (a plane folded through itself by 200 degrees in one frame:
+    // Invalid either way (the fresh top, made by the test above, was not clean on the frame's
+    // terms), the fresh top is returned where it is clean on guarded generation's terms (its
+    // faults at most a vertex away from what is left out): the tets-only drag guards no pair,
+    // and its faults spread (a plane folded through itself by 200 degrees in one frame:
     // top/base and wall pairs 12 rings, 1.7 eta, from the crossings; the fresh top's all within
     // one ring). Not carried forward: its method stays tets_only or failed.
     Y = std::move(fresh);

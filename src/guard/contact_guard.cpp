@@ -641,4 +641,14 @@ int ContactGuard::candidate_builds() const { return impl_->builds; }
 
 int ContactGuard::fixed_patch_builds() const { return impl_->fixed_patch_cuts; }
 
+std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vector<char>& excluded, int num_vertices) {
+  std::vector<char> corner(num_vertices, 0), out(boundary.size(), 0);
+  for (int r = 0; r < boundary.size(); ++r)
+    if (excluded[r])
+      for (int k = 0; k < 3; ++k) corner[boundary.F(r, k)] = 1;
+  for (int r = 0; r < boundary.size(); ++r)
+    out[r] = corner[boundary.F(r, 0)] || corner[boundary.F(r, 1)] || corner[boundary.F(r, 2)];
+  return out;
+}
+
 } // namespace gshell

@@ -1,6 +1,7 @@
 #include <gshell/guard/guarded_shell.h>
 
 #include <gshell/error.h>
+#include <gshell/guard/contact_guard.h>
 #include <gshell/geometry/mesh_topology.h>
 #include <gshell/seconds_since.h>
 #include <gshell/quality/shell_boundary.h>
@@ -42,19 +43,6 @@ std::pair<double, double> mean_edge_and_vertex_area(const Eigen::MatrixXd& V, co
   }
   return {F.rows() > 0 ? length / (3.0 * static_cast<double>(F.rows())) : 0.0,
           V.rows() > 0 ? area / static_cast<double>(V.rows()) : 0.0};
-}
-
-// Boundary rows the contact guard cannot protect: the excluded rows and every row sharing a vertex
-// with one (ContactGuard skips the pairs of a vertex that is a corner of an excluded row, and the
-// edges of excluded rows). Two rows outside this set are kept apart by the guard.
-std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vector<char>& excluded, int num_vertices) {
-  std::vector<char> corner(num_vertices, 0), out(boundary.size(), 0);
-  for (int r = 0; r < boundary.size(); ++r)
-    if (excluded[r])
-      for (int k = 0; k < 3; ++k) corner[boundary.F(r, k)] = 1;
-  for (int r = 0; r < boundary.size(); ++r)
-    out[r] = corner[boundary.F(r, 0)] || corner[boundary.F(r, 1)] || corner[boundary.F(r, 2)];
-  return out;
 }
 
 // What the repair, its relaxation and the lifting make of the valid start (the GuardedShell

@@ -15,6 +15,7 @@
 #include <gshell/shell/prism_tets.h>
 
 #include "invalid_items_warning.h"
+#include "io/file_bytes.h"
 #include "run/output_folder_files.h"
 
 #include <Eigen/Eigenvalues>
@@ -22,7 +23,6 @@
 #include <Eigen/SVD>
 
 #include <algorithm>
-#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -43,23 +43,33 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
 }
 
-// Whether `frame` is the rest base turned inside out (`rest_centred`: the rest base minus its
-// centroid a): the least-squares linear map between them about their centroids,
-// A = M C^+ with M = sum (f - f_mean)(r - a)^T and C = sum (r - a)(r - a)^T, reverses orientation
-// clearly: det A < -0.1 sigma_max(A)^3. On a rest base flat to rounding (a plane, where a mirror
-// is a turn and the top rightly follows) A has rank 2 and det 0; a frame squashed flat, or twisted
-// by whole turns about an axis (A's block across the axis then averages to about zero: the sign
-// of det M was rounding for `animate --twist 720`), is not a mirror either.
-bool mirrors(const Eigen::MatrixXd& rest_centred, const Eigen::MatrixXd& frame) {
-  const Eigen::Matrix3d M = (frame.rowwise() - frame.colwise().mean()).transpose() * rest_centred;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> C(rest_centred.transpose() * rest_centred);
-  Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
-  for (int k = 0; k < 3; ++k)
-    if (C.eigenvalues()[k] > 1e-12 * C.eigenvalues()[2]) inverse[k] = 1 / C.eigenvalues()[k];
-  const Eigen::Matrix3d A = M * C.eigenvectors() * inverse.asDiagonal() * C.eigenvectors().transpose();
-  const double largest = Eigen::JacobiSVD<Eigen::Matrix3d>(A).singularValues()[0];
-  return A.determinant() < -0.1 * largest * largest * largest;
-}
+// Whether a frame is the rest base turned inside out: the least-squares linear map between them
+// about their centroids, A = M C^+ with M = sum (f - f_mean)(r - a)^T and C = sum (r - a)(r - a)^T
+// (a the rest centroid), reverses orientation clearly: det A < -0.1 sigma_max(A)^3. On a rest base
+// flat to rounding (a plane, where a mirror is a turn and the top rightly follows) A has rank 2
+// and det 0; a frame squashed flat, or twisted by whole turns about an axis (A's block across the
+// axis then averages to about zero: the sign of det M was rounding for `animate --twist 720`), is
+// not a mirror either. C^+ is the rest's, made once.
+class MirrorTest {
+public:
+  explicit MirrorTest(const Eigen::MatrixXd& rest) : centred_(rest.rowwise() - rest.colwise().mean()) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> C(centred_.transpose() * centred_);
+    Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k)
+      if (C.eigenvalues()[k] > 1e-12 * C.eigenvalues()[2]) inverse[k] = 1 / C.eigenvalues()[k];
+    pseudo_inverse_ = C.eigenvectors() * inverse.asDiagonal() * C.eigenvectors().transpose();
+  }
+  bool mirrors(const Eigen::MatrixXd& frame) const {
+    const Eigen::Matrix3d A =
+        (frame.rowwise() - frame.colwise().mean()).transpose() * centred_ * pseudo_inverse_;
+    const double largest = Eigen::JacobiSVD<Eigen::Matrix3d>(A).singularValues()[0];
+    return A.determinant() < -0.1 * largest * largest * largest;
+  }
+
+private:
+  Eigen::MatrixXd centred_;       // the rest base minus its centroid
+  Eigen::Matrix3d pseudo_inverse_; // C^+
+};
 
 // Writes frame folder `dir` for the shell vertices X (2n x 3).
 void write_frame(const fs::path& dir, const DeformInput& input, const RestTets& rest, Eigen::MatrixXd X,
@@ -156,10 +166,9 @@ std::vector<std::string> DeformRun::warnings() const {
   // The outputs are numbered by position: a folder whose frame numbers skip (frame_0001,
   // frame_0003) ran without a word, its frame_0003 written as frame_0002.
   for (const DeformFrameRecord& f : frames) {
-    std::string extension = fs::path(f.base).extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    const std::optional<int> k = frame_number(fs::path(f.base).filename().string(), extension);
+    const std::string extension = io_detail::lower_extension(f.base);
+    const std::optional<int> k =
+        frame_number(fs::path(f.base).filename().string(), extension.empty() ? "" : "." + extension);
     if (k && *k != f.frame) {
       out.push_back("the frames' numbers do not run 1, 2, 3 ...: " + f.base + " is frame " + std::to_string(f.frame) +
                     " of the run, and the outputs are numbered by position (" + frame_name(f.frame) + ")");
@@ -325,7 +334,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
   run.factor_seconds = deformer.factor_seconds();
   run.setup_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const int count = input.frames.size();
-  const Eigen::MatrixXd rest_centred = shell.base.rowwise() - shell.base.colwise().mean();
+  const MirrorTest mirror_test(shell.base);
   if (progress) progress(run, count);
 
   // Frames read again from their files (a sequence too large to hold): the next one is read while
@@ -344,7 +353,7 @@ DeformRun run_deform(const DeformInput& input, const DeformRunOptions& options, 
     record.base = input.frame_names[k];
     const Eigen::MatrixXd base = next.valid() ? next.get() : input.frames.get(k);
     if (!input.frames.held() && k + 1 < count) next = std::async(std::launch::async, read_frame, k + 1);
-    record.mirrored = mirrors(rest_centred, base);
+    record.mirrored = mirror_test.mirrors(base);
     record.result = deformer.solve(base, options.frame);
     record.result.top.resize(0, 3); // in the folder, not in memory
     if (options.compare_offset) {

@@ -151,4 +151,10 @@ private:
   std::unique_ptr<Impl> impl_;
 };
 
+/// Boundary rows (of `boundary`, over `num_vertices` shell vertices) a ContactGuard given
+/// `excluded` cannot protect: the excluded rows and every row sharing a vertex with one (it skips
+/// the pairs of a vertex that is a corner of an excluded row, and the edges of excluded rows).
+/// Two rows outside this set are kept apart by the guard.
+std::vector<char> unprotected_rows(const ShellBoundary& boundary, const std::vector<char>& excluded, int num_vertices);
+
 } // namespace gshell
