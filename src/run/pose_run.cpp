@@ -98,13 +98,18 @@ std::vector<std::string> PoseResult::warnings() const {
   const std::string line = detail::invalid_items_warning(invalid, certified, "pose step", unguarded);
   if (!line.empty()) lines.push_back(line);
   // A step that ran out of iterations may lie far from the pose's minimum (the plain single-level
-  // solver on a bowl swung about its held bottom: ten thicknesses away after 500 iterations).
+  // solver on a bowl swung about its held bottom: ten thicknesses away after 500 iterations). A
+  // step stopped at contact or failed by the guard is not converged either, but more iterations
+  // would not change it: its warning above says why it stopped.
   std::vector<int> capped;
   for (std::size_t k = 0; k < steps.size(); ++k)
-    if (!steps[k].converged) capped.push_back(static_cast<int>(k) + 1);
+    if (!steps[k].converged && !steps[k].blocked_by_contact && steps[k].method != FrameMethod::Failed)
+      capped.push_back(static_cast<int>(k) + 1);
   const std::string unconverged = detail::unconverged_items_warning(
       "pose step", capped, max_iterations,
-      "the shell may be short of the pose's minimum; more iterations, or the hierarchical solver, get closer");
+      solver == PoseSolverKind::Hierarchical
+          ? "the shell may be short of the pose's minimum; more iterations get closer"
+          : "the shell may be short of the pose's minimum; more iterations, or the hierarchical solver, get closer");
   if (!unconverged.empty()) lines.push_back(unconverged);
   return lines;
 }
