@@ -405,6 +405,46 @@ TEST(GuardedSolver, ADragThatCannotFinishIsGivenUpEarlyAndLeftValid) {
   }
 }
 
+// A drag that continues a longer motion (a stalled sub-step's retry, from where the first attempt
+// stopped) is held to the pace of that whole motion, not of what is left of it
+// (GuardedSolveOptions::path_scale): otherwise each retry may creep on at a thousandth of a
+// smaller remainder per 20 iterations (a plane pressed into itself by its handles spent a fifth
+// of its pose in such retries). The drag above, told that its path is a tenth of the motion,
+// stops sooner, as far along as the bounds let it go and as valid.
+TEST(GuardedSolver, AContactDragIsStalledAtThePaceOfTheWholeMotion) {
+  const NormalShell shell(make_plane(4), 0.1);
+  const int n = shell.n;
+  int centre = 0;
+  for (int i = 1; i < n; ++i)
+    if (shell.base.V.row(i).norm() < shell.base.V.row(centre).norm()) centre = i;
+  std::vector<int> fixed;
+  for (int i = 0; i < n; ++i) fixed.push_back(i);
+  fixed.push_back(n + centre);
+  Eigen::MatrixXd targets = shell.X;
+  targets(centre, 2) += 2 * shell.eta;
+  GuardedSolverParameters p;
+  p.contact_distance = 0.02;
+  p.contact_stiffness = 1;
+  GuardedSolveOptions options;
+  options.max_iterations = 400;
+  GuardedSolveResult r[2];
+  for (const int part : {0, 1}) {
+    GuardedSolver solver(shell.rest, 2 * n, fixed, shell.boundary, p);
+    Eigen::MatrixXd Y = shell.X;
+    GuardedSolveOptions o = options;
+    if (part == 1) o.path_scale = 0.1;
+    r[part] = solver.solve(Y, o, targets);
+    EXPECT_LT(r[part].path_done, 1);
+    EXPECT_GT(r[part].min_relative_volume, 0);
+  }
+  EXPECT_LT(r[1].iterations, r[0].iterations);
+  EXPECT_GT(r[1].path_done, 0.9 * r[0].path_done); // most of the way the whole pace went
+  options.path_scale = 0;
+  GuardedSolver solver(shell.rest, 2 * n, fixed, shell.boundary, p);
+  Eigen::MatrixXd Y = shell.X;
+  EXPECT_THROW(solver.solve(Y, options, targets), InputError);
+}
+
 // A plane's shell bent by dragging one edge's prisms up and over while the opposite edge's are
 // held, the drag far from every barrier: the minimisation after it runs the model's plain
 // local/global iterations, which creep along the bending mode.

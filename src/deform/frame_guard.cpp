@@ -444,6 +444,7 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
     const double t = static_cast<double>(k) / substeps;
     for (int v : fixed_) step_targets.row(v) = from.row(v) + t * (targets.row(v) - from.row(v));
     ++out.substeps;
+    on_the_way.path_scale = last.path_scale = 1;
     for (int attempt = 0;; ++attempt) {
       if (k == substeps) {
         const long long share = static_cast<long long>(substeps) * solve.max_iterations - out.iterations;
@@ -457,6 +458,7 @@ FrameGuard::Outcome FrameGuard::drag(Eigen::MatrixXd& X, const Eigen::MatrixXd& 
       const GuardedSolveResult r = solver->solve(X, k < substeps ? on_the_way : last, step_targets);
       out.iterations += r.iterations;
       if (r.path_done >= 1) break;
+      on_the_way.path_scale = last.path_scale *= 1 - r.path_done; // what is left of the sub-step
       if (other_way && other_way()) {
         out.superseded = true;
         return out;

@@ -578,7 +578,8 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
   const auto t0 = Clock::now();
   if (X.rows() != m.N || X.cols() != 3)
     throw InputError("GuardedSolver::solve: expected " + std::to_string(m.N) + " x 3 positions");
-  if (options.max_iterations < 0 || !(options.tolerance >= 0)) throw InputError("GuardedSolver::solve: bad options");
+  if (options.max_iterations < 0 || !(options.tolerance >= 0) || !(options.path_scale > 0 && options.path_scale <= 1))
+    throw InputError("GuardedSolver::solve: bad options");
   const bool drag = fixed_targets.size() > 0;
   if (drag && (fixed_targets.rows() != m.N || fixed_targets.cols() != 3))
     throw InputError("GuardedSolver::solve: fixed_targets must be " + std::to_string(m.N) + " x 3");
@@ -734,7 +735,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     if (tau < 1 && it > kStallIterations) {
       const double progress = tau - tau_history[it - kStallIterations];
       const double left = options.max_iterations - it;
-      if (m.contact ? progress < kStallProgress : kHopelessPace * progress * left < kStallIterations * (1 - tau)) break;
+      if (m.contact ? progress * options.path_scale < kStallProgress : kHopelessPace * progress * left < kStallIterations * (1 - tau)) break;
     }
     if (tau >= 1 && (small || !moved)) {
       result.converged = small;

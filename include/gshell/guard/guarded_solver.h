@@ -139,6 +139,11 @@ struct GuardedSolveOptions {
   double energy_scale = 0;
   /// Called after every iteration with (iteration, E_guard, seconds since the solve started).
   std::function<void(int, double, double)> progress;
+  /// The prescribed motion's length as a fraction of the motion it finishes (in (0, 1]; e.g. a
+  /// retried drag's rest of its path). A contact-guarded drag is stalled when its last 20
+  /// iterations did less than 1e-3 of that whole motion, so a retry is not held to a finer
+  /// pace than the attempt it continues.
+  double path_scale = 1;
 };
 
 struct GuardedSolveResult {
