@@ -1,6 +1,7 @@
 // `gshell report`: a self-contained HTML page about a generate / deform / pose output folder.
 #include "command_registry.h"
 #include "output_file.h"
+#include "warnings.h"
 
 #include <gshell/render/html_report.h>
 
@@ -27,7 +28,9 @@ void add_report_command(CLI::App& parent) {
     check_output_file(args->output, ".html", {args->dir});
     ReportOptions options;
     options.renders = !args->no_renders;
-    write_html_report(args->dir, args->output, options);
+    std::vector<std::string> left_out;
+    write_html_report(args->dir, args->output, options, &left_out);
+    print_warnings("report", left_out);
     std::cout << args->output << "\n"; // scripts print where the page is
   });
 }

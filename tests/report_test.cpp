@@ -3,6 +3,7 @@
 #include <gshell/io/xml_escape.h>
 #include <gshell/render/html_report.h>
 #include <gshell/render/scene.h>
+#include <gshell/render/shell_render.h>
 #include <gshell/render/svg_plot.h>
 
 #include "test_support.h"
@@ -274,6 +275,45 @@ TEST(ReportCli, PoseRunShowsTimeAndEnergyPerStepAndTheRestShell) {
     EXPECT_NE(html.find("rest and posed shell"), std::string::npos);
     EXPECT_EQ(html.find("No render"), std::string::npos);
   }
+}
+
+// A pose folder names its rest shell relative to itself ("rest_shell"), so its readers find it
+// wherever they run and wherever the two folders moved together; "shell" stays as the pose was
+// given it. A rest shell that is not the posed one's (an older folder's "shell", read from
+// elsewhere, naming another shell) is left out, and the page and the CLI say so.
+TEST(ReportCli, APoseFolderFindsItsRestShellFromItselfAndRefusesAnotherShell) {
+  TempDir tmp("report-rest");
+  const std::string work = tmp.file("work"), handles = tmp.file("pull.json");
+  fs::create_directories(work + "/nested");
+  ASSERT_EQ(run_cli("generate builtin:bowl:8 -o '" + work + "/bowl' --thickness 0.08 --iterations 3 -q").exit_code, 0);
+  write_text(handles, R"({"handles": [
+    {"select": {"surface": "both", "box": [-2, -2, -0.2, -0.6, 2, 2]}},
+    {"select": {"surface": "both", "box": [0.6, -2, -0.2, 2, 2, 2]}, "translate": [0.2, 0, 0]}]})");
+  const CliResult p = run_cli("pose --shell '" + work + "/bowl' --handles '" + handles + "' --levels 3 -o '" + work +
+                              "/nested/pulled' -q");
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  EXPECT_EQ(read_json(work + "/nested/pulled/report.json")["rest_shell"], "../../bowl");
+  // Both moved: "shell" names a folder that is gone, "rest_shell" still leads to the rest.
+  const std::string moved = tmp.file("moved");
+  fs::rename(work, moved);
+  const std::string pose = moved + "/nested/pulled";
+  PreviewPanels panels = preview_panels(pose);
+  ASSERT_EQ(panels.subjects.size(), 2u) << panels.note;
+  EXPECT_EQ(panels.captions[0], "rest");
+  EXPECT_TRUE(panels.note.empty()) << panels.note;
+  // A report that names another shell (as an older folder read from another directory can).
+  ASSERT_EQ(run_cli("generate builtin:sphere:2 -o '" + tmp.file("other") + "' --thickness-ratio 0.05 -q").exit_code, 0);
+  nlohmann::json report = read_json(pose + "/report.json");
+  report.erase("rest_shell");
+  report["shell"] = tmp.file("other");
+  write_text(pose + "/report.json", report.dump());
+  panels = preview_panels(pose);
+  EXPECT_EQ(panels.subjects.size(), 1u);
+  EXPECT_NE(panels.note.find("is not the posed shell's"), std::string::npos) << panels.note;
+  const CliResult r = run_cli("report '" + pose + "' -o '" + tmp.file("page.html") + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("gshell report: warning: the rest shell"), std::string::npos) << r.err;
+  EXPECT_NE(read_text(tmp.file("page.html")).find("is not the posed shell&apos;s"), std::string::npos);
 }
 
 TEST(ReportCli, MissingReportIsAnInputErrorAndWritesNothing) {

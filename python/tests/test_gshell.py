@@ -42,8 +42,9 @@ def rotation(axis, degrees):
 
 
 # Keys that differ between a CLI run and the same run from Python by nature: how the inputs are
-# named (files vs arrays), the version, and wall-clock timings.
-NAME_KEYS = {"input", "shell", "base", "handles", "gshell_version"}
+# named (files vs arrays; a written pose folder's path to its rest shell, which a result in memory
+# has not), the version, and wall-clock timings.
+NAME_KEYS = {"input", "shell", "rest_shell", "base", "handles", "gshell_version"}
 
 
 def is_timing(key):

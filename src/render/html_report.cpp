@@ -297,7 +297,8 @@ void image_figure(std::ostringstream& html, const Image& image, const std::strin
        << "</figcaption></figure>\n";
 }
 
-void renders_section(std::ostringstream& html, const fs::path& dir, const ReportOptions& options) {
+void renders_section(std::ostringstream& html, const fs::path& dir, const ReportOptions& options,
+                     std::vector<std::string>& left_out) {
   html << "<h2>Renders</h2>\n";
   try {
     ShellRenderOptions ro;
@@ -306,6 +307,10 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
     // The panels of the folder's preview: first, middle and last frame of a deformation, the rest
     // shell beside a pose, or the shell alone.
     PreviewPanels preview = preview_panels(dir.string());
+    if (!preview.note.empty()) {
+      html << "<p class=\"note\">" << xml_escape(preview.note) << "</p>\n";
+      left_out.push_back(preview.note);
+    }
     if (!is_shell_folder(dir)) {
       ro.figure.width = options.render_width * 3 / 2;
       std::string names;
@@ -330,6 +335,7 @@ void renders_section(std::ostringstream& html, const fs::path& dir, const Report
     }
   } catch (const std::exception& e) {
     html << "<p class=\"note\">No render: " << xml_escape(e.what()) << "</p>\n";
+    left_out.push_back(std::string("no render: ") + e.what());
   }
 }
 
@@ -378,7 +384,7 @@ figcaption{color:#555;font-size:.9em}.note{color:#a33}.ok{color:#276b2a})";
 
 } // namespace
 
-std::string html_report(const std::string& dir_text, const ReportOptions& options) {
+std::string html_report(const std::string& dir_text, const ReportOptions& options, std::vector<std::string>* warnings) {
   const fs::path dir(dir_text);
   const json report = read_report(dir);
 
@@ -416,13 +422,16 @@ std::string html_report(const std::string& dir_text, const ReportOptions& option
     for (auto it = report.begin(); it != report.end(); ++it)
       if (is_object_list(it.value())) record_list_section(html, it.key(), it.value());
   }
-  if (options.renders) renders_section(html, dir, options);
+  std::vector<std::string> left_out;
+  if (options.renders) renders_section(html, dir, options, left_out);
+  if (warnings) *warnings = std::move(left_out);
   html << "</body>\n</html>\n";
   return html.str();
 }
 
-void write_html_report(const std::string& dir, const std::string& path, const ReportOptions& options) {
-  const std::string page = html_report(dir, options);
+void write_html_report(const std::string& dir, const std::string& path, const ReportOptions& options,
+                       std::vector<std::string>* warnings) {
+  const std::string page = html_report(dir, options, warnings);
   write_file_atomically(path, [&](std::ostream& out) { out << page; });
 }
 

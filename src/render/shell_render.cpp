@@ -242,6 +242,44 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
   return render_figure(panels, figure, layout);
 }
 
+namespace {
+
+// The rest shell of a pose folder: "rest_shell" (relative to the folder) where the pose wrote it,
+// else "shell" as the pose was given it (folders of earlier versions: relative to where that ran,
+// so it is checked to be a shell with the posed one's faces). Empty, with `note` saying why, when
+// it cannot be found or is another shell.
+std::optional<RenderSubject> pose_rest_shell(const fs::path& folder, const RenderSubject& posed, std::string& note) {
+  fs::path rest_dir;
+  try {
+    const nlohmann::json report = read_report(folder);
+    if (report.contains("rest_shell")) rest_dir = folder / report.at("rest_shell").get<std::string>();
+    else rest_dir = report.at("shell").get<std::string>();
+  } catch (const std::exception&) {
+    note = "the pose's report.json names no rest shell: the posed shell alone";
+    return std::nullopt;
+  }
+  try {
+    RenderSubject rest = load_shell_folder(rest_dir, "rest");
+    if (rest.shell.F.rows() != posed.shell.F.rows() || rest.shell.base.rows() != posed.shell.base.rows() ||
+        rest.shell.F != posed.shell.F) {
+      note = "the rest shell " + rest_dir.generic_string() + " named in report.json is not the posed shell's (" +
+             std::to_string(rest.shell.base.rows()) + " base vertices, " + std::to_string(rest.shell.F.rows()) +
+             " faces, against " + std::to_string(posed.shell.base.rows()) + " and " +
+             std::to_string(posed.shell.F.rows()) + "): the posed shell alone";
+      return std::nullopt;
+    }
+    rest.face_stretch = Eigen::VectorXd::Zero(rest.shell.F.rows()); // against itself, by definition
+    rest.detail = TriMesh{};
+    return rest;
+  } catch (const std::exception& e) {
+    note = "the rest shell named in report.json cannot be read (" + std::string(e.what()) +
+           "): the posed shell alone";
+    return std::nullopt;
+  }
+}
+
+} // namespace
+
 PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
   const fs::path folder(dir);
   // A caption names the folder, not the path it was reached by (previews are seen inside it).
@@ -264,14 +302,10 @@ PreviewPanels preview_panels(const std::string& dir, const std::string& name) {
     // A pose output: the rest shell first, so the pose reads as a change. Its stretch against
     // itself is 0 by definition (the posed panel's colors are measured against it).
     if (subject.method == "pose") {
-      try {
-        RenderSubject rest = load_shell_folder(read_report(folder).at("shell").get<std::string>(), "rest");
-        rest.face_stretch = Eigen::VectorXd::Zero(rest.shell.F.rows());
-        rest.detail = TriMesh{};
-        subjects.push_back(std::move(rest));
+      std::optional<RenderSubject> rest = pose_rest_shell(folder, subject, panels.note);
+      if (rest) {
+        subjects.push_back(std::move(*rest));
         captions.push_back("rest");
-      } catch (const std::exception&) {
-        // the rest shell moved or is gone (or the report names none): the posed shell alone
       }
     }
     subject.name = folder_name;

@@ -5,6 +5,7 @@
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/run/shell_folder.h>
 #include <gshell/run/staged_folder.h>
 #include <gshell/shell/prism_tets.h>
 #include <gshell/solver/rest_tets.h>
@@ -534,6 +535,15 @@ void DragSession::write(const std::string& dir, std::size_t first_step, const Be
   c.cell_data.emplace_back("stretch", tet_stretch(s.tets(), c.X));
   c.cell_data.emplace_back("det_F", tet_deformation_determinants(s.tets(), c.X));
   c.report = result(first_step).to_json();
+  // "shell" is the rest shell as it was named, relative to where the pose ran; readers of the
+  // folder (report, preview) find it from the folder itself, wherever they run.
+  std::error_code ec;
+  if (!s.shell_name.empty() && is_shell_folder(s.shell_name)) {
+    // Absolute first: a relative path none of whose parts exists yet comes back unresolved.
+    const fs::path rest = fs::weakly_canonical(fs::absolute(s.shell_name), ec);
+    const fs::path out = ec ? fs::path() : fs::weakly_canonical(fs::absolute(dir), ec);
+    if (!ec) c.report["rest_shell"] = rest.lexically_relative(out).generic_string();
+  }
   write_shell_folder(dir, c, before_commit);
 }
 

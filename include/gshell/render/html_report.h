@@ -2,6 +2,7 @@
 // `gshell report`: one self-contained HTML page (no external files: images are inlined as
 // base64 data URIs, plots are inline SVG) describing a run folder written by generate / deform / pose.
 #include <string>
+#include <vector>
 
 namespace gshell {
 
@@ -17,11 +18,15 @@ struct ReportOptions {
 /// middle / last frame for a deformation). The markup is well-formed XML (XHTML syntax).
 /// \throws InputError naming the file when report.json is missing or not a JSON object, or a render
 ///         of DIR fails to load (load_render_subject).
-std::string html_report(const std::string& dir, const ReportOptions& options = {});
+/// `warnings`, when given, receives what the page had to leave out and why (a render that failed,
+/// a pose's rest shell that cannot be found); the page says it too.
+std::string html_report(const std::string& dir, const ReportOptions& options = {},
+                        std::vector<std::string>* warnings = nullptr);
 
 /// Writes html_report(dir) to `path` atomically.
 /// \throws InputError as html_report, or naming `path` when it cannot be written.
-void write_html_report(const std::string& dir, const std::string& path, const ReportOptions& options = {});
+void write_html_report(const std::string& dir, const std::string& path, const ReportOptions& options = {},
+                       std::vector<std::string>* warnings = nullptr);
 
 /// Standard base64 (RFC 4648, with padding).
 std::string base64_encode(const std::string& bytes);

@@ -90,6 +90,9 @@ Image render_subjects(const std::vector<RenderSubject>& subjects, const std::vec
 struct PreviewPanels {
   std::vector<RenderSubject> subjects;
   std::vector<std::string> captions;
+  /// Why a pose folder's rest shell is not among the subjects (not found, unreadable, or another
+  /// shell than the posed one's rest); empty otherwise.
+  std::string note;
 };
 /// \throws InputError naming DIR or a file in it when it cannot be read (load_render_subject).
 PreviewPanels preview_panels(const std::string& dir, const std::string& name = {});
