@@ -203,6 +203,18 @@ TEST(Handles, TranslationsAndCentersBeyondTheCoordinateLimitAreErrors) {
                "rotate.center: a coordinate of magnitude 1e+300;");
 }
 
+// Targets where the layer (0.08 here) is below the spacing of doubles (1e-9 of the coordinates,
+// generation's limit) are refused with the file: a guarded pose spent about 100 s on a bowl
+// moved by 1e20 and ended "blocked by contact". Translated or turned about a far centre alike.
+TEST(Handles, TargetsTooFarOutForTheLayerAreErrors) {
+  expect_error(R"({"handles": [{"vertices": [0, 1], "translate": [1e15, 0, 0]}]})",
+               "handle 0: moves its vertices to coordinates of 1e+15, where the shell's thickness 0.08 is below 1e-09");
+  expect_error(R"({"handles": [{"vertices": [0], "rotate": {"axis": [0, 0, 1], "degrees": 90, "center": [1e12, 0, 0]}}]})",
+               "double precision cannot tell a top that close from the base");
+  // Within the limit (0.08 / 1e-9 = 8e7): accepted.
+  EXPECT_NO_THROW(parse_handles(R"({"handles": [{"vertices": [0], "translate": [5e7, 0, 0]}]})", "H.json", small_bowl()));
+}
+
 TEST(Handles, MissingFileNamesIt) {
   try {
     read_handles("/nonexistent/h.json", small_bowl());

@@ -3,7 +3,9 @@
 #include "io/json_input.h"
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/geometry/validate_mesh.h>
+#include <gshell/shell/generate_shell.h>
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -241,6 +243,23 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
         r.fail("", "vertex " + std::to_string(v) + " is in handles " + std::to_string(it->second) + " and " +
                        std::to_string(k) + " (handles must not overlap)");
     }
+  // Targets so far out that the layer is below the spacing of doubles there (as generation
+  // refuses such bases: kMinThicknessScale): no pose could keep a top apart from its base, and the
+  // guarded drag would spend minutes finding that out (a bowl moved by 1e20).
+  if (rest.thickness > 0) {
+    const Eigen::MatrixXd targets = set.targets(rest.vertices(), 1.0);
+    Eigen::Index row = 0;
+    for (size_t k = 0; k < set.handles.size(); ++k) {
+      const Eigen::Index rows = static_cast<Eigen::Index>(set.handles[k].vertices.size());
+      const double reach = targets.middleRows(row, rows).cwiseAbs().maxCoeff();
+      row += rows;
+      if (rest.thickness < kMinThicknessScale * reach)
+        r.fail("handle " + std::to_string(k),
+               "moves its vertices to coordinates of " + format_number(reach) + ", where the shell's thickness " +
+                   format_number(rest.thickness) + " is below " + format_number(kMinThicknessScale) +
+                   " of them: double precision cannot tell a top that close from the base");
+    }
+  }
   return set;
 }
 
