@@ -139,6 +139,7 @@ std::string explain_parse_error(CLI::App& app, int argc, char** argv, const std:
 
 int main(int argc, char** argv) {
   using namespace gshell::cli;
+  gshell::restart_with_serial_blas_under_address_limit(argv);
   gshell::restart_with_huge_pages(argv); // where the kernel gives them only on request
   gshell::reuse_freed_memory(); // one command per process: keep freed buffers for the next phase
   catch_interrupts();

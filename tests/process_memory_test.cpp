@@ -7,11 +7,17 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <string>
 #include <cstdlib>
 #include <cstring>
 #include <thread>
 #include <utility>
 
+#if defined(__linux__)
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#endif
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
@@ -134,6 +140,56 @@ TEST(ProcessMemory, AnotherThreadReusesAFreedBlock) {
   }).join();
   EXPECT_GE(asked, begin);
   EXPECT_LE(asked + kAsked, begin + kFreed);
+}
+#endif
+
+#if defined(__linux__)
+constexpr const char* kBlasChildVariable = "GSHELL_SERIAL_BLAS_CHILD"; // the OPENBLAS_NUM_THREADS expected, "-": unset
+
+/// The restarted test's own process: exits 0 if OPENBLAS_NUM_THREADS is as its parent expects, 3
+/// if not.
+const bool kRanAsBlasChild = [] {
+  const char* expect = std::getenv(kBlasChildVariable);
+  if (!expect) return false;
+  const char* threads = std::getenv("OPENBLAS_NUM_THREADS");
+  _exit(std::string(threads ? threads : "-") == expect ? 0 : 3);
+}();
+
+/// Forks a child that sets OPENBLAS_NUM_THREADS to `threads` (nullptr: unset) and, with `limit`,
+/// an address-space limit of 64 GB, calls restart_with_serial_blas_under_address_limit and, if
+/// that returns, restarts itself unchanged; returns the exit status of the process that results.
+int status_of_blas_child(bool limit, const char* threads, const char* expect) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    if (threads) setenv("OPENBLAS_NUM_THREADS", threads, 1);
+    else unsetenv("OPENBLAS_NUM_THREADS");
+    setenv(kBlasChildVariable, expect, 1);
+    if (limit) {
+      const rlimit as{rlim_t{64} << 30, rlim_t{64} << 30};
+      if (setrlimit(RLIMIT_AS, &as) != 0) _exit(6);
+    }
+    char self[] = "process_memory_test";
+    char* argv[] = {self, nullptr};
+    gshell::restart_with_serial_blas_under_address_limit(argv);
+    execv("/proc/self/exe", argv);
+    _exit(5);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Under an address-space limit the process restarts with OpenBLAS held to one thread (with
+// several, a buffer mapping that fails makes it retry forever: bunny00's generation spun under a
+// 400 MB limit it fits in); a thread count the user set, or no limit, is left alone.
+TEST(ProcessMemory, AnAddressSpaceLimitRestartsWithOneBlasThreadUnlessTheUserChose) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves its shadow memory beyond any address-space limit";
+#endif
+  EXPECT_FALSE(kRanAsBlasChild);
+  EXPECT_EQ(status_of_blas_child(true, nullptr, "1"), 0);
+  EXPECT_EQ(status_of_blas_child(true, "2", "2"), 0);
+  EXPECT_EQ(status_of_blas_child(false, nullptr, "-"), 0);
 }
 #endif
 

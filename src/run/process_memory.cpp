@@ -3,18 +3,31 @@
 #include <climits> // also brings glibc's <features.h>, which defines __GLIBC__
 #include <fstream>
 
+#include <cstdlib>
+#include <cstring>
+
+#if defined(__linux__)
+#include <sys/resource.h>
+#include <unistd.h>
+#endif
+
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 #if defined(__linux__) && defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 35))
 #define GSHELL_GLIBC_HUGE_PAGES 1 // glibc 2.35 brought the glibc.malloc.hugetlb tunable
-#include <unistd.h>
-
-#include <cstdlib>
-#include <cstring>
 #endif
 
 namespace gshell {
+
+namespace {
+
+bool under_valgrind() {
+  const char* preload = std::getenv("LD_PRELOAD"); // valgrind runs its client with its own preload library
+  return preload && std::strstr(preload, "vgpreload");
+}
+
+} // namespace
 
 void reuse_freed_memory() {
 #if defined(__GLIBC__)
@@ -30,8 +43,7 @@ void restart_with_huge_pages(char** argv) {
 #if defined(GSHELL_GLIBC_HUGE_PAGES)
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   if (tunables && std::strstr(tunables, "glibc.malloc.hugetlb")) return;
-  // valgrind runs its client with its own preload library; an exec would leave valgrind behind.
-  if (const char* preload = std::getenv("LD_PRELOAD"); preload && std::strstr(preload, "vgpreload")) return;
+  if (under_valgrind()) return; // an exec would leave valgrind behind
   if (transparent_huge_page_mode() != "madvise") return;
   const std::string before = tunables ? tunables : "";
   const std::string with_huge_pages = (before.empty() ? "" : before + ":") + "glibc.malloc.hugetlb=1";
@@ -40,6 +52,19 @@ void restart_with_huge_pages(char** argv) {
   // Still here: the restart failed; carry on as before, with the environment as it was.
   if (tunables) setenv("GLIBC_TUNABLES", before.c_str(), 1);
   else unsetenv("GLIBC_TUNABLES");
+#else
+  (void)argv;
+#endif
+}
+
+void restart_with_serial_blas_under_address_limit(char** argv) {
+#if defined(__linux__)
+  rlimit limit{};
+  if (getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return;
+  if (std::getenv("OPENBLAS_NUM_THREADS") || under_valgrind()) return;
+  if (setenv("OPENBLAS_NUM_THREADS", "1", 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  unsetenv("OPENBLAS_NUM_THREADS"); // still here: carry on as before
 #else
   (void)argv;
 #endif

@@ -34,6 +34,17 @@ void reuse_freed_memory();
 /// (the CLI, the benchmarks), not from a library inside a host.
 void restart_with_huge_pages(char** argv);
 
+/// Under an address-space limit (`ulimit -v`, as batch systems and some containers set), restarts
+/// the process once, as restart_with_huge_pages does, with `OPENBLAS_NUM_THREADS=1`. OpenBLAS
+/// started with several threads maps a 128 MB buffer on a thread's first call, and where that
+/// mapping fails it retries forever: a generation of bunny00 that fits in 400 MB spun until killed
+/// (its main thread's buffer, after the job's own memory; setting the thread count later does not
+/// help), where with one thread from the start it runs in 0.9 s, and a job that does not fit fails
+/// with the out-of-memory error instead of a hang. Returns without restarting without a limit,
+/// when `OPENBLAS_NUM_THREADS` is set already (also what keeps a restarted process from
+/// restarting), under valgrind, or when the restart fails. Call first thing in `main`.
+void restart_with_serial_blas_under_address_limit(char** argv);
+
 /// The kernel's transparent huge page mode ("always", "madvise" or "never", the bracketed word of
 /// /sys/kernel/mm/transparent_hugepage/enabled); "" where there is no such file.
 std::string transparent_huge_page_mode();
