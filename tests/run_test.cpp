@@ -258,6 +258,29 @@ TEST(StagedFolder, AFileWhereAFolderIsWantedIsNamedAsSuch) {
   EXPECT_NE(message([&] { read_shell_folder(tmp.file("none")); }).find("(no such directory)"), std::string::npos);
 }
 
+// "OUT/." names OUT: its staging folder goes beside OUT, not into it (where the check for other
+// files found it and refused an empty folder). The current folder, or one holding it, is never
+// replaced: the user's shell would be left in a deleted folder.
+TEST(StagedFolder, AFolderNamedByItsOwnEntryIsThatFolderAndTheCurrentOneIsRefused) {
+  test::TempDir tmp;
+  fs::create_directory(tmp.path() / "out");
+  const ShellFolderContents c = cylinder_contents(0.1);
+  write_shell_folder(tmp.file("out") + "/.", c);
+  EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"out"});
+  EXPECT_TRUE(fs::exists(tmp.file("out/report.json")));
+  write_shell_folder(tmp.file("out") + "/.", c); // an earlier output, replaced
+  EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"out"});
+  fs::create_directory(tmp.path() / "out2");
+  const fs::path before = fs::current_path();
+  fs::current_path(tmp.path() / "out2");
+  EXPECT_THROW(check_output_folder("."), InputError);
+  EXPECT_THROW(check_output_folder(".."), InputError);
+  EXPECT_THROW(check_output_folder(tmp.file("out2")), InputError);
+  EXPECT_NO_THROW(check_output_folder("sub"));
+  fs::current_path(before);
+  EXPECT_EQ(entries(tmp.path() / "out2"), std::vector<std::string>{});
+}
+
 TEST(GenerateRun, OptionsReportAndFolder) {
   GenerateRunOptions o;
   EXPECT_THROW(o.check(), InputError); // no thickness

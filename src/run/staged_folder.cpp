@@ -28,6 +28,13 @@ fs::path sibling(const fs::path& destination, const std::string& tag) {
 
 fs::path folder_name(const fs::path& destination) {
   fs::path d = destination;
+  // "OUT/." and "." name a folder by its own entry: its staging folder must go beside it, not into
+  // it (where the check for other files found it), so the name it is known by comes first.
+  if (const std::string last = d.filename().string(); last == "." || last == "..") {
+    std::error_code ec;
+    d = fs::absolute(d, ec).lexically_normal();
+    if (ec) throw InputError(with_file(destination.string(), "the current folder cannot be found (" + ec.message() + ")"));
+  }
   if (d.filename().empty()) d = d.parent_path(); // "OUT/" -> "OUT"
   if (d.empty()) throw InputError("empty output folder name");
   return d;
@@ -78,6 +85,18 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
     throw InputError(with_file(d.string(), fs::exists(parent, ec) ? "parent " + parent.string() + " is not a folder"
                                                                   : std::string("parent folder does not exist")));
   if (fs::exists(d, ec) && !fs::is_directory(d, ec)) throw InputError(with_file(d.string(), "exists and is not a folder"));
+  // The output replaces the folder as a whole: the current folder, or one holding it, would be
+  // taken from under the user's shell.
+  const fs::path here = fs::current_path(ec);
+  if (!ec && fs::exists(d, ec)) {
+    const fs::path out = fs::weakly_canonical(fs::absolute(d), ec);
+    if (!ec) {
+      const auto [o, h] = std::mismatch(out.begin(), out.end(), here.begin(), here.end());
+      if (o == out.end())
+        throw InputError(with_file(d.string(), "is the current folder or holds it, and the output replaces its folder "
+                                               "as a whole; choose a folder inside it (-o NAME)"));
+    }
+  }
   if (is_previous_output && !replaceable(d, is_previous_output)) throw not_replaceable(d);
 }
 
