@@ -69,7 +69,10 @@ TEST(Frames, NamesNumbersAndScanOrder) {
   EXPECT_EQ(frame_number(frame_name(7, "", 12000)), 7);
   EXPECT_EQ(frame_number("frame_0012.obj", ".obj"), 12);
   EXPECT_EQ(frame_number("frame_10000"), 10000);
-  EXPECT_FALSE(frame_number("frame_012"));      // fewer than four digits
+  EXPECT_EQ(frame_number("frame_012"), 12);      // fewer than four digits: from other tools
+  EXPECT_EQ(frame_number("frame_2.obj", ".obj"), 2);
+  EXPECT_FALSE(frame_number("frame_.obj", ".obj"));
+  EXPECT_FALSE(frame_number("frame_1234567890")); // more than nine
   EXPECT_FALSE(frame_number("frame_0012.obj")); // a file name where a folder name is asked for
   EXPECT_FALSE(frame_number("frame_00x2"));
   EXPECT_FALSE(frame_number("frames_0001"));
@@ -82,11 +85,20 @@ TEST(Frames, NamesNumbersAndScanOrder) {
   std::vector<std::string> folders;
   for (const fs::path& p : list_frames(tmp.path())) folders.push_back(p.filename().string());
   // By number, not by name: frame_10000 sorts after frame_9999.
-  EXPECT_EQ(folders, (std::vector<std::string>{"frame_0002", "frame_0010", "frame_9999", "frame_10000"}));
+  EXPECT_EQ(folders, (std::vector<std::string>{"frame_0002", "frame_0010", "frame_12", "frame_9999", "frame_10000"}));
   std::vector<std::string> files;
+  test::write_text(tmp.file("frame_2.obj"), ""); // frame_2.obj was skipped without a word
   for (const fs::path& p : list_frames(tmp.path(), ".obj")) files.push_back(p.filename().string());
-  EXPECT_EQ(files, (std::vector<std::string>{"frame_0001.obj", "frame_0003.obj"}));
+  EXPECT_EQ(files, (std::vector<std::string>{"frame_0001.obj", "frame_2.obj", "frame_0003.obj"}));
   EXPECT_TRUE(list_frames(tmp.path() / "missing").empty());
+  // Two names of one number: which is meant cannot be told.
+  test::write_text(tmp.file("frame_1.obj"), "");
+  try {
+    list_frames(tmp.path(), ".obj");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame_0001.obj and frame_1.obj are both frame 1"), std::string::npos) << e.what();
+  }
 }
 
 // `gshell deform --base DIR` takes what `gshell animate -o DIR` wrote: a folder stands for its

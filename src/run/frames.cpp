@@ -22,7 +22,8 @@ std::string frame_name(int k, const std::string& extension, int count) {
 
 std::optional<int> frame_number(const std::string& name, const std::string& extension) {
   static const std::string prefix = "frame_";
-  if (name.size() < prefix.size() + 4 + extension.size() || name.compare(0, prefix.size(), prefix) != 0)
+  // Any number of digits: gshell writes at least four, other tools and users fewer (frame_2.obj).
+  if (name.size() < prefix.size() + 1 + extension.size() || name.compare(0, prefix.size(), prefix) != 0)
     return std::nullopt;
   // The extension in any case, as every reader takes it (frame_0001.OBJ from another tool).
   for (std::size_t i = 0; i < extension.size(); ++i)
@@ -42,6 +43,11 @@ std::vector<fs::path> list_frames(const fs::path& dir, const std::string& extens
     if (const auto k = frame_number(entry.path().filename().string(), extension)) found.emplace_back(*k, entry.path());
   }
   std::sort(found.begin(), found.end());
+  for (std::size_t k = 1; k < found.size(); ++k)
+    if (found[k].first == found[k - 1].first)
+      throw InputError(with_file(dir.string(), found[k - 1].second.filename().string() + " and " +
+                                                   found[k].second.filename().string() + " are both frame " +
+                                                   std::to_string(found[k].first) + "; keep one of them"));
   std::vector<fs::path> frames;
   for (auto& [k, path] : found) frames.push_back(std::move(path));
   return frames;

@@ -14,13 +14,14 @@ namespace gshell {
 /// sequence's frame count) where it has more than four. 0 <= k <= count where count is given.
 std::string frame_name(int k, const std::string& extension = {}, int count = 0);
 
-/// The number of a name made by frame_name with this extension ("frame_0012.obj" -> 12;
-/// `extension` in lower case matches the name's in any case: "frame_0012.OBJ"), or nothing when
-/// the name is not a frame name.
+/// The number of a frame name with this extension: "frame_" and 1 to 9 digits, as frame_name
+/// makes them or with fewer digits ("frame_0012.obj", "frame_12.obj" -> 12; `extension` in lower
+/// case matches the name's in any case: "frame_0012.OBJ"), or nothing when the name is not one.
 std::optional<int> frame_number(const std::string& name, const std::string& extension = {});
 
 /// The frames in `dir`, ordered by number (frame_9999 before frame_10000): folders when
 /// `extension` is empty, files with that extension otherwise. Empty when `dir` is not a folder.
+/// \throws InputError naming `dir` when two names have one number (frame_2.obj, frame_0002.obj).
 std::vector<std::filesystem::path> list_frames(const std::filesystem::path& dir, const std::string& extension = {});
 
 /// Base frames named on a command line: a file as it is; a folder as its frame files in order
