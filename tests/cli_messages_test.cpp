@@ -320,6 +320,22 @@ TEST(CliMessages, NoOutputIsWrittenOverAnInputOrAFileOfAShellFolder) {
   EXPECT_EQ(run_cli("metrics " + quoted(base) + " " + quoted(top) + " --thickness-ratio 0.05 -o " + quoted(dir.file("m.json"))).exit_code, 0);
 }
 
+// A file output whose folder is missing, or that is a folder, is named before any work, as the
+// folder outputs are (curvature of bunny00 with wide rings ran 7 s, then found no such folder;
+// a folder given as the PNG printed a progress line before its error).
+TEST(CliMessages, AFileOutputThatCannotBeWrittenThereIsNamedBeforeTheWork) {
+  TempDir dir;
+  const std::string missing = dir.file("nodir");
+  expect_error_line("curvature builtin:sphere:3 -o " + quoted(missing + "/k.ply"), missing + "/k.ply: parent folder does not exist");
+  expect_error_line("render builtin:sphere:3 -o " + quoted(missing + "/r.png"), missing + "/r.png: parent folder does not exist");
+  expect_error_line("convert builtin:sphere:3 " + quoted(missing + "/s.obj"), missing + "/s.obj: parent folder does not exist");
+  std::filesystem::create_directory(dir.file("k.ply"));
+  expect_error_line("curvature builtin:sphere:3 -o " + quoted(dir.file("k.ply")), dir.file("k.ply") + ": is a directory, expected a file name");
+  write_text(dir.file("afile"), "x");
+  expect_error_line("texture --shell x --tile builtin:bumps:4 -o " + quoted(dir.file("afile") + "/t.obj"),
+                    dir.file("afile") + "/t.obj: parent " + dir.file("afile") + " is not a folder");
+}
+
 TEST(CliMessages, TextureCoordinatesAndTexturesNameTheirFile) {
   TempDir dir;
   // A tetrahedron whose second texture coordinate is NaN: an error of the mesh, named by its file.
