@@ -222,6 +222,14 @@ TEST(Handles, MissingFileNamesIt) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/h.json"), std::string::npos);
   }
+  // A folder is named as one (it read as empty text: "not valid JSON ... unexpected end of input").
+  gshell::test::TempDir tmp;
+  try {
+    read_handles(tmp.path().string(), small_bowl());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), tmp.path().string() + ": is a directory, expected a handle file (JSON)");
+  }
 }
 
 TEST(PoseCli, WritesTheDeformedShellAndAReport) {

@@ -198,6 +198,14 @@ TEST(ShellFolder, ThicknessFromTheReportAsNumberOrEta) {
   EXPECT_THROW(read_shell_folder(tmp.file("empty")), InputError);
   test::write_text(tmp.file("a/report.json"), "{not json");
   EXPECT_THROW(read_shell_folder(tmp.file("a")), InputError);
+  // A broken report says where it breaks (it said "not a JSON object").
+  test::write_text(tmp.file("a/report.json"), "{\"energy\": [1,\n NaN]}");
+  try {
+    read_report(tmp.file("a"));
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("report.json: not valid JSON (parse error at line 2, column 2"), std::string::npos) << e.what();
+  }
 }
 
 TEST(StagedFolder, AFailureLeavesNothingBehind) {

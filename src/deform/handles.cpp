@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
@@ -313,6 +314,8 @@ nlohmann::ordered_json handles_to_json(const HandleSet& set) {
 }
 
 HandleSet read_handles(const std::string& path, const Shell& rest) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(with_file(path, "is a directory, expected a handle file (JSON)"));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(with_file(path, "cannot open handle file"));
   std::stringstream text;

@@ -108,8 +108,17 @@ nlohmann::ordered_json read_report(const fs::path& dir) {
   constexpr int kMaxReportDepth = 64;
   if (io_detail::json_nesting_depth(text, kMaxReportDepth) > kMaxReportDepth)
     throw InputError(with_file(path.string(), "nested deeper than " + std::to_string(kMaxReportDepth) + " levels"));
-  nlohmann::ordered_json report = nlohmann::ordered_json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (report.is_discarded() || !report.is_object()) throw InputError(with_file(path.string(), "not a JSON object"));
+  nlohmann::ordered_json report;
+  try {
+    report = nlohmann::ordered_json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    // A cut-off or hand-edited report (NaN is not JSON): nlohmann's position and reason, without
+    // its "[json.exception...]" prefix.
+    std::string what = e.what();
+    const auto at = what.find("] ");
+    throw InputError(with_file(path.string(), "not valid JSON (" + (at == std::string::npos ? what : what.substr(at + 2)) + ")"));
+  }
+  if (!report.is_object()) throw InputError(with_file(path.string(), "not a JSON object"));
   return report;
 }
 
