@@ -991,4 +991,22 @@ TEST(IoAtomic, FailedWritesLeaveNothingAndKeepTheOldFile) {
   EXPECT_EQ(gshell::test::count_entries(dir.path()), 1);
 }
 
+// An output named by a symbolic link is written where the link leads, and the link stays (the
+// rename replaced the link with a file, leaving its target unchanged).
+TEST(IoAtomic, AnOutputThroughASymbolicLinkReachesItsTargetAndKeepsTheLink) {
+  TempDir dir;
+  const std::string target = dir.file("target.txt"), link = dir.file("link.txt");
+  write_file_atomically(target, [](std::ostream& out) { out << "old"; });
+  std::filesystem::create_symlink("target.txt", link);
+  write_file_atomically(link, [](std::ostream& out) { out << "new"; });
+  EXPECT_TRUE(std::filesystem::is_symlink(link));
+  EXPECT_EQ(read_text(target), "new");
+  EXPECT_EQ(gshell::test::count_entries(dir.path()), 2);
+  // A dangling link: the file is made where it points.
+  std::filesystem::create_symlink("later.txt", dir.file("dangling.txt"));
+  write_file_atomically(dir.file("dangling.txt"), [](std::ostream& out) { out << "made"; });
+  EXPECT_TRUE(std::filesystem::is_symlink(dir.file("dangling.txt")));
+  EXPECT_EQ(read_text(dir.file("later.txt")), "made");
+}
+
 } // namespace

@@ -290,6 +290,12 @@ TEST(StagedFolder, AFolderNamedByItsOwnEntryIsThatFolderAndTheCurrentOneIsRefuse
   EXPECT_TRUE(fs::exists(tmp.file("out/report.json")));
   write_shell_folder(tmp.file("out") + "/.", c); // an earlier output, replaced
   EXPECT_EQ(entries(tmp.path()), std::vector<std::string>{"out"});
+  // Through a symbolic link: the folder it leads to is replaced, the link kept.
+  fs::create_directory_symlink("out", tmp.path() / "link");
+  write_shell_folder(tmp.file("link"), c);
+  EXPECT_TRUE(fs::is_symlink(tmp.path() / "link"));
+  EXPECT_EQ(entries(tmp.path()), (std::vector<std::string>{"link", "out"}));
+  fs::remove(tmp.path() / "link");
   fs::create_directory(tmp.path() / "out2");
   const fs::path before = fs::current_path();
   fs::current_path(tmp.path() / "out2");

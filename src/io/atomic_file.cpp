@@ -47,9 +47,22 @@ void remove_quietly(const fs::path& p) {
 
 } // namespace
 
+fs::path output_target(const fs::path& path) {
+  // Link by link (a dangling one included: the output is made where it points), at most as deep
+  // as the kernel follows links.
+  fs::path p = path;
+  std::error_code ec;
+  for (int depth = 0; depth < 40 && fs::is_symlink(p, ec); ++depth) {
+    const fs::path next = fs::read_symlink(p, ec);
+    if (ec) return path;
+    p = next.is_absolute() ? next : p.parent_path() / next;
+  }
+  return p;
+}
+
 void write_file_atomically(const std::string& path, const std::function<void(std::ostream&)>& write, bool binary) {
   if (path.empty()) throw InputError("empty output file name");
-  const fs::path target(path);
+  const fs::path target = output_target(path);
   if (fs::is_directory(target)) throw InputError(with_file(path, "is a directory, expected a file name"));
   const fs::path temporary = create_unique_temporary(target);
   const TemporaryOutput registered(temporary);

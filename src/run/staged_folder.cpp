@@ -1,6 +1,7 @@
 #include <gshell/run/staged_folder.h>
 
 #include <gshell/error.h>
+#include <gshell/io/atomic_file.h>
 #include <gshell/run/frames.h>
 
 #include "run/output_folder_files.h"
@@ -100,7 +101,7 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
   if (is_previous_output && !replaceable(d, is_previous_output)) throw not_replaceable(d);
 }
 
-StagedFolder::StagedFolder(const fs::path& destination) : destination_(folder_name(destination)) {
+StagedFolder::StagedFolder(const fs::path& destination) : destination_(output_target(folder_name(destination))) {
   check_output_folder(destination_);
   std::error_code ec;
   staging_ = sibling(destination_, "tmp");

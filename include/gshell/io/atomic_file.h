@@ -1,13 +1,20 @@
 #pragma once
 // Every output file is written under a temporary name next to its destination and renamed into
 // place only when complete, so a failure never leaves a partial file behind.
+#include <filesystem>
 #include <functional>
 #include <ostream>
 #include <string>
 
 namespace gshell {
 
-/// Calls write(stream) on a temporary file beside `path`, then renames it to `path`.
+/// Where an output named `path` goes, through a symbolic link: written whole beside `path` and
+/// renamed onto it, a file or folder would replace the link itself (an `out -> /scratch/out` link
+/// lost, the output on the other disk). Returns `path` when it is not a link.
+std::filesystem::path output_target(const std::filesystem::path& path);
+
+/// Calls write(stream) on a temporary file beside `path` (beside its target where it is a
+/// symbolic link: output_target), then renames it there.
 /// \throws InputError naming `path` when it is empty, a directory, or the file cannot be created,
 ///         written or moved into place; whatever `write` throws is passed on. The temporary is
 ///         removed on any failure.
