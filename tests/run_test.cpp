@@ -19,6 +19,9 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 using namespace gshell;
 namespace fs = std::filesystem;
 
@@ -305,6 +308,26 @@ TEST(StagedFolder, AFolderNamedByItsOwnEntryIsThatFolderAndTheCurrentOneIsRefuse
   EXPECT_NO_THROW(check_output_folder("sub"));
   fs::current_path(before);
   EXPECT_EQ(entries(tmp.path() / "out2"), std::vector<std::string>{});
+}
+
+// Staging folders left by runs killed outright (kill -9, the out-of-memory killer) are removed by
+// the next run to the same output: those whose process is gone. A live process's, another
+// output's and names of another shape stay.
+TEST(StagedFolder, OrphansOfKilledRunsAreRemovedByTheNextRun) {
+  test::TempDir tmp;
+  const pid_t gone = fork();
+  if (gone == 0) _exit(0);
+  ASSERT_GT(gone, 0);
+  waitpid(gone, nullptr, 0); // reaped: its id names no process now (unless reused at once)
+  const std::string dead = std::to_string(gone);
+  for (const std::string& name : std::vector<std::string>{".out.tmp-" + dead + "-5", ".out.old-" + dead + "-6", ".out.tmp-1-7",
+                                 ".other.tmp-" + dead + "-8", ".out.tmpx-" + dead + "-9"}) {
+    fs::create_directory(tmp.path() / name);
+    test::write_text((tmp.path() / name / "top.obj").string(), "v 0 0 0\n");
+  }
+  write_shell_folder(tmp.file("out"), cylinder_contents(0.1));
+  EXPECT_EQ(entries(tmp.path()), (std::vector<std::string>{".other.tmp-" + dead + "-8", ".out.tmp-1-7",
+                                                           ".out.tmpx-" + dead + "-9", "out"}));
 }
 
 TEST(GenerateRun, OptionsReportAndFolder) {

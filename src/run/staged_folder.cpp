@@ -7,10 +7,15 @@
 #include "run/output_folder_files.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <random>
 #include <string>
 #include <system_error>
 #include <vector>
+
+#include <signal.h>
+#include <unistd.h>
 
 namespace gshell {
 
@@ -18,13 +23,43 @@ namespace fs = std::filesystem;
 
 namespace {
 
+fs::path parent_of(const fs::path& destination) {
+  return destination.parent_path().empty() ? fs::path(".") : destination.parent_path();
+}
+
+// ".NAME.TAG-PID-RANDOM": the process id tells a later run whether the folder's owner is gone.
 fs::path sibling(const fs::path& destination, const std::string& tag) {
   std::random_device rd;
-  const fs::path parent = destination.parent_path().empty() ? fs::path(".") : destination.parent_path();
   std::string name = ".";
   name += destination.filename().string();
-  name += "." + tag + "-" + std::to_string(rd());
-  return parent / name;
+  name += "." + tag + "-" + std::to_string(::getpid()) + "-" + std::to_string(rd());
+  return parent_of(destination) / name;
+}
+
+// Removes the staging and set-aside folders of `destination` that runs killed outright (kill -9,
+// the out-of-memory killer, a CI timeout) left behind: those whose process no longer exists on
+// this machine. Tens to hundreds of MB each, hidden, and never removed before. A folder of a
+// process that is alive, or of an unknown name, is left alone.
+void remove_orphans_of(const fs::path& destination) {
+  std::string stem(1, '.'); // built in steps: GCC 12 warns (-Wrestrict, falsely) on "." + name + "."
+  stem += destination.filename().string();
+  stem += '.';
+  std::error_code ec;
+  for (fs::directory_iterator it(parent_of(destination), ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.compare(0, stem.size(), stem) != 0) continue;
+    const std::string rest = name.substr(stem.size()); // "tmp-PID-RANDOM" or "old-PID-RANDOM"
+    if (rest.compare(0, 4, "tmp-") != 0 && rest.compare(0, 4, "old-") != 0) continue;
+    const std::size_t dash = rest.find('-', 4);
+    if (dash == std::string::npos || dash == 4) continue;
+    const std::string digits = rest.substr(4, dash - 4);
+    if (!std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }) || digits.size() > 9)
+      continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(digits));
+    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;
+    std::error_code ignored;
+    fs::remove_all(it->path(), ignored);
+  }
 }
 
 fs::path folder_name(const fs::path& destination) {
@@ -103,6 +138,7 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
 
 StagedFolder::StagedFolder(const fs::path& destination) : destination_(output_target(folder_name(destination))) {
   check_output_folder(destination_);
+  remove_orphans_of(destination_);
   std::error_code ec;
   staging_ = sibling(destination_, "tmp");
   if (!fs::create_directory(staging_, ec) || ec)

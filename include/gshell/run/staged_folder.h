@@ -20,7 +20,10 @@ void check_output_folder(const std::filesystem::path& destination,
 
 class StagedFolder {
 public:
-  /// Creates the temporary folder ".NAME.tmp-*" beside `destination` (the parent must exist).
+  /// Creates the temporary folder ".NAME.tmp-PID-*" beside `destination` (the parent must exist),
+  /// after removing those of `destination` that killed runs left (their process id names no
+  /// process on this machine; a run on another machine writing the same folder at the same moment
+  /// would lose its staging folder, as it would lose the race to the output anyway).
   /// \throws InputError naming the destination when it cannot.
   explicit StagedFolder(const std::filesystem::path& destination);
   /// Removes the temporary folder unless commit() succeeded.
