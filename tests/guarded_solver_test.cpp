@@ -377,25 +377,37 @@ GuardedSolveResult drag_then_settle(const RestTets& rest, const std::vector<int>
 // path approach that point only geometrically. With the tets alone guarded (no contact) the drag
 // is given up once not even a hundred times its pace would finish it, long before its iteration
 // budget, every tet still positive; with contacts guarded as well, by the contact drag's rule.
-TEST(GuardedSolver, ADragThatCannotFinishIsGivenUpEarlyAndLeftValid) {
-  const NormalShell shell(make_plane(4), 0.1);
-  const int n = shell.n;
-  int centre = 0;
-  for (int i = 1; i < n; ++i)
-    if (shell.base.V.row(i).norm() < shell.base.V.row(centre).norm()) centre = i;
+// The plane's base, held, with its centre vertex dragged past its own held top vertex.
+struct BaseVertexThroughItsTop {
+  NormalShell shell{make_plane(4), 0.1};
   std::vector<int> fixed;
-  for (int i = 0; i < n; ++i) fixed.push_back(i);
-  fixed.push_back(n + centre);
   Eigen::MatrixXd targets = shell.X;
-  targets(centre, 2) += 2 * shell.eta; // the base vertex past its top, which stays where it is
+
+  BaseVertexThroughItsTop() {
+    const int n = shell.n;
+    int centre = 0;
+    for (int i = 1; i < n; ++i)
+      if (shell.base.V.row(i).norm() < shell.base.V.row(centre).norm()) centre = i;
+    for (int i = 0; i < n; ++i) fixed.push_back(i);
+    fixed.push_back(n + centre);
+    targets(centre, 2) += 2 * shell.eta; // the base vertex past its top, which stays where it is
+  }
+  GuardedSolver solver(const GuardedSolverParameters& p) const {
+    return GuardedSolver(shell.rest, 2 * shell.n, fixed, shell.boundary, p);
+  }
+};
+
+TEST(GuardedSolver, ADragThatCannotFinishIsGivenUpEarlyAndLeftValid) {
+  const BaseVertexThroughItsTop c;
+  const Eigen::MatrixXd& targets = c.targets;
   GuardedSolveOptions options;
   options.max_iterations = 400;
   for (const double contact_distance : {0.0, 0.02}) {
     GuardedSolverParameters p;
     p.contact_distance = contact_distance;
     p.contact_stiffness = contact_distance > 0 ? 1 : 0;
-    GuardedSolver solver(shell.rest, 2 * n, fixed, shell.boundary, p);
-    Eigen::MatrixXd Y = shell.X;
+    GuardedSolver solver = c.solver(p);
+    Eigen::MatrixXd Y = c.shell.X;
     const GuardedSolveResult r = solver.solve(Y, options, targets);
     EXPECT_LT(r.path_done, 1) << "contact distance " << contact_distance;
     EXPECT_GT(r.path_done, 0.25) << "contact distance " << contact_distance; // it went most of the way it could
@@ -412,16 +424,8 @@ TEST(GuardedSolver, ADragThatCannotFinishIsGivenUpEarlyAndLeftValid) {
 // of its pose in such retries). The drag above, told that its path is a tenth of the motion,
 // stops sooner, as far along as the bounds let it go and as valid.
 TEST(GuardedSolver, AContactDragIsStalledAtThePaceOfTheWholeMotion) {
-  const NormalShell shell(make_plane(4), 0.1);
-  const int n = shell.n;
-  int centre = 0;
-  for (int i = 1; i < n; ++i)
-    if (shell.base.V.row(i).norm() < shell.base.V.row(centre).norm()) centre = i;
-  std::vector<int> fixed;
-  for (int i = 0; i < n; ++i) fixed.push_back(i);
-  fixed.push_back(n + centre);
-  Eigen::MatrixXd targets = shell.X;
-  targets(centre, 2) += 2 * shell.eta;
+  const BaseVertexThroughItsTop c;
+  const Eigen::MatrixXd& targets = c.targets;
   GuardedSolverParameters p;
   p.contact_distance = 0.02;
   p.contact_stiffness = 1;
@@ -429,8 +433,8 @@ TEST(GuardedSolver, AContactDragIsStalledAtThePaceOfTheWholeMotion) {
   options.max_iterations = 400;
   GuardedSolveResult r[2];
   for (const int part : {0, 1}) {
-    GuardedSolver solver(shell.rest, 2 * n, fixed, shell.boundary, p);
-    Eigen::MatrixXd Y = shell.X;
+    GuardedSolver solver = c.solver(p);
+    Eigen::MatrixXd Y = c.shell.X;
     GuardedSolveOptions o = options;
     if (part == 1) o.path_scale = 0.1;
     r[part] = solver.solve(Y, o, targets);
@@ -440,8 +444,8 @@ TEST(GuardedSolver, AContactDragIsStalledAtThePaceOfTheWholeMotion) {
   EXPECT_LT(r[1].iterations, r[0].iterations);
   EXPECT_GT(r[1].path_done, 0.9 * r[0].path_done); // most of the way the whole pace went
   options.path_scale = 0;
-  GuardedSolver solver(shell.rest, 2 * n, fixed, shell.boundary, p);
-  Eigen::MatrixXd Y = shell.X;
+  GuardedSolver solver = c.solver(p);
+  Eigen::MatrixXd Y = c.shell.X;
   EXPECT_THROW(solver.solve(Y, options, targets), InputError);
 }
 

@@ -1,15 +1,17 @@
 // reuse_freed_memory: a large block the process frees stays in its heap for the next allocation
 // (glibc would otherwise have mapped it on its own and unmapped it at free). restart_with_huge_pages:
-// a restarted process's heap is in huge pages. Its own executable: the calls change the allocator
-// of the whole process.
+// a restarted process's heap is in huge pages. restart_with_serial_blas_under_address_limit: a
+// process under an address-space limit restarts with one BLAS thread. Its own executable: the
+// calls change the allocator of the whole process.
 #include <gshell/run/process_memory.h>
 
 #include <gtest/gtest.h>
 
 #include <cstdint>
-#include <string>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
+#include <string>
 #include <thread>
 #include <utility>
 
@@ -23,14 +25,30 @@
 #endif
 #if defined(__linux__) && defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 35))
 #define GSHELL_TEST_HUGE_PAGES 1
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <fstream>
-#include <string>
 #endif
 
 namespace {
+
+#if defined(__linux__)
+/// Forks a child that runs `prepare` (its environment, its limits), then `restart` and, if that
+/// returns, restarts itself unchanged; returns the exit status of the process that results, which
+/// a check of its own (before gtest starts) decides.
+int status_of_restarted(const std::function<void()>& prepare, void (*restart)(char**)) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    prepare();
+    char self[] = "process_memory_test";
+    char* argv[] = {self, nullptr};
+    restart(argv);
+    execv("/proc/self/exe", argv);
+    _exit(5);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+#endif
 
 #if defined(GSHELL_TEST_HUGE_PAGES)
 constexpr const char* kChildVariable = "GSHELL_HUGE_PAGE_CHILD"; // "1": expect huge pages, "0": none
@@ -60,24 +78,15 @@ const bool kRanAsChild = [] {
   _exit((std::strcmp(expect, "1") == 0 ? kb >= static_cast<long>(kBlock >> 11) : kb == 0) ? 0 : 3); // half the block, in kB
 }();
 
-/// Forks a child that sets GLIBC_TUNABLES to `tunables` (nullptr: unset), calls
-/// restart_with_huge_pages and, if that returns, restarts itself unchanged; returns the exit status
-/// of the process that results.
+/// A child that sets GLIBC_TUNABLES to `tunables` (nullptr: unset) and calls restart_with_huge_pages.
 int status_of_restarted_child(const char* tunables, const char* expect) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    if (tunables) setenv("GLIBC_TUNABLES", tunables, 1);
-    else unsetenv("GLIBC_TUNABLES");
-    setenv(kChildVariable, expect, 1);
-    char self[] = "process_memory_test";
-    char* argv[] = {self, nullptr};
-    gshell::restart_with_huge_pages(argv);
-    execv("/proc/self/exe", argv);
-    _exit(5);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return status_of_restarted(
+      [&] {
+        if (tunables) setenv("GLIBC_TUNABLES", tunables, 1);
+        else unsetenv("GLIBC_TUNABLES");
+        setenv(kChildVariable, expect, 1);
+      },
+      gshell::restart_with_huge_pages);
 }
 
 // Where the kernel gives huge pages only on request, the restarted process's heap asks for them;
@@ -155,28 +164,18 @@ const bool kRanAsBlasChild = [] {
   _exit(std::string(threads ? threads : "-") == expect ? 0 : 3);
 }();
 
-/// Forks a child that sets OPENBLAS_NUM_THREADS to `threads` (nullptr: unset) and, with `limit`,
-/// an address-space limit of 64 GB, calls restart_with_serial_blas_under_address_limit and, if
-/// that returns, restarts itself unchanged; returns the exit status of the process that results.
+/// A child that sets OPENBLAS_NUM_THREADS to `threads` (nullptr: unset) and, with `limit`, an
+/// address-space limit of 64 GB, and calls restart_with_serial_blas_under_address_limit.
 int status_of_blas_child(bool limit, const char* threads, const char* expect) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    if (threads) setenv("OPENBLAS_NUM_THREADS", threads, 1);
-    else unsetenv("OPENBLAS_NUM_THREADS");
-    setenv(kBlasChildVariable, expect, 1);
-    if (limit) {
-      const rlimit as{rlim_t{64} << 30, rlim_t{64} << 30};
-      if (setrlimit(RLIMIT_AS, &as) != 0) _exit(6);
-    }
-    char self[] = "process_memory_test";
-    char* argv[] = {self, nullptr};
-    gshell::restart_with_serial_blas_under_address_limit(argv);
-    execv("/proc/self/exe", argv);
-    _exit(5);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return status_of_restarted(
+      [&] {
+        if (threads) setenv("OPENBLAS_NUM_THREADS", threads, 1);
+        else unsetenv("OPENBLAS_NUM_THREADS");
+        setenv(kBlasChildVariable, expect, 1);
+        const rlimit as{rlim_t{64} << 30, rlim_t{64} << 30};
+        if (limit && setrlimit(RLIMIT_AS, &as) != 0) _exit(6);
+      },
+      gshell::restart_with_serial_blas_under_address_limit);
 }
 
 // Under an address-space limit the process restarts with OpenBLAS held to one thread (with
