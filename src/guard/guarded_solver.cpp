@@ -735,7 +735,9 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
     if (tau < 1 && it > kStallIterations) {
       const double progress = tau - tau_history[it - kStallIterations];
       const double left = options.max_iterations - it;
-      if (m.contact ? progress * options.path_scale < kStallProgress : kHopelessPace * progress * left < kStallIterations * (1 - tau)) break;
+      if (m.contact ? progress * options.path_scale < kStallProgress
+                    : kHopelessPace * progress * left < kStallIterations * (1 - tau))
+        break;
     }
     if (tau >= 1 && (small || !moved)) {
       result.converged = small;
