@@ -1,6 +1,7 @@
 #include "output_file.h"
 
 #include <gshell/error.h>
+#include <gshell/io/atomic_file.h>
 #include <gshell/run/shell_folder.h>
 
 #include <algorithm>
@@ -25,10 +26,7 @@ void check_output_file(const std::string& output, const std::string& extension, 
   std::error_code ec;
   // Where the file cannot go, said before the work rather than after it (curvature of bunny00
   // with wide rings ran 7 s and then found no such folder).
-  const fs::path parent = fs::path(output).parent_path().empty() ? fs::path(".") : fs::path(output).parent_path();
-  if (!fs::is_directory(parent, ec))
-    throw InputError(with_file(output, fs::exists(parent, ec) ? "parent " + parent.string() + " is not a folder"
-                                                              : std::string("parent folder does not exist")));
+  check_output_parent(output);
   if (fs::is_directory(output, ec)) throw InputError(with_file(output, "is a directory, expected a file name"));
   for (const std::string& input : inputs)
     if (fs::equivalent(output, input, ec))

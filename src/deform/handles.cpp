@@ -205,10 +205,7 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
   try {
     doc = io_detail::parse_json_noting_repeated_keys(json_text, repeated_key);
   } catch (const json::exception& e) { // parse errors, and number overflow such as 1e999
-    // nlohmann's message carries the position and the offending text; drop its "[json...]" prefix
-    std::string what = e.what();
-    const auto pos = what.find("] ");
-    r.fail("", "not valid JSON (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
+    r.fail("", io_detail::not_valid_json(e));
   }
   if (!repeated_key.empty()) r.fail("", "the key \"" + repeated_key + "\" appears twice in one object");
   check_keys(doc, {"handles", "mode", "weight"}, "", r);

@@ -47,6 +47,14 @@ void remove_quietly(const fs::path& p) {
 
 } // namespace
 
+void check_output_parent(const fs::path& output) {
+  const fs::path parent = output.parent_path().empty() ? fs::path(".") : output.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(parent, ec))
+    throw InputError(with_file(output.string(), fs::exists(parent, ec) ? "parent " + parent.string() + " is not a folder"
+                                                                       : std::string("parent folder does not exist")));
+}
+
 fs::path output_target(const fs::path& path) {
   // Link by link (a dangling one included: the output is made where it points), at most as deep
   // as the kernel follows links.

@@ -40,4 +40,10 @@ nlohmann::json parse_json_noting_repeated_keys(std::string_view text, std::strin
   return json::parse(text.begin(), text.end(), note);
 }
 
+std::string not_valid_json(const nlohmann::json::exception& e) {
+  const std::string what = e.what();
+  const std::size_t at = what.find("] ");
+  return "not valid JSON (" + (at == std::string::npos ? what : what.substr(at + 2)) + ")";
+}
+
 } // namespace gshell::io_detail

@@ -19,4 +19,8 @@ int json_nesting_depth(std::string_view text, int stop_above);
 /// or "type" would silently replace the first. \throws json::exception as json::parse.
 nlohmann::json parse_json_noting_repeated_keys(std::string_view text, std::string& repeated);
 
+/// "not valid JSON (parse error at line L, column C: ...)": a parse error as the user should read
+/// it, nlohmann's own text without its "[json.exception...]" prefix.
+std::string not_valid_json(const nlohmann::json::exception& e);
+
 } // namespace gshell::io_detail

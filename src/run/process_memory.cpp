@@ -27,6 +27,18 @@ bool under_valgrind() {
   return preload && std::strstr(preload, "vgpreload");
 }
 
+#if defined(__linux__)
+// Runs this program again, same arguments, with `name` set to `value`; returns only when that
+// fails, with the environment as it was (`before`: the variable's earlier value, or null).
+void restart_with_variable(const char* name, const std::string& value, const char* before, char** argv) {
+  const std::string kept = before ? before : "";
+  if (setenv(name, value.c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  if (before) setenv(name, kept.c_str(), 1);
+  else unsetenv(name);
+}
+#endif
+
 } // namespace
 
 void reuse_freed_memory() {
@@ -46,12 +58,8 @@ void restart_with_huge_pages(char** argv) {
   if (under_valgrind()) return; // an exec would leave valgrind behind
   if (transparent_huge_page_mode() != "madvise") return;
   const std::string before = tunables ? tunables : "";
-  const std::string with_huge_pages = (before.empty() ? "" : before + ":") + "glibc.malloc.hugetlb=1";
-  if (setenv("GLIBC_TUNABLES", with_huge_pages.c_str(), 1) != 0) return;
-  execv("/proc/self/exe", argv);
-  // Still here: the restart failed; carry on as before, with the environment as it was.
-  if (tunables) setenv("GLIBC_TUNABLES", before.c_str(), 1);
-  else unsetenv("GLIBC_TUNABLES");
+  restart_with_variable("GLIBC_TUNABLES", (before.empty() ? "" : before + ":") + "glibc.malloc.hugetlb=1", tunables,
+                        argv);
 #else
   (void)argv;
 #endif
@@ -62,9 +70,7 @@ void restart_with_serial_blas_under_address_limit(char** argv) {
   rlimit limit{};
   if (getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return;
   if (std::getenv("OPENBLAS_NUM_THREADS") || under_valgrind()) return;
-  if (setenv("OPENBLAS_NUM_THREADS", "1", 1) != 0) return;
-  execv("/proc/self/exe", argv);
-  unsetenv("OPENBLAS_NUM_THREADS"); // still here: carry on as before
+  restart_with_variable("OPENBLAS_NUM_THREADS", "1", nullptr, argv);
 #else
   (void)argv;
 #endif

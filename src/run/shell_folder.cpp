@@ -111,12 +111,8 @@ nlohmann::ordered_json read_report(const fs::path& dir) {
   nlohmann::ordered_json report;
   try {
     report = nlohmann::ordered_json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    // A cut-off or hand-edited report (NaN is not JSON): nlohmann's position and reason, without
-    // its "[json.exception...]" prefix.
-    std::string what = e.what();
-    const auto at = what.find("] ");
-    throw InputError(with_file(path.string(), "not valid JSON (" + (at == std::string::npos ? what : what.substr(at + 2)) + ")"));
+  } catch (const nlohmann::json::exception& e) { // a cut-off or hand-edited report (NaN is not JSON)
+    throw InputError(with_file(path.string(), io_detail::not_valid_json(e)));
   }
   if (!report.is_object()) throw InputError(with_file(path.string(), "not a JSON object"));
   return report;

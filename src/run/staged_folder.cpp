@@ -115,11 +115,8 @@ InputError not_replaceable(const fs::path& destination) {
 
 void check_output_folder(const fs::path& destination, const std::function<bool(const fs::path&)>& is_previous_output) {
   const fs::path d = folder_name(destination);
-  const fs::path parent = d.parent_path().empty() ? fs::path(".") : d.parent_path();
+  check_output_parent(d);
   std::error_code ec;
-  if (!fs::is_directory(parent, ec))
-    throw InputError(with_file(d.string(), fs::exists(parent, ec) ? "parent " + parent.string() + " is not a folder"
-                                                                  : std::string("parent folder does not exist")));
   if (fs::exists(d, ec) && !fs::is_directory(d, ec)) throw InputError(with_file(d.string(), "exists and is not a folder"));
   // The output replaces the folder as a whole: the current folder, or one holding it, would be
   // taken from under the user's shell.
@@ -127,8 +124,7 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
   if (!ec && fs::exists(d, ec)) {
     const fs::path out = fs::weakly_canonical(fs::absolute(d), ec);
     if (!ec) {
-      const auto [o, h] = std::mismatch(out.begin(), out.end(), here.begin(), here.end());
-      if (o == out.end())
+      if (std::mismatch(out.begin(), out.end(), here.begin(), here.end()).first == out.end())
         throw InputError(with_file(d.string(), "is the current folder or holds it, and the output replaces its folder "
                                                "as a whole; choose a folder inside it (-o NAME)"));
     }

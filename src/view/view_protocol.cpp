@@ -242,10 +242,7 @@ ViewMessage parse_view_message(std::string_view bytes, const ViewMessageLimits& 
   try {
     message = io_detail::parse_json_noting_repeated_keys(bytes, repeated);
   } catch (const json::exception& e) { // parse errors, and numbers that overflow (out_of_range)
-    // nlohmann's text: "[json.exception.parse_error.101] parse error at line 1, column 2: ..."
-    std::string what = e.what();
-    const std::size_t at = what.find("] ");
-    fail("", "not valid JSON (" + (at == std::string::npos ? what : what.substr(at + 2)) + ")");
+    fail("", io_detail::not_valid_json(e));
   }
   if (!repeated.empty()) fail("", "the key \"" + repeated + "\" appears twice in one object");
   if (!message.is_object()) fail("", "expected a JSON object");

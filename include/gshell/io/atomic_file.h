@@ -13,6 +13,10 @@ namespace gshell {
 /// lost, the output on the other disk). Returns `path` when it is not a link.
 std::filesystem::path output_target(const std::filesystem::path& path);
 
+/// The check every output makes before any work: the folder it goes into exists and is a folder.
+/// \throws InputError naming `output`: "parent folder does not exist" or "parent P is not a folder".
+void check_output_parent(const std::filesystem::path& output);
+
 /// Calls write(stream) on a temporary file beside `path` (beside its target where it is a
 /// symbolic link: output_target), then renames it there.
 /// \throws InputError naming `path` when it is empty, a directory, or the file cannot be created,
