@@ -143,7 +143,7 @@ void add_deform_command(CLI::App& parent) {
       ->required();
   cmd->add_option("--tolerance", a->options.frame.tolerance, "Relative energy change that ends a frame")
       ->capture_default_str();
-  cmd->add_option("--iterations", a->options.frame.max_iterations, "Maximum local/global iterations per frame")
+  cmd->add_option("--iterations", a->options.frame.max_iterations, "Maximum local/global iterations per frame (0: the frame's start itself)")
       ->capture_default_str();
   cmd->add_option("--warm-start", a->warm_start, "Start of each frame: extrapolated, rotated, translated or previous")
       ->capture_default_str();

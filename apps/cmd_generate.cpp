@@ -72,7 +72,7 @@ void add_generate_command(CLI::App& app) {
   gshell::cli::add_thickness_flags(*cmd, a->options.thickness);
   cmd->add_option("--method", a->method, "rigid (optimised), offset (vertex-normal offset) or curvature")
       ->capture_default_str();
-  cmd->add_option("--iterations", a->options.generate.solve.max_iterations, "Maximum local/global iterations")
+  cmd->add_option("--iterations", a->options.generate.solve.max_iterations, "Maximum local/global iterations (0: the start itself)")
       ->capture_default_str();
   cmd->add_option("--tolerance", a->options.generate.solve.tolerance, "Stop when the relative energy change is below this")
       ->capture_default_str();

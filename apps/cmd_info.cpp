@@ -58,7 +58,7 @@ void print_text(const std::string& name, const TriMesh& mesh, const MeshStats& s
   const Eigen::Vector3d size = s.bbox_max - s.bbox_min;
   std::ostringstream size_text;
   size_text << std::setprecision(6) << size.x() << " x " << size.y() << " x " << size.z() << " (diagonal "
-            << size.norm() << ")";
+            << size.stableNorm() << ")"; // 1e300 or 1e-300 apart: no overflow or underflow
   line("size", size_text.str());
   line("mean edge length", s.mean_edge_length);
   line("texture coordinates", mesh.has_uv() ? std::to_string(mesh.UV.rows()) : std::string("none"));

@@ -24,6 +24,28 @@ struct PoseArgs {
   std::string view = "iso";
 };
 
+/// One step's outcome, as it ends: iterations, energy, time and validity.
+std::string step_line(int step, int steps, const gshell::PoseStepReport& s) {
+  char text[200], dragged[48] = "";
+  if (s.guarded_iterations > 0) // the solver's result was not valid: the guard dragged the handles there
+    std::snprintf(dragged, sizeof dragged, " + %d guarded", s.guarded_iterations);
+  std::snprintf(text, sizeof text, "step %d/%d: %d iterations%s, energy %g, %.3f s%s%s", step, steps, s.iterations,
+                dragged, s.energy, s.seconds, s.converged ? "" : " (not converged)",
+                !s.certified ? "" : s.valid ? ", valid" : ", INVALID");
+  std::string line = text;
+  if (s.guard_setup_seconds > 0) { // kept out of the step's seconds, as the solver's setup is
+    std::snprintf(text, sizeof text, " (and %.3f s setting up the guard)", s.guard_setup_seconds);
+    line += text;
+  }
+  if (s.certified && !s.valid) {
+    line += " (" + std::to_string(s.inverted_tets) + " inverted tets, " + std::to_string(s.intersections) +
+            " intersecting face pairs";
+    const std::string faults = gshell::unavoidable_faults(s.base_self_intersections);
+    line += (faults.empty() ? "" : "; " + faults) + ")";
+  }
+  return line;
+}
+
 void run(const CLI::App& cmd, PoseArgs& a) {
   using namespace gshell;
   cli::check_flags(cmd, [&] {
@@ -60,28 +82,8 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   // The solver is built at the first step: its factor (and the hierarchy's levels) take seconds
   // on large shells, which the first iteration's line would leave silent.
   progress.update("setting up the " + a.solver + " solver");
+  a.options.step_done = [&](int step, const PoseStepReport& s) { progress.line(step_line(step, a.options.steps, s)); };
   const PoseResult result = run_pose(session, a.options);
-  for (size_t k = 0; k < result.steps.size(); ++k) {
-    const PoseStepReport& s = result.steps[k];
-    char text[200], dragged[48] = "";
-    if (s.guarded_iterations > 0) // the solver's result was not valid: the guard dragged the handles there
-      std::snprintf(dragged, sizeof dragged, " + %d guarded", s.guarded_iterations);
-    std::snprintf(text, sizeof text, "step %zu/%zu: %d iterations%s, energy %g, %.3f s%s%s", k + 1, result.steps.size(),
-                  s.iterations, dragged, s.energy, s.seconds, s.converged ? "" : " (not converged)",
-                  !s.certified ? "" : s.valid ? ", valid" : ", INVALID");
-    std::string line = text;
-    if (s.guard_setup_seconds > 0) { // kept out of the step's seconds, as the solver's setup is
-      std::snprintf(text, sizeof text, " (and %.3f s setting up the guard)", s.guard_setup_seconds);
-      line += text;
-    }
-    if (s.certified && !s.valid) {
-      line += " (" + std::to_string(s.inverted_tets) + " inverted tets, " + std::to_string(s.intersections) +
-              " intersecting face pairs";
-      const std::string faults = unavoidable_faults(s.base_self_intersections);
-      line += (faults.empty() ? "" : "; " + faults) + ")";
-    }
-    progress.line(line);
-  }
   // Even with --quiet: a pose short of its handles, or not valid, is not what was asked for.
   cli::print_warnings("pose", result.warnings());
   session.write(a.output, 0, cli::preview_writer(a.render, a.output, view));
@@ -108,7 +110,7 @@ void add_pose_command(CLI::App& app) {
   cmd->add_option("--tolerance", a->options.solve.tolerance,
                   "Stop a step when the relative energy change per iteration is below this")
       ->capture_default_str();
-  cmd->add_option("--iterations", a->options.solve.max_iterations, "Maximum iterations per step")->capture_default_str();
+  cmd->add_option("--iterations", a->options.solve.max_iterations, "Maximum iterations per step, at least 1")->capture_default_str();
   cmd->add_flag("--allow-invalid", a->options.allow_invalid,
                 "The paper's unguarded steps (may invert tets or pass the shell through itself), for comparison; by "
                 "default every step is valid and stops at contact when the handles force a collision");

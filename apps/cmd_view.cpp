@@ -60,6 +60,9 @@ void run(const CLI::App& cmd, ViewArgs& a) {
   }
   ViewInput input = load_view_input(a.inputs, a.input);
   progress.finish_status();
+  if (!a.handles.empty() && !input.posable())
+    throw InputError(with_file(a.handles, "handles pose a single shell, and " + a.inputs.front() +
+                                              " is a sequence of frames (a deform output)"));
   cli::print_warnings("view", input.warnings);
   if (!input.frames_held)
     progress.line(std::to_string(input.frames.size()) + " frames take more than " +

@@ -203,6 +203,46 @@ TEST(CliMessages, DeformedFramesBeyondTheLimitNameTheFrame) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("out")));
 }
 
+TEST(CliMessages, HugeButAcceptedThicknessesAreWrittenWithAnExponent) {
+  // A top 1e30 times its base's size (allowed: below 1e50) is 1e31 eta away: a figure, not 32 digits.
+  TempDir dir;
+  const std::string shell = dir.file("shell"), far = dir.file("far.obj");
+  ASSERT_EQ(run_cli("generate builtin:sphere:1 -o " + quoted(shell) + " --thickness-ratio 0.05 -q").exit_code, 0);
+  write_text(far, scaled_obj(gshell::test::read_text(shell + "/top.obj"), 1e30));
+  const auto r = run_cli("metrics " + quoted(shell + "/base.obj") + " " + quoted(far) + " --thickness-ratio 0.05");
+  const std::size_t line = r.out.find("thickness    min ");
+  ASSERT_NE(line, std::string::npos) << r.out << r.err;
+  const std::string text = r.out.substr(line, r.out.find('\n', line) - line);
+  EXPECT_NE(text.find("e+"), std::string::npos) << text;
+  EXPECT_LT(text.size(), 100u) << text; // fixed point: 33 digits each
+}
+
+TEST(CliMessages, IterationCountsShareOneWordingAndHandlesNameTheirFile) {
+  // generate and deform keep their start at 0 iterations; a pose needs one to meet its handles.
+  TempDir dir;
+  const std::string shell = dir.file("shell"), frame = dir.file("frame.off"), handles = dir.file("handles.json");
+  ASSERT_EQ(run_cli("generate builtin:sphere:1 -o " + quoted(shell) + " --thickness-ratio 0.05 -q").exit_code, 0);
+  ASSERT_EQ(run_cli("convert builtin:sphere:1 " + quoted(frame) + " -q").exit_code, 0);
+  write_text(handles, R"({"handles": [{"vertices": [0], "translate": [0, 0, 0.01]}, {"vertices": [5]}]})");
+  const std::string out = " -o " + quoted(dir.file("out"));
+  expect_error_line("generate builtin:sphere:1 --thickness-ratio 0.05 --iterations -1" + out,
+                    "--iterations must be >= 0 (got -1; 0 keeps the start)");
+  expect_error_line("deform --shell " + quoted(shell) + " --base " + quoted(frame) + " --iterations -2" + out,
+                    "--iterations must be >= 0 (got -2; 0 keeps the start)");
+  expect_error_line("pose --shell " + quoted(shell) + " --handles " + quoted(handles) + " --iterations 0" + out,
+                    "--iterations must be >= 1 (got 0; the targets are reached by iterating)");
+  EXPECT_EQ(run_cli("-q generate builtin:sphere:1 --thickness-ratio 0.05 --iterations 0" + out).exit_code, 0);
+  EXPECT_EQ(run_cli("-q deform --shell " + quoted(shell) + " --base " + quoted(frame) + " " + quoted(frame) +
+                    " --iterations 0 -o " +
+                    quoted(dir.file("deformed")))
+                .exit_code,
+            0);
+  // A handle file for a sequence of frames names the file, not the code that found it out.
+  expect_error_line("-q view " + quoted(dir.file("deformed")) + " --handles " + quoted(handles) + " --port 0",
+                    handles + ": handles pose a single shell, and " + dir.file("deformed") +
+                        " is a sequence of frames (a deform output)");
+}
+
 TEST(CliMessages, HugeCoordinatesInShellFoldersAndHandlesSayTheyAreTooLarge) {
   // The positions of metrics' top, a shell folder's surfaces and a handle's translation are not
   // validated as a surface, but 1e150 must still be "too large", not an overflow further on.

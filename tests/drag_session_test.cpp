@@ -110,7 +110,20 @@ TEST(DragSession, RunPoseIsTheFractionDrag) {
   PoseOptions o;
   o.solver = PoseSolverKind::Single;
   o.steps = 3;
+  // Each step is reported as it ends: before the next step's first iteration.
+  std::vector<std::pair<int, int>> events; // (step, iteration); iteration -1: the step's end
+  std::vector<PoseStepReport> ended;
+  o.step_progress = [&](int step, int it, double, double) { events.emplace_back(step, it); };
+  o.step_done = [&](int step, const PoseStepReport& s) {
+    events.emplace_back(step, -1);
+    ended.push_back(s);
+  };
   const PoseResult r = run_pose(plate.shell, plate.handles, o);
+  ASSERT_EQ(ended.size(), 3u);
+  for (std::size_t e = 1; e < events.size(); ++e) {
+    EXPECT_GE(events[e].first, events[e - 1].first);
+    if (events[e].first > events[e - 1].first) EXPECT_EQ(events[e - 1].second, -1) << "step " << events[e].first;
+  }
   DragSession session(plate.shell, o);
   session.set_handles(plate.handles);
   for (int k = 1; k <= 3; ++k) session.drag(k / 3.0);
@@ -118,6 +131,7 @@ TEST(DragSession, RunPoseIsTheFractionDrag) {
   ASSERT_EQ(r.steps.size(), 3u);
   for (int k = 0; k < 3; ++k) {
     EXPECT_EQ(r.steps[k].iterations, session.result().steps[k].iterations);
+    EXPECT_EQ(ended[k].iterations, r.steps[k].iterations);
     EXPECT_DOUBLE_EQ(r.steps[k].fraction, (k + 1) / 3.0);
   }
   EXPECT_EQ(session.fraction(), 1.0);

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <regex>
 #include <string>
 
@@ -92,6 +94,28 @@ TEST(InfoCli, NonManifoldEdgeExitsOneAndIsListed) {
   EXPECT_TRUE(std::regex_search(r.out, std::regex("\nvertices: +5\n"))) << r.out; // figures still printed
   EXPECT_EQ(lines_in(r.err), 1) << r.err;
   EXPECT_TRUE(contains(r.err, path)) << r.err;
+}
+
+TEST(InfoCli, FiguresOfMeshesOutsideTheRangeAreTheirOwn) {
+  // A unit right tetrahedron scaled to 1e300 and 1e-300: gshell refuses both (an error listed),
+  // but the figures info prints must still be right, not squared lengths' overflow or underflow.
+  TempDir dir;
+  const double edges_sum = 3 + 3 * std::sqrt(2.0); // 3 unit edges and 3 of length sqrt 2
+  for (const double scale : {1e300, 1e-300}) {
+    const std::string path = dir.file("scaled.off");
+    char text[400];
+    std::snprintf(text, sizeof text, "OFF\n4 4 0\n0 0 0\n%.17g 0 0\n0 %.17g 0\n0 0 %.17g\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+                  scale, scale, scale);
+    write_text(path, text);
+    const auto r = run_cli("info '" + path + "' --json");
+    EXPECT_EQ(r.exit_code, 1) << scale;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_NEAR(j["mean_edge_length"].get<double>() / scale, edges_sum / 6, 1e-12) << scale;
+    const auto t = run_cli("info '" + path + "'");
+    char diagonal[64];
+    std::snprintf(diagonal, sizeof diagonal, "(diagonal %.6g)", std::sqrt(3.0) * scale);
+    EXPECT_TRUE(contains(t.out, diagonal)) << diagonal << "\n" << t.out;
+  }
 }
 
 TEST(InfoCli, UnreferencedVertexIsOnlyAWarning) {

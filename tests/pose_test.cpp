@@ -1,5 +1,6 @@
 // Handle files and `gshell pose`.
 #include <gshell/deform/handles.h>
+#include <gshell/deform/pose.h>
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/io/read_mesh.h>
@@ -16,6 +17,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <filesystem>
 
 using namespace gshell;
@@ -463,6 +465,13 @@ TEST(PoseCli, AShellPartWithoutHandlesIsAnInputError) {
                          tmp.file("out") + "'");
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("free"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find(tmp.file("h.json") + ": "), std::string::npos) << r.err; // names the handle file
+  // Named as the file's problem, before the solver's setup says a word.
+  EXPECT_EQ(r.err.rfind("gshell: error: " + tmp.file("h.json") + ": ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(fs::exists(tmp.file("out")));
+  // A set built in code meets the same check in the solver.
+  HandleSet one;
+  one.handles.push_back(Handle{});
+  one.handles[0].vertices = {0, 1, 2};
+  EXPECT_THROW(PoseSolver(two, one, PoseSolverKind::Single), InputError);
 }

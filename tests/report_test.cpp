@@ -231,7 +231,8 @@ TEST(ReportCli, DeformationRunShowsTimePerFrame) {
     fs::copy_file(rest + "/shell.vtu", frame + "/shell.vtu");
     fs::copy_file(rest + "/top.obj", frame + "/top.obj");
   }
-  nlohmann::json report = {{"shell", rest}, {"tolerance", 1e-4}, {"frames", nlohmann::json::array()}};
+  nlohmann::json report = {
+      {"command", "deform"}, {"shell", rest}, {"tolerance", 1e-4}, {"frames", nlohmann::json::array()}};
   for (int k = 0; k < frames; ++k)
     report["frames"].push_back({{"iterations", 3 + k},
                                 {"energy", {1.5 / (k + 1), 0.7 / (k + 1)}},
@@ -325,5 +326,12 @@ TEST(ReportCli, MissingReportIsAnInputErrorAndWritesNothing) {
   EXPECT_FALSE(fs::exists(tmp.file("out.html")));
   write_text(tmp.file("empty") + "/report.json", "{not json");
   EXPECT_EQ(run_cli("report '" + tmp.file("empty") + "' -o '" + tmp.file("out.html") + "'").exit_code, 1);
+  EXPECT_FALSE(fs::exists(tmp.file("out.html")));
+  // A JSON object no gshell command wrote would make a page of nothing: it is named instead.
+  write_text(tmp.file("empty") + "/report.json", R"({"name": "not ours", "figures": [1, 2]})");
+  const CliResult other = run_cli("report '" + tmp.file("empty") + "' -o '" + tmp.file("out.html") + "'");
+  EXPECT_EQ(other.exit_code, 1);
+  EXPECT_EQ(other.err, "gshell: error: " + tmp.file("empty") +
+                           "/report.json: not a report of gshell (none of \"command\", \"method\", \"gshell_version\")\n");
   EXPECT_FALSE(fs::exists(tmp.file("out.html")));
 }

@@ -167,7 +167,60 @@ TEST(ShellSolver, SoftConstraintsPullTowardTargets) {
     ShellSolver(rest, 2 * n, {}, soft);
     ADD_FAILURE() << "a negative weight was accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("weight must be >= 0 and finite (got -1)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("weight must be positive and finite (got -1)"), std::string::npos) << e.what();
+  }
+  // So is a weight of 0, SoftConstraints' default: its springs were dropped, the part left free.
+  soft.weight = 0;
+  EXPECT_THROW(ShellSolver(rest, 2 * n, {}, soft), InputError);
+}
+
+TEST(ShellSolver, APartHeldByNothingIsSingularOnEveryPath) {
+  // Two separate prism layers; only the first one's base is kept. The second part's rows of L_ff
+  // are singular, which a factorisation may miss to rounding and CG never tests: the solver named
+  // neither and moved the free part anywhere.
+  const SimpleMesh a = test::icosphere(2), b = test::icosphere(1);
+  const int na = static_cast<int>(a.V.rows()), nb = static_cast<int>(b.V.rows()), n = na + nb;
+  const Eigen::RowVector3d apart(5, 5, 5);
+  Eigen::MatrixXi F(a.F.rows() + b.F.rows(), 3);
+  F << a.F, b.F.array() + na;
+  Eigen::MatrixXd X(2 * n, 3); // base, then top: each sphere and 1.1 times it
+  X << a.V, b.V.rowwise() + apart, 1.1 * a.V, (1.1 * b.V).rowwise() + apart;
+  const RestTets rest = rest_tets_from_positions(X, build_prism_tets(F, n));
+  std::vector<int> first_base(na);
+  std::iota(first_base.begin(), first_base.end(), 0);
+  for (const LinearSolver kind : {LinearSolver::Direct, LinearSolver::ConjugateGradient}) {
+    LinearSolverOptions linear;
+    linear.kind = kind;
+    try {
+      ShellSolver(rest, 2 * n, first_base, {}, linear);
+      ADD_FAILURE() << "a free part was accepted";
+    } catch (const InputError& e) {
+      // The part is named by its lowest free vertex: the second sphere's first base vertex.
+      EXPECT_NE(std::string(e.what()).find("singular: a connected part of the tets has no fixed or constrained vertex "
+                                           "(e.g. the part with vertex " + std::to_string(na) + ")"),
+                std::string::npos)
+          << e.what();
+    }
+    // Nothing kept at all: the same.
+    EXPECT_THROW(ShellSolver(rest, 2 * n, {}, {}, linear), InputError);
+    // One spring on the second part holds it.
+    SoftConstraints soft;
+    soft.vertices = {na + 3};
+    soft.weight = 1;
+    EXPECT_NO_THROW(ShellSolver(rest, 2 * n, first_base, soft, linear));
+  }
+  // A rest volume that is not a positive number is named, not a NaN shell or a "singular" system.
+  for (const double volume : {std::numeric_limits<double>::quiet_NaN(), -1.0}) {
+    RestTets broken = rest;
+    broken.volume[7] = volume;
+    std::vector<int> all_base(n);
+    std::iota(all_base.begin(), all_base.end(), 0);
+    try {
+      ShellSolver(broken, 2 * n, all_base);
+      ADD_FAILURE() << "volume " << volume << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("rest tet 7 has volume"), std::string::npos) << e.what();
+    }
   }
 }
 

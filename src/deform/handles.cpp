@@ -1,6 +1,7 @@
 #include <gshell/deform/handles.h>
 
 #include "io/json_input.h"
+#include "quality/nested_parts.h"
 
 #include <gshell/error.h>
 #include <gshell/format_number.h>
@@ -258,7 +259,24 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
                    " of them: double precision cannot tell a top that close from the base");
     }
   }
+  // Checked here as well as by the solver, so a pose names it before its solver's setup.
+  try {
+    check_handles_hold_every_part(set, rest.F, rest.num_base_vertices());
+  } catch (const InputError& e) {
+    r.fail("", e.what());
+  }
   return set;
+}
+
+void check_handles_hold_every_part(const HandleSet& handles, const Eigen::MatrixXi& F, int n) {
+  const detail::ShellParts parts = detail::shell_parts(F, n);
+  std::vector<char> anchored(parts.count(), 0);
+  for (int v : handles.constrained_vertices())
+    if (const int part = parts.of_vertex[v < n ? v : v - n]; part >= 0) anchored[part] = 1;
+  for (int part = 0; part < parts.count(); ++part) // by lowest vertex: the first free one names it
+    if (!anchored[part])
+      throw InputError("the handles leave a connected part of the shell free (e.g. the part with base vertex " +
+                       std::to_string(parts.probe[part]) + "): give every part at least one handle vertex");
 }
 
 void check_handles(const HandleSet& set, int shell_vertices) {

@@ -1,7 +1,6 @@
 #include <gshell/deform/pose.h>
 
 #include "frame_guard.h"
-#include "quality/nested_parts.h"
 
 #include <gshell/deform/shell_deformer.h>
 #include <gshell/error.h>
@@ -26,19 +25,6 @@ using Clock = std::chrono::steady_clock;
 constexpr double kMinDragStart = 0.05;
 // The least part of a soft step kept (below it the step stays where it began): about 2^-20.
 constexpr double kMinSoftStep = 1e-6;
-
-/// Every connected part of the base mesh (its top goes with it) needs a handle vertex, or the
-/// energy does not pin it in space and the system is singular.
-void require_anchored_components(const Eigen::MatrixXi& F, int n, const std::vector<int>& constrained) {
-  const detail::ShellParts parts = detail::shell_parts(F, n);
-  std::vector<char> anchored(parts.count(), 0);
-  for (int v : constrained)
-    if (const int part = parts.of_vertex[v < n ? v : v - n]; part >= 0) anchored[part] = 1;
-  for (int part = 0; part < parts.count(); ++part) // by lowest vertex: the first free one names it
-    if (!anchored[part])
-      throw InputError("the handles leave a connected part of the shell free (e.g. the part with base vertex " +
-                       std::to_string(parts.probe[part]) + "): give every part at least one handle vertex");
-}
 
 } // namespace
 
@@ -69,7 +55,7 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
   check_handles(handles, 2 * n); // a set built in code: an id past 2n wrote out of bounds
   s.constrained = handles.constrained_vertices();
   if (s.constrained.empty()) throw InputError("no handle vertices");
-  require_anchored_components(rest.F, n, s.constrained);
+  check_handles_hold_every_part(handles, rest.F, n);
   // As the deformer's: a generated shell's few flat or inverted tets (next to unextrudable vertices
   // or base crossings) take their ideal shape, so such shells can be posed too. One matrix per
   // tet, not the deformer's positions form: a pose is not the millions of tets that form is for.

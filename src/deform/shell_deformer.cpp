@@ -139,7 +139,8 @@ GuardOptions frame_guard_options() {
 
 void DeformOptions::check() const {
   if (!(tolerance >= 0) || !std::isfinite(tolerance)) throw InputError("tolerance must be >= 0");
-  if (max_iterations < 0) throw InputError("iterations must be >= 0");
+  if (max_iterations < 0)
+    throw InputError("iterations must be >= 0 (got " + std::to_string(max_iterations) + "; 0 keeps the start)");
   if (!(substep_edge_change > 0 && substep_edge_change <= 2))
     throw InputError("substep_edge_change must be in (0, 2]");
   if (max_substeps < 1) throw InputError("max_substeps must be >= 1");

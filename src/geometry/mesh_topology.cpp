@@ -134,7 +134,7 @@ MeshStats mesh_stats(const TriMesh& mesh) {
   DisjointSets pieces(n), boundary_pieces(n);
   std::vector<char> on_boundary(n, 0);
   std::vector<detail::Neighbour> around;
-  double length_sum = 0;
+  double mean_length = 0;
   int used_vertices = 0, finite_edges = 0;
   for (int v = 0; v < n; ++v) {
     if (stars.degree(v) == 0) continue;
@@ -146,10 +146,13 @@ MeshStats mesh_stats(const TriMesh& mesh) {
       const int w = around[i].vertex;
       if (v < w) {
         ++s.edges;
-        const double length = (P.row(v) - P.row(w)).norm();
-        if (std::isfinite(length)) {
-          length_sum += length;
+        // info describes meshes gshell refuses too: lengths near 1e300 or 1e-300 overflow or
+        // underflow when squared, so those are measured again with scaling.
+        double length = (P.row(v) - P.row(w)).norm();
+        if (length == 0 || std::isinf(length)) length = (P.row(v) - P.row(w)).stableNorm();
+        if (std::isfinite(length)) { // a running mean: a sum of lengths near 1e300 would overflow
           ++finite_edges;
+          mean_length += (length - mean_length) / finite_edges;
         }
         pieces.unite(v, w);
         if (j - i == 1) {
@@ -168,7 +171,7 @@ MeshStats mesh_stats(const TriMesh& mesh) {
     if (on_boundary[v] && boundary_pieces.find(v) == v) ++s.boundary_loops;
   }
   s.unreferenced_vertices = n - used_vertices;
-  s.mean_edge_length = finite_edges > 0 ? length_sum / finite_edges : 0.0;
+  s.mean_edge_length = mean_length;
   s.euler_characteristic = used_vertices - s.edges + used_faces;
   s.genus = (2.0 * s.components - s.boundary_loops - s.euler_characteristic) / 2.0;
 

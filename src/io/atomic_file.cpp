@@ -3,13 +3,16 @@
 #include <gshell/error.h>
 #include <gshell/io/temporary_outputs.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 namespace gshell {
@@ -68,10 +71,33 @@ fs::path output_target(const fs::path& path) {
   return p;
 }
 
+void remove_orphans_of(const fs::path& destination) {
+  std::string stem(1, '.'); // built in steps: GCC 12 warns (-Wrestrict, falsely) on "." + name + "."
+  stem += destination.filename().string();
+  stem += '.';
+  std::error_code ec;
+  for (fs::directory_iterator it(destination.has_parent_path() ? destination.parent_path() : fs::path("."), ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.compare(0, stem.size(), stem) != 0) continue;
+    const std::string rest = name.substr(stem.size()); // "tmp-PID-...", or a folder's "old-PID-..."
+    if (rest.compare(0, 4, "tmp-") != 0 && rest.compare(0, 4, "old-") != 0) continue;
+    const std::size_t dash = rest.find('-', 4);
+    if (dash == std::string::npos || dash == 4) continue;
+    const std::string digits = rest.substr(4, dash - 4);
+    if (!std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }) || digits.size() > 9)
+      continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(digits));
+    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;
+    std::error_code ignored;
+    fs::remove_all(it->path(), ignored);
+  }
+}
+
 void write_file_atomically(const std::string& path, const std::function<void(std::ostream&)>& write, bool binary) {
   if (path.empty()) throw InputError("empty output file name");
   const fs::path target = output_target(path);
   if (fs::is_directory(target)) throw InputError(with_file(path, "is a directory, expected a file name"));
+  remove_orphans_of(target);
   const fs::path temporary = create_unique_temporary(target);
   const TemporaryOutput registered(temporary);
   try {

@@ -387,6 +387,11 @@ figcaption{color:#555;font-size:.9em}.note{color:#a33}.ok{color:#276b2a})";
 std::string html_report(const std::string& dir_text, const ReportOptions& options, std::vector<std::string>* warnings) {
   const fs::path dir(dir_text);
   const json report = read_report(dir);
+  // The page shows whatever figures a report has, so one of another program (or `{}`) would make
+  // a page of nothing with no word of why. Every gshell report has one of these keys.
+  if (!report.contains("command") && !report.contains("method") && !report.contains("gshell_version"))
+    throw InputError(with_file((dir / "report.json").string(),
+                               "not a report of gshell (none of \"command\", \"method\", \"gshell_version\")"));
 
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html xmlns=\"http://www.w3.org/1999/xhtml\" lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n"

@@ -26,7 +26,11 @@ PoseSolverKind parse_pose_solver(const std::string& name) {
 void PoseOptions::check() const {
   if (steps < 1) throw InputError("steps must be >= 1 (got " + std::to_string(steps) + ")");
   if (hierarchy.levels < 1) throw InputError("levels must be >= 1 (got " + std::to_string(hierarchy.levels) + ")");
-  if (solve.max_iterations < 1) throw InputError("iterations must be >= 1 (got " + std::to_string(solve.max_iterations) + ")");
+  // Unlike generate's and deform's start, a pose's start has the handles still at rest: zero
+  // iterations would leave every step's handles unmet.
+  if (solve.max_iterations < 1)
+    throw InputError("iterations must be >= 1 (got " + std::to_string(solve.max_iterations) +
+                     "; the targets are reached by iterating)");
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a number >= 0");
 }
 
@@ -155,7 +159,10 @@ PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_
     so.progress = nullptr;
     if (options.step_progress)
       so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
+    const std::size_t before = session.result_step_count();
     session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
+    if (options.step_done && session.result_step_count() > before)
+      options.step_done(step, session.step_report(session.result_step_count() - 1));
   }
   return session.result(first);
 }

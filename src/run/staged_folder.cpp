@@ -7,14 +7,11 @@
 #include "run/output_folder_files.h"
 
 #include <algorithm>
-#include <cctype>
-#include <cerrno>
 #include <random>
 #include <string>
 #include <system_error>
 #include <vector>
 
-#include <signal.h>
 #include <unistd.h>
 
 namespace gshell {
@@ -34,32 +31,6 @@ fs::path sibling(const fs::path& destination, const std::string& tag) {
   name += destination.filename().string();
   name += "." + tag + "-" + std::to_string(::getpid()) + "-" + std::to_string(rd());
   return parent_of(destination) / name;
-}
-
-// Removes the staging and set-aside folders of `destination` that runs killed outright (kill -9,
-// the out-of-memory killer, a CI timeout) left behind: those whose process no longer exists on
-// this machine. Tens to hundreds of MB each, hidden, and never removed before. A folder of a
-// process that is alive, or of an unknown name, is left alone.
-void remove_orphans_of(const fs::path& destination) {
-  std::string stem(1, '.'); // built in steps: GCC 12 warns (-Wrestrict, falsely) on "." + name + "."
-  stem += destination.filename().string();
-  stem += '.';
-  std::error_code ec;
-  for (fs::directory_iterator it(parent_of(destination), ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    if (name.compare(0, stem.size(), stem) != 0) continue;
-    const std::string rest = name.substr(stem.size()); // "tmp-PID-RANDOM" or "old-PID-RANDOM"
-    if (rest.compare(0, 4, "tmp-") != 0 && rest.compare(0, 4, "old-") != 0) continue;
-    const std::size_t dash = rest.find('-', 4);
-    if (dash == std::string::npos || dash == 4) continue;
-    const std::string digits = rest.substr(4, dash - 4);
-    if (!std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }) || digits.size() > 9)
-      continue;
-    const pid_t pid = static_cast<pid_t>(std::stol(digits));
-    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;
-    std::error_code ignored;
-    fs::remove_all(it->path(), ignored);
-  }
 }
 
 fs::path folder_name(const fs::path& destination) {

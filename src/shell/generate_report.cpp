@@ -5,6 +5,7 @@
 #include <gshell/word_list.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -22,7 +23,11 @@ void quality_lines(std::ostringstream& out, const ShellMetrics& m) {
   out << format("stretch      mean %.4g  volume-weighted %.4g  p99 %.4g  max %.4g\n", m.stretch.mean,
                 m.stretch.volume_mean, m.stretch.p99, m.stretch.max);
   out << certificate_summary(m.certificate);
-  out << format("thickness    min %.4f  mean %.4f  (x eta), ", m.thickness_min, m.thickness_mean)
+  // Four decimals near 1 (0.9768); a top measured against another base can sit 1e40 eta away,
+  // which fixed point wrote out in 39 digits.
+  auto eta_multiple = [](double x) { return format(std::abs(x) < 1e4 ? "%.4f" : "%.4g", x); };
+  out << "thickness    min " << eta_multiple(m.thickness_min) << "  mean " << eta_multiple(m.thickness_mean)
+      << "  (x eta), "
       << m.thinned_vertices << format(" top vertices below %.2g eta\n", kThinnedFraction);
 }
 

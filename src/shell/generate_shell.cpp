@@ -196,7 +196,8 @@ ShellMethod parse_shell_method(const std::string& name) {
 void GenerateOptions::check() const {
   if (!(thickness > 0) || !std::isfinite(thickness))
     throw InputError("thickness must be positive and finite (got " + format_number(thickness) + ")");
-  if (solve.max_iterations < 0) throw InputError("iterations must not be negative");
+  if (solve.max_iterations < 0)
+    throw InputError("iterations must be >= 0 (got " + std::to_string(solve.max_iterations) + "; 0 keeps the start)");
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a non-negative number");
   check_anderson_history(solve.anderson_history, "anderson (the Anderson history)");
   check_curvature_clamp(s_min, s_max);

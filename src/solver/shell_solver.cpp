@@ -14,6 +14,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -21,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <numeric>
 #include <string>
@@ -38,6 +40,18 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>; // L_ff: rows by free index
+
+// A NaN volume or rest point gave NaN positions from solve() without a word, and a negative volume
+// was called a singular system.
+void check_rest_numbers(const RestTets& rest) {
+  for (Eigen::Index t = 0; t < rest.volume.size(); ++t)
+    if (!(rest.volume[t] > 0) || !std::isfinite(rest.volume[t]))
+      throw InputError("ShellSolver: rest tet " + std::to_string(t) + " has volume " + format_number(rest.volume[t]) +
+                       " (rest volumes must be positive and finite)");
+  for (std::size_t k = 0; k < rest.rest_points.size(); ++k)
+    if (!std::isfinite(rest.rest_points[k]))
+      throw InputError("ShellSolver: rest point " + std::to_string(k / 3) + " is not finite");
+}
 
 // Tets per energy chunk: chunks are summed in a fixed order so the energy does not depend on
 // how TBB happened to split the work (the monotonicity test compares energies to round-off).
@@ -304,6 +318,10 @@ struct ShellSolver::Impl {
   void build_multigrid(); // the V-cycle preconditioner on L_ff
   void order_rows_breadth_first(); // renumbers the free rows (CG path; see assemble)
   bool anchored() const;  // at least half the free rows couple to a kept vertex or a soft spring
+  // Throws InputError when a connected part of the free vertices has neither a kept vertex in its
+  // tets nor a spring: its rows of L_ff are singular. The factorisation's own test misses such a
+  // part when rounding leaves its pivots positive, and the CG path has none.
+  void require_every_part_held(bool has_soft) const;
 
   // Energy of X; with Q (9 per tet), also every tet's vol Dm_inv R^T (row-major) for the RHS;
   // with b (3 nf, needs the colouring) instead, b <- the rotations' part of the right-hand side,
@@ -380,6 +398,7 @@ void ShellSolver::Impl::setup(const std::vector<int>& fixed) {
       free_vertices.push_back(v);
     }
   nf = static_cast<int>(free_vertices.size());
+  require_every_part_held(has_soft);
 
   colour_chunks();
   build_gather();
@@ -555,6 +574,54 @@ void ShellSolver::Impl::order_rows_breadth_first() {
   free_vertices.swap(vertices);
   jacobi.swap(diag);
   for (std::size_t c = 0; c < soft_free.size(); ++c) soft_free[c] = free_index[soft.vertices[c]]; // as in setup
+}
+
+void ShellSolver::Impl::require_every_part_held(bool has_soft) const {
+  // Generation and deformation keep the base, so every tet has a kept corner: one pass tells.
+  const bool every_tet_kept = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, K, 1 << 14), true,
+      [&](const tbb::blocked_range<int>& r, bool all) {
+        for (int t = r.begin(); all && t < r.end(); ++t)
+          all = free_index[tet(t, 0)] < 0 || free_index[tet(t, 1)] < 0 || free_index[tet(t, 2)] < 0 ||
+                free_index[tet(t, 3)] < 0;
+        return all;
+      },
+      std::logical_and<bool>());
+  if (every_tet_kept) return;
+  // Otherwise the parts of the free vertices joined by tets, each held by a kept corner of one of
+  // its tets or by a spring on one of its vertices.
+  std::vector<int> parent(nf);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int j) {
+    while (parent[j] != j) j = parent[j] = parent[parent[j]];
+    return j;
+  };
+  std::vector<char> held(nf, 0);
+  for (int t = 0; t < K; ++t) {
+    int first = -1;
+    bool kept = false;
+    for (int k = 0; k < 4; ++k) {
+      const int j = free_index[tet(t, k)];
+      if (j < 0) {
+        kept = true;
+      } else if (first < 0) {
+        first = j;
+      } else {
+        const int a = find(first), b = find(j);
+        if (a != b) parent[b] = a;
+      }
+    }
+    if (kept && first >= 0) held[first] = 1;
+  }
+  if (has_soft)
+    for (int v : soft.vertices) held[free_index[v]] = 1;
+  std::vector<char> part_held(nf, 0);
+  for (int j = 0; j < nf; ++j)
+    if (held[j]) part_held[find(j)] = 1;
+  for (int j = 0; j < nf; ++j) // by vertex id: the lowest free vertex of the first part names it
+    if (!part_held[find(j)])
+      throw InputError("the shell system is singular: a connected part of the tets has no fixed or constrained "
+                       "vertex (e.g. the part with vertex " + std::to_string(free_vertices[j]) + ")");
 }
 
 bool ShellSolver::Impl::anchored() const {
@@ -954,11 +1021,14 @@ ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices,
   if (!(linear.cg_relative_tolerance >= 0 && linear.cg_relative_tolerance < 1))
     throw InputError("ShellSolver: the relative CG tolerance must be in [0, 1)");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
-  if (!soft.vertices.empty() && !(soft.weight >= 0 && std::isfinite(soft.weight)))
-    throw InputError("ShellSolver: the soft constraint weight must be >= 0 and finite (got " +
+  // Springs of weight 0 would be dropped without a word (SoftConstraints{vertices} leaves the
+  // weight at its default 0), and a part held only by them would then drift.
+  if (!soft.vertices.empty() && !(soft.weight > 0 && std::isfinite(soft.weight)))
+    throw InputError("ShellSolver: the soft constraint weight must be positive and finite (got " +
                      format_number(soft.weight) + ")");
   if (!impl_->rest->complete())
     throw InputError("ShellSolver: rest tets are incomplete");
+  check_rest_numbers(*impl_->rest);
   impl_->setup(fixed);
   impl_->assemble();
   if (impl_->nf > 0 && impl_->path == LinearSolver::Direct) impl_->factorize();

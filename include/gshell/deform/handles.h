@@ -62,6 +62,11 @@ struct HandleSet {
 /// or in two handles, a zero rotation axis, non-finite numbers, or a weight <= 0 or > kMaxSoftWeight.
 void check_handles(const HandleSet& handles, int shell_vertices);
 
+/// Every connected part of a shell (base faces F over n base vertices; a part's top goes with it)
+/// needs a handle vertex, or the energy does not pin that part in space and no pose is defined.
+/// \throws InputError naming the lowest base vertex of the first part without one.
+void check_handles_hold_every_part(const HandleSet& handles, const Eigen::MatrixXi& F, int n);
+
 /// The handle file (docs/handles.md) of a handle set: mode, weight (soft mode), and per handle
 /// name (if any), explicit vertex ids, translate and rotate {axis, degrees, center}. parse_handles
 /// reads it back to the same set.

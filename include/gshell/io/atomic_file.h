@@ -17,6 +17,13 @@ std::filesystem::path output_target(const std::filesystem::path& path);
 /// \throws InputError naming `output`: "parent folder does not exist" or "parent P is not a folder".
 void check_output_parent(const std::filesystem::path& output);
 
+/// Removes what runs killed outright (kill -9, the out-of-memory killer, a CI timeout) left beside
+/// `destination`: its temporaries and staging folders (".NAME.tmp-PID-..."), and folders set aside
+/// while replacing it (".NAME.old-PID-..."), whose process no longer exists on this machine. They
+/// are hidden and can hold hundreds of MB. Those of a live process, and other names, are left.
+/// Called by write_file_atomically and StagedFolder before they write.
+void remove_orphans_of(const std::filesystem::path& destination);
+
 /// Calls write(stream) on a temporary file beside `path` (beside its target where it is a
 /// symbolic link: output_target), then renames it there.
 /// \throws InputError naming `path` when it is empty, a directory, or the file cannot be created,

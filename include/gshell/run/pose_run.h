@@ -28,6 +28,8 @@ const char* pose_solver_name(PoseSolverKind kind);
 PoseSolverKind parse_pose_solver(const std::string& name);
 
 /// The only source of pose defaults: the CLI's help and Python's keyword defaults read PoseOptions{}.
+struct PoseStepReport;
+
 struct PoseOptions {
   PoseSolverKind solver = PoseSolverKind::Hierarchical;
   HierarchyOptions hierarchy; ///< `levels` is the one a user sets
@@ -54,6 +56,9 @@ struct PoseOptions {
   /// Called after every iteration with (step 1..steps, iteration, energy, seconds in this step);
   /// replaces solve.progress.
   std::function<void(int, int, double, double)> step_progress;
+  /// Called as each step ends with (step 1..steps, its report), so a long run shows each step's
+  /// outcome when it has it rather than after the last.
+  std::function<void(int, const PoseStepReport&)> step_done;
 
   /// \throws InputError naming the parameter (steps, levels, iterations, tolerance) out of range.
   void check() const;
