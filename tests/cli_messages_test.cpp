@@ -300,7 +300,7 @@ TEST(CliMessages, OptionsThatWouldBeIgnoredAreErrors) {
   write_text(dir.file("taken/notes.txt"), "");
   expect_error_line("animate builtin:plane:4 --bend 30 --frames 3 -o " + quoted(dir.file("taken")),
                     dir.file("taken") + ": exists and holds files gshell does not write there (notes.txt), which "
-                                        "replacing the folder would delete; move them, remove the folder or choose another -o");
+                                        "replacing the folder would delete; move them, remove the folder or choose another output folder");
   std::filesystem::remove_all(dir.file("taken"));
   EXPECT_EQ(count_entries(dir.path()), 0);
   // The curvature method takes them, and a bend its band.

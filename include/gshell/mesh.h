@@ -1,5 +1,6 @@
 #pragma once
 // The triangle surface every part of gshell works on.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <string>
 

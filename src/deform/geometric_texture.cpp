@@ -22,6 +22,23 @@ double signed_volume(const Eigen::MatrixXd& X, const Eigen::RowVector4i& tet) {
   return (b - a).cross(c - a).dot(d - a);
 }
 
+void check_tiling(const TriMesh& tile, int repeat_u, int repeat_v) {
+  if (repeat_u < 1 || repeat_v < 1) throw InputError("repeat needs two counts >= 1");
+  // Meshes index their vertices with int: a count beyond that cannot be written, however much
+  // memory there is (bumps:1000 tiled 200 x 200 asked for 4e10 vertices).
+  const double copies = static_cast<double>(repeat_u) * repeat_v;
+  const double vertices = copies * tile.num_vertices(), faces = copies * tile.num_faces();
+  if (std::max({copies, vertices, faces}) > std::numeric_limits<int>::max()) {
+    char what[200];
+    std::snprintf(what, sizeof what,
+                  "%d x %d tiles of %d vertices and %d faces make %.3g vertices and %.3g faces, more than a mesh "
+                  "can hold (%d): use fewer repeats or a coarser tile",
+                  repeat_u, repeat_v, tile.num_vertices(), tile.num_faces(), vertices, faces,
+                  std::numeric_limits<int>::max());
+    throw InputError(what);
+  }
+}
+
 } // namespace
 
 TextureSpaceTets texture_space_tets(const Eigen::MatrixXi& F, const Eigen::MatrixXd& UV, const Eigen::MatrixXi& FUV) {
@@ -48,6 +65,7 @@ TextureSpaceTets texture_space_tets(const Eigen::MatrixXi& F, const Eigen::Matri
 
 TriMesh tile_texture_space(const TriMesh& tile, int repeat_u, int repeat_v, const Eigen::Vector2d& uv_min,
                            const Eigen::Vector2d& uv_max) {
+  check_tiling(tile, repeat_u, repeat_v);
   const int copies = repeat_u * repeat_v;
   const int nv = tile.num_vertices(), nf = tile.num_faces();
   TriMesh out;
@@ -77,7 +95,7 @@ TriMesh tile_texture_space(const TriMesh& tile, int repeat_u, int repeat_v, cons
 
 GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_source, const TriMesh& tile,
                                        int repeat_u, int repeat_v) {
-  if (repeat_u < 1 || repeat_v < 1) throw InputError("repeat needs two counts >= 1");
+  check_tiling(tile, repeat_u, repeat_v);
   if (!uv_source.has_uv()) throw InputError("the shell's base has no texture coordinates (OBJ vt)");
   if (uv_source.F.rows() != shell.F.rows() || uv_source.F != shell.F)
     throw InputError("the UV mesh's faces differ from the shell's");
@@ -86,20 +104,6 @@ GeometricTexture map_geometric_texture(const Shell& shell, const TriMesh& uv_sou
   if (tile.F.minCoeff() < 0 || tile.F.maxCoeff() >= tile.num_vertices())
     throw InputError("the tile has a face index out of range");
   if (!uv_source.UV.allFinite()) throw InputError("the base has a non-finite texture coordinate");
-  // Meshes index their vertices with int: a count beyond that cannot be written, however much
-  // memory there is (bumps:1000 tiled 200 x 200 asked for 4e10 vertices).
-  const double copies = static_cast<double>(repeat_u) * repeat_v;
-  const double vertices = copies * tile.num_vertices(), faces = copies * tile.num_faces();
-  if (std::max(vertices, faces) > std::numeric_limits<int>::max()) {
-    char what[200];
-    std::snprintf(what, sizeof what,
-                  "%d x %d tiles of %d vertices and %d faces make %.3g vertices and %.3g faces, more than a mesh "
-                  "can hold (%d): use fewer repeats or a coarser tile",
-                  repeat_u, repeat_v, tile.num_vertices(), tile.num_faces(), vertices, faces,
-                  std::numeric_limits<int>::max());
-    throw InputError(what);
-  }
-
   const TextureSpaceTets tex = texture_space_tets(shell.F, uv_source.UV, uv_source.FUV);
   GeometricTexture out;
   out.uv_min = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());

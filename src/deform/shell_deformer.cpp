@@ -49,6 +49,7 @@ std::vector<int> base_ids(int n) {
 } // namespace
 
 RestTets deformation_rest_tets(const Shell& shell, int* replaced) {
+  check_shell(shell, "the rest shell", false); // a thickness of 0 is measured below
   const int n = shell.num_base_vertices();
   double eta = shell.thickness;
   if (!(eta > 0) && n > 0) eta = (shell.top - shell.base).rowwise().norm().mean();
@@ -163,6 +164,11 @@ const char* frame_method_name(FrameMethod m) {
 
 int count_thinned_vertices(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXd& rest_base,
                            const Eigen::MatrixXd& rest_top) {
+  for (const Eigen::MatrixXd* m : {&top, &rest_base, &rest_top})
+    if (m->rows() != base.rows() || m->cols() != base.cols())
+      throw InputError("count_thinned_vertices: base, top, rest base and rest top must have one shape (got " +
+                       std::to_string(m->rows()) + " x " + std::to_string(m->cols()) + " beside " +
+                       std::to_string(base.rows()) + " x " + std::to_string(base.cols()) + ")");
   int count = 0;
   for (Eigen::Index i = 0; i < base.rows(); ++i)
     count += (top.row(i) - base.row(i)).norm() < kThinnedFraction * (rest_top.row(i) - rest_base.row(i)).norm();
@@ -297,7 +303,7 @@ Eigen::MatrixXd rotated_offset_top(const Eigen::MatrixXd& old_base, const Eigen:
 }
 
 ShellDeformer::ShellDeformer(const Shell& rest)
-    : rest_(rest),
+    : rest_((check_shell(rest, "the rest shell"), rest)), // every frame is checked against its thickness
       solver_(deformation_rest_tets(rest, &replaced_), 2 * rest.num_base_vertices(), base_ids(rest.num_base_vertices())),
       current_(rest.vertices()),
       rings_(vertex_rings(rest.F, rest.num_base_vertices())),

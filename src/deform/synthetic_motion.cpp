@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <string>
 
 namespace gshell {
 
@@ -14,6 +15,7 @@ namespace {
 // The frame with the axes in `order` (long, middle, short).
 MotionFrame frame_along(const Eigen::MatrixXd& V, std::array<int, 3> order, bool sort_all) {
   MotionFrame frame;
+  if (V.cols() != 3) throw InputError("motion_frame: expected n x 3 positions (got " + std::to_string(V.cols()) + " columns)");
   if (V.rows() == 0) return frame;
   const Eigen::Vector3d lo = V.colwise().minCoeff().transpose(), hi = V.colwise().maxCoeff().transpose();
   const Eigen::Vector3d extent = hi - lo;
@@ -28,6 +30,16 @@ MotionFrame frame_along(const Eigen::MatrixXd& V, std::array<int, 3> order, bool
   return frame;
 }
 
+// A NaN angle gave NaN positions without a word; a frame's axis indexes V's columns.
+void check_motion(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees, const char* what) {
+  if (!std::isfinite(degrees)) throw InputError(std::string(what) + ": the angle must be a finite number of degrees");
+  if (V.cols() != 3) throw InputError(std::string(what) + ": expected n x 3 positions");
+  for (int axis : {frame.long_axis, frame.middle_axis, frame.short_axis})
+    if (axis < 0 || axis > 2) throw InputError(std::string(what) + ": the frame's axes must be 0, 1 or 2");
+  if (!frame.center.allFinite() || !std::isfinite(frame.length))
+    throw InputError(std::string(what) + ": the frame's center and length must be finite");
+}
+
 } // namespace
 
 MotionFrame motion_frame(const Eigen::MatrixXd& V) { return frame_along(V, {0, 1, 2}, true); }
@@ -40,6 +52,8 @@ MotionFrame motion_frame(const Eigen::MatrixXd& V, int long_axis) {
 }
 
 Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees, double band) {
+  check_motion(V, frame, degrees, "bend");
+  if (!std::isfinite(band)) throw InputError("bend: the band must be a finite number");
   const double angle = degrees * std::numbers::pi / 180.0;
   Eigen::MatrixXd out = V;
   band = std::clamp(band, 1e-6, 1.0);
@@ -60,6 +74,7 @@ Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double 
 }
 
 Eigen::MatrixXd twist(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees) {
+  check_motion(V, frame, degrees, "twist");
   const double angle = degrees * std::numbers::pi / 180.0;
   Eigen::MatrixXd out = V;
   if (frame.length <= 0) return out;

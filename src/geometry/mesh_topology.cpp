@@ -2,9 +2,12 @@
 
 #include "vertex_stars.h"
 
+#include <gshell/error.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <string>
 #include <utility>
 
 namespace gshell {
@@ -187,6 +190,9 @@ MeshStats mesh_stats(const TriMesh& mesh) {
 }
 
 void grow_by_rings(const Eigen::MatrixXi& F, int rings, std::vector<char>& flags) {
+  if (F.size() > 0 && (F.cols() != 3 || F.minCoeff() < 0 || static_cast<std::size_t>(F.maxCoeff()) >= flags.size()))
+    throw InputError("grow_by_rings: F must be m x 3 with ids in [0, " + std::to_string(flags.size()) +
+                     ") (one flag per vertex)");
   for (int ring = 0; ring < rings; ++ring) {
     std::vector<char> grown = flags;
     for (Eigen::Index f = 0; f < F.rows(); ++f)

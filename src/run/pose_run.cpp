@@ -32,6 +32,7 @@ void PoseOptions::check() const {
     throw InputError("iterations must be >= 1 (got " + std::to_string(solve.max_iterations) +
                      "; the targets are reached by iterating)");
   if (!(solve.tolerance >= 0) || !std::isfinite(solve.tolerance)) throw InputError("tolerance must be a number >= 0");
+  if (solver == PoseSolverKind::Hierarchical) hierarchy.check(); // the fields no flag sets, as the solver would
 }
 
 void PoseStepReport::record_certificate(const ShellCertificate& c) {

@@ -73,13 +73,13 @@ InputError not_replaceable(const fs::path& destination) {
   const std::vector<std::string> foreign = foreign_entries(destination);
   if (foreign.empty())
     return InputError(with_file(destination.string(), "exists and is not an earlier output of this command; "
-                                                      "remove it or choose another -o"));
+                                                      "remove it or choose another output folder"));
   std::string names;
   for (std::size_t k = 0; k < std::min<std::size_t>(foreign.size(), 3); ++k) names += (k ? ", " : "") + foreign[k];
   if (foreign.size() > 3) names += " and " + std::to_string(foreign.size() - 3) + " more";
   return InputError(with_file(destination.string(), "exists and holds files gshell does not write there (" + names +
                                                         "), which replacing the folder would delete; move them, "
-                                                        "remove the folder or choose another -o"));
+                                                        "remove the folder or choose another output folder"));
 }
 
 } // namespace
@@ -97,7 +97,7 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
     if (!ec) {
       if (std::mismatch(out.begin(), out.end(), here.begin(), here.end()).first == out.end())
         throw InputError(with_file(d.string(), "is the current folder or holds it, and the output replaces its folder "
-                                               "as a whole; choose a folder inside it (-o NAME)"));
+                                               "as a whole; choose a folder inside it"));
     }
   }
   if (is_previous_output && !replaceable(d, is_previous_output)) throw not_replaceable(d);

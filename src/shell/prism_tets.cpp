@@ -4,6 +4,7 @@
 #include "quality/check_mesh_input.h"
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/shell/ideal_prisms.h>
 
 #include <Eigen/Dense>
@@ -99,7 +100,8 @@ RestTets normal_prism_rest_tets(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
         rest.unit_corners[t] = unit_corner_code(tets[i]);
         const double volume = det * unit_corner_determinant(rest.unit_corners[t]) / 6;
         if (!(volume > 0) || !std::isfinite(volume) || !invertible)
-          throw InputError("rest tet " + std::to_string(t) + " has non-positive volume (" + std::to_string(volume) + ")");
+          throw InputError("face " + std::to_string(f) + " has zero area (its prism's tet " + std::to_string(t) +
+                           " has volume " + format_number(volume) + ")"); // a caller knows faces, not tets
         rest.volume[t] = volume;
       }
     }

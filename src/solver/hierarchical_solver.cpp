@@ -4,6 +4,7 @@
 #include "hierarchy_levels.h"
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 
 #include <Eigen/Cholesky>
 
@@ -54,6 +55,31 @@ struct FullState {
 constexpr int kPathDoublings = 10; // a path extrapolation goes at most 2^10 - 1 times the path further
 
 } // namespace
+
+void HierarchyOptions::check() const {
+  auto at_least = [](int value, int least, const char* name) {
+    if (value < least)
+      throw InputError(std::string("HierarchicalSolver: options.") + name + " must be >= " + std::to_string(least) +
+                       " (got " + std::to_string(value) + ")");
+  };
+  at_least(levels, 1, "levels");
+  at_least(splits_per_level, 1, "splits_per_level");
+  at_least(coarsest_clusters, 1, "coarsest_clusters");
+  at_least(finest_cluster_size, 1, "finest_cluster_size");
+  at_least(min_cluster_size, 1, "min_cluster_size");
+  at_least(coarse_period, 1, "coarse_period");
+  at_least(level_iterations, 0, "level_iterations");
+  at_least(full_iterations, 0, "full_iterations");
+  at_least(first_coarse_iteration, 0, "first_coarse_iteration");
+  if (!(level_tolerance >= 0 && level_tolerance <= 1))
+    throw InputError("HierarchicalSolver: options.level_tolerance must be in [0, 1] (got " + format_number(level_tolerance) + ")");
+  // A negative weight made the reduced matrices indefinite ("not positive definite", not an input error).
+  if (!(reduced_hard_weight > 0) || !std::isfinite(reduced_hard_weight))
+    throw InputError("HierarchicalSolver: options.reduced_hard_weight must be positive and finite (got " +
+                     format_number(reduced_hard_weight) + ")");
+  check_anderson_history(anderson_history, "HierarchicalSolver: options.anderson_history");
+  check_anderson_history(level_anderson_history, "HierarchicalSolver: options.level_anderson_history");
+}
 
 std::unique_ptr<ShellSolver> make_shell_solver(const RestTets& rest, int num_vertices,
                                                const PositionConstraints& constraints) {
@@ -288,9 +314,7 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   s.constraints = constraints;
   s.options = options;
   s.rest_vertices_rows = static_cast<int>(rest_vertices.rows());
-  if (options.levels < 1) throw InputError("HierarchicalSolver: options.levels must be >= 1 (got " + std::to_string(options.levels) + ")");
-  check_anderson_history(options.anderson_history, "HierarchicalSolver: options.anderson_history");
-  check_anderson_history(options.level_anderson_history, "HierarchicalSolver: options.level_anderson_history");
+  options.check();
   if (rest_vertices.rows() % 2 != 0) throw InputError("HierarchicalSolver: rest_vertices must have 2n rows (base then top), got " +
                      std::to_string(rest_vertices.rows()));
   if (!constraints.hard && !(constraints.weight > 0))
@@ -363,6 +387,10 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     throw InputError("HierarchicalSolver::solve: targets must be " + std::to_string(s.constraints.vertices.size()) +
                      " x 3 (one row per constrained vertex), got " + std::to_string(targets.rows()) + " x " +
                      std::to_string(targets.cols()));
+  if (options.max_iterations < 0) throw InputError("HierarchicalSolver::solve: negative iteration count");
+  if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
+    throw InputError("HierarchicalSolver::solve: the tolerance must be a number >= 0 (got " +
+                     format_number(options.tolerance) + ")");
 
   s.set_hard_rows(X, targets);
   FullState state{X, {}, {}, {}, {}, {}};

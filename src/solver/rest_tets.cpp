@@ -1,6 +1,7 @@
 #include <gshell/solver/rest_tets.h>
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -26,8 +27,7 @@ double checked_rest_volume(Eigen::Index t, const double* u0, const double* u1, c
   }
   const double det = Dm.determinant();
   if (!(det > 0) || !std::isfinite(det))
-    throw InputError("rest tet " + std::to_string(t) + " has non-positive volume (" + std::to_string(det / 6) +
-                     ")");
+    throw InputError("rest tet " + std::to_string(t) + " has non-positive volume (" + format_number(det / 6) + ")");
   return det / 6;
 }
 

@@ -1140,6 +1140,9 @@ SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options
   m.check_positions(Xio, "solve");
   m.check_soft_targets(soft_targets, "solve");
   if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
+  // A NaN tolerance never held: such a solve ran to max_iterations or the energy floor, "converged".
+  if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
+    throw InputError("ShellSolver::solve: the tolerance must be a number >= 0 (got " + format_number(options.tolerance) + ")");
   check_anderson_history(options.anderson_history, "ShellSolver::solve: the Anderson history");
   std::vector<double> X = to_row_major(Xio);
   const std::vector<double> rhs_const = m.rhs_constant(X.data(), soft_targets);

@@ -2,6 +2,7 @@
 // The base frames that drive a deformation, read and checked up front.
 #include <gshell/shell/shell.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <cstddef>
 #include <string>

@@ -1,6 +1,7 @@
 #pragma once
 // Detail embedded in a rest shell and carried along by its deformations (paper §4.2, Fig. 8):
 // each point is stored as (tet, barycentric coordinates) of the rest shell.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <functional>
 #include <vector>

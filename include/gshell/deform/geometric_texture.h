@@ -8,6 +8,7 @@
 #include <gshell/mesh.h>
 #include <gshell/shell/shell.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -25,7 +26,8 @@ TextureSpaceTets texture_space_tets(const Eigen::MatrixXi& F, const Eigen::Matri
 /// repeat_u x repeat_v copies of a tile (x, y in [0,1], z = height) laid side by side over the
 /// rectangle `uv_min`..`uv_max` of texture space; copy (i, j) covers
 /// [i/U, (i+1)/U] x [j/V, (j+1)/V] of that rectangle. Heights are kept; the tile's texture
-/// coordinates, if it has any, are every copy's (corner by corner).
+/// coordinates, if it has any, are every copy's (corner by corner). \throws InputError when a
+/// repeat count is below 1 or the copies would hold more vertices or faces than an int indexes.
 TriMesh tile_texture_space(const TriMesh& tile, int repeat_u, int repeat_v, const Eigen::Vector2d& uv_min,
                            const Eigen::Vector2d& uv_max);
 

@@ -3,6 +3,7 @@
 // rigidly to target positions. The file format is documented in docs/handles.md.
 #include <gshell/shell/shell.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 

@@ -13,6 +13,7 @@
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <memory>
 #include <vector>
@@ -58,6 +59,7 @@ public:
   PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKind kind,
              const HierarchyOptions& hierarchy = {});
   ~PoseSolver();
+  /// A moved-from PoseSolver may only be destroyed or assigned to.
   PoseSolver(PoseSolver&&) noexcept;
   PoseSolver& operator=(PoseSolver&&) noexcept;
 

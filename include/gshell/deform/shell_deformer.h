@@ -8,6 +8,7 @@
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
@@ -100,7 +101,7 @@ struct DeformOptions {
 };
 
 /// A top vertex counts as thinned in a frame when its offset |top_i - base_i| is below
-/// kThinnedFraction of its rest offset.
+/// kThinnedFraction of its rest offset. \throws InputError unless the four have one shape.
 int count_thinned_vertices(const Eigen::MatrixXd& base, const Eigen::MatrixXd& top, const Eigen::MatrixXd& rest_base,
                            const Eigen::MatrixXd& rest_top);
 
@@ -183,7 +184,8 @@ struct FrameResult {
 /// whose volume is below kMinRestVolumeRatio of their normal-prism tet (thickness eta; see
 /// docs/design.md "Base-driven deformation") take that ideal tet as their rest shape instead, so deforming pushes them
 /// back towards a proper prism rather than preserving the defect. `replaced` (if not null)
-/// receives their count.
+/// receives their count. \throws InputError when `shell` fails check_shell (a thickness of 0 is
+/// allowed: the mean offset stands in for it).
 constexpr double kMinRestVolumeRatio = 1e-3;
 RestTets deformation_rest_tets(const Shell& shell, int* replaced = nullptr);
 
@@ -194,8 +196,9 @@ struct FrameMend;  // src/deform/frame_guard.h
 /// matrix factored once; every frame only back-substitutes.
 class ShellDeformer {
 public:
-  /// \throws std::runtime_error when CHOLMOD fails (out of memory). `rest` is taken as a
-  ///         consistent shell (read_shell_folder and generate_shell check theirs).
+  /// \throws InputError "the rest shell: ..." when `rest` fails check_shell (shapes, finite
+  ///         coordinates, face ids, a positive thickness); std::runtime_error when CHOLMOD fails
+  ///         (out of memory).
   explicit ShellDeformer(const Shell& rest);
 
   /// Solves the top for a new base (n x 3, the rest base's vertex order), warm-started from the
@@ -215,6 +218,7 @@ public:
   /// All 2n shell vertices after the last frame (base rows, then top rows).
   const Eigen::MatrixXd& current() const { return current_; }
 
+  /// A moved-from ShellDeformer may only be destroyed or assigned to.
   ShellDeformer(ShellDeformer&&) noexcept;
   ShellDeformer& operator=(ShellDeformer&&) noexcept;
   ~ShellDeformer();

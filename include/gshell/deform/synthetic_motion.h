@@ -1,5 +1,6 @@
 #pragma once
 // Smooth synthetic deformations of a base mesh for tests, benchmarks and demos (`gshell animate`).
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {
@@ -10,6 +11,7 @@ struct MotionFrame {
   int long_axis = 0, middle_axis = 1, short_axis = 2;
   double length = 0;                                ///< bounding box extent along the long axis
 };
+/// \throws InputError unless V is n x 3.
 MotionFrame motion_frame(const Eigen::MatrixXd& V);
 /// The same with the long (bend/twist) axis chosen (0, 1, 2: x, y, z), the other two sorted by
 /// extent. \throws InputError for another axis.
@@ -21,7 +23,8 @@ MotionFrame motion_frame(const Eigen::MatrixXd& V, int long_axis);
 /// fold: an arc of radius band * length / angle between two straight, tangent parts).
 /// The plane through the center across the long axis stays put; lengths along the long axis are
 /// kept on the bounding box's mid-plane (short coordinate = center), so a flat mesh is bent
-/// isometrically.
+/// isometrically. \throws InputError (as twist) for a non-finite angle or band, V not n x 3, or a
+/// frame with an axis outside 0..2 or a non-finite center or length.
 Eigen::MatrixXd bend(const Eigen::MatrixXd& V, const MotionFrame& frame, double degrees, double band = 1.0);
 
 /// Twists about the long axis through the center: the angle grows linearly along the axis from

@@ -1,5 +1,6 @@
 #pragma once
 // Point location in a tet mesh (a shell, or the texture-space prisms of a base's UVs).
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>

@@ -1,6 +1,7 @@
 #pragma once
 // Closest points on segments and triangles: the thickness measure (quality/thickness.h, through
 // the face hierarchy) and point location outside a tet mesh (deform/tet_locator.h) share them.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {

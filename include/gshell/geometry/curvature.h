@@ -21,6 +21,7 @@
 // directions are unit vectors in the tangent plane, e_1 ⟂ e_2, and e_1 x e_2 points along the
 // normal (a right-handed frame (e_1, e_2, n)). Directions are defined up to sign; where
 // kappa_1 == kappa_2 (umbilic) they are an arbitrary orthonormal pair.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {

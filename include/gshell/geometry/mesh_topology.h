@@ -1,5 +1,6 @@
 #pragma once
 #include <gshell/mesh.h>
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <vector>
 
@@ -25,7 +26,8 @@ MeshStats mesh_stats(const TriMesh& mesh);
 std::vector<char> used_vertices(const Eigen::MatrixXi& elements, Eigen::Index n);
 
 /// Grows the vertex set `flags` (one flag per vertex) by `rings` rings: each ring adds every
-/// vertex of a face of F with a flagged vertex.
+/// vertex of a face of F with a flagged vertex. \throws InputError when F is not m x 3 or has an id
+/// outside [0, flags.size()).
 void grow_by_rings(const Eigen::MatrixXi& F, int rings, std::vector<char>& flags);
 
 /// Unique undirected edges (E x 2, smaller id first), in order of first appearance.

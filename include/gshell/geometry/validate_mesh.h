@@ -1,6 +1,7 @@
 #pragma once
 #include <gshell/mesh.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <string>
 #include <vector>

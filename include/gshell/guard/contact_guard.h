@@ -21,6 +21,7 @@
 #include <gshell/guard/primitive_distance.h>
 #include <gshell/quality/shell_boundary.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <array>

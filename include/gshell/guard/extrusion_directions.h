@@ -5,6 +5,7 @@
 // d_i must see every incident face from its positive side: n_f . d_i > 0 for all faces f at i.
 // The best such direction maximises the margin min_f n_f . d_i (the direction "Bijective Projection
 // in a Shell", Jiang et al. 2020, solves a small LP for).
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <vector>
 

@@ -10,6 +10,7 @@
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <functional>
 #include <vector>

@@ -42,6 +42,7 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/solver/shell_solver.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <functional>
 #include <memory>

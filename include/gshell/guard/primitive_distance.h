@@ -10,6 +10,7 @@
 // is 2 a_k r per point (the parameters' own derivative vanishes), and the Hessian is the Schur
 // complement f_xx - f_xb f_bb^-1 f_bx of the parameters (docs/contact.md). Clamped parameters
 // (the closest point on a segment's end, or on a triangle's edge) become fixed coefficients.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 #include <array>

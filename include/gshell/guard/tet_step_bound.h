@@ -2,6 +2,7 @@
 // The largest step along a motion that keeps every tet positively oriented (the flip-avoiding line
 // search of Smith & Schaefer 2015): along X + s D the signed volume of a tet is a cubic in s, and
 // the step stops before the first s where it falls to a fraction of its value at s = 0.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <array>
 #include <vector>

@@ -15,6 +15,7 @@
 #include <gshell/quality/shell_boundary.h>
 #include <gshell/quality/shell_certificate.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <optional>
 #include <utility>

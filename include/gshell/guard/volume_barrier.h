@@ -6,6 +6,7 @@
 // tets with J_t >= j_hat see none of it: only tets near collapse are touched.
 #include <gshell/solver/rest_tets.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <vector>

@@ -1,4 +1,5 @@
 #pragma once
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <string>
 #include <utility>

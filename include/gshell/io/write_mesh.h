@@ -1,5 +1,6 @@
 #pragma once
 #include <gshell/mesh.h>
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <string>
 #include <utility>

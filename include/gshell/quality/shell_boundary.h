@@ -2,6 +2,7 @@
 // The boundary surface of a shell's layer: its top, its base and, on open surfaces, the side walls
 // over the base's boundary edges. A shell is valid when this surface does not intersect itself
 // (and no tet is inverted); contact handling and the certificate both work on it.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <cstdint>
 #include <vector>

@@ -13,6 +13,7 @@
 // With a base that does not intersect itself, 1-4 make the layer an embedding: a shell map is
 // one-to-one. Every count comes from exact predicates (CGAL's filtered orientation tests on the
 // input doubles), never from a tolerance; neighbouring triangles are tested too.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>

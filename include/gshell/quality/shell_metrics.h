@@ -2,6 +2,7 @@
 // The quality report of a shell (docs/design.md "Quality measures"), for any base/top pair.
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {

@@ -2,6 +2,7 @@
 // Per-tet stretch ||F - R(F)||_F^2 = sum_i (sigma_i - 1)^2 (docs/design.md "The energy",
 // "Quality measures").
 #include <gshell/solver/rest_tets.h>
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {

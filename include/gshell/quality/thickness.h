@@ -1,6 +1,7 @@
 #pragma once
 // Per-vertex thickness of a shell (docs/design.md "Quality measures"): how far each top vertex is
 // from the base surface. Divide by eta for the relative thickness of the report.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {

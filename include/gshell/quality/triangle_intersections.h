@@ -14,6 +14,7 @@
 //   pair that meets anywhere except at the vertices and edges it shares, which is what an
 //   embedded surface forbids (docs/validity.md).
 // Bad input (a face index out of range, a non-finite coordinate) throws InputError.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <utility>
 #include <vector>

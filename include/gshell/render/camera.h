@@ -1,5 +1,6 @@
 #pragma once
 // Where the camera looks from, framed automatically around the model's bounding box.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <string>

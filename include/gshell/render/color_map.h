@@ -1,6 +1,7 @@
 #pragma once
 // Value -> color maps for the renders and their color bars.
 #include <gshell/format_number.h> // the color bars' labels
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <string>
 #include <vector>

@@ -5,6 +5,7 @@
 #include <gshell/render/camera.h>
 #include <gshell/render/image.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <optional>
 #include <vector>

@@ -5,6 +5,7 @@
 #include <gshell/render/figure.h>
 #include <gshell/shell/shell.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <string>
 #include <vector>

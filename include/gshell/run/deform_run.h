@@ -12,6 +12,7 @@
 #include <gshell/mesh.h>
 #include <gshell/run/shell_folder.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 

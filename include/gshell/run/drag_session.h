@@ -15,6 +15,7 @@
 #include <gshell/run/shell_folder.h>
 #include <gshell/shell/shell.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
@@ -35,6 +36,7 @@ public:
   /// \throws InputError on bad options or a rest shell without faces or thickness.
   explicit DragSession(Shell rest, const PoseOptions& options = {}, TriMesh surface = {});
   ~DragSession();
+  /// A moved-from DragSession may only be destroyed or assigned to.
   DragSession(DragSession&&) noexcept;
   DragSession& operator=(DragSession&&) noexcept;
 

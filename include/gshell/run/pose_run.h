@@ -13,6 +13,7 @@
 #include <gshell/solver/hierarchical_solver.h>
 #include <gshell/solver/shell_solver.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 

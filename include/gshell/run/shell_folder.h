@@ -15,6 +15,7 @@
 #include <gshell/mesh.h>
 #include <gshell/shell/shell.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 

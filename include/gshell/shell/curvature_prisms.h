@@ -3,6 +3,7 @@
 // "Curvature-sensitive prisms").
 #include <gshell/geometry/curvature.h>
 #include <gshell/shell/ideal_prisms.h>
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {

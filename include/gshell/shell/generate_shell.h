@@ -10,6 +10,7 @@
 #include <gshell/shell/shell.h>
 #include <gshell/solver/shell_solver.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <optional>
 #include <string>

@@ -1,5 +1,6 @@
 #pragma once
 // Ideal (distortion-free target) prisms, one per face (docs/design.md "Ideal prisms").
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 

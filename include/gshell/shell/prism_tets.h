@@ -1,6 +1,7 @@
 #pragma once
 // Cutting prisms into tets by the min-index rule (docs/design.md "Prisms and tets").
 #include <gshell/solver/rest_tets.h>
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <array>
 

@@ -1,5 +1,8 @@
 #pragma once
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
+
+#include <string>
 
 namespace gshell {
 
@@ -18,5 +21,11 @@ struct Shell {
     return X;
   }
 };
+
+/// Checks a shell filled in by hand before a solver indexes it: base and top both n x 3 with finite
+/// coordinates, F m x 3 with ids in [0, n), and (with `need_thickness`) a positive finite
+/// thickness. \throws InputError "NAME: problem", e.g. "the rest shell: face 4 has vertex id 900
+/// (the base has 162 vertices)".
+void check_shell(const Shell& shell, const std::string& name, bool need_thickness = true);
 
 } // namespace gshell

@@ -9,6 +9,7 @@
 // normals costs iterations that grow with thickness / edge length (bunny00 split twice, 603K
 // vertices at thickness ratio 0.02: 16 paper iterations from the raw normals, 7 from normals
 // smoothed over 0.3 of the thickness).
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 namespace gshell {

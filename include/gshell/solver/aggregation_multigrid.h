@@ -4,6 +4,7 @@
 // solver's global step (docs/scale.md "The multigrid preconditioner"). Precompute the hierarchy
 // once from the matrix, then apply one V-cycle to many residuals, several columns at once (the
 // shell system has one matrix for the x, y and z columns).
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>

@@ -2,6 +2,7 @@
 // The cluster hierarchy of the hierarchical solver (paper §5.1; docs/design.md "Hierarchical
 // dimension reduction"): built top-down over the base vertices by recursive bisection; top vertex i
 // always belongs to the cluster of base vertex i.
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <vector>
 

@@ -5,6 +5,7 @@
 // one affine map shared by all clusters moves the whole shell by that map). The hierarchy uses
 // piecewise weights (each vertex follows its own cluster); a smooth blend across seams was tried
 // and removed: it never paid for its denser reduced matrices (docs/design.md).
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <vector>

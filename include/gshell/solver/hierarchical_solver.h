@@ -40,6 +40,7 @@
 #include <gshell/solver/rest_tets.h>
 #include <gshell/solver/shell_solver.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <memory>
 #include <vector>
@@ -131,6 +132,13 @@ struct HierarchyOptions {
   /// thin half pull 1.3-1.6 -> 1.0-1.1, and the thin twist reaches a minimum 0.2-0.3 % below the
   /// one every other solver settles in (docs/design.md). Off: the full level's Anderson as before.
   bool anderson_over_passes = true;
+
+  /// \throws InputError naming the first field out of range: levels, splits_per_level,
+  /// coarsest_clusters, finest_cluster_size, min_cluster_size and coarse_period below 1; an
+  /// iteration count or first_coarse_iteration below 0; level_tolerance outside [0, 1];
+  /// reduced_hard_weight not positive and finite; an Anderson history outside
+  /// [0, kMaxAndersonHistory]. HierarchicalSolver's constructor calls it.
+  void check() const;
 };
 
 /// What the solver's parts did (counted per solve, and in all since construction).
@@ -158,8 +166,7 @@ class HierarchicalSolver {
 public:
   /// `rest_vertices` are the 2n rest shell vertices the tets' rest shapes come from (base rows
   /// 0..n-1, top n..2n-1), `F` the base faces. Builds the tree, assembles and factors every level.
-  /// \throws InputError when options.levels < 1, an Anderson history is outside
-  ///         [0, kMaxAndersonHistory], rest_vertices is not 2n x 3, a tet or face id is
+  /// \throws InputError when options fail HierarchyOptions::check, rest_vertices is not 2n x 3, a tet or face id is
   ///         out of range, the rest shapes are not the tets of rest_vertices (tets listed in
   ///         rest.override_tets may have shapes of their own), soft constraints have
   ///         a weight <= 0, or as ShellSolver's constructor (bad constraint ids, a free part).
@@ -167,6 +174,7 @@ public:
   HierarchicalSolver(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const Eigen::MatrixXi& F,
                      const PositionConstraints& constraints, const HierarchyOptions& options = {});
   ~HierarchicalSolver();
+  /// A moved-from HierarchicalSolver may only be destroyed or assigned to.
   HierarchicalSolver(HierarchicalSolver&&) noexcept;
   HierarchicalSolver& operator=(HierarchicalSolver&&) noexcept;
 

@@ -1,5 +1,6 @@
 #pragma once
 // Per-tet rest shapes for the deformation energy (docs/design.md "The energy").
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <algorithm>
 #include <array>

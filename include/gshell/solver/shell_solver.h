@@ -6,6 +6,7 @@
 #include <gshell/solver/aggregation_multigrid.h>
 #include <gshell/solver/rest_tets.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <functional>
@@ -103,8 +104,13 @@ struct LocalStep {
 /// Soft positional constraints: w * sum_c ||x_c - p_c||^2 over `vertices` (targets at solve).
 struct SoftConstraints {
   std::vector<int> vertices;
-  double weight = 0;
+  double weight = 0; ///< > 0 whenever `vertices` is not empty (ShellSolver refuses 0)
 };
+
+/// Threads: one solver may be used from several threads (its solves take turns); solvers of their
+/// own run in parallel. While CHOLMOD factors or solves, OpenBLAS's process-wide thread count is
+/// set to 1 and then restored (its threads would only contend with TBB's): BLAS calls the host
+/// makes from other threads at that moment run on one thread (docs/design.md, "Speed").
 
 class ShellSolver {
 public:
@@ -125,6 +131,7 @@ public:
   ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
               const SoftConstraints& soft = {}, const LinearSolverOptions& linear = {});
   ~ShellSolver();
+  /// A moved-from ShellSolver may only be destroyed or assigned to.
   ShellSolver(ShellSolver&&) noexcept;
   ShellSolver& operator=(ShellSolver&&) noexcept;
 

@@ -13,6 +13,7 @@
 #include <gshell/run/generate_run.h>
 #include <gshell/shell/shell.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 #include <cstddef>

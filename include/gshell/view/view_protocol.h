@@ -9,6 +9,7 @@
 // throws InputError with a one-line reason for anything else.
 #include <gshell/error.h>
 
+#include <gshell/eigen_abi.h>
 #include <Eigen/Core>
 
 #include <cstddef>
