@@ -45,9 +45,11 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   check_output_folder(a.output, [](const std::filesystem::path& d) { return gshell::holds_shell_output_of(d, "generate"); });
   std::vector<std::string> input_warnings;
   TriMesh mesh = load_mesh(a.input, &input_warnings);
+  const double eta_value = a.options.thickness.eta(mesh.V, mesh.F);
+  check_thickness_scale(mesh.V, mesh.F, eta_value); // as generation would, but before a progress line
   cli::Progress progress("generate");
   char eta[32];
-  std::snprintf(eta, sizeof eta, "%g", a.options.thickness.eta(mesh.V, mesh.F));
+  std::snprintf(eta, sizeof eta, "%g", eta_value);
   progress.line(a.input + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +
                 std::to_string(mesh.num_faces()) + " faces), method " + a.method + ", eta " + eta);
   cli::show_solve_progress(progress, a.options.generate.solve);

@@ -39,8 +39,8 @@ void parse_size(const std::string& text, int& width, int& height) {
   const auto number = [](const std::string& digits) { return digits.size() > 5 ? 100000 : std::stoi(digits); };
   width = number(match[1]);
   height = number(match[2]);
-  if (width < 32 || height < 32 || width > 8192 || height > 8192)
-    throw InputError("--size " + text + ": width and height must be in [32, 8192]");
+  if (width < 32 || height < 32 || width > kMaxFigureSide || height > kMaxFigureSide)
+    throw InputError("--size " + text + ": width and height must be in [32, " + std::to_string(kMaxFigureSide) + "]");
 }
 
 void run_render(const CLI::App& cmd, const RenderArgs& args) {

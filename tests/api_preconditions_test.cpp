@@ -7,6 +7,7 @@
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/mesh_topology.h>
+#include <gshell/render/shell_render.h>
 #include <gshell/shell/prism_tets.h>
 #include <gshell/shell/shell.h>
 #include <gshell/solver/hierarchical_solver.h>
@@ -80,6 +81,17 @@ TEST(ApiPreconditions, ArraysOfOtherSizesAreRefusedNotReadPast) {
   expect_input_error([&] { bend(s.base, frame, kNaN); }, "bend: the angle must be a finite number");
   expect_input_error([&] { twist(s.base, frame, std::numeric_limits<double>::infinity()); }, "twist: the angle");
   EXPECT_TRUE(bend(s.base, frame, 30).allFinite());
+}
+
+TEST(ApiPreconditions, SizesBeyondWhatCanBeHeldAreInputErrorsNotBadAlloc) {
+  expect_input_error([] { midpoint_subdivision(make_sphere(0), 40); }, "more faces than a mesh can hold");
+  EXPECT_EQ(midpoint_subdivision(make_sphere(0), 2).F.rows(), 20 * 16);
+  RenderSubject subject;
+  subject.name = "sphere";
+  subject.shell = small_shell();
+  ShellRenderOptions o;
+  o.figure.width = o.figure.height = 100000;
+  expect_input_error([&] { render_subjects({subject}, {}, o); }, "is larger than 8192 pixels on a side");
 }
 
 TEST(ApiPreconditions, TilingCountsBelowOneOrBeyondAnIntAreRefused) {

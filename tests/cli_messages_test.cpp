@@ -175,10 +175,11 @@ TEST(CliMessages, ThicknessesOutOfScaleSayWhy) {
   // Before the bound (generate_shell.h), a ratio of 1e20 failed with "the start state is not valid" or "the shell
   // system is singular", and 1e-300 with a non-finite certificate vertex.
   TempDir dir;
-  expect_error_containing("generate builtin:sphere:2 -q -o " + quoted(dir.file("out")) + " --thickness-ratio 1e20",
+  // Without -q: the error comes before the run's first progress line, alone.
+  expect_error_containing("generate builtin:sphere:2 -o " + quoted(dir.file("out")) + " --thickness-ratio 1e20",
                           "thickness 1e+20 is 1e+20 times the mesh's bounding radius (1); gshell builds layers up to 10 "
                           "times it (thickness ratio 10)");
-  expect_error_containing("generate builtin:sphere:2 -q -o " + quoted(dir.file("out")) + " --thickness 1e-300",
+  expect_error_containing("generate builtin:sphere:2 -o " + quoted(dir.file("out")) + " --thickness 1e-300",
                           "below 1e-09 of the mesh's extent (1): double precision cannot tell a top that close from the base");
   expect_error_line("generate builtin:sphere:2 -q -o " + quoted(dir.file("out")) + " --thickness-ratio -1e-20",
                     "--thickness-ratio must be positive and finite (got -1e-20)");

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <cstdint>
 #include <initializer_list>
 #include <string>
@@ -289,6 +290,11 @@ TriMesh make_builtin(const std::string& spec) {
 
 TriMesh midpoint_subdivision(const TriMesh& mesh, int times) {
   if (times < 0) throw InputError("midpoint_subdivision: times must be >= 0 (got " + std::to_string(times) + ")");
+  // Each split makes 4x the faces: past an int's range the ids cannot be stored (40 splits of an
+  // icosahedron ended in std::bad_alloc).
+  if (static_cast<double>(mesh.F.rows()) * std::pow(4.0, times) > std::numeric_limits<int>::max())
+    throw InputError("midpoint_subdivision: " + std::to_string(times) + " splits of " + std::to_string(mesh.F.rows()) +
+                     " faces make more faces than a mesh can hold (" + std::to_string(std::numeric_limits<int>::max()) + ")");
   Rows3d v(mesh.V.rows());
   for (int i = 0; i < mesh.V.rows(); ++i) v[i] = mesh.V.row(i).transpose();
   Rows3i f(mesh.F.rows());

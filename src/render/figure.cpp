@@ -33,6 +33,10 @@ Image render_figure(const std::vector<Panel>& panels, const FigureOptions& optio
   if (panel_w < 16 || panel_h < 16)
     throw InputError("render: image " + std::to_string(options.width) + "x" + std::to_string(options.height) +
                      " is too small for " + std::to_string(n) + " panel(s)");
+  // The CLI's limit: 100000 x 100000 ran out of memory (std::bad_alloc) instead of saying so.
+  if (options.width > kMaxFigureSide || options.height > kMaxFigureSide)
+    throw InputError("render: image " + std::to_string(options.width) + "x" + std::to_string(options.height) +
+                     " is larger than " + std::to_string(kMaxFigureSide) + " pixels on a side");
 
   Image figure(options.width, options.height);
   FigureLayout placed;

@@ -16,8 +16,11 @@ struct Panel {
   std::string caption;
 };
 
+/// The largest figure side, pixels (the CLI's --size limit): larger ones are an InputError.
+constexpr int kMaxFigureSide = 8192;
+
 struct FigureOptions {
-  int width = 1280, height = 720;           ///< the whole image, pixels
+  int width = 1280, height = 720;           ///< the whole image, pixels, each at most kMaxFigureSide
   ViewDirection view;                        ///< same direction for every panel
   Projection projection = Projection::Perspective;
   int supersample = 2;                       ///< anti-aliasing factor (see RenderOptions)
