@@ -118,6 +118,24 @@ TEST(InfoCli, FiguresOfMeshesOutsideTheRangeAreTheirOwn) {
   }
 }
 
+TEST(InfoCli, ASurfaceThatCrossesItselfIsAWarning) {
+  // A non-convex pentagon, split as a fan from its first corner: the fan's middle triangle folds
+  // over the other two (generate then found the crossing only after its run).
+  TempDir dir;
+  const std::string path = dir.file("nonconvex.obj");
+  write_text(path, "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf 1 2 3 4 5\n");
+  const auto r = run_cli("info '" + path + "' --json");
+  EXPECT_EQ(r.exit_code, 0) << r.err; // a shell can be built, just not a clean one there
+  const auto j = nlohmann::json::parse(r.out);
+  int crossings = 0;
+  for (const auto& p : j["problems"])
+    if (p["severity"] == "warning" && contains(p["message"].get<std::string>(), "the surface intersects itself"))
+      crossings += p["count"].get<int>();
+  EXPECT_GT(crossings, 0) << j["problems"];
+  // A surface that does not cross itself gets no such warning.
+  EXPECT_FALSE(contains(run_cli("info builtin:torus:16").out, "intersects itself"));
+}
+
 TEST(InfoCli, UnreferencedVertexIsOnlyAWarning) {
   TempDir dir;
   const std::string path = dir.file("extra.off");
