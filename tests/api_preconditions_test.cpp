@@ -7,6 +7,8 @@
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/mesh_topology.h>
+#include <gshell/io/write_mesh.h>
+#include <gshell/shell/generate_shell.h>
 #include <gshell/render/shell_render.h>
 #include <gshell/shell/prism_tets.h>
 #include <gshell/shell/shell.h>
@@ -14,6 +16,7 @@
 #include <gshell/solver/shell_solver.h>
 
 #include "shell_fixtures.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -92,6 +95,25 @@ TEST(ApiPreconditions, SizesBeyondWhatCanBeHeldAreInputErrorsNotBadAlloc) {
   ShellRenderOptions o;
   o.figure.width = o.figure.height = 100000;
   expect_input_error([&] { render_subjects({subject}, {}, o); }, "is larger than 8192 pixels on a side");
+}
+
+TEST(ApiPreconditions, WhatTheReadersRefuseIsNotWritten) {
+  TriMesh m = make_sphere(1);
+  m.V(5, 1) = kNaN;
+  test::TempDir dir;
+  expect_input_error([&] { write_mesh(dir.file("nan.obj"), m); }, "write_mesh: vertex 5 is not finite");
+  EXPECT_EQ(test::count_entries(dir.path()), 0);
+}
+
+TEST(ApiPreconditions, GuardOptionsOutOfRangeAreNamed) {
+  GenerateOptions o;
+  o.thickness = 0.1;
+  o.guard.start_spread = kNaN; // the one guard field not checked
+  expect_input_error([&] { o.check(); }, "start_spread");
+  o.guard.start_spread = 0.5;
+  expect_input_error([&] { o.check(); }, "start_spread");
+  o.guard.start_spread = 2;
+  EXPECT_NO_THROW(o.check());
 }
 
 TEST(ApiPreconditions, TilingCountsBelowOneOrBeyondAnIntAreRefused) {

@@ -261,6 +261,8 @@ void check_guard_options(const GuardOptions& o) {
   require(o.cg_tolerance > 0 && o.cg_tolerance < 1, "cg_tolerance", "in (0, 1)");
   require(o.normal_margin >= -1 && o.normal_margin <= 1, "normal_margin", "in [-1, 1]");
   require(o.start_smoothing >= 0 && std::isfinite(o.start_smoothing), "start_smoothing", ">= 0");
+  require(std::isfinite(o.start_spread) && (o.start_spread <= 0 || o.start_spread > 1), "start_spread",
+          "above 1, or 0 or less (no limit)");
   require(o.start_thinning > 0 && o.start_thinning < 1, "start_thinning", "in (0, 1)");
   require(o.start_refine >= 0, "start_refine", ">= 0");
   require(o.start_backoff > 0 && o.start_backoff <= 1, "start_backoff", "in (0, 1]");
