@@ -1,6 +1,7 @@
 // `gshell convert IN OUT`: any readable surface (or builtin:...) to OBJ, OFF or PLY, keeping
 // the vertex order and, for OBJ to OBJ, the texture coordinates; `--weld` joins the surface's cuts.
 #include "command_registry.h"
+#include "parameter_flags.h"
 #include "output_file.h"
 #include "progress.h"
 #include "warnings.h"
@@ -33,8 +34,9 @@ void add_convert_command(CLI::App& app) {
   cmd->add_flag("--weld", opt->weld,
                 "Join the surface's cuts: boundary vertices at exactly the position of another boundary vertex "
                 "(a triangle soup, split seams) become one; the other vertices keep their order");
-  cmd->callback([opt] {
+  cmd->callback([opt, cmd] {
     using namespace gshell;
+    cli::check_applies(*cmd, "--ascii", cli::lower_extension(opt->output) == ".ply", "a .ply output");
     // Over its own input is allowed (the file is written whole, then renamed), not over a shell's.
     cli::check_output_file(opt->output, "", {});
     check_mesh_output_format(opt->output); // before the input's warnings: one error line

@@ -80,12 +80,12 @@ void add_generate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--anderson", a->options.generate.solve.anderson_history,
                   "Anderson acceleration of the local/global iterations: iterates combined, 0 to 100 (0: the "
-                  "paper's plain iteration; --allow-invalid always runs the plain iteration)")
+                  "paper's plain iteration; not with --allow-invalid, which runs the plain iteration)")
       ->capture_default_str();
   cmd->add_option("--start-smoothing", a->options.generate.guard.start_smoothing,
                   "Start the local/global iterations from the offset along vertex normals smoothed over this "
-                  "fraction of the thickness (0: the raw normals, the paper's offset surface; --allow-invalid "
-                  "always starts there)")
+                  "fraction of the thickness (0: the raw normals, the paper's offset surface; not with "
+                  "--allow-invalid, which starts there)")
       ->capture_default_str();
   cmd->add_flag("--allow-invalid", a->options.generate.allow_invalid,
                 "Rigid and curvature: skip the guard and keep the paper's unguarded result, which may have inverted "

@@ -307,6 +307,19 @@ TEST(CliMessages, OptionsThatWouldBeIgnoredAreErrors) {
   // The curvature method takes them, and a bend its band.
   EXPECT_EQ(run_cli("generate builtin:sphere:1 --thickness-ratio 0.05 --method curvature --s-min 0.8 -q" + out).exit_code, 0);
   EXPECT_EQ(run_cli("animate builtin:plane:4 --bend 30 --band 0.5 --frames 2 -q -o " + quoted(dir.file("frames"))).exit_code, 0);
+  // render and convert as well.
+  const std::string png = " -o " + quoted(dir.file("x.png"));
+  expect_error_line("convert builtin:plane:4 " + quoted(dir.file("x.obj")) + " --ascii", "--ascii applies only to a .ply output");
+  expect_error_line("render builtin:plane:4 --color none --max 0.2" + png,
+                    "--max applies only to colored renders (not --color none)");
+  expect_error_line("render builtin:plane:4 --max 0.2" + png,
+                    "--max applies only to shells (--color auto leaves a plain surface uncolored)");
+  expect_error_line("render builtin:plane:4 --frame-each" + png, "--frame-each applies only to two or more inputs (panels)");
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
+  EXPECT_EQ(run_cli("-q convert builtin:plane:4 " + quoted(dir.file("x.ply")) + " --ascii").exit_code, 0);
+  ASSERT_EQ(run_cli("-q generate builtin:sphere:1 --thickness-ratio 0.05 -o " + quoted(dir.file("shell"))).exit_code, 0);
+  const auto shell_render = run_cli("-q render " + quoted(dir.file("shell")) + " --max 0.2" + png);
+  EXPECT_EQ(shell_render.exit_code, 0) << shell_render.err;
 }
 
 TEST(CliMessages, ValuesAreShownAsGivenAndOutputsNamedAsWritten) {
