@@ -69,7 +69,7 @@ void run_animate(const AnimateArgs& args) {
   int crossing_frames = 0, first_crossing = 0, most_crossings = 0;
 
   gshell::StagedFolder staged(args.out);
-  gshell::cli::Progress progress("animate");
+  gshell::cli::Progress progress("animate", 0.2); // throttled: 100,000 quick frames made 24,000 log lines
   for (int k = 1; k <= args.frames; ++k) {
     const double angle = degrees * gshell::ramp(k, args.frames);
     mesh.V = bending ? gshell::bend(rest, frame, angle, args.band) : gshell::twist(rest, frame, angle);
