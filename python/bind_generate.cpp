@@ -58,7 +58,8 @@ constexpr int kShellStateVersion = 2; // 2: with the base's texture coordinates
 py::tuple shell_state(const ShellObject& s) {
   return py::make_tuple(kShellStateVersion, from_matrix(s.shell.base), from_indices(s.shell.F), from_matrix(s.shell.top),
                         s.shell.thickness, from_vector(s.stretch),
-                        s.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), s.folder,
+                        s.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
+                        py::bytes(s.folder), // a folder name is bytes: one not UTF-8 failed to pickle
                         s.uv.size() ? py::object(from_matrix(s.uv)) : py::none(),
                         s.fuv.size() ? py::object(from_indices(s.fuv)) : py::none());
 }
@@ -77,7 +78,7 @@ ShellObject shell_from_state(const py::tuple& t) {
   s.stretch = to_matrix(t[5].attr("reshape")(-1, 1), "stretch", 1, tets).col(0);
   s.report = nlohmann::json::parse(t[6].cast<std::string>(), nullptr, false);
   if (!s.report.is_object()) value_error("Shell: the pickled report is not a JSON object");
-  s.folder = t[7].cast<std::string>();
+  s.folder = py::isinstance<py::bytes>(t[7]) ? std::string(t[7].cast<py::bytes>()) : t[7].cast<std::string>();
   if (!t[8].is_none() || !t[9].is_none()) {
     s.uv = to_matrix(t[8], "uv", 2);
     s.fuv = to_indices(t[9], "uv faces", 3, static_cast<int>(s.uv.rows()));
@@ -173,9 +174,10 @@ py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, s
   choice.check();
   ShellMetrics m;
   double eta = 0;
+  std::vector<std::string> warnings;
   {
     py::gil_scoped_release release;
-    require_valid_mesh(base, "base (Vb, F)");
+    warnings = require_valid_mesh(base, "base (Vb, F)");
     eta = choice.eta(base.V, base.F);
     check_thickness_scale(base.V, base.F, eta); // the normal prisms the stretch is measured against
     m = shell_metrics(base.V, base.F, top, eta, count_intersections);
@@ -184,6 +186,7 @@ py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, s
   d["tet_stretch"] = from_vector(m.tet_stretch);
   d["tet_determinant"] = from_vector(m.tet_determinant);
   d["vertex_thickness"] = from_vector(m.vertex_thickness);
+  d["warnings"] = warnings; // the base's, as `gshell metrics -o` writes them (a cut, an unused vertex)
   return d;
 }
 

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 #include <atomic>
+#include <chrono>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -37,7 +38,8 @@ nlohmann::json from_python(const py::handle& object, const char* name);
 /// The lock of an object whose calls run without the GIL (Deformer, Poser): two Python threads
 /// take turns. Its own progress callback runs inside solve(), on the thread holding the lock:
 /// a property read or a call from there would wait for itself forever (with Ctrl-C unable to end
-/// it), so it raises RuntimeError instead.
+/// it), so it raises RuntimeError instead. Another thread waits for the solve to end, and Ctrl-C
+/// ends that wait (KeyboardInterrupt).
 class ObjectLock {
 public:
   explicit ObjectLock(const char* object) : object_(object) {}
@@ -49,7 +51,12 @@ public:
         throw std::runtime_error(std::string(lock_.object_) +
                                  " is busy: its solve() is running (a progress callback cannot use the object it "
                                  "reports on)");
-      lock_.mutex_.lock();
+      // Called without the GIL. Another thread's solve may hold the lock for minutes: wait in
+      // slices and take the GIL between them to let Ctrl-C (KeyboardInterrupt) end the wait.
+      while (!lock_.mutex_.try_lock_for(std::chrono::milliseconds(100))) {
+        py::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+      }
       lock_.owner_ = std::this_thread::get_id();
     }
     ~Held() {
@@ -65,7 +72,7 @@ public:
 
 private:
   const char* object_;
-  std::mutex mutex_;
+  std::timed_mutex mutex_;
   std::atomic<std::thread::id> owner_{};
 };
 

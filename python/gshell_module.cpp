@@ -5,6 +5,8 @@
 
 #include <gshell/error.h>
 
+#include <cstring>
+
 namespace py = pybind11;
 
 PYBIND11_MODULE(gshell, m) {
@@ -24,7 +26,16 @@ release the GIL, take a `progress` argument and end at Ctrl-C (KeyboardInterrupt
     try {
       if (p) std::rethrow_exception(p);
     } catch (const gshell::InputError& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      // Messages name files, whose names are bytes: one that is not UTF-8 made PyErr_SetString
+      // fail and left a ValueError without a message. Such bytes are shown as \xNN escapes.
+      const char* what = e.what();
+      PyObject* message = PyUnicode_DecodeUTF8(what, static_cast<Py_ssize_t>(std::strlen(what)), "backslashreplace");
+      if (!message) {
+        PyErr_Clear();
+        message = PyUnicode_FromString("(a message that is not text)");
+      }
+      PyErr_SetObject(PyExc_ValueError, message);
+      Py_XDECREF(message);
     }
   });
   gshell::python::register_python_error_pending(); // KeyboardInterrupt and progress callables' errors

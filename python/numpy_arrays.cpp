@@ -42,12 +42,23 @@ void check_shape(const py::array& a, const char* name, const char* kind, int row
                 "; got shape " + shape_text(a));
 }
 
+// Before any copy: gshell indexes rows with int, and a copy of 2^31 rows takes tens of GB first.
+void check_row_count(const py::array& a, const char* name) {
+  if (a.shape(0) > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(a.shape(0)) + ")");
+}
+
+// One contiguous copy in T. Not array_t::ensure: it clears the error a failed conversion raised
+// (MemoryError), which left "error_already_set called while Python error indicator not set".
+template <class T>
+py::array_t<T, py::array::c_style | py::array::forcecast> contiguous(const py::array& a) {
+  return py::array_t<T, py::array::c_style | py::array::forcecast>(a);
+}
+
 template <class Index>
 Eigen::MatrixXi index_matrix(const py::array& a, const char* name, int cols, int num_vertices) {
-  const auto c = py::array_t<Index, py::array::c_style | py::array::forcecast>::ensure(a);
-  if (!c) throw py::error_already_set();
+  check_row_count(a, name);
+  const auto c = contiguous<Index>(a);
   const Eigen::Index n = c.shape(0);
-  if (n > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(n) + ")");
   Eigen::MatrixXi M(n, cols);
   const Index* data = c.data();
   const Index limit = num_vertices >= 0 ? static_cast<Index>(num_vertices) : static_cast<Index>(INT_MAX) + 1;
@@ -73,9 +84,9 @@ Eigen::MatrixXd to_matrix(const py::handle& object, const char* name, int cols, 
     value_error(std::string(name) + " must be a float array (float64) of shape " + wanted_shape(rows, cols) +
                 "; got dtype " + dtype_text(a));
   check_shape(a, name, "a float", rows, cols);
+  check_row_count(a, name);
   // forcecast + c_style: one contiguous float64 copy whatever the source's dtype and strides.
-  const auto c = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
-  if (!c) throw py::error_already_set();
+  const auto c = contiguous<double>(a);
   const Eigen::Index n = c.shape(0);
   Eigen::MatrixXd M(n, cols);
   const double* data = c.data();

@@ -55,7 +55,11 @@ def _shorten(function, owner=None):
             return function(*args, **kwargs)
         except TypeError as error:
             text = str(error)
-            if "incompatible function arguments" not in text and "incompatible constructor arguments" not in text:
+            # pybind11's own (raised in its dispatcher: no frame below this one), not one a progress
+            # callable raised, even with these words in it.
+            dispatcher = error.__traceback__ is not None and error.__traceback__.tb_next is None
+            if not dispatcher or ("incompatible function arguments" not in text and
+                                  "incompatible constructor arguments" not in text):
                 raise
             head = text.split(". The following argument types are supported")[0]
             takes = [line.strip().split(". ", 1)[1] for line in text.splitlines()

@@ -7,7 +7,6 @@
 #include <gshell/error.h>
 #include <gshell/geometry/builtin_mesh.h>
 #include <gshell/geometry/mesh_topology.h>
-#include <gshell/io/write_mesh.h>
 #include <gshell/shell/generate_shell.h>
 #include <gshell/render/shell_render.h>
 #include <gshell/shell/prism_tets.h>
@@ -16,7 +15,6 @@
 #include <gshell/solver/shell_solver.h>
 
 #include "shell_fixtures.h"
-#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -95,14 +93,6 @@ TEST(ApiPreconditions, SizesBeyondWhatCanBeHeldAreInputErrorsNotBadAlloc) {
   ShellRenderOptions o;
   o.figure.width = o.figure.height = 100000;
   expect_input_error([&] { render_subjects({subject}, {}, o); }, "is larger than 8192 pixels on a side");
-}
-
-TEST(ApiPreconditions, WhatTheReadersRefuseIsNotWritten) {
-  TriMesh m = make_sphere(1);
-  m.V(5, 1) = kNaN;
-  test::TempDir dir;
-  expect_input_error([&] { write_mesh(dir.file("nan.obj"), m); }, "write_mesh: vertex 5 is not finite");
-  EXPECT_EQ(test::count_entries(dir.path()), 0);
 }
 
 TEST(ApiPreconditions, GuardOptionsOutOfRangeAreNamed) {

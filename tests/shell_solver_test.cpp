@@ -19,6 +19,9 @@
 #include <random>
 #include <thread>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 using namespace gshell;
 using gshell::test::SimpleMesh;
 using gshell::test::vertex_range;
@@ -172,6 +175,29 @@ TEST(ShellSolver, SoftConstraintsPullTowardTargets) {
   // So is a weight of 0, SoftConstraints' default: its springs were dropped, the part left free.
   soft.weight = 0;
   EXPECT_THROW(ShellSolver(rest, 2 * n, {}, soft), InputError);
+}
+
+TEST(ShellSolver, AProcessForkedAfterAFactorisationCanFactorToo) {
+  // GNU OpenMP's thread pool (CHOLMOD's parallel regions) does not survive fork: a child's first
+  // factorisation waited for the parent's pool threads forever (Python's multiprocessing workers).
+  const Shell shell = test::sphere_shell(3, 0.05);
+  const int n = shell.num_base_vertices();
+  std::vector<int> base(n);
+  std::iota(base.begin(), base.end(), 0);
+  const RestTets rest = normal_prism_rest_tets(shell.base, shell.F, shell.thickness);
+  { const ShellSolver parent(rest, 2 * n, base); }
+  const pid_t child = fork();
+  if (child == 0) {
+    alarm(60); // a hang ends as SIGALRM, not as a hung suite
+    const ShellSolver again(rest, 2 * n, base);
+    Eigen::MatrixXd X = shell.vertices();
+    _exit(again.solve(X).energy.empty() ? 1 : 0);
+  }
+  ASSERT_GT(child, 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << (WIFSIGNALED(status) ? "child killed by signal " + std::to_string(WTERMSIG(status)) : "child failed");
 }
 
 TEST(ShellSolver, APartHeldByNothingIsSingularOnEveryPath) {

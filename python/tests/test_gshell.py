@@ -220,6 +220,15 @@ class MeshIOTest(TempDirTest):
         np.testing.assert_array_equal(V, Vb)
         np.testing.assert_array_equal(F, Fb)
 
+    def test_arrays_too_large_to_copy_raise_memory_error_not_an_internal_error(self):
+        V, F = gshell.builtin("sphere:1")
+        huge = np.broadcast_to(np.array([0.1, 0.2, 0.3]), (10**12, 3))  # no memory behind it
+        with self.assertRaises((MemoryError, ValueError)):
+            gshell.write_mesh(self.path("x.obj"), huge, F)
+        shell = gshell.generate(V, F, thickness=0.1)
+        with self.assertRaises((MemoryError, ValueError)):
+            gshell.embed(shell, huge)
+
     def test_bad_arguments_raise_value_error(self):
         V, F = gshell.builtin("sphere:1")
         p = self.path("bad.obj")
@@ -385,6 +394,35 @@ class GenerateTest(TempDirTest):
         state[6] = "{not json"
         with self.assertRaisesRegex(ValueError, "^Shell: the pickled report is not a JSON object$"):
             gshell.Shell.__new__(gshell.Shell).__setstate__(tuple(state))
+
+    def test_a_shell_from_a_folder_not_named_in_utf8_pickles_and_names_it_in_errors(self):
+        folder = os.fsencode(self.tmp) + b"/caf\xe9"
+        subprocess.run([CLI, "generate", "builtin:sphere:1", "-o", folder, "--thickness", "0.1", "--quiet"],
+                       capture_output=True, check=True)  # bytes: its summary names the folder
+        shell = gshell.load_shell(os.fsdecode(folder))
+        copy = pickle.loads(pickle.dumps(shell))  # was UnicodeDecodeError
+        np.testing.assert_array_equal(copy.top, shell.top)
+        # An error naming such a path keeps its message (it was a ValueError without one).
+        with self.assertRaises(ValueError) as caught:
+            gshell.read_mesh(os.fsdecode(folder + b"/missing.obj"))
+        self.assertIn("caf\\xe9/missing.obj", str(caught.exception))
+
+    def test_a_forked_process_can_generate_after_its_parent_did(self):
+        # GNU OpenMP's pool (CHOLMOD's) does not survive fork: a child's factorisation hung for
+        # good, which is what multiprocessing's default start method on Linux does to workers.
+        V, F = gshell.builtin("sphere:2")
+        gshell.generate(V, F, thickness=0.1)
+        child = os.fork()
+        if child == 0:
+            import signal
+            signal.alarm(60)
+            try:
+                gshell.generate(V, F, thickness=0.1)
+                os._exit(0)
+            except BaseException:
+                os._exit(1)
+        _, status = os.waitpid(child, 0)
+        self.assertEqual(os.waitstatus_to_exitcode(status), 0)
 
     def test_objects_made_without_init_are_refused(self):
         # pickle and copy make objects with __new__; used before __setstate__ (or __init__) they held
@@ -583,9 +621,18 @@ class MetricsTest(TempDirTest):
                     self.assertIsNone(mine[group][key])
                 else:
                     self.assertAlmostEqual(mine[group][key], value, delta=1e-9 * max(1, abs(value)), msg=key)
+        self.assertEqual(mine["warnings"], cli["warnings"])
         self.assertEqual(mine["tet_stretch"].shape, (3 * len(F),))
         self.assertEqual(mine["vertex_thickness"].shape, (len(V),))
         self.assertAlmostEqual(mine["vertex_thickness"].min(), cli["thickness"]["min"], delta=1e-9)
+
+    def test_warnings_of_the_base_are_reported(self):
+        # A vertex no face uses: `gshell metrics -o` lists it, and so does metrics().
+        V, F = gshell.builtin("sphere:2")
+        V_extra = np.vstack([V, [[5.0, 5.0, 5.0]]])
+        mine = gshell.metrics(V_extra, F, V_extra * 1.05, 0.05)
+        self.assertEqual(len(mine["warnings"]), 1)
+        self.assertIn("is used by no face", mine["warnings"][0])
 
     def test_exact_offset_sphere(self):
         # The concentric sphere at distance eta: thickness exactly 1 (relative), no intersections.
@@ -1212,6 +1259,13 @@ class ProgressTest(TempDirTest):
         with self.assertRaises(Stop):
             gshell.generate(self.V, self.F, thickness=0.05, iterations=20, tolerance=0, anderson=0, progress=stop_at_third)
         self.assertEqual(len(calls), 3)
+        # A TypeError too passes unchanged, even one with pybind11's words in it (it was rewritten as
+        # if generate's own arguments did not match).
+        def type_error(update):
+            raise TypeError("f(): incompatible function arguments: mine")
+        with self.assertRaises(TypeError) as caught:
+            gshell.generate(self.V, self.F, thickness=0.05, progress=type_error)
+        self.assertEqual(str(caught.exception), "f(): incompatible function arguments: mine")
 
     def test_ctrl_c_ends_generate_deform_and_pose_where_they_are(self):
         import _thread

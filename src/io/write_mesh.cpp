@@ -65,10 +65,6 @@ void check_writable(const TriMesh& mesh, const MeshAttributes& a) {
   if (n == 0) throw InputError("write_mesh: the mesh has no vertices");
   if (m > 0 && (mesh.F.minCoeff() < 0 || mesh.F.maxCoeff() >= n))
     throw InputError("write_mesh: face index out of range");
-  // Nor what they refuse as numbers: a NaN written is a file no reader (gshell's included) takes.
-  for (Eigen::Index v = 0; v < n; ++v)
-    if (!mesh.V.row(v).allFinite()) throw InputError("write_mesh: vertex " + std::to_string(v) + " is not finite");
-  if (mesh.has_uv() && !mesh.UV.allFinite()) throw InputError("write_mesh: a texture coordinate is not finite");
   if (mesh.has_uv() && (mesh.UV.cols() != 2 || mesh.FUV.cols() != 3 ||
                         (m > 0 && (mesh.FUV.minCoeff() < 0 || mesh.FUV.maxCoeff() >= mesh.UV.rows()))))
     throw InputError("write_mesh: UV must be k x 2 and FUV m x 3 with ids in range");

@@ -3,6 +3,7 @@
 #ifdef GSHELL_HAVE_CHOLMOD
 #include <dlfcn.h>
 #include <mutex>
+#include <pthread.h>
 
 namespace gshell::detail {
 
@@ -50,9 +51,30 @@ private:
   bool active_;
 };
 
+// CHOLMOD runs parts of its supernodal factorisation in OpenMP parallel regions. GNU OpenMP's
+// thread pool does not survive fork(): in a child (Python multiprocessing's default start on
+// Linux) the first parallel region waits for the parent's pool threads, which the child does not
+// have, and hangs for good. With no active levels a region runs on its calling thread alone and
+// leaves the pool be, so a child inherits a working, if serial, CHOLMOD.
+using SetMaxActiveLevels = void (*)(int);
+SetMaxActiveLevels set_max_active_levels = nullptr; // found in the parent: dlsym is not for a fork handler
+
+void openmp_serial_in_child() {
+  if (set_max_active_levels) set_max_active_levels(0);
+}
+
+void keep_openmp_usable_after_fork() {
+  static std::once_flag registered;
+  std::call_once(registered, [] {
+    set_max_active_levels = reinterpret_cast<SetMaxActiveLevels>(dlsym(RTLD_DEFAULT, "omp_set_max_active_levels"));
+    if (set_max_active_levels) pthread_atfork(nullptr, nullptr, openmp_serial_in_child);
+  });
+}
+
 } // namespace
 
 int cholmod_factorize_small_serially(cholmod_sparse* A, cholmod_factor* L, cholmod_common* cm) {
+  keep_openmp_usable_after_fork();
   const SerialBlas serial(cm->fl < kSerialBlasFlops);
   return cholmod_factorize(A, L, cm);
 }

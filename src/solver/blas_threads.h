@@ -19,6 +19,8 @@ constexpr double kSerialBlasFlops = 1e8;
 /// cholmod_factorize(A, L, cm) after cholmod_analyze: with OpenBLAS held to one thread for its
 /// duration when cm->fl < kSerialBlasFlops (restored after; nothing changes with another BLAS,
 /// found by looking `openblas_set_num_threads` up at run time). Returns cholmod_factorize's result.
+/// The first call also makes OpenMP serial in processes forked after it, where GNU OpenMP's
+/// thread pool would hang CHOLMOD's parallel regions.
 int cholmod_factorize_small_serially(cholmod_sparse* A, cholmod_factor* L, cholmod_common* cm);
 
 } // namespace gshell::detail

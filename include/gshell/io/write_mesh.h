@@ -26,7 +26,7 @@ void check_mesh_output_format(const std::string& path);
 /// `ascii_ply`), chosen by extension. Atomic (temporary file + rename). Vertex order is kept.
 /// \throws InputError naming `path` on an unknown extension (also .stl: it cannot keep vertex
 ///         order) or an unwritable path; InputError naming the argument when the mesh has no
-///         vertices or a non-finite coordinate (the readers refuse such files) or the mesh or the
+///         vertices (the readers refuse such a file) or the mesh or the
 ///         attributes are inconsistent (sizes, indices, PLY property names that are not one word
 ///         [A-Za-z0-9_.-] or clash). Nothing is written then.
 void write_mesh(const std::string& path, const TriMesh& mesh, const MeshAttributes& attributes = {},

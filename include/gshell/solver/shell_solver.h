@@ -108,9 +108,12 @@ struct SoftConstraints {
 };
 
 /// Threads: one solver may be used from several threads (its solves take turns); solvers of their
-/// own run in parallel. While CHOLMOD factors or solves, OpenBLAS's process-wide thread count is
-/// set to 1 and then restored (its threads would only contend with TBB's): BLAS calls the host
-/// makes from other threads at that moment run on one thread (docs/design.md, "Speed").
+/// own run in parallel. While CHOLMOD factors a small system (below 1e8 flops), OpenBLAS's
+/// process-wide thread count is set to 1 and then restored (its threads would only contend with
+/// TBB's): BLAS calls the host makes from other threads at that moment run on one thread
+/// (docs/design.md, "Speed"). A process forked after the first factorisation (Python
+/// multiprocessing's default) runs CHOLMOD's OpenMP parts on one thread: GNU OpenMP's thread pool
+/// does not survive fork, and its parallel regions would hang there.
 
 class ShellSolver {
 public:
