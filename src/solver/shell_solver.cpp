@@ -4,6 +4,7 @@
 #include <gshell/format_number.h>
 #include <gshell/seconds_since.h>
 
+#include "geometry/disjoint_sets.h"
 #include "geometry/first_touch.h"
 #include "solver/anderson_history.h"
 #include "solver/blas_threads.h"
@@ -590,12 +591,7 @@ void ShellSolver::Impl::require_every_part_held(bool has_soft) const {
   if (every_tet_kept) return;
   // Otherwise the parts of the free vertices joined by tets, each held by a kept corner of one of
   // its tets or by a spring on one of its vertices.
-  std::vector<int> parent(nf);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int j) {
-    while (parent[j] != j) j = parent[j] = parent[parent[j]];
-    return j;
-  };
+  detail::DisjointSets parts(nf);
   std::vector<char> held(nf, 0);
   for (int t = 0; t < K; ++t) {
     int first = -1;
@@ -607,8 +603,7 @@ void ShellSolver::Impl::require_every_part_held(bool has_soft) const {
       } else if (first < 0) {
         first = j;
       } else {
-        const int a = find(first), b = find(j);
-        if (a != b) parent[b] = a;
+        parts.unite(first, j);
       }
     }
     if (kept && first >= 0) held[first] = 1;
@@ -617,9 +612,9 @@ void ShellSolver::Impl::require_every_part_held(bool has_soft) const {
     for (int v : soft.vertices) held[free_index[v]] = 1;
   std::vector<char> part_held(nf, 0);
   for (int j = 0; j < nf; ++j)
-    if (held[j]) part_held[find(j)] = 1;
+    if (held[j]) part_held[parts.find(j)] = 1;
   for (int j = 0; j < nf; ++j) // by vertex id: the lowest free vertex of the first part names it
-    if (!part_held[find(j)])
+    if (!part_held[parts.find(j)])
       throw InputError("the shell system is singular: a connected part of the tets has no fixed or constrained "
                        "vertex (e.g. the part with vertex " + std::to_string(free_vertices[j]) + ")");
 }
