@@ -7,6 +7,7 @@
 #include "progress_watch.h"
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/geometry/validate_mesh.h>
 #include <gshell/quality/shell_metrics.h>
 #include <gshell/run/generate_run.h>
@@ -95,7 +96,7 @@ ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayA
   // what generation builds (check_thickness_scale): beyond them the stretch came back None.
   shell.top = to_positions(top, "top", static_cast<int>(mesh.V.rows()));
   if (!(thickness > 0) || !std::isfinite(thickness))
-    value_error("thickness must be positive and finite (got " + std::to_string(thickness) + ")");
+    value_error("thickness must be positive and finite (got " + format_number(thickness) + ")");
   shell.base = mesh.V;
   shell.F = mesh.F;
   shell.thickness = thickness;
@@ -230,7 +231,7 @@ stretch and report are measured as by metrics() without intersection counts.)")
       .def(py::pickle(&shell_state, &shell_from_state))
       .def("__repr__", [](const ShellObject& s) {
         return "<gshell.Shell: " + std::to_string(s.shell.num_base_vertices()) + " base vertices, " +
-               std::to_string(s.shell.F.rows()) + " faces, thickness " + std::to_string(s.shell.thickness) + ">";
+               std::to_string(s.shell.F.rows()) + " faces, thickness " + format_number(s.shell.thickness) + ">";
       }, "Sizes and thickness.");
 
   const GenerateOptions defaults; // the only source of the defaults, as for the CLI

@@ -8,6 +8,7 @@
 #include "shell_object.h"
 
 #include <gshell/error.h>
+#include <gshell/format_number.h>
 #include <gshell/deform/handles.h>
 #include <gshell/run/drag_session.h>
 #include <gshell/run/pose_run.h>
@@ -72,7 +73,12 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles, std::str
     return parse_handles(text, "handles argument", rest);
   }
   if (py::isinstance<py::str>(handles) || py::hasattr(handles, "__fspath__")) {
-    file = handles.cast<std::filesystem::path>().string();
+    // os.fspath first: its own error (a NUL byte, an __fspath__ that raises) reaches the caller,
+    // where the cast said only "Unable to cast Python instance to C++ type".
+    const py::object path = py::module_::import("os").attr("fspath")(handles);
+    if (py::isinstance<py::str>(path) && path.attr("__contains__")(py::str(std::string(1, '\0'))).cast<bool>())
+      value_error("handles: a file name with a NUL byte");
+    file = path.cast<std::filesystem::path>().string();
     py::gil_scoped_release release;
     return read_handles(file, rest);
   }
@@ -85,7 +91,7 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles, std::str
 
 py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction, CountArg steps, CountArg iterations,
                       double tolerance, const py::object& progress) {
-  if (!(fraction >= 0 && fraction <= 1)) value_error("fraction must be in [0, 1] (got " + std::to_string(fraction) + ")");
+  if (!(fraction >= 0 && fraction <= 1)) value_error("fraction must be in [0, 1] (got " + format_number(fraction) + ")");
   PoseOptions options;
   options.steps = steps.checked("steps");
   options.solve.max_iterations = iterations.checked("iterations");

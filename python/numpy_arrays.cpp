@@ -1,5 +1,6 @@
 #include "numpy_arrays.h"
 
+#include <gshell/format_number.h>
 #include <gshell/geometry/validate_mesh.h>
 
 #include <climits>
@@ -95,7 +96,7 @@ Eigen::MatrixXd to_matrix(const py::handle& object, const char* name, int cols, 
       const double x = data[i * cols + j];
       if (finite && !std::isfinite(x))
         value_error(std::string(name) + "[" + std::to_string(i) + ", " + std::to_string(j) +
-                    "] is not finite (" + std::to_string(x) + ")");
+                    "] is not finite (" + format_number(x) + ")");
       M(i, j) = x;
     }
   return M;

@@ -990,6 +990,16 @@ class PoseTest(TempDirTest):
 
     def test_bad_arguments(self):
         poser = gshell.Poser(self.shell, solver="single")
+        # A path with a NUL byte, or whose __fspath__ raises: that error, not "Unable to cast".
+        with self.assertRaisesRegex(ValueError, "NUL byte"):
+            poser.solve("handles.json\0x")
+
+        class BrokenPath:
+            def __fspath__(self):
+                raise ZeroDivisionError("mine")
+        with self.assertRaisesRegex(ZeroDivisionError, "mine"):
+            poser.solve(BrokenPath())
+        self.assertIn("thickness 0.05>", repr(gshell.Shell(*gshell.builtin("sphere:1"), gshell.builtin("sphere:1")[0] * 1.05, 0.05)))
         bad_handles = {
             "unknown key": {"handles": [{"vertices": [0], "pull": [0, 0, 1]}]},
             "id out of range": {"handles": [{"vertices": [0, 10**6]}]},
