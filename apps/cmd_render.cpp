@@ -49,7 +49,6 @@ void run_render(const CLI::App& cmd, const RenderArgs& args) {
   // The image is always PNG: another extension would give a file whose name lies about it.
   check_output_file(args.output, ".png", args.inputs);
   // Options this run would ignore are mistakes to be told of, as in generate and pose.
-  check_applies(cmd, "--max", args.color != "none", "colored renders (not --color none)");
   check_applies(cmd, "--frame-each", args.inputs.size() > 1, "two or more inputs (panels)");
   parse_size(args.size, options.figure.width, options.figure.height);
   check_flags(cmd, [&] { options.figure.view = parse_view(args.view); });
@@ -83,7 +82,8 @@ void run_render(const CLI::App& cmd, const RenderArgs& args) {
     print_warnings("render", subjects.back().warnings);
   }
   const bool any_shell = std::any_of(subjects.begin(), subjects.end(), [](const RenderSubject& s) { return s.is_shell(); });
-  check_applies(cmd, "--max", any_shell || args.color != "auto", "shells (--color auto leaves a plain surface uncolored)");
+  check_applies(cmd, "--max", args.color != "none" && (args.color != "auto" || any_shell),
+                "colored renders (--color none colors nothing, --color auto no plain surface)");
   const Image image = render_subjects(subjects, args.captions, options);
   write_png(args.output, image);
   Progress("render").line("wrote " + args.output + " (" + std::to_string(image.width) + "x" +

@@ -34,6 +34,7 @@ void check_output_file(const std::string& output, const std::string& extension, 
   if (is_output_folder_file(output))
     throw InputError(with_file(output, "is a file of a gshell output folder, which this command would break; write "
                                        "the output elsewhere"));
+  remove_orphans_of(output_target(output)); // what runs killed outright left beside this output
 }
 
 } // namespace gshell::cli

@@ -43,22 +43,19 @@ void check_shape(const py::array& a, const char* name, const char* kind, int row
                 "; got shape " + shape_text(a));
 }
 
-// Before any copy: gshell indexes rows with int, and a copy of 2^31 rows takes tens of GB first.
-void check_row_count(const py::array& a, const char* name) {
-  if (a.shape(0) > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(a.shape(0)) + ")");
-}
-
-// One contiguous copy in T. Not array_t::ensure: it clears the error a failed conversion raised
-// (MemoryError), which left "error_already_set called while Python error indicator not set".
+// One contiguous copy in T. Rows are counted first: gshell indexes them with int, and a copy of
+// 2^31 rows takes tens of GB before it could tell. Not array_t::ensure: it clears the error a
+// failed conversion raised (MemoryError), which left "error_already_set called while Python error
+// indicator not set".
 template <class T>
-py::array_t<T, py::array::c_style | py::array::forcecast> contiguous(const py::array& a) {
+py::array_t<T, py::array::c_style | py::array::forcecast> contiguous(const py::array& a, const char* name) {
+  if (a.shape(0) > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(a.shape(0)) + ")");
   return py::array_t<T, py::array::c_style | py::array::forcecast>(a);
 }
 
 template <class Index>
 Eigen::MatrixXi index_matrix(const py::array& a, const char* name, int cols, int num_vertices) {
-  check_row_count(a, name);
-  const auto c = contiguous<Index>(a);
+  const auto c = contiguous<Index>(a, name);
   const Eigen::Index n = c.shape(0);
   Eigen::MatrixXi M(n, cols);
   const Index* data = c.data();
@@ -85,9 +82,8 @@ Eigen::MatrixXd to_matrix(const py::handle& object, const char* name, int cols, 
     value_error(std::string(name) + " must be a float array (float64) of shape " + wanted_shape(rows, cols) +
                 "; got dtype " + dtype_text(a));
   check_shape(a, name, "a float", rows, cols);
-  check_row_count(a, name);
   // forcecast + c_style: one contiguous float64 copy whatever the source's dtype and strides.
-  const auto c = contiguous<double>(a);
+  const auto c = contiguous<double>(a, name);
   const Eigen::Index n = c.shape(0);
   Eigen::MatrixXd M(n, cols);
   const double* data = c.data();

@@ -310,10 +310,10 @@ TEST(CliMessages, OptionsThatWouldBeIgnoredAreErrors) {
   // render and convert as well.
   const std::string png = " -o " + quoted(dir.file("x.png"));
   expect_error_line("convert builtin:plane:4 " + quoted(dir.file("x.obj")) + " --ascii", "--ascii applies only to a .ply output");
-  expect_error_line("render builtin:plane:4 --color none --max 0.2" + png,
-                    "--max applies only to colored renders (not --color none)");
-  expect_error_line("render builtin:plane:4 --max 0.2" + png,
-                    "--max applies only to shells (--color auto leaves a plain surface uncolored)");
+  const std::string uncolored =
+      "--max applies only to colored renders (--color none colors nothing, --color auto no plain surface)";
+  expect_error_line("render builtin:plane:4 --color none --max 0.2" + png, uncolored);
+  expect_error_line("render builtin:plane:4 --max 0.2" + png, uncolored);
   expect_error_line("render builtin:plane:4 --frame-each" + png, "--frame-each applies only to two or more inputs (panels)");
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
   EXPECT_EQ(run_cli("-q convert builtin:plane:4 " + quoted(dir.file("x.ply")) + " --ascii").exit_code, 0);

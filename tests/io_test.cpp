@@ -1014,22 +1014,22 @@ TEST(IoAtomic, AnOutputThroughASymbolicLinkReachesItsTargetAndKeepsTheLink) {
 
 // A run killed outright (kill -9) leaves its temporary beside the output; the next write of that
 // output removes it, but not a live process's, another output's, or a name that is not one.
-TEST(IoAtomic, TemporariesOfKilledRunsAreRemovedByTheNextWrite) {
+TEST(IoAtomic, TemporariesOfKilledRunsAreRemovedByTheNextRunWritingThatOutput) {
   TempDir dir;
   const pid_t gone = fork();
   if (gone == 0) _exit(0);
   ASSERT_GT(gone, 0);
   waitpid(gone, nullptr, 0); // reaped: its id names no process now (unless reused at once)
   const std::string dead = std::to_string(gone), alive = std::to_string(getpid());
-  for (const std::string& name : {".out.txt.tmp-" + dead + "-5-0", ".out.txt.tmp-" + alive + "-5-1",
-                                  ".other.txt.tmp-" + dead + "-5-2", ".out.txt.tmpx-" + dead + "-5-3"})
+  for (const std::string& name : {".out.obj.tmp-" + dead + "-5-0", ".out.obj.tmp-" + alive + "-5-1",
+                                  ".other.obj.tmp-" + dead + "-5-2", ".out.obj.tmpx-" + dead + "-5-3"})
     write_text(dir.file(name), "partial");
-  write_file_atomically(dir.file("out.txt"), [](std::ostream& out) { out << "whole"; });
+  ASSERT_EQ(gshell::test::run_cli("-q convert builtin:sphere:0 '" + dir.file("out.obj") + "'").exit_code, 0);
   std::vector<std::string> left;
   for (const auto& entry : std::filesystem::directory_iterator(dir.path())) left.push_back(entry.path().filename());
   std::sort(left.begin(), left.end());
-  EXPECT_EQ(left, (std::vector<std::string>{".other.txt.tmp-" + dead + "-5-2", ".out.txt.tmp-" + alive + "-5-1",
-                                            ".out.txt.tmpx-" + dead + "-5-3", "out.txt"}));
+  EXPECT_EQ(left, (std::vector<std::string>{".other.obj.tmp-" + dead + "-5-2", ".out.obj.tmp-" + alive + "-5-1",
+                                            ".out.obj.tmpx-" + dead + "-5-3", "out.obj"}));
 }
 
 } // namespace

@@ -97,7 +97,6 @@ void write_file_atomically(const std::string& path, const std::function<void(std
   if (path.empty()) throw InputError("empty output file name");
   const fs::path target = output_target(path);
   if (fs::is_directory(target)) throw InputError(with_file(path, "is a directory, expected a file name"));
-  remove_orphans_of(target);
   const fs::path temporary = create_unique_temporary(target);
   const TemporaryOutput registered(temporary);
   try {

@@ -501,8 +501,6 @@ void DragSession::prepare() { impl_->ensure_solver(); }
 
 std::size_t DragSession::result_step_count() const { return impl_->state.steps.size(); }
 
-const PoseStepReport& DragSession::step_report(std::size_t k) const { return impl_->state.steps.at(k); }
-
 PoseResult DragSession::result(std::size_t first_step) const {
   const Impl& s = *impl_;
   const State& st = s.state;

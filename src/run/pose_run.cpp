@@ -160,10 +160,8 @@ PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_
     so.progress = nullptr;
     if (options.step_progress)
       so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
-    const std::size_t before = session.result_step_count();
-    session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
-    if (options.step_done && session.result_step_count() > before)
-      options.step_done(step, session.step_report(session.result_step_count() - 1));
+    const PoseStepReport done = session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
+    if (options.step_done) options.step_done(step, done);
   }
   return session.result(first);
 }

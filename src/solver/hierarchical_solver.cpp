@@ -387,10 +387,7 @@ HierarchicalSolveResult HierarchicalSolver::solve(Eigen::MatrixXd& X, const Eige
     throw InputError("HierarchicalSolver::solve: targets must be " + std::to_string(s.constraints.vertices.size()) +
                      " x 3 (one row per constrained vertex), got " + std::to_string(targets.rows()) + " x " +
                      std::to_string(targets.cols()));
-  if (options.max_iterations < 0) throw InputError("HierarchicalSolver::solve: negative iteration count");
-  if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
-    throw InputError("HierarchicalSolver::solve: the tolerance must be a number >= 0 (got " +
-                     format_number(options.tolerance) + ")");
+  check_solve_limits(options, "HierarchicalSolver::solve");
 
   s.set_hard_rows(X, targets);
   FullState state{X, {}, {}, {}, {}, {}};

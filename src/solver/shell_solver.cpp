@@ -1128,16 +1128,19 @@ void check_anderson_history(int history, const std::string& what) {
                      ")");
 }
 
+void check_solve_limits(const SolveOptions& options, const std::string& caller) {
+  if (options.max_iterations < 0) throw InputError(caller + ": negative iteration count");
+  if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
+    throw InputError(caller + ": the tolerance must be a number >= 0 (got " + format_number(options.tolerance) + ")");
+}
+
 SolveResult ShellSolver::solve(Eigen::MatrixXd& Xio, const SolveOptions& options,
                                const Eigen::MatrixXd& soft_targets) const {
   const Impl& m = *impl_;
   const auto t0 = Clock::now();
   m.check_positions(Xio, "solve");
   m.check_soft_targets(soft_targets, "solve");
-  if (options.max_iterations < 0) throw InputError("ShellSolver::solve: negative iteration count");
-  // A NaN tolerance never held: such a solve ran to max_iterations or the energy floor, "converged".
-  if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance))
-    throw InputError("ShellSolver::solve: the tolerance must be a number >= 0 (got " + format_number(options.tolerance) + ")");
+  check_solve_limits(options, "ShellSolver::solve");
   check_anderson_history(options.anderson_history, "ShellSolver::solve: the Anderson history");
   std::vector<double> X = to_row_major(Xio);
   const std::vector<double> rhs_const = m.rhs_constant(X.data(), soft_targets);

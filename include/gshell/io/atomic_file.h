@@ -21,7 +21,9 @@ void check_output_parent(const std::filesystem::path& output);
 /// `destination`: its temporaries and staging folders (".NAME.tmp-PID-..."), and folders set aside
 /// while replacing it (".NAME.old-PID-..."), whose process no longer exists on this machine. They
 /// are hidden and can hold hundreds of MB. Those of a live process, and other names, are left.
-/// Called by write_file_atomically and StagedFolder before they write.
+/// StagedFolder calls it before it stages; the CLI, for each output file, before the work. Not
+/// write_file_atomically: files written into a fresh staging folder have nothing beside them to
+/// clean, and a scan of the folder per file made animate's 10,000 frames take 27 s instead of 1-3.
 void remove_orphans_of(const std::filesystem::path& destination);
 
 /// Calls write(stream) on a temporary file beside `path` (beside its target where it is a

@@ -126,8 +126,6 @@ public:
   PoseResult result(std::size_t first_step = 0) const;
   /// Steps recorded since the last reset (result()'s full count).
   std::size_t result_step_count() const;
-  /// Step k (0-based, k < result_step_count()) of result(), without result()'s stretch.
-  const PoseStepReport& step_report(std::size_t k) const;
   /// The handles in the handle-file format (docs/handles.md) that `gshell pose --handles` reads:
   /// explicit vertex ids, translate, rotate {axis, degrees, center}.
   nlohmann::ordered_json handles_json() const;

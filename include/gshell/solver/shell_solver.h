@@ -41,6 +41,10 @@ constexpr int kMaxAndersonHistory = 100;
 /// The one range check of every Anderson history a caller sets (generation, the solvers, the
 /// guard, the hierarchy). \throws InputError "WHAT must be in [0, 100] (got N)" outside it.
 void check_anderson_history(int history, const std::string& what);
+/// The limits every solve checks (ShellSolver::solve, HierarchicalSolver::solve). \throws
+/// InputError "CALLER: negative iteration count" or "CALLER: the tolerance must be a number >= 0"
+/// (a NaN tolerance never held: such a solve ran to its last iteration and said "converged").
+void check_solve_limits(const SolveOptions& options, const std::string& caller);
 
 /// How the global step's linear system (L_ff X_f = B, one matrix for the three coordinates) is
 /// solved; docs/scale.md has the measurements behind the defaults.
