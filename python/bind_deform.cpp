@@ -182,7 +182,7 @@ Args:
         guarded sub-step, "regenerate paper|repair|relax" and "polish" for a fresh top; each
         counts from 1 again). Either way Ctrl-C ends the call at its next iteration with KeyboardInterrupt, as
         does an exception the callable raises; the Deformer then starts from the rest shell
-        again, as after reset().
+        again, as after reset(). The callable must not use this Deformer (it is busy: RuntimeError).
 
 Returns:
     float64 array (n, 3): the deformed top. Statistics are in .last.

@@ -3,6 +3,7 @@
 #include "numpy_arrays.h"
 
 #include <gshell/geometry/builtin_mesh.h>
+#include <gshell/geometry/validate_mesh.h>
 #include <gshell/geometry/weld_vertices.h>
 #include <gshell/io/load_mesh.h>
 #include <gshell/io/write_mesh.h>
@@ -22,6 +23,8 @@ py::tuple read_mesh_py(const std::filesystem::path& path) {
   {
     py::gil_scoped_release release;
     mesh = read_mesh_or_builtin(path.string());
+    // As `gshell convert` does: a NaN read from a file is named there, not later as an array index.
+    require_usable_coordinates(mesh.V, path.string());
   }
   return mesh_tuple(mesh);
 }
@@ -71,8 +74,9 @@ Returns:
     (V, F): float64 array (n, 3) of positions and int64 array (m, 3) of vertex ids.
 
 Raises:
-    ValueError: missing file, unknown format or malformed content (the message names the file
-        and, for text formats, the line).)");
+    ValueError: missing file, unknown format, malformed content (the message names the file
+        and, for text formats, the line), or a coordinate that is NaN, infinite or of 1e50 or
+        more (the message names the file and the vertex).)");
 
   m.def("write_mesh", &write_mesh_py, py::arg("path"), py::arg("V"), py::arg("F"),
         R"(Write a triangle mesh as OBJ, OFF or PLY (binary), by file extension.

@@ -67,8 +67,11 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles, std::str
   // treating it as one answered "cannot open handle file" followed by the whole text.
   // Asked in Python first: a file name with bytes that are not UTF-8 (os.fsdecode's surrogates)
   // has no UTF-8 std::string, only a path.
-  if (py::isinstance<py::str>(handles) && handles.attr("lstrip")().attr("startswith")("{").cast<bool>()) {
-    const std::string text = handles.cast<std::string>();
+  // A byte order mark (what reading a BOM-marked file with encoding="utf-8" keeps) is not part of the text.
+  const py::object text_start = py::isinstance<py::str>(handles) ? handles.attr("lstrip")(py::str("\ufeff \t\r\n"))
+                                                                 : py::object(py::none());
+  if (!text_start.is_none() && text_start.attr("startswith")("{").cast<bool>()) {
+    const std::string text = text_start.cast<std::string>();
     py::gil_scoped_release release;
     return parse_handles(text, "handles argument", rest);
   }
@@ -185,7 +188,7 @@ Args:
         and climbs as the handles move; the iteration count goes on through them).
         Either way Ctrl-C ends the call at its next iteration with KeyboardInterrupt, as does an
         exception the callable raises; the Poser then starts from the rest shell again, as after
-        reset().
+        reset(). The callable must not use this Poser (it is busy: RuntimeError).
 
 The first solve for a handle set builds the solver (cluster tree, factorisations) and starts from
 the rest shell; later solves with the same handles reuse it and continue from the last state

@@ -32,8 +32,11 @@ std::string dtype_text(const py::array& a) { return py::str(a.dtype()).cast<std:
 py::array as_array(const py::handle& object, const char* name) {
   try {
     return py::module_::import("numpy").attr("asarray")(object).cast<py::array>();
-  } catch (const py::error_already_set& e) {
-    value_error(std::string(name) + " is not an array: " + e.what());
+  } catch (py::error_already_set& e) {
+    // NumPy's own refusals (ragged lists, objects that are no numbers) in one line; anything an
+    // array-like's __array__ raised itself (ZeroDivisionError, MemoryError) passes as it was.
+    if (!e.matches(PyExc_ValueError) && !e.matches(PyExc_TypeError)) throw;
+    value_error(std::string(name) + " is not an array: " + py::str(e.value()).cast<std::string>());
   }
 }
 

@@ -39,8 +39,8 @@ void ProgressWatch::report(const nlohmann::ordered_json& update) {
   with_python([&] {
     if (callable_)
       callable_(to_python(update));
-    else
-      py::module_::import("sys").attr("stderr").attr("write")(line(update));
+    else if (const py::object stderr_ = py::module_::import("sys").attr("stderr"); !stderr_.is_none())
+      stderr_.attr("write")(line(update)); // None under pythonw and some services: print() skips it too
   });
 }
 

@@ -11,13 +11,13 @@ void shorten_argument_type_errors(pybind11::module_& m) {
   scope["module"] = m;
   pybind11::exec(R"py(
 import functools
+import os
 
-def _bool_parameters(function):
-    """{position or name: name} of the parameters the signature types as bool (pybind11's bool
-    takes None as False: allow_invalid=None would quietly mean False)."""
+def _parameters(function):
+    """[(name, type text, positional)] of the parameters pybind11's signature line gives."""
     doc = (function.__doc__ or "").split("\n", 1)[0]
     if "(" not in doc or doc.startswith("Overloaded"):
-        return {}
+        return []
     inside = doc[doc.index("(") + 1:doc.rfind(") ->") if ") ->" in doc else len(doc)]
     parts, depth, start = [], 0, 0  # split at the commas outside brackets (Optional[...] etc.)
     for i, c in enumerate(inside):
@@ -29,20 +29,40 @@ def _bool_parameters(function):
             parts.append(inside[start:i].strip())
             start = i + 1
     parts.append(inside[start:].strip())
-    found, positional = {}, True
-    for position, part in enumerate(parts):
+    found, positional = [], True
+    for part in parts:
         if part == "*":  # keyword-only from here
             positional = False
             continue
         name, _, rest = part.partition(":")
-        if rest.split("=")[0].strip() == "bool":
-            found[name.strip()] = name.strip()
-            if positional:
-                found[position] = name.strip()
+        found.append((name.strip(), rest.split("=")[0].strip(), positional))
     return found
 
+def _typed(parameters, kind):
+    """{position or name: name} of the parameters typed `kind`."""
+    found = {}
+    for position, (name, type_text, positional) in enumerate(parameters):
+        if type_text == kind:
+            found[name] = name
+            if positional:
+                found[position] = name
+    return found
+
+def _check_path(label, name, value):
+    """A path argument pybind11 could not take: the error os.fspath or open() would give, not
+    "incompatible function arguments" (which reads as if a str were not accepted)."""
+    try:
+        path = os.fspath(value)
+    except TypeError:
+        return  # not path-like at all: the type error stands
+    except Exception as error:  # an __fspath__ that raises: its own error
+        raise error from None
+    if ("\0" if isinstance(path, str) else b"\0") in path:
+        raise ValueError(f"{label}(): {name}: embedded null byte") from None
+
 def _shorten(function, owner=None):
-    bools = _bool_parameters(function)
+    parameters = _parameters(function)
+    bools, paths = _typed(parameters, "bool"), _typed(parameters, "os.PathLike")
     name = (function.__doc__ or "").split("(", 1)[0].strip() or getattr(function, "__name__", "function")
     label = owner if owner and name == "__init__" else f"{owner}.{name}" if owner else name
 
@@ -61,6 +81,9 @@ def _shorten(function, owner=None):
             if not dispatcher or ("incompatible function arguments" not in text and
                                   "incompatible constructor arguments" not in text):
                 raise
+            for key, value in list(enumerate(args)) + list(kwargs.items()):
+                if key in paths:
+                    _check_path(label, paths[key], value)
             head = text.split(". The following argument types are supported")[0]
             takes = [line.strip().split(". ", 1)[1] for line in text.splitlines()
                      if line.strip()[:1].isdigit() and ". " in line]

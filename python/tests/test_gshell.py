@@ -268,6 +268,30 @@ class MeshIOTest(TempDirTest):
             f.write("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
         with self.assertRaises(ValueError):
             gshell.read_mesh(p)
+        # A NaN read from a file is named with the file and vertex, as `gshell convert` names it.
+        with open(p, "w") as f:
+            f.write("v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n")
+        with self.assertRaisesRegex(ValueError, r"bad\.obj: vertex 1 has a non-finite coordinate"):
+            gshell.read_mesh(p)
+        # A path with a NUL byte is named as such, not as an argument type the call does not take.
+        for call in (lambda: gshell.read_mesh("m\0.obj"), lambda: gshell.write_mesh("m\0.obj", V, F),
+                     lambda: gshell.load_shell(path="dir\0")):
+            with self.assertRaisesRegex(ValueError, r"^\w+\(\): \w+: embedded null byte$"):
+                call()
+
+        class BrokenPath:
+            def __fspath__(self):
+                raise ZeroDivisionError("mine")
+        with self.assertRaisesRegex(ZeroDivisionError, "mine"):
+            gshell.read_mesh(BrokenPath())
+        # An array-like whose __array__ raises: its own error; NumPy's refusal of a ragged list: one line.
+        class BrokenArray:
+            def __array__(self, dtype=None, copy=None):
+                raise ZeroDivisionError("mine")
+        with self.assertRaisesRegex(ZeroDivisionError, "mine"):
+            gshell.write_mesh(p, BrokenArray(), F)
+        with self.assertRaisesRegex(ValueError, r"^V is not an array: [^\n]+$"):
+            gshell.write_mesh(p, [[0, 0, 0], [1, 0]], F)
         for spec in ("teapot", "sphere:99", "sphere:x", ""):
             with self.subTest(spec=spec), self.assertRaises(ValueError):
                 gshell.builtin(spec)
@@ -999,6 +1023,8 @@ class PoseTest(TempDirTest):
                 raise ZeroDivisionError("mine")
         with self.assertRaisesRegex(ZeroDivisionError, "mine"):
             poser.solve(BrokenPath())
+        # JSON text read from a BOM-marked file keeps the mark; it is still JSON text, not a file name.
+        poser.solve("\ufeff" + json.dumps(HANDLES), steps=1)
         self.assertIn("thickness 0.05>", repr(gshell.Shell(*gshell.builtin("sphere:1"), gshell.builtin("sphere:1")[0] * 1.05, 0.05)))
         bad_handles = {
             "unknown key": {"handles": [{"vertices": [0], "pull": [0, 0, 1]}]},
@@ -1256,6 +1282,10 @@ class ProgressTest(TempDirTest):
         printed = lines.getvalue().splitlines()
         self.assertEqual(len(printed), 3, printed)
         self.assertTrue(printed[2].startswith("gshell.generate: stage paper, iteration 3, energy "), printed)
+        # No stderr at all (pythonw, some services): nothing printed, as print() does, and the call ends normally.
+        with contextlib.redirect_stderr(None):
+            shell = gshell.generate(self.V, self.F, thickness=0.05, iterations=3, progress=True)
+        self.assertEqual(shell.top.shape, self.V.shape)
 
     def test_an_exception_from_the_callable_ends_the_call_at_once(self):
         class Stop(Exception):
