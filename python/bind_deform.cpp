@@ -1,5 +1,6 @@
 // Deformer and deform (base-driven deformation), Embedding and embed (detail carried by a shell).
 #include "bindings.h"
+#include "interpreter_exit.h"
 #include "count_arg.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"
@@ -48,7 +49,7 @@ namespace gshell::python {
 namespace {
 
 std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell, bool allow_invalid) {
-  py::gil_scoped_release release;
+  ReleasedGil release;
   return std::make_unique<DeformerObject>(shell.shell, allow_invalid);
 }
 
@@ -71,7 +72,7 @@ py::array deformer_solve(DeformerObject& d, const ArrayArg& new_base, CountArg i
   };
   Eigen::MatrixXd top;
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     const ObjectLock::Held held(d.lock); // released before the GIL is taken back
     try {
       d.last = d.deformer.solve(base, options);
@@ -127,7 +128,7 @@ py::object deform_py(const ShellObject& shell, const py::sequence& frames,
   };
   nlohmann::ordered_json report;
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     report = run_deform(input, options, output ? output->string() : std::string(), frame_done).to_json();
     pass_gil_probe();
   }
@@ -258,7 +259,7 @@ coordinates), carried along by every deformation of that shell (paper Fig. 5, 8)
              const Eigen::MatrixXd X = shell_vertices_of(deformed, e.shell_vertices);
              Eigen::MatrixXd P;
              {
-               py::gil_scoped_release release;
+               ReleasedGil release;
                P = carry(e.embedding, X);
              }
              return from_matrix(P);
@@ -299,7 +300,7 @@ Returns:
           EmbeddingObject e;
           ProgressWatch watch(progress, "gshell.embed");
           {
-            py::gil_scoped_release release;
+            ReleasedGil release;
             e.embedding = embed_points(shell.shell.vertices(), shell.tets, P, [&watch](int located, int total) {
               nlohmann::ordered_json update;
               update["located"] = located;

@@ -1,5 +1,6 @@
 // Shell, generate, metrics, load_shell.
 #include "bindings.h"
+#include "interpreter_exit.h"
 #include "count_arg.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"
@@ -100,14 +101,14 @@ ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayA
   shell.base = mesh.V;
   shell.F = mesh.F;
   shell.thickness = thickness;
-  py::gil_scoped_release release;
+  ReleasedGil release;
   require_valid_mesh(mesh, "base");
   check_thickness_scale(mesh.V, mesh.F, thickness);
   return measured_shell(std::move(shell));
 }
 
 ShellObject load_shell_py(const std::filesystem::path& dir) {
-  py::gil_scoped_release release;
+  ReleasedGil release;
   ShellFolder folder = read_shell_folder(dir.string());
   ShellObject s = measured_shell(std::move(folder.shell));
   s.folder = dir.string(); // Poser.write refuses it, as gshell pose refuses -o equal to --shell
@@ -154,7 +155,7 @@ ShellObject generate_py(const ArrayArg& V, const ArrayArg& F, std::optional<doub
   options.check();
   ProgressWatch watch(progress, "gshell.generate");
   watch.watch(options.generate.solve, "paper"); // the documented keys, also where the guard is off
-  py::gil_scoped_release release;
+  ReleasedGil release;
   // The same checks as the CLI's load_mesh: the library assumes a valid manifold surface.
   std::vector<std::string> input_warnings = require_valid_mesh(mesh, "mesh (V, F)");
   GenerateRun run = run_generate(std::move(mesh), kArrayInput, options, std::move(input_warnings));
@@ -177,7 +178,7 @@ py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, s
   double eta = 0;
   std::vector<std::string> warnings;
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     warnings = require_valid_mesh(base, "base (Vb, F)");
     eta = choice.eta(base.V, base.F);
     check_thickness_scale(base.V, base.F, eta); // the normal prisms the stretch is measured against

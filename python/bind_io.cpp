@@ -1,5 +1,6 @@
 // read_mesh, write_mesh, builtin, weld.
 #include "bindings.h"
+#include "interpreter_exit.h"
 #include "numpy_arrays.h"
 
 #include <gshell/geometry/builtin_mesh.h>
@@ -21,7 +22,7 @@ py::tuple mesh_tuple(const TriMesh& mesh) { return py::make_tuple(from_matrix(me
 py::tuple read_mesh_py(const std::filesystem::path& path) {
   TriMesh mesh;
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     mesh = read_mesh_or_builtin(path.string());
     // As `gshell convert` does: a NaN read from a file is named there, not later as an array index.
     require_usable_coordinates(mesh.V, path.string());
@@ -33,7 +34,7 @@ void write_mesh_py(const std::filesystem::path& path, const ArrayArg& V, const A
   TriMesh mesh;
   mesh.V = to_positions(V, "V");
   mesh.F = to_indices(F, "F", 3, static_cast<int>(mesh.V.rows()));
-  py::gil_scoped_release release;
+  ReleasedGil release;
   write_mesh(path.string(), mesh);
 }
 
@@ -41,7 +42,7 @@ py::tuple builtin_py(const std::string& spec) {
   const std::string full = is_builtin_spec(spec) ? spec : "builtin:" + spec;
   TriMesh mesh;
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     mesh = make_builtin(full);
   }
   return mesh_tuple(mesh);
@@ -52,7 +53,7 @@ py::tuple weld_py(const ArrayArg& V, const ArrayArg& F) {
   mesh.V = to_positions(V, "V");
   mesh.F = to_indices(F, "F", 3, static_cast<int>(mesh.V.rows()));
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     mesh = weld_boundary_vertices(mesh);
   }
   return mesh_tuple(mesh);

@@ -1,6 +1,7 @@
 // Poser: direct shell deformation with handles (paper §4.2 second type, §5 hierarchy), a thin
 // layer over the library's DragSession.
 #include "bindings.h"
+#include "interpreter_exit.h"
 #include "count_arg.h"
 #include "gil_probe.h"
 #include "numpy_arrays.h"
@@ -72,7 +73,7 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles, std::str
                                                                  : py::object(py::none());
   if (!text_start.is_none() && text_start.attr("startswith")("{").cast<bool>()) {
     const std::string text = text_start.cast<std::string>();
-    py::gil_scoped_release release;
+    ReleasedGil release;
     return parse_handles(text, "handles argument", rest);
   }
   if (py::isinstance<py::str>(handles) || py::hasattr(handles, "__fspath__")) {
@@ -82,13 +83,13 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles, std::str
     if (py::isinstance<py::str>(path) && path.attr("__contains__")(py::str(std::string(1, '\0'))).cast<bool>())
       value_error("handles: a file name with a NUL byte");
     file = path.cast<std::filesystem::path>().string();
-    py::gil_scoped_release release;
+    ReleasedGil release;
     return read_handles(file, rest);
   }
   if (!py::isinstance<py::dict>(handles))
     value_error("handles must be a dict in the handle-file format or the path of a handle file");
   const std::string text = from_python(handles, "handles").dump();
-  py::gil_scoped_release release;
+  ReleasedGil release;
   return parse_handles(text, "handles argument", rest);
 }
 
@@ -114,7 +115,7 @@ py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction
   };
   Eigen::MatrixXd X;
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     const ObjectLock::Held held(p.lock);
     p.session.set_names(p.shell_folder, handles_file);
     if (!p.handles || !(*p.handles == set)) { // other handles: from the rest shell again

@@ -3,6 +3,8 @@
 // order (later parts use classes registered by earlier ones).
 #include <pybind11/pybind11.h>
 
+#include "interpreter_exit.h"
+
 #include <nlohmann/json.hpp>
 #include <atomic>
 #include <chrono>
@@ -54,6 +56,7 @@ public:
       // Called without the GIL. Another thread's solve may hold the lock for minutes: wait in
       // slices and take the GIL between them to let Ctrl-C (KeyboardInterrupt) end the wait.
       while (!lock_.mutex_.try_lock_for(std::chrono::milliseconds(100))) {
+        stop_if_interpreter_exiting();
         py::gil_scoped_acquire gil;
         if (PyErr_CheckSignals() != 0) throw py::error_already_set();
       }
@@ -79,7 +82,7 @@ private:
 /// Runs `work` with the GIL released (other Python threads run meanwhile) and `lock` (the
 /// object's) held, and returns what it returns; the lock is let go before the GIL is taken back.
 template <class Work> auto without_gil_locked(ObjectLock& lock, Work&& work) {
-  py::gil_scoped_release release;
+  ReleasedGil release;
   const ObjectLock::Held held(lock);
   return work();
 }

@@ -1,4 +1,5 @@
 #include "gil_probe.h"
+#include "interpreter_exit.h"
 
 #include <atomic>
 #include <chrono>
@@ -44,7 +45,7 @@ void bind_gil_probe(py::module_& m) {
     p.armed = true;
   }, "Tests only: the next long call stops inside its GIL-released part until _gil_probe_release().");
   m.def("_gil_probe_wait_entered", [](double timeout) {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     Probe& p = probe();
     std::unique_lock<std::mutex> lock(p.mutex);
     return p.changed.wait_for(lock, std::chrono::duration<double>(timeout), [&] { return p.entered; });

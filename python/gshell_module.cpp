@@ -1,6 +1,7 @@
 // The `gshell` Python module: NumPy arrays in and out of the library (see python/README section).
 #include "bindings.h"
 #include "gil_probe.h"
+#include "interpreter_exit.h"
 #include "progress_watch.h"
 
 #include <gshell/error.h>
@@ -39,6 +40,7 @@ release the GIL, take a `progress` argument and end at Ctrl-C (KeyboardInterrupt
     }
   });
   gshell::python::register_python_error_pending(); // KeyboardInterrupt and progress callables' errors
+  gshell::python::register_interpreter_exit(); // calls in Python threads when the interpreter exits
 
   gshell::python::bind_io(m);
   gshell::python::bind_generate(m);

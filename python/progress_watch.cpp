@@ -1,6 +1,7 @@
 #include "progress_watch.h"
 
 #include "bindings.h"
+#include "interpreter_exit.h"
 #include "numpy_arrays.h"
 
 #include <cstdio>
@@ -35,6 +36,7 @@ std::string ProgressWatch::line(const nlohmann::ordered_json& update) const {
 }
 
 void ProgressWatch::report(const nlohmann::ordered_json& update) {
+  stop_if_interpreter_exiting(); // before the GIL: taking it then would end this thread badly
   if (!print_ && !callable_) return check_signals();
   with_python([&] {
     if (callable_)
@@ -45,6 +47,7 @@ void ProgressWatch::report(const nlohmann::ordered_json& update) {
 }
 
 void ProgressWatch::check_signals() {
+  stop_if_interpreter_exiting();
   // Taking the GIL can wait for another Python thread's time slice (5 ms): not at every iteration
   // of a fast solve when nothing is shown.
   const auto now = std::chrono::steady_clock::now();

@@ -14,7 +14,9 @@ import pickle
 import re
 import shutil
 import subprocess
+import sys
 import tempfile
+import textwrap
 import threading
 import unittest
 
@@ -447,6 +449,30 @@ class GenerateTest(TempDirTest):
                 os._exit(1)
         _, status = os.waitpid(child, 0)
         self.assertEqual(os.waitstatus_to_exitcode(status), 0)
+
+    def test_the_interpreter_exits_cleanly_while_a_daemon_thread_solves(self):
+        # CPython unwinds a daemon thread that takes the GIL back during finalisation; through the
+        # module's frames that aborted the process (or the solve raced OpenBLAS's shutdown: a
+        # segfault), in about one exit of four. The exit now stops the solve at its next iteration.
+        script = textwrap.dedent("""
+            import threading, gshell
+            V, F = gshell.builtin("sphere:4")
+            shell = gshell.generate(V, F, thickness_ratio=0.03)
+            low = V[:, 2].min() + 0.3
+            H = {"handles": [{"select": {"surface": "both", "box": [-9, -9, -9, 9, 9, low]}},
+                             {"select": {"surface": "both", "box": [-9, -9, -low, 9, 9, 9]},
+                              "rotate": {"axis": [1, 0, 0], "degrees": 60}}]}
+            solving = threading.Event()
+            def work(progress):
+                gshell.Poser(shell).solve(H, steps=1000, tolerance=0, progress=progress)
+            threading.Thread(target=work, args=(lambda u: solving.set(),), daemon=True).start()
+            threading.Thread(target=work, args=(None,), daemon=True).start()
+            solving.wait()
+            print("exiting")
+        """)
+        for _ in range(4):
+            r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+            self.assertEqual((r.returncode, r.stdout, r.stderr), (0, "exiting\n", ""))
 
     def test_objects_made_without_init_are_refused(self):
         # pickle and copy make objects with __new__; used before __setstate__ (or __init__) they held
