@@ -57,7 +57,8 @@ def _menu(self, context):
 def register():
     for cls in _classes:
         bpy.utils.register_class(cls)
-    bpy.types.Object.gshell = bpy.props.PointerProperty(type=shell_store.GShellObjectSettings)
+    bpy.types.Object.gshell = bpy.props.PointerProperty(type=shell_store.GShellObjectSettings,
+                                                        override=shell_store.OVERRIDABLE)
     bpy.types.Scene.gshell = bpy.props.PointerProperty(type=panel.GShellSceneSettings)
     bpy.types.VIEW3D_MT_object.append(_menu)
 

@@ -82,7 +82,8 @@ def polygon_loops(mesh):
 
 
 def mesh_like(source, name, V):
-    """A new mesh with `source`'s polygons and UV maps and the vertex positions V (n, 3).
+    """A new mesh with `source`'s polygons, UV maps (the active and render ones too) and materials, and
+    the vertex positions V (n, 3).
 
     Shape keys, modifiers' data and custom attributes are not copied: the new mesh is a plain
     surface over the same vertices, in the same order.
@@ -111,5 +112,15 @@ def _fill_like(mesh, source, V, start, total, loops):
     for layer in source.uv_layers:
         uv = np.empty(2 * len(loops), dtype=np.float32)
         layer.data.foreach_get("uv", uv)
-        mesh.uv_layers.new(name=layer.name).data.foreach_set("uv", uv)
+        copy = mesh.uv_layers.new(name=layer.name)
+        copy.data.foreach_set("uv", uv)
+        copy.active_render = layer.active_render  # the map renders and shader nodes use by default
+    if len(source.uv_layers):
+        mesh.uv_layers.active_index = source.uv_layers.active_index
+    # The materials, polygon by polygon, so the top renders and textures as the base does.
+    for material in source.materials:
+        mesh.materials.append(material)
+    index = np.empty(len(source.polygons), dtype=np.int32)
+    source.polygons.foreach_get("material_index", index)
+    mesh.polygons.foreach_set("material_index", index)
     mesh.update(calc_edges=True)

@@ -99,8 +99,14 @@ def frame_ranges(frames):
             runs[-1][1] = f
         else:
             runs.append([f, f])
-    text = ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+    text = ", ".join(str(a) if a == b else f"{a}-{b}" if a >= 0 else f"{a} to {b}" for a, b in runs)
     return ("frame " if len(frames) == 1 else "frames ") + text
+
+
+def _same_placement(a, b):
+    """Whether two object-to-base matrices agree (the bind matrix is stored in float32)."""
+    scale = max(abs(b[i][j]) for i in range(4) for j in range(4))
+    return all(abs(a[i][j] - b[i][j]) <= 1e-5 * (1 + scale) for i in range(4) for j in range(4))
 
 
 class Bake:
@@ -121,18 +127,32 @@ class Bake:
         self.allow_invalid = allow_invalid
         self.deformer = gshell.Deformer(shell, allow_invalid=True) if allow_invalid else gshell.Deformer(shell)
         self.details = [d for d in shell_store.details_of(base, self.scene) if len(d.data.vertices)]
+        # Where each detail is now in the base's space. A detail moved since it was bound (or a copy of
+        # one, Shift+D, which carries its bind matrix) is carried from where it is: the bind matrix
+        # alone would give it the motion of the place it was bound at, off the shell.
+        to_base = shell_store.inverted(base, base.matrix_world)
+        self.placements = [to_base @ d.matrix_world for d in self.details]
+        self.moved = [not _same_placement(m, d.gshell.bind_matrix) for d, m in zip(self.details, self.placements)]
         # Checked before anything is written, naming the detail (one that changed since it was bound).
-        embedded = [shell_store.embed_detail(gshell, shell, d, d.gshell.bind_matrix) for d in self.details]
+        embedded = [shell_store.embed_detail(gshell, shell, d, m) for d, m in zip(self.details, self.placements)]
         self.embeddings = [embedding for embedding, _ in embedded]
         self.to_detail = [back for _, back in embedded]
         self.objects = [self.top] + self.details
         self.folder, folder_name, self.warning = cache_directory(base, directory)
+        # The bake sees what the viewport shows: a deformer off there but on for render moves the base in
+        # a render and not the shell. (Off in the viewport is how a topology-changing one must be baked.)
+        render_only = [m.name for m in base.modifiers
+                       if m.show_render and not m.show_viewport and m.type in _DEFORM_ONLY]
+        if render_only:
+            self.warning = "; ".join(filter(None, [self.warning, (
+                f"modifiers of '{base.name}' that are on for render but off in the viewport are left out of the "
+                f"bake, which follows the viewport: {', '.join(render_only)}")]))
         # Distinct names, so distinct files: kept on the objects only when the bake completes.
         self.names = [folder_name] + cache_names(self.objects)
         self.writers = []
         try:
             for obj, name in zip(self.objects, self.names[1:]):
-                path = os.path.join(self.folder, name + ".pc2")
+                path = point_cache.next_version_path(self.folder, name)
                 self.writers.append(point_cache.PointCacheWriter(path, len(obj.data.vertices), frame_start,
                                                                  len(self.frames)))
         except OSError as e:
@@ -182,11 +202,19 @@ class Bake:
         """Puts the caches in place and attaches them; returns (level, status line): a WARNING that
         names the frames a guarded bake could not keep valid, and why."""
         try:
-            point_cache.commit_all(self.writers)
+            point_cache.commit_all(self.writers, self.names[1:], point_cache.playing_paths())
         except point_cache.CommitError as e:
             raise shell_store.ShellError(f"'{self.objects[e.index].name}': {e}") from e
         for obj, name in zip([self.base] + self.objects, self.names):
             obj.gshell.cache_name = name
+        # Bound inside a shell generated again since, thinner, say: Bind warned of those outside then.
+        strayed = [f"'{d.name}' {len(e.outside)} (at binding {d[shell_store.OUTSIDE_KEY]})"
+                   for d, e, moved in zip(self.details, self.embeddings, self.moved)
+                   if not moved and len(e.outside) > d.get(shell_store.OUTSIDE_KEY, len(e.outside))]
+        for d, placement, embedding, moved in zip(self.details, self.placements, self.embeddings, self.moved):
+            if moved:  # bound again where it is
+                d.gshell.bind_matrix = placement
+                d[shell_store.OUTSIDE_KEY] = len(embedding.outside)
         for obj, writer in zip(self.objects, self.writers):
             point_cache.attach(obj, writer.path, self.frames[0]).show_viewport = True
         self.scene.frame_set(self.frame_before)
@@ -200,15 +228,14 @@ class Bake:
             "details": [d.name for d in self.details], "directory": self.folder,
             "factor_seconds": self.deformer.factor_seconds, "median_seconds_per_frame": per_frame,
             "allow_invalid": self.allow_invalid, "invalid_frames": invalid,
-            "frames": self.frame_stats}, indent=1)
-        line = (f"gshell: baked frames {self.frames[0]}-{self.frames[-1]} of '{self.base.name}' (top and "
+            "frames": self.frame_stats}, separators=(",", ":"))  # kept in the .blend: compact
+        line = (f"gshell: baked {frame_ranges(self.frames)} of '{self.base.name}' (top and "
                 f"{len(self.details)} detail object(s)): {per_frame:.3g} s per frame, max stretch {worst:.3g}, "
                 f"{'no' if inverted == 0 else 'up to ' + str(inverted)} inverted tets, "
                 f"{invalid} invalid frame(s){' (allow invalid)' if self.allow_invalid else ''}; caches in {self.folder}")
-        # Bound inside a shell generated again since, thinner, say: Bind warned of those outside then.
-        strayed = [f"'{d.name}' {len(e.outside)} (at binding {d[shell_store.OUTSIDE_KEY]})"
-                   for d, e in zip(self.details, self.embeddings)
-                   if len(e.outside) > d.get(shell_store.OUTSIDE_KEY, len(e.outside))]
+        moved = [f"'{d.name}'" for d, m in zip(self.details, self.moved) if m]
+        if moved:
+            line += f"; moved since bound, carried from where they are now (bound there): {', '.join(moved)}"
         if strayed:
             line += (f"; more detail vertices than at binding lie outside the shell (it was generated again since?) "
                      f"and follow the nearest tet: {', '.join(strayed)}")

@@ -227,6 +227,10 @@ class OBJECT_OT_gshell_generate(bpy.types.Operator):
             owner = base.gshell.base.name
             kind = "the top of" if base.gshell.role == "TOP" else "bound as detail to"
             raise shell_store.ShellError(f"'{base.name}' is {kind} the shell of '{owner}'")
+        if base.library is not None:  # linked: nothing set on it would be saved
+            raise shell_store.ShellError(
+                f"'{base.name}' is linked from {base.library.filepath} and cannot be changed here: make a library "
+                f"override of it first (Object > Library Override > Make), then Generate Shell on that")
         V = mesh_arrays.vertex_positions(base.data)
         F, polygon = mesh_arrays.triangles(base.data)
         if len(F) == 0:

@@ -3,11 +3,12 @@
 PC2 (3ds Max's point cache 2, read by Blender's Mesh Cache modifier): a 32-byte little-endian
 header (b"POINTCACHE2\\0", version 1, point count, start frame, sample rate, sample count), then
 per sample the points' float32 x, y, z. Files are written under a temporary name and put in place
-together when all are complete (commit_all), so a cancelled or failed bake leaves the earlier caches
-untouched.
+together when all are complete (commit_all), each under a name of its own, so a cancelled or failed
+bake leaves the earlier caches untouched and an undone re-bake plays its own files again.
 """
 import contextlib
 import os
+import re
 import struct
 
 import numpy as np
@@ -44,53 +45,68 @@ class PointCacheWriter:
 
 
 class CommitError(Exception):
-    """writers[index]'s file could not be put in place; the message says what became of the others."""
+    """writers[index]'s file could not be put in place; nothing of the bake was."""
 
     def __init__(self, index, message):
         super().__init__(message)
         self.index = index
 
 
-def commit_all(writers):
-    """Puts every writer's file in place, or none: the caches of one bake belong together (a top and
-    its detail playing different bakes drift apart). The files they replace are moved aside first and
-    put back if one cannot go in. Raises CommitError; the caller discards the writers then."""
+# A bake never writes over an earlier bake's file: each writes the next version of every object's
+# cache, "<name>.pc2", then "<name>.bake2.pc2", "<name>.bake3.pc2", ... (clean names have no dots;
+# the ".001" of a name clash comes before the version). An undo after a re-bake brings back the
+# modifier that plays the earlier file, which is then still there: overwritten, it would have played
+# the new bake's samples at the old bake's frames. A bake removes the versions nothing plays.
+_VERSION = re.compile(r"^(?P<name>[^.]+(?:\.\d{3})?)(?:\.bake(?P<version>\d+))?\.pc2$")
+
+
+def _versions(folder, name):
+    """{version: file name} of `name`'s caches in `folder` (version 1: "<name>.pc2")."""
+    found = {}
+    with contextlib.suppress(OSError):
+        for entry in os.listdir(folder):
+            match = _VERSION.match(entry)
+            if match and match["name"] == name:
+                found[int(match["version"] or 1)] = entry
+    return found
+
+
+def next_version_path(folder, name):
+    """The path of `name`'s next cache version in `folder` (no file of that name exists)."""
+    version = max(_versions(folder, name), default=0) + 1
+    return os.path.join(folder, f"{name}.pc2" if version == 1 else f"{name}.bake{version}.pc2")
+
+
+def commit_all(writers, names, playing):
+    """Puts every writer's file in place (at its new path), or none: the caches of one bake belong
+    together (a top and its detail playing different bakes drift apart). Then removes the earlier
+    versions of each name (`names[i]`: writers[i]'s) but those in `playing` (absolute paths that
+    modifiers play: the bake's objects before it, so that one undo finds its files, and copies of
+    them). Raises CommitError; the caller discards the writers then."""
     for index, writer in enumerate(writers):
         writer._file.close()
         if writer.written != writer.num_samples:
             raise CommitError(index, f"{writer.path}: {writer.written} of {writer.num_samples} samples written; "
                                      f"nothing was baked")
-    moved = []  # (path, where its earlier file is, or None)
+    placed = []
     for index, writer in enumerate(writers):
         try:
-            aside = writer.path + ".old" if os.path.exists(writer.path) else None
-            if aside:
-                os.replace(writer.path, aside)
-            moved.append((writer.path, aside))
             os.replace(writer._tmp, writer.path)
+            placed.append(writer.path)
         except OSError as e:
-            stuck = _put_back(moved)
-            raise CommitError(index, f"cannot put {writer.path} in place ({e.strerror or e}); " + (
-                f"the earlier caches {', '.join(stuck)} could not be put back: bake again" if stuck else
-                "nothing was baked, the earlier caches are as they were")) from e
-    for _, aside in moved:
-        if aside:
-            with contextlib.suppress(OSError):  # the bake is in place; a leftover .old harms nothing
-                os.remove(aside)
-
-
-def _put_back(moved):
-    """Undoes commit_all's moves; returns the paths it could not restore."""
-    stuck = []
-    for path, aside in reversed(moved):
-        try:
-            if aside:
-                os.replace(aside, path)
-            elif os.path.exists(path):
-                os.remove(path)
-        except OSError:
-            stuck.append(path)
-    return stuck
+            for path in placed:
+                with contextlib.suppress(OSError):
+                    os.replace(path, path + ".part")  # back to a temporary, which discard() removes
+            raise CommitError(index, f"cannot put {writer.path} in place ({e.strerror or e}); nothing was baked, "
+                                     f"the earlier caches are as they were") from e
+    kept = {os.path.normcase(os.path.realpath(p)) for p in playing}
+    for writer, name in zip(writers, names):
+        folder = os.path.dirname(writer.path)
+        for entry in _versions(folder, name).values():
+            path = os.path.join(folder, entry)
+            if path != writer.path and os.path.normcase(os.path.realpath(path)) not in kept:
+                with contextlib.suppress(OSError):  # the bake is in place; an old version left harms nothing
+                    os.remove(path)
 
 
 def read(path):
@@ -127,6 +143,12 @@ def attach(obj, path, frame_start):
         with bpy.context.temp_override(object=obj):
             bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
     return mod
+
+
+def playing_paths():
+    """Absolute paths of the PC2 files Mesh Cache modifiers in the file play."""
+    return [bpy.path.abspath(m.filepath) for o in bpy.data.objects for m in o.modifiers
+            if m.type == "MESH_CACHE" and m.filepath]
 
 
 def detach(obj):

@@ -35,25 +35,30 @@ class ShellError(Exception):
     """A problem the user can fix (reported as a Blender error, nothing is changed)."""
 
 
+# A base that is a library override (a linked character made editable) keeps its settings in the
+# file only where they are overridable: linked data itself is never saved.
+OVERRIDABLE = {"LIBRARY_OVERRIDABLE"}
+
+
 class GShellObjectSettings(bpy.types.PropertyGroup):
     role: bpy.props.EnumProperty(
-        name="gshell role",
+        name="gshell role", override=OVERRIDABLE,
         items=[("NONE", "None", "Not part of a shell"),
                ("BASE", "Base", "The surface a shell was generated on"),
                ("TOP", "Top", "The top surface of a shell"),
                ("DETAIL", "Detail", "Geometry bound inside a shell, carried when the shell is baked")],
         default="NONE")
-    top: bpy.props.PointerProperty(type=bpy.types.Object, name="Top",
+    top: bpy.props.PointerProperty(type=bpy.types.Object, name="Top", override=OVERRIDABLE,
                                    description="The top object of this base's shell")
-    base: bpy.props.PointerProperty(type=bpy.types.Object, name="Base",
+    base: bpy.props.PointerProperty(type=bpy.types.Object, name="Base", override=OVERRIDABLE,
                                     description="The base object of the shell this top or detail belongs to")
-    thickness: bpy.props.FloatProperty(name="Thickness", min=0.0,
+    thickness: bpy.props.FloatProperty(name="Thickness", min=0.0, override=OVERRIDABLE,
                                        description="The shell's thickness eta, in the base's local units")
     bind_matrix: bpy.props.FloatVectorProperty(
-        name="Bind matrix", size=(4, 4), subtype="MATRIX",
+        name="Bind matrix", size=(4, 4), subtype="MATRIX", override=OVERRIDABLE,
         description="Detail local space to base local space at binding time")
     cache_name: bpy.props.StringProperty(
-        name="Cache name",
+        name="Cache name", override=OVERRIDABLE,
         description="File name of this object's baked cache (a base: of its cache folder), given by its last "
                     "completed bake and kept so that no other object's cache takes it")
 
