@@ -215,6 +215,8 @@ TEST(DragSession, UndoAndResetRestoreStates) {
   session.set_undo_depth(0);
   session.checkpoint();
   EXPECT_FALSE(session.undo());
+  // A negative depth is a caller's mistake, not "none".
+  EXPECT_THROW(session.set_undo_depth(-5), InputError);
 }
 
 TEST(DragSession, OnlyNewVertexSetsRebuildTheSolver) {

@@ -106,7 +106,7 @@ public:
   /// edits and reset() make one themselves; a viewer calls it when a drag begins. At most
   /// undo_depth points are kept (the oldest go first); each holds a copy of the 2n vertices.
   void checkpoint();
-  /// How many undo points are kept (default kUndoDepth; 0: none).
+  /// How many undo points are kept (default kUndoDepth; 0: none). \throws InputError below 0.
   void set_undo_depth(int depth);
   /// Returns to the last undo point; false when there is none.
   bool undo();
