@@ -8,6 +8,7 @@
 #include "thickness_flags.h"
 #include "warnings.h"
 
+#include <gshell/deform/handles.h>
 #include <gshell/error.h>
 #include <gshell/run/pose_run.h>
 #include <gshell/view/view_input.h>
@@ -15,10 +16,8 @@
 #include <gshell/view/view_session.h>
 
 #include <cstdlib>
-#include <fstream>
 #include <iostream>
 #include <memory>
-#include <sstream>
 
 namespace {
 
@@ -31,14 +30,6 @@ struct ViewArgs {
   bool full_events = false; ///< --full-events: session.reduced_events off
 };
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw gshell::InputError(gshell::with_file(path, "cannot open handle file"));
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 void run(const CLI::App& cmd, ViewArgs& a) {
   using namespace gshell;
   cli::check_flags(cmd, [&] {
@@ -50,6 +41,14 @@ void run(const CLI::App& cmd, ViewArgs& a) {
     if (a.input.generate.thickness.thickness || a.input.generate.thickness.thickness_ratio)
       a.input.generate.thickness.check();
   });
+
+  // What can be checked before the shell exists is, so that a typo does not wait for a generation.
+  std::string handles_text;
+  if (!a.handles.empty()) {
+    handles_text = read_handle_file(a.handles);
+    check_handle_file_syntax(handles_text, a.handles);
+  }
+  a.server.check_address();
 
   cli::Progress progress("view", 0.2);
   if (progress.enabled()) {
@@ -72,7 +71,7 @@ void run(const CLI::App& cmd, ViewArgs& a) {
                            " tets" +
                            (input.posable() ? "" : ", " + std::to_string(input.frames.size()) + " frames");
   ViewSession session(std::move(input), a.session);
-  if (!a.handles.empty()) session.load_handles(read_file(a.handles), a.handles, [](ViewOutgoing) {});
+  if (!a.handles.empty()) session.load_handles(handles_text, a.handles, [](ViewOutgoing) {});
 
   a.server.log = [&progress](const std::string& line) { progress.line(line); };
   ViewServer server(std::move(session), a.server);

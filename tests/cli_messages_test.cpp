@@ -242,6 +242,16 @@ TEST(CliMessages, IterationCountsShareOneWordingAndHandlesNameTheirFile) {
   expect_error_line("-q view " + quoted(dir.file("deformed")) + " --handles " + quoted(handles) + " --port 0",
                     handles + ": handles pose a single shell, and " + dir.file("deformed") +
                         " is a sequence of frames (a deform output)");
+  // What needs no shell is checked before one is generated: the error is the only line (without
+  // -q, a generation would have printed its progress first).
+  const std::string garbage = dir.file("garbage.json");
+  write_text(garbage, "garbage");
+  expect_error_containing("view builtin:sphere:3 --thickness-ratio 0.05 --port 0 --handles " + quoted(garbage),
+                          garbage + ": not valid JSON");
+  expect_error_line("view builtin:sphere:3 --thickness-ratio 0.05 --port 0 --handles " + quoted(dir.file("none.json")),
+                    dir.file("none.json") + ": cannot open handle file");
+  expect_error_containing("view builtin:sphere:3 --thickness-ratio 0.05 --port 0 --host 10.255.255.254",
+                          "cannot listen on 10.255.255.254:0");
 }
 
 TEST(CliMessages, HugeCoordinatesInShellFoldersAndHandlesSayTheyAreTooLarge) {

@@ -194,8 +194,10 @@ Handle parse_handle(const json& h, int index, const Shell& rest, const Reporter&
 
 } // namespace
 
-HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest) {
-  const Reporter r{name};
+namespace {
+
+/// The handle file as JSON, with the checks that need no shell.
+json parse_handle_document(const std::string& json_text, const Reporter& r) {
   // Handle files nest 5 levels; deeper ones are refused before anything recursive (the dump of a
   // value in an error message) walks them.
   constexpr int kMaxHandlesDepth = 32;
@@ -209,6 +211,18 @@ HandleSet parse_handles(const std::string& json_text, const std::string& name, c
     r.fail("", io_detail::not_valid_json(e));
   }
   if (!repeated_key.empty()) r.fail("", "the key \"" + repeated_key + "\" appears twice in one object");
+  return doc;
+}
+
+} // namespace
+
+void check_handle_file_syntax(const std::string& json_text, const std::string& name) {
+  parse_handle_document(json_text, Reporter{name});
+}
+
+HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest) {
+  const Reporter r{name};
+  json doc = parse_handle_document(json_text, r);
   check_keys(doc, {"handles", "mode", "weight"}, "", r);
   HandleSet set;
   const bool has_weight = doc.contains("weight");
@@ -328,14 +342,16 @@ nlohmann::ordered_json handles_to_json(const HandleSet& set) {
   return doc;
 }
 
-HandleSet read_handles(const std::string& path, const Shell& rest) {
+std::string read_handle_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(with_file(path, "is a directory, expected a handle file (JSON)"));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(with_file(path, "cannot open handle file"));
   std::stringstream text;
   text << in.rdbuf();
-  return parse_handles(text.str(), path, rest);
+  return text.str();
 }
+
+HandleSet read_handles(const std::string& path, const Shell& rest) { return parse_handles(read_handle_file(path), path, rest); }
 
 } // namespace gshell

@@ -109,7 +109,8 @@ StagedFolder::StagedFolder(const fs::path& destination) : destination_(output_ta
   std::error_code ec;
   staging_ = sibling(destination_, "tmp");
   if (!fs::create_directory(staging_, ec) || ec)
-    throw InputError(with_file(destination_.string(), "cannot create a folder beside it: " + ec.message()));
+    throw InputError(with_file(destination_.string(), "cannot write in " + destination_.parent_path().string() + ": " +
+                                                          ec.message()));
   registered_.emplace(staging_);
 }
 

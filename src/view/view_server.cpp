@@ -82,6 +82,38 @@ void ViewServerOptions::check() const {
   if (max_pages < 1) throw InputError("max_pages must be >= 1");
 }
 
+namespace {
+
+/// Opens `acceptor` listening on options.host:port (a host name resolved to an address of this
+/// machine). \throws InputError as ViewServer's constructor.
+void listen_on(tcp::acceptor& acceptor, const ViewServerOptions& options) {
+  beast::error_code ec;
+  const net::ip::address address = net::ip::make_address(options.host, ec);
+  tcp::endpoint endpoint;
+  if (ec) { // a host name: resolve it to an address of this machine
+    tcp::resolver resolver(acceptor.get_executor());
+    const auto results = resolver.resolve(options.host, std::to_string(options.port), ec);
+    if (ec || results.empty()) throw InputError("host " + options.host + ": not an address or a known host name");
+    endpoint = *results.begin();
+  } else {
+    endpoint = tcp::endpoint(address, static_cast<unsigned short>(options.port));
+  }
+  acceptor.open(endpoint.protocol(), ec);
+  if (!ec) acceptor.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) acceptor.bind(endpoint, ec);
+  if (!ec) acceptor.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) throw InputError("cannot listen on " + options.host + ":" + std::to_string(options.port) + ": " + ec.message());
+}
+
+} // namespace
+
+void ViewServerOptions::check_address() const {
+  check();
+  net::io_context ioc{1};
+  tcp::acceptor acceptor{ioc};
+  listen_on(acceptor, *this); // and let go: the server binds it again
+}
+
 class Page;
 
 // Everything the server's threads share (ViewServer::Impl is this).
@@ -412,7 +444,9 @@ private:
     // Only our own files, no inline script, sockets only back to this server. The Host goes into the
     // policy only once checked: a refused request's Host ("evil; script-src *") was copied in.
     const std::string host(req[http::field::host]);
-    const std::string sockets = server_.guard->host_allowed(host) ? " ws://" + host : std::string();
+    // (CSP sources cannot name an IPv6 address, "[::1]:port": 'self' covers the socket there.)
+    const std::string sockets =
+        server_.guard->host_allowed(host) && host.rfind('[', 0) != 0 ? " ws://" + host : std::string();
     res->set("Content-Security-Policy", "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: "
                                         "blob:; connect-src 'self'" + sockets +
                                             "; base-uri 'none'; form-action 'none'; frame-ancestors 'none'");
@@ -666,23 +700,7 @@ ViewServer::ViewServer(ViewSession session, ViewServerOptions options)
   if (web_assets().empty())
     throw InputError("view: this gshell was built without the viewer page (three.js was missing: run scripts/setup, "
                      "then rebuild)");
-  beast::error_code ec;
-  const net::ip::address address = net::ip::make_address(s.options.host, ec);
-  tcp::endpoint endpoint;
-  if (ec) { // a host name: resolve it to an address of this machine
-    tcp::resolver resolver(s.ioc);
-    const auto results = resolver.resolve(s.options.host, std::to_string(s.options.port), ec);
-    if (ec || results.empty()) throw InputError("host " + s.options.host + ": not an address or a known host name");
-    endpoint = *results.begin();
-  } else {
-    endpoint = tcp::endpoint(address, static_cast<unsigned short>(s.options.port));
-  }
-  s.acceptor.open(endpoint.protocol(), ec);
-  if (!ec) s.acceptor.set_option(net::socket_base::reuse_address(true), ec);
-  if (!ec) s.acceptor.bind(endpoint, ec);
-  if (!ec) s.acceptor.listen(net::socket_base::max_listen_connections, ec);
-  if (ec)
-    throw InputError("cannot listen on " + s.options.host + ":" + std::to_string(s.options.port) + ": " + ec.message());
+  listen_on(s.acceptor, s.options);
   s.port = s.acceptor.local_endpoint().port();
   const std::string shown = s.options.host.find(':') != std::string::npos ? "[" + s.options.host + "]" : s.options.host;
   s.url = "http://" + shown + ":" + std::to_string(s.port) + "/";

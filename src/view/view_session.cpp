@@ -112,7 +112,9 @@ struct ViewSession::Impl {
   int num_base() const { return input.shell.num_base_vertices(); }
 
   DragSession& posable(const char* type) {
-    if (!drag) throw InputError(std::string(type) + ": this input is a sequence of frames; only a single shell can be posed");
+    if (!drag)
+      throw InputError(std::string(type) + ": this input is a sequence of frames (a deform output, whose frames are " +
+                       "saved already); handles, poses and saving need a single shell");
     return *drag;
   }
 

@@ -82,4 +82,13 @@ HandleSet read_handles(const std::string& path, const Shell& rest);
 /// Same, from the JSON text; `name` is used in error messages. \throws InputError as read_handles.
 HandleSet parse_handles(const std::string& json_text, const std::string& name, const Shell& rest);
 
+/// The text of the handle file at `path`. \throws InputError "PATH: ..." when it is a directory
+/// or cannot be opened.
+std::string read_handle_file(const std::string& path);
+
+/// The checks of parse_handles that need no shell (the JSON itself: syntax, nesting, a key given
+/// twice), for a caller that has a long setup to do before the shell exists (`gshell view` on a
+/// surface generates it first). \throws InputError as parse_handles.
+void check_handle_file_syntax(const std::string& json_text, const std::string& name);
+
 } // namespace gshell

@@ -38,6 +38,10 @@ struct ViewServerOptions {
 
   /// \throws InputError naming the parameter (port, rest_seconds, max_pages) when out of range.
   void check() const;
+  /// check(), then resolves the host and listens on host:port once and lets go: the errors
+  /// ViewServer's constructor gives for them (an unknown host, a port in use), before a long
+  /// setup (a shell to generate). The port may still be taken meanwhile.
+  void check_address() const;
 };
 
 class ViewServer {
