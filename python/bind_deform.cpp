@@ -1,6 +1,5 @@
 // Deformer and deform (base-driven deformation), Embedding and embed (detail carried by a shell).
 #include "bindings.h"
-#include "interpreter_exit.h"
 #include "count_arg.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"

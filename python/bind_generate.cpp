@@ -1,6 +1,5 @@
 // Shell, generate, metrics, load_shell.
 #include "bindings.h"
-#include "interpreter_exit.h"
 #include "count_arg.h"
 #include "numpy_arrays.h"
 #include "shell_object.h"

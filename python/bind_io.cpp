@@ -1,6 +1,5 @@
 // read_mesh, write_mesh, builtin, weld.
 #include "bindings.h"
-#include "interpreter_exit.h"
 #include "numpy_arrays.h"
 
 #include <gshell/geometry/builtin_mesh.h>

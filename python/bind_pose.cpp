@@ -1,7 +1,6 @@
 // Poser: direct shell deformation with handles (paper §4.2 second type, §5 hierarchy), a thin
 // layer over the library's DragSession.
 #include "bindings.h"
-#include "interpreter_exit.h"
 #include "count_arg.h"
 #include "gil_probe.h"
 #include "numpy_arrays.h"

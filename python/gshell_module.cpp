@@ -1,7 +1,6 @@
 // The `gshell` Python module: NumPy arrays in and out of the library (see python/README section).
 #include "bindings.h"
 #include "gil_probe.h"
-#include "interpreter_exit.h"
 #include "progress_watch.h"
 
 #include <gshell/error.h>

@@ -1,7 +1,6 @@
 #include "progress_watch.h"
 
 #include "bindings.h"
-#include "interpreter_exit.h"
 #include "numpy_arrays.h"
 
 #include <cstdio>
