@@ -69,12 +69,20 @@ ShellObject shell_from_state(const py::tuple& t) {
   if (t.size() != 10 || !py::isinstance<py::int_>(t[0]) || t[0].cast<int>() != kShellStateVersion)
     value_error("Shell: not the state of a pickled gshell.Shell of this version");
   ShellObject s;
-  s.shell.base = to_matrix(t[1], "base", 3);
-  const int n = static_cast<int>(s.shell.base.rows());
-  s.shell.F = to_indices(t[2], "faces", 3, n);
-  s.shell.top = to_matrix(t[3], "top", 3, n);
+  const TriMesh mesh = checked_mesh(t[1], t[2], "base", "faces");
+  const int n = static_cast<int>(mesh.V.rows());
+  s.shell.base = mesh.V;
+  s.shell.F = mesh.F;
+  s.shell.top = to_positions(t[3], "top", n);
   s.shell.thickness = t[4].cast<double>();
   if (!(s.shell.thickness > 0) || !std::isfinite(s.shell.thickness)) value_error("Shell: thickness must be positive");
+  {
+    // What Shell(...) holds a shell to, so that a state made or changed by hand (duplicated faces,
+    // a non-manifold edge, no faces) is refused here and not met by a Deformer or Poser later.
+    ReleasedGil release;
+    require_valid_mesh(mesh, "Shell state: base");
+    check_thickness_scale(mesh.V, mesh.F, s.shell.thickness);
+  }
   const int tets = 3 * static_cast<int>(s.shell.F.rows());
   s.stretch = to_matrix(t[5].attr("reshape")(-1, 1), "stretch", 1, tets).col(0);
   s.report = nlohmann::json::parse(t[6].cast<std::string>(), nullptr, false);

@@ -420,6 +420,16 @@ class GenerateTest(TempDirTest):
         state[6] = "{not json"
         with self.assertRaisesRegex(ValueError, "^Shell: the pickled report is not a JSON object$"):
             gshell.Shell.__new__(gshell.Shell).__setstate__(tuple(state))
+        # A state changed by hand gets the checks Shell(...) makes: here a face given twice.
+        state = list(shell.__getstate__())
+        state[2] = np.vstack([state[2], state[2][:1]])
+        state[5] = np.concatenate([state[5], state[5][:3]])
+        with self.assertRaisesRegex(ValueError, "^Shell state: base: .*(duplicate|twice|non-manifold)"):
+            gshell.Shell.__new__(gshell.Shell).__setstate__(tuple(state))
+        state = list(shell.__getstate__())
+        state[3] = state[3] * 1e60
+        with self.assertRaisesRegex(ValueError, "top"):
+            gshell.Shell.__new__(gshell.Shell).__setstate__(tuple(state))
 
     def test_a_shell_from_a_folder_not_named_in_utf8_pickles_and_names_it_in_errors(self):
         folder = os.fsencode(self.tmp) + b"/caf\xe9"
