@@ -196,6 +196,7 @@ py::dict metrics_py(const ArrayArg& Vb, const ArrayArg& F, const ArrayArg& Vt, s
   d["tet_determinant"] = from_vector(m.tet_determinant);
   d["vertex_thickness"] = from_vector(m.vertex_thickness);
   d["warnings"] = warnings; // the base's, as `gshell metrics -o` writes them (a cut, an unused vertex)
+  d["gshell_version"] = GSHELL_VERSION; // as generate()'s report; the CLI's file names (base, top) have no array twin
   return d;
 }
 

@@ -442,6 +442,21 @@ TEST(CliMessages, TextureCoordinatesAndTexturesNameTheirFile) {
   EXPECT_EQ(partly.exit_code, 0) << partly.err;
   EXPECT_NE(partly.err.find("gshell texture: warning: " + partial + ": " + dropped), std::string::npos) << partly.err;
   std::filesystem::remove(dir.file("t.obj"));
+  // Into a PLY: normals are dropped and the texture coordinates too, which only OBJ holds; both said.
+  const std::string uv_normals = dir.file("uv_normals.obj");
+  write_text(uv_normals, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\n"
+                         "f 1/1/1 3/3/1 2/2/1\nf 1/1/1 2/2/1 4/1/1\nf 1/1/1 4/1/1 3/3/1\nf 2/2/1 3/3/1 4/1/1\n");
+  const std::string ply = dir.file("t.ply");
+  const auto into_ply = run_cli("texture --shell " + quoted(shell) + " --tile " + quoted(uv_normals) + " -o " +
+                                quoted(ply) + " -q");
+  EXPECT_EQ(into_ply.exit_code, 0) << into_ply.err;
+  EXPECT_NE(into_ply.err.find(uv_normals + ": its normals are not carried into " + ply + " (positions and faces are)"),
+            std::string::npos)
+      << into_ply.err;
+  EXPECT_NE(into_ply.err.find(uv_normals + ": its texture coordinates are not written to " + ply +
+                              " (only OBJ holds them)"),
+            std::string::npos)
+      << into_ply.err;
   expect_error_line("texture --shell " + quoted(shell) + " --tile builtin:sphere:1" + tiled,
                     "builtin:sphere:1: unknown tile (built-in tiles: builtin:bumps[:N])");
   expect_error_containing("texture --shell " + quoted(shell) + " --tile builtin:bumps:4 --repeat 100000 100000" + tiled,

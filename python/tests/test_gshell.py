@@ -682,6 +682,9 @@ class MetricsTest(TempDirTest):
                 else:
                     self.assertAlmostEqual(mine[group][key], value, delta=1e-9 * max(1, abs(value)), msg=key)
         self.assertEqual(mine["warnings"], cli["warnings"])
+        # Every key of the CLI's file but the two input file names, which arrays do not have.
+        self.assertEqual(set(cli) - set(mine), {"base", "top"})
+        self.assertEqual(mine["gshell_version"], cli["gshell_version"])
         self.assertEqual(mine["tet_stretch"].shape, (3 * len(F),))
         self.assertEqual(mine["vertex_thickness"].shape, (len(V),))
         self.assertAlmostEqual(mine["vertex_thickness"].min(), cli["thickness"]["min"], delta=1e-9)

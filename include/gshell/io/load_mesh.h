@@ -23,7 +23,8 @@ TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>*
 
 /// "INPUT: its normals and materials are not carried into OUTPUT (positions, faces and texture
 /// coordinates are)", for a mesh carried into an output (embedded detail, a texture tile) whose
-/// reading skipped that data (read_mesh's `skipped`, not empty).
+/// reading skipped that data (read_mesh's `skipped`, not empty). Texture coordinates are named
+/// carried only into an OBJ output, the one format that holds them.
 std::string carried_data_warning(const std::string& input, const std::vector<std::string>& skipped,
                                  const std::string& output);
 
