@@ -62,6 +62,7 @@ def _check_path(label, name, value):
 
 def _shorten(function, owner=None):
     parameters = _parameters(function)
+    # pybind11's bool takes None as False: allow_invalid=None would quietly mean False.
     bools, paths = _typed(parameters, "bool"), _typed(parameters, "os.PathLike")
     name = (function.__doc__ or "").split("(", 1)[0].strip() or getattr(function, "__name__", "function")
     label = owner if owner and name == "__init__" else f"{owner}.{name}" if owner else name

@@ -8,7 +8,9 @@ a baked bend carries the top (about the thickness above the base, equal to gshel
 same base positions) and the bound detail (equal to embed().carry in world space); meshes the
 module rejects (non-manifold, degenerate) and topology-changing modifiers give an error and change
 nothing, as do details Bind cannot carry (flattened, non-finite); objects and bases whose clean names
-clash bake to caches of their own; a bake's caches are all put in place or none.
+clash bake to caches of their own; a bake's caches are all put in place or none; an undone re-bake
+plays its own cache; a detail moved after binding is carried from where it is; the top keeps the
+base's UV maps and materials; a linked base is refused and an override keeps its shell.
 """
 import json
 import math
