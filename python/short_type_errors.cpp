@@ -11,10 +11,12 @@ void shorten_argument_type_errors(pybind11::module_& m) {
   scope["module"] = m;
   pybind11::exec(R"py(
 import functools
+import inspect
 import os
 
 def _parameters(function):
-    """[(name, type text, positional)] of the parameters pybind11's signature line gives."""
+    """[(name, type text, positional, default text or None)] of the parameters pybind11's signature
+    line gives."""
     doc = (function.__doc__ or "").split("\n", 1)[0]
     if "(" not in doc or doc.startswith("Overloaded"):
         return []
@@ -30,18 +32,39 @@ def _parameters(function):
             start = i + 1
     parts.append(inside[start:].strip())
     found, positional = [], True
-    for part in parts:
+    for part in filter(None, parts):  # "f()" gives one empty part
         if part == "*":  # keyword-only from here
             positional = False
             continue
         name, _, rest = part.partition(":")
-        found.append((name.strip(), rest.split("=")[0].strip(), positional))
+        type_text, equals, default = rest.partition("=")
+        found.append((name.strip(), type_text.strip(), positional, default.strip() if equals else None))
     return found
+
+class _Shown:
+    """A default shown as pybind11's signature line writes it."""
+    def __init__(self, text):
+        self.text = text
+    def __repr__(self):
+        return self.text
+
+def _signature(parameters):
+    """inspect.Signature of the parsed parameters, or None: functools.wraps points __wrapped__ at the
+    builtin, which has no signature inspect can read, so inspect.signature() and help() raised or
+    showed (*args, **kwargs)."""
+    try:
+        return inspect.Signature([inspect.Parameter(
+            name, inspect.Parameter.POSITIONAL_OR_KEYWORD if positional else inspect.Parameter.KEYWORD_ONLY,
+            default=inspect.Parameter.empty if default is None else _Shown(default),
+            annotation=type_text or inspect.Parameter.empty)
+            for name, type_text, positional, default in parameters])
+    except (ValueError, TypeError):  # a line this parser misreads: no signature rather than a wrong one
+        return None
 
 def _typed(parameters, kind):
     """{position or name: name} of the parameters typed `kind`."""
     found = {}
-    for position, (name, type_text, positional) in enumerate(parameters):
+    for position, (name, type_text, positional, _) in enumerate(parameters):
         if type_text == kind:
             found[name] = name
             if positional:
@@ -90,6 +113,9 @@ def _shorten(function, owner=None):
                      if line.strip()[:1].isdigit() and ". " in line]
             given = [type(a).__name__ for a in args] + [f"{k}={type(v).__name__}" for k, v in kwargs.items()]
             raise TypeError(f"{head}: it takes {' or '.join(takes)}; given ({', '.join(given)})") from None
+    signature = _signature(parameters)
+    if signature is not None:
+        call.__signature__ = signature
     return call
 
 for _name, _value in list(vars(module).items()):

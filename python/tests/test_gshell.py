@@ -580,6 +580,16 @@ class GenerateTest(TempDirTest):
         with self.assertRaisesRegex(TypeError, "^mine$"):
             gshell.generate(V, F, thickness=0.1, progress=progress)
 
+    def test_functions_have_signatures_for_inspect_and_help(self):
+        # The wrapper of the line above pointed inspect at pybind11's builtin: signature() raised.
+        import inspect
+        generate = inspect.signature(gshell.generate).parameters
+        self.assertEqual(list(generate)[:3], ["V", "F", "thickness"])
+        self.assertEqual(generate["method"].kind, inspect.Parameter.KEYWORD_ONLY)
+        self.assertEqual(repr(generate["method"].default), "'rigid'")
+        self.assertEqual(list(inspect.signature(gshell.Poser.solve).parameters)[:2], ["self", "handles"])
+        self.assertEqual(list(inspect.signature(gshell.Poser.reset).parameters), ["self"])
+
     def test_bad_arguments_raise_value_error(self):
         V, F = gshell.builtin("sphere:1")
         cases = {
