@@ -16,10 +16,10 @@ import os
 
 def _parameters(function):
     """[(name, type text, positional, default text or None)] of the parameters pybind11's signature
-    line gives."""
+    line gives; None for a function with several signatures (overloads) or none."""
     doc = (function.__doc__ or "").split("\n", 1)[0]
     if "(" not in doc or doc.startswith("Overloaded"):
-        return []
+        return None
     inside = doc[doc.index("(") + 1:doc.rfind(") ->") if ") ->" in doc else len(doc)]
     parts, depth, start = [], 0, 0  # split at the commas outside brackets (Optional[...] etc.)
     for i, c in enumerate(inside):
@@ -52,6 +52,8 @@ def _signature(parameters):
     """inspect.Signature of the parsed parameters, or None: functools.wraps points __wrapped__ at the
     builtin, which has no signature inspect can read, so inspect.signature() and help() raised or
     showed (*args, **kwargs)."""
+    if parameters is None:
+        return None
     try:
         return inspect.Signature([inspect.Parameter(
             name, inspect.Parameter.POSITIONAL_OR_KEYWORD if positional else inspect.Parameter.KEYWORD_ONLY,
@@ -64,7 +66,7 @@ def _signature(parameters):
 def _typed(parameters, kind):
     """{position or name: name} of the parameters typed `kind`."""
     found = {}
-    for position, (name, type_text, positional, _) in enumerate(parameters):
+    for position, (name, type_text, positional, _) in enumerate(parameters or []):
         if type_text == kind:
             found[name] = name
             if positional:
