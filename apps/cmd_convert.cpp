@@ -50,9 +50,8 @@ void add_convert_command(CLI::App& app) {
       progress.line("welded " + std::to_string(merged) + " vertices");
     }
     // Only OBJ holds them: said, not silently dropped.
-    if (mesh.has_uv() && cli::lower_extension(opt->output) != ".obj")
-      warnings.push_back(opt->input + ": its texture coordinates are not written to " + opt->output +
-                         " (only OBJ holds them)");
+    if (std::string w = dropped_texture_coordinates_warning(opt->input, mesh, opt->output); !w.empty())
+      warnings.push_back(std::move(w));
     // What no TriMesh holds is lost whatever the output: said too.
     if (!skipped.empty())
       warnings.push_back(opt->input + ": its " + word_list(skipped) + " are not written to " + opt->output +

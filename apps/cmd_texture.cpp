@@ -44,10 +44,9 @@ void run_texture(const TextureArgs& args) {
   gshell::require_usable_coordinates(tile.V, args.tile);
   gshell::require_usable_texture_coordinates(tile, args.tile);
   if (!skipped.empty()) tile_warnings.push_back(gshell::carried_data_warning(args.tile, skipped, args.out));
-  // Each copy carries the tile's texture coordinates; only OBJ holds them (as convert says).
-  if (tile.has_uv() && gshell::cli::lower_extension(args.out) != ".obj")
-    tile_warnings.push_back(args.tile + ": its texture coordinates are not written to " + args.out +
-                            " (only OBJ holds them)");
+  // Each copy carries the tile's texture coordinates.
+  if (std::string w = gshell::dropped_texture_coordinates_warning(args.tile, tile, args.out); !w.empty())
+    tile_warnings.push_back(std::move(w));
   gshell::cli::print_warnings("texture", tile_warnings);
   // What is left to go wrong is the base's UV layout (every UV triangle degenerate) or the number
   // of tiles over it: named by the shell folder, the input that holds the layout.

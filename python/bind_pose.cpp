@@ -94,7 +94,8 @@ HandleSet handles_from(const PoserObject& p, const py::object& handles, std::str
 
 py::tuple poser_solve(PoserObject& p, const py::object& handles, double fraction, CountArg steps, CountArg iterations,
                       double tolerance, const py::object& progress) {
-  if (!(fraction >= 0 && fraction <= 1)) value_error("fraction must be in [0, 1] (got " + format_number(fraction) + ")");
+  if (!(fraction >= 0 && fraction <= 1))
+    value_error("fraction must be in [0, 1] (got " + format_number(fraction) + ")");
   PoseOptions options;
   options.steps = steps.checked("steps");
   options.solve.max_iterations = iterations.checked("iterations");

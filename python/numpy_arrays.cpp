@@ -52,7 +52,8 @@ void check_shape(const py::array& a, const char* name, const char* kind, int row
 // indicator not set".
 template <class T>
 py::array_t<T, py::array::c_style | py::array::forcecast> contiguous(const py::array& a, const char* name) {
-  if (a.shape(0) > INT_MAX) value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(a.shape(0)) + ")");
+  if (a.shape(0) > INT_MAX)
+    value_error(std::string(name) + " has too many rows for gshell (" + std::to_string(a.shape(0)) + ")");
   return py::array_t<T, py::array::c_style | py::array::forcecast>(a);
 }
 

@@ -192,10 +192,6 @@ Handle parse_handle(const json& h, int index, const Shell& rest, const Reporter&
   return out;
 }
 
-} // namespace
-
-namespace {
-
 /// The handle file as JSON, with the checks that need no shell.
 json parse_handle_document(const std::string& json_text, const Reporter& r) {
   // Handle files nest 5 levels; deeper ones are refused before anything recursive (the dump of a
@@ -352,6 +348,8 @@ std::string read_handle_file(const std::string& path) {
   return text.str();
 }
 
-HandleSet read_handles(const std::string& path, const Shell& rest) { return parse_handles(read_handle_file(path), path, rest); }
+HandleSet read_handles(const std::string& path, const Shell& rest) {
+  return parse_handles(read_handle_file(path), path, rest);
+}
 
 } // namespace gshell

@@ -5,8 +5,7 @@
 #include <gshell/io/read_mesh.h>
 #include <gshell/word_list.h>
 
-#include <cctype>
-#include <filesystem>
+#include "file_bytes.h"
 
 namespace gshell {
 
@@ -17,11 +16,16 @@ TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>*
 
 std::string carried_data_warning(const std::string& input, const std::vector<std::string>& skipped,
                                  const std::string& output) {
-  std::string extension = std::filesystem::path(output).extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return input + ": its " + word_list(skipped) + (skipped.size() == 1 && skipped[0].back() != 's' ? " is" : " are") +
          " not carried into " + output +
-         (extension == ".obj" ? " (positions, faces and texture coordinates are)" : " (positions and faces are)");
+         (io_detail::lower_extension(output) == "obj" ? " (positions, faces and texture coordinates are)"
+                                                      : " (positions and faces are)");
+}
+
+std::string dropped_texture_coordinates_warning(const std::string& input, const TriMesh& mesh,
+                                                const std::string& output) {
+  if (!mesh.has_uv() || io_detail::lower_extension(output) == "obj") return {};
+  return input + ": its texture coordinates are not written to " + output + " (only OBJ holds them)";
 }
 
 TriMesh load_mesh(const std::string& input, std::vector<std::string>* warnings, std::vector<std::string>* skipped) {

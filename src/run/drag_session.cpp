@@ -453,7 +453,8 @@ void DragSession::checkpoint() {
 }
 
 void DragSession::set_undo_depth(int depth) {
-  if (depth < 0) throw InputError("DragSession::set_undo_depth: the depth must be >= 0 (got " + std::to_string(depth) + ")");
+  if (depth < 0)
+    throw InputError("DragSession::set_undo_depth: the depth must be >= 0 (got " + std::to_string(depth) + ")");
   impl_->undo_depth = depth;
   while (impl_->undo.size() > static_cast<size_t>(impl_->undo_depth)) impl_->undo.pop_front();
 }

@@ -160,7 +160,8 @@ PoseResult run_pose(DragSession& session, const PoseOptions& options, double to_
     so.progress = nullptr;
     if (options.step_progress)
       so.progress = [&, step](int it, double e, double sec) { options.step_progress(step, it, e, sec); };
-    const PoseStepReport done = session.drag(from + (to_fraction - from) * (static_cast<double>(step) / options.steps), so);
+    const double fraction = from + (to_fraction - from) * (static_cast<double>(step) / options.steps);
+    const PoseStepReport done = session.drag(fraction, so);
     if (options.step_done) options.step_done(step, done);
   }
   return session.result(first);

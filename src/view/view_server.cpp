@@ -102,7 +102,8 @@ void listen_on(tcp::acceptor& acceptor, const ViewServerOptions& options) {
   if (!ec) acceptor.set_option(net::socket_base::reuse_address(true), ec);
   if (!ec) acceptor.bind(endpoint, ec);
   if (!ec) acceptor.listen(net::socket_base::max_listen_connections, ec);
-  if (ec) throw InputError("cannot listen on " + options.host + ":" + std::to_string(options.port) + ": " + ec.message());
+  if (ec)
+    throw InputError("cannot listen on " + options.host + ":" + std::to_string(options.port) + ": " + ec.message());
 }
 
 } // namespace

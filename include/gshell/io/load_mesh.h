@@ -28,4 +28,9 @@ TriMesh read_mesh_or_builtin(const std::string& input, std::vector<std::string>*
 std::string carried_data_warning(const std::string& input, const std::vector<std::string>& skipped,
                                  const std::string& output);
 
+/// "INPUT: its texture coordinates are not written to OUTPUT (only OBJ holds them)" when `mesh`
+/// (or what is made from it) has texture coordinates and OUTPUT is not an OBJ; else "".
+std::string dropped_texture_coordinates_warning(const std::string& input, const TriMesh& mesh,
+                                                const std::string& output);
+
 } // namespace gshell
