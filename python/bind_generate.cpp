@@ -54,20 +54,31 @@ ShellObject measured_shell(Shell shell) {
 
 // Pickling (multiprocessing, joblib, caches): the arrays, the thickness, the per-tet stretch and
 // the report as they are, so an unpickled shell is the same shell without measuring it again.
-constexpr int kShellStateVersion = 2; // 2: with the base's texture coordinates
+// 2: with the base's texture coordinates; 3: with a Python subclass's attributes (its __dict__).
+constexpr int kShellStateVersion = 3;
 
-py::tuple shell_state(const ShellObject& s) {
+py::tuple shell_state(const py::object& self) {
+  const ShellObject& s = self.cast<const ShellObject&>();
   return py::make_tuple(kShellStateVersion, from_matrix(s.shell.base), from_indices(s.shell.F), from_matrix(s.shell.top),
                         s.shell.thickness, from_vector(s.stretch),
                         s.report.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
                         py::bytes(s.folder), // a folder name is bytes: one not UTF-8 failed to pickle
                         s.uv.size() ? py::object(from_matrix(s.uv)) : py::none(),
-                        s.fuv.size() ? py::object(from_indices(s.fuv)) : py::none());
+                        s.fuv.size() ? py::object(from_indices(s.fuv)) : py::none(),
+                        py::getattr(self, "__dict__", py::none()));
 }
 
-ShellObject shell_from_state(const py::tuple& t) {
-  if (t.size() != 10 || !py::isinstance<py::int_>(t[0]) || t[0].cast<int>() != kShellStateVersion)
+// Returns the subclass's attributes beside the shell: pybind11 sets them as the new object's
+// __dict__ (an empty one is skipped, so a plain Shell needs no dynamic attributes).
+std::pair<ShellObject, py::dict> shell_from_state(const py::tuple& t) {
+  const int version = t.size() && py::isinstance<py::int_>(t[0]) ? t[0].cast<int>() : 0;
+  if (!((version == 2 && t.size() == 10) || (version == kShellStateVersion && t.size() == 11)))
     value_error("Shell: not the state of a pickled gshell.Shell of this version");
+  py::dict attributes;
+  if (version == 3 && !t[10].is_none()) {
+    if (!py::isinstance<py::dict>(t[10])) value_error("Shell: the pickled attributes are not a dict");
+    attributes = t[10].cast<py::dict>();
+  }
   ShellObject s;
   const TriMesh mesh = checked_mesh(t[1], t[2], "base", "faces");
   const int n = static_cast<int>(mesh.V.rows());
@@ -94,7 +105,7 @@ ShellObject shell_from_state(const py::tuple& t) {
     if (s.fuv.rows() != s.shell.F.rows()) value_error("Shell: the pickled uv faces do not match the faces");
   }
   s.tets = build_prism_tets(s.shell.F, n);
-  return s;
+  return {std::move(s), attributes};
 }
 
 ShellObject make_shell(const ArrayArg& base, const ArrayArg& faces, const ArrayArg& top, double thickness) {

@@ -73,6 +73,13 @@ def _typed(parameters, kind):
                 found[position] = name
     return found
 
+def _is_bool(value):
+    kind = type(value)
+    return kind is bool or (kind.__module__ == "numpy" and kind.__name__ in ("bool_", "bool"))
+
+def _shown_value(value):
+    return repr(value) if value is None or isinstance(value, (int, float)) else type(value).__name__
+
 def _check_path(label, name, value):
     """A path argument pybind11 could not take: the error os.fspath or open() would give, not
     "incompatible function arguments" (which reads as if a str were not accepted)."""
@@ -87,7 +94,8 @@ def _check_path(label, name, value):
 
 def _shorten(function, owner=None):
     parameters = _parameters(function)
-    # pybind11's bool takes None as False: allow_invalid=None would quietly mean False.
+    # pybind11's bool takes None as False and any number by its truth: allow_invalid=None would
+    # quietly mean False, and a flag given a count (allow_invalid=2) is more likely a slip.
     bools, paths = _typed(parameters, "bool"), _typed(parameters, "os.PathLike")
     name = (function.__doc__ or "").split("(", 1)[0].strip() or getattr(function, "__name__", "function")
     label = owner if owner and name == "__init__" else f"{owner}.{name}" if owner else name
@@ -95,8 +103,8 @@ def _shorten(function, owner=None):
     @functools.wraps(function)
     def call(*args, **kwargs):
         for key, value in list(enumerate(args)) + list(kwargs.items()):
-            if value is None and key in bools:
-                raise TypeError(f"{label}(): {bools[key]} must be True or False, not None")
+            if key in bools and not _is_bool(value):
+                raise TypeError(f"{label}(): {bools[key]} must be True or False, not {_shown_value(value)}")
         try:
             return function(*args, **kwargs)
         except TypeError as error:

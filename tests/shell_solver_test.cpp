@@ -576,6 +576,9 @@ TEST(ShellSolver, LinearSolverNamesAndBadOptions) {
   bad = {};
   bad.cg_max_iterations = 0;
   EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, bad), InputError);
+  bad = {};
+  bad.cg_min_rows = -1;
+  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, bad), InputError);
 }
 
 TEST(ShellSolver, SolveGivesTheStepsBitsOnManyChunksInMeshAndShuffledOrder) {

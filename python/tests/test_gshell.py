@@ -97,6 +97,10 @@ def flag_defaults(command):
     return dict(re.findall(r"^\s+(--[\w-]+) [^\s=]+=(\S+)", run_cli(command, "--help"), re.MULTILINE))
 
 
+class LabelledShell(gshell.Shell):
+    """A user's subclass: pickling must keep its type and attributes (at module level to be picklable)."""
+
+
 class DefaultsTest(unittest.TestCase):
     """The CLI and Python read their defaults from the same library options (one source)."""
 
@@ -416,6 +420,17 @@ class GenerateTest(TempDirTest):
         np.testing.assert_array_equal(gshell.Deformer(copy).solve(V * 1.05), gshell.Deformer(shell).solve(V * 1.05))
         with self.assertRaisesRegex(ValueError, "not the state of a pickled gshell.Shell"):
             gshell.Shell.__new__(gshell.Shell).__setstate__((0,))
+        # A subclass comes back as itself with its attributes (they were dropped), and a state of
+        # the previous version (no attributes) still loads.
+        labelled = LabelledShell(shell.base, shell.faces, shell.top, shell.thickness)
+        labelled.label = "left ear"
+        copy = pickle.loads(pickle.dumps(labelled))
+        self.assertIs(type(copy), LabelledShell)
+        self.assertEqual(copy.label, "left ear")
+        np.testing.assert_array_equal(copy.top, shell.top)
+        older = gshell.Shell.__new__(gshell.Shell)
+        older.__setstate__((2,) + tuple(shell.__getstate__()[1:10]))
+        np.testing.assert_array_equal(older.top, shell.top)
         state = list(shell.__getstate__())
         state[6] = "{not json"
         with self.assertRaisesRegex(ValueError, "^Shell: the pickled report is not a JSON object$"):
@@ -573,6 +588,11 @@ class GenerateTest(TempDirTest):
             with self.subTest(words), self.assertRaises(TypeError) as caught:
                 call()
             self.assertEqual(str(caught.exception), words + " must be True or False, not None")
+        # Nor is a number or a string a flag.
+        for value, shown in ((2, "2"), (0, "0"), (1.0, "1.0"), ("yes", "str"), (np.int64(1), "int64")):
+            with self.subTest(value=value), self.assertRaises(TypeError) as caught:
+                gshell.generate(V, F, thickness=0.1, allow_invalid=value)
+            self.assertEqual(str(caught.exception), "generate(): allow_invalid must be True or False, not " + shown)
         gshell.generate(V, F, thickness=0.1, allow_invalid=np.bool_(False))  # numpy's bools are still bools
         # A TypeError raised inside a call (here by the progress callable) passes unchanged.
         def progress(update):

@@ -1016,6 +1016,7 @@ ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices,
   if (!(linear.cg_relative_tolerance >= 0 && linear.cg_relative_tolerance < 1))
     throw InputError("ShellSolver: the relative CG tolerance must be in [0, 1)");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
+  if (linear.cg_min_rows < 0) throw InputError("ShellSolver: cg_min_rows must be at least 0 (0: CG at every size)");
   // Springs of weight 0 would be dropped without a word (SoftConstraints{vertices} leaves the
   // weight at its default 0), and a part held only by them would then drift.
   if (!soft.vertices.empty() && !(soft.weight > 0 && std::isfinite(soft.weight)))
