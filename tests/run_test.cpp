@@ -485,6 +485,13 @@ TEST(DeformRun, FramesThatRanOutOfIterationsAreAWarning) {
   const DeformRun full_run = run_deform(input, enough);
   for (const DeformFrameRecord& f : full_run.frames) ASSERT_TRUE(f.result.converged) << f.frame;
   EXPECT_EQ(capped_line(full_run), "");
+
+  // No iterations asked for (each frame is its warm start): nothing ran out.
+  DeformRunOptions none;
+  none.frame.max_iterations = 0;
+  const DeformRun start_run = run_deform(input, none);
+  ASSERT_FALSE(start_run.frames[1].result.converged);
+  EXPECT_EQ(capped_line(start_run), "");
 }
 
 // A rest shell whose top lies inside its base (every tet inverted) deforms with normal-prism rest

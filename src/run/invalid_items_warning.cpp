@@ -10,7 +10,8 @@ std::string named_items(const std::string& noun, const std::vector<int>& ids) {
 
 std::string unconverged_items_warning(const std::string& noun, const std::vector<int>& ids, int max_iterations,
                                       const std::string& consequence) {
-  if (ids.empty()) return {};
+  // With no iterations asked for (deform's --iterations 0: each frame is its warm start) none ran out.
+  if (ids.empty() || max_iterations == 0) return {};
   return named_items(noun, ids) + " ran out of iterations before converging (--iterations " +
          std::to_string(max_iterations) + "): " + consequence;
 }

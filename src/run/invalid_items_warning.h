@@ -32,7 +32,7 @@ struct InvalidItems {
 std::string named_items(const std::string& noun, const std::vector<int>& ids);
 
 /// "frames 1, 2 ran out of iterations before converging (--iterations N): CONSEQUENCE", or empty
-/// when `ids` is.
+/// when `ids` is empty or `max_iterations` is 0 (no iterations asked for, none ran out).
 std::string unconverged_items_warning(const std::string& noun, const std::vector<int>& ids, int max_iterations,
                                       const std::string& consequence);
 
