@@ -47,6 +47,40 @@ GSHELL_PYTHON_REQUIRE_INITIALISED(gshell::python::EmbeddingObject, "Embedding")
 namespace gshell::python {
 namespace {
 
+// Pickling (multiprocessing workers carrying detail, caches): the located points as they are, so
+// an unpickled embedding carries exactly as the original without locating again.
+constexpr int kEmbeddingStateVersion = 1;
+
+py::tuple embedding_state(const EmbeddingObject& e) {
+  const Embedding& m = e.embedding;
+  const Eigen::VectorXi outside = Eigen::Map<const Eigen::VectorXi>(m.outside.data(), static_cast<Eigen::Index>(m.outside.size()));
+  return py::make_tuple(kEmbeddingStateVersion, e.shell_vertices, from_index_vector(m.tet), from_indices(m.vertices),
+                        from_matrix(m.bary), from_index_vector(outside), m.max_outside_distance);
+}
+
+// Held to what embed() makes, so that a state changed by hand is refused here and not met in
+// carry() as an out-of-range row: ids in range, finite coordinates whose rows sum to 1.
+EmbeddingObject embedding_from_state(const py::tuple& t) {
+  if (t.size() != 7 || !py::isinstance<py::int_>(t[0]) || t[0].cast<int>() != kEmbeddingStateVersion)
+    value_error("Embedding: not the state of a pickled gshell.Embedding of this version");
+  EmbeddingObject e;
+  e.shell_vertices = t[1].cast<int>();
+  if (e.shell_vertices < 8 || e.shell_vertices % 2) value_error("Embedding state: bad shell vertex count");
+  Embedding& m = e.embedding;
+  m.tet = to_indices(t[2].attr("reshape")(-1, 1), "Embedding state: tet", 1, -1).col(0);
+  const int points = static_cast<int>(m.tet.size());
+  m.vertices = to_indices(t[3], "Embedding state: tet vertices", 4, e.shell_vertices, points);
+  m.bary = to_matrix(t[4], "Embedding state: bary", 4, points);
+  if (((m.bary.rowwise().sum().array() - 1).abs() > 1e-6 * (1 + m.bary.cwiseAbs().rowwise().sum().array())).any())
+    value_error("Embedding state: the affine coordinates of a point do not sum to 1");
+  const Eigen::VectorXi outside = to_indices(t[5].attr("reshape")(-1, 1), "Embedding state: outside", 1, points).col(0);
+  m.outside.assign(outside.data(), outside.data() + outside.size());
+  m.max_outside_distance = t[6].cast<double>();
+  if (!(m.max_outside_distance >= 0) || !std::isfinite(m.max_outside_distance))
+    value_error("Embedding state: the largest outside distance must be finite and at least 0");
+  return e;
+}
+
 std::unique_ptr<DeformerObject> make_deformer(const ShellObject& shell, bool allow_invalid) {
   ReleasedGil release;
   return std::make_unique<DeformerObject>(shell.shell, allow_invalid);
@@ -252,7 +286,8 @@ Raises:
 Releases the GIL while it runs.)");
 
   py::class_<EmbeddingObject>(m, "Embedding", R"(Points embedded in a rest shell as (tet, barycentric
-coordinates), carried along by every deformation of that shell (paper Fig. 5, 8). Made by embed().)")
+coordinates), carried along by every deformation of that shell (paper Fig. 5, 8). Made by embed();
+embeddings pickle (the located points as they are).)")
       .def("carry",
            [](const EmbeddingObject& e, const py::object& deformed) {
              const Eigen::MatrixXd X = shell_vertices_of(deformed, e.shell_vertices);
@@ -291,7 +326,8 @@ Returns:
                              "extrapolated).")
       .def_property_readonly("max_outside_distance", [](const EmbeddingObject& e) { return e.embedding.max_outside_distance; },
                              "Largest distance from an outside point to its tet (model units).")
-      .def("__len__", [](const EmbeddingObject& e) { return e.embedding.size(); }, "Number of embedded points.");
+      .def("__len__", [](const EmbeddingObject& e) { return e.embedding.size(); }, "Number of embedded points.")
+      .def(py::pickle(&embedding_state, &embedding_from_state));
 
   m.def("embed",
         [](const ShellObject& shell, const ArrayArg& points, const py::object& progress) {

@@ -910,6 +910,28 @@ class EmbedTest(TempDirTest):
         self.assertGreater(e.max_outside_distance, 0.5)
         np.testing.assert_allclose(e.carry(self.shell), [[0, 0, 2], [0, 0, 1.05]], atol=1e-9)
 
+    def test_embeddings_pickle_as_they_are(self):
+        # Workers of multiprocessing carry detail with an embedding made once: the copy carries
+        # bit for bit as the original, outside points included; a state changed by hand is refused.
+        points = np.vstack([self.shell.vertices[self.shell.tets].mean(axis=1)[:50], [[0.0, 0.0, 2.0]]])
+        e = gshell.embed(self.shell, points)
+        copy = pickle.loads(pickle.dumps(e))
+        for name in ("tet", "tet_vertices", "bary", "outside"):
+            np.testing.assert_array_equal(getattr(copy, name), getattr(e, name), err_msg=name)
+        self.assertEqual(copy.max_outside_distance, e.max_outside_distance)
+        moved = self.shell.vertices * 1.1 + 0.3
+        np.testing.assert_array_equal(copy.carry(moved), e.carry(moved))
+        with self.assertRaises(ValueError):
+            copy.carry(self.shell.vertices[:-1])  # still knows its shell's size
+        for index, value, words in ((3, e.tet_vertices + len(self.shell.vertices), "tet vertices"),
+                                    (4, e.bary * 2, "do not sum to 1"),
+                                    (5, np.array([len(points)]), "outside"),
+                                    (0, 99, "not the state of a pickled gshell.Embedding")):
+            state = list(e.__getstate__())
+            state[index] = value
+            with self.subTest(words), self.assertRaisesRegex(ValueError, words):
+                gshell.Embedding.__new__(gshell.Embedding).__setstate__(tuple(state))
+
     def test_agrees_with_cli(self):
         out = self.path("shell")
         run_cli("generate", "builtin:sphere:2", "-o", out, "--thickness", "0.1", "--quiet")
