@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <string_view>
 
 namespace {
 
@@ -56,9 +57,9 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   if (progress.enabled()) {
     // The status of the frame's solve running now; `iteration` 0 names the stage alone (the guard's
     // setup and test run no iterations and took seconds of silence on large shells).
-    const auto show = [&](int iteration, double energy) {
+    const auto show = [&](int iteration, double energy, bool now_or_never = false) {
       const auto now = Clock::now();
-      if (now - last_shown < std::chrono::seconds(1)) return;
+      if (!now_or_never && now - last_shown < std::chrono::seconds(1)) return;
       last_shown = now;
       char text[160];
       const double seconds = std::chrono::duration<double>(now - frame_began).count();
@@ -69,9 +70,12 @@ void run(const CLI::App& cmd, DeformArgs& a) {
         std::snprintf(text, sizeof text, "%s %s  %.1f s", frame_label.c_str(), frame_stage.c_str(), seconds);
       progress.update(text);
     };
+    // A setup (the guard's, on the first frame) runs long without iterations or later stages that
+    // could show it: shown at once, as nothing else would be for a minute at 2.6M vertices.
     options.frame.stage = [&, show](const char* name) {
       frame_stage = name;
-      show(0, 0);
+      const std::string_view stage = name;
+      show(0, 0, stage.size() >= 5 && stage.substr(stage.size() - 5) == "setup");
     };
     options.frame.progress = [&, show](int, double energy, double) { show(++frame_iterations, energy); };
   }
@@ -80,9 +84,10 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     frame_iterations = 0;
     frame_label = "frame " + std::to_string(run.frames.size() + 1) + "/" + std::to_string(count);
     if (run.frames.empty()) {
+      char factored[32];
+      std::snprintf(factored, sizeof factored, "%.2f", run.factor_seconds);
       progress.line("shell " + std::to_string(run.base_vertices) + " base vertices, " + std::to_string(run.tets) +
-                    " tets, factored in " + std::to_string(run.factor_seconds) + " s; " + std::to_string(count) +
-                    " frames");
+                    " tets, factored in " + factored + " s; " + std::to_string(count) + " frames");
       if (run.embed)
         progress.line("embedded " + std::to_string(run.embed->points) + " detail vertices, " +
                       std::to_string(run.embed->outside) + " outside the shell");
@@ -116,6 +121,7 @@ void run(const CLI::App& cmd, DeformArgs& a) {
     }
     progress.update(line);
   };
+  progress.update("setting up the solver (" + std::to_string(input.shell.num_base_vertices()) + " base vertices)...");
   const DeformRun run = run_deform(input, options, a.out, report, cli::preview_writer(a.render, a.out, view));
   const auto summary = run.to_json()["summary"];
   char text[200];

@@ -56,7 +56,9 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
   const GenerateRun result = run_generate(std::move(mesh), a.input, a.options, std::move(input_warnings));
   progress.finish_status();
   cli::print_warnings("generate", result.warnings());
+  progress.update("writing " + a.output + "..."); // a 2.6M-vertex shell is 1.7 GB of files
   result.write(a.output, cli::preview_writer(a.render, a.output, view));
+  progress.finish_status();
   std::cout << result.summary() << "wrote        " << a.output << "/{top.obj, base.obj, shell.vtu, report.json"
             << (a.render ? ", preview.png" : "") << "}\n";
 }

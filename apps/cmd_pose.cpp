@@ -68,7 +68,10 @@ void run(const CLI::App& cmd, PoseArgs& a) {
                 (handles.mode == ConstraintMode::Hard ? "hard" : "soft") + "), " + a.solver + " solver");
   std::string stage; // "paper", "mend", "drag 3/17" (PoseSolver::solve_valid): the energy of a drag climbs
   if (progress.enabled()) {
-    a.options.solve.stage = [&](const char* name) { stage = name; };
+    a.options.solve.stage = [&](const char* name) {
+      stage = name;
+      if (stage == "guard setup") progress.update("setting up the guard (the first step's)...", true);
+    };
     a.options.step_progress = [&](int step, int it, double energy, double) {
       char text[160];
       std::snprintf(text, sizeof text, "step %d/%d %s: iteration %d energy %.6g", step, a.options.steps, stage.c_str(),

@@ -15,10 +15,10 @@ Progress::Progress(const std::string& command, double min_interval)
 
 Progress::~Progress() { finish_status(); }
 
-void Progress::update(const std::string& text) {
+void Progress::update(const std::string& text, bool always) {
   if (!enabled_) return;
   const auto now = std::chrono::steady_clock::now();
-  if (min_interval_ > 0 && last_ != std::chrono::steady_clock::time_point{} &&
+  if (!always && min_interval_ > 0 && last_ != std::chrono::steady_clock::time_point{} &&
       std::chrono::duration<double>(now - last_).count() < min_interval_)
     return;
   last_ = now;
@@ -46,7 +46,12 @@ void Progress::finish_status() {
 void show_solve_progress(Progress& progress, SolveOptions& solve, const std::string& lead) {
   if (!progress.enabled()) return;
   auto stage = std::make_shared<std::string>();
-  solve.stage = [stage](const char* name) { *stage = std::string(name) + ": "; };
+  // Each stage shows when it begins: generation's phases without iterations (setup, start,
+  // metrics, certificate) take tens of seconds at millions of faces and would be silent.
+  solve.stage = [&progress, stage, lead](const char* name) {
+    *stage = std::string(name) + ": ";
+    progress.update(lead + name + "...");
+  };
   solve.progress = [&progress, stage, lead](int it, double energy, double seconds) {
     char text[96];
     std::snprintf(text, sizeof text, "iteration %d  energy %.6g  %.3f s", it, energy, seconds);

@@ -19,8 +19,9 @@ public:
   Progress& operator=(const Progress&) = delete;
 
   bool enabled() const { return enabled_; }
-  /// A status line that the next update replaces (on a terminal).
-  void update(const std::string& text);
+  /// A status line that the next update replaces (on a terminal). `always`: shown even within
+  /// `min_interval` of the last (a phase that begins and then runs long without updates).
+  void update(const std::string& text, bool always = false);
   /// A line that stays.
   void line(const std::string& text);
   /// Clears an open status line (on a terminal), e.g. before printing to stdout.
@@ -36,7 +37,8 @@ private:
 
 /// Shows a (possibly staged) solve's iterations on `progress` as "LEAD[STAGE: ]iteration N  energy
 /// E  T s", STAGE being what `solve.stage` last named (guarded generation: paper, repair, relax),
-/// so that a counter starting again reads as the next stage. Nothing when progress is off.
+/// so that a counter starting again reads as the next stage, and each stage as "LEADSTAGE..." when
+/// it begins (T is the time since the stage began). Nothing when progress is off.
 /// `progress` must outlive the solve.
 void show_solve_progress(Progress& progress, SolveOptions& solve, const std::string& lead = "");
 

@@ -12,6 +12,8 @@
 
 #include <filesystem>
 #include <sstream>
+#include <string>
+#include <vector>
 
 using namespace gshell;
 using namespace gshell::test;
@@ -162,12 +164,25 @@ TEST(GenerateCli, ProgressNamesTheStageOfEveryIteration) {
   std::istringstream lines(r.err);
   std::string line;
   std::getline(lines, line); // the input line
+  // Each phase is named when it begins, the ones without iterations too (at millions of faces
+  // they take tens of seconds), in the order they run.
   int paper_lines = 0;
+  std::vector<std::string> phases;
   while (std::getline(lines, line)) {
+    if (line.size() > 3 && line.compare(line.size() - 3, 3, "...") == 0) {
+      phases.push_back(line);
+      continue;
+    }
     const std::string paper = "gshell generate: paper: iteration " + std::to_string(paper_lines + 1) + "  energy ";
     EXPECT_EQ(line.rfind(paper, 0), 0u) << line;
+    EXPECT_EQ(phases.back(), "gshell generate: paper...");
     ++paper_lines;
   }
+  const std::vector<std::string> expected = {"gshell generate: setup...",       "gshell generate: paper...",
+                                             "gshell generate: start...",       "gshell generate: metrics...",
+                                             "gshell generate: certificate...",
+                                             "gshell generate: writing " + tmp.file("shell") + "..."};
+  EXPECT_EQ(phases, expected);
   const int iterations = report["guard"]["paper_iterations"].get<int>();
   EXPECT_GT(iterations, 0);
   EXPECT_EQ(paper_lines, iterations);

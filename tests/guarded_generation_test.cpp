@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <random>
 #include <string>
@@ -159,15 +160,36 @@ TEST(GuardedGeneration, ProgressNamesEachStageAndCountsItsIterationsFromOne) {
   };
   const GenerateResult g = generate_shell(m.V, m.F, o);
   ASSERT_GT(g.guard.repaired_vertices, 0);
-  ASSERT_EQ(stages, (std::vector<std::string>{"paper", "repair", "relax"}));
-  const int counts[3] = {g.guard.paper.iterations, g.guard.solve.iterations, g.guard.relax.iterations};
-  for (int k = 0; k < 3; ++k) {
+  // The phases without iterations are named too, as they begin (at millions of faces they take
+  // tens of seconds a progress display would otherwise leave silent).
+  ASSERT_EQ(stages, (std::vector<std::string>{"setup", "paper", "start", "repair", "relax", "metrics", "certificate"}));
+  const std::map<std::string, int> counts = {{"paper", g.guard.paper.iterations},
+                                             {"repair", g.guard.solve.iterations},
+                                             {"relax", g.guard.relax.iterations}};
+  for (std::size_t k = 0; k < stages.size(); ++k) {
     SCOPED_TRACE(stages[k]);
-    ASSERT_GT(counts[k], 0);
-    std::vector<int> expected(counts[k]);
+    const auto count = counts.find(stages[k]);
+    if (count == counts.end()) {
+      EXPECT_TRUE(seen[k].empty());
+      continue;
+    }
+    ASSERT_GT(count->second, 0);
+    std::vector<int> expected(count->second);
     std::iota(expected.begin(), expected.end(), 1); // generation relaxes in one round
     EXPECT_EQ(seen[k], expected);
   }
+  // The other methods name theirs: the curvature prisms, the unguarded run's paper iterations.
+  stages.clear();
+  seen.clear();
+  o.method = ShellMethod::Curvature;
+  o.allow_invalid = true;
+  generate_shell(m.V, m.F, o);
+  EXPECT_EQ(stages, (std::vector<std::string>{"curvature prisms", "setup", "paper", "metrics", "certificate"}));
+  stages.clear();
+  o.method = ShellMethod::Offset;
+  o.allow_invalid = false;
+  generate_shell(m.V, m.F, o);
+  EXPECT_EQ(stages, (std::vector<std::string>{"metrics", "certificate"}));
 }
 
 TEST(GuardedGeneration, WhatAStartThatGivesUpStaysOutOfTheGuardAndAloneInvalid) {

@@ -128,6 +128,7 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   out = ValidStep{};
   const bool hard = s.handles.mode == ConstraintMode::Hard;
   if (!s.guard || !s.guard->built_with(guard)) {
+    if (options.stage) options.stage("guard setup"); // the first step's: tens of seconds at 655K vertices
     const auto setup_start = std::chrono::steady_clock::now();
     s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard, s.constrained, true);
     out.guard_setup_seconds = seconds_since(setup_start);

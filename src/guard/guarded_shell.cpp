@@ -344,6 +344,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   if (ideal.get().size() != 3 * m) throw InputError("guarded_shell: expected 3 rest tets per face");
   if (first_top.size() > 0 && (first_top.rows() != n || first_top.cols() != 3))
     throw InputError("guarded_shell: the first top must be " + std::to_string(n) + " x 3");
+  if (solve.stage) solve.stage("setup");
   GuardedShell g;
   g.directions = extrusion_directions(V, F, options.normal_margin);
 
@@ -384,6 +385,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
   // certificate's tree of the base triangles (docs/scale.md, "The base's crossings from the
   // start's first check"): around them no top can be clean, so the triangles of the faces
   // touching a crossing face see no contacts.
+  if (solve.stage) solve.stage("start");
   const ValidStartOptions start_options = valid_start_options(options, eta);
   {
     // Scoped: its trees over all boundary rows are freed once the start is made, as before.

@@ -47,6 +47,7 @@ Shell make_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const Eigen
 // certify_shell's answer without a second search of the whole boundary; where the guard moved
 // nothing, that check's answer itself).
 void certify(GenerateResult& r, const GenerateOptions& options) {
+  if (options.solve.stage) options.solve.stage("certificate");
   const Shell& s = r.shell;
   CertifyOptions o;
   if (!r.guarded) {
@@ -64,7 +65,8 @@ void certify(GenerateResult& r, const GenerateOptions& options) {
 
 // The quality measures of the result, timed (seconds.metrics); certify() adds the certificate.
 // `normal_rest`: the normal prisms' rest tets when the caller has them.
-void measure(GenerateResult& r, const RestTets* normal_rest = nullptr) {
+void measure(GenerateResult& r, const SolveOptions& solve, const RestTets* normal_rest = nullptr) {
+  if (solve.stage) solve.stage("metrics");
   const auto t0 = Clock::now();
   const Shell& s = r.shell;
   r.metrics = normal_rest ? detail::uncertified_shell_metrics(s.base, s.F, s.top, s.thickness, *normal_rest)
@@ -85,6 +87,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   GenerateResult r;
   r.method = options.method;
   if (options.allow_invalid) {
+    if (options.solve.stage) options.solve.stage("setup");
     const RestTets rest = make_ideal();
     {
       std::vector<int> base_vertices(n);
@@ -100,11 +103,12 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
       r.seconds.factor = solver.factor_seconds();
       Eigen::MatrixXd X(2 * n, 3);
       X << V, offset_top(V, F, options.thickness);
+      if (paper.stage) paper.stage("paper");
       r.solve = solver.solve(X, paper);
       r.seconds.solve = r.solve.seconds;
       r.shell = make_shell(V, F, X.bottomRows(n), options.thickness);
     }
-    measure(r, ideal_is_normal ? &rest : nullptr);
+    measure(r, options.solve, ideal_is_normal ? &rest : nullptr);
   } else {
     r.guard = guarded_shell(V, F, make_ideal, options.thickness, options.guard, options.solve, options.linear);
     r.guarded = true;
@@ -120,7 +124,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
     r.seconds.solve = r.guard.paper.seconds + r.guard.solve.seconds + r.guard.relax.seconds;
     r.seconds.guard = r.guard.seconds - r.guard.factor_seconds - r.seconds.solve - r.guard.ideal_seconds;
     r.shell = make_shell(V, F, r.guard.top, options.thickness);
-    measure(r);
+    measure(r, options.solve);
   }
   certify(r, options);
   r.seconds.total = seconds_since(t0);
@@ -131,6 +135,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
 // towards them.
 GenerateResult generate_curvature(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, const GenerateOptions& options) {
   const auto t0 = Clock::now();
+  if (options.solve.stage) options.solve.stage("curvature prisms");
   CurvaturePrismStats prisms;
   const PrismCorners ideal =
       curvature_prisms(V, F, face_curvature(V, F), options.thickness, options.s_min, options.s_max, &prisms);
@@ -259,7 +264,7 @@ GenerateResult generate_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F
   r.shell = make_shell(V, F, offset_top(V, F, options.thickness), options.thickness);
   // Its energy against the normal prisms is sum_t vol_t stretch_t, the rigid method's energy[0].
   const RestTets rest = normal_prism_rest_tets(V, F, options.thickness);
-  measure(r, &rest);
+  measure(r, options.solve, &rest);
   r.solve.energy = {r.metrics.tet_stretch.dot(rest.volume)};
   certify(r, options);
   r.solve.converged = true;
