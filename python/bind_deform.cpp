@@ -51,11 +51,15 @@ namespace {
 // an unpickled embedding carries exactly as the original without locating again.
 constexpr int kEmbeddingStateVersion = 1;
 
+py::array_t<std::int64_t> outside_ids(const Embedding& m) {
+  return from_index_vector(
+      Eigen::Map<const Eigen::VectorXi>(m.outside.data(), static_cast<Eigen::Index>(m.outside.size())));
+}
+
 py::tuple embedding_state(const EmbeddingObject& e) {
   const Embedding& m = e.embedding;
-  const Eigen::VectorXi outside = Eigen::Map<const Eigen::VectorXi>(m.outside.data(), static_cast<Eigen::Index>(m.outside.size()));
   return py::make_tuple(kEmbeddingStateVersion, e.shell_vertices, from_index_vector(m.tet), from_indices(m.vertices),
-                        from_matrix(m.bary), from_index_vector(outside), m.max_outside_distance);
+                        from_matrix(m.bary), outside_ids(m), m.max_outside_distance);
 }
 
 // Held to what embed() makes, so that a state changed by hand is refused here and not met in
@@ -65,7 +69,8 @@ EmbeddingObject embedding_from_state(const py::tuple& t) {
     value_error("Embedding: not the state of a pickled gshell.Embedding of this version");
   EmbeddingObject e;
   e.shell_vertices = t[1].cast<int>();
-  if (e.shell_vertices < 8 || e.shell_vertices % 2) value_error("Embedding state: bad shell vertex count");
+  if (e.shell_vertices < 2 || e.shell_vertices % 2)
+    value_error("Embedding state: the shell vertex count must be even and positive");
   Embedding& m = e.embedding;
   m.tet = to_indices(t[2].attr("reshape")(-1, 1), "Embedding state: tet", 1, -1).col(0);
   const int points = static_cast<int>(m.tet.size());
@@ -317,11 +322,7 @@ Returns:
                              "float64 (P, 4): affine coordinates in that tet (rows sum to 1; some negative "
                              "for points outside the shell).")
       .def_property_readonly("outside",
-                             [](const EmbeddingObject& e) {
-                               Eigen::VectorXi v = Eigen::Map<const Eigen::VectorXi>(
-                                   e.embedding.outside.data(), static_cast<Eigen::Index>(e.embedding.outside.size()));
-                               return read_only(from_index_vector(v));
-                             },
+                             [](const EmbeddingObject& e) { return read_only(outside_ids(e.embedding)); },
                              "int64: indices of the points no tet contains (bound to the nearest tet, "
                              "extrapolated).")
       .def_property_readonly("max_outside_distance", [](const EmbeddingObject& e) { return e.embedding.max_outside_distance; },

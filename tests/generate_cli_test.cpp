@@ -178,7 +178,8 @@ TEST(GenerateCli, ProgressNamesTheStageOfEveryIteration) {
     EXPECT_EQ(phases.back(), "gshell generate: paper...");
     ++paper_lines;
   }
-  const std::vector<std::string> expected = {"gshell generate: setup...",       "gshell generate: paper...",
+  const std::vector<std::string> expected = {"gshell generate: setup...",       "gshell generate: factor...",
+                                             "gshell generate: paper...",
                                              "gshell generate: start...",       "gshell generate: metrics...",
                                              "gshell generate: certificate...",
                                              "gshell generate: writing " + tmp.file("shell") + "..."};

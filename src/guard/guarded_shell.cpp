@@ -370,6 +370,7 @@ GuardedShell guarded_shell(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, I
     // Shares `ideal` (which outlives it) rather than copying it: at millions of faces a copy of
     // the rest tets is the largest allocation of the generation. Scoped: its matrix and factor
     // or multigrid are freed before the start's certificate, where the generation peaks.
+    if (solve.stage) solve.stage("factor");
     const ShellSolver paper_solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &ideal.get()), 2 * n,
                                    fixed, {}, linear);
     g.factor_seconds = paper_solver.factor_seconds();

@@ -108,9 +108,16 @@ StagedFolder::StagedFolder(const fs::path& destination) : destination_(output_ta
   remove_orphans_of(destination_);
   std::error_code ec;
   staging_ = sibling(destination_, "tmp");
-  if (!fs::create_directory(staging_, ec) || ec)
+  if (!fs::create_directory(staging_, ec) || ec) {
+    // /proc and the like answer "No such file or directory" for a folder that exists.
+    std::error_code parent_ec;
+    const bool parent_exists = fs::is_directory(destination_.parent_path(), parent_ec);
+    const std::string why = ec == std::errc::no_such_file_or_directory && parent_exists
+                                ? "its file system does not allow new folders"
+                                : ec.message();
     throw InputError(with_file(destination_.string(), "cannot write in " + destination_.parent_path().string() + ": " +
-                                                          ec.message()));
+                                                          why));
+  }
   registered_.emplace(staging_);
 }
 

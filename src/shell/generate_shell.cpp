@@ -98,6 +98,7 @@ GenerateResult generate_towards(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
       linear.cg_relative_tolerance = 0;
       SolveOptions paper = options.solve;
       paper.anderson_history = 0;
+      if (paper.stage) paper.stage("factor");
       const ShellSolver solver(std::shared_ptr<const RestTets>(std::shared_ptr<void>(), &rest), 2 * n, base_vertices,
                                {}, linear); // shares `rest` (kept for the metrics) instead of copying it
       r.seconds.factor = solver.factor_seconds();

@@ -30,9 +30,10 @@ struct SolveOptions {
   /// thinned a top) call this with the stage's name before its iterations; `progress` counts
   /// iterations from 1 again in every stage, and reports each stage's own energy (the repair's and
   /// the relaxation's is E_guard of the part they move, barriers included). Generation also names
-  /// its phases without iterations when they begin ("curvature prisms", "setup": the ideal prisms,
-  /// the start and the factorisation; "start": the valid start; "metrics"; "certificate"), which
-  /// take tens of seconds at millions of faces. Whatever it throws ends the call.
+  /// its phases without iterations when they begin ("curvature prisms"; "setup": the ideal prisms,
+  /// extrusion directions and the smoothed start; "factor": the system's factorisation or
+  /// multigrid; "start": the valid start; "metrics"; "certificate"), which take tens of seconds at
+  /// millions of faces. Whatever it throws ends the call.
   std::function<void(const char*)> stage = nullptr;
 };
 
