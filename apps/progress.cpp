@@ -46,7 +46,7 @@ void Progress::finish_status() {
 void show_solve_progress(Progress& progress, SolveOptions& solve, const std::string& lead) {
   if (!progress.enabled()) return;
   auto stage = std::make_shared<std::string>();
-  // Each stage shows when it begins: generation's phases without iterations (setup, start,
+  // Each stage shows when it begins: generation's phases without iterations (setup, factor, start,
   // metrics, certificate) take tens of seconds at millions of faces and would be silent.
   solve.stage = [&progress, stage, lead](const char* name) {
     *stage = std::string(name) + ": ";

@@ -43,7 +43,7 @@ public:
   /// For calls whose updates add fields of their own (a pose step's number, a frame's): a
   /// callback for the job's `stage` option, and the stage it last named (empty before any).
   /// The signal handlers run at each stage too: generation's phases without iterations (setup,
-  /// metrics, certificate) take seconds at millions of faces.
+  /// factor, start, metrics, certificate) take seconds at millions of faces.
   std::function<void(const char*)> stage_hook() {
     return [this](const char* name) {
       stage_ = name;

@@ -162,7 +162,8 @@ TEST(GuardedGeneration, ProgressNamesEachStageAndCountsItsIterationsFromOne) {
   ASSERT_GT(g.guard.repaired_vertices, 0);
   // The phases without iterations are named too, as they begin (at millions of faces they take
   // tens of seconds a progress display would otherwise leave silent).
-  ASSERT_EQ(stages, (std::vector<std::string>{"setup", "factor", "paper", "start", "repair", "relax", "metrics", "certificate"}));
+  ASSERT_EQ(stages, (std::vector<std::string>{"setup", "factor", "paper", "start", "repair", "relax", "metrics",
+                                              "certificate"}));
   const std::map<std::string, int> counts = {{"paper", g.guard.paper.iterations},
                                              {"repair", g.guard.solve.iterations},
                                              {"relax", g.guard.relax.iterations}};
@@ -184,7 +185,8 @@ TEST(GuardedGeneration, ProgressNamesEachStageAndCountsItsIterationsFromOne) {
   o.method = ShellMethod::Curvature;
   o.allow_invalid = true;
   generate_shell(m.V, m.F, o);
-  EXPECT_EQ(stages, (std::vector<std::string>{"curvature prisms", "setup", "factor", "paper", "metrics", "certificate"}));
+  EXPECT_EQ(stages,
+            (std::vector<std::string>{"curvature prisms", "setup", "factor", "paper", "metrics", "certificate"}));
   stages.clear();
   o.method = ShellMethod::Offset;
   o.allow_invalid = false;
