@@ -279,10 +279,15 @@ TEST(StagedFolder, AFileWhereAFolderIsWantedIsNamedAsSuch) {
             tmp.file("none") + "/sub: parent folder does not exist");
   EXPECT_NE(message([&] { read_shell_folder(tmp.file("afile")); }).find("not a shell folder (a file;"), std::string::npos);
   EXPECT_NE(message([&] { read_shell_folder(tmp.file("none")); }).find("(no such directory)"), std::string::npos);
-  // /proc exists but takes no new folders, and says "No such file or directory" if asked.
-  if (std::filesystem::is_directory("/proc/self"))
-    EXPECT_EQ(message([&] { StagedFolder staged(std::filesystem::path("/proc/gshell_out")); }),
-              "/proc/gshell_out: cannot write in /proc: its file system does not allow new folders");
+  // /proc exists but takes no new folders, and says "No such file or directory" if asked; the
+  // check before a run finds it (not the run's end), and leaves nothing behind where it can write.
+  if (std::filesystem::is_directory("/proc/self")) {
+    const std::string refused = "/proc/gshell_out: cannot write in /proc: its file system does not allow new folders";
+    EXPECT_EQ(message([&] { check_output_folder("/proc/gshell_out", {}); }), refused);
+    EXPECT_EQ(message([&] { StagedFolder staged(std::filesystem::path("/proc/gshell_out")); }), refused);
+  }
+  EXPECT_EQ(message([&] { check_output_folder(tmp.file("out"), {}); }), "no error");
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(tmp.path()), std::filesystem::directory_iterator{}), 1);
 }
 
 // "OUT/." names OUT: its staging folder goes beside OUT, not into it (where the check for other

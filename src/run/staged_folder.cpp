@@ -33,6 +33,18 @@ fs::path sibling(const fs::path& destination, const std::string& tag) {
   return parent_of(destination) / name;
 }
 
+// Why no folder could be made beside `destination` (`ec` from making it), for the user.
+InputError cannot_write_beside(const fs::path& destination, const std::error_code& ec) {
+  // /proc and the like answer "No such file or directory" for a folder that exists.
+  std::error_code parent_ec;
+  const bool parent_exists = fs::is_directory(parent_of(destination), parent_ec);
+  const std::string why = ec == std::errc::no_such_file_or_directory && parent_exists
+                              ? "its file system does not allow new folders"
+                              : ec.message();
+  return InputError(
+      with_file(destination.string(), "cannot write in " + parent_of(destination).string() + ": " + why));
+}
+
 fs::path folder_name(const fs::path& destination) {
   fs::path d = destination;
   // "OUT/." and "." name a folder by its own entry: its staging folder must go beside it, not into
@@ -101,6 +113,11 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
     }
   }
   if (is_previous_output && !replaceable(d, is_previous_output)) throw not_replaceable(d);
+  // A run of minutes must not end in "cannot write": its staging folder is made (and removed) now.
+  // Named as one, so that a run killed in between has it removed by the next.
+  const fs::path probe = sibling(output_target(d), "tmp");
+  if (!fs::create_directory(probe, ec) || ec) throw cannot_write_beside(output_target(d), ec);
+  fs::remove(probe, ec);
 }
 
 StagedFolder::StagedFolder(const fs::path& destination) : destination_(output_target(folder_name(destination))) {
@@ -108,16 +125,7 @@ StagedFolder::StagedFolder(const fs::path& destination) : destination_(output_ta
   remove_orphans_of(destination_);
   std::error_code ec;
   staging_ = sibling(destination_, "tmp");
-  if (!fs::create_directory(staging_, ec) || ec) {
-    // /proc and the like answer "No such file or directory" for a folder that exists.
-    std::error_code parent_ec;
-    const bool parent_exists = fs::is_directory(destination_.parent_path(), parent_ec);
-    const std::string why = ec == std::errc::no_such_file_or_directory && parent_exists
-                                ? "its file system does not allow new folders"
-                                : ec.message();
-    throw InputError(with_file(destination_.string(), "cannot write in " + destination_.parent_path().string() + ": " +
-                                                          why));
-  }
+  if (!fs::create_directory(staging_, ec) || ec) throw cannot_write_beside(destination_, ec);
   registered_.emplace(staging_);
 }
 
