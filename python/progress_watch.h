@@ -38,7 +38,8 @@ public:
   void check_signals();
   /// Hooks solve.progress and solve.stage to report {"stage"?, "iteration", "energy", "seconds"}
   /// ("stage": the solve's stage name, e.g. paper, repair, relax, when it names one; before it
-  /// names one, `first_stage` if not empty: an unguarded generation names none).
+  /// names one, `first_stage` if not empty). When printing, each stage is also a line of its own
+  /// as it begins.
   void watch(SolveOptions& solve, std::string first_stage = {});
   /// For calls whose updates add fields of their own (a pose step's number, a frame's): a
   /// callback for the job's `stage` option, and the stage it last named (empty before any).

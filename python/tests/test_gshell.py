@@ -1371,8 +1371,14 @@ class ProgressTest(TempDirTest):
         with contextlib.redirect_stderr(lines):
             gshell.generate(self.V, self.F, thickness=0.05, iterations=3, tolerance=0, anderson=0, progress=True)
         printed = lines.getvalue().splitlines()
-        self.assertEqual(len(printed), 3, printed)
-        self.assertTrue(printed[2].startswith("gshell.generate: stage paper, iteration 3, energy "), printed)
+        # Each phase as it begins (those without iterations run for tens of seconds at millions
+        # of faces), and each iteration.
+        stages = [line for line in printed if "iteration" not in line]
+        self.assertEqual(stages, ["gshell.generate: stage " + name for name in
+                                  ("setup", "factor", "paper", "start", "metrics", "certificate")])
+        iterations = [line for line in printed if "iteration" in line]
+        self.assertEqual(len(iterations), 3, printed)
+        self.assertTrue(iterations[2].startswith("gshell.generate: stage paper, iteration 3, energy "), printed)
         # No stderr at all (pythonw, some services): nothing printed, as print() does, and the call ends normally.
         with contextlib.redirect_stderr(None):
             shell = gshell.generate(self.V, self.F, thickness=0.05, iterations=3, progress=True)
