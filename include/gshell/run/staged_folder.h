@@ -11,10 +11,11 @@
 
 namespace gshell {
 
-/// The checks a StagedFolder for `destination` makes, without creating anything, so a command can
-/// fail on a bad output path before its long part: the parent must be a folder, `destination` must
-/// not be a file, and (when `is_previous_output` is given) an existing non-empty `destination`
-/// must satisfy it. \throws InputError naming `destination`.
+/// The checks a StagedFolder for `destination` makes, so a command can fail on a bad output path
+/// before its long part: the parent must be a folder, `destination` must not be a file, (when
+/// `is_previous_output` is given) an existing non-empty `destination` must satisfy it, and a
+/// folder must be creatable beside it (one is made and removed: read-only file systems, /proc).
+/// Nothing is left behind. \throws InputError naming `destination`.
 void check_output_folder(const std::filesystem::path& destination,
                          const std::function<bool(const std::filesystem::path&)>& is_previous_output = {});
 
