@@ -13,7 +13,6 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
-#include <string_view>
 
 namespace {
 
@@ -70,12 +69,10 @@ void run(const CLI::App& cmd, DeformArgs& a) {
         std::snprintf(text, sizeof text, "%s %s  %.1f s", frame_label.c_str(), frame_stage.c_str(), seconds);
       progress.update(text);
     };
-    // A setup (the guard's, on the first frame) runs long without iterations or later stages that
-    // could show it: shown at once, as nothing else would be for a minute at 2.6M vertices.
+    // A setup (the guard's, on the first frame: a minute at 2.6M vertices) is shown at once.
     options.frame.stage = [&, show](const char* name) {
       frame_stage = name;
-      const std::string_view stage = name;
-      show(0, 0, stage.size() >= 5 && stage.substr(stage.size() - 5) == "setup");
+      show(0, 0, cli::is_setup_stage(name));
     };
     options.frame.progress = [&, show](int, double energy, double) { show(++frame_iterations, energy); };
   }

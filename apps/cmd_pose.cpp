@@ -70,7 +70,7 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   if (progress.enabled()) {
     a.options.solve.stage = [&](const char* name) {
       stage = name;
-      if (stage == "guard setup") progress.update("setting up the guard (the first step's)...", true);
+      if (cli::is_setup_stage(stage)) progress.update("setting up the guard (the first step's)...", true);
     };
     a.options.step_progress = [&](int step, int it, double energy, double) {
       char text[160];

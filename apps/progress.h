@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <string>
+#include <string_view>
 
 namespace gshell::cli {
 
@@ -34,6 +35,12 @@ private:
   double min_interval_ = 0;
   std::chrono::steady_clock::time_point last_{};
 };
+
+/// Whether a stage name is a setup ("guard setup", "regenerate setup"): such a stage runs long
+/// without iterations or a later stage that could show it, so it is shown at once, past throttles.
+inline bool is_setup_stage(std::string_view name) {
+  return name.size() >= 5 && name.substr(name.size() - 5) == "setup";
+}
 
 /// Shows a (possibly staged) solve's iterations on `progress` as "LEAD[STAGE: ]iteration N  energy
 /// E  T s", STAGE being what `solve.stage` last named (guarded generation: paper, repair, relax),

@@ -68,15 +68,7 @@ void ProgressWatch::with_python(const std::function<void()>& work) {
 
 void ProgressWatch::watch(SolveOptions& solve, std::string first_stage) {
   stage_ = std::move(first_stage);
-  // Printed, each phase shows as it begins (generation's setup, factor, metrics, certificate take
-  // tens of seconds at millions of faces); a callable's dicts keep their documented keys.
-  solve.stage = [this](const char* name) {
-    stage_ = name;
-    if (print_)
-      report({{"stage", stage_}});
-    else
-      check_signals();
-  };
+  solve.stage = stage_hook(true);
   solve.progress = [this](int iteration, double energy, double seconds) {
     nlohmann::ordered_json update;
     if (!stage_.empty()) update["stage"] = stage_;

@@ -44,11 +44,16 @@ public:
   /// For calls whose updates add fields of their own (a pose step's number, a frame's): a
   /// callback for the job's `stage` option, and the stage it last named (empty before any).
   /// The signal handlers run at each stage too: generation's phases without iterations (setup,
-  /// factor, start, metrics, certificate) take seconds at millions of faces.
-  std::function<void(const char*)> stage_hook() {
-    return [this](const char* name) {
+  /// factor, start, metrics, certificate) take seconds at millions of faces. `print_stages`: when
+  /// printing, each stage is also a line as it begins (a callable's dicts keep their documented
+  /// keys, which a stage alone would not have).
+  std::function<void(const char*)> stage_hook(bool print_stages = false) {
+    return [this, print_stages](const char* name) {
       stage_ = name;
-      check_signals();
+      if (print_stages && print_)
+        report({{"stage", stage_}});
+      else
+        check_signals();
     };
   }
   const std::string& stage() const { return stage_; }

@@ -94,10 +94,9 @@ InputError not_replaceable(const fs::path& destination) {
                                                         "remove the folder or choose another output folder"));
 }
 
-} // namespace
-
-void check_output_folder(const fs::path& destination, const std::function<bool(const fs::path&)>& is_previous_output) {
-  const fs::path d = folder_name(destination);
+// check_output_folder's checks of the path and what is there, without making anything (a
+// StagedFolder makes its staging folder next, which is the test of writing there).
+void check_destination(const fs::path& d, const std::function<bool(const fs::path&)>& is_previous_output) {
   check_output_parent(d);
   std::error_code ec;
   if (fs::exists(d, ec) && !fs::is_directory(d, ec)) throw InputError(with_file(d.string(), "exists and is not a folder"));
@@ -113,15 +112,23 @@ void check_output_folder(const fs::path& destination, const std::function<bool(c
     }
   }
   if (is_previous_output && !replaceable(d, is_previous_output)) throw not_replaceable(d);
+}
+
+} // namespace
+
+void check_output_folder(const fs::path& destination, const std::function<bool(const fs::path&)>& is_previous_output) {
+  const fs::path d = folder_name(destination);
+  check_destination(d, is_previous_output);
   // A run of minutes must not end in "cannot write": its staging folder is made (and removed) now.
   // Named as one, so that a run killed in between has it removed by the next.
+  std::error_code ec;
   const fs::path probe = sibling(output_target(d), "tmp");
   if (!fs::create_directory(probe, ec) || ec) throw cannot_write_beside(output_target(d), ec);
   fs::remove(probe, ec);
 }
 
 StagedFolder::StagedFolder(const fs::path& destination) : destination_(output_target(folder_name(destination))) {
-  check_output_folder(destination_);
+  check_destination(destination_, {});
   remove_orphans_of(destination_);
   std::error_code ec;
   staging_ = sibling(destination_, "tmp");
