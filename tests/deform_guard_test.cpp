@@ -18,6 +18,7 @@
 #include <gshell/quality/shell_certificate.h>
 #include <gshell/quality/stretch.h>
 #include <gshell/quality/shell_boundary.h>
+#include <memory>
 #include <gshell/quality/triangle_intersections.h>
 #include <gshell/shell/offset_shell.h>
 #include <gshell/solver/shell_solver.h>
@@ -599,7 +600,7 @@ TEST(FrameGuardStart, PrismsAroundTheRestShellsIntersectionsAreLeftOut) {
   const auto pushed_through_accepted = [&](double eta, int v) {
     const Shell rest = offset_shell(sheets, eta);
     const RestTets tets = deformation_rest_tets(rest);
-    FrameGuard guard(rest, tets, frame_guard_options(), test::vertex_range(0, n), false);
+    FrameGuard guard(rest, std::make_shared<const RestTets>(tets), frame_guard_options(), test::vertex_range(0, n), false);
     const Eigen::MatrixXd X0 = rest.vertices();
     Eigen::MatrixXd X1 = X0;
     X1(n + v, 2) = -0.1;
@@ -956,7 +957,7 @@ TEST(FrameGuardStart, AFractionCutByTheTetsIsTheirStepBound) {
   for (int i = 1; i < n; ++i)
     if (rest.base.row(i).squaredNorm() < rest.base.row(v).squaredNorm()) v = i;
   const RestTets tets = deformation_rest_tets(rest);
-  FrameGuard guard(rest, tets, frame_guard_options(), test::vertex_range(0, n), true);
+  FrameGuard guard(rest, std::make_shared<const RestTets>(tets), frame_guard_options(), test::vertex_range(0, n), true);
   const Eigen::MatrixXd X0 = rest.vertices();
   Eigen::MatrixXd X1 = X0;
   X1(n + v, 2) -= 0.6;
@@ -977,7 +978,7 @@ TEST(FrameGuardStart, AFractionCutByContactsIsTheLargestCleanTry) {
   const Shell rest = offset_shell(test::facing_sheets(6, 0.5), 0.1);
   const int n = rest.num_base_vertices();
   const RestTets tets = deformation_rest_tets(rest);
-  FrameGuard guard(rest, tets, frame_guard_options(), test::vertex_range(0, 2 * n), true);
+  FrameGuard guard(rest, std::make_shared<const RestTets>(tets), frame_guard_options(), test::vertex_range(0, 2 * n), true);
   const Eigen::MatrixXd X0 = rest.vertices();
   Eigen::MatrixXd X1 = X0;
   for (int i = 0; i < 2 * n; ++i)
@@ -1135,7 +1136,7 @@ TEST(FrameGuardMend, ATopPushedThroughItsBaseIsPulledBackInPlace) {
   const Shell rest = mend_plane(handles, &v);
   const int n = rest.num_base_vertices();
   const RestTets tets = deformation_rest_tets(rest);
-  FrameGuard guard(rest, tets, frame_guard_options(), handles.constrained_vertices(), true);
+  FrameGuard guard(rest, std::make_shared<const RestTets>(tets), frame_guard_options(), handles.constrained_vertices(), true);
   const Eigen::MatrixXd X0 = rest.vertices();
   Eigen::MatrixXd X = X0;
   X(n + v, 2) -= 0.6;
@@ -1185,7 +1186,7 @@ TEST(FrameGuardMend, AHandlePushedThroughItsBaseIsLeftToTheDrag) {
     if (u >= n && rest.top(u - n, 0) > 0.9 && std::abs(rest.top(u - n, 1)) < 0.5) h = u;
   ASSERT_GE(h, 0);
   const RestTets tets = deformation_rest_tets(rest);
-  FrameGuard guard(rest, tets, frame_guard_options(), fixed, true);
+  FrameGuard guard(rest, std::make_shared<const RestTets>(tets), frame_guard_options(), fixed, true);
   Eigen::MatrixXd X = rest.vertices();
   X(h, 2) -= 0.6;
   ASSERT_FALSE(guard.accepts(rest.vertices(), X, true, nullptr));
@@ -1200,7 +1201,7 @@ TEST(FrameGuardMend, ABaseCrossingItselfIsLeftToTheDrag) {
     if (rest.base(i, 2) > 0.25 && rest.base.row(i).head<2>().norm() < 0.3) v = i;
   ASSERT_GE(v, 0);
   const RestTets tets = deformation_rest_tets(rest);
-  FrameGuard guard(rest, tets, frame_guard_options(), {}, true);
+  FrameGuard guard(rest, std::make_shared<const RestTets>(tets), frame_guard_options(), {}, true);
   Eigen::MatrixXd X = rest.vertices();
   X(v, 2) -= 0.8; // through the lower sheet, its top with it
   X(n + v, 2) -= 0.8;

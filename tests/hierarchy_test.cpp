@@ -13,6 +13,7 @@
 #include <gshell/solver/cluster_weights.h>
 #include <gshell/solver/hierarchical_solver.h>
 #include <gshell/solver/rest_tets.h>
+#include "solver/hierarchy_levels.h"
 
 #include <gtest/gtest.h>
 
@@ -23,6 +24,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <set>
 
 using namespace gshell;
@@ -264,6 +266,50 @@ TEST(HierarchicalSolver, LevelsHangFromAFixedCoarsestClusterCountAtEveryMeshSize
   const HierarchicalSolver deep(small.rest, small.X, small.shell.F, small.constraints, many);
   EXPECT_LT(deep.num_levels(), 8) << n << " base vertices";
   for (int l = 1; l + 1 < deep.num_levels(); ++l) EXPECT_GT(deep.num_clusters(l), deep.num_clusters(l - 1)) << "level " << l;
+}
+
+// The stiffness matrix the reduced levels are built from, against a dense sum of every tet's own
+// matrix vol G G^T (G from the tet's rest positions, not from the solver's rest shapes): the
+// same entries, symmetric, constants in its null space; mean_stiffness is its mean diagonal.
+TEST(HierarchicalSolver, StiffnessMatrixIsTheSumOfItsTetsMatrices) {
+  const Problem p = bowl_problem(6, {0.3, 0, 0});
+  const int N = static_cast<int>(p.X.rows());
+  const Eigen::SparseMatrix<double> L = detail::stiffness_matrix(p.rest, N);
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(N, N);
+  for (int t = 0; t < p.rest.size(); ++t) {
+    Eigen::Matrix3d D;
+    for (int k = 0; k < 3; ++k) D.col(k) = (p.X.row(p.rest.T(t, k + 1)) - p.X.row(p.rest.T(t, 0))).transpose();
+    const Eigen::Matrix3d Dinv = D.inverse();
+    Eigen::Matrix<double, 4, 3> G;
+    G.row(0) = -Dinv.colwise().sum();
+    G.bottomRows(3) = Dinv;
+    const Eigen::Matrix4d K = std::abs(D.determinant()) / 6 * G * G.transpose();
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) dense(p.rest.T(t, a), p.rest.T(t, b)) += K(a, b);
+  }
+  const Eigen::MatrixXd assembled = Eigen::MatrixXd(L);
+  EXPECT_LE((assembled - dense).cwiseAbs().maxCoeff(), 1e-12 * dense.cwiseAbs().maxCoeff());
+  EXPECT_LE((assembled - assembled.transpose()).cwiseAbs().maxCoeff(), 1e-14 * dense.cwiseAbs().maxCoeff());
+  EXPECT_LE((L * Eigen::VectorXd::Ones(N)).cwiseAbs().maxCoeff(), 1e-12 * dense.cwiseAbs().maxCoeff());
+  // Stored entries are the pairs that share a tet, and only those.
+  int pairs = 0;
+  for (int r = 0; r < N; ++r)
+    for (int c = 0; c < N; ++c) pairs += dense(r, c) != 0;
+  EXPECT_EQ(L.nonZeros(), pairs);
+  EXPECT_NEAR(mean_stiffness(p.rest, N), assembled.diagonal().mean(), 1e-12 * assembled.diagonal().mean());
+}
+
+// A solver sharing its rest tets solves as one holding a copy, to the bit; a null one is an input error.
+TEST(HierarchicalSolver, SharedRestTetsSolveAsACopy) {
+  const Problem p = bowl_problem(8, {0.5, 0.1, 0.3});
+  HierarchicalSolver copied(p.rest, p.X, p.shell.F, p.constraints);
+  HierarchicalSolver shared(std::make_shared<const RestTets>(p.rest), p.X, p.shell.F, p.constraints);
+  Eigen::MatrixXd A, B;
+  const auto ra = run_from_rest(copied, p, A, 20);
+  const auto rb = run_from_rest(shared, p, B, 20);
+  EXPECT_EQ(ra.energy, rb.energy);
+  EXPECT_EQ(A, B);
+  EXPECT_THROW(HierarchicalSolver(std::shared_ptr<const RestTets>(), p.X, p.shell.F, p.constraints), InputError);
 }
 
 TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {

@@ -205,6 +205,42 @@ TEST(Handles, TranslationsAndCentersBeyondTheCoordinateLimitAreErrors) {
                "rotate.center: a coordinate of magnitude 1e+300;");
 }
 
+// A handle set built in code is checked and turned as a file's: an axis of any length but zero
+// gives a rotation (it scaled the handle by its length), and coordinates past the limit are
+// refused (check_handles let 1e300 through).
+TEST(Handles, HandlesBuiltInCodeAreCheckedAndTurnedAsAFilesAre) {
+  const Shell s = small_bowl();
+  const Eigen::MatrixXd X = s.vertices();
+  Handle turn;
+  turn.vertices = {0, 1, 2};
+  turn.axis = Eigen::Vector3d(0, 0, 2);
+  turn.degrees = 90;
+  turn.center = Eigen::Vector3d::Zero();
+  HandleSet code;
+  code.handles = {turn};
+  EXPECT_NO_THROW(check_handles(code, static_cast<int>(X.rows())));
+  const HandleSet file = parse_handles(
+      R"({"handles": [{"vertices": [0, 1, 2], "rotate": {"axis": [0, 0, 2], "degrees": 90, "center": [0, 0, 0]}}]})", "H", s);
+  const Eigen::MatrixXd P = code.targets(X, 1);
+  EXPECT_NEAR((P - file.targets(X, 1)).norm(), 0, 1e-15);
+  for (int r = 0; r < 3; ++r) { // a quarter turn about z: (x, y, z) -> (-y, x, z)
+    const Eigen::RowVector3d u = X.row(turn.vertices[r]);
+    EXPECT_NEAR((P.row(r) - Eigen::RowVector3d(-u.y(), u.x(), u.z())).norm(), 0, 1e-14) << r;
+  }
+  for (const auto& [key, value] : {std::pair{"translate", Eigen::Vector3d(1e300, 0, 0)},
+                                   std::pair{"center", Eigen::Vector3d(0, -1e60, 0)}}) {
+    HandleSet far = code;
+    (std::string(key) == "translate" ? far.handles[0].translate : far.handles[0].center) = value;
+    try {
+      check_handles(far, static_cast<int>(X.rows()));
+      ADD_FAILURE() << key << ": no error";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("handle 0: ") + key + ": a coordinate of magnitude"),
+                std::string::npos) << e.what();
+    }
+  }
+}
+
 // Targets where the layer (0.08 here) is below the spacing of doubles (1e-9 of the coordinates,
 // generation's limit) are refused with the file: a guarded pose spent about 100 s on a bowl
 // moved by 1e20 and ended "blocked by contact". Translated or turned about a far centre alike.

@@ -108,9 +108,10 @@ void touch_pairs_touching_to_rounding(const ShellBoundary& boundary, const Eigen
 
 } // namespace
 
-FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options,
+FrameGuard::FrameGuard(const Shell& rest, std::shared_ptr<const RestTets> shared_tets, const GuardOptions& options,
                        std::vector<int> fixed, bool moving_base)
-    : options_(options), rest_tets_(rest_tets), rest_vertices_(rest.vertices()), probe_(rest_tets, options.j_hat),
+    : options_(options), rest_tets_(std::move(shared_tets)), rest_vertices_(rest.vertices()),
+      probe_(*rest_tets_, options.j_hat),
       n_(rest.num_base_vertices()),
       F_(rest.F), fixed_(std::move(fixed)), moving_base_(moving_base),
       boundary_(shell_boundary(rest.F, rest.num_base_vertices())), certifier_(rest.F, rest.num_base_vertices()) {
@@ -125,12 +126,12 @@ FrameGuard::FrameGuard(const Shell& rest, const RestTets& rest_tets, const Guard
   const ShellCertificate rest_certificate = certifier_.certify(rest.base, rest.top);
   for (const auto& [v, t] : rest_certificate.nested) rest_nested_.push_back(v);
   const Eigen::MatrixXd& X = rest_vertices_;
-  parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets.size()), 0);
+  parameters_.skip_tets.assign(static_cast<std::size_t>(rest_tets_->size()), 0);
   for (int t : rest_certificate.inverted_tet_ids) parameters_.skip_tets[t] = 1;
   // So do tets flat to rounding error (J below kFlat): a drag guarding them crawls at steps of
   // 1e-10 (CGAL's man: minutes per frame, then a step that rounded one of them inverted). The
   // certificate still counts them.
-  for (int t = 0; t < rest_tets.size(); ++t)
+  for (int t = 0; t < rest_tets_->size(); ++t)
     if (!(probe_.relative_volume_of(X, t) > kFlat)) parameters_.skip_tets[t] = 1;
   // And every tet of a prism at an unextrudable vertex of the base (no direction sees all its faces
   // from their positive side): one of them must be inverted, and which one may change as the base
@@ -235,7 +236,7 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
                          ShellCertificate* certificate) {
   // Without the contacts guarded, the straight path's tet bound is the test.
   if (!(contacts && guards_contacts()))
-    return tet_step_bound(rest_tets_.T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step >= 1;
+    return tet_step_bound(rest_tets_->T, X0, X1 - X0, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step >= 1;
   // Otherwise the end state is certified exactly (the base against itself left out when the caller
   // moves the base: a base crossing itself is then the caller's) and its tets' volumes checked
   // against X0's. Cheaper than continuous collision detection along the path, and what matters is
@@ -247,7 +248,7 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
   bool kept = false;
   ShellCertificate c;
   tbb::parallel_invoke(
-      [&] { kept = tets_keep_volume(rest_tets_.T, X0, X1, parameters_.keep_fraction, &parameters_.skip_tets); },
+      [&] { kept = tets_keep_volume(rest_tets_->T, X0, X1, parameters_.keep_fraction, &parameters_.skip_tets); },
       [&] {
         CertifyOptions options;
         options.base_self_intersections = moving_base_;
@@ -261,7 +262,7 @@ bool FrameGuard::accepts(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, b
 double FrameGuard::accepted_fraction(const Eigen::MatrixXd& X0, const Eigen::MatrixXd& X1, bool contacts,
                                      double min_fraction, Eigen::MatrixXd& Y, ShellCertificate* certificate) {
   const Eigen::MatrixXd D = X1 - X0;
-  double t = tet_step_bound(rest_tets_.T, X0, D, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step;
+  double t = tet_step_bound(rest_tets_->T, X0, D, parameters_.keep_fraction, 1.0, &parameters_.skip_tets).step;
   // With the tets' bound at 1, the end's certificate refused the whole step.
   if (t >= 1) t = kFractionShrink;
   const bool certify = contacts && guards_contacts();
@@ -327,7 +328,7 @@ bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& 
     return false;
   };
   for (int t : before.inverted_tet_ids)
-    if (!parameters_.skip_tets[t] && fixed_top(rest_tets_.T.row(t))) return false;
+    if (!parameters_.skip_tets[t] && fixed_top(rest_tets_->T.row(t))) return false;
   for (const BoundaryIntersection& pair : before.intersections) {
     if (parameters_.excluded_triangles[pair.a] || parameters_.excluded_triangles[pair.b]) continue;
     if (pair.kind == IntersectionKind::BaseBase) return false;
@@ -351,9 +352,9 @@ bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& 
   Y.bottomRows(n_) = start.top;
   // A state free of faults is also refused for tets squashed on the way below the keep fraction:
   // those inside the volume barrier's support are mended with the rest.
-  for (int t = 0; t < rest_tets_.T.rows(); ++t)
+  for (int t = 0; t < rest_tets_->T.rows(); ++t)
     if (!parameters_.skip_tets[t] && probe_.relative_volume_of(Y, t) < options_.j_hat)
-      for (int k = 0; k < 4; ++k) region[rest_tets_.T(t, k) % n_] = 1;
+      for (int k = 0; k < 4; ++k) region[rest_tets_->T(t, k) % n_] = 1;
   if (std::find(region.begin(), region.end(), 1) == region.end()) return false;
   grow_by_rings(F_, rings, region);
   std::vector<char> moving(2 * n_, 0);
@@ -365,7 +366,7 @@ bool FrameGuard::mend(Eigen::MatrixXd& X, int rings, const GuardedSolveOptions& 
   // travelling farther than a few thicknesses is not a mend.
   const double travel = 4 * thickness;
   const detail::ShellPart part =
-      detail::shell_part(rest_tets_, boundary_, Y, moving, travel, 2 * parameters_.contact_distance);
+      detail::shell_part(*rest_tets_, boundary_, Y, moving, travel, 2 * parameters_.contact_distance);
   GuardedSolverParameters q = parameters_;
   q.skip_tets.clear();
   for (int t : part.tet) q.skip_tets.push_back(parameters_.skip_tets[t]);

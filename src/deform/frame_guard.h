@@ -40,8 +40,8 @@ public:
   /// touch to rounding (pair_touches_to_rounding) at rest, with their neighbours, see no
   /// contacts, nor are those faces' prisms' tets guarded: what the rest shell breaks, the guard
   /// cannot keep.
-  FrameGuard(const Shell& rest, const RestTets& rest_tets, const GuardOptions& options, std::vector<int> fixed,
-             bool moving_base);
+  FrameGuard(const Shell& rest, std::shared_ptr<const RestTets> rest_tets, const GuardOptions& options,
+             std::vector<int> fixed, bool moving_base);
   ~FrameGuard();
 
   /// Whether this guard was built with these options.
@@ -155,7 +155,7 @@ private:
 
 
   GuardOptions options_;
-  RestTets rest_tets_;
+  std::shared_ptr<const RestTets> rest_tets_; // shared with the caller's solver and this guard's own
   Eigen::MatrixXd rest_vertices_; // 2n x 3
   VolumeBarrier probe_; // the rest tets' relative volumes
   int n_ = 0;

@@ -32,7 +32,7 @@ struct PoseSolver::Impl {
   PoseSolverKind kind;
   HandleSet handles;
   Eigen::MatrixXd rest_vertices;
-  RestTets rest;
+  std::shared_ptr<const RestTets> rest; // one copy, read in place by the solvers and the guard
   std::vector<int> constrained;
   double soft_weight = 0; // absolute
   std::unique_ptr<HierarchicalSolver> hierarchical;
@@ -59,9 +59,9 @@ PoseSolver::PoseSolver(const Shell& rest, const HandleSet& handles, PoseSolverKi
   // As the deformer's: a generated shell's few flat or inverted tets (next to unextrudable vertices
   // or base crossings) take their ideal shape, so such shells can be posed too. One matrix per
   // tet, not the deformer's positions form: a pose is not the millions of tets that form is for.
-  s.rest = with_matrix_per_tet(deformation_rest_tets(rest));
+  s.rest = std::make_shared<const RestTets>(with_matrix_per_tet(deformation_rest_tets(rest)));
   const bool hard = handles.mode == ConstraintMode::Hard;
-  if (!hard) s.soft_weight = handles.weight * mean_stiffness(s.rest, 2 * n);
+  if (!hard) s.soft_weight = handles.weight * mean_stiffness(*s.rest, 2 * n);
 
   PositionConstraints c;
   c.vertices = s.constrained;
@@ -268,7 +268,7 @@ double PoseSolver::energy(const Eigen::MatrixXd& X, double fraction) const { ret
 
 const std::vector<int>& PoseSolver::constrained_vertices() const { return impl_->constrained; }
 const Eigen::MatrixXd& PoseSolver::rest_vertices() const { return impl_->rest_vertices; }
-const RestTets& PoseSolver::rest_tets() const { return impl_->rest; }
+const RestTets& PoseSolver::rest_tets() const { return *impl_->rest; }
 PoseSolverKind PoseSolver::kind() const { return impl_->kind; }
 double PoseSolver::setup_seconds() const { return impl_->setup_seconds; }
 const HierarchicalSolver* PoseSolver::hierarchical() const { return impl_->hierarchical.get(); }

@@ -484,7 +484,7 @@ void ShellDeformer::guard_frame(const Eigen::MatrixXd& last, Eigen::MatrixXd& X,
   if (!guard_ || !guard_->built_with(options.guard)) {
     if (options.stage) options.stage("guard setup");
     const auto setup_start = Clock::now();
-    guard_ = std::make_unique<FrameGuard>(rest_, solver_.rest(), options.guard, base_ids(rest_.num_base_vertices()),
+    guard_ = std::make_unique<FrameGuard>(rest_, std::make_shared<const RestTets>(solver_.rest()), options.guard, base_ids(rest_.num_base_vertices()),
                                           false);
     result.guard_setup_seconds = seconds_since(setup_start);
   }

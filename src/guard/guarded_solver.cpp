@@ -70,10 +70,10 @@ struct GuardedSolver::Impl {
   // The exact directions where the barriers act on few vertices (p.exact_direction_vertices).
   detail::LowRankInverse low_rank;
 
-  Impl(const RestTets& rest, int num_vertices, const std::vector<int>& fixed_vertices, const ShellBoundary& boundary,
-       GuardedSolverParameters parameters)
-      : arap(rest, num_vertices, fixed_vertices), volume(rest, parameters.j_hat, parameters.skip_tets),
-        p(checked(std::move(parameters))), T(rest.T), N(num_vertices), fixed(fixed_vertices),
+  Impl(const std::shared_ptr<const RestTets>& rest, int num_vertices, const std::vector<int>& fixed_vertices,
+       const ShellBoundary& boundary, GuardedSolverParameters parameters)
+      : arap(rest, num_vertices, fixed_vertices), volume(*rest, parameters.j_hat, parameters.skip_tets),
+        p(checked(std::move(parameters))), T(rest->T), N(num_vertices), fixed(fixed_vertices),
         free(arap.free_vertices()), free_index(num_vertices, -1), low_rank(p.exact_direction_vertices) {
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
     is_free.assign(num_vertices, 0);
@@ -512,7 +512,13 @@ struct GuardedSolver::Impl {
 
 GuardedSolver::GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
                              const ShellBoundary& boundary, GuardedSolverParameters parameters)
-    : impl_(std::make_unique<Impl>(rest, num_vertices, fixed, boundary, std::move(parameters))) {}
+    : GuardedSolver(std::make_shared<const RestTets>(rest), num_vertices, fixed, boundary, std::move(parameters)) {}
+
+GuardedSolver::GuardedSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
+                             const ShellBoundary& boundary, GuardedSolverParameters parameters) {
+  if (!rest) throw InputError("GuardedSolver: rest is null");
+  impl_ = std::make_unique<Impl>(rest, num_vertices, fixed, boundary, std::move(parameters));
+}
 
 GuardedSolver::~GuardedSolver() = default;
 GuardedSolver::GuardedSolver(GuardedSolver&&) noexcept = default;

@@ -81,22 +81,30 @@ void HierarchyOptions::check() const {
   check_anderson_history(level_anderson_history, "HierarchicalSolver: options.level_anderson_history");
 }
 
-std::unique_ptr<ShellSolver> make_shell_solver(const RestTets& rest, int num_vertices,
+std::unique_ptr<ShellSolver> make_shell_solver(std::shared_ptr<const RestTets> rest, int num_vertices,
                                                const PositionConstraints& constraints) {
-  if (constraints.hard) return std::make_unique<ShellSolver>(rest, num_vertices, constraints.vertices);
+  if (constraints.hard) return std::make_unique<ShellSolver>(std::move(rest), num_vertices, constraints.vertices);
   SoftConstraints soft;
   soft.vertices = constraints.vertices;
   soft.weight = constraints.weight;
-  return std::make_unique<ShellSolver>(rest, num_vertices, std::vector<int>{}, soft);
+  return std::make_unique<ShellSolver>(std::move(rest), num_vertices, std::vector<int>{}, soft);
+}
+
+std::unique_ptr<ShellSolver> make_shell_solver(const RestTets& rest, int num_vertices,
+                                               const PositionConstraints& constraints) {
+  return make_shell_solver(std::make_shared<const RestTets>(rest), num_vertices, constraints);
 }
 
 double mean_stiffness(const RestTets& rest, int num_vertices) {
   if (num_vertices <= 0) return 0;
-  return detail::stiffness_matrix(rest, num_vertices).diagonal().sum() / num_vertices;
+  // The diagonal alone: the whole matrix was a transient as large as the rest tets.
+  double trace = 0;
+  for (int t = 0; t < rest.size(); ++t) trace += rest.volume(t) * detail::gradient_rows(rest.dm_inv(t)).squaredNorm();
+  return trace / num_vertices;
 }
 
 struct HierarchicalSolver::Impl {
-  RestTets rest;
+  std::shared_ptr<const RestTets> rest; // shared with the full level; the reduced levels read it too
   PositionConstraints constraints;
   HierarchyOptions options;
   ClusterTree tree;
@@ -307,10 +315,17 @@ struct HierarchicalSolver::Impl {
 HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::MatrixXd& rest_vertices,
                                        const Eigen::MatrixXi& F, const PositionConstraints& constraints,
                                        const HierarchyOptions& options)
+    : HierarchicalSolver(std::make_shared<const RestTets>(rest), rest_vertices, F, constraints, options) {}
+
+HierarchicalSolver::HierarchicalSolver(std::shared_ptr<const RestTets> shared_rest, const Eigen::MatrixXd& rest_vertices,
+                                       const Eigen::MatrixXi& F, const PositionConstraints& constraints,
+                                       const HierarchyOptions& options)
     : impl_(std::make_unique<Impl>()) {
   const auto start = Clock::now();
+  if (!shared_rest) throw InputError("HierarchicalSolver: rest is null");
   Impl& s = *impl_;
-  s.rest = rest;
+  s.rest = std::move(shared_rest);
+  const RestTets& rest = *s.rest;
   s.constraints = constraints;
   s.options = options;
   s.rest_vertices_rows = static_cast<int>(rest_vertices.rows());
@@ -327,10 +342,10 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
     throw InputError("HierarchicalSolver: a tet of rest has a vertex id outside rest_vertices");
   if (F.size() > 0 && (F.cols() != 3 || F.minCoeff() < 0 || F.maxCoeff() >= rest_vertices.rows() / 2))
     throw InputError("HierarchicalSolver: F must be m x 3 with base vertex ids in [0, n)");
-  require_matching_rest(s.rest, rest_vertices);
+  require_matching_rest(rest, rest_vertices);
 
   s.full = make_shell_solver(s.rest, s.num_vertices(), constraints);
-  const Eigen::SparseMatrix<double> L = detail::stiffness_matrix(s.rest, s.num_vertices());
+  const Eigen::SparseMatrix<double> L = detail::stiffness_matrix(rest, s.num_vertices());
 
   const int reduced_levels = options.levels - 1;
   const int split = std::max(1, options.splits_per_level);
@@ -352,7 +367,7 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
   tree_options.depth = reduced_levels > 0 ? std::min(deepest, first + (reduced_levels - 1) * split) : 0;
   tree_options.min_cluster_size = options.min_cluster_size;
   s.tree = build_cluster_tree(rest_vertices, F, tree_options);
-  const double weight = constraints.hard ? options.reduced_hard_weight * mean_stiffness(s.rest, s.num_vertices())
+  const double weight = constraints.hard ? options.reduced_hard_weight * mean_stiffness(rest, s.num_vertices())
                                          : constraints.weight;
   // A flat rest shell (top = base) determines no cluster's affine map: the full level alone, as
   // the single-level solver (its rest tets are replaced by normal prisms, so it solves).
@@ -361,7 +376,7 @@ HierarchicalSolver::HierarchicalSolver(const RestTets& rest, const Eigen::Matrix
     if (d > tree_options.depth || (l > 0 && s.tree.num_clusters(d) == s.reduced.back().num_clusters())) break;
     s.depth_of_level.push_back(d);
     const ClusterWeights weights = piecewise_cluster_weights(s.tree.cluster_of[d], s.tree.num_clusters(d));
-    s.reduced.emplace_back(s.rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
+    s.reduced.emplace_back(rest, rest_vertices, weights, s.tree.cluster_of[d], L, constraints.vertices, weight,
                            options.cluster_rotations);
   }
   const int built = static_cast<int>(s.reduced.size());

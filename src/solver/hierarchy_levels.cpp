@@ -19,14 +19,6 @@ namespace {
 constexpr int kGrain = 1024;
 constexpr int kBatch = 64; // matrices per batched polar decomposition call
 
-/// Gradient rows g_k (F = sum_k x_k g_k^T) of a tet from its inverse rest edge matrix.
-Eigen::Matrix<double, 4, 3> gradient_rows(const Eigen::Matrix3d& Dm_inv) {
-  Eigen::Matrix<double, 4, 3> G;
-  G.row(0) = -Dm_inv.colwise().sum();
-  G.bottomRows(3) = Dm_inv;
-  return G;
-}
-
 /// Row k of vol * G * R^T, the tet's share of the right-hand side at its corner k.
 Eigen::RowVector3d corner_rhs(const Eigen::Matrix3d& Q, int k) {
   return k == 0 ? Eigen::RowVector3d(-Q.colwise().sum()) : Eigen::RowVector3d(Q.row(k - 1));
@@ -35,16 +27,67 @@ Eigen::RowVector3d corner_rhs(const Eigen::Matrix3d& Q, int k) {
 } // namespace
 
 Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices) {
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(16 * static_cast<size_t>(rest.size()));
-  for (int t = 0; t < rest.size(); ++t) {
-    const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest.dm_inv(t));
-    const Eigen::Matrix4d K = rest.volume(t) * G * G.transpose();
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) entries.emplace_back(rest.T(t, a), rest.T(t, b), K(a, b));
+  // Column by column from each vertex's own tets (L is symmetric), not from 16 triplets per tet:
+  // at a million tets those were 250 MB, plus Eigen's row-major copy with every duplicate, the
+  // peak of a pose solver's setup. A column's entries sum their tets in ascending order, as
+  // setFromTriplets did, so the matrix is the same to the bit.
+  const int K = rest.size();
+  std::vector<int> start(static_cast<std::size_t>(num_vertices) + 1, 0);
+  for (int t = 0; t < K; ++t)
+    for (int k = 0; k < 4; ++k) ++start[rest.T(t, k) + 1];
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<int> corner(start.back()); // 4 t + k, per vertex in ascending t
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int t = 0; t < K; ++t)
+      for (int k = 0; k < 4; ++k) corner[fill[rest.T(t, k)]++] = 4 * t + k;
   }
+  constexpr int kColumns = 4096;
+  struct Block {
+    std::vector<int> rows, count;
+    std::vector<double> values;
+  };
+  std::vector<Block> blocks((num_vertices + kColumns - 1) / kColumns);
+  tbb::parallel_for(0, static_cast<int>(blocks.size()), [&](int b) {
+    Block& out = blocks[b];
+    std::vector<std::pair<int, double>> column; // (row, sum) in order of first touch
+    for (int v = b * kColumns; v < std::min(num_vertices, (b + 1) * kColumns); ++v) {
+      column.clear();
+      for (int s = start[v]; s < start[v + 1]; ++s) {
+        const int t = corner[s] / 4, k = corner[s] % 4;
+        const Eigen::Matrix<double, 4, 3> G = gradient_rows(rest.dm_inv(t));
+        const Eigen::Matrix4d Kt = rest.volume(t) * G * G.transpose();
+        for (int a = 0; a < 4; ++a) {
+          const int r = rest.T(t, a);
+          auto e = std::find_if(column.begin(), column.end(), [r](const auto& c) { return c.first == r; });
+          if (e != column.end()) e->second += Kt(a, k);
+          else column.emplace_back(r, Kt(a, k));
+        }
+      }
+      std::sort(column.begin(), column.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+      out.count.push_back(static_cast<int>(column.size()));
+      for (const auto& [r, value] : column) {
+        out.rows.push_back(r);
+        out.values.push_back(value);
+      }
+    }
+  });
+  Eigen::Index entries = 0;
+  for (const Block& block : blocks) entries += static_cast<Eigen::Index>(block.rows.size());
   Eigen::SparseMatrix<double> L(num_vertices, num_vertices);
-  L.setFromTriplets(entries.begin(), entries.end());
+  L.resizeNonZeros(entries);
+  int column = 0;
+  Eigen::Index at = 0;
+  for (const Block& block : blocks) {
+    std::copy(block.rows.begin(), block.rows.end(), L.innerIndexPtr() + at);
+    std::copy(block.values.begin(), block.values.end(), L.valuePtr() + at);
+    for (int count : block.count) {
+      L.outerIndexPtr()[column] = static_cast<int>(at);
+      at += count;
+      ++column;
+    }
+  }
+  L.outerIndexPtr()[num_vertices] = static_cast<int>(at);
   return L;
 }
 

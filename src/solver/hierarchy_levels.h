@@ -24,6 +24,14 @@ struct LocalCache {
   bool energy_valid = false; ///< `elastic` was computed along with Q
 };
 
+/// Gradient rows g_k (F = sum_k x_k g_k^T) of a tet from its inverse rest edge matrix.
+inline Eigen::Matrix<double, 4, 3> gradient_rows(const Eigen::Matrix3d& Dm_inv) {
+  Eigen::Matrix<double, 4, 3> G;
+  G.row(0) = -Dm_inv.colwise().sum();
+  G.bottomRows(3) = Dm_inv;
+  return G;
+}
+
 /// Stiffness matrix L = sum_t vol_t G_t^T G_t over `num_vertices` (one coordinate; same for x, y, z).
 Eigen::SparseMatrix<double> stiffness_matrix(const RestTets& rest, int num_vertices);
 

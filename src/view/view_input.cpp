@@ -41,10 +41,12 @@ LoadedFolder load_folder(const std::string& dir) {
 void check_same_shell(const std::string& dir, Eigen::Index n, Eigen::Index m, bool same_faces, const Shell& first,
                       const std::string& first_dir) {
   if (n == first.base.rows() && m == first.F.rows() && same_faces) return;
-  throw InputError(with_file(dir, "not a frame of the same shell as " + first_dir + " (" + std::to_string(n) +
-                                      " vertices, " + std::to_string(m) + " faces vs " +
-                                      std::to_string(first.base.rows()) + ", " + std::to_string(first.F.rows()) +
-                                      ", or other faces)"));
+  const std::string what = n == first.base.rows() && m == first.F.rows()
+                               ? "the same " + std::to_string(n) + " vertices and " + std::to_string(m) +
+                                     " faces, but other faces or corners in another order"
+                               : std::to_string(n) + " vertices, " + std::to_string(m) + " faces vs " +
+                                     std::to_string(first.base.rows()) + ", " + std::to_string(first.F.rows());
+  throw InputError(with_file(dir, "not a frame of the same shell as " + first_dir + " (" + what + ")"));
 }
 
 // Eigen's == needs equal sizes (it reads past the smaller matrix otherwise).

@@ -19,7 +19,7 @@ struct Handle {
   std::string name;                                         ///< a label (handle files: "name")
   std::vector<int> vertices;                                ///< shell vertex ids (base 0..n-1, top n..2n-1), sorted
   Eigen::Vector3d translate = Eigen::Vector3d::Zero();      ///< model units
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();          ///< unit rotation axis
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();          ///< rotation axis: any length but zero, only its direction counts
   double degrees = 0;                                       ///< right-handed about `axis`
   Eigen::Vector3d center = Eigen::Vector3d::Zero();         ///< default: centroid of the handle's rest vertices
 
@@ -59,8 +59,12 @@ struct HandleSet {
 };
 
 /// Checks a handle set built in code for a shell of `shell_vertices` (2n) vertices, as
-/// parse_handles checks a file. \throws InputError on an empty handle, a vertex id out of range
-/// or in two handles, a zero rotation axis, non-finite numbers, or a weight <= 0 or > kMaxSoftWeight.
+/// parse_handles checks a file's handles. \throws InputError on an empty handle, a vertex id out
+/// of range or in two handles, a zero rotation axis, non-finite numbers, a translation or centre
+/// coordinate of magnitude max_coordinate_magnitude (1e50) or more, or, in soft mode, a weight
+/// outside [kMinSoftWeight, kMaxSoftWeight] (hard mode ignores the weight). Not checked here
+/// (parse_handles checks it for a file): targets so far out that the shell's thickness is below
+/// kMinThicknessScale of their coordinates.
 void check_handles(const HandleSet& handles, int shell_vertices);
 
 /// Every connected part of a shell (base faces F over n base vertices; a part's top goes with it)

@@ -177,6 +177,10 @@ public:
   ///         (bad ids or sizes, a free part); std::runtime_error when CHOLMOD fails.
   GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed, const ShellBoundary& boundary,
                 GuardedSolverParameters parameters);
+  /// The same, sharing `rest` (read in place) instead of holding a copy.
+  /// \throws InputError also when `rest` is null.
+  GuardedSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
+                const ShellBoundary& boundary, GuardedSolverParameters parameters);
   ~GuardedSolver();
   GuardedSolver(GuardedSolver&&) noexcept;
   GuardedSolver& operator=(GuardedSolver&&) noexcept;

@@ -9,8 +9,8 @@
 
 namespace gshell {
 
-/// Whether the shell is valid (ShellCertificate::valid: conditions 1-3, and the base does not
-/// intersect itself): true or false when the certificate decides it, empty when the pair tests
+/// Whether the shell is valid (ShellCertificate::valid: conditions 1-4 of docs/validity.md, and
+/// the base does not intersect itself): true or false when the certificate decides it, empty when the pair tests
 /// were skipped and no tet is inverted (validity unknown).
 std::optional<bool> certified_validity(const ShellCertificate& certificate);
 

@@ -48,8 +48,9 @@ public:
   /// Replaces every handle group (vertices, motions, mode, weight); an undo point. The shell
   /// stays where it is; the next solve rebuilds the solver only if the vertex sets, mode or
   /// weight changed.
-  /// \throws InputError on an empty group, a vertex id outside 0..2n-1, a vertex in two groups, a
-  ///         zero rotation axis, non-finite numbers or a weight <= 0.
+  /// \throws InputError as check_handles (an empty group, a vertex id outside 0..2n-1, a vertex
+  ///         in two groups, a zero rotation axis, non-finite or too large numbers, a soft weight
+  ///         outside [kMinSoftWeight, kMaxSoftWeight]).
   void set_handles(HandleSet handles);
   /// Adds a group (its center defaults to its vertices' rest centroid when `center_from_rest`);
   /// returns its index. \throws InputError as set_handles.

@@ -129,7 +129,9 @@ struct PoseResult {
 
   /// report.json: command, shell, handles, solver, levels, mode, weight (soft only), thickness,
   /// vertices, tets, handle_vertices, setup_seconds, tolerance, max_iterations, steps [...],
-  /// warnings [warnings()], stretch {mean, volume_mean, max, p99}, inverted_tets.
+  /// valid, certificate {...} and base_self_intersections (the last step's, when it was
+  /// certified), warnings [warnings()], stretch {mean, volume_mean, max, p99}, inverted_tets.
+  /// (A drag session's save adds rest_shell, the folder of the rest shell.)
   nlohmann::ordered_json to_json() const;
 };
 

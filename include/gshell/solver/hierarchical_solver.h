@@ -173,6 +173,10 @@ public:
   ///         std::runtime_error when CHOLMOD fails otherwise (out of memory).
   HierarchicalSolver(const RestTets& rest, const Eigen::MatrixXd& rest_vertices, const Eigen::MatrixXi& F,
                      const PositionConstraints& constraints, const HierarchyOptions& options = {});
+  /// The same, sharing `rest` (the full level and the reduced levels read it in place) instead of
+  /// holding a copy: at a million tets a copy is about 100 MB. \throws InputError also when `rest` is null.
+  HierarchicalSolver(std::shared_ptr<const RestTets> rest, const Eigen::MatrixXd& rest_vertices, const Eigen::MatrixXi& F,
+                     const PositionConstraints& constraints, const HierarchyOptions& options = {});
   ~HierarchicalSolver();
   /// A moved-from HierarchicalSolver may only be destroyed or assigned to.
   HierarchicalSolver(HierarchicalSolver&&) noexcept;
@@ -235,6 +239,9 @@ private:
 /// The single-level solver for these constraints: hard ones eliminated, soft ones as springs.
 /// \throws InputError as ShellSolver's constructor.
 std::unique_ptr<ShellSolver> make_shell_solver(const RestTets& rest, int num_vertices,
+                                               const PositionConstraints& constraints);
+/// The same, the solver sharing `rest`.
+std::unique_ptr<ShellSolver> make_shell_solver(std::shared_ptr<const RestTets> rest, int num_vertices,
                                                const PositionConstraints& constraints);
 
 /// Mean diagonal entry of the stiffness matrix sum_t vol_t G_t^T G_t (the scale of soft weights).
