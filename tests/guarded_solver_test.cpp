@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include <memory>
+
 #include <Eigen/SparseCholesky>
 
 #include "guard/shell_part.h"
@@ -110,6 +112,23 @@ TEST(GuardedSolver, OtherParametersSolveAsASolverMadeWithThem) {
   EXPECT_EQ(solver.volume_barrier().j_hat(), weak.j_hat);
   GuardedSolver made(c.rest, 2 * c.n, c.fixed, c.boundary, weak);
   expect_solves_alike(solver, made, X);
+}
+
+// A guarded solver on an ARAP solver built elsewhere (a guarded pose's full level) solves as one
+// that builds its own, bit for bit, and both can share one (a guard's two solvers do).
+TEST(GuardedSolver, ASharedArapSolverSolvesAsAnOwnOne) {
+  const CapRepair c;
+  const GuardedSolverParameters p = c.parameters(0.1, 1.0, 0.02);
+  GuardedSolver own(c.rest, 2 * c.n, c.fixed, c.boundary, p);
+  const auto arap = std::make_shared<const ShellSolver>(c.rest, 2 * c.n, c.fixed);
+  GuardedSolver shared(arap, c.boundary, p);
+  expect_solves_alike(own, shared, c.X);
+  GuardedSolverParameters tets_only = p;
+  tets_only.contact_distance = 0;
+  tets_only.contact_stiffness = 0;
+  GuardedSolver second(arap, c.boundary, tets_only), second_own(c.rest, 2 * c.n, c.fixed, c.boundary, tets_only);
+  expect_solves_alike(second, second_own, c.X);
+  EXPECT_THROW(GuardedSolver(std::shared_ptr<const ShellSolver>(), c.boundary, p), InputError);
 }
 
 // Tets left out after construction (a deformation frame whose base made a vertex unextrudable):

@@ -109,8 +109,8 @@ void touch_pairs_touching_to_rounding(const ShellBoundary& boundary, const Eigen
 } // namespace
 
 FrameGuard::FrameGuard(const Shell& rest, std::shared_ptr<const RestTets> shared_tets, const GuardOptions& options,
-                       std::vector<int> fixed, bool moving_base)
-    : options_(options), rest_tets_(std::move(shared_tets)), rest_vertices_(rest.vertices()),
+                       std::vector<int> fixed, bool moving_base, std::shared_ptr<const ShellSolver> arap)
+    : options_(options), rest_tets_(std::move(shared_tets)), arap_(std::move(arap)), rest_vertices_(rest.vertices()),
       probe_(*rest_tets_, options.j_hat),
       n_(rest.num_base_vertices()),
       F_(rest.F), fixed_(std::move(fixed)), moving_base_(moving_base),
@@ -164,12 +164,17 @@ FrameGuard::FrameGuard(const Shell& rest, std::shared_ptr<const RestTets> shared
   rest_skip_ = parameters_.skip_tets;
 }
 
+const std::shared_ptr<const ShellSolver>& FrameGuard::arap() {
+  if (!arap_) arap_ = std::make_shared<const ShellSolver>(rest_tets_, 2 * n_, fixed_);
+  return arap_;
+}
+
 GuardedSolver& FrameGuard::contact_solver() {
   // Built at the first drag, not with the guard: most steps and frames are accepted as the solver
   // made them and never need it (a factorisation of the whole shell's system), and with soft
   // handles (no fixed vertex: no drag) its system would be singular.
   if (!contact_) {
-    contact_ = std::make_unique<GuardedSolver>(rest_tets_, 2 * n_, fixed_, boundary_, parameters_);
+    contact_ = std::make_unique<GuardedSolver>(arap(), boundary_, parameters_);
     cap_contact_supports();
   }
   return *contact_;
@@ -227,7 +232,7 @@ GuardedSolver& FrameGuard::tets_only() {
     GuardedSolverParameters p = parameters_;
     p.contact_distance = 0;
     p.contact_stiffness = 0;
-    tets_ = std::make_unique<GuardedSolver>(rest_tets_, 2 * n_, fixed_, boundary_, p);
+    tets_ = std::make_unique<GuardedSolver>(arap(), boundary_, p);
   }
   return *tets_;
 }

@@ -40,8 +40,12 @@ public:
   /// touch to rounding (pair_touches_to_rounding) at rest, with their neighbours, see no
   /// contacts, nor are those faces' prisms' tets guarded: what the rest shell breaks, the guard
   /// cannot keep.
+  /// `arap`, when given, is the caller's solver for `rest_tets` with exactly `fixed` held (hard
+  /// constraints, nothing soft): the guard's solvers share it instead of assembling and factoring
+  /// the same system again. Without, the guard builds one at its first solve, shared by both its
+  /// solvers.
   FrameGuard(const Shell& rest, std::shared_ptr<const RestTets> rest_tets, const GuardOptions& options,
-             std::vector<int> fixed, bool moving_base);
+             std::vector<int> fixed, bool moving_base, std::shared_ptr<const ShellSolver> arap = nullptr);
   ~FrameGuard();
 
   /// Whether this guard was built with these options.
@@ -149,6 +153,7 @@ public:
 
 private:
   GuardedSolver& tets_only();
+  const std::shared_ptr<const ShellSolver>& arap();
   GuardedSolver& contact_solver();
   // The contact solver's supports capped at the rest shell (GuardOptions::contact_rest_fraction).
   void cap_contact_supports();
@@ -156,6 +161,7 @@ private:
 
   GuardOptions options_;
   std::shared_ptr<const RestTets> rest_tets_; // shared with the caller's solver and this guard's own
+  std::shared_ptr<const ShellSolver> arap_; // the ARAP system of both guarded solvers
   Eigen::MatrixXd rest_vertices_; // 2n x 3
   VolumeBarrier probe_; // the rest tets' relative volumes
   int n_ = 0;

@@ -36,7 +36,7 @@ struct PoseSolver::Impl {
   std::vector<int> constrained;
   double soft_weight = 0; // absolute
   std::unique_ptr<HierarchicalSolver> hierarchical;
-  std::unique_ptr<ShellSolver> single;
+  std::shared_ptr<ShellSolver> single;
   double setup_seconds = 0;
   Shell rest_shell;
   std::unique_ptr<FrameGuard> guard; ///< built at the first solve_valid
@@ -130,7 +130,10 @@ SolveResult PoseSolver::solve_valid(const Eigen::MatrixXd& from, Eigen::MatrixXd
   if (!s.guard || !s.guard->built_with(guard)) {
     if (options.stage) options.stage("guard setup"); // the first step's: tens of seconds at 655K vertices
     const auto setup_start = std::chrono::steady_clock::now();
-    s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard, s.constrained, true);
+    // Hard handles are the guard's fixed vertices: its system is the full level's, shared.
+    std::shared_ptr<const ShellSolver> arap;
+    if (hard) arap = s.hierarchical ? s.hierarchical->full_level() : s.single;
+    s.guard = std::make_unique<FrameGuard>(s.rest_shell, s.rest, guard, s.constrained, true, std::move(arap));
     out.guard_setup_seconds = seconds_since(setup_start);
   }
   const Eigen::MatrixXd start = from;

@@ -56,7 +56,8 @@ double dot(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a.array
 } // namespace
 
 struct GuardedSolver::Impl {
-  ShellSolver arap;
+  std::shared_ptr<const ShellSolver> arap_owner; // own, or shared with the caller's solver
+  const ShellSolver& arap;
   VolumeBarrier volume;
   std::unique_ptr<ContactGuard> contact;
   GuardedSolverParameters p;
@@ -70,15 +71,25 @@ struct GuardedSolver::Impl {
   // The exact directions where the barriers act on few vertices (p.exact_direction_vertices).
   detail::LowRankInverse low_rank;
 
-  Impl(const std::shared_ptr<const RestTets>& rest, int num_vertices, const std::vector<int>& fixed_vertices,
-       const ShellBoundary& boundary, GuardedSolverParameters parameters)
-      : arap(rest, num_vertices, fixed_vertices), volume(*rest, parameters.j_hat, parameters.skip_tets),
-        p(checked(std::move(parameters))), T(rest->T), N(num_vertices), fixed(fixed_vertices),
-        free(arap.free_vertices()), free_index(num_vertices, -1), low_rank(p.exact_direction_vertices) {
+  Impl(std::shared_ptr<const ShellSolver> solver, std::vector<int> fixed_vertices, const ShellBoundary& boundary,
+       GuardedSolverParameters parameters)
+      : arap_owner(std::move(solver)), arap(*arap_owner), volume(arap.rest(), parameters.j_hat, parameters.skip_tets),
+        p(checked(std::move(parameters))), T(arap.rest().T), N(arap.num_vertices()), fixed(std::move(fixed_vertices)),
+        free(arap.free_vertices()), free_index(N, -1), low_rank(p.exact_direction_vertices) {
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
-    is_free.assign(num_vertices, 0);
+    is_free.assign(N, 0);
     for (int v : free) is_free[v] = 1;
     if (p.contact_distance > 0) make_contact_guard(boundary);
+  }
+
+  // The fixed vertices of a solver with hard constraints only: every vertex it does not solve for.
+  static std::vector<int> not_free(const ShellSolver& solver) {
+    std::vector<char> is_free_vertex(solver.num_vertices(), 0);
+    for (int v : solver.free_vertices()) is_free_vertex[v] = 1;
+    std::vector<int> out;
+    for (int v = 0; v < solver.num_vertices(); ++v)
+      if (!is_free_vertex[v]) out.push_back(v);
+    return out;
   }
 
   void make_contact_guard(const ShellBoundary& boundary) {
@@ -517,7 +528,15 @@ GuardedSolver::GuardedSolver(const RestTets& rest, int num_vertices, const std::
 GuardedSolver::GuardedSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
                              const ShellBoundary& boundary, GuardedSolverParameters parameters) {
   if (!rest) throw InputError("GuardedSolver: rest is null");
-  impl_ = std::make_unique<Impl>(rest, num_vertices, fixed, boundary, std::move(parameters));
+  impl_ = std::make_unique<Impl>(std::make_shared<const ShellSolver>(std::move(rest), num_vertices, fixed), fixed,
+                                 boundary, std::move(parameters));
+}
+
+GuardedSolver::GuardedSolver(std::shared_ptr<const ShellSolver> arap, const ShellBoundary& boundary,
+                             GuardedSolverParameters parameters) {
+  if (!arap) throw InputError("GuardedSolver: the shared ARAP solver is null");
+  std::vector<int> fixed = Impl::not_free(*arap);
+  impl_ = std::make_unique<Impl>(std::move(arap), std::move(fixed), boundary, std::move(parameters));
 }
 
 GuardedSolver::~GuardedSolver() = default;

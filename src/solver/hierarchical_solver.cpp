@@ -111,7 +111,7 @@ struct HierarchicalSolver::Impl {
   std::vector<int> depth_of_level;
   /// parents[l][c]: the cluster of reduced level l-1 that holds cluster c of level l (l >= 1).
   std::vector<std::vector<int>> parents;
-  std::unique_ptr<ShellSolver> full; // the full level: hard constraints eliminated, soft ones as springs
+  std::shared_ptr<ShellSolver> full; // the full level: hard constraints eliminated, soft ones as springs
   std::vector<ReducedLevel> reduced;
   std::vector<LocalCache> reduced_cache;
   std::vector<Eigen::MatrixXd> tau;  // per reduced level: fine residual coupling of this outer iteration
@@ -553,6 +553,8 @@ double HierarchicalSolver::level_energy(int level, const Eigen::MatrixXd& target
   return cache.elastic + impl_->reduced.at(level).springs(targets);
 }
 double HierarchicalSolver::factor_seconds() const { return impl_->factor_seconds; }
+std::shared_ptr<const ShellSolver> HierarchicalSolver::full_level() const { return impl_->full; }
+
 const HierarchyCounters& HierarchicalSolver::counters() const { return impl_->counters; }
 
 HierarchyCounters HierarchyCounters::since(const HierarchyCounters& earlier) const {

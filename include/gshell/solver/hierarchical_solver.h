@@ -230,6 +230,9 @@ public:
   /// Counters summed over every solve since construction, including solves that a progress
   /// callback ended by throwing.
   const HierarchyCounters& counters() const;
+  /// The full level's solver (the single-level solver of these constraints), for a caller that
+  /// needs the same system: a guarded pose's guard shares it instead of factoring it again.
+  std::shared_ptr<const ShellSolver> full_level() const;
 
 private:
   struct Impl;
