@@ -297,6 +297,17 @@ TEST(HierarchicalSolver, StiffnessMatrixIsTheSumOfItsTetsMatrices) {
     for (int c = 0; c < N; ++c) pairs += dense(r, c) != 0;
   EXPECT_EQ(L.nonZeros(), pairs);
   EXPECT_NEAR(mean_stiffness(p.rest, N), assembled.diagonal().mean(), 1e-12 * assembled.diagonal().mean());
+  // And to the bit the matrix of 16 triplets per tet (how it was assembled before).
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (int t = 0; t < p.rest.size(); ++t) {
+    const Eigen::Matrix<double, 4, 3> G = detail::gradient_rows(p.rest.dm_inv(t));
+    const Eigen::Matrix4d K = p.rest.volume(t) * G * G.transpose();
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) triplets.emplace_back(p.rest.T(t, a), p.rest.T(t, b), K(a, b));
+  }
+  Eigen::SparseMatrix<double> from_triplets(N, N);
+  from_triplets.setFromTriplets(triplets.begin(), triplets.end());
+  EXPECT_EQ(Eigen::MatrixXd(from_triplets), assembled);
 }
 
 // A solver sharing its rest tets solves as one holding a copy, to the bit; a null one is an input error.
