@@ -43,9 +43,8 @@ Eigen::MatrixXd HandleSet::targets(const Eigen::MatrixXd& rest_vertices, double 
     // Whole turns first: degrees * pi would overflow for |degrees| > 5e307 (any finite number is
     // accepted), and cos/sin are only accurate on moderate arguments anyway.
     const double radians = std::fmod(fraction * h.degrees, 360.0) * M_PI / 180.0;
-    // Any non-zero axis, as a file's (AngleAxis needs a unit one; scaled first so that no
-    // length overflows or underflows).
-    const Eigen::Vector3d axis = (h.axis / h.axis.cwiseAbs().maxCoeff()).normalized();
+    // Any non-zero axis, as a file's (AngleAxis needs a unit one; stableNorm, as parse_handles).
+    const Eigen::Vector3d axis = h.axis / h.axis.stableNorm();
     const Eigen::Matrix3d R = Eigen::AngleAxisd(radians, axis).toRotationMatrix();
     const Eigen::Vector3d shift = fraction * h.translate;
     for (int v : h.vertices) {
@@ -317,7 +316,7 @@ void check_handles(const HandleSet& set, int shell_vertices) {
     }
     if (!h.translate.allFinite() || !h.center.allFinite() || !h.axis.allFinite() || !std::isfinite(h.degrees))
       throw InputError(where + "a motion number is not finite");
-    if (!(h.axis.cwiseAbs().maxCoeff() > 0)) throw InputError(where + "the rotation axis is zero");
+    if (!(h.axis.stableNorm() > 0)) throw InputError(where + "the rotation axis is zero");
     for (const auto& [key, p] : {std::pair{"translate", &h.translate}, std::pair{"center", &h.center}})
       if (const std::string problem = too_large_coordinate(*p); !problem.empty())
         throw InputError(where + key + ": " + problem);

@@ -56,8 +56,7 @@ double dot(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a.array
 } // namespace
 
 struct GuardedSolver::Impl {
-  std::shared_ptr<const ShellSolver> arap_owner; // own, or shared with the caller's solver
-  const ShellSolver& arap;
+  std::shared_ptr<const ShellSolver> arap; // own, or shared with the caller's solver
   VolumeBarrier volume;
   std::unique_ptr<ContactGuard> contact;
   GuardedSolverParameters p;
@@ -73,9 +72,9 @@ struct GuardedSolver::Impl {
 
   Impl(std::shared_ptr<const ShellSolver> solver, std::vector<int> fixed_vertices, const ShellBoundary& boundary,
        GuardedSolverParameters parameters)
-      : arap_owner(std::move(solver)), arap(*arap_owner), volume(arap.rest(), parameters.j_hat, parameters.skip_tets),
-        p(checked(std::move(parameters))), T(arap.rest().T), N(arap.num_vertices()), fixed(std::move(fixed_vertices)),
-        free(arap.free_vertices()), free_index(N, -1), low_rank(p.exact_direction_vertices) {
+      : arap(std::move(solver)), volume(arap->rest(), parameters.j_hat, parameters.skip_tets),
+        p(checked(std::move(parameters))), T(arap->rest().T), N(arap->num_vertices()), fixed(std::move(fixed_vertices)),
+        free(arap->free_vertices()), free_index(N, -1), low_rank(p.exact_direction_vertices) {
     for (std::size_t j = 0; j < free.size(); ++j) free_index[free[j]] = static_cast<int>(j);
     is_free.assign(N, 0);
     for (int v : free) is_free[v] = 1;
@@ -150,7 +149,7 @@ struct GuardedSolver::Impl {
       s.total = kInf;
       return false;
     }
-    arap.local_step(X, s.local);
+    arap->local_step(X, s.local);
     s.shell = s.local.energy;
     s.total = s.shell + p.volume_weight * s.volume + p.contact_stiffness * s.contact;
     return true;
@@ -158,7 +157,7 @@ struct GuardedSolver::Impl {
 
   // Half the gradient of E_guard at X, free rows.
   Eigen::MatrixXd half_gradient(const Eigen::MatrixXd& X, const State& s) {
-    Eigen::MatrixXd g = arap.half_gradient(X, s.local);
+    Eigen::MatrixXd g = arap->half_gradient(X, s.local);
     volume.add_gradient(X, 0.5 * p.volume_weight, g, s.active_tets);
     if (contact) contact->add_gradient(X, 0.5 * p.contact_stiffness, g);
     return gather(g);
@@ -316,7 +315,7 @@ struct GuardedSolver::Impl {
     for (int ring = 0; ring < p.local_rings; ++ring) {
       const std::vector<int> last(vertices.begin() + static_cast<long>(frontier), vertices.end());
       frontier = vertices.size();
-      const auto rows = arap.system_rows(last);
+      const auto rows = arap->system_rows(last);
       for (int i = 0; i < rows.outerSize(); ++i)
         for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(rows, i); it; ++it)
           if (local_index[it.col()] < 0) {
@@ -326,7 +325,7 @@ struct GuardedSolver::Impl {
     }
     const int nl = static_cast<int>(vertices.size());
     std::vector<Eigen::Triplet<double>> entries;
-    const auto rows = arap.system_rows(vertices);
+    const auto rows = arap->system_rows(vertices);
     for (int i = 0; i < nl; ++i)
       for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(rows, i); it; ++it) {
         const int j = local_index[it.col()];
@@ -357,7 +356,7 @@ struct GuardedSolver::Impl {
                             int& cg_iterations) {
     if (p.cg_iterations == 0 && p.local_rings < 0) {
       Eigen::MatrixXd d = -g;
-      arap.apply_inverse(d);
+      arap->apply_inverse(d);
       return d;
     }
     return direction(half_barrier_hessian(X, state), g, exact, cg_iterations);
@@ -365,10 +364,10 @@ struct GuardedSolver::Impl {
 
   Eigen::MatrixXd direction(const LocalHessian& Hl, const Eigen::MatrixXd& g, bool exact, int& cg_iterations) {
     Eigen::MatrixXd d = -g;
-    arap.apply_inverse(d);
-    if (Hl.empty() || (exact && low_rank.solve(arap, Hl.vertices, Hl.H, d, d))) return d;
+    arap->apply_inverse(d);
+    if (Hl.empty() || (exact && low_rank.solve(*arap, Hl.vertices, Hl.H, d, d))) return d;
     auto apply = [&](const Eigen::MatrixXd& v) {
-      Eigen::MatrixXd y = arap.multiply_free(v);
+      Eigen::MatrixXd y = arap->multiply_free(v);
       Hl.apply_add(v, y);
       return y;
     };
@@ -381,7 +380,7 @@ struct GuardedSolver::Impl {
       r = -g - apply(d);
     }
     Eigen::MatrixXd z = r;
-    arap.apply_inverse(z);
+    arap->apply_inverse(z);
     double rz = dot(r, z);
     const double stop = p.cg_tolerance * p.cg_tolerance * gMg;
     Eigen::MatrixXd s = z;
@@ -393,7 +392,7 @@ struct GuardedSolver::Impl {
       d += a * s;
       r -= a * q;
       z = r;
-      arap.apply_inverse(z);
+      arap->apply_inverse(z);
       const double rz_new = dot(r, z);
       ++cg_iterations;
       s = z + (rz_new / rz) * s;
@@ -523,14 +522,8 @@ struct GuardedSolver::Impl {
 
 GuardedSolver::GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed,
                              const ShellBoundary& boundary, GuardedSolverParameters parameters)
-    : GuardedSolver(std::make_shared<const RestTets>(rest), num_vertices, fixed, boundary, std::move(parameters)) {}
-
-GuardedSolver::GuardedSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
-                             const ShellBoundary& boundary, GuardedSolverParameters parameters) {
-  if (!rest) throw InputError("GuardedSolver: rest is null");
-  impl_ = std::make_unique<Impl>(std::make_shared<const ShellSolver>(std::move(rest), num_vertices, fixed), fixed,
-                                 boundary, std::move(parameters));
-}
+    : impl_(std::make_unique<Impl>(std::make_shared<const ShellSolver>(rest, num_vertices, fixed), fixed, boundary,
+                                   std::move(parameters))) {}
 
 GuardedSolver::GuardedSolver(std::shared_ptr<const ShellSolver> arap, const ShellBoundary& boundary,
                              GuardedSolverParameters parameters) {
@@ -586,7 +579,7 @@ void GuardedSolver::cap_contact_support(const Eigen::MatrixXd& X, double fractio
   if (impl_->contact) impl_->contact->cap_support(X, fraction);
 }
 
-const ShellSolver& GuardedSolver::shell_solver() const { return impl_->arap; }
+const ShellSolver& GuardedSolver::shell_solver() const { return *impl_->arap; }
 const VolumeBarrier& GuardedSolver::volume_barrier() const { return impl_->volume; }
 const GuardedSolverParameters& GuardedSolver::parameters() const { return impl_->p; }
 
@@ -647,10 +640,10 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
         // the tets alone (the fall-back when the base forces a contact), the model's response
         // is kept: measured on CGAL's dino, the barrier-aware one costs more there and completed
         // fewer such drags.
-        Eigen::MatrixXd coupling = m.gather(m.arap.half_gradient(X + D, state.local) - m.arap.half_gradient(X, state.local));
+        Eigen::MatrixXd coupling = m.gather(m.arap->half_gradient(X + D, state.local) - m.arap->half_gradient(X, state.local));
         const auto H = m.half_barrier_triplets(X, state);
         if (!m.contact || H.empty() || (m.p.cg_iterations == 0 && m.p.local_rings < 0)) {
-          m.arap.apply_inverse(coupling);
+          m.arap->apply_inverse(coupling);
           D -= m.scatter(coupling);
         } else {
           coupling += m.barrier_coupling(H, D);
@@ -686,7 +679,7 @@ GuardedSolveResult GuardedSolver::solve(Eigen::MatrixXd& X, const GuardedSolveOp
       double slope = 2 * dot(g, d); // dE_guard/dalpha at 0
       if (!(slope < 0)) { // CG round-off: fall back to the preconditioned gradient, always descent
         d = -g;
-        m.arap.apply_inverse(d);
+        m.arap->apply_inverse(d);
         slope = 2 * dot(g, d);
       }
       predicted = -0.5 * slope; // decrease of the full step in the quadratic model

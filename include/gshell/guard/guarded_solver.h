@@ -177,14 +177,10 @@ public:
   ///         (bad ids or sizes, a free part); std::runtime_error when CHOLMOD fails.
   GuardedSolver(const RestTets& rest, int num_vertices, const std::vector<int>& fixed, const ShellBoundary& boundary,
                 GuardedSolverParameters parameters);
-  /// The same, sharing `rest` (read in place) instead of holding a copy.
-  /// \throws InputError also when `rest` is null.
-  GuardedSolver(std::shared_ptr<const RestTets> rest, int num_vertices, const std::vector<int>& fixed,
-                const ShellBoundary& boundary, GuardedSolverParameters parameters);
   /// The same on `arap`, a solver the caller built with hard fixed vertices only (no soft
   /// constraints), shared instead of assembled and factored again: a guarded pose hands its
   /// full level's, whose matrix is the one this solver would build. Its fixed vertices are those
-  /// it does not solve for. \throws InputError when `arap` is null, or as above.
+  /// it does not solve for. \throws InputError when `arap` is null, or on bad parameters as above.
   GuardedSolver(std::shared_ptr<const ShellSolver> arap, const ShellBoundary& boundary,
                 GuardedSolverParameters parameters);
   ~GuardedSolver();
