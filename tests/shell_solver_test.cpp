@@ -528,7 +528,7 @@ TEST(ShellSolver, AndersonAccelerationKeepsTheEnergyFallingToTheSameMinimum) {
   EXPECT_THROW(solver.solve(g.X, negative), InputError);
 }
 
-TEST(ShellSolver, AutoTakesConjugateGradientOnlyForLargeAnchoredSystems) {
+TEST(ShellSolver, AutoTakesConjugateGradientForLargeAnchoredAndLargerLooseSystems) {
   const SimpleMesh m = test::torus(40, 16);
   Generation g = generation(m, 0.05);
   LinearSolverOptions any_size;
@@ -536,8 +536,61 @@ TEST(ShellSolver, AutoTakesConjugateGradientOnlyForLargeAnchoredSystems) {
   // Generation: every top vertex shares a tet with the fixed base.
   EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, any_size).linear_solver(), LinearSolver::ConjugateGradient);
   EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n)).linear_solver(), LinearSolver::Direct) << "small system";
-  // Held at three vertices only (a pose by handles): CG would need many iterations; factor.
-  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, {0, 7, 300}, {}, any_size).linear_solver(), LinearSolver::Direct);
+  // Held at three vertices only (a pose by handles): CG from cg_loose_min_rows on, and only with
+  // the multigrid (Jacobi's iterations grow with the size); never below cg_min_rows.
+  const std::vector<int> three = {0, 7, 300};
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, three, {}, any_size).linear_solver(), LinearSolver::Direct);
+  LinearSolverOptions loose = any_size;
+  loose.cg_loose_min_rows = 2 * g.n - 3;
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, three, {}, loose).linear_solver(), LinearSolver::ConjugateGradient);
+  loose.cg_loose_min_rows = 2 * g.n - 2;
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, three, {}, loose).linear_solver(), LinearSolver::Direct) << "one row short";
+  loose.cg_loose_min_rows = 0;
+  loose.preconditioner = CgPreconditioner::Jacobi;
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, three, {}, loose).linear_solver(), LinearSolver::Direct) << "jacobi";
+  loose.preconditioner = CgPreconditioner::Multigrid;
+  loose.cg_min_rows = 2 * g.n;
+  EXPECT_EQ(ShellSolver(g.rest, 2 * g.n, three, {}, loose).linear_solver(), LinearSolver::Direct) << "below cg_min_rows";
+}
+
+TEST(ShellSolver, ALooselyHeldSystemOnAutosConjugateGradientReachesTheFactorsMinimum) {
+  // A pose by handles: the torus's outer side held, an arc of the inner side pulled up and in.
+  // Auto's CG (the multigrid, the default relative tolerance) takes other iterates than the
+  // factor, each lowering the energy, and converges to the same minimum.
+  const SimpleMesh m = test::torus(40, 16);
+  Generation g = generation(m, 0.05);
+  std::vector<int> fixed;
+  Eigen::MatrixXd X = g.X;
+  const double outer = g.X.leftCols(2).rowwise().norm().maxCoeff();
+  for (int v = 0; v < 2 * g.n; ++v) {
+    const Eigen::RowVector3d p = g.X.row(v);
+    if (p.head<2>().norm() > 0.95 * outer) fixed.push_back(v);
+    else if (p.head<2>().norm() < 0.8 * outer && p.x() > 0.5 * outer) {
+      fixed.push_back(v);
+      X.row(v) += Eigen::RowVector3d(-0.05, 0, 0.1) * outer;
+    }
+  }
+  ASSERT_GT(fixed.size(), 20u);
+  ASSERT_LT(fixed.size(), static_cast<std::size_t>(g.n)) << "not loosely held: nothing tested";
+  LinearSolverOptions auto_cg;
+  auto_cg.cg_min_rows = 0;
+  auto_cg.cg_loose_min_rows = 0;
+  auto_cg.multigrid.coarsest_rows = 20;
+  const ShellSolver direct(g.rest, 2 * g.n, fixed, {}, linear_solver(LinearSolver::Direct));
+  const ShellSolver cg(g.rest, 2 * g.n, fixed, {}, auto_cg);
+  ASSERT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient);
+  Eigen::MatrixXd X_direct = X, X_cg = X;
+  const SolveResult r_direct = direct.solve(X_direct, to_convergence());
+  const SolveResult r_cg = cg.solve(X_cg, to_convergence());
+  EXPECT_EQ(cg.linear_solver(), LinearSolver::ConjugateGradient) << "fell back to the factor";
+  EXPECT_GT(r_cg.linear_iterations, 0);
+  expect_monotone(r_cg.energy);
+  EXPECT_TRUE(r_direct.converged);
+  EXPECT_TRUE(r_cg.converged);
+  EXPECT_GT(r_direct.energy.back(), 1e-3 * r_direct.energy.front()) << "the pull left no energy: nothing tested";
+  EXPECT_NEAR(r_cg.energy.back(), r_direct.energy.back(), 1e-9 * r_direct.energy.front());
+  EXPECT_LT((X_cg - X_direct).cwiseAbs().maxCoeff(), 1e-5 * 0.05);
+  for (int v : fixed) EXPECT_TRUE(X_cg.row(v) == X.row(v)) << "handle " << v << " moved";
 }
 
 TEST(ShellSolver, AutoFallsBackToTheFactorWhenConjugateGradientStalls) {
@@ -578,6 +631,9 @@ TEST(ShellSolver, LinearSolverNamesAndBadOptions) {
   EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, bad), InputError);
   bad = {};
   bad.cg_min_rows = -1;
+  EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, bad), InputError);
+  bad = {};
+  bad.cg_loose_min_rows = -1;
   EXPECT_THROW(ShellSolver(g.rest, 2 * g.n, vertex_range(0, g.n), {}, bad), InputError);
 }
 

@@ -319,6 +319,7 @@ struct ShellSolver::Impl {
   void build_multigrid(); // the V-cycle preconditioner on L_ff
   void order_rows_breadth_first(); // renumbers the free rows (CG path; see assemble)
   bool anchored() const;  // at least half the free rows couple to a kept vertex or a soft spring
+  bool auto_takes_cg() const; // Auto's choice (LinearSolverOptions::cg_min_rows, cg_loose_min_rows)
   // Throws InputError when a connected part of the free vertices has neither a kept vertex in its
   // tets nor a spring: its rows of L_ff are singular. The factorisation's own test misses such a
   // part when rounding leaves its pivots positive, and the CG path has none.
@@ -535,8 +536,7 @@ void ShellSolver::Impl::assemble() {
     gather_slot = {};
   }
   if (nf == 0) return;
-  path = linear.kind == LinearSolver::ConjugateGradient ||
-                 (linear.kind == LinearSolver::Auto && nf >= linear.cg_min_rows && anchored())
+  path = linear.kind == LinearSolver::ConjugateGradient || (linear.kind == LinearSolver::Auto && auto_takes_cg())
              ? LinearSolver::ConjugateGradient
              : LinearSolver::Direct;
   // CG's products and the multigrid's sweeps read every row's neighbours, which the input's
@@ -617,6 +617,15 @@ void ShellSolver::Impl::require_every_part_held(bool has_soft) const {
     if (!part_held[parts.find(j)])
       throw InputError("the shell system is singular: a connected part of the tets has no fixed or constrained "
                        "vertex (e.g. the part with vertex " + std::to_string(free_vertices[j]) + ")");
+}
+
+bool ShellSolver::Impl::auto_takes_cg() const {
+  if (nf < linear.cg_min_rows) return false;
+  if (anchored()) return true;
+  // Loosely held (a pose): the Jacobi CG's iterations grow with the size and never pay; the
+  // multigrid's do not, and from cg_loose_min_rows on they cost no more than back-substitution
+  // per step while the factor's setup and memory grow faster (docs/scale.md).
+  return linear.preconditioner == CgPreconditioner::Multigrid && nf >= linear.cg_loose_min_rows;
 }
 
 bool ShellSolver::Impl::anchored() const {
@@ -1017,6 +1026,8 @@ ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices,
     throw InputError("ShellSolver: the relative CG tolerance must be in [0, 1)");
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
   if (linear.cg_min_rows < 0) throw InputError("ShellSolver: cg_min_rows must be at least 0 (0: CG at every size)");
+  if (linear.cg_loose_min_rows < 0)
+    throw InputError("ShellSolver: cg_loose_min_rows must be at least 0 (0: CG at every size)");
   // Springs of weight 0 would be dropped without a word (SoftConstraints{vertices} leaves the
   // weight at its default 0), and a part held only by them would then drift.
   if (!soft.vertices.empty() && !(soft.weight > 0 && std::isfinite(soft.weight)))

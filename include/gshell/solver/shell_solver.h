@@ -53,7 +53,7 @@ void check_solve_limits(const SolveOptions& options, const std::string& caller);
 /// How the global step's linear system (L_ff X_f = B, one matrix for the three coordinates) is
 /// solved; docs/scale.md has the measurements behind the defaults.
 enum class LinearSolver {
-  Auto,              ///< ConjugateGradient for large, anchored systems (see below), else Direct
+  Auto,              ///< ConjugateGradient for large systems (see below), else Direct
   Direct,            ///< sparse Cholesky factor (CHOLMOD), computed in the constructor
   ConjugateGradient, ///< preconditioned CG warm-started from the current iterate; no factor
 };
@@ -75,9 +75,14 @@ struct LinearSolverOptions {
   /// a tet with a kept vertex or carry a soft constraint), as in generation where the whole base
   /// is kept: then the system is a Laplacian shifted by a mass-like term, whose Jacobi-scaled
   /// condition number does not grow with the vertex count at a fixed thickness-to-edge ratio,
-  /// while a factor's cost grows like n^1.5. Below it (and for loosely anchored systems such as
-  /// a deformation held at a few handles) the factor pays.
+  /// while a factor's cost grows like n^1.5. Below it the factor pays.
   int cg_min_rows = 50000;
+  /// Auto takes CG for a loosely anchored system (a pose held at its handles) from this many free
+  /// vertices on, and only with the Multigrid preconditioner (Jacobi's iterations grow with the
+  /// size there). Measured on drag settles and poses: a CG step cost 1.4x a back-substitution at
+  /// 60K rows, 1.1x at 130K, the same from about 220K on, where skipping the factor also saves
+  /// most of the setup and a sixth to a fifth of the memory. Never below cg_min_rows.
+  int cg_loose_min_rows = 200000;
   /// CG stops when ||b - L_ff x|| <= cg_tolerance ||b|| holds for each of the 3 columns, or
   /// when that column's residual has fallen to cg_relative_tolerance times its value at the warm
   /// start (the current iterate). A global step needs only to lower its quadratic, and near the
