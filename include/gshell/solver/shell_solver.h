@@ -79,9 +79,9 @@ struct LinearSolverOptions {
   int cg_min_rows = 50000;
   /// Auto takes CG for a loosely anchored system (a pose held at its handles) from this many free
   /// vertices on, and only with the Multigrid preconditioner (Jacobi's iterations grow with the
-  /// size there). Measured on drag settles and poses: a CG step cost 1.4x a back-substitution at
-  /// 60K rows, 1.1x at 130K, the same from about 220K on, where skipping the factor also saves
-  /// most of the setup and a sixth to a fifth of the memory. Never below cg_min_rows.
+  /// size there). Measured on drag settles (CG / factor time: 1.5x at 55K free rows, 1.2x at
+  /// 159K, 0.9x at 222K) and poses (the same time per iteration from 225K rows on, with most of
+  /// the setup and a sixth to a fifth of the peak memory saved). Never below cg_min_rows.
   int cg_loose_min_rows = 200000;
   /// CG stops when ||b - L_ff x|| <= cg_tolerance ||b|| holds for each of the 3 columns, or
   /// when that column's residual has fallen to cg_relative_tolerance times its value at the warm
