@@ -128,6 +128,11 @@ void run_info(const InfoArgs& args) {
                            count, "self-intersections"}) +
           1;
     }
+    // Not a problem (inward shells are a use), but a mirrored export is a common accident.
+    const std::vector<int> inward = inward_closed_parts(mesh.V, mesh.F);
+    if (!inward.empty())
+      problems.push_back({MeshProblem::Severity::Info, inward_closed_parts_message(inward),
+                          static_cast<int>(inward.size()), "inward closed parts"});
   }
   // Occurrences, not entries: a summary entry ("... and 3058 more") stands for many.
   int errors = 0, warnings = 0, infos = 0;

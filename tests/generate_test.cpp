@@ -139,7 +139,11 @@ TEST(Generate, AThicknessOutOfScaleWithTheMeshIsRefused) {
   TriMesh far = sphere;
   far.V.rowwise() += Eigen::RowVector3d(1e6, 0, 0);
   EXPECT_EQ(refusal(far, ShellMethod::Offset, 1e-2), "");
-  EXPECT_NE(refusal(far, ShellMethod::Offset, 1e-4).find("below 1e-09 of the mesh's extent (1e+06)"), std::string::npos);
+  const std::string far_refusal = refusal(far, ShellMethod::Offset, 1e-4);
+  EXPECT_NE(far_refusal.find("below 1e-09 of the mesh's extent (1e+06, its largest coordinate)"), std::string::npos)
+      << far_refusal;
+  // There the distance, not the size, is the cause, and the message says what to do.
+  EXPECT_NE(far_refusal.find("; move the mesh near the origin"), std::string::npos) << far_refusal;
 }
 
 TEST(Generate, MethodsAndBadOptions) {
@@ -257,6 +261,21 @@ TEST(Generate, ConjugateGradientPathGivesTheDirectReport) {
       EXPECT_LT((cg.shell.top - direct.shell.top).cwiseAbs().maxCoeff(), 1e-6 * options.thickness);
     }
   }
+}
+
+TEST(Generate, ABaseWithItsFacesPointingInwardsIsNamedInAWarning) {
+  // A mirrored export flips every face: the layer then grows into the solid, valid but likely
+  // not what was meant. The same sphere the right way round gets no warning.
+  TriMesh sphere = make_builtin("builtin:sphere:2");
+  const GenerateResult outward = generate_shell(sphere.V, sphere.F, generate_options(ShellMethod::Rigid, 0.05, 5));
+  for (const std::string& w : generate_warnings(outward)) ADD_FAILURE() << "unexpected warning: " << w;
+  sphere.V.col(0) *= -1;
+  const GenerateResult inward = generate_shell(sphere.V, sphere.F, generate_options(ShellMethod::Rigid, 0.05, 5));
+  ASSERT_TRUE(inward.metrics.certificate.valid());
+  EXPECT_LT((inward.shell.top.rowwise().norm().array() - 1).maxCoeff(), 0) << "not an inward shell: nothing tested";
+  const std::vector<std::string> w = generate_warnings(inward);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0].rfind("the base's 1 closed part has its faces pointing inwards (the part with vertex 0", 0), 0u) << w[0];
 }
 
 TEST(Generate, WarningNamesWhatTheValidStartCouldNotMend) {

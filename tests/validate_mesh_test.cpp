@@ -469,3 +469,42 @@ TEST(MeshTopology, StatsAgreeWithTheEdgeTable) {
     EXPECT_EQ(unique_edges(m.F), inc.edges);
   }
 }
+
+TEST(MeshTopology, InwardClosedPartsAreTheClosedPartsEnclosingANegativeVolume) {
+  // Two spheres and a torus side by side, far from the origin; the second sphere and the torus
+  // with their faces reversed. An open plane, reversed too, has no inside.
+  auto reversed = [](TriMesh m) {
+    m.F.col(1).swap(m.F.col(2));
+    return m;
+  };
+  const std::vector<TriMesh> parts = {make_sphere(2), reversed(make_sphere(2)), reversed(make_torus(16)),
+                                      reversed(make_plane(4))};
+  TriMesh all;
+  int rows = 0, faces = 0;
+  for (const TriMesh& p : parts) rows += static_cast<int>(p.V.rows()), faces += static_cast<int>(p.F.rows());
+  all.V.resize(rows, 3);
+  all.F.resize(faces, 3);
+  std::vector<int> first;
+  rows = faces = 0;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    first.push_back(rows);
+    all.V.middleRows(rows, parts[k].V.rows()) = parts[k].V.rowwise() + Eigen::RowVector3d(1e6 + 3.0 * k, 0, 0);
+    all.F.middleRows(faces, parts[k].F.rows()) = parts[k].F.array() + rows;
+    rows += static_cast<int>(parts[k].V.rows());
+    faces += static_cast<int>(parts[k].F.rows());
+  }
+  EXPECT_EQ(inward_closed_parts(all.V, all.F), (std::vector<int>{first[1], first[2]}));
+  EXPECT_TRUE(inward_closed_parts(make_sphere(2).V, make_sphere(2).F).empty());
+  EXPECT_TRUE(inward_closed_parts(tetrahedron().V, tetrahedron().F).empty());
+  const TriMesh inside_out = reversed(tetrahedron());
+  EXPECT_EQ(inward_closed_parts(inside_out.V, inside_out.F), std::vector<int>{0});
+  // Two sheets face to face enclose nothing: no side to name.
+  TriMesh sheets = make_plane(2);
+  const Eigen::Index n = sheets.V.rows(), m = sheets.F.rows();
+  sheets.F.conservativeResize(2 * m, 3);
+  sheets.F.bottomRows(m) = reversed(make_plane(2)).F;
+  EXPECT_TRUE(inward_closed_parts(sheets.V, sheets.F).empty()) << n;
+  EXPECT_TRUE(inward_closed_parts_message({}).empty());
+  EXPECT_TRUE(contains(inward_closed_parts_message({first[1], first[2]}), "2 closed parts have their faces pointing inwards"));
+  EXPECT_TRUE(contains(inward_closed_parts_message({7}), "the part with vertex 7"));
+}

@@ -4,6 +4,8 @@
 
 #include <gshell/error.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -120,6 +122,43 @@ std::vector<char> used_vertices(const Eigen::MatrixXi& elements, Eigen::Index n)
     for (Eigen::Index c = 0; c < elements.cols(); ++c)
       if (const int v = elements(r, c); v >= 0 && v < n) used[static_cast<std::size_t>(v)] = 1;
   return used;
+}
+
+std::vector<int> inward_closed_parts(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  const int n = static_cast<int>(V.rows());
+  const EdgeIncidence incidence = edge_incidence(F, n);
+  DisjointSets parts(n); // roots are the lowest ids
+  for (int f = 0; f < static_cast<int>(F.rows()); ++f)
+    if (incidence.face_used[f]) parts.unite(F(f, 0), F(f, 1)), parts.unite(F(f, 0), F(f, 2));
+  std::vector<char> open(n, 0);
+  for (int e = 0; e < incidence.num_edges(); ++e)
+    if (incidence.valence(e) == 1) open[parts.find(incidence.edges(e, 0))] = 1;
+  // Signed tets from each part's lowest vertex: near the part, so that far from the origin the
+  // terms do not cancel in rounding.
+  std::vector<double> volume(n, 0), magnitude(n, 0);
+  for (int f = 0; f < static_cast<int>(F.rows()); ++f) {
+    if (!incidence.face_used[f]) continue;
+    const int root = parts.find(F(f, 0));
+    const Eigen::Vector3d o = V.row(root).transpose();
+    const Eigen::Vector3d a = V.row(F(f, 0)).transpose() - o, b = V.row(F(f, 1)).transpose() - o,
+                          c = V.row(F(f, 2)).transpose() - o;
+    const double det = a.dot(b.cross(c));
+    volume[root] += det;
+    magnitude[root] += std::abs(det);
+  }
+  std::vector<int> inward;
+  for (int v = 0; v < n; ++v)
+    if (parts.find(v) == v && !open[v] && magnitude[v] > 0 && volume[v] < -1e-6 * magnitude[v]) inward.push_back(v);
+  return inward;
+}
+
+std::string inward_closed_parts_message(const std::vector<int>& parts) {
+  if (parts.empty()) return {};
+  const bool one = parts.size() == 1;
+  return std::to_string(parts.size()) + " closed part" + (one ? " has its" : "s have their") +
+         " faces pointing inwards (" + (one ? "the part" : "e.g. the part") + " with vertex " +
+         std::to_string(parts.front()) + " encloses a negative volume): a shell grows into the solid there; "
+         "reverse the faces for an outward one (a mirrored export flips them)";
 }
 
 MeshStats mesh_stats(const TriMesh& mesh) {

@@ -1,5 +1,6 @@
 #include <gshell/shell/generate_report.h>
 
+#include <gshell/geometry/mesh_topology.h>
 #include <gshell/quality/certificate_report.h>
 #include <gshell/quality/stretch_report.h>
 #include <gshell/word_list.h>
@@ -110,6 +111,9 @@ nlohmann::json generate_report(const GenerateResult& r, const std::string& input
 
 std::vector<std::string> generate_warnings(const GenerateResult& r) {
   std::vector<std::string> w;
+  // Inward shells are a use, but a mirrored export that flipped every face is a common accident.
+  const std::string inward = inward_closed_parts_message(inward_closed_parts(r.shell.base, r.shell.F));
+  if (!inward.empty()) w.push_back("the base's " + inward);
   const ShellCertificate& c = r.metrics.certificate;
   if (c.base_self_intersections > 0)
     w.push_back("the base intersects itself (" + std::to_string(c.base_self_intersections) +

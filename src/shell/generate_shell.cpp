@@ -233,9 +233,15 @@ void check_thickness_scale(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, d
   if (thickness > kMaxThicknessRatio * e.radius)
     throw InputError(what + "; gshell builds layers up to " + format_number(kMaxThicknessRatio) +
                      " times it (thickness ratio " + format_number(kMaxThicknessRatio) + ")");
-  if (thickness < kMinThicknessScale * extent)
+  if (thickness < kMinThicknessScale * extent) {
+    // Far from the origin (georeferenced scans) the extent is the distance, not the size: there
+    // moving the mesh is the remedy, and the thickness itself is fine.
+    const bool far = e.max_abs > e.radius;
     throw InputError(what + ", below " + format_number(kMinThicknessScale) + " of the mesh's extent (" +
-                     format_number(extent) + "): double precision cannot tell a top that close from the base");
+                     format_number(extent) + (far ? ", its largest coordinate" : "") +
+                     "): double precision cannot tell a top that close from the base" +
+                     (far ? "; move the mesh near the origin (subtract its centre) and add the centre back to the output" : ""));
+  }
 }
 
 GenerateResult generate_shell_from_prisms(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,

@@ -1027,7 +1027,7 @@ ShellSolver::ShellSolver(std::shared_ptr<const RestTets> rest, int num_vertices,
   if (linear.cg_max_iterations < 1) throw InputError("ShellSolver: the CG iteration limit must be at least 1");
   if (linear.cg_min_rows < 0) throw InputError("ShellSolver: cg_min_rows must be at least 0 (0: CG at every size)");
   if (linear.cg_loose_min_rows < 0)
-    throw InputError("ShellSolver: cg_loose_min_rows must be at least 0 (0: CG at every size)");
+    throw InputError("ShellSolver: cg_loose_min_rows must be at least 0 (0: from cg_min_rows on)");
   // Springs of weight 0 would be dropped without a word (SoftConstraints{vertices} leaves the
   // weight at its default 0), and a part held only by them would then drift.
   if (!soft.vertices.empty() && !(soft.weight > 0 && std::isfinite(soft.weight)))

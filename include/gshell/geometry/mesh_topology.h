@@ -2,6 +2,7 @@
 #include <gshell/mesh.h>
 #include <gshell/eigen_abi.h>
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 namespace gshell {
@@ -51,5 +52,16 @@ EdgeIncidence edge_incidence(const Eigen::MatrixXi& F, int num_vertices);
 
 /// Number of boundary loops: connected pieces of the graph of edges with exactly one face.
 int count_boundary_loops(const EdgeIncidence& incidence, int num_vertices);
+
+/// The closed connected parts of (V, F) (no edge of the part with exactly one face) whose faces
+/// point inwards: the volume they enclose, summed over their faces as signed tets, is negative by
+/// more than 1e-6 of the sum of the tets' absolute volumes (a part flat to rounding, e.g. two
+/// sheets face to face, has no side). A shell grows into such a part. Returns each part's lowest
+/// vertex id, ascending. Faces with an id outside [0, V.rows()) or a repeated id are skipped;
+/// meaningful on consistently oriented meshes (validate_mesh).
+std::vector<int> inward_closed_parts(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+/// The sentence `gshell info` and generation's warnings give for inward_closed_parts' result
+/// (empty when it is empty).
+std::string inward_closed_parts_message(const std::vector<int>& parts);
 
 } // namespace gshell
