@@ -323,6 +323,30 @@ TEST(HierarchicalSolver, SharedRestTetsSolveAsACopy) {
   EXPECT_THROW(HierarchicalSolver(std::shared_ptr<const RestTets>(), p.X, p.shell.F, p.constraints), InputError);
 }
 
+TEST(HierarchicalSolver, AMeshScaledByAPowerOfTwoIsPosedExactlyScaled) {
+  // Every quantity scales exactly by 1024, so the iterates must too. The levels' Anderson used to
+  // weigh unitless map rows against translations in model units, and took another path.
+  const Problem p = bowl_problem(8, {0.5, 0.1, 0.3});
+  Problem scaled = p;
+  const double s = 1024;
+  scaled.shell.base *= s;
+  scaled.shell.top *= s;
+  scaled.X *= s;
+  scaled.targets *= s;
+  scaled.rest = rest_tets_from_positions(scaled.X, build_prism_tets(p.shell.F, p.shell.num_base_vertices()));
+  HierarchyOptions o;
+  o.first_coarse_iteration = 0;
+  ASSERT_GT(o.level_anderson_history, 0);
+  HierarchicalSolver solver(p.rest, p.X, p.shell.F, p.constraints, o);
+  HierarchicalSolver scaled_solver(scaled.rest, scaled.X, p.shell.F, scaled.constraints, o);
+  Eigen::MatrixXd A, B;
+  const auto ra = run_from_rest(solver, p, A, 30);
+  const auto rb = run_from_rest(scaled_solver, scaled, B, 30);
+  EXPECT_GT(ra.counters.coarse_accepted, 0) << "no coarse pass kept: nothing tested";
+  EXPECT_EQ(ra.counters.coarse_accepted, rb.counters.coarse_accepted);
+  EXPECT_EQ(s * A, B);
+}
+
 TEST(HierarchicalSolver, EnergyNeverIncreasesAcrossOuterIterations) {
   Problem p = bowl_problem(12, {0.8, 0.2, 0.5});
   // 0: residual coupling, 1: paper coupling, 2: the defaults, 3: exact border-tet rotations.

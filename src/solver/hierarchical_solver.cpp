@@ -16,6 +16,28 @@
 namespace gshell {
 
 using AndersonHistory = detail::AndersonHistory<double>;
+
+namespace {
+
+// Anderson on a reduced level's parameters (before: the iterate, the level's parameters: its image;
+// they become the combination, if there is one). A cluster's map rows are unitless and its
+// translation row a length, so a plain dot product weighs the two by the model's size: a pose of
+// a mesh scaled by 1024 took another path to the minimum. Scaled by the cluster radius, a row of
+// either kind counts by how far it moves the vertices.
+void extrapolate_parameters(AndersonHistory& anderson, detail::ReducedLevel& level, Eigen::MatrixXd before,
+                            Eigen::MatrixXd& combined) {
+  const double r = level.cluster_radius();
+  Eigen::MatrixXd image = level.parameters();
+  for (int c = 0; c < level.num_clusters(); ++c) {
+    before.middleRows<3>(4 * c) *= r;
+    image.middleRows<3>(4 * c) *= r;
+  }
+  if (!anderson.extrapolate(before, image, combined)) return;
+  for (int c = 0; c < level.num_clusters(); ++c) combined.middleRows<3>(4 * c) /= r;
+  level.parameters().swap(combined);
+}
+
+} // namespace
 using detail::LocalCache;
 using detail::ReducedLevel;
 using detail::RigidChange;
@@ -154,7 +176,7 @@ struct HierarchicalSolver::Impl {
       if (tau[l].size() > 0) rhs += tau[l];
       before = level.parameters();
       level.solve(rhs);
-      if (anderson.extrapolate(before, level.parameters(), accelerated)) level.parameters().swap(accelerated);
+      extrapolate_parameters(anderson, level, before, accelerated);
       // Only the last iteration's energy is read (unless the tolerance needs every one).
       level.local(cache, options.level_tolerance > 0 || k + 1 == options.level_iterations);
       if (options.level_tolerance > 0) {
@@ -525,7 +547,7 @@ void HierarchicalSolver::preview(Eigen::MatrixXd& X, const Eigen::MatrixXd& targ
     const Eigen::MatrixXd rhs = r.rhs(targets, p.cache) + p.tau;
     before = r.parameters();
     r.solve(rhs);
-    if (anderson.extrapolate(before, r.parameters(), accelerated)) r.parameters().swap(accelerated);
+    extrapolate_parameters(anderson, r, before, accelerated);
     r.local(p.cache, false);
   }
   s.reduced_cache[p.level].energy_valid = false;

@@ -3,6 +3,7 @@
 #include <gshell/solver/polar_decomposition.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -112,6 +113,7 @@ ReducedLevel::ReducedLevel(const RestTets& rest, const Eigen::MatrixXd& rest_ver
       coords_.row(2 * e) = rest_vertices.row(i) - centroid_.row(weights_.cluster[e]);
       coords_.row(2 * e + 1) = rest_vertices.row(n_ + i) - centroid_.row(weights_.cluster[e]);
     }
+  if (entries > 0 && coords_.squaredNorm() > 0) cluster_radius_ = std::sqrt(coords_.squaredNorm() / (2.0 * entries));
 
   // Exact rotations: tets whose corners all move with one cluster alone have F = M_j, unless
   // their rest shape is not their rest corners' (an override), which makes them border tets.

@@ -59,6 +59,10 @@ public:
                double weight, bool cluster_rotations);
 
   int num_clusters() const { return m_; }
+  /// The root mean square distance of the rest vertices from their clusters' centroids (model
+  /// units): how far a unit change of a map row moves them, which a translation row moves them
+  /// by itself (extrapolate_parameters).
+  double cluster_radius() const { return cluster_radius_; }
   void reset();                                   ///< identity maps (the rest shape)
   const Eigen::MatrixXd& parameters() const { return Z_; }
   Eigen::MatrixXd& parameters() { return Z_; }
@@ -110,6 +114,7 @@ private:
   ClusterWeights weights_;
   std::vector<int> home_;                    // per shell vertex
   Eigen::MatrixXd coords_;                   // per weight entry e and surface s (row 2e + s): u - c_cluster
+  double cluster_radius_ = 1;                // see cluster_radius()
   Eigen::VectorXd interior_volume_;          // per cluster
   std::vector<int> border_;                  // tets not moved by one cluster alone (exact rotations)
   Eigen::MatrixXd centroid_;                 // rest centroid per cluster (weighted)
