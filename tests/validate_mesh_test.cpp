@@ -472,13 +472,14 @@ TEST(MeshTopology, StatsAgreeWithTheEdgeTable) {
 
 TEST(MeshTopology, InwardClosedPartsAreTheClosedPartsEnclosingANegativeVolume) {
   // Two spheres and a torus side by side, far from the origin; the second sphere and the torus
-  // with their faces reversed. An open plane, reversed too, has no inside.
+  // with their faces reversed. Open surfaces, reversed too, have no inside, even where their
+  // faces sum to a negative volume (the bowl, both ways round).
   auto reversed = [](TriMesh m) {
     m.F.col(1).swap(m.F.col(2));
     return m;
   };
   const std::vector<TriMesh> parts = {make_sphere(2), reversed(make_sphere(2)), reversed(make_torus(16)),
-                                      reversed(make_plane(4))};
+                                      reversed(make_plane(4)), make_bowl(8), reversed(make_bowl(8))};
   TriMesh all;
   int rows = 0, faces = 0;
   for (const TriMesh& p : parts) rows += static_cast<int>(p.V.rows()), faces += static_cast<int>(p.F.rows());

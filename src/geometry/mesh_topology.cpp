@@ -125,19 +125,15 @@ std::vector<char> used_vertices(const Eigen::MatrixXi& elements, Eigen::Index n)
 }
 
 std::vector<int> inward_closed_parts(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  const int n = static_cast<int>(V.rows());
-  const EdgeIncidence incidence = edge_incidence(F, n);
+  const int n = static_cast<int>(V.rows()), m = F.cols() == 3 ? static_cast<int>(F.rows()) : 0;
   DisjointSets parts(n); // roots are the lowest ids
-  for (int f = 0; f < static_cast<int>(F.rows()); ++f)
-    if (incidence.face_used[f]) parts.unite(F(f, 0), F(f, 1)), parts.unite(F(f, 0), F(f, 2));
-  std::vector<char> open(n, 0);
-  for (int e = 0; e < incidence.num_edges(); ++e)
-    if (incidence.valence(e) == 1) open[parts.find(incidence.edges(e, 0))] = 1;
+  for (int f = 0; f < m; ++f)
+    if (face_usable(F, f, n)) parts.unite(F(f, 0), F(f, 1)), parts.unite(F(f, 0), F(f, 2));
   // Signed tets from each part's lowest vertex: near the part, so that far from the origin the
   // terms do not cancel in rounding.
   std::vector<double> volume(n, 0), magnitude(n, 0);
-  for (int f = 0; f < static_cast<int>(F.rows()); ++f) {
-    if (!incidence.face_used[f]) continue;
+  for (int f = 0; f < m; ++f) {
+    if (!face_usable(F, f, n)) continue;
     const int root = parts.find(F(f, 0));
     const Eigen::Vector3d o = V.row(root).transpose();
     const Eigen::Vector3d a = V.row(F(f, 0)).transpose() - o, b = V.row(F(f, 1)).transpose() - o,
@@ -148,7 +144,14 @@ std::vector<int> inward_closed_parts(const Eigen::MatrixXd& V, const Eigen::Matr
   }
   std::vector<int> inward;
   for (int v = 0; v < n; ++v)
-    if (parts.find(v) == v && !open[v] && magnitude[v] > 0 && volume[v] < -1e-6 * magnitude[v]) inward.push_back(v);
+    if (parts.find(v) == v && magnitude[v] > 0 && volume[v] < -1e-6 * magnitude[v]) inward.push_back(v);
+  if (inward.empty()) return inward; // the usual case: no edge table needed (generation runs this)
+  // An open part has no inside, whatever its sign.
+  const EdgeIncidence incidence = edge_incidence(F, n);
+  std::vector<char> open(n, 0);
+  for (int e = 0; e < incidence.num_edges(); ++e)
+    if (incidence.valence(e) == 1) open[parts.find(incidence.edges(e, 0))] = 1;
+  inward.erase(std::remove_if(inward.begin(), inward.end(), [&](int v) { return open[v]; }), inward.end());
   return inward;
 }
 
