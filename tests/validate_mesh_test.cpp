@@ -501,10 +501,10 @@ TEST(MeshTopology, InwardClosedPartsAreTheClosedPartsEnclosingANegativeVolume) {
   EXPECT_EQ(inward_closed_parts(inside_out.V, inside_out.F), std::vector<int>{0});
   // Two sheets face to face enclose nothing: no side to name.
   TriMesh sheets = make_plane(2);
-  const Eigen::Index n = sheets.V.rows(), m = sheets.F.rows();
+  const Eigen::Index m = sheets.F.rows();
   sheets.F.conservativeResize(2 * m, 3);
   sheets.F.bottomRows(m) = reversed(make_plane(2)).F;
-  EXPECT_TRUE(inward_closed_parts(sheets.V, sheets.F).empty()) << n;
+  EXPECT_TRUE(inward_closed_parts(sheets.V, sheets.F).empty());
   EXPECT_TRUE(inward_closed_parts_message({}).empty());
   EXPECT_TRUE(contains(inward_closed_parts_message({first[1], first[2]}), "2 closed parts have their faces pointing inwards"));
   EXPECT_TRUE(contains(inward_closed_parts_message({7}), "the part with vertex 7"));

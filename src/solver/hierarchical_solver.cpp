@@ -5,6 +5,7 @@
 
 #include <gshell/error.h>
 #include <gshell/format_number.h>
+#include <gshell/seconds_since.h>
 
 #include <Eigen/Cholesky>
 
@@ -17,6 +18,10 @@ namespace gshell {
 
 using AndersonHistory = detail::AndersonHistory<double>;
 
+using detail::LocalCache;
+using detail::ReducedLevel;
+using detail::RigidChange;
+
 namespace {
 
 // Anderson on a reduced level's parameters (before: the iterate, the level's parameters: its image;
@@ -24,7 +29,7 @@ namespace {
 // translation row a length, so a plain dot product weighs the two by the model's size: a pose of
 // a mesh scaled by 1024 took another path to the minimum. Scaled by the cluster radius, a row of
 // either kind counts by how far it moves the vertices.
-void extrapolate_parameters(AndersonHistory& anderson, detail::ReducedLevel& level, Eigen::MatrixXd before,
+void extrapolate_parameters(AndersonHistory& anderson, ReducedLevel& level, Eigen::MatrixXd before,
                             Eigen::MatrixXd& combined) {
   const double r = level.cluster_radius();
   Eigen::MatrixXd image = level.parameters();
@@ -37,18 +42,7 @@ void extrapolate_parameters(AndersonHistory& anderson, detail::ReducedLevel& lev
   level.parameters().swap(combined);
 }
 
-} // namespace
-using detail::LocalCache;
-using detail::ReducedLevel;
-using detail::RigidChange;
-
-namespace {
-
 using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 /// The reduced levels rely on the rest shapes being the tets of `rest_vertices` (then a tet inside
 /// a cluster has F = M exactly); a mismatch would silently solve another problem. Tets with a rest
