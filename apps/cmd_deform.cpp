@@ -38,11 +38,13 @@ void run(const CLI::App& cmd, DeformArgs& a) {
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   // Everything that can be wrong with the input is found before any work or output.
   check_output_folder(a.out, holds_only_deform_output);
+  cli::Progress progress("deform");
+  progress.terminal_status("reading " + a.shell + "..."); // seconds at millions of faces
   const DeformInput input = load_deform_input(a.shell, a.frames, a.embed);
+  progress.finish_status();
   if (!input.rest_warning.empty()) cli::print_warning("deform", input.rest_warning);
   cli::print_warnings("deform", input.detail_warnings);
 
-  cli::Progress progress("deform");
   // A long frame (a guarded one of a large shell, one whose guard regenerates its top) shows its
   // iterations as well, once it has run a second and then at most once a second, so a terminal
   // or a log shows it is alive; short frames show only their summary line. The count runs over

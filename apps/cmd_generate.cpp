@@ -43,11 +43,12 @@ void run(const CLI::App& cmd, GenerateArgs& a) {
     cli::check_applies(cmd, flag, !a.options.generate.allow_invalid, "guarded runs (not with --allow-invalid)");
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view);
   check_output_folder(a.output, [](const std::filesystem::path& d) { return gshell::holds_shell_output_of(d, "generate"); });
+  cli::Progress progress("generate");
+  progress.terminal_status("reading " + a.input + "..."); // seconds at millions of faces
   std::vector<std::string> input_warnings;
   TriMesh mesh = load_mesh(a.input, &input_warnings);
   const double eta_value = a.options.thickness.eta(mesh.V, mesh.F);
   check_thickness_scale(mesh.V, mesh.F, eta_value); // as generation would, but before a progress line
-  cli::Progress progress("generate");
   char eta[32];
   std::snprintf(eta, sizeof eta, "%g", eta_value);
   progress.line(a.input + " (" + std::to_string(mesh.num_vertices()) + " vertices, " +

@@ -55,14 +55,16 @@ void run(const CLI::App& cmd, PoseArgs& a) {
   cli::check_applies(cmd, "--levels", a.options.solver == PoseSolverKind::Hierarchical, "--solver hierarchical");
   const ViewDirection view = cli::check_preview_flags(cmd, a.render, a.view); // before the solve, not after
 
+  cli::Progress progress("pose", 0.5);
+  progress.terminal_status("reading " + a.shell_dir + "..."); // seconds at millions of faces
   const ShellFolder rest = read_shell_folder(a.shell_dir);
   const HandleSet handles = read_handles(a.handles, rest.shell);
   check_pose_output_folder(a.output, a.shell_dir); // fail on a bad output path before the long part
+  progress.finish_status();
 
   const std::string rest_warning = invalid_rest_shell_warning(a.shell_dir, rest.report, "pose step");
   if (!rest_warning.empty()) cli::print_warning("pose", rest_warning);
 
-  cli::Progress progress("pose", 0.5);
   progress.line(std::to_string(rest.shell.num_base_vertices() * 2) + " shell vertices, " +
                 std::to_string(handles.constrained_vertices().size()) + " handle vertices (" +
                 (handles.mode == ConstraintMode::Hard ? "hard" : "soft") + "), " + a.solver + " solver");

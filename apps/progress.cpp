@@ -32,6 +32,10 @@ void Progress::update(const std::string& text, bool always) {
   }
 }
 
+void Progress::terminal_status(const std::string& text) {
+  if (terminal_) update(text, true);
+}
+
 void Progress::line(const std::string& text) {
   if (!enabled_) return;
   finish_status();

@@ -23,6 +23,9 @@ public:
   /// A status line that the next update replaces (on a terminal). `always`: shown even within
   /// `min_interval` of the last (a phase that begins and then runs long without updates).
   void update(const std::string& text, bool always = false);
+  /// A status line on a terminal only, for a phase before the first line a log should carry
+  /// (reading the input): a log keeps one line for an input error, a terminal is not left silent.
+  void terminal_status(const std::string& text);
   /// A line that stays.
   void line(const std::string& text);
   /// Clears an open status line (on a terminal), e.g. before printing to stdout.

@@ -495,6 +495,37 @@ TEST(CliMessages, ProgressInALogIsOneLinePerUpdate) {
   expect_log_lines(pose.err, "pose", 3); // the setup line and 2 steps
 }
 
+TEST(CliMessages, OnATerminalTheInputIsNamedWhileItIsReadAndGivesWayToWhatFollows) {
+  // Reading a 5M-face input takes seconds; a terminal showed nothing then. util-linux's `script`
+  // gives the run a terminal and keeps what it wrote, escape sequences included.
+  TempDir dir;
+  const auto on_terminal = [&](const std::string& args) {
+    const std::string typescript = dir.file("typescript");
+    const std::string cmd = "script -qec " + quoted("\"" GSHELL_CLI_PATH "\" " + args) + " " + quoted(typescript) +
+                            " >/dev/null 2>&1";
+    EXPECT_NE(std::system(cmd.c_str()), -1);
+    return gshell::test::read_text(typescript);
+  };
+  const std::string clear = "\r\033[K";
+  const std::string shell = dir.file("shell");
+  const std::string made = on_terminal("generate builtin:sphere:2 --thickness-ratio 0.05 -o \"" + shell + "\"");
+  const auto reading = made.find("gshell generate: reading builtin:sphere:2...");
+  ASSERT_NE(reading, std::string::npos) << made;
+  EXPECT_EQ(made.find(clear + "gshell generate: builtin:sphere:2 (162 vertices", reading), made.find(clear, reading))
+      << made; // the status line is cleared, then the input's line
+  const std::string posed = on_terminal("pose --shell \"" + shell + "\" --handles \"" + dir.file("missing.json") +
+                                        "\" -o \"" + dir.file("posed") + "\"");
+  const auto pose_reading = posed.find("gshell pose: reading " + shell + "...");
+  ASSERT_NE(pose_reading, std::string::npos) << posed;
+  EXPECT_EQ(posed.find(clear + "gshell: error: "), posed.find(clear, pose_reading)) << posed;
+  // The error line stands alone on a terminal as in a log (the status cleared first).
+  const std::string missing = on_terminal("deform --shell \"" + dir.file("nothing") + "\" --base builtin:sphere:2 -o \"" +
+                                          dir.file("deformed") + "\"");
+  EXPECT_NE(missing.find("gshell deform: reading " + dir.file("nothing") + "..." + clear + "gshell: error: "),
+            std::string::npos)
+      << missing;
+}
+
 TEST(CliMessages, AWriteThatFailsNamesTheOutputNotItsHiddenStagingFolder) {
   // Past a file size limit (as on a full disk) the write fails: one line naming the file in the
   // folder asked for (it named "./.big.tmp-141687477/shell.vtu"), exit 1, nothing left behind.
