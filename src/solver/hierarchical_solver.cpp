@@ -17,7 +17,6 @@
 namespace gshell {
 
 using AndersonHistory = detail::AndersonHistory<double>;
-
 using detail::LocalCache;
 using detail::ReducedLevel;
 using detail::RigidChange;
